@@ -1,0 +1,56 @@
+// `lightskin doctor`: checks that this machine can run lightskin (headless OpenGL 4.5 core,
+// compute shaders, framebuffer readback) and writes a self-test image.
+#include "Commands.h"
+
+#include <lightskin/core/Error.h>
+#include <lightskin/gl/Context.h>
+#include <lightskin/gl/DebugOutput.h>
+#include <lightskin/gl/SelfTest.h>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <numeric>
+#include <vector>
+
+namespace lightskin::apps {
+
+namespace {
+void addDoctorCommand(CLI::App& app, int& exitCode) {
+    auto* command = app.add_subcommand("doctor", "Check headless OpenGL 4.5 and write a self-test image");
+    auto output = std::make_shared<std::string>();
+    command->add_option("--out", *output, "Write the self-test triangle as a PNG to this path");
+    command->callback([output, &exitCode] {
+        auto context = gl::createHeadlessContext();
+        std::printf("renderer: %s\n", context->describe().c_str());
+
+        const cv::Mat image = gl::renderSelfTestTriangle(256, 256);
+        std::vector<std::uint32_t> values(100000);
+        std::iota(values.begin(), values.end(), 1u);
+        const std::uint32_t sum = gl::sumOnGpu(values);
+        const std::uint32_t expected = std::accumulate(values.begin(), values.end(), 0u);
+        gl::DebugOutput::throwIfErrors("doctor");
+
+        const bool sumOk = sum == expected;
+        const bool triangleOk = image.at<cv::Vec4b>(128, 128)[0] == 255 && image.at<cv::Vec4b>(5, 5)[0] == 0;
+        std::printf("compute shader sum: %s\nrasterised triangle: %s\n", sumOk ? "ok" : "WRONG",
+                    triangleOk ? "ok" : "WRONG");
+        if (!output->empty()) {
+            const std::filesystem::path path(*output);
+            if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
+            cv::Mat bgra;
+            cv::cvtColor(image, bgra, cv::COLOR_RGBA2BGRA);
+            if (!cv::imwrite(path.string(), bgra)) throw Error(path.string(), std::nullopt, "could not write the image");
+            std::printf("wrote %s\n", path.string().c_str());
+        }
+        exitCode = sumOk && triangleOk ? 0 : 1;
+    });
+}
+
+} // namespace
+
+static const CommandRegistration registration{"doctor", &addDoctorCommand};
+
+} // namespace lightskin::apps

@@ -1,0 +1,41 @@
+# Helpers that give every lightskin target the same warnings, sanitizers and layout.
+
+set(LIGHTSKIN_WARNING_FLAGS -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wold-style-cast
+    -Wcast-align -Woverloaded-virtual -Wconversion -Wsign-conversion
+    -Wdouble-promotion -Wformat=2 -Wimplicit-fallthrough)
+if(LIGHTSKIN_WARNINGS_AS_ERRORS)
+  list(APPEND LIGHTSKIN_WARNING_FLAGS -Werror)
+endif()
+
+if(LIGHTSKIN_SANITIZE)
+  set(LIGHTSKIN_SANITIZER_FLAGS -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
+  add_compile_options(${LIGHTSKIN_SANITIZER_FLAGS})
+  add_link_options(${LIGHTSKIN_SANITIZER_FLAGS})
+endif()
+
+# Release builds keep assertions: a wrong result from a graphics pipeline is worse than an abort.
+string(REPLACE "-DNDEBUG" "" CMAKE_CXX_FLAGS_RELWITHDEBINFO "${CMAKE_CXX_FLAGS_RELWITHDEBINFO}")
+string(REPLACE "-DNDEBUG" "" CMAKE_CXX_FLAGS_RELEASE "${CMAKE_CXX_FLAGS_RELEASE}")
+
+# Applies lightskin's own warning set to a target. Third-party headers are included as SYSTEM
+# by the imported targets, so their warnings never fail our build.
+function(lightskin_target_warnings target)
+  target_compile_options(${target} PRIVATE ${LIGHTSKIN_WARNING_FLAGS})
+endfunction()
+
+# lightskin_add_module(<name> SOURCES ... [PUBLIC_DEPS ...] [PRIVATE_DEPS ...])
+# Creates the library target lightskin_<name> with alias lightskin::<name>, public headers in
+# <name>/include, private code in <name>/src.
+function(lightskin_add_module name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
+  add_library(lightskin_${name} ${ARG_SOURCES})
+  add_library(lightskin::${name} ALIAS lightskin_${name})
+  set_target_properties(lightskin_${name} PROPERTIES EXPORT_NAME ${name} OUTPUT_NAME lightskin_${name})
+  target_include_directories(lightskin_${name}
+    PUBLIC $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include> $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>
+    PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src)
+  target_link_libraries(lightskin_${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
+  lightskin_target_warnings(lightskin_${name})
+  set_property(GLOBAL APPEND PROPERTY LIGHTSKIN_MODULES lightskin_${name})
+  install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+endfunction()
