@@ -1,0 +1,81 @@
+#pragma once
+// The interface every indirect-illumination technique implements: LightSkin (sparse gather +
+// interpolation), the brute-force path, and later imperfect volumes, multi-scale PRT, a CPU
+// vectorised backend and hierarchical VALs. The renderer owns meshes, G-buffer and target; a
+// technique owns only its own GPU resources (created in prepare(), reused every frame).
+//
+// GL objects are passed as GL names (std::uint32_t) so that engines owning the context can hand
+// in their own. All need a current OpenGL 4.5 core context on the calling thread.
+
+#include <lightskin/core/Material.h>
+#include <lightskin/core/TriangleMesh.h>
+#include <lightskin/gi/VirtualAreaLight.h>
+#include <lightskin/gl/GpuTimer.h>
+
+#include <glm/mat4x4.hpp>
+
+#include <cstdint>
+#include <span>
+#include <string_view>
+#include <vector>
+
+namespace lightskin::gi {
+
+/// A mesh on the GPU, owned by the renderer. The vertex array has attribute 0 = position (vec3,
+/// model space), 1 = normal (vec3, model space), 2 = texcoord (vec2, optional) and an element
+/// buffer of GL_UNSIGNED_INT triangle indices bound. Vertex order equals the TriangleMesh's.
+struct GpuMeshView {
+    std::uint32_t vertexArray = 0;
+    std::uint32_t indexCount = 0;
+    std::uint32_t vertexCount = 0;
+};
+
+/// One placed virtual object.
+struct MeshInstance {
+    std::uint32_t meshId = 0;            ///< stable id of the mesh across frames (prepared data key)
+    const TriangleMesh* mesh = nullptr;  ///< CPU copy, model space; must outlive the technique's use
+    GpuMeshView gpu;
+    glm::mat4 world_T_model{1.0f};       ///< rigid (+ uniform scale) placement in the world, metres
+    Material material;
+};
+
+/// The renderer's G-buffer of the virtual content, all textures width x height.
+struct GBufferView {
+    std::uint32_t worldPosition = 0; ///< RGBA32F: xyz world metres; w = 1 where virtual content covers the pixel, else 0
+    std::uint32_t worldNormal = 0;   ///< RGBA16F or RGBA32F: xyz unit world normal
+    std::uint32_t diffuseAlbedo = 0; ///< RGBA8 or RGBA16F: rgb linear rho_d
+    std::uint32_t specular = 0;      ///< RGBA16F or RGBA32F: rgb f_s, a = Phong exponent k
+    std::uint32_t depth = 0;         ///< DEPTH_COMPONENT32F of the virtual content (for depth-equal passes)
+    int width = 0;
+    int height = 0;
+};
+
+struct ViewParameters {
+    glm::mat4 clip_T_world{1.0f};       ///< projection * view of the (colour) camera
+    glm::vec3 cameraPositionWorld{0.0f}; ///< metres
+};
+
+class IndirectIllumination {
+public:
+    virtual ~IndirectIllumination() = default;
+    IndirectIllumination() = default;
+    IndirectIllumination(const IndirectIllumination&) = delete;
+    IndirectIllumination& operator=(const IndirectIllumination&) = delete;
+
+    virtual std::string_view name() const = 0;
+
+    /// Model-space preparation when the set of meshes changes (not per frame): sparse points,
+    /// neighbour tables, GPU buffers sized for these meshes. Throws lightskin::Error on bad meshes.
+    virtual void prepare(std::span<const MeshInstance> instances) = 0;
+
+    /// Per frame: writes the indirect radiance reflected toward the camera (linear RGB, W/(sr m^2)
+    /// up to the VALs' flux unit) into `targetTexture` (RGBA32F, gbuffer size) for every pixel the
+    /// virtual content covers; other pixels are set to 0. An empty VAL set gives exactly 0.
+    virtual void render(const ValSetView& lights, std::span<const MeshInstance> instances, const GBufferView& gbuffer,
+                        const ViewParameters& view, std::uint32_t targetTexture) = 0;
+
+    /// GPU stage times of the last render(), in execution order (GL timer queries).
+    virtual void lastStageTimes(std::vector<gl::StageTime>& out) const = 0;
+};
+
+} // namespace lightskin::gi
