@@ -1,0 +1,16 @@
+// Temporary: the live and TUM backends land in the next commits.
+#include "Sources.h"
+
+#include <lightskin/core/Error.h>
+
+namespace lightskin::capture::detail {
+std::unique_ptr<FrameSource> openTumSource(const std::filesystem::path& folder, const FrameSourceOptions&) {
+    throw Error(folder.string(), std::nullopt, "TUM folders are not supported yet");
+}
+std::unique_ptr<FrameSource> openOpenNI2Source(const std::string& uri, bool, const FrameSourceOptions&) {
+    throw Error(uri, std::nullopt, "OpenNI2 is not supported yet");
+}
+std::unique_ptr<FrameSource> openFreenectSource(int, const FrameSourceOptions&) {
+    throw Error("freenect", std::nullopt, "libfreenect is not supported yet");
+}
+} // namespace lightskin::capture::detail
