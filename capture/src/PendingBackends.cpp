@@ -4,9 +4,6 @@
 #include <lightskin/core/Error.h>
 
 namespace lightskin::capture::detail {
-std::unique_ptr<FrameSource> openTumSource(const std::filesystem::path& folder, const FrameSourceOptions&) {
-    throw Error(folder.string(), std::nullopt, "TUM folders are not supported yet");
-}
 std::unique_ptr<FrameSource> openOpenNI2Source(const std::string& uri, bool, const FrameSourceOptions&) {
     throw Error(uri, std::nullopt, "OpenNI2 is not supported yet");
 }
