@@ -4,9 +4,6 @@
 #include <lightskin/core/Error.h>
 
 namespace lightskin::capture::detail {
-std::unique_ptr<FrameSource> openOpenNI2Source(const std::string& uri, bool, const FrameSourceOptions&) {
-    throw Error(uri, std::nullopt, "OpenNI2 is not supported yet");
-}
 std::unique_ptr<FrameSource> openFreenectSource(int, const FrameSourceOptions&) {
     throw Error("freenect", std::nullopt, "libfreenect is not supported yet");
 }
