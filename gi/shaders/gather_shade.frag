@@ -41,5 +41,5 @@ void main() {
         s.sphereRadius = 0.0;
         radiance += specular.rgb * ls_applyGlossy(s, position.xyz, n, ls_toEye(position.xyz, uEye), specular.a);
     }
-    outRadiance = vec4(radiance, 1.0);
+    outRadiance = vec4(radiance, 0.0);
 }

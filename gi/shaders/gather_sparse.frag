@@ -1,5 +1,5 @@
 #version 450 core
-// Gather (eq. 3-5, 7; the paper's Listing 1): one fragment per sparse point, K_CACHE VALs per
+// Gather (eq. 3-5, 7 without the eps_l terms, see gather_val_sums.comp; the paper's Listing 1): one fragment per sparse point, K_CACHE VALs per
 // pass from the uniform block, added to the targets by additive blending. Variants: GLOSSY,
 // OCCLUSION (accumulate the second moments for S_o).
 #include "lightskin_math.glsl"
@@ -8,7 +8,6 @@
 
 uniform vec3 uEye;
 uniform float uC;
-uniform float uEpsilonL;
 
 layout(location = 0) out vec4 outDiffuse;   // L'_d.rgb, sum r^2 w_d
 layout(location = 1) out vec4 outOffsetD;   // sum (l - x) w_d, W_d
@@ -30,7 +29,7 @@ void main() {
         const vec4 a = valData[3 * j];
         const vec4 b = valData[3 * j + 1];
         const vec4 f = valData[3 * j + 2];
-        const GatherSample s = ls_gatherSample(x, n, a.xyz, b.xyz, a.w, f.rgb, toEye, k, ck, uEpsilonL);
+        const GatherSample s = ls_gatherSample(x, n, a.xyz, b.xyz, a.w, f.rgb, toEye, k, ck, 0.0); // eps_l folded in gather_renormalise.frag
         diffuse += vec4(s.irradiance, s.r2 * s.weightD);
         offsetD += vec4(s.offset * s.weightD, s.weightD);
 #ifdef GLOSSY

@@ -38,7 +38,7 @@ static_assert(sizeof(VertexInput) == 64);
 
 struct GatherProgram {
     gl::Program program;
-    GLint valCount = -1, pointCount = -1, eye = -1, c = -1, epsilonL = -1;
+    GLint valCount = -1, pointCount = -1, eye = -1, c = -1;
 };
 
 GatherProgram buildGather(const gl::ShaderLibrary& library, int kCache, bool glossy, bool occlusion) {
@@ -50,7 +50,6 @@ GatherProgram buildGather(const gl::ShaderLibrary& library, int kCache, bool glo
     p.pointCount = p.program.uniformLocation("uPointCount");
     p.eye = p.program.uniformLocation("uEye");
     p.c = p.program.uniformLocation("uC");
-    p.epsilonL = p.program.uniformLocation("uEpsilonL");
     return p;
 }
 
@@ -76,7 +75,8 @@ struct LightSkinIllumination::Impl {
 
     // Programs: gather variants indexed [glossy][occlusion], occlusion variants [glossy].
     GatherProgram gather[2][2];
-    gl::Program renormalise, occlusion[2], interpolate, shade, cull;
+    gl::Program renormalise, occlusion[2], interpolate, shade, cull, valSums;
+    gl::Buffer valSumsBuffer; // 2 vec4: (sum l, sum r^2), (sum l^2, count) over all valid VALs
     gl::VertexArray emptyVertexArray;
     gl::GpuStageTimer timer;
     std::vector<gl::StageTime> stageTimes;
@@ -111,6 +111,7 @@ struct LightSkinIllumination::Impl {
         interpolate = library.buildProgram({{GL_COMPUTE_SHADER, "gather_interpolate.comp"}});
         shade = library.buildProgram({{GL_VERTEX_SHADER, "gather_shade.vert"}, {GL_FRAGMENT_SHADER, "gather_shade.frag"}});
         cull = library.buildProgram({{GL_COMPUTE_SHADER, "gather_cull.comp"}});
+        valSums = library.buildProgram({{GL_COMPUTE_SHADER, "gather_val_sums.comp"}});
     }
 
     void readTexels(const gl::Texture& texture, std::vector<glm::vec4>& all) const {
@@ -175,6 +176,7 @@ std::unique_ptr<LightSkinIllumination> LightSkinIllumination::create(const Light
     impl.timer = gl::GpuStageTimer::create(8);
     impl.vals.reserve(settings.valCapacity, settings.kCache);
     impl.cullCounter = gl::Buffer::create(sizeof(std::uint32_t), nullptr, GL_DYNAMIC_STORAGE_BIT);
+    impl.valSumsBuffer = gl::Buffer::create(2 * sizeof(glm::vec4), nullptr, GL_DYNAMIC_STORAGE_BIT);
     return technique;
 }
 
@@ -311,6 +313,16 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     impl.timer.begin("upload");
     impl.uploadPoints(instances);
     std::uint32_t count = lights.count;
+    // eps_l terms of eq. 7 over ALL valid VALs (before any culling), folded in the renormalisation.
+    glClearNamedBufferData(impl.valSumsBuffer.id(), GL_RGBA32F, GL_RGBA, GL_FLOAT, nullptr);
+    if (count > 0) {
+        impl.valSums.use();
+        glUniform1ui(impl.valSums.uniformLocation("uCount"), count);
+        glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 0, lights.buffer, 0, GLsizeiptr(count) * detail::kValBytes);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, impl.valSumsBuffer.id());
+        glDispatchCompute(1, 1, 1);
+        glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    }
     if (count > 0) {
         if (s.adaptive) {
             if (impl.vals.capacity() < count) impl.vals.reserve(count, s.kCache);
@@ -354,7 +366,6 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
         glUniform1i(p.pointCount, int(impl.pointCount));
         glUniform3fv(p.eye, 1, glm::value_ptr(view.cameraPositionWorld));
         glUniform1f(p.c, s.cParameter);
-        glUniform1f(p.epsilonL, s.epsilonL);
         glBindFramebuffer(GL_FRAMEBUFFER, impl.gatherFramebuffer.id());
         glEnable(GL_BLEND);
         glBlendFunc(GL_ONE, GL_ONE);
@@ -376,6 +387,10 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     impl.renormalise.use();
     glUniform1i(impl.renormalise.uniformLocation("uPointCount"), int(impl.pointCount));
     glUniform3fv(impl.renormalise.uniformLocation("uEye"), 1, glm::value_ptr(view.cameraPositionWorld));
+    glUniform1f(impl.renormalise.uniformLocation("uEpsilonL"), s.epsilonL);
+    glUniform1i(impl.renormalise.uniformLocation("uGlossyOn"), choice.glossy ? 1 : 0);
+    glUniform1i(impl.renormalise.uniformLocation("uOcclusionOn"), choice.occlusion ? 1 : 0);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, impl.valSumsBuffer.id());
     for (int i = 0; i < kGatherTargets; ++i) glBindTextureUnit(GLuint(i), impl.gatherTargets[std::size_t(i)].id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
     impl.timer.end();
@@ -460,6 +475,24 @@ void LightSkinIllumination::readGatherSums(std::vector<glm::vec4>& out) const {
     const gl::Texture* t[kGatherTargets];
     for (int i = 0; i < kGatherTargets; ++i) t[i] = &impl_->gatherTargets[std::size_t(i)];
     impl_->readInterleaved(t, out);
+    // add the folded eps_l terms (as gather_renormalise.frag does) so that these are eq. 7's sums
+    glm::vec4 sums[2];
+    glGetNamedBufferSubData(impl_->valSumsBuffer.id(), 0, sizeof sums, sums);
+    const float eps = impl_->settings.epsilonL;
+    const float n = sums[1].w;
+    for (std::size_t i = 0; i < impl_->pointCount; ++i) {
+        const glm::vec3 x(impl_->scratchPositions[i]);
+        const glm::vec3 offset = eps * (glm::vec3(sums[0]) - n * x);
+        const glm::vec3 moment = eps * glm::max(glm::vec3(sums[1]) - 2.0f * x * glm::vec3(sums[0]) + n * x * x, glm::vec3(0.0f));
+        glm::vec4* g = &out[kGatherTargets * i];
+        g[0].w += eps * sums[0].w;
+        g[1] += glm::vec4(offset, eps * n);
+        if (impl_->choice.glossy) {
+            g[2].w += eps * sums[0].w;
+            g[3] += glm::vec4(offset, eps * n);
+        }
+        if (impl_->choice.occlusion) g[4] += glm::vec4(moment, impl_->choice.glossy ? moment.x + moment.y + moment.z : 0.0f);
+    }
 }
 
 void LightSkinIllumination::readSparseVpls(std::vector<glm::vec4>& out) const {
