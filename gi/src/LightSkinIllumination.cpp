@@ -75,6 +75,7 @@ struct LightSkinIllumination::Impl {
 
     // Programs: gather variants indexed [glossy][occlusion], occlusion variants [glossy].
     GatherProgram gather[2][2];
+    gl::Program gatherCompute[2][2];
     gl::Program renormalise, occlusion[2], interpolate, shade, cull, valSums;
     gl::Buffer valSumsBuffer; // 2 vec4: (sum l, sum r^2), (sum l^2, count) over all valid VALs
     gl::VertexArray emptyVertexArray;
@@ -101,7 +102,11 @@ struct LightSkinIllumination::Impl {
 
     void buildPrograms() {
         for (int g = 0; g < 2; ++g)
-            for (int o = 0; o < 2; ++o) gather[g][o] = buildGather(library, settings.kCache, g != 0, o != 0);
+            for (int o = 0; o < 2; ++o) {
+                gather[g][o] = buildGather(library, settings.kCache, g != 0, o != 0);
+                gatherCompute[g][o] = library.buildProgram({{GL_COMPUTE_SHADER, "gather_sparse.comp"}},
+                                                           detail::variantDefines(settings.kCache, g != 0, o != 0));
+            }
         renormalise =
             library.buildProgram({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "gather_renormalise.frag"}});
         for (int g = 0; g < 2; ++g)
@@ -360,7 +365,24 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     glBindVertexArray(impl.emptyVertexArray.id());
     glBindTextureUnit(8, impl.pointPosition.id());
     glBindTextureUnit(9, impl.pointNormal.id());
-    if (count > 0) {
+    if (count > 0 && s.computeGather) {
+        const gl::Program& p = impl.gatherCompute[choice.glossy ? 1 : 0][choice.occlusion ? 1 : 0];
+        p.use();
+        glUniform1i(p.uniformLocation("uPointCount"), int(impl.pointCount));
+        glUniform3fv(p.uniformLocation("uEye"), 1, glm::value_ptr(view.cameraPositionWorld));
+        glUniform1f(p.uniformLocation("uC"), s.cParameter);
+        for (int i = 0; i < kGatherTargets; ++i)
+            glBindImageTexture(GLuint(i), impl.gatherTargets[std::size_t(i)].id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_RGBA32F);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, impl.vals.buffer().id());
+        const std::uint32_t perDispatch = std::uint32_t(std::max(64, s.computeValsPerDispatch));
+        for (std::uint32_t first = 0; first < count; first += perDispatch) {
+            glUniform1ui(p.uniformLocation("uValFirst"), first);
+            glUniform1ui(p.uniformLocation("uValCount"), std::min(perDispatch, count - first));
+            glDispatchCompute((impl.pointCount + 63) / 64, 1, 1);
+            glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
+        }
+        glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT);
+    } else if (count > 0) {
         const GatherProgram& p = impl.gather[choice.glossy ? 1 : 0][choice.occlusion ? 1 : 0];
         p.program.use();
         glUniform1i(p.pointCount, int(impl.pointCount));

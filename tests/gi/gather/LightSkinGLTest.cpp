@@ -555,12 +555,17 @@ double relativeImageDifference(const GpuRun& a, const GpuRun& b) {
     return worst;
 }
 
-double relativeDifference(const std::vector<glm::vec4>& a, const std::vector<glm::vec4>& b, int stride, int slot) {
-    double worst = 0.0;
+/// Worst |a - b| / max(|b|, floorFraction * max|b|) over the slot's xyz (signed sums such as
+/// the position offsets need the floor: their components cancel).
+double relativeDifference(const std::vector<glm::vec4>& a, const std::vector<glm::vec4>& b, int stride, int slot,
+                          double floorFraction = 0.0) {
+    double largest = 0.0, worst = 0.0;
+    for (std::size_t i = std::size_t(slot); i < b.size(); i += std::size_t(stride))
+        for (int c = 0; c < 3; ++c) largest = std::max(largest, double(std::abs(b[i][c])));
     for (std::size_t i = std::size_t(slot); i < b.size(); i += std::size_t(stride))
         for (int c = 0; c < 3; ++c) {
             const double diff = std::abs(double(a[i][c]) - double(b[i][c]));
-            if (diff > 0.0) worst = std::max(worst, diff / std::abs(double(b[i][c])));
+            if (diff > 0.0) worst = std::max(worst, diff / std::max(double(std::abs(b[i][c])), floorFraction * largest));
         }
     return worst;
 }
@@ -586,6 +591,18 @@ TEST_F(LightSkinInvarianceGLTest, KCacheChangesResultsByAtMost1e5Relative) {
             EXPECT_LE(relativeImageDifference(other, base), glossy ? 2e-4 : 5e-5) << "K_cache " << k << " glossy " << glossy;
         }
     }
+}
+
+TEST_F(LightSkinInvarianceGLTest, ComputeGatherMatchesTheFragmentGather) {
+    Scene scene = sphereOverFloor();
+    gi::LightSkinSettings settings;
+    const GpuRun fragment = runLightSkin(scene, settings);
+    settings.computeGather = true;
+    settings.computeValsPerDispatch = 256; // several dispatches over the ~1000 VALs
+    const GpuRun compute = runLightSkin(scene, settings);
+    for (int slot : {0, 2}) EXPECT_LE(relativeDifference(compute.gather, fragment.gather, 5, slot), 1e-5) << slot;
+    for (int slot : {1, 3, 4}) EXPECT_LE(relativeDifference(compute.gather, fragment.gather, 5, slot, 1e-2), 1e-5) << slot;
+    EXPECT_LE(relativeImageDifference(compute, fragment), 2e-4);
 }
 
 TEST_F(LightSkinInvarianceGLTest, DoublingSparsePointsChangesTheMeanByAtMostFivePercent) {

@@ -56,6 +56,11 @@ struct LightSkinSettings {
     /// Metres: a re-rasterised fragment farther than this (plus 1e-4 of its distance to the
     /// camera) from the G-buffer position is a hidden surface and is discarded.
     float shadingPositionTolerance = 1e-4f;
+    /// Gather with the compute-shader variant (shared-memory tiles of 64 VALs, image
+    /// load/store) instead of additive fragment passes; for measurement (see docs/BENCHMARKS.md).
+    bool computeGather = false;
+    /// VALs per compute dispatch (compute variant; each thread loops over them).
+    int computeValsPerDispatch = 16384;
     /// VAL capacity reserved in prepare(); grows (once, logged) if a frame brings more.
     std::uint32_t valCapacity = 1u << 16;
 };
