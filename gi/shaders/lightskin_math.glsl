@@ -36,6 +36,11 @@
 //    no cos(theta_i), but light from below a surface cannot be reflected by it.
 //  * Light positions are accumulated relative to the receiver (l_j - x): same l' after adding x,
 //    but far better float precision for scenes far from the origin (1e3 m).
+//  * eps_l (eq. 7) is the paper's; the GPU adds its terms analytically in the renormalisation
+//    (sum_j eps (l_j - x) = eps (sum_j l_j - n x), gather_val_sums.comp) instead of per VAL in the
+//    gather loop: identical sums, and independent of VALs the adaptive mode culled. (With eq. 13
+//    the eps_l-weighted position of an unlit sparse point moves the interpolated VPL position of
+//    its vertices, so culling VALs per VAL would change the image.)
 //
 // Guards (each keeps results finite and non-negative; error stated):
 //  G1 |x - l| -> 0: direction cosines use 1/sqrt(max(d^2 + kCoincident r^2, kTinyLength2)).

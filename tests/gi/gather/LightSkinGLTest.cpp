@@ -456,6 +456,43 @@ TEST_F(BruteForceGLTest, LightSkinIsCloseToBruteForceOnASmoothScene) {
     EXPECT_LT(sumAbs / sumB, 0.05) << "mean absolute per-pixel error relative to the mean";
 }
 
+// ---- analytic results through the GPU gather -------------------------------------------------
+using LightSkinAnalyticGLTest = GlTest;
+
+TEST_F(LightSkinAnalyticGLTest, CoaxialDiscAndLargeUniformPlaneOnTheGpu) {
+    Scene scene;
+    Material material;
+    scene.add(makeGrid(0.2f, 4), glm::mat4(1.0f), material, 25);
+    const float radiance = 0.7f, h = 1.0f;
+    auto centreIrradiance = [&](const std::vector<gi::VirtualAreaLight>& vals) {
+        scene.vals = vals;
+        scene.upload();
+        auto technique = gi::LightSkinIllumination::create({}, scene.provider());
+        technique->prepare(scene.instances);
+        gi::SimpleGBuffer gbuffer = gi::SimpleGBuffer::create(8, 8);
+        gl::Texture target = gl::Texture::create2D(GL_RGBA32F, 8, 8);
+        const gl::Buffer buffer = uploadVals(scene.vals);
+        technique->render({buffer.id(), std::uint32_t(vals.size())}, scene.instances, gbuffer.view(), scene.view(), target.id());
+        std::vector<glm::vec4> sums;
+        technique->readGatherSums(sums);
+        const auto& points = technique->sparsePoints()[0].points;
+        for (std::size_t i = 0; i < points.size(); ++i)
+            if (glm::length(points[i].position) < 1e-6f) return double(sums[5 * i].x);
+        ADD_FAILURE() << "no sparse point at the centre";
+        return 0.0;
+    };
+    // a single coaxial disc: E = M r^2 / (r^2 + h^2) exactly (float rounding only)
+    const float area = 0.3f;
+    const double m = double(radiance) * std::numbers::pi;
+    const double r2 = double(area) / std::numbers::pi;
+    const double disc1 = centreIrradiance({disc({0, 0, h}, {0, 0, -1}, area, glm::vec3(float(m) * area))});
+    EXPECT_NEAR(disc1, m * r2 / (r2 + double(h * h)), 1e-6 * m);
+    // a large uniform plane (40 x 40 h, 160k VALs): E -> pi L (finite-size and disc
+    // discretisation errors < 0.5 %, see GatherReference.LargeUniformPlaneGivesPiTimesRadiance)
+    const double plane = centreIrradiance(squareEmitter({0, 0, h}, {0, 0, -1}, 40.0f, 400, glm::vec3(radiance)));
+    EXPECT_NEAR(plane / m, 1.0, 5e-3);
+}
+
 // ---- numerical extremes on the GPU -------------------------------------------------------
 struct GpuExtreme {
     const char* name;
