@@ -37,7 +37,14 @@ void main() {
         const vec4 a = valData[3 * j];
         const vec4 b = valData[3 * j + 1];
         const vec4 f = valData[3 * j + 2];
+#ifdef GLOSSY
         sum += ls_bruteForceRadiance(ls_gatherSample(x, n, a.xyz, b.xyz, a.w, f.rgb, toEye, k, ck, 0.0), rhoD, fs);
+#else
+        sum += ls_irradiance(x, n, a.xyz, b.xyz, a.w, f.rgb);
+#endif
     }
+#ifndef GLOSSY
+    sum *= rhoD / kPi;
+#endif
     outRadiance = vec4(sum, 0.0);
 }

@@ -110,28 +110,51 @@ struct GatherSample {
     real r2;          // r_j^2 = a_j / pi, m^2
 };
 
+// eq. 3 geometry of one VAL (l, nl, area) seen from a receiver (x, n), with guards G1, G2.
+struct DiscTerms {
+    rvec3 offset;  // l - x
+    rvec3 toLight; // unit (G1-regularised)
+    real r2;       // a / pi, 0 for an invalid VAL
+    real cosI;     // max(cos(theta_i), 0)
+    real g;        // cos(theta_j) / (r^2 + d^2): w = r^2 g, M w = flux g / pi
+};
+
+LS_FN DiscTerms ls_discTerms(rvec3 x, rvec3 n, rvec3 l, rvec3 nl, real area) {
+    DiscTerms t;
+    t.offset = l - x;
+    t.r2 = area > 0.0 ? area / kPi : 0.0;
+    const real d2 = dot(t.offset, t.offset);
+    const real invLength = inversesqrt(max(d2 + kCoincident * t.r2, kTinyLength2)); // G1
+    t.toLight = t.offset * invLength;
+    t.cosI = max(dot(n, t.toLight), 0.0);
+    const real cosJ = max(-dot(nl, t.toLight), 0.0);
+    t.g = cosJ / max(t.r2 + d2, kTinyLength2);                                     // G2
+    return t;
+}
+
 // x, n: receiver position and unit normal; l, nl, area, flux: the VAL; toEye: unit vector to the
 // eye; k: Phong exponent; ck = c (k+1); epsL: eps_l. An invalid VAL (area <= 0 or NaN) gives all 0.
 LS_FN GatherSample ls_gatherSample(rvec3 x, rvec3 n, rvec3 l, rvec3 nl, real area, rvec3 flux, rvec3 toEye,
                                    real k, real ck, real epsL) {
-    GatherSample s;
-    s.offset = l - x;
+    const DiscTerms t = ls_discTerms(x, n, l, nl, area);
     const bool valid = area > 0.0;
-    s.r2 = valid ? area / kPi : 0.0;
-    const real d2 = dot(s.offset, s.offset);
-    const real invLength = inversesqrt(max(d2 + kCoincident * s.r2, kTinyLength2)); // G1
-    const rvec3 toLight = s.offset * invLength;
-    const real cosI = max(dot(n, toLight), 0.0);
-    const real cosJ = max(-dot(nl, toLight), 0.0);
-    const real g = cosJ / max(s.r2 + d2, kTinyLength2);                           // G2
-    const real w = s.r2 * g;                                                      // eq. 3
-    const rvec3 mw = flux * (g / kPi);                                            // M_j w_j
-    const real lobe = cosI > 0.0 ? ls_cosPow(ls_cosGamma(n, toLight, toEye), k) : 0.0;
-    s.irradiance = valid ? mw * cosI : rvec3(0.0);
+    GatherSample s;
+    s.offset = t.offset;
+    s.r2 = t.r2;
+    const real w = t.r2 * t.g;                                                    // eq. 3
+    const rvec3 mw = flux * (t.g / kPi);                                          // M_j w_j
+    const real lobe = t.cosI > 0.0 ? ls_cosPow(ls_cosGamma(n, t.toLight, toEye), k) : 0.0;
+    s.irradiance = valid ? mw * t.cosI : rvec3(0.0);
     s.glossy = valid ? mw * (ck * lobe) : rvec3(0.0);
-    s.weightD = valid ? epsL + w * cosI : 0.0;
+    s.weightD = valid ? epsL + w * t.cosI : 0.0;
     s.weightS = valid ? epsL + w * lobe : 0.0;
     return s;
+}
+
+// Irradiance E_j = M_j w_j cos(theta_i) alone (eq. 3, 4): the diffuse-only brute force.
+LS_FN rvec3 ls_irradiance(rvec3 x, rvec3 n, rvec3 l, rvec3 nl, real area, rvec3 flux) {
+    const DiscTerms t = ls_discTerms(x, n, l, nl, area);
+    return area > 0.0 ? flux * (t.g / kPi * t.cosI) : rvec3(0.0);
 }
 
 // Brute force (eq. 2 with 4 and 5) for one VAL at one pixel: reflected radiance toward the eye.

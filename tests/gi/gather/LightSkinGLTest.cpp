@@ -415,23 +415,27 @@ INSTANTIATE_TEST_SUITE_P(PaperSetups, LightSkinSetupGLTest,
 using BruteForceGLTest = GlTest;
 
 TEST_F(BruteForceGLTest, MatchesTheDoubleReferenceAtEveryPixel) {
-    Scene scene = sphereOverFloor();
-    const GpuRun gpu = runBruteForce(scene, true);
-    Comparison pixels("brute-force pixel", 2e-4, 1e-4);
-    for (std::size_t i = 0; i < gpu.image.size(); ++i) {
-        if (gpu.gbufferPosition[i].w == 0.0f) {
-            EXPECT_EQ(gpu.image[i], glm::vec4(0.0f));
-            continue;
+    for (const bool glossy : {true, false}) {
+        Scene scene = sphereOverFloor();
+        const GpuRun gpu = runBruteForce(scene, glossy);
+        ref::GatherParameters parameters;
+        parameters.glossy = glossy;
+        Comparison pixels(glossy ? "brute-force pixel (glossy)" : "brute-force pixel (diffuse)", 2e-4, 1e-4);
+        for (std::size_t i = 0; i < gpu.image.size(); ++i) {
+            if (gpu.gbufferPosition[i].w == 0.0f) {
+                EXPECT_EQ(gpu.image[i], glm::vec4(0.0f));
+                continue;
+            }
+            // which instance: the floor is the plane z = 0
+            const bool floor = std::abs(gpu.gbufferPosition[i].z) < 1e-4f;
+            const Material& m = scene.instances[floor ? 1 : 0].material;
+            const ref::Surface s{dvec3(gpu.gbufferPosition[i]), glm::normalize(dvec3(gpu.gbufferNormal[i])),
+                                 dvec3(m.diffuseAlbedo), dvec3(m.specularAlbedo), double(m.specularExponent)};
+            const dvec3 expected = ref::bruteForce(scene.vals, s, dvec3(scene.eye), parameters);
+            for (int c = 0; c < 3; ++c) pixels.add(gpu.image[i][c], expected[c]);
         }
-        // which instance: the floor is the plane z = 0
-        const bool floor = std::abs(gpu.gbufferPosition[i].z) < 1e-4f;
-        const Material& m = scene.instances[floor ? 1 : 0].material;
-        const ref::Surface s{dvec3(gpu.gbufferPosition[i]), glm::normalize(dvec3(gpu.gbufferNormal[i])),
-                             dvec3(m.diffuseAlbedo), dvec3(m.specularAlbedo), double(m.specularExponent)};
-        const dvec3 expected = ref::bruteForce(scene.vals, s, dvec3(scene.eye), {});
-        for (int c = 0; c < 3; ++c) pixels.add(gpu.image[i][c], expected[c]);
+        pixels.check();
     }
-    pixels.check();
 }
 
 TEST_F(BruteForceGLTest, LightSkinIsCloseToBruteForceOnASmoothScene) {
