@@ -309,6 +309,12 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
         }
     }
 
+    // gather_val_sums.comp loops count / 256 times per thread: stay below llvmpipe's ~65k limit.
+    constexpr std::uint32_t kMaxVals = 256u * 60000u;
+    if (lights.count > kMaxVals)
+        throw Error("ValSetView", std::nullopt, std::to_string(lights.count) + " VALs exceed the supported " +
+                                                    std::to_string(kMaxVals) + " (increase the VAL stride)");
+
     impl.timer.beginFrame();
     glDisable(GL_DEPTH_TEST);
     glDisable(GL_CULL_FACE);
@@ -374,7 +380,8 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
         for (int i = 0; i < kGatherTargets; ++i)
             glBindImageTexture(GLuint(i), impl.gatherTargets[std::size_t(i)].id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_RGBA32F);
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, impl.vals.buffer().id());
-        const std::uint32_t perDispatch = std::uint32_t(std::max(64, s.computeValsPerDispatch));
+        // each thread loops over perDispatch VALs: far below llvmpipe's ~65k iterations
+        const std::uint32_t perDispatch = std::uint32_t(std::clamp(s.computeValsPerDispatch, 64, 32768));
         for (std::uint32_t first = 0; first < count; first += perDispatch) {
             glUniform1ui(p.uniformLocation("uValFirst"), first);
             glUniform1ui(p.uniformLocation("uValCount"), std::min(perDispatch, count - first));
@@ -431,7 +438,7 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
         glBlendFunc(GL_ONE, GL_ONE);
         const GLint begin = p.uniformLocation("uOccluderBegin");
         const GLint countLocation = p.uniformLocation("uOccluderCount");
-        const std::uint32_t chunk = std::uint32_t(std::max(1, s.occluderChunk));
+        const std::uint32_t chunk = std::uint32_t(std::clamp(s.occluderChunk, 1, 60000)); // llvmpipe loop limit
         for (std::uint32_t first = 0; first < impl.pointCount; first += chunk) {
             glUniform1i(begin, int(first));
             glUniform1i(countLocation, int(std::min(chunk, impl.pointCount - first)));
