@@ -495,6 +495,13 @@ TEST_F(LightSkinAnalyticGLTest, CoaxialDiscAndLargeUniformPlaneOnTheGpu) {
     // discretisation errors < 0.5 %, see GatherReference.LargeUniformPlaneGivesPiTimesRadiance)
     const double plane = centreIrradiance(squareEmitter({0, 0, h}, {0, 0, -1}, 40.0f, 400, glm::vec3(radiance)));
     EXPECT_NEAR(plane / m, 1.0, 5e-3);
+    // 10^6 VALs (7813 chunked passes): a 1 x 1 square at h = 0.5, exact form factor
+    // (4/pi) X/sqrt(1+X^2) atan(X/sqrt(1+X^2)), X = 1; float sums of 10^6 terms stay within 1e-4
+    const auto million = squareEmitter({0, 0, 0.5f}, {0, 0, -1}, 1.0f, 1000, glm::vec3(radiance));
+    ASSERT_EQ(million.size(), 1000000u);
+    const double q = std::sqrt(2.0);
+    const double exact = 4.0 / std::numbers::pi / q * std::atan(1.0 / q);
+    EXPECT_NEAR(centreIrradiance(million) / m, exact, 2e-4);
 }
 
 // ---- numerical extremes on the GPU -------------------------------------------------------
