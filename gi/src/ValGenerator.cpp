@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 namespace lightskin::gi {
 
@@ -43,7 +44,11 @@ ValGenerator ValGenerator::create(int depthWidth, int depthHeight, const ValGene
     const int mapW = valMapWidth(depthWidth, settings), mapH = valMapHeight(depthHeight, settings);
     g.capacity_ = std::uint32_t(std::max(1, mapW * mapH));
     const gl::ShaderLibrary library{embeddedShaders()};
-    g.program_ = library.buildProgram({{GL_COMPUTE_SHADER, "val_from_depth.comp"}});
+    // Shared-memory tile of the work group's depth footprint when it fits in 16 KB (else texel fetches).
+    const int tileSize = 7 * settings.stride + 2 * settings.normalWindowRadius + 1;
+    std::vector<std::string> defines;
+    if (tileSize <= 64) defines.push_back("TILE_SIZE " + std::to_string(tileSize));
+    g.program_ = library.buildProgram({{GL_COMPUTE_SHADER, "val_from_depth.comp"}}, defines);
     g.depthTexture_ = gl::Texture::create2D(GL_R32F, depthWidth, depthHeight);
     g.colourTexture_ = gl::Texture::create2D(GL_RGBA8, depthWidth, depthHeight);
     g.vals_ = gl::Buffer::create(GLsizeiptr(g.capacity_) * GLsizeiptr(sizeof(VirtualAreaLight)));
@@ -55,7 +60,8 @@ ValGenerator ValGenerator::create(int depthWidth, int depthHeight, const ValGene
 
 void ValGenerator::setSettings(const ValGeneratorSettings& settings) {
     validate(settings);
-    LIGHTSKIN_ASSERT(settings.stride == settings_.stride, "the stride is fixed at create()");
+    LIGHTSKIN_ASSERT(settings.stride == settings_.stride && settings.normalWindowRadius == settings_.normalWindowRadius,
+                     "the stride and the normal window are fixed at create()");
     settings_ = settings;
 }
 

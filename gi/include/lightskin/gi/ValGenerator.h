@@ -55,6 +55,7 @@ struct ValGeneratorSettings {
     /// Radiance scale: L = exposure * linear RGB (a scene setting: how bright "white" is).
     float exposure = 1.0f;
     /// R >= 1: half size of the normal window in full-resolution depth pixels (PCL smoothing 2R).
+    /// Fixed when the generator is created (it sizes the shared-memory tile).
     int normalWindowRadius = 5;
     /// Relative depth step between adjacent samples that counts as an edge (see above).
     float maxDepthChange = 0.03f;
@@ -93,7 +94,7 @@ public:
     /// The same for a registered RgbdFrame (its depth intrinsics and scale).
     ValSetView generate(const RgbdFrame& frame, const Pose& world_T_camera);
 
-    /// Exposure etc. may change per frame; the stride may not (it sizes the buffers).
+    /// Exposure etc. may change per frame; stride and normalWindowRadius may not (buffers, tile).
     void setSettings(const ValGeneratorSettings& settings);
     const ValGeneratorSettings& settings() const noexcept { return settings_; }
 
