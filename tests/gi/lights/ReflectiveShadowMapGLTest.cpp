@@ -97,6 +97,30 @@ TEST_F(ReflectiveShadowMapGLTest, PointLightAboveASquareReflectsItsSolidAngle) {
     EXPECT_NEAR(totalFlux(vals).x / (0.5 * solidAngle), 1.0, 5e-3);
 }
 
+// Millimetre to kilometre scenes: the automatic light frustum keeps the energy balance exact.
+TEST_F(ReflectiveShadowMapGLTest, EnergyIsScaleFree) {
+    const TriangleMesh plane = planeGrid(6.0f, 4);
+    const GpuTestMesh gpu = GpuTestMesh::upload(plane);
+    for (float scale : {1e-3f, 1e3f}) {
+        const gi::MeshInstance instances[] = {
+            instanceOf(gpu, plane, glm::vec3(0.5f), glm::scale(glm::mat4(1.0f), glm::vec3(scale)))};
+        VirtualLight spot;
+        spot.position = glm::vec3(0.0f, 0.0f, 1.5f * scale);
+        spot.spotHalfAngle = 0.5f;
+        gi::RsmSettings settings;
+        settings.resolution = 128;
+        gi::ReflectiveShadowMap rsm = gi::ReflectiveShadowMap::create(settings);
+        rsm.generate(std::span(&spot, 1), instances);
+        const auto vals = rsm.downloadVals();
+        EXPECT_NEAR(totalFlux(vals).x / (0.5 * gi::radiantPower(spot).x), 1.0, 1e-2) << scale;
+        double area = 0.0;
+        for (const auto& val : vals) area += double(val.area);
+        const double litRadius = 1.5 * double(scale) * std::tan(0.5);
+        EXPECT_GT(area, std::cos(0.5) * std::numbers::pi * litRadius * litRadius * 0.99) << scale;
+        EXPECT_LT(area, std::numbers::pi * litRadius * litRadius) << scale;
+    }
+}
+
 // Two lights and an occluder: each light contributes separately; a blocked region reflects nothing.
 TEST_F(ReflectiveShadowMapGLTest, SeveralLightsAddAndTheNearestSurfaceTakesTheLight) {
     const TriangleMesh floor = planeGrid(10.0f, 4);

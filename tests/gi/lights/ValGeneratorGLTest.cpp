@@ -68,7 +68,8 @@ TEST_F(ValGeneratorGLTest, FrontoParallelPlaneAreasSumToThePatchArea) {
     const double z = 1.7;
     cv::Mat depth, normals;
     renderDepth(K, depth, normals, PlaneSurface{{0, 0, -1}, -z});
-    for (int stride : {1, 2, 4}) {
+    // Strides 1..4 stage depth in shared memory; stride 8 (tile 7 * 8 + 11 > 64) uses texel fetches.
+    for (int stride : {1, 2, 3, 4, 8}) {
         ValGeneratorSettings settings;
         settings.stride = stride;
         const GpuRun run = runGpu(depth, uniformColour(K.width, K.height, {128, 128, 128}), K, Pose{}, settings);
