@@ -6,6 +6,7 @@
 
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/ReflectiveShadowMap.h>
+#include <lightskin/gi/ValSetMerger.h>
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <gtest/gtest.h>
@@ -152,6 +153,33 @@ TEST_F(ReflectiveShadowMapGLTest, SeveralLightsAddAndTheNearestSurfaceTakesTheLi
     }
     gi::ReflectiveShadowMap small = gi::ReflectiveShadowMap::create({.resolution = 8, .maxLights = 1});
     EXPECT_THROW(small.generate(lights, instances), Error);
+}
+
+// RSM VALs and any other set merge back to back into one packed set.
+TEST_F(ReflectiveShadowMapGLTest, SetsMergeInOrderAndOverflowIsCounted) {
+    const TriangleMesh plane = planeGrid(6.0f, 4);
+    const GpuTestMesh gpu = GpuTestMesh::upload(plane);
+    const gi::MeshInstance instances[] = {instanceOf(gpu, plane, glm::vec3(0.5f))};
+    VirtualLight spot;
+    spot.position = {0, 0, 1};
+    gi::ReflectiveShadowMap rsm = gi::ReflectiveShadowMap::create({.resolution = 16, .maxLights = 1});
+    const gi::ValSetView first = rsm.generate(std::span(&spot, 1), instances);
+    const auto firstVals = rsm.downloadVals();
+    std::vector<gi::VirtualAreaLight> other(5);
+    for (std::size_t i = 0; i < other.size(); ++i) other[i].area = float(i + 1);
+    gl::Buffer otherBuffer = gl::Buffer::create(GLsizeiptr(other.size() * sizeof(gi::VirtualAreaLight)), other.data());
+    const gi::ValSetView sets[] = {first, {otherBuffer.id(), 5}, {0, 0}};
+    gi::ValSetMerger merger = gi::ValSetMerger::create(first.count + 5);
+    const gi::ValSetView merged = merger.merge(sets);
+    ASSERT_EQ(merged.count, first.count + 5);
+    EXPECT_EQ(merger.lastDropped(), 0u);
+    std::vector<gi::VirtualAreaLight> out(merged.count);
+    glGetNamedBufferSubData(merged.buffer, 0, GLsizeiptr(out.size() * sizeof(gi::VirtualAreaLight)), out.data());
+    for (std::size_t i = 0; i < firstVals.size(); ++i) EXPECT_EQ(out[i].position, firstVals[i].position);
+    for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(out[first.count + i].area, float(i + 1));
+    gi::ValSetMerger small = gi::ValSetMerger::create(first.count + 2);
+    EXPECT_EQ(small.merge(sets).count, first.count + 2);
+    EXPECT_EQ(small.lastDropped(), 3u);
 }
 
 } // namespace
