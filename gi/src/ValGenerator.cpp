@@ -88,6 +88,7 @@ ValSetView ValGenerator::generate(const cv::Mat& depth, double depthScaleMetres,
         depth.convertTo(depthMetres_, CV_32FC1, depthScaleMetres); // sized at create(): no allocation
         depthMetres = &depthMetres_;
     }
+    if (timer_) timer_->begin("val upload");
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
     glPixelStorei(GL_UNPACK_ROW_LENGTH, int(depthMetres->step1()));
     glTextureSubImage2D(depthTexture_.id(), 0, 0, 0, width_, height_, GL_RED, GL_FLOAT, depthMetres->data);
@@ -96,6 +97,10 @@ ValSetView ValGenerator::generate(const cv::Mat& depth, double depthScaleMetres,
     glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
 
+    if (timer_) {
+        timer_->end();
+        timer_->begin("val pass");
+    }
     const std::uint32_t zero = 0;
     glClearNamedBufferData(counter_.id(), GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT, &zero);
     const int mapW = valMapWidth(width_, settings_), mapH = valMapHeight(height_, settings_);
@@ -121,6 +126,7 @@ ValSetView ValGenerator::generate(const cv::Mat& depth, double depthScaleMetres,
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, counter_.id());
     glDispatchCompute(GLuint((mapW + 7) / 8), GLuint((mapH + 7) / 8), 1);
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT | GL_UNIFORM_BARRIER_BIT);
+    if (timer_) timer_->end();
     std::uint32_t count = 0;
     glGetNamedBufferSubData(counter_.id(), 0, sizeof count, &count);
     lastCount_ = std::min(count, capacity_);

@@ -39,6 +39,7 @@
 #include <lightskin/core/Pose.h>
 #include <lightskin/core/RgbdFrame.h>
 #include <lightskin/gi/VirtualAreaLight.h>
+#include <lightskin/gl/GpuTimer.h>
 #include <lightskin/gl/Objects.h>
 
 #include <glm/vec3.hpp>
@@ -98,6 +99,10 @@ public:
     void setSettings(const ValGeneratorSettings& settings);
     const ValGeneratorSettings& settings() const noexcept { return settings_; }
 
+    /// When set (not owned; may be null), generate() brackets its stages "val upload" and
+    /// "val pass" with begin()/end() on this timer; the caller runs beginFrame()/collect().
+    void setStageTimer(gl::GpuStageTimer* timer) noexcept { timer_ = timer; }
+
     /// The last generate()'s set (buffer owned by this generator).
     ValSetView lastSet() const noexcept { return {vals_.id(), lastCount_}; }
     /// GL buffer: uint per VAL, the depth pixel index (v * width + u) it came from.
@@ -118,6 +123,7 @@ private:
     gl::Texture depthTexture_, colourTexture_;
     gl::Buffer vals_, pixelIndices_, counter_;
     cv::Mat depthMetres_; // CV_32FC1 staging for 16-bit input, sized once
+    gl::GpuStageTimer* timer_ = nullptr;
 };
 
 /// One VAL of the CPU reference, double precision.
