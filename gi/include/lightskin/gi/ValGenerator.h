@@ -89,7 +89,8 @@ public:
     /// Uploads depth and colour and runs the pass. `depth`: CV_16UC1 (raw units, metres = value *
     /// depthScaleMetres, 0 = missing) or CV_32FC1 (metres, NaN/0 = missing); `colourBgr`: CV_8UC3,
     /// BGR, sRGB-encoded, same size as depth (registered to depth). Reads the count back (a GPU sync).
-    /// Throws lightskin::Error (naming `source`) on wrong types or sizes.
+    /// Throws lightskin::Error on wrong types or sizes. GL state left changed: current program,
+    /// texture units 0-1, SSBO bindings 0-2 (everything else as found).
     ValSetView generate(const cv::Mat& depth, double depthScaleMetres, const cv::Mat& colourBgr,
                         const CameraIntrinsics& depthIntrinsics, const Pose& world_T_camera);
     /// The same for a registered RgbdFrame (its depth intrinsics and scale).
