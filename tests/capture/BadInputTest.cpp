@@ -172,6 +172,21 @@ TEST(BadInputTest, AbsurdSizes) {
     std::ofstream(folder / "depth/000000.png", std::ios::binary | std::ios::trunc) << bytes;
     expectError([&] { readAll(folder); }, {"depth/000000.png", 0, "absurd size"});
 
+    // The same for a JPEG frame header (65535 x 65535).
+    const auto jpegFolder = scratchDir("bad_absurd_jpeg") / "rec";
+    auto jpegInfo = smallRecordingInfo();
+    jpegInfo.jpegColour = true;
+    {
+        auto writer = capture::RecordingWriter::create(jpegFolder, jpegInfo);
+        writer.write(syntheticFrame(jpegInfo, 0));
+    }
+    std::string jpeg = readText(jpegFolder / "colour/000000.jpg");
+    const auto sof = jpeg.find("\xff\xc0");
+    ASSERT_NE(sof, std::string::npos);
+    for (std::size_t i = 5; i < 9; ++i) jpeg[sof + i] = char(0xff);
+    std::ofstream(jpegFolder / "colour/000000.jpg", std::ios::binary | std::ios::trunc) << jpeg;
+    expectError([&] { readAll(jpegFolder); }, {"colour/000000.jpg", 0, "absurd size"});
+
     const auto header = makeRecording("bad_absurd_header");
     replaceInFile(header / capture::kRecordingHeaderFile, "\"width\": 32", "\"width\": 1000000000");
     expectError([&] { capture::openFrameSource(header.string()); }, {capture::kRecordingHeaderFile, std::nullopt, "absurd image size"});
