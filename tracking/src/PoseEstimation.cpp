@@ -169,8 +169,15 @@ void estimatePoseInto(const std::vector<TagDetection>& detections, const TagWorl
         // The best start and the best one that is a genuinely different pose (> 5 degrees away),
         // each refined on all corners.
         constexpr double distinctRadians = 5.0 * std::numbers::pi / 180.0;
+        int refinements = 0;
         for (const PoseCandidate& candidate : scored) {
             if (!std::isfinite(candidate.rmsErrorPx)) break;
+            // Starts near an existing candidate would refine onto it: skip them without the cost.
+            const bool nearExisting = std::any_of(out.candidates.begin(), out.candidates.end(), [&](const PoseCandidate& c) {
+                return Pose::rotationAngleBetween(c.world_T_camera, candidate.world_T_camera) <= distinctRadians;
+            });
+            if (nearExisting) continue;
+            if (++refinements > 4) break;
             const Pose refined = refineLm(candidate.world_T_camera, points, intrinsics);
             const double error = rmsError(refined, points, intrinsics);
             const PoseCandidate improved = error <= candidate.rmsErrorPx ? PoseCandidate{refined, error} : candidate;

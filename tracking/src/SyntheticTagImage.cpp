@@ -22,6 +22,12 @@ cv::Mat renderSyntheticTagImage(const TagWorld& world, const CameraIntrinsics& i
     const int s = settings.supersampling;
     const double sd = static_cast<double>(s);
     cv::Mat canvas(intrinsics.height * s, intrinsics.width * s, CV_8UC1, cv::Scalar(settings.background));
+    if (!settings.backgroundImage.empty()) {
+        LIGHTSKIN_ASSERT(settings.backgroundImage.type() == CV_8UC1 && settings.backgroundImage.cols == intrinsics.width &&
+                             settings.backgroundImage.rows == intrinsics.height,
+                         "backgroundImage must be CV_8UC1 of the output size");
+        cv::resize(settings.backgroundImage, canvas, canvas.size(), 0.0, 0.0, cv::INTER_NEAREST);
+    }
     // Pinhole of the supersampled image; pixel centres stay consistent: c' = (c + 0.5) s - 0.5.
     const cv::Matx33d k(intrinsics.fx * sd, 0.0, (intrinsics.cx + 0.5) * sd - 0.5, 0.0, intrinsics.fy * sd,
                         (intrinsics.cy + 0.5) * sd - 0.5, 0.0, 0.0, 1.0);

@@ -19,6 +19,9 @@ struct SyntheticTagImageSettings {
     int supersampling = 4;
     /// Grey levels of the background and of the tag's black and white cells.
     std::uint8_t background = 128;
+    /// Optional background picture (CV_8UC1, the output size) drawn instead of the uniform grey,
+    /// e.g. clutter for benchmarks. Not owned beyond the call.
+    cv::Mat backgroundImage;
     std::uint8_t black = 25;
     std::uint8_t white = 230;
     /// Length of a linear motion blur in pixels (0 = none) and its direction (degrees from +x).
