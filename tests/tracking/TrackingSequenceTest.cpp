@@ -5,6 +5,7 @@
 #include <lightskin/tracking/SyntheticTagImage.h>
 
 #include <gtest/gtest.h>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
@@ -275,6 +276,69 @@ TEST(TrackingSequenceTest, DepthThatDisagreesIsIgnored) {
     EXPECT_FALSE(result.depthRefined);
     // Where the tag is in the camera: the image's answer, not pulled 30 cm back by the wall.
     EXPECT_LT(glm::length(result.world_T_camera->inverse().translation() - truth.inverse().translation()), 0.005);
+}
+
+} // namespace
+} // namespace lightskin::tracking
+
+namespace lightskin::tracking {
+namespace {
+
+// A lens with real distortion (TUM fr1's coefficients): the ideal rendering is warped into the
+// distorted image, and both undistortion modes must give back the accuracy of an ideal camera.
+TEST(TrackingSequenceTest, UndistortionOfCornersAndOfTheImage) {
+    CameraIntrinsics lens = camera;
+    lens.distortion = {0.2624, -0.9531, -0.0054, 0.0026, 1.1633}; // TUM fr1 (Freiburg 1 calibration)
+    ASSERT_TRUE(lens.hasDistortion());
+    const TagWorld world = TagWorld::singleTag(4, 0.16);
+    // The tag off the image centre (near pixel (422, 146)), where the distortion is strong.
+    const Pose truth = lookAt({0.35, -0.2, 0.75}, {-0.2, -0.14, 0.0}, {0.0, 1.0, 0.0});
+    SyntheticTagImageSettings render;
+    render.noiseSigma = 2.0;
+    const cv::Mat ideal = renderSyntheticTagImage(world, camera, truth, render);
+    // Distorted pixel -> where that ray lands in the ideal image (undistortPoints with P = K).
+    std::vector<cv::Point2f> distortedPixels;
+    for (int v = 0; v < camera.height; ++v)
+        for (int u = 0; u < camera.width; ++u) distortedPixels.emplace_back(static_cast<float>(u), static_cast<float>(v));
+    std::vector<cv::Point2f> idealPixels;
+    const cv::Matx33d k(camera.fx, 0.0, camera.cx, 0.0, camera.fy, camera.cy, 0.0, 0.0, 1.0);
+    cv::undistortPoints(distortedPixels, idealPixels, k, lens.distortion, cv::noArray(), k);
+    cv::Mat mapX(camera.height, camera.width, CV_32FC1), mapY(camera.height, camera.width, CV_32FC1);
+    for (int v = 0; v < camera.height; ++v) {
+        for (int u = 0; u < camera.width; ++u) {
+            const cv::Point2f& p = idealPixels[static_cast<std::size_t>(v * camera.width + u)];
+            mapX.at<float>(v, u) = p.x;
+            mapY.at<float>(v, u) = p.y;
+        }
+    }
+    cv::Mat distorted;
+    cv::remap(ideal, distorted, mapX, mapY, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(128));
+
+    for (const Undistortion mode : {Undistortion::Corners, Undistortion::Image}) {
+        TrackerSettings settings;
+        settings.undistortion = mode;
+        PoseTracker tracker = PoseTracker::create(world, settings);
+        TrackingResult result;
+        tracker.trackImageInto(distorted, lens, 0.0, 0, result);
+        ASSERT_EQ(result.state, TrackingState::Tracking) << result.reason;
+        const double position = glm::length(result.world_T_camera->inverse().translation() - truth.inverse().translation());
+        const double rotation = degrees(Pose::rotationAngleBetween(*result.world_T_camera, truth));
+        std::printf("distorted lens, %s undistortion: position %.2f mm, rotation %.3f deg\n",
+                    mode == Undistortion::Corners ? "corner" : "image", position * 1000.0, rotation);
+        EXPECT_LE(position, 0.002 * 0.85);
+        EXPECT_LE(rotation, 0.5);
+
+        // Ignoring the distortion is measurably worse: the test can tell the difference.
+        if (mode == Undistortion::Corners) {
+            PoseTracker naive = PoseTracker::create(world, settings);
+            naive.trackImageInto(distorted, camera, 0.0, 0, result);
+            ASSERT_EQ(result.state, TrackingState::Tracking);
+            const double naivePosition =
+                glm::length(result.world_T_camera->inverse().translation() - truth.inverse().translation());
+            std::printf("distorted lens, distortion ignored: position %.2f mm\n", naivePosition * 1000.0);
+            EXPECT_GT(naivePosition, 3.0 * std::max(position, 0.0005));
+        }
+    }
 }
 
 } // namespace
