@@ -186,9 +186,8 @@ PathSegment readSegment(const Json& json, const std::string& path, const std::st
 } // namespace
 
 Pose Placement::world_T_face() const {
-    const glm::dvec3 z = -glm::normalize(facing);
-    const glm::dvec3 upOrthogonal = glm::normalize(up - glm::dot(up, z) * z);
-    const glm::dvec3 y = -upOrthogonal;
+    const glm::dvec3 z = glm::normalize(facing);
+    const glm::dvec3 y = glm::normalize(up - glm::dot(up, z) * z);
     const glm::dvec3 x = glm::cross(y, z);
     const glm::dmat3 rotation(x, y, z);
     return Pose(glm::quat_cast(rotation), position);
@@ -203,9 +202,9 @@ std::vector<TagDescription> TagBoardDescription::expand() const {
             tag.family = family;
             tag.id = firstId + row * columns + column;
             tag.sizeMetres = sizeMetres;
-            // Board frame: x right, y down as seen from the front; row 0 is the top row.
+            // Board frame: x right, y up as seen from the front; row 0 is the top row.
             const glm::dvec3 offset{(column - (columns - 1) * 0.5) * spacingMetres,
-                                    (row - (rows - 1) * 0.5) * spacingMetres, 0.0};
+                                    ((rows - 1) * 0.5 - row) * spacingMetres, 0.0};
             tag.placement = placement;
             tag.placement.position = world_T_board.transformPoint(offset);
             tags.push_back(tag);

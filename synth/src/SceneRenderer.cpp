@@ -143,8 +143,8 @@ glm::dmat4 projectionFromIntrinsics(const CameraIntrinsics& k, double n, double 
 std::array<glm::dvec3, 4> SceneRenderer::tagCornersWorld(const TagDescription& tag) {
     const Pose world_T_tag = tag.placement.world_T_face();
     const double h = tag.sizeMetres / 2.0;
-    return {world_T_tag.transformPoint({-h, -h, 0.0}), world_T_tag.transformPoint({h, -h, 0.0}),
-            world_T_tag.transformPoint({h, h, 0.0}), world_T_tag.transformPoint({-h, h, 0.0})};
+    return {world_T_tag.transformPoint({-h, h, 0.0}), world_T_tag.transformPoint({h, h, 0.0}),
+            world_T_tag.transformPoint({h, -h, 0.0}), world_T_tag.transformPoint({-h, -h, 0.0})};
 }
 
 struct SceneRenderer::Impl {
@@ -286,9 +286,10 @@ SceneRenderer SceneRenderer::create(const SceneDescription& scene, const TagBitm
         const Pose world_T_tag = tag.placement.world_T_face();
         const double h = tag.sizeMetres / 2.0 * double(bitmap.cells.cols) / double(bitmap.borderCells);
         const DrawRange range{GLint(vertices.size()), 6};
+        // Bitmap row 0 (texture t = 0) at the top edge (+y of the tag frame).
         addQuad(vertices,
-                {world_T_tag.transformPoint({-h, -h, 0.0}), world_T_tag.transformPoint({h, -h, 0.0}),
-                 world_T_tag.transformPoint({h, h, 0.0}), world_T_tag.transformPoint({-h, h, 0.0})},
+                {world_T_tag.transformPoint({-h, h, 0.0}), world_T_tag.transformPoint({h, h, 0.0}),
+                 world_T_tag.transformPoint({h, -h, 0.0}), world_T_tag.transformPoint({-h, -h, 0.0})},
                 glm::normalize(tag.placement.facing), glm::vec3(1.0f), glm::vec3(0.0f),
                 {glm::vec2(0, 0), glm::vec2(1, 0), glm::vec2(1, 1), glm::vec2(0, 1)});
         impl->tagRanges.push_back(range);

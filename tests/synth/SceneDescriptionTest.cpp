@@ -71,15 +71,15 @@ TEST(SceneDescriptionTest, TagBoardExpandsRowByRowFromTheTopLeft) {
     EXPECT_NEAR(scene.tags[5].placement.position.z, 0.75, 1e-12);
 }
 
-TEST(SceneDescriptionTest, FaceFrameIsRightDownIntoTheSurface) {
+TEST(SceneDescriptionTest, FaceFrameIsRightUpOutOfTheSurfaceLikeTrackingsTagFrame) {
     const Placement placement{{1.0, 2.0, 3.0}, {0.0, 0.0, 1.0}, {0.0, 1.0, 0.0}};
     const Pose world_T_face = placement.world_T_face();
     const glm::dvec3 x = world_T_face.transformDirection({1, 0, 0});
     const glm::dvec3 y = world_T_face.transformDirection({0, 1, 0});
     const glm::dvec3 z = world_T_face.transformDirection({0, 0, 1});
     EXPECT_NEAR(glm::length(x - glm::dvec3(1, 0, 0)), 0.0, 1e-12); // right, seen from above with +y up
-    EXPECT_NEAR(glm::length(y - glm::dvec3(0, -1, 0)), 0.0, 1e-12); // down = -up
-    EXPECT_NEAR(glm::length(z - glm::dvec3(0, 0, -1)), 0.0, 1e-12); // into the surface = -facing
+    EXPECT_NEAR(glm::length(y - glm::dvec3(0, 1, 0)), 0.0, 1e-12); // up
+    EXPECT_NEAR(glm::length(z - glm::dvec3(0, 0, 1)), 0.0, 1e-12); // out of the surface = facing
 }
 
 TEST(CameraPathTest, LookAtUsesTheOpenCvCameraFrame) {

@@ -29,8 +29,9 @@ struct Placement {
     glm::dvec3 facing{0.0, 0.0, 1.0}; ///< outward normal of the visible face
     glm::dvec3 up{0.0, 1.0, 0.0};     ///< direction of the top edge of the face
 
-    /// world_T_face with the face frame x right, y down (as the face is seen from the front),
-    /// z = -facing (into the surface): the AprilTag / OpenCV tag frame convention.
+    /// world_T_face with the face frame x right, y up (as the face is seen from the front),
+    /// z = facing (out of the surface): lightskin's tag frame (tracking/TagFamily.h, as OpenCV's
+    /// ArUco), origin at `position`.
     Pose world_T_face() const;
 };
 
