@@ -1,8 +1,11 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/synth/SceneDescription.h>
 
+#include "TestPaths.h"
+
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -140,6 +143,41 @@ TEST(CameraPathTest, ShakeIsSeededSmoothAndHasTheRequestedSize) {
     EXPECT_EQ(a.translation(), cameraPoseAt(path, 17).translation());
     path.shake.seed = 43;
     EXPECT_GT(glm::length(cameraPoseAt(path, 17).translation() - a.translation()), 1e-6);
+}
+
+} // namespace
+} // namespace lightskin::synth
+
+namespace lightskin::synth {
+namespace {
+
+// The canonical scenes shipped in recordings/scenes-synth parse, and their paths do what the
+// docs say: the pan sends the tag board out of the view and brings it back.
+TEST(CanonicalScenesTest, ParseAndThePanLosesAndRegainsTheTags) {
+    const std::filesystem::path folder = test::sourceDir() / "recordings" / "scenes-synth";
+    for (const char* name : {"orbit.json", "pan.json", "clean-channels.json"}) {
+        const SceneDescription scene = loadSceneDescription(folder / name);
+        EXPECT_GE(scene.path.frameCount(), 4) << name;
+        EXPECT_LE(scene.path.frameCount(), 60) << name;
+        EXPECT_FALSE(scene.tags.empty()) << name;
+    }
+    const SceneDescription pan = loadSceneDescription(folder / "pan.json");
+    const auto tagsInView = [&](int frame) {
+        const Pose camera_T_world = cameraPoseAt(pan.path, frame).inverse();
+        int inView = 0;
+        for (const TagDescription& tag : pan.tags) {
+            const glm::dvec3 p = camera_T_world.transformPoint(tag.placement.position);
+            const glm::dvec2 pixel = pan.intrinsics.project(p);
+            inView += p.z > 0 && pixel.x >= 0 && pixel.y >= 0 && pixel.x < pan.intrinsics.width && pixel.y < pan.intrinsics.height;
+        }
+        return inView;
+    };
+    std::string states;
+    for (int frame = 0; frame < pan.path.frameCount(); ++frame) states += tagsInView(frame) == 4 ? 'T' : tagsInView(frame) == 0 ? '.' : 'p';
+    std::printf("pan: tags in view per frame (T all, p some, . none): %s\n", states.c_str());
+    EXPECT_EQ(states.front(), 'T');
+    EXPECT_EQ(states.back(), 'T');
+    EXPECT_GE(std::count(states.begin(), states.end(), '.'), 8);
 }
 
 } // namespace
