@@ -281,15 +281,20 @@ SceneRenderer SceneRenderer::create(const SceneDescription& scene, const TagBitm
     for (const TagDescription& tag : scene.tags) {
         const TagBitmap bitmap = tags(tag.family, tag.id);
         if (bitmap.cells.type() != CV_8UC1 || bitmap.cells.rows != bitmap.cells.cols || bitmap.borderCells <= 0 ||
-            bitmap.borderCells > bitmap.cells.cols)
+            bitmap.borderStartCell < 0 || bitmap.borderStartCell + bitmap.borderCells > bitmap.cells.cols)
             throw Error(source, std::nullopt, "tag " + tag.family + " " + std::to_string(tag.id) + ": bad bitmap");
         const Pose world_T_tag = tag.placement.world_T_face();
-        const double h = tag.sizeMetres / 2.0 * double(bitmap.cells.cols) / double(bitmap.borderCells);
+        // The bitmap's edges in the tag frame: the border square is [-size/2, size/2]^2.
+        const double cell = tag.sizeMetres / double(bitmap.borderCells);
+        const double left = -tag.sizeMetres / 2.0 - bitmap.borderStartCell * cell;
+        const double right = left + bitmap.cells.cols * cell;
+        const double top = tag.sizeMetres / 2.0 + bitmap.borderStartCell * cell;
+        const double bottom = top - bitmap.cells.rows * cell;
         const DrawRange range{GLint(vertices.size()), 6};
         // Bitmap row 0 (texture t = 0) at the top edge (+y of the tag frame).
         addQuad(vertices,
-                {world_T_tag.transformPoint({-h, h, 0.0}), world_T_tag.transformPoint({h, h, 0.0}),
-                 world_T_tag.transformPoint({h, -h, 0.0}), world_T_tag.transformPoint({-h, -h, 0.0})},
+                {world_T_tag.transformPoint({left, top, 0.0}), world_T_tag.transformPoint({right, top, 0.0}),
+                 world_T_tag.transformPoint({right, bottom, 0.0}), world_T_tag.transformPoint({left, bottom, 0.0})},
                 glm::normalize(tag.placement.facing), glm::vec3(1.0f), glm::vec3(0.0f),
                 {glm::vec2(0, 0), glm::vec2(1, 0), glm::vec2(1, 1), glm::vec2(0, 1)});
         impl->tagRanges.push_back(range);

@@ -1,14 +1,17 @@
-#include <lightskin/core/Error.h>
 #include <lightskin/synth/SceneRenderer.h>
+#include <lightskin/tracking/TagFamily.h>
 
 namespace lightskin::synth {
 
-// The bit patterns come from Debian's libapriltag through lightskin::tracking; until tracking's
-// renderTagBitmap() is available, scenes with tags cannot be rendered with the real patterns.
+// The real bit patterns of Debian's libapriltag, through lightskin::tracking.
 TagBitmapSource apriltagBitmaps() {
-    return [](const std::string& family, int id) -> TagBitmap {
-        throw Error(family, std::nullopt,
-                    "tag " + std::to_string(id) + ": AprilTag bitmaps need lightskin::tracking::renderTagBitmap (not built yet)");
+    return [](const std::string& family, int id) {
+        const tracking::TagLayout layout = tracking::tagLayout(family);
+        TagBitmap bitmap;
+        bitmap.cells = tracking::renderTagBitmap(family, id);
+        bitmap.borderStartCell = layout.blackBorderStartCell;
+        bitmap.borderCells = layout.blackBorderCells;
+        return bitmap;
     };
 }
 

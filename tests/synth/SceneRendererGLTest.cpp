@@ -32,6 +32,7 @@ TagBitmap testTagBitmap(const std::string&, int) {
     bitmap.cells = cv::Mat(10, 10, CV_8UC1, cv::Scalar(255));
     bitmap.cells(cv::Rect(1, 1, 8, 8)).setTo(0);
     bitmap.cells(cv::Rect(3, 3, 4, 4)).setTo(255);
+    bitmap.borderStartCell = 1;
     bitmap.borderCells = 8;
     return bitmap;
 }

@@ -25,10 +25,11 @@
 namespace lightskin::synth {
 
 /// An AprilTag's pattern, one pixel per cell (CV_8UC1, 0 = black, 255 = white, top row first),
-/// including the white quiet zone; the black border square is `borderCells` cells wide and
-/// centred in the bitmap.
+/// including the white border cells; the square that defines the tag size (tracking::TagLayout)
+/// starts at cell (borderStartCell, borderStartCell) and is borderCells cells wide.
 struct TagBitmap {
     cv::Mat cells;
+    int borderStartCell = 0;
     int borderCells = 0;
 };
 
