@@ -246,3 +246,28 @@ TEST(SyntheticPoseTest, MotionBlur) {
 
 } // namespace
 } // namespace lightskin::tracking
+
+namespace lightskin::tracking {
+namespace {
+
+// A bundle whose config places tag 22 10 cm away from where it really is (a tag that was moved):
+// its corners disagree with the other tags, it is dropped and named, and the pose comes from the rest.
+TEST(SyntheticPoseTest, BundleDropsATagThatDisagrees) {
+    std::vector<WorldTag> real{{20, 0.1, Pose({1.0, 0.0, 0.0, 0.0}, {-0.15, -0.1, 0.0})},
+                               {21, 0.1, Pose({1.0, 0.0, 0.0, 0.0}, {0.15, -0.1, 0.0})},
+                               {22, 0.1, Pose({1.0, 0.0, 0.0, 0.0}, {0.0, 0.15, 0.0})}};
+    std::vector<WorldTag> configured = real;
+    configured[2].world_T_tag = Pose({1.0, 0.0, 0.0, 0.0}, {0.1, 0.15, 0.0});
+    const Pose truth = viewOfTag(0.9, 30.0, 40.0, {0.0, 0.0, 0.0});
+    const cv::Mat image = renderSyntheticTagImage(TagWorld::bundle(real), camera, truth, noisy(21));
+    const TrackingResult result = trackOnce(TagWorld::bundle(configured), image);
+    ASSERT_EQ(result.state, TrackingState::Tracking) << result.reason;
+    EXPECT_EQ(result.tagsUsed, (std::vector<int>{20, 21}));
+    EXPECT_EQ(result.rejectedTags, std::vector<int>{22});
+    const Errors e = errorsOf(*result.world_T_camera, truth);
+    EXPECT_LE(e.positionMetres, 0.002 * 0.9);
+    EXPECT_LE(e.rotationDegrees, 0.5);
+}
+
+} // namespace
+} // namespace lightskin::tracking

@@ -95,31 +95,11 @@ Pose refineLm(const Pose& world_T_camera, const Correspondences& points, const C
     return poseFromRvecTvec(rvec, tvec).inverse();
 }
 
-} // namespace
-
-void estimatePoseInto(const std::vector<TagDetection>& detections, const TagWorld& world,
-                      const CameraIntrinsics& intrinsics, PoseMeasurement& out) {
-    LIGHTSKIN_ASSERT(intrinsics.isValid(), "intrinsics must be valid");
-    out.tagsUsed.clear();
-    out.unknownTags.clear();
+/// The candidates (best first) and ambiguity ratio for one set of tags.
+void solveCandidates(const std::vector<const TagDetection*>& used, const std::vector<const WorldTag*>& usedTags,
+                     const CameraIntrinsics& intrinsics, PoseMeasurement& out) {
     out.candidates.clear();
     out.ambiguityRatio = std::numeric_limits<double>::infinity();
-
-    std::vector<const TagDetection*> used;
-    std::vector<const WorldTag*> usedTags;
-    for (const TagDetection& detection : detections) {
-        const WorldTag* tag = world.find(detection.id);
-        if (tag == nullptr) {
-            if (out.unknownTags.empty() || out.unknownTags.back() != detection.id) out.unknownTags.push_back(detection.id);
-            continue;
-        }
-        if (!out.tagsUsed.empty() && out.tagsUsed.back() == detection.id) continue; // duplicate id
-        out.tagsUsed.push_back(detection.id);
-        used.push_back(&detection);
-        usedTags.push_back(tag);
-    }
-    if (used.empty()) return;
-
     Correspondences points;
     for (std::size_t t = 0; t < used.size(); ++t) {
         const auto corners = tagCorners(usedTags[t]->sizeMetres);
@@ -198,10 +178,69 @@ void estimatePoseInto(const std::vector<TagDetection>& detections, const TagWorl
         out.ambiguityRatio = out.candidates[1].rmsErrorPx / std::max(out.candidates[0].rmsErrorPx, 1e-9);
 }
 
+/// RMS reprojection error of one tag's corners under a pose.
+double tagRms(const Pose& world_T_camera, const TagDetection& detection, const WorldTag& tag,
+              const CameraIntrinsics& intrinsics) {
+    Correspondences points;
+    const auto corners = tagCorners(tag.sizeMetres);
+    for (std::size_t c = 0; c < 4; ++c) {
+        const glm::dvec3 w = tag.world_T_tag.transformPoint(corners[c]);
+        points.world.emplace_back(w.x, w.y, w.z);
+        points.image.emplace_back(detection.corners[c].x, detection.corners[c].y);
+    }
+    return rmsError(world_T_camera, points, intrinsics);
+}
+
+} // namespace
+
+void estimatePoseInto(const std::vector<TagDetection>& detections, const TagWorld& world,
+                      const CameraIntrinsics& intrinsics, PoseMeasurement& out, double maxTagRmsPx) {
+    LIGHTSKIN_ASSERT(intrinsics.isValid(), "intrinsics must be valid");
+    out.tagsUsed.clear();
+    out.unknownTags.clear();
+    out.rejectedTags.clear();
+    out.candidates.clear();
+    out.ambiguityRatio = std::numeric_limits<double>::infinity();
+
+    std::vector<const TagDetection*> used;
+    std::vector<const WorldTag*> usedTags;
+    for (const TagDetection& detection : detections) {
+        const WorldTag* tag = world.find(detection.id);
+        if (tag == nullptr) {
+            if (out.unknownTags.empty() || out.unknownTags.back() != detection.id) out.unknownTags.push_back(detection.id);
+            continue;
+        }
+        if (!used.empty() && used.back()->id == detection.id) continue; // duplicate id: keep the best margin
+        used.push_back(&detection);
+        usedTags.push_back(tag);
+    }
+    // A tag whose corners disagree with the others (a tag cut by the image border, a false
+    // decode, a tag moved since the layout was measured) is dropped, worst first, until the rest
+    // agree or one tag is left.
+    while (!used.empty()) {
+        solveCandidates(used, usedTags, intrinsics, out);
+        if (used.size() == 1 || out.candidates.empty() || out.candidates[0].rmsErrorPx <= maxTagRmsPx) break;
+        std::size_t worst = 0;
+        double worstRms = -1.0;
+        for (std::size_t t = 0; t < used.size(); ++t) {
+            const double rms = tagRms(out.candidates[0].world_T_camera, *used[t], *usedTags[t], intrinsics);
+            if (rms > worstRms) {
+                worstRms = rms;
+                worst = t;
+            }
+        }
+        out.rejectedTags.push_back(used[worst]->id);
+        used.erase(used.begin() + static_cast<std::ptrdiff_t>(worst));
+        usedTags.erase(usedTags.begin() + static_cast<std::ptrdiff_t>(worst));
+    }
+    for (const TagDetection* detection : used) out.tagsUsed.push_back(detection->id);
+    std::sort(out.rejectedTags.begin(), out.rejectedTags.end());
+}
+
 PoseMeasurement estimatePose(const std::vector<TagDetection>& detections, const TagWorld& world,
-                             const CameraIntrinsics& intrinsics) {
+                             const CameraIntrinsics& intrinsics, double maxTagRmsPx) {
     PoseMeasurement out;
-    estimatePoseInto(detections, world, intrinsics, out);
+    estimatePoseInto(detections, world, intrinsics, out, maxTagRmsPx);
     return out;
 }
 
@@ -223,11 +262,13 @@ double reprojectionRmsPx(const Pose& world_T_camera, const std::vector<TagDetect
 }
 
 PoseUncertainty estimateUncertainty(const Pose& world_T_camera, const std::vector<TagDetection>& detections,
-                                    const TagWorld& world, const CameraIntrinsics& intrinsics, double cornerSigmaPx) {
+                                    const TagWorld& world, const CameraIntrinsics& intrinsics, double cornerSigmaPx,
+                                    const std::vector<int>& tagIds) {
     Correspondences points;
     for (const TagDetection& detection : detections) {
         const WorldTag* tag = world.find(detection.id);
         if (tag == nullptr) continue;
+        if (!tagIds.empty() && !std::binary_search(tagIds.begin(), tagIds.end(), detection.id)) continue;
         const auto corners = tagCorners(tag->sizeMetres);
         for (std::size_t c = 0; c < 4; ++c) {
             const glm::dvec3 w = tag->world_T_tag.transformPoint(corners[c]);

@@ -139,6 +139,7 @@ void PoseTracker::trackImpl(const cv::Mat& image, const CameraIntrinsics& intrin
     out.measured_world_T_camera.reset();
     out.tagsUsed.clear();
     out.unknownTags.clear();
+    out.rejectedTags.clear();
     out.reprojectionErrorPx = std::numeric_limits<double>::quiet_NaN();
     out.ambiguityRatio = std::numeric_limits<double>::quiet_NaN();
     out.ambiguous = false;
@@ -185,8 +186,9 @@ void PoseTracker::trackImpl(const cv::Mat& image, const CameraIntrinsics& intrin
                 s.detections[i].corners[c] = {s.cornerBuffer[i * 4 + c].x, s.cornerBuffer[i * 4 + c].y};
     }
 
-    estimatePoseInto(s.detections, s.world, intrinsics, s.measurement);
+    estimatePoseInto(s.detections, s.world, intrinsics, s.measurement, settings.maxReprojectionErrorPx);
     out.unknownTags = s.measurement.unknownTags;
+    out.rejectedTags = s.measurement.rejectedTags;
 
     const bool havePrevious = s.state != TrackingState::Lost && s.filter.initialised();
     std::optional<Pose> accepted;
@@ -246,7 +248,7 @@ void PoseTracker::trackImpl(const cv::Mat& image, const CameraIntrinsics& intrin
         // Corner noise: the measured RMS, but not below 0.1 px (a perfect fit of 8 numbers by 6
         // parameters underestimates the noise; 0.1 px is what good detections achieve).
         out.uncertainty = estimateUncertainty(*accepted, s.detections, s.world, intrinsics,
-                                              std::max(out.reprojectionErrorPx, 0.1));
+                                              std::max(out.reprojectionErrorPx, 0.1), s.measurement.tagsUsed);
         double dt = settings.nominalFrameIntervalSeconds * (s.framesWithoutMeasurement + 1);
         if (std::isfinite(timestampSeconds) && std::isfinite(s.lastMeasurementTimestamp) &&
             timestampSeconds > s.lastMeasurementTimestamp)

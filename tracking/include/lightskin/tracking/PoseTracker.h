@@ -83,6 +83,8 @@ struct TrackingResult {
     std::vector<int> tagsUsed;
     /// Detected ids that are not in the world (ignored).
     std::vector<int> unknownTags;
+    /// Ids in the world whose corners disagreed with the other visible tags (dropped this frame).
+    std::vector<int> rejectedTags;
     /// RMS corner reprojection error of the best measurement this frame, pixels; NaN without one.
     double reprojectionErrorPx = 0.0;
     /// Second-best / best error of this frame's measurement (infinity for a clear bundle view).
