@@ -82,6 +82,9 @@ void runTrack(const TrackOptions& options, int& exitCode) {
         std::string unknown;
         for (const int id : result.unknownTags) unknown += (unknown.empty() ? " (ids not in the world: " : ",") + std::to_string(id);
         if (!unknown.empty()) unknown += ")";
+        for (std::size_t k = 0; k < result.rejectedTags.size(); ++k)
+            unknown += (k == 0 ? " (dropped, disagreeing with the others: " : ",") + std::to_string(result.rejectedTags[k]) +
+                       (k + 1 == result.rejectedTags.size() ? ")" : "");
         std::printf(" %.3f %d %.2f %s%s\n", result.uncertainty.rotationStdDegrees, result.ambiguous ? 1 : 0,
                     result.timing.totalMs, result.reason[0] != '\0' ? result.reason : "-", unknown.c_str());
         trackedFrames += result.state == tracking::TrackingState::Tracking ? 1 : 0;
