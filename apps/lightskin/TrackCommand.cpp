@@ -64,10 +64,12 @@ void runTrack(const TrackOptions& options, int& exitCode) {
             intrinsics.cx = options.intrinsics[2];
             intrinsics.cy = options.intrinsics[3];
         } else {
-            if (i == 0) log::warning("track: no --intrinsics, using the Kinect v1 default (525/525) scaled to the image");
+            if (i == 0)
+                log::warning("track: no --intrinsics, using the Kinect v1 default (525/525) scaled to the image");
             intrinsics = CameraIntrinsics::kinectV1Default().scaledTo(image.cols, image.rows);
         }
-        tracker.trackImageInto(image, intrinsics, static_cast<double>(i) / options.fps, static_cast<std::int64_t>(i), result);
+        tracker.trackImageInto(image, intrinsics, static_cast<double>(i) / options.fps, static_cast<std::int64_t>(i),
+                               result);
         std::string tags;
         for (const int id : result.tagsUsed) tags += (tags.empty() ? "" : ",") + std::to_string(id);
         if (tags.empty()) tags = "-";
@@ -75,16 +77,18 @@ void runTrack(const TrackOptions& options, int& exitCode) {
         if (result.world_T_camera) {
             const Pose& pose = *result.world_T_camera;
             std::printf(" %.5f %.5f %.5f %.6f %.6f %.6f %.6f", pose.translation().x, pose.translation().y,
-                        pose.translation().z, pose.rotation().w, pose.rotation().x, pose.rotation().y, pose.rotation().z);
+                        pose.translation().z, pose.rotation().w, pose.rotation().x, pose.rotation().y,
+                        pose.rotation().z);
         } else {
             std::printf(" - - - - - - -");
         }
         std::string unknown;
-        for (const int id : result.unknownTags) unknown += (unknown.empty() ? " (ids not in the world: " : ",") + std::to_string(id);
+        for (const int id : result.unknownTags)
+            unknown += (unknown.empty() ? " (ids not in the world: " : ",") + std::to_string(id);
         if (!unknown.empty()) unknown += ")";
         for (std::size_t k = 0; k < result.rejectedTags.size(); ++k)
-            unknown += (k == 0 ? " (dropped, disagreeing with the others: " : ",") + std::to_string(result.rejectedTags[k]) +
-                       (k + 1 == result.rejectedTags.size() ? ")" : "");
+            unknown += (k == 0 ? " (dropped, disagreeing with the others: " : ",") +
+                       std::to_string(result.rejectedTags[k]) + (k + 1 == result.rejectedTags.size() ? ")" : "");
         std::printf(" %.3f %d %.2f %s%s\n", result.uncertainty.rotationStdDegrees, result.ambiguous ? 1 : 0,
                     result.timing.totalMs, result.reason[0] != '\0' ? result.reason : "-", unknown.c_str());
         trackedFrames += result.state == tracking::TrackingState::Tracking ? 1 : 0;
@@ -93,7 +97,8 @@ void runTrack(const TrackOptions& options, int& exitCode) {
 }
 
 void addTrackCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand("track", "Camera poses from AprilTags in a sequence of images (one line per frame)");
+    auto* command =
+        app.add_subcommand("track", "Camera poses from AprilTags in a sequence of images (one line per frame)");
     auto options = std::make_shared<TrackOptions>();
     command->add_option("--world", options->worldPath, "Tag world config (JSON, see tracking/TagWorld.h)");
     command->add_option("--tag-id", options->tagId, "Single tag id (instead of --world)");

@@ -1,6 +1,5 @@
-#include <lightskin/tracking/PoseEstimation.h>
-
 #include <lightskin/core/Error.h>
+#include <lightskin/tracking/PoseEstimation.h>
 
 #include <glm/gtc/quaternion.hpp>
 #include <opencv2/calib3d.hpp>
@@ -89,9 +88,10 @@ Pose refineLm(const Pose& world_T_camera, const Correspondences& points, const C
     cv::Vec3d rvec;
     cv::Vec3d tvec;
     rvecTvecFromPose(world_T_camera.inverse(), rvec, tvec);
-    cv::solvePnPRefineLM(cv::Mat(static_cast<int>(points.world.size()), 1, CV_64FC3, const_cast<cv::Point3d*>(points.world.data())),
-                         cv::Mat(static_cast<int>(points.image.size()), 1, CV_64FC2, const_cast<cv::Point2d*>(points.image.data())),
-                         cameraMatrix(k), cv::noArray(), rvec, tvec);
+    cv::solvePnPRefineLM(
+        cv::Mat(static_cast<int>(points.world.size()), 1, CV_64FC3, const_cast<cv::Point3d*>(points.world.data())),
+        cv::Mat(static_cast<int>(points.image.size()), 1, CV_64FC2, const_cast<cv::Point2d*>(points.image.data())),
+        cameraMatrix(k), cv::noArray(), rvec, tvec);
     return poseFromRvecTvec(rvec, tvec).inverse();
 }
 
@@ -117,7 +117,8 @@ void solveCandidates(const std::vector<const TagDetection*>& used, const std::ve
         // Each IPPE solution polished by Levenberg-Marquardt on the 8 corner coordinates, unless that
         // slides it over to the other solution's side (then the two would merge and the ambiguity
         // would be hidden).
-        std::array<double, 2> ippeErrors{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
+        std::array<double, 2> ippeErrors{std::numeric_limits<double>::infinity(),
+                                         std::numeric_limits<double>::infinity()};
         for (std::size_t i = 0; i < starts.size(); ++i) {
             PoseCandidate candidate{starts[i], rmsError(starts[i], points, intrinsics)};
             if (i < 2) ippeErrors[i] = candidate.rmsErrorPx;
@@ -125,22 +126,24 @@ void solveCandidates(const std::vector<const TagDetection*>& used, const std::ve
             const double error = rmsError(refined, points, intrinsics);
             bool staysOnItsSide = true;
             for (std::size_t j = 0; j < starts.size(); ++j) {
-                if (j != i && Pose::rotationAngleBetween(refined, starts[j]) <= Pose::rotationAngleBetween(refined, starts[i]))
+                if (j != i &&
+                    Pose::rotationAngleBetween(refined, starts[j]) <= Pose::rotationAngleBetween(refined, starts[i]))
                     staysOnItsSide = false;
             }
             if (staysOnItsSide && error < candidate.rmsErrorPx) candidate = {refined, error};
             out.candidates.push_back(candidate);
         }
         if (starts.size() == 2) {
-            out.ambiguityRatio = std::max(ippeErrors[0], ippeErrors[1]) / std::max(std::min(ippeErrors[0], ippeErrors[1]), 1e-9);
+            out.ambiguityRatio =
+                std::max(ippeErrors[0], ippeErrors[1]) / std::max(std::min(ippeErrors[0], ippeErrors[1]), 1e-9);
         }
     } else {
         cv::Vec3d rvec;
         cv::Vec3d tvec;
-        const bool solved = cv::solvePnP(
-            cv::Mat(static_cast<int>(points.world.size()), 1, CV_64FC3, points.world.data()),
-            cv::Mat(static_cast<int>(points.image.size()), 1, CV_64FC2, points.image.data()), cameraMatrix(intrinsics),
-            cv::noArray(), rvec, tvec, false, cv::SOLVEPNP_SQPNP);
+        const bool solved =
+            cv::solvePnP(cv::Mat(static_cast<int>(points.world.size()), 1, CV_64FC3, points.world.data()),
+                         cv::Mat(static_cast<int>(points.image.size()), 1, CV_64FC2, points.image.data()),
+                         cameraMatrix(intrinsics), cv::noArray(), rvec, tvec, false, cv::SOLVEPNP_SQPNP);
         if (solved) starts.push_back(poseFromRvecTvec(rvec, tvec).inverse());
         std::vector<PoseCandidate> scored;
         for (const Pose& pose : starts) scored.push_back({pose, rmsError(pose, points, intrinsics)});
@@ -153,18 +156,20 @@ void solveCandidates(const std::vector<const TagDetection*>& used, const std::ve
         for (const PoseCandidate& candidate : scored) {
             if (!std::isfinite(candidate.rmsErrorPx)) break;
             // Starts near an existing candidate would refine onto it: skip them without the cost.
-            const bool nearExisting = std::any_of(out.candidates.begin(), out.candidates.end(), [&](const PoseCandidate& c) {
-                return Pose::rotationAngleBetween(c.world_T_camera, candidate.world_T_camera) <= distinctRadians;
-            });
+            const bool nearExisting =
+                std::any_of(out.candidates.begin(), out.candidates.end(), [&](const PoseCandidate& c) {
+                    return Pose::rotationAngleBetween(c.world_T_camera, candidate.world_T_camera) <= distinctRadians;
+                });
             if (nearExisting) continue;
             if (++refinements > 4) break;
             const Pose refined = refineLm(candidate.world_T_camera, points, intrinsics);
             const double error = rmsError(refined, points, intrinsics);
             const PoseCandidate improved = error <= candidate.rmsErrorPx ? PoseCandidate{refined, error} : candidate;
             // Starts that converge onto an existing candidate are the same solution.
-            const bool distinct = std::all_of(out.candidates.begin(), out.candidates.end(), [&](const PoseCandidate& c) {
-                return Pose::rotationAngleBetween(c.world_T_camera, improved.world_T_camera) > distinctRadians;
-            });
+            const bool distinct =
+                std::all_of(out.candidates.begin(), out.candidates.end(), [&](const PoseCandidate& c) {
+                    return Pose::rotationAngleBetween(c.world_T_camera, improved.world_T_camera) > distinctRadians;
+                });
             if (distinct) out.candidates.push_back(improved);
             if (out.candidates.size() == 2) break;
         }
@@ -207,7 +212,8 @@ void estimatePoseInto(const std::vector<TagDetection>& detections, const TagWorl
     for (const TagDetection& detection : detections) {
         const WorldTag* tag = world.find(detection.id);
         if (tag == nullptr) {
-            if (out.unknownTags.empty() || out.unknownTags.back() != detection.id) out.unknownTags.push_back(detection.id);
+            if (out.unknownTags.empty() || out.unknownTags.back() != detection.id)
+                out.unknownTags.push_back(detection.id);
             continue;
         }
         if (!used.empty() && used.back()->id == detection.id) continue; // duplicate id: keep the best margin
@@ -244,8 +250,8 @@ PoseMeasurement estimatePose(const std::vector<TagDetection>& detections, const 
     return out;
 }
 
-double reprojectionRmsPx(const Pose& world_T_camera, const std::vector<TagDetection>& detections,
-                         const TagWorld& world, const CameraIntrinsics& intrinsics) {
+double reprojectionRmsPx(const Pose& world_T_camera, const std::vector<TagDetection>& detections, const TagWorld& world,
+                         const CameraIntrinsics& intrinsics) {
     Correspondences points;
     for (const TagDetection& detection : detections) {
         const WorldTag* tag = world.find(detection.id);
@@ -385,7 +391,8 @@ bool refinePoseWithDepth(const cv::Mat& depth, double depthScaleMetres, const Ca
 
     // Shortest rotation taking imageNormal onto normal (the two are < 25 degrees apart).
     const glm::dvec3 axis = glm::cross(imageNormal, normal);
-    const glm::dquat tiltCorrection = glm::normalize(glm::dquat(1.0 + glm::dot(imageNormal, normal), axis.x, axis.y, axis.z));
+    const glm::dquat tiltCorrection =
+        glm::normalize(glm::dquat(1.0 + glm::dot(imageNormal, normal), axis.x, axis.y, axis.z));
     const Pose corrected(tiltCorrection * camera_T_tag.rotation(), distance * centreRay);
     world_T_camera = tag.world_T_tag * corrected.inverse();
     return true;

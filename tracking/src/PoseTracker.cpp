@@ -1,6 +1,5 @@
-#include <lightskin/tracking/PoseTracker.h>
-
 #include <lightskin/core/Error.h>
+#include <lightskin/tracking/PoseTracker.h>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -13,9 +12,12 @@ namespace lightskin::tracking {
 
 const char* toString(TrackingState state) noexcept {
     switch (state) {
-    case TrackingState::Tracking: return "tracking";
-    case TrackingState::Held: return "held";
-    case TrackingState::Lost: return "lost";
+    case TrackingState::Tracking:
+        return "tracking";
+    case TrackingState::Held:
+        return "held";
+    case TrackingState::Lost:
+        return "lost";
     }
     return "?";
 }
@@ -27,8 +29,8 @@ double millisecondsSince(Clock::time_point start) {
 }
 
 bool sameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
-    return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy && a.cx == b.cx &&
-           a.cy == b.cy && a.distortion == b.distortion;
+    return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy &&
+           a.distortion == b.distortion;
 }
 
 cv::Matx33d cameraMatrix(const CameraIntrinsics& k) { return {k.fx, 0.0, k.cx, 0.0, k.fy, k.cy, 0.0, 0.0, 1.0}; }
@@ -53,7 +55,10 @@ struct PoseTracker::Impl {
     double lastMeasurementTimestamp = std::numeric_limits<double>::quiet_NaN();
 
     Impl(TagWorld w, const TrackerSettings& s, TagDetector d)
-        : world(std::move(w)), settings(s), detector(std::move(d)), filter(s.filter) {}
+        : world(std::move(w))
+        , settings(s)
+        , detector(std::move(d))
+        , filter(s.filter) {}
 };
 
 PoseTracker PoseTracker::create(TagWorld world, const TrackerSettings& settings) {
@@ -73,7 +78,8 @@ PoseTracker PoseTracker::create(TagWorld world, const TrackerSettings& settings)
     return PoseTracker(std::make_unique<Impl>(std::move(world), stored, std::move(detector)));
 }
 
-PoseTracker::PoseTracker(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+PoseTracker::PoseTracker(std::unique_ptr<Impl> impl)
+    : impl_(std::move(impl)) {}
 PoseTracker::PoseTracker(PoseTracker&&) noexcept = default;
 PoseTracker& PoseTracker::operator=(PoseTracker&&) noexcept = default;
 PoseTracker::~PoseTracker() = default;
@@ -127,11 +133,13 @@ void PoseTracker::trackImpl(const cv::Mat& image, const CameraIntrinsics& intrin
     const TrackerSettings& settings = s.settings;
     const Clock::time_point start = Clock::now();
 
-    if (!intrinsics.isValid()) throw Error("tracking", frameIndex, "invalid colour intrinsics: " + intrinsics.describe());
+    if (!intrinsics.isValid())
+        throw Error("tracking", frameIndex, "invalid colour intrinsics: " + intrinsics.describe());
     if (image.empty() || image.cols != intrinsics.width || image.rows != intrinsics.height)
         throw Error("tracking", frameIndex,
-                    "image is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) + " but the intrinsics are " +
-                        std::to_string(intrinsics.width) + "x" + std::to_string(intrinsics.height));
+                    "image is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+                        " but the intrinsics are " + std::to_string(intrinsics.width) + "x" +
+                        std::to_string(intrinsics.height));
     if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3 && image.channels() != 4))
         throw Error("tracking", frameIndex, "the image must be 8-bit grey, BGR or BGRA");
 
@@ -159,8 +167,8 @@ void PoseTracker::trackImpl(const cv::Mat& image, const CameraIntrinsics& intrin
     if (distorted && settings.undistortion == Undistortion::Image) {
         if (!s.mapIntrinsics || !sameCamera(*s.mapIntrinsics, intrinsics)) {
             cv::initUndistortRectifyMap(cameraMatrix(intrinsics), intrinsics.distortion, cv::noArray(),
-                                        cameraMatrix(intrinsics), cv::Size(intrinsics.width, intrinsics.height), CV_16SC2,
-                                        s.mapX, s.mapY);
+                                        cameraMatrix(intrinsics), cv::Size(intrinsics.width, intrinsics.height),
+                                        CV_16SC2, s.mapX, s.mapY);
             s.mapIntrinsics = intrinsics;
         }
         cv::remap(*grey, s.undistorted, s.mapX, s.mapY, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(255));
@@ -202,7 +210,8 @@ void PoseTracker::trackImpl(const cv::Mat& image, const CameraIntrinsics& intrin
         const double maxJump = settings.maxJumpDegrees * std::numbers::pi / 180.0;
         if (havePrevious) {
             const Pose& previous = s.filter.current();
-            if (out.ambiguous && candidates.size() == 2 && candidates[1].rmsErrorPx <= settings.maxReprojectionErrorPx &&
+            if (out.ambiguous && candidates.size() == 2 &&
+                candidates[1].rmsErrorPx <= settings.maxReprojectionErrorPx &&
                 Pose::rotationAngleBetween(previous, candidates[1].world_T_camera) <
                     Pose::rotationAngleBetween(previous, candidates[0].world_T_camera)) {
                 chosen = 1;

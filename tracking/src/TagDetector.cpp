@@ -1,12 +1,10 @@
-#include <lightskin/tracking/TagDetector.h>
-
 #include "Families.h"
 
 #include <lightskin/core/Error.h>
-
-#include <opencv2/imgproc.hpp>
+#include <lightskin/tracking/TagDetector.h>
 
 #include <glm/geometric.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <array>
@@ -128,7 +126,8 @@ void refineCorners(const cv::Mat& grey, int borderCells, std::array<glm::dvec2, 
         Line line = fitLine(edgePoints);
         // One pass without outliers (a data bit or a specular spot at one sample).
         const glm::dvec2 lineNormal(-line.direction.y, line.direction.x);
-        std::erase_if(edgePoints, [&](const glm::dvec2& p) { return std::abs(glm::dot(p - line.point, lineNormal)) > 0.3; });
+        std::erase_if(edgePoints,
+                      [&](const glm::dvec2& p) { return std::abs(glm::dot(p - line.point, lineNormal)) > 0.3; });
         if (edgePoints.size() < 4) return;
         lines[edge] = fitLine(edgePoints);
     }
@@ -148,7 +147,7 @@ struct TagDetector::Impl {
     // (destroyed first).
     detail::FamilyPtr family;
     std::unique_ptr<apriltag_detector_t, DetectorDeleter> detector;
-    cv::Mat grey; // conversion buffer, reused
+    cv::Mat grey;                       // conversion buffer, reused
     std::vector<glm::dvec2> edgePoints; // refineCorners scratch, reused
 };
 
@@ -181,7 +180,8 @@ TagDetector TagDetector::create(const DetectorSettings& settings) {
     return TagDetector(std::move(impl));
 }
 
-TagDetector::TagDetector(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+TagDetector::TagDetector(std::unique_ptr<Impl> impl)
+    : impl_(std::move(impl)) {}
 TagDetector::TagDetector(TagDetector&&) noexcept = default;
 TagDetector& TagDetector::operator=(TagDetector&&) noexcept = default;
 TagDetector::~TagDetector() = default;
@@ -190,7 +190,8 @@ const DetectorSettings& TagDetector::settings() const noexcept { return impl_->s
 
 int TagDetector::detectInto(const cv::Mat& image, std::vector<TagDetection>& out) {
     LIGHTSKIN_ASSERT(impl_ != nullptr, "detector was moved from");
-    LIGHTSKIN_ASSERT(image.depth() == CV_8U && (image.channels() == 1 || image.channels() == 3 || image.channels() == 4),
+    LIGHTSKIN_ASSERT(image.depth() == CV_8U &&
+                         (image.channels() == 1 || image.channels() == 3 || image.channels() == 4),
                      "expects an 8-bit grey, BGR or BGRA image");
     out.clear();
     if (image.empty()) return 0;
@@ -203,13 +204,16 @@ int TagDetector::detectInto(const cv::Mat& image, std::vector<TagDetection>& out
         grey = &impl_->grey;
     }
     // The library only reads the pixels; image_u8_t has no const variant.
-    image_u8_t view{grey->cols, grey->rows, static_cast<std::int32_t>(grey->step[0]), const_cast<std::uint8_t*>(grey->data)};
-    const std::unique_ptr<zarray_t, DetectionsDeleter> detections(apriltag_detector_detect(impl_->detector.get(), &view));
+    image_u8_t view{grey->cols, grey->rows, static_cast<std::int32_t>(grey->step[0]),
+                    const_cast<std::uint8_t*>(grey->data)};
+    const std::unique_ptr<zarray_t, DetectionsDeleter> detections(
+        apriltag_detector_detect(impl_->detector.get(), &view));
     const int count = zarray_size(detections.get());
     for (int i = 0; i < count; ++i) {
         apriltag_detection_t* raw = nullptr;
         zarray_get(detections.get(), i, &raw);
-        if (raw->hamming > impl_->settings.maxHamming || raw->decision_margin < impl_->settings.minDecisionMargin) continue;
+        if (raw->hamming > impl_->settings.maxHamming || raw->decision_margin < impl_->settings.minDecisionMargin)
+            continue;
         TagDetection& detection = out.emplace_back();
         detection.id = raw->id;
         detection.hamming = raw->hamming;

@@ -77,8 +77,8 @@ PoseUncertainty estimateUncertainty(const Pose& world_T_camera, const std::vecto
                                     const std::vector<int>& tagIds = {});
 
 /// RMS reprojection error (pixels) of `world_T_camera` on the used corners of `detections`.
-double reprojectionRmsPx(const Pose& world_T_camera, const std::vector<TagDetection>& detections,
-                         const TagWorld& world, const CameraIntrinsics& intrinsics);
+double reprojectionRmsPx(const Pose& world_T_camera, const std::vector<TagDetection>& detections, const TagWorld& world,
+                         const CameraIntrinsics& intrinsics);
 
 /// Optional depth-aided refinement for a single-tag measurement: fits a plane to the registered
 /// depth inside the tag's quad (depth CV_16UC1 in the colour camera's pixels, `depthScaleMetres`
@@ -89,7 +89,6 @@ double reprojectionRmsPx(const Pose& world_T_camera, const std::vector<TagDetect
 /// fit residual exceeds 1 cm, or depth and image disagree by more than 20 % in distance or 25
 /// degrees in tilt (then the depth is not of the tag: a hole, an occluder or a wrong registration).
 bool refinePoseWithDepth(const cv::Mat& depth, double depthScaleMetres, const CameraIntrinsics& intrinsics,
-                         const TagDetection& detection, const WorldTag& tag, Pose& world_T_camera,
-                         int minSamples = 50);
+                         const TagDetection& detection, const WorldTag& tag, Pose& world_T_camera, int minSamples = 50);
 
 } // namespace lightskin::tracking
