@@ -65,6 +65,7 @@ PoseTracker PoseTracker::create(TagWorld world, const TrackerSettings& settings)
     if (settings.maxHeldFrames < 0) throw Error("max_held_frames", std::nullopt, "must be >= 0");
     if (!(settings.maxReprojectionErrorPx > 0.0)) throw Error("max_reprojection_error_px", std::nullopt, "must be > 0");
     if (!(settings.ambiguityRatio >= 1.0)) throw Error("ambiguity_ratio", std::nullopt, "must be >= 1");
+    if (!(settings.historyRatio >= 1.0)) throw Error("history_ratio", std::nullopt, "must be >= 1");
     if (!(settings.nominalFrameIntervalSeconds > 0.0))
         throw Error("nominal_frame_interval", std::nullopt, "must be > 0 seconds");
     if (!(settings.filter.minCutoffHz > 0.0 && settings.filter.derivativeCutoffHz > 0.0 &&
@@ -210,7 +211,7 @@ void PoseTracker::trackImpl(const cv::Mat& image, const CameraIntrinsics& intrin
         const double maxJump = settings.maxJumpDegrees * std::numbers::pi / 180.0;
         if (havePrevious) {
             const Pose& previous = s.filter.current();
-            if (out.ambiguous && candidates.size() == 2 &&
+            if (out.ambiguous && out.ambiguityRatio < settings.historyRatio && candidates.size() == 2 &&
                 candidates[1].rmsErrorPx <= settings.maxReprojectionErrorPx &&
                 Pose::rotationAngleBetween(previous, candidates[1].world_T_camera) <
                     Pose::rotationAngleBetween(previous, candidates[0].world_T_camera)) {
