@@ -19,7 +19,8 @@ Pose noisy(const Pose& truth, cv::RNG& rng, double positionSigma, double angleSi
     const glm::dvec3 axis = glm::normalize(glm::dvec3(rng.gaussian(1.0), rng.gaussian(1.0), rng.gaussian(1.0)));
     const glm::dquat wobble = glm::angleAxis(rng.gaussian(angleSigmaRadians), axis);
     return Pose(wobble * truth.rotation(),
-                truth.translation() + glm::dvec3(rng.gaussian(positionSigma), rng.gaussian(positionSigma), rng.gaussian(positionSigma)));
+                truth.translation() +
+                    glm::dvec3(rng.gaussian(positionSigma), rng.gaussian(positionSigma), rng.gaussian(positionSigma)));
 }
 
 struct Jitter {
@@ -65,23 +66,26 @@ TEST(PoseFilterTest, RemovesJitterAtRest) {
 TEST(PoseFilterTest, LagOnAMovingSequenceIsBelowOneFrame) {
     cv::RNG rng(11);
     const glm::dvec3 velocity(0.3, 0.1, 0.0); // 0.32 m/s: a slow hand-held pan
-    const double angularSpeed = 0.5;           // rad/s (29 degrees/s) about y
+    const double angularSpeed = 0.5;          // rad/s (29 degrees/s) about y
     PoseFilter filter;
     double lagSum = 0.0, angularLagSum = 0.0;
     int count = 0;
     for (int frame = 0; frame < 60; ++frame) {
         const double t = frame * dt;
-        const Pose truth(glm::angleAxis(angularSpeed * t, glm::dvec3(0.0, 1.0, 0.0)), glm::dvec3(0.0, 0.0, 1.0) + velocity * t);
+        const Pose truth(glm::angleAxis(angularSpeed * t, glm::dvec3(0.0, 1.0, 0.0)),
+                         glm::dvec3(0.0, 0.0, 1.0) + velocity * t);
         const Pose output = filter.update(noisy(truth, rng, 0.001, 0.1 * std::numbers::pi / 180.0), dt);
         if (t < 0.5) continue;
-        lagSum += glm::dot(truth.translation() - output.translation(), glm::normalize(velocity)) / glm::length(velocity);
+        lagSum +=
+            glm::dot(truth.translation() - output.translation(), glm::normalize(velocity)) / glm::length(velocity);
         angularLagSum += Pose::rotationAngleBetween(truth, output) / angularSpeed;
         ++count;
     }
     const double lag = lagSum / count;
     const double angularLag = angularLagSum / count;
-    std::printf("moving at %.2f m/s and %.0f deg/s: translation lag %.1f ms, rotation lag %.1f ms (one frame = 33.3 ms)\n",
-                glm::length(velocity), angularSpeed * 180.0 / std::numbers::pi, lag * 1000.0, angularLag * 1000.0);
+    std::printf(
+        "moving at %.2f m/s and %.0f deg/s: translation lag %.1f ms, rotation lag %.1f ms (one frame = 33.3 ms)\n",
+        glm::length(velocity), angularSpeed * 180.0 / std::numbers::pi, lag * 1000.0, angularLag * 1000.0);
     EXPECT_LT(lag, dt);
     EXPECT_LT(angularLag, dt);
     EXPECT_GT(lag, -0.005); // no overshoot ahead of the truth either

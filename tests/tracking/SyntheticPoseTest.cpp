@@ -25,7 +25,8 @@ const CameraIntrinsics camera = CameraIntrinsics::kinectV1Default(); // 640x480,
 Pose viewOfTag(double distance, double tilt, double azimuth, const glm::dvec3& target = {0.01, -0.02, 0.0}) {
     const double t = radians(tilt);
     const double a = radians(azimuth);
-    const glm::dvec3 eye = target + distance * glm::dvec3(std::sin(t) * std::cos(a), std::sin(t) * std::sin(a), std::cos(t));
+    const glm::dvec3 eye =
+        target + distance * glm::dvec3(std::sin(t) * std::cos(a), std::sin(t) * std::sin(a), std::cos(t));
     return lookAt(eye, target, {std::sin(a + 0.3), std::cos(a + 0.3), 0.0});
 }
 
@@ -83,7 +84,8 @@ TEST(SyntheticPoseTest, WellConditionedSingleTagViewsAreAccurate) {
                 EXPECT_LE(e.positionMetres, 0.002 * distance)
                     << "d " << distance << " tilt " << tilt << " az " << azimuth << " rot " << e.rotationDegrees;
                 EXPECT_LE(e.rotationDegrees, 0.5) << "d " << distance << " tilt " << tilt << " az " << azimuth;
-                EXPECT_FALSE(result.ambiguous) << "d " << distance << " tilt " << tilt << " ratio " << result.ambiguityRatio;
+                EXPECT_FALSE(result.ambiguous)
+                    << "d " << distance << " tilt " << tilt << " ratio " << result.ambiguityRatio;
                 EXPECT_LT(result.reprojectionErrorPx, 0.5);
                 // The reported uncertainty is honest: the true rotation error is within 4 sigma.
                 EXPECT_LE(e.rotationDegrees, 4.0 * result.uncertainty.rotationStdDegrees + 0.02);
@@ -109,7 +111,8 @@ TEST(SyntheticPoseTest, BundleViewsAreAccurateAndUnambiguous) {
     for (const double tilt : {0.0, 20.0, 45.0}) {
         for (const double azimuth : {30.0, 200.0}) {
             const Pose truth = viewOfTag(1.5, tilt, azimuth, {0.0, 0.0, 0.0});
-            const TrackingResult result = trackOnce(world, renderSyntheticTagImage(world, camera, truth, noisy(seed++)));
+            const TrackingResult result =
+                trackOnce(world, renderSyntheticTagImage(world, camera, truth, noisy(seed++)));
             ASSERT_EQ(result.state, TrackingState::Tracking) << result.reason;
             EXPECT_EQ(result.tagsUsed.size(), 4u);
             const Errors e = errorsOf(*result.world_T_camera, truth);
@@ -147,8 +150,8 @@ TEST(SyntheticPoseTest, GrazingSeventyDegreesIsTrackedWithBoundedError) {
     const TagWorld world = TagWorld::singleTag(3, 0.16);
     for (const double azimuth : {0.0, 90.0, 200.0}) {
         const Pose truth = viewOfTag(0.7, 70.0, azimuth);
-        const TrackingResult result =
-            trackOnce(world, renderSyntheticTagImage(world, camera, truth, noisy(static_cast<std::uint64_t>(azimuth) + 7)));
+        const TrackingResult result = trackOnce(
+            world, renderSyntheticTagImage(world, camera, truth, noisy(static_cast<std::uint64_t>(azimuth) + 7)));
         ASSERT_EQ(result.state, TrackingState::Tracking) << "az " << azimuth << ": " << result.reason;
         const Errors e = errorsOf(*result.world_T_camera, truth);
         std::printf("grazing 70 deg az %.0f: position %.2f mm/m, rotation %.3f deg, ratio %.1f, reprojection %.2f px\n",
@@ -193,7 +196,8 @@ TEST(SyntheticPoseTest, PartialOcclusion) {
     const Pose truth = viewOfTag(0.8, 30.0, 20.0, {0.0, 0.0, 0.0});
     cv::Mat image = renderSyntheticTagImage(single, camera, truth, noisy(9));
     const glm::dvec2 corner = camera.project(truth.inverse().transformPoint({0.08, 0.08, 0.0}));
-    cv::circle(image, cv::Point(static_cast<int>(corner.x), static_cast<int>(corner.y)), 20, cv::Scalar(90), cv::FILLED);
+    cv::circle(image, cv::Point(static_cast<int>(corner.x), static_cast<int>(corner.y)), 20, cv::Scalar(90),
+               cv::FILLED);
     const TrackingResult occluded = trackOnce(single, image);
     EXPECT_EQ(occluded.state, TrackingState::Lost);
     EXPECT_FALSE(occluded.world_T_camera.has_value());
@@ -235,13 +239,38 @@ TEST(SyntheticPoseTest, MotionBlur) {
     const TrackingResult heavy = trackOnce(world, renderSyntheticTagImage(world, camera, truth, settings));
     if (heavy.state == TrackingState::Tracking) {
         const Errors h = errorsOf(*heavy.world_T_camera, truth);
-        std::printf("motion blur 12 px: tracked, position %.2f mm/m, rotation %.3f deg\n", h.positionMetres / 0.8 * 1000.0,
-                    h.rotationDegrees);
+        std::printf("motion blur 12 px: tracked, position %.2f mm/m, rotation %.3f deg\n",
+                    h.positionMetres / 0.8 * 1000.0, h.rotationDegrees);
         EXPECT_LE(h.rotationDegrees, 2.0);
     } else {
         std::printf("motion blur 12 px: %s (%s)\n", toString(heavy.state), heavy.reason);
         EXPECT_FALSE(heavy.world_T_camera.has_value());
     }
+}
+
+} // namespace
+} // namespace lightskin::tracking
+
+namespace lightskin::tracking {
+namespace {
+
+// A bundle whose config places tag 22 10 cm away from where it really is (a tag that was moved):
+// its corners disagree with the other tags, it is dropped and named, and the pose comes from the rest.
+TEST(SyntheticPoseTest, BundleDropsATagThatDisagrees) {
+    std::vector<WorldTag> real{{20, 0.1, Pose({1.0, 0.0, 0.0, 0.0}, {-0.15, -0.1, 0.0})},
+                               {21, 0.1, Pose({1.0, 0.0, 0.0, 0.0}, {0.15, -0.1, 0.0})},
+                               {22, 0.1, Pose({1.0, 0.0, 0.0, 0.0}, {0.0, 0.15, 0.0})}};
+    std::vector<WorldTag> configured = real;
+    configured[2].world_T_tag = Pose({1.0, 0.0, 0.0, 0.0}, {0.1, 0.15, 0.0});
+    const Pose truth = viewOfTag(0.9, 30.0, 40.0, {0.0, 0.0, 0.0});
+    const cv::Mat image = renderSyntheticTagImage(TagWorld::bundle(real), camera, truth, noisy(21));
+    const TrackingResult result = trackOnce(TagWorld::bundle(configured), image);
+    ASSERT_EQ(result.state, TrackingState::Tracking) << result.reason;
+    EXPECT_EQ(result.tagsUsed, (std::vector<int>{20, 21}));
+    EXPECT_EQ(result.rejectedTags, std::vector<int>{22});
+    const Errors e = errorsOf(*result.world_T_camera, truth);
+    EXPECT_LE(e.positionMetres, 0.002 * 0.9);
+    EXPECT_LE(e.rotationDegrees, 0.5);
 }
 
 } // namespace

@@ -1,9 +1,9 @@
 // World config: valid single tags and bundles parse to the poses written; every kind of bad input
 // is an Error that names the file and the key.
+#include "TestPaths.h"
+
 #include <lightskin/core/Error.h>
 #include <lightskin/tracking/TagWorld.h>
-
-#include "TestPaths.h"
 
 #include <gtest/gtest.h>
 
@@ -73,7 +73,8 @@ TEST(TagWorldTest, LoadReadsAFileAndNamesMissingOnes) {
 }
 
 TEST(TagWorldTest, DuplicateIdsNameBothEntries) {
-    const std::string cause = errorOf(R"({"tags": [{"id": 1, "size": 0.1}, {"id": 4, "size": 0.1}, {"id": 1, "size": 0.2}]})");
+    const std::string cause =
+        errorOf(R"({"tags": [{"id": 1, "size": 0.1}, {"id": 4, "size": 0.1}, {"id": 1, "size": 0.2}]})");
     EXPECT_NE(cause.find("tags[2].id"), std::string::npos) << cause;
     EXPECT_NE(cause.find("duplicate tag id 1"), std::string::npos) << cause;
     EXPECT_NE(cause.find("tags[0]"), std::string::npos) << cause;
@@ -81,7 +82,8 @@ TEST(TagWorldTest, DuplicateIdsNameBothEntries) {
 
 TEST(TagWorldTest, BadSizesNameTheKey) {
     for (const char* size : {"0", "-0.1", "160", "0.0001", "\"big\"", "null"}) {
-        const std::string cause = errorOf(std::string(R"({"tags": [{"id": 1, "size": 0.1}, {"id": 2, "size": )") + size + "}]}");
+        const std::string cause =
+            errorOf(std::string(R"({"tags": [{"id": 1, "size": 0.1}, {"id": 2, "size": )") + size + "}]}");
         EXPECT_EQ(cause.rfind("tags[1].size", 0), 0u) << size << ": " << cause;
     }
     const std::string single = errorOf(R"({"tag": {"id": 1, "size": -1}})");
@@ -98,10 +100,15 @@ TEST(TagWorldTest, MalformedJsonAndWrongStructure) {
     EXPECT_EQ(errorOf(R"({"tags": []})").rfind("tags:", 0), 0u);
     EXPECT_EQ(errorOf(R"({"tags": {"id": 1}})").rfind("tags:", 0), 0u);
     EXPECT_EQ(errorOf(R"({"tags": [{"id": 1.5, "size": 0.1}]})").rfind("tags[0].id", 0), 0u);
-    EXPECT_EQ(errorOf(R"({"tags": [{"id": 1, "size": 0.1, "positon": [0, 0, 0]}]})").rfind("tags[0].positon: unknown key", 0), 0u);
+    EXPECT_EQ(
+        errorOf(R"({"tags": [{"id": 1, "size": 0.1, "positon": [0, 0, 0]}]})").rfind("tags[0].positon: unknown key", 0),
+        0u);
     EXPECT_EQ(errorOf(R"({"tags": [{"id": 1, "size": 0.1, "position": [0, 0]}]})").rfind("tags[0].position", 0), 0u);
-    EXPECT_EQ(errorOf(R"({"tags": [{"id": 1, "size": 0.1, "orientation": [1, 1, 0, 0]}]})").rfind("tags[0].orientation", 0), 0u);
-    EXPECT_EQ(errorOf(R"({"tag": {"id": 1, "size": 0.1, "position": [0, 0, 0]}})").rfind("tag.position: unknown key", 0), 0u);
+    EXPECT_EQ(
+        errorOf(R"({"tags": [{"id": 1, "size": 0.1, "orientation": [1, 1, 0, 0]}]})").rfind("tags[0].orientation", 0),
+        0u);
+    EXPECT_EQ(
+        errorOf(R"({"tag": {"id": 1, "size": 0.1, "position": [0, 0, 0]}})").rfind("tag.position: unknown key", 0), 0u);
     EXPECT_EQ(errorOf(R"({"family": "tag99", "tag": {"id": 1, "size": 0.1}})").rfind("family", 0), 0u);
     EXPECT_EQ(errorOf(R"({"tag": {"id": 587, "size": 0.1}})").rfind("tag.id", 0), 0u); // tag36h11 has 0..586
     EXPECT_EQ(errorOf(R"({"tagz": 1})").rfind("tagz: unknown key", 0), 0u);

@@ -44,9 +44,11 @@ TEST(TrackingSequenceTest, TagLeavesAndReentersTrackingHeldLostTracking) {
         const double pan = frame >= 6 && frame <= 20 ? 70.0 : 0.0;
         const glm::dvec3 forward = glm::dvec3(-eye.x, -eye.y, -eye.z);
         const glm::dvec3 side = glm::normalize(glm::cross(forward, glm::dvec3(0.0, 1.0, 0.0)));
-        const glm::dvec3 target = eye + std::cos(radians(pan)) * forward + std::sin(radians(pan)) * glm::length(forward) * side;
+        const glm::dvec3 target =
+            eye + std::cos(radians(pan)) * forward + std::sin(radians(pan)) * glm::length(forward) * side;
         const Pose truth = lookAt(eye, target, {0.0, 1.0, 0.0});
-        const cv::Mat image = renderSyntheticTagImage(world, camera, truth, fastNoisy(static_cast<std::uint64_t>(frame) + 1));
+        const cv::Mat image =
+            renderSyntheticTagImage(world, camera, truth, fastNoisy(static_cast<std::uint64_t>(frame) + 1));
         tracker.trackImageInto(image, camera, frame / 30.0, frame, result);
         states.push_back(result.state);
         switch (result.state) {
@@ -75,9 +77,12 @@ TEST(TrackingSequenceTest, TagLeavesAndReentersTrackingHeldLostTracking) {
     }
     std::vector<TrackingState> expected;
     for (int frame = 0; frame < 26; ++frame) {
-        if (frame < 6 || frame > 20) expected.push_back(TrackingState::Tracking);
-        else if (frame <= 10) expected.push_back(TrackingState::Held); // 5 held frames: 6..10
-        else expected.push_back(TrackingState::Lost);
+        if (frame < 6 || frame > 20)
+            expected.push_back(TrackingState::Tracking);
+        else if (frame <= 10)
+            expected.push_back(TrackingState::Held); // 5 held frames: 6..10
+        else
+            expected.push_back(TrackingState::Lost);
     }
     EXPECT_EQ(states, expected);
 }
@@ -99,8 +104,9 @@ TEST(TrackingSequenceTest, TurningThroughFrontoParallelNeverJumpsToTheFlippedPos
         const double yaw = -30.0 + 2.0 * frame;
         const glm::dvec3 eye = 1.3 * glm::dvec3(std::sin(radians(yaw)), 0.05, std::cos(radians(yaw)));
         const Pose truth = lookAt(eye, {0.0, 0.0, 0.0}, {0.0, 1.0, 0.0});
-        tracker.trackImageInto(renderSyntheticTagImage(world, camera, truth, fastNoisy(static_cast<std::uint64_t>(frame) + 50)),
-                               camera, frame / 30.0, frame, result);
+        tracker.trackImageInto(
+            renderSyntheticTagImage(world, camera, truth, fastNoisy(static_cast<std::uint64_t>(frame) + 50)), camera,
+            frame / 30.0, frame, result);
         ASSERT_EQ(result.state, TrackingState::Tracking) << "frame " << frame << ": " << result.reason;
         ambiguousFrames += result.ambiguous ? 1 : 0;
         const double error = degrees(Pose::rotationAngleBetween(*result.world_T_camera, truth));
@@ -203,7 +209,8 @@ cv::Mat planeDepth(const Pose& world_T_camera, std::uint64_t seed) {
             const double z = glm::dot(normal, origin) / glm::dot(normal, ray);
             const double sigma = 0.0012 + 0.0019 * (z - 0.4) * (z - 0.4);
             const double noisyZ = z + rng.gaussian(sigma);
-            depth.at<std::uint16_t>(v, u) = z > 0.0 ? cv::saturate_cast<std::uint16_t>(std::lround(noisyZ * 1000.0)) : 0;
+            depth.at<std::uint16_t>(v, u) =
+                z > 0.0 ? cv::saturate_cast<std::uint16_t>(std::lround(noisyZ * 1000.0)) : 0;
         }
     }
     return depth;
@@ -219,8 +226,9 @@ TEST(TrackingSequenceTest, DepthAidedRefinementCorrectsTilt) {
     for (int i = 0; i < views; ++i) {
         const double azimuth = 60.0 * i;
         const glm::dvec3 target(0.0, 0.0, 0.0);
-        const glm::dvec3 eye = 0.75 * glm::dvec3(std::sin(radians(4.0)) * std::cos(radians(azimuth)),
-                                                 std::sin(radians(4.0)) * std::sin(radians(azimuth)), std::cos(radians(4.0)));
+        const glm::dvec3 eye =
+            0.75 * glm::dvec3(std::sin(radians(4.0)) * std::cos(radians(azimuth)),
+                              std::sin(radians(4.0)) * std::sin(radians(azimuth)), std::cos(radians(4.0)));
         const Pose truth = lookAt(eye, target, {0.0, 1.0, 0.0});
         RgbdFrame frame;
         frame.index = i;
@@ -299,7 +307,8 @@ TEST(TrackingSequenceTest, UndistortionOfCornersAndOfTheImage) {
     // Distorted pixel -> where that ray lands in the ideal image (undistortPoints with P = K).
     std::vector<cv::Point2f> distortedPixels;
     for (int v = 0; v < camera.height; ++v)
-        for (int u = 0; u < camera.width; ++u) distortedPixels.emplace_back(static_cast<float>(u), static_cast<float>(v));
+        for (int u = 0; u < camera.width; ++u)
+            distortedPixels.emplace_back(static_cast<float>(u), static_cast<float>(v));
     std::vector<cv::Point2f> idealPixels;
     const cv::Matx33d k(camera.fx, 0.0, camera.cx, 0.0, camera.fy, camera.cy, 0.0, 0.0, 1.0);
     cv::undistortPoints(distortedPixels, idealPixels, k, lens.distortion, cv::noArray(), k);
@@ -321,7 +330,8 @@ TEST(TrackingSequenceTest, UndistortionOfCornersAndOfTheImage) {
         TrackingResult result;
         tracker.trackImageInto(distorted, lens, 0.0, 0, result);
         ASSERT_EQ(result.state, TrackingState::Tracking) << result.reason;
-        const double position = glm::length(result.world_T_camera->inverse().translation() - truth.inverse().translation());
+        const double position =
+            glm::length(result.world_T_camera->inverse().translation() - truth.inverse().translation());
         const double rotation = degrees(Pose::rotationAngleBetween(*result.world_T_camera, truth));
         std::printf("distorted lens, %s undistortion: position %.2f mm, rotation %.3f deg\n",
                     mode == Undistortion::Corners ? "corner" : "image", position * 1000.0, rotation);

@@ -20,7 +20,6 @@
 
 #include <apriltag/apriltag.h>
 #include <apriltag/tag36h11.h>
-
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -56,10 +55,15 @@ cv::Mat clutter(int width, int height, std::uint64_t seed) {
         const cv::Point p(rng.uniform(0, width), rng.uniform(0, height));
         const int size = rng.uniform(4, width / 12);
         switch (rng.uniform(0, 3)) {
-        case 0: cv::rectangle(image, p, p + cv::Point(size, rng.uniform(4, width / 12)), grey, cv::FILLED); break;
-        case 1: cv::circle(image, p, size / 2, grey, cv::FILLED, cv::LINE_AA); break;
+        case 0:
+            cv::rectangle(image, p, p + cv::Point(size, rng.uniform(4, width / 12)), grey, cv::FILLED);
+            break;
+        case 1:
+            cv::circle(image, p, size / 2, grey, cv::FILLED, cv::LINE_AA);
+            break;
         default:
-            cv::line(image, p, cv::Point(rng.uniform(0, width), rng.uniform(0, height)), grey, rng.uniform(1, 4), cv::LINE_AA);
+            cv::line(image, p, cv::Point(rng.uniform(0, width), rng.uniform(0, height)), grey, rng.uniform(1, 4),
+                     cv::LINE_AA);
         }
     }
     return image;
@@ -164,11 +168,12 @@ void benchResolution(int width, int height, int frameCount, int threads) {
         }
         const double rawMedian = median(rawMs);
         const double oursMedian = median(oursMs);
-        std::printf("%4dx%-4d  decimate %.0f  raw %7.2f ms  lightskin %7.2f ms (library %6.2f, pose %5.2f)  overhead x%.3f  "
-                    "tags/frame raw %.2f used %.2f  tracked %d/%d\n",
-                    width, height, static_cast<double>(decimate), rawMedian, oursMedian, median(detectMs), median(poseMs), oursMedian / rawMedian,
-                    static_cast<double>(rawFound) / frameCount, static_cast<double>(tagsUsed) / frameCount, tracked,
-                    frameCount);
+        std::printf(
+            "%4dx%-4d  decimate %.0f  raw %7.2f ms  lightskin %7.2f ms (library %6.2f, pose %5.2f)  overhead x%.3f  "
+            "tags/frame raw %.2f used %.2f  tracked %d/%d\n",
+            width, height, static_cast<double>(decimate), rawMedian, oursMedian, median(detectMs), median(poseMs),
+            oursMedian / rawMedian, static_cast<double>(rawFound) / frameCount,
+            static_cast<double>(tagsUsed) / frameCount, tracked, frameCount);
     }
 }
 
@@ -216,7 +221,8 @@ void measureFilter() {
     };
     std::printf("filter through the pipeline (16 cm tag, 1.2 m, 30 deg off-normal, noise 4): camera position jitter at "
                 "rest %.2f mm raw -> %.2f mm filtered (%.1fx); moving at 0.3 m/s: lag %.1f ms (frame = 33.3 ms)\n",
-                jitter(raw) * 1000.0, jitter(filtered) * 1000.0, jitter(raw) / jitter(filtered), lagSum / moveCount * 1000.0);
+                jitter(raw) * 1000.0, jitter(filtered) * 1000.0, jitter(raw) / jitter(filtered),
+                lagSum / moveCount * 1000.0);
 }
 
 } // namespace
@@ -225,8 +231,10 @@ int main(int argc, char** argv) {
     int frames = 30;
     int threads = 1;
     for (int i = 1; i + 1 < argc; i += 2) {
-        if (std::strcmp(argv[i], "--frames") == 0) frames = std::max(1, std::atoi(argv[i + 1]));
-        else if (std::strcmp(argv[i], "--threads") == 0) threads = std::max(1, std::atoi(argv[i + 1]));
+        if (std::strcmp(argv[i], "--frames") == 0)
+            frames = std::max(1, std::atoi(argv[i + 1]));
+        else if (std::strcmp(argv[i], "--threads") == 0)
+            threads = std::max(1, std::atoi(argv[i + 1]));
         else {
             std::fprintf(stderr, "usage: %s [--frames N] [--threads T]\n", argv[0]);
             return 2;

@@ -1,6 +1,5 @@
-#include <lightskin/tracking/SyntheticTagImage.h>
-
 #include <lightskin/core/Error.h>
+#include <lightskin/tracking/SyntheticTagImage.h>
 #include <lightskin/tracking/TagFamily.h>
 
 #include <glm/gtc/quaternion.hpp>
@@ -23,7 +22,8 @@ cv::Mat renderSyntheticTagImage(const TagWorld& world, const CameraIntrinsics& i
     const double sd = static_cast<double>(s);
     cv::Mat canvas(intrinsics.height * s, intrinsics.width * s, CV_8UC1, cv::Scalar(settings.background));
     if (!settings.backgroundImage.empty()) {
-        LIGHTSKIN_ASSERT(settings.backgroundImage.type() == CV_8UC1 && settings.backgroundImage.cols == intrinsics.width &&
+        LIGHTSKIN_ASSERT(settings.backgroundImage.type() == CV_8UC1 &&
+                             settings.backgroundImage.cols == intrinsics.width &&
                              settings.backgroundImage.rows == intrinsics.height,
                          "backgroundImage must be CV_8UC1 of the output size");
         cv::resize(settings.backgroundImage, canvas, canvas.size(), 0.0, 0.0, cv::INTER_NEAREST);
@@ -59,7 +59,8 @@ cv::Mat renderSyntheticTagImage(const TagWorld& world, const CameraIntrinsics& i
         const glm::dvec3& p = camera_T_tag.translation();
         const cv::Matx33d planeToCamera(r[0][0], r[1][0], p.x, r[0][1], r[1][1], p.y, r[0][2], r[1][2], p.z);
         const cv::Matx33d homography = k * planeToCamera * tagFromTexture;
-        cv::warpPerspective(texture, canvas, cv::Mat(homography), canvas.size(), cv::INTER_LINEAR, cv::BORDER_TRANSPARENT);
+        cv::warpPerspective(texture, canvas, cv::Mat(homography), canvas.size(), cv::INTER_LINEAR,
+                            cv::BORDER_TRANSPARENT);
     }
 
     cv::Mat image;

@@ -31,7 +31,8 @@ struct PoseFilterSettings {
 
 class PoseFilter {
 public:
-    explicit PoseFilter(const PoseFilterSettings& settings = {}) : settings_(settings) {}
+    explicit PoseFilter(const PoseFilterSettings& settings = {})
+        : settings_(settings) {}
 
     /// Feeds one measurement taken `dtSeconds` (> 0) after the previous one and returns the
     /// filtered pose. The first call after construction or reset() returns the measurement.
