@@ -11,6 +11,11 @@ if(LIGHTSKIN_SANITIZE)
   set(LIGHTSKIN_SANITIZER_FLAGS -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
   add_compile_options(${LIGHTSKIN_SANITIZER_FLAGS})
   add_link_options(${LIGHTSKIN_SANITIZER_FLAGS})
+  set(LIGHTSKIN_TEST_ENVIRONMENT
+    "LSAN_OPTIONS=suppressions=${CMAKE_CURRENT_LIST_DIR}/sanitizers/lsan.supp:print_suppressions=0"
+    "UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1")
+else()
+  set(LIGHTSKIN_TEST_ENVIRONMENT "")
 endif()
 
 # Release builds keep assertions: a wrong result from a graphics pipeline is worse than an abort.
@@ -37,5 +42,7 @@ function(lightskin_add_module name)
   target_link_libraries(lightskin_${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
   lightskin_target_warnings(lightskin_${name})
   set_property(GLOBAL APPEND PROPERTY LIGHTSKIN_MODULES lightskin_${name})
-  install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+  if(EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/include)
+    install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+  endif()
 endfunction()

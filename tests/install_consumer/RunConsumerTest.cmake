@@ -1,4 +1,5 @@
 file(REMOVE_RECURSE ${WORK_DIR})
+string(REPLACE ";" " " CONSUMER_FLAGS "${CONSUMER_FLAGS}")
 set(prefix ${WORK_DIR}/prefix)
 execute_process(COMMAND ${CMAKE_COMMAND} --install ${BINARY_DIR} --prefix ${prefix}
                 RESULT_VARIABLE result OUTPUT_QUIET)
@@ -7,6 +8,7 @@ if(result)
 endif()
 execute_process(COMMAND ${CMAKE_COMMAND} -S ${SOURCE_DIR}/tests/install_consumer/consumer -B ${WORK_DIR}/build
                         -G ${GENERATOR} -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_BUILD_TYPE=Release
+                        "-DCMAKE_CXX_FLAGS=${CONSUMER_FLAGS}" "-DCMAKE_EXE_LINKER_FLAGS=${CONSUMER_FLAGS}"
                 RESULT_VARIABLE result)
 if(result)
   message(FATAL_ERROR "configuring the consumer against the installed package failed: ${result}")

@@ -1,0 +1,63 @@
+// `lightskin info <recording|source>`: what a recording (or any frame source) holds: format
+// version, device, intrinsics, depth scale, registration, frame count, duration, ground truth,
+// whether it was finished or cut off.
+#include "Commands.h"
+
+#include <lightskin/capture/FrameSource.h>
+#include <lightskin/capture/Recording.h>
+#include <lightskin/core/Error.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+namespace lightskin::apps {
+
+namespace {
+
+void addInfoCommand(CLI::App& app, int& exitCode) {
+    auto* command = app.add_subcommand("info", "Print what a recording (or .oni / TUM folder) holds");
+    auto path = std::make_shared<std::string>();
+    command->add_option("source", *path, "Recording folder, TUM folder, .oni file or device URI")->required();
+    command->callback([path, &exitCode] {
+        const std::filesystem::path folder(*path);
+        if (std::filesystem::exists(folder / capture::kRecordingHeaderFile)) {
+            const auto s = capture::readRecordingSummary(folder);
+            std::printf("lightskin recording, format version %d\n", s.version);
+            std::printf("device:        %s\n", s.info.deviceName.c_str());
+            std::printf("colour:        %s (%s)\n", s.info.colourIntrinsics.describe().c_str(), s.info.jpegColour ? "JPEG" : "PNG");
+            std::printf("depth:         %s (16-bit PNG, %.6g m per unit)\n", s.info.depthIntrinsics.describe().c_str(),
+                        s.info.depthScaleMetres);
+            std::printf("registration:  %s\n", toString(s.info.registration));
+            const auto& t = s.info.colour_T_depth.translation();
+            std::printf("colour_T_depth translation: %.4f %.4f %.4f m\n", t.x, t.y, t.z);
+            std::printf("frames:        %lld (%lld with colour, %lld with depth, %lld with ground-truth pose)\n",
+                        static_cast<long long>(s.frameCount), static_cast<long long>(s.framesWithColour),
+                        static_cast<long long>(s.framesWithDepth), static_cast<long long>(s.framesWithGroundTruth));
+            if (std::isfinite(s.firstTimestampSeconds))
+                std::printf("time:          %.3f .. %.3f s (%.3f s)\n", s.firstTimestampSeconds, s.lastTimestampSeconds,
+                            s.lastTimestampSeconds - s.firstTimestampSeconds);
+            std::printf("size:          %.1f MB\n", double(s.totalBytes) / 1e6);
+            std::printf("state:         %s\n", s.finished ? "finished" : "cut off (no end marker): complete frames are readable");
+        } else {
+            auto source = capture::openFrameSource(*path);
+            const auto& info = source->info();
+            std::printf("%s source %s\n", info.kind.c_str(), info.uri.c_str());
+            std::printf("device:        %s\n", info.deviceName.c_str());
+            std::printf("colour:        %s\n", info.colourIntrinsics.describe().c_str());
+            std::printf("depth:         %s (%.6g m per unit)\n", info.depthIntrinsics.describe().c_str(), info.depthScaleMetres);
+            std::printf("registration:  %s\n", toString(info.registration));
+            if (const auto count = source->frameCount()) std::printf("frames:        %lld\n", static_cast<long long>(*count));
+            else std::printf("frames:        live\n");
+            std::printf("ground truth:  %s\n", info.hasGroundTruth ? "yes" : "no");
+        }
+        exitCode = 0;
+    });
+}
+
+} // namespace
+
+static const CommandRegistration registration{"info", &addInfoCommand};
+
+} // namespace lightskin::apps

@@ -1,0 +1,97 @@
+// `lightskin record --source <uri|file> --out <dir>`: records any frame source (live camera,
+// .oni, TUM folder, recording) into the lightskin recording format (recordings/README.md), or
+// into a fakenect dump with --to-fakenect. Capture never waits for the disk (capture::Recorder);
+// frames that cannot be queued or written are counted and reported. Ctrl-C stops cleanly; after a
+// hard kill every frame in the index is complete. Exit code 0, or 3 when frames were dropped.
+#include "Commands.h"
+
+#include <lightskin/capture/Fakenect.h>
+#include <lightskin/capture/FrameSource.h>
+#include <lightskin/capture/Recorder.h>
+#include <lightskin/capture/Recording.h>
+#include <lightskin/core/Error.h>
+
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <memory>
+
+namespace lightskin::apps {
+
+namespace {
+
+volatile std::sig_atomic_t stopRequested = 0;
+
+extern "C" void onInterrupt(int) {
+    stopRequested = 1;
+    std::signal(SIGINT, SIG_DFL); // a second Ctrl-C kills at once
+}
+
+struct RecordArguments {
+    std::string source, out;
+    std::int64_t maxFrames = -1;
+    std::size_t queue = 30;
+    bool jpeg = false, realtime = false, toFakenect = false;
+};
+
+void addRecordCommand(CLI::App& app, int& exitCode) {
+    auto* command = app.add_subcommand("record", "Record a camera, .oni, TUM folder or recording to a lightskin recording");
+    auto args = std::make_shared<RecordArguments>();
+    command->add_option("--source", args->source, "openni2://[uri], freenect://<n>, a .oni file, a TUM folder or a recording")
+        ->required();
+    command->add_option("--out", args->out, "Output folder (must not exist or be empty)")->required();
+    command->add_option("--frames", args->maxFrames, "Stop after this many frames (default: until the end or Ctrl-C)");
+    command->add_option("--queue", args->queue, "Frames that may wait for the disk (default 30)")->check(CLI::Range(1, 10000));
+    command->add_flag("--jpeg", args->jpeg, "Store colour as JPEG (lossy, smaller) instead of PNG");
+    command->add_flag("--realtime", args->realtime, "Replay recorded sources at their recorded speed");
+    command->add_flag("--to-fakenect", args->toFakenect, "Write a fakenect dump (640x480) instead of a lightskin recording");
+    command->callback([args, &exitCode] {
+        capture::FrameSourceOptions options;
+        options.pacing = args->realtime ? capture::Pacing::Realtime : capture::Pacing::AsFastAsPossible;
+        auto source = capture::openFrameSource(args->source, options);
+        if (args->toFakenect) {
+            const auto frames = capture::writeFakenectDump(*source, args->out, args->maxFrames);
+            std::printf("wrote %lld frames as a fakenect dump to %s\n", static_cast<long long>(frames), args->out.c_str());
+            exitCode = 0;
+            return;
+        }
+        const auto& info = source->info();
+        capture::RecordingInfo recording;
+        recording.deviceName = info.deviceName;
+        recording.colourIntrinsics = info.colourIntrinsics;
+        recording.depthIntrinsics = info.depthIntrinsics;
+        recording.depthScaleMetres = info.depthScaleMetres;
+        recording.registration = info.registration;
+        recording.colour_T_depth = info.colour_T_depth;
+        recording.jpegColour = args->jpeg;
+        auto recorder = capture::Recorder::start(capture::RecordingWriter::create(args->out, recording),
+                                                 capture::RecorderOptions{args->queue});
+        stopRequested = 0;
+        const auto previous = std::signal(SIGINT, onInterrupt);
+        std::printf("recording %s (%s) to %s; Ctrl-C stops\n", args->source.c_str(), info.kind.c_str(), args->out.c_str());
+        std::fflush(stdout);
+        RgbdFrame frame;
+        std::string sourceError;
+        try {
+            while (!stopRequested && (args->maxFrames < 0 || source->framesDelivered() < args->maxFrames) &&
+                   source->next(frame))
+                recorder->push(frame);
+        } catch (const Error& error) {
+            sourceError = error.what(); // keep what was recorded: finish the recording first
+        }
+        const capture::RecorderStats stats = recorder->finish();
+        std::signal(SIGINT, previous);
+        std::printf("recorded %lld frames to %s; dropped %lld (queue full or write failed); source dropped %lld%s\n",
+                    static_cast<long long>(stats.written), args->out.c_str(), static_cast<long long>(stats.dropped),
+                    static_cast<long long>(source->framesDropped()), stopRequested ? "; stopped by Ctrl-C" : "");
+        if (!stats.firstError.empty()) std::printf("first write error: %s\n", stats.firstError.c_str());
+        if (!sourceError.empty()) throw Error(sourceError);
+        exitCode = stats.dropped > 0 ? 3 : 0;
+    });
+}
+
+} // namespace
+
+static const CommandRegistration registration{"record", &addRecordCommand};
+
+} // namespace lightskin::apps

@@ -1,0 +1,53 @@
+#pragma once
+// Records frames without making capture wait for the disk: push() copies a frame into one of a
+// fixed number of preallocated slots (no allocation once the slots have their sizes) and returns
+// at once; a background thread encodes and writes the slots through a RecordingWriter (atomic
+// rename per file, then the index line). When every slot is taken the frame is not queued and
+// is counted as dropped; a frame the writer fails to write is counted as dropped too. So every
+// pushed frame ends up either complete in the recording or in `dropped`.
+//
+// Threading: push() from one producer thread; stats() from any thread.
+
+#include <lightskin/capture/Recording.h>
+#include <lightskin/core/RgbdFrame.h>
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+namespace lightskin::capture {
+
+struct RecorderOptions {
+    /// Frames that may wait for the disk. 30 = one second at 30 fps (about 45 MB at 640x480).
+    std::size_t queueCapacity = 30;
+};
+
+struct RecorderStats {
+    std::int64_t pushed = 0;   ///< frames offered to push()
+    std::int64_t written = 0;  ///< frames complete in the recording
+    std::int64_t dropped = 0;  ///< queue full or write failed
+    std::int64_t queued = 0;   ///< waiting for the writer right now
+    std::string firstError;    ///< the first write error (empty when none)
+};
+
+class Recorder {
+public:
+    /// Takes over `writer` and starts the writer thread.
+    static std::unique_ptr<Recorder> start(RecordingWriter writer, const RecorderOptions& options = {});
+    ~Recorder(); ///< finish()es when still running
+    Recorder(const Recorder&) = delete;
+    Recorder& operator=(const Recorder&) = delete;
+
+    /// Queues a copy of `frame`; false when the queue is full (the frame is dropped and counted).
+    bool push(const RgbdFrame& frame);
+    /// Writes what is queued, finishes the recording and stops the thread. Idempotent.
+    RecorderStats finish();
+    RecorderStats stats() const;
+
+private:
+    struct Impl;
+    explicit Recorder(std::unique_ptr<Impl> impl);
+    std::unique_ptr<Impl> impl_;
+};
+
+} // namespace lightskin::capture

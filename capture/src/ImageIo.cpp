@@ -1,0 +1,186 @@
+#include "ImageIo.h"
+
+#include <lightskin/core/Error.h>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+
+namespace lightskin::capture::detail {
+
+namespace {
+
+std::uint32_t readBigEndian32(const unsigned char* p) {
+    return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) | (std::uint32_t{p[2]} << 8) | std::uint32_t{p[3]};
+}
+
+std::uint32_t readTiff32(const unsigned char* p, bool littleEndian) {
+    return littleEndian ? (std::uint32_t{p[3]} << 24) | (std::uint32_t{p[2]} << 16) | (std::uint32_t{p[1]} << 8) | p[0]
+                        : readBigEndian32(p);
+}
+
+std::uint16_t readTiff16(const unsigned char* p, bool littleEndian) {
+    return static_cast<std::uint16_t>(littleEndian ? (p[1] << 8) | p[0] : (p[0] << 8) | p[1]);
+}
+
+void checkSide(std::uint64_t width, std::uint64_t height, const std::filesystem::path& path,
+               std::optional<std::int64_t> frame) {
+    if (width == 0 || height == 0 || width > std::uint64_t(kMaxImageSide) || height > std::uint64_t(kMaxImageSide))
+        throw Error(path.string(), frame,
+                    "image header states an absurd size " + std::to_string(width) + "x" + std::to_string(height) +
+                        " (accepted: 1.." + std::to_string(kMaxImageSide) + " per side)");
+}
+
+std::string sizeText(cv::Size size) { return std::to_string(size.width) + "x" + std::to_string(size.height); }
+
+void decodeInto(const std::filesystem::path& path, std::optional<std::int64_t> frame, int flags,
+                const std::vector<unsigned char>& bytes, cv::Mat& out) {
+    const std::optional<cv::Size> headerSize = peekImageSize(bytes, path, frame);
+    (void)headerSize;
+    try {
+        cv::imdecode(bytes, flags, &out);
+    } catch (const cv::Exception& error) {
+        throw Error(path.string(), frame, std::string("cannot decode the image: ") + error.what());
+    }
+    if (out.empty()) throw Error(path.string(), frame, "cannot decode the image (truncated, corrupt or unknown format)");
+}
+
+} // namespace
+
+std::string describeMatType(int type) {
+    const int depth = CV_MAT_DEPTH(type);
+    const char* names[] = {"8-bit unsigned", "8-bit signed", "16-bit unsigned", "16-bit signed", "32-bit signed",
+                           "32-bit float", "64-bit float", "16-bit float"};
+    return std::string(depth >= 0 && depth < 8 ? names[depth] : "unknown") + " " + std::to_string(CV_MAT_CN(type)) +
+           "-channel";
+}
+
+void readFileBounded(const std::filesystem::path& path, std::optional<std::int64_t> frame, std::uintmax_t maxBytes,
+                     std::vector<unsigned char>& bytes) {
+    std::error_code error;
+    const auto status = std::filesystem::status(path, error);
+    if (error || !std::filesystem::exists(status)) throw Error(path.string(), frame, "file is missing");
+    if (!std::filesystem::is_regular_file(status)) throw Error(path.string(), frame, "not a regular file");
+    const std::uintmax_t size = std::filesystem::file_size(path, error);
+    if (error) throw Error(path.string(), frame, "cannot read the file size: " + error.message());
+    if (size > maxBytes)
+        throw Error(path.string(), frame,
+                    "file is " + std::to_string(size) + " bytes, more than the " + std::to_string(maxBytes) + " accepted");
+    std::ifstream stream(path, std::ios::binary);
+    if (!stream) throw Error(path.string(), frame, "cannot open the file");
+    bytes.resize(size);
+    stream.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(size));
+    if (static_cast<std::uintmax_t>(stream.gcount()) != size) throw Error(path.string(), frame, "cannot read the whole file");
+}
+
+std::optional<cv::Size> peekImageSize(const std::vector<unsigned char>& bytes, const std::filesystem::path& path,
+                                      std::optional<std::int64_t> frame) {
+    static constexpr unsigned char pngSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    if (bytes.size() >= 8 && std::memcmp(bytes.data(), pngSignature, 8) == 0) {
+        if (bytes.size() < 33 || std::memcmp(bytes.data() + 12, "IHDR", 4) != 0)
+            throw Error(path.string(), frame, "truncated PNG: no complete IHDR header");
+        const std::uint32_t width = readBigEndian32(bytes.data() + 16), height = readBigEndian32(bytes.data() + 20);
+        checkSide(width, height, path, frame);
+        return cv::Size(int(width), int(height));
+    }
+    const bool little = bytes.size() >= 4 && bytes[0] == 'I' && bytes[1] == 'I' && bytes[2] == 42 && bytes[3] == 0;
+    const bool big = bytes.size() >= 4 && bytes[0] == 'M' && bytes[1] == 'M' && bytes[2] == 0 && bytes[3] == 42;
+    if (!little && !big) return std::nullopt;
+    if (bytes.size() < 8) throw Error(path.string(), frame, "truncated TIFF header");
+    const std::uint64_t ifd = readTiff32(bytes.data() + 4, little);
+    if (ifd + 2 > bytes.size()) throw Error(path.string(), frame, "truncated TIFF: first directory beyond the end of the file");
+    const std::uint16_t entries = readTiff16(bytes.data() + ifd, little);
+    if (ifd + 2 + std::uint64_t(entries) * 12 > bytes.size())
+        throw Error(path.string(), frame, "truncated TIFF: directory runs past the end of the file");
+    std::uint64_t width = 0, height = 0;
+    for (std::uint16_t i = 0; i < entries; ++i) {
+        const unsigned char* entry = bytes.data() + ifd + 2 + std::uint64_t(i) * 12;
+        const std::uint16_t tag = readTiff16(entry, little), type = readTiff16(entry + 2, little);
+        const std::uint64_t value = type == 3 ? readTiff16(entry + 8, little) : readTiff32(entry + 8, little);
+        if (tag == 256) width = value;
+        if (tag == 257) height = value;
+    }
+    checkSide(width, height, path, frame);
+    return cv::Size(int(width), int(height));
+}
+
+void readDepth16(const std::filesystem::path& path, std::optional<std::int64_t> frame, std::optional<cv::Size> expected,
+                 std::vector<unsigned char>& scratch, cv::Mat& out) {
+    readFileBounded(path, frame, kMaxImageFileBytes, scratch);
+    decodeInto(path, frame, cv::IMREAD_UNCHANGED, scratch, out);
+    if (out.type() != CV_16UC1)
+        throw Error(path.string(), frame,
+                    "depth must be 16-bit single-channel, the file holds " + describeMatType(out.type()) + " pixels");
+    if (expected && out.size() != *expected)
+        throw Error(path.string(), frame, "depth image is " + sizeText(out.size()) + ", expected " + sizeText(*expected));
+}
+
+void readColour8(const std::filesystem::path& path, std::optional<std::int64_t> frame, std::optional<cv::Size> expected,
+                 std::vector<unsigned char>& scratch, cv::Mat& out) {
+    readFileBounded(path, frame, kMaxImageFileBytes, scratch);
+    decodeInto(path, frame, cv::IMREAD_COLOR, scratch, out);
+    if (out.type() != CV_8UC3)
+        throw Error(path.string(), frame, "colour must decode to 8-bit 3-channel, got " + describeMatType(out.type()));
+    if (expected && out.size() != *expected)
+        throw Error(path.string(), frame, "colour image is " + sizeText(out.size()) + ", expected " + sizeText(*expected));
+}
+
+void writeFileAtomically(const std::filesystem::path& path, std::optional<std::int64_t> frame,
+                         const std::vector<unsigned char>& bytes) {
+    const std::string temporary = path.string() + ".tmp";
+    const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd < 0) throw Error(temporary, frame, std::string("cannot create the file: ") + std::strerror(errno));
+    std::size_t written = 0;
+    while (written < bytes.size()) {
+        const ssize_t n = ::write(fd, bytes.data() + written, bytes.size() - written);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) {
+            const int code = errno;
+            ::close(fd);
+            ::unlink(temporary.c_str());
+            throw Error(temporary, frame, std::string("cannot write the file: ") + std::strerror(code));
+        }
+        written += static_cast<std::size_t>(n);
+    }
+    if (::close(fd) != 0) {
+        const int code = errno;
+        ::unlink(temporary.c_str());
+        throw Error(temporary, frame, std::string("cannot close the file: ") + std::strerror(code));
+    }
+    if (std::rename(temporary.c_str(), path.c_str()) != 0) {
+        const int code = errno;
+        ::unlink(temporary.c_str());
+        throw Error(path.string(), frame, std::string("cannot rename the finished file into place: ") + std::strerror(code));
+    }
+}
+
+std::filesystem::path resolveInside(const std::filesystem::path& folder, const std::string& relative,
+                                    const std::filesystem::path& listFile, std::optional<std::int64_t> frame) {
+    const std::filesystem::path name(relative);
+    if (relative.empty()) throw Error(listFile.string(), frame, "empty file name");
+    if (name.is_absolute() || name.has_root_name() || name.has_root_directory())
+        throw Error(listFile.string(), frame, "file name '" + relative + "' is absolute: refused (must stay inside the folder)");
+    for (const auto& part : name.lexically_normal())
+        if (part == "..")
+            throw Error(listFile.string(), frame, "file name '" + relative + "' leaves the folder: refused");
+    const std::filesystem::path joined = folder / name.lexically_normal();
+    // A symbolic link inside the folder could still point outside: compare canonical paths.
+    std::error_code error;
+    const std::filesystem::path canonicalFolder = std::filesystem::weakly_canonical(folder, error);
+    const std::filesystem::path canonicalFile = std::filesystem::weakly_canonical(joined, error);
+    if (!error) {
+        const auto rel = canonicalFile.lexically_relative(canonicalFolder);
+        if (rel.empty() || *rel.begin() == "..")
+            throw Error(listFile.string(), frame, "file name '" + relative + "' resolves outside the folder: refused");
+    }
+    return joined;
+}
+
+} // namespace lightskin::capture::detail

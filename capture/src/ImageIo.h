@@ -1,0 +1,50 @@
+#pragma once
+// Bounded, checked image file reading shared by the recorded sources. Every failure throws
+// lightskin::Error naming the file, the frame and the cause; nothing is allocated for a size
+// taken from a file before that size has been checked against the limits below.
+
+#include <opencv2/core/mat.hpp>
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace lightskin::capture::detail {
+
+/// Largest image file accepted (bytes) and largest image side (pixels).
+inline constexpr std::uintmax_t kMaxImageFileBytes = std::uintmax_t{256} << 20;
+inline constexpr int kMaxImageSide = 16384;
+
+/// Reads a whole file into `bytes` (reused), refusing files larger than `maxBytes`.
+void readFileBounded(const std::filesystem::path& path, std::optional<std::int64_t> frame, std::uintmax_t maxBytes,
+                     std::vector<unsigned char>& bytes);
+
+/// Width and height from a PNG or TIFF header, when `bytes` is one of those (nullopt for other
+/// formats). Throws when the header is truncated or states an absurd size.
+std::optional<cv::Size> peekImageSize(const std::vector<unsigned char>& bytes, const std::filesystem::path& path,
+                                      std::optional<std::int64_t> frame);
+
+/// Decodes a depth image (16-bit single-channel PNG/TIFF) into `out` (reused). Refuses 8-bit,
+/// float or multi-channel images, and a size other than `expected` when given.
+void readDepth16(const std::filesystem::path& path, std::optional<std::int64_t> frame,
+                 std::optional<cv::Size> expected, std::vector<unsigned char>& scratch, cv::Mat& out);
+
+/// Decodes a colour image into 8-bit BGR `out` (reused). Greyscale is expanded to BGR. Refuses a
+/// size other than `expected` when given.
+void readColour8(const std::filesystem::path& path, std::optional<std::int64_t> frame,
+                 std::optional<cv::Size> expected, std::vector<unsigned char>& scratch, cv::Mat& out);
+
+/// Writes `bytes` to `path` through `path.tmp` + rename, so `path` is either absent or complete.
+void writeFileAtomically(const std::filesystem::path& path, std::optional<std::int64_t> frame,
+                         const std::vector<unsigned char>& bytes);
+
+/// Resolves `relative` (from a manifest or list) inside `folder`. Throws when it is absolute or
+/// would leave the folder (`..`, or a symbolic link pointing outside).
+std::filesystem::path resolveInside(const std::filesystem::path& folder, const std::string& relative,
+                                    const std::filesystem::path& listFile, std::optional<std::int64_t> frame);
+
+std::string describeMatType(int type);
+
+} // namespace lightskin::capture::detail

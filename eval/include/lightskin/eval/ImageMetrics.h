@@ -1,0 +1,42 @@
+#pragma once
+// Error of an image against a reference, both linear (radiance-proportional) float images of the
+// same size and channel count (CV_32FC1 or CV_32FC3). Used by the replay regression suite, the GI
+// accuracy tests and `lightskin bench`.
+
+#include <opencv2/core/mat.hpp>
+
+#include <string>
+
+namespace lightskin::eval {
+
+struct ImageError {
+    /// mean over pixels and channels of (x - r)^2 / (r^2 + 0.01): relative MSE, the 0.01 keeps dark
+    /// pixels from dominating (as in the denoising literature).
+    double relativeMse = 0.0;
+    double meanAbsoluteError = 0.0; ///< mean |x - r|, linear units
+    double maxAbsoluteError = 0.0;  ///< max |x - r|
+    /// Mean SSIM over channels (OpenCV quality::QualitySSIM, Gaussian 11x11, sigma 1.5), computed
+    /// on the images scaled by 255 / `ssimPeak` so that its constants C1, C2 (defined for a
+    /// 0..255 range) apply to a 0..ssimPeak linear range. 1 = identical.
+    double ssim = 1.0;
+    /// 10 log10(peak^2 / MSE) with peak = ssimPeak; +inf when identical.
+    double psnr = 0.0;
+    std::size_t pixelsCompared = 0;
+
+    std::string describe() const;
+};
+
+struct ImageErrorOptions {
+    /// Linear value mapped to 255 for SSIM and used as PSNR peak (1 = display white).
+    double ssimPeak = 1.0;
+    /// Optional CV_8UC1 mask: only pixels where mask != 0 count (SSIM still uses the whole image).
+    cv::Mat mask;
+};
+
+/// Throws lightskin::Error when sizes or types differ, or when either image has NaN/inf.
+ImageError compareImages(const cv::Mat& image, const cv::Mat& reference, const ImageErrorOptions& options = {});
+
+/// Number of non-finite values (NaN or +-inf) in a float image.
+std::size_t countNonFinite(const cv::Mat& image);
+
+} // namespace lightskin::eval

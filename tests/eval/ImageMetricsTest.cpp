@@ -1,0 +1,81 @@
+#include <lightskin/core/Error.h>
+#include <lightskin/eval/ColourSpace.h>
+#include <lightskin/eval/ImageMetrics.h>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <limits>
+
+namespace lightskin::test {
+namespace {
+
+TEST(ColourSpaceTest, MatchesTheSrgbStandardAndRoundTrips) {
+    EXPECT_FLOAT_EQ(eval::srgbToLinear(0.0f), 0.0f);
+    EXPECT_FLOAT_EQ(eval::srgbToLinear(1.0f), 1.0f);
+    EXPECT_NEAR(eval::srgbToLinear(0.5f), 0.21404f, 1e-5f); // IEC 61966-2-1
+    EXPECT_NEAR(eval::srgbToLinear(0.04045f), 0.04045f / 12.92f, 1e-7f);
+    for (int i = 0; i < 256; ++i) {
+        const float encoded = float(i) / 255.0f;
+        EXPECT_NEAR(eval::linearToSrgb(eval::srgbToLinear(encoded)), encoded, 1e-5f);
+    }
+    cv::Mat srgb(2, 2, CV_8UC3, cv::Scalar(0, 128, 255)), linear, back;
+    eval::srgb8ToLinearInto(srgb, linear);
+    eval::linearToSrgb8Into(linear, back);
+    EXPECT_EQ(cv::norm(srgb, back, cv::NORM_INF), 0.0);
+}
+
+TEST(ImageMetricsTest, IdenticalImagesHaveNoError) {
+    cv::Mat image(32, 32, CV_32FC3);
+    cv::randu(image, 0.0, 1.0);
+    const eval::ImageError error = eval::compareImages(image, image);
+    EXPECT_EQ(error.relativeMse, 0.0);
+    EXPECT_EQ(error.maxAbsoluteError, 0.0);
+    EXPECT_NEAR(error.ssim, 1.0, 1e-9);
+    EXPECT_TRUE(std::isinf(error.psnr));
+    EXPECT_EQ(error.pixelsCompared, 32u * 32u);
+}
+
+TEST(ImageMetricsTest, ConstantOffsetGivesTheAnalyticValues) {
+    const cv::Mat reference(16, 16, CV_32FC1, cv::Scalar(0.5));
+    const cv::Mat image(16, 16, CV_32FC1, cv::Scalar(0.6));
+    const eval::ImageError error = eval::compareImages(image, reference);
+    EXPECT_NEAR(error.relativeMse, 0.01 / (0.25 + 0.01), 1e-6);
+    EXPECT_NEAR(error.meanAbsoluteError, 0.1, 1e-6);
+    EXPECT_NEAR(error.maxAbsoluteError, 0.1, 1e-6);
+    EXPECT_NEAR(error.psnr, 20.0, 1e-4); // 10 log10(1 / 0.01)
+}
+
+TEST(ImageMetricsTest, SsimDropsWithStructuralDamageAndMaskRestrictsPixels) {
+    cv::Mat reference(64, 64, CV_32FC1);
+    cv::randu(reference, 0.0, 1.0);
+    cv::GaussianBlur(reference, reference, cv::Size(5, 5), 1.0);
+    cv::Mat blurred;
+    cv::GaussianBlur(reference, blurred, cv::Size(9, 9), 3.0);
+    const double blurredSsim = eval::compareImages(blurred, reference).ssim;
+    EXPECT_LT(blurredSsim, 0.9);
+    EXPECT_GT(blurredSsim, 0.0);
+
+    cv::Mat damaged = reference.clone();
+    damaged(cv::Rect(0, 0, 32, 64)).setTo(0.0);
+    cv::Mat mask(64, 64, CV_8UC1, cv::Scalar(0));
+    mask(cv::Rect(32, 0, 32, 64)).setTo(255);
+    const eval::ImageError maskedError = eval::compareImages(damaged, reference, {1.0, mask});
+    EXPECT_EQ(maskedError.maxAbsoluteError, 0.0);
+    EXPECT_EQ(maskedError.pixelsCompared, 32u * 64u);
+}
+
+TEST(ImageMetricsTest, RejectsMismatchedAndNonFiniteImages) {
+    const cv::Mat a(8, 8, CV_32FC1, cv::Scalar(0.0)), b(8, 9, CV_32FC1, cv::Scalar(0.0));
+    EXPECT_THROW((void)eval::compareImages(a, b), Error);
+    cv::Mat nan = a.clone();
+    nan.at<float>(3, 3) = std::numeric_limits<float>::quiet_NaN();
+    EXPECT_EQ(eval::countNonFinite(nan), 1u);
+    EXPECT_THROW((void)eval::compareImages(nan, a), Error);
+    EXPECT_THROW((void)eval::compareImages(a, nan), Error);
+}
+
+} // namespace
+} // namespace lightskin::test

@@ -1,0 +1,143 @@
+#pragma once
+// Per-frame camera tracking: detection -> pose -> temporal filter, with an honest state.
+//
+// Output: world_T_camera of the COLOUR camera (camera frame x right, y down, z forward; world
+// frame from the TagWorld; metres).
+//
+// States:
+//   Tracking  this frame's tags gave an accepted pose (filtered).
+//   Held      no acceptable measurement this frame; the last pose is repeated (not extrapolated)
+//             for at most TrackerSettings::maxHeldFrames consecutive frames.
+//   Lost      no pose at all (world_T_camera is empty): before the first measurement, after
+//             maxHeldFrames frames without one, or after reset(). Rendering must not place
+//             virtual content with a pose from a Lost frame.
+// Flips: a single tag's two pose solutions (planar ambiguity, PoseEstimation.h) are chosen by
+// reprojection error when it separates them clearly (ratio >= ambiguityRatio), otherwise by
+// closeness to the previous pose. A measurement that would move the orientation by more than
+// maxJumpDegrees in one frame is rejected (Held) when it is ambiguous; when it is unambiguous it is
+// accepted, the filter restarts from it and `poseJumped` says so. The first frame after Lost with an
+// ambiguous view picks the lower error and sets `ambiguous`. So a flip is never silent.
+
+#include <lightskin/core/CameraIntrinsics.h>
+#include <lightskin/core/RgbdFrame.h>
+#include <lightskin/tracking/PoseEstimation.h>
+#include <lightskin/tracking/PoseFilter.h>
+#include <lightskin/tracking/TagDetector.h>
+#include <lightskin/tracking/TagWorld.h>
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+namespace lightskin::tracking {
+
+enum class TrackingState : std::uint8_t { Tracking, Held, Lost };
+const char* toString(TrackingState state) noexcept;
+
+enum class Undistortion : std::uint8_t {
+    /// Detect in the distorted image, undistort the corners (cv::undistortPoints). Cheap; fine for
+    /// the mild distortion of Kinect-class cameras. Default.
+    Corners,
+    /// Undistort the whole image first (cv::remap, maps built once per intrinsics): straight tag
+    /// edges for strongly distorted lenses, at ~1-2 ms per VGA frame.
+    Image,
+};
+
+struct TrackerSettings {
+    /// The world's family overrides detector.family.
+    DetectorSettings detector;
+    Undistortion undistortion = Undistortion::Corners;
+    /// Measurements with a larger RMS corner reprojection error are rejected (pixels).
+    double maxReprojectionErrorPx = 3.0;
+    /// Second-best / best reprojection error at or above which the best single-tag solution is
+    /// trusted without history. Below it the view is ambiguous.
+    double ambiguityRatio = 4.0;
+    /// Largest orientation change accepted for an ambiguous measurement, degrees per frame.
+    double maxJumpDegrees = 25.0;
+    /// Frames the last pose is held without a measurement before the state becomes Lost.
+    int maxHeldFrames = 10;
+    /// Depth-aided refinement of single-tag poses (refinePoseWithDepth); needs depth registered to
+    /// the colour image and, with lens distortion, Undistortion::Image is not enough: skipped then.
+    bool useDepth = false;
+    /// Frame interval assumed when timestamps are missing or not increasing, seconds.
+    double nominalFrameIntervalSeconds = 1.0 / 30.0;
+    PoseFilterSettings filter;
+};
+
+struct TrackingTiming {
+    double preprocessMs = 0.0; ///< greyscale conversion and image undistortion
+    double detectMs = 0.0;     ///< the AprilTag library
+    double poseMs = 0.0;       ///< PnP, selection, depth, filter
+    double totalMs = 0.0;
+};
+
+struct TrackingResult {
+    std::int64_t frameIndex = 0;
+    TrackingState state = TrackingState::Lost;
+    /// Filtered pose; empty when Lost.
+    std::optional<Pose> world_T_camera;
+    /// This frame's accepted, unfiltered measurement; empty when none was accepted.
+    std::optional<Pose> measured_world_T_camera;
+    /// Tag ids in the world that gave the accepted measurement (empty when none was accepted).
+    std::vector<int> tagsUsed;
+    /// Detected ids that are not in the world (ignored).
+    std::vector<int> unknownTags;
+    /// RMS corner reprojection error of the best measurement this frame, pixels; NaN without one.
+    double reprojectionErrorPx = 0.0;
+    /// Second-best / best error of this frame's measurement (infinity for a clear bundle view).
+    double ambiguityRatio = 0.0;
+    /// The chosen solution was not clearly better than its flipped alternative.
+    bool ambiguous = false;
+    /// The alternative solution was chosen because it agrees with the previous pose.
+    bool resolvedByHistory = false;
+    /// An unambiguous measurement moved the orientation by more than maxJumpDegrees; the filter
+    /// restarted from it.
+    bool poseJumped = false;
+    bool depthRefined = false;
+    /// Consecutive frames without an accepted measurement, this one included.
+    int framesWithoutMeasurement = 0;
+    /// Why there is no accepted measurement (static string), or "" when there is one.
+    const char* reason = "";
+    TrackingTiming timing;
+};
+
+class PoseTracker {
+public:
+    /// Throws lightskin::Error for bad settings (see TagDetector::create).
+    static PoseTracker create(TagWorld world, const TrackerSettings& settings = {});
+
+    PoseTracker(PoseTracker&&) noexcept;
+    PoseTracker& operator=(PoseTracker&&) noexcept;
+    ~PoseTracker();
+
+    /// Tracks one frame: its colour image, colourIntrinsics, colourTimestampSeconds and, with
+    /// useDepth, its registered depth. Throws lightskin::Error naming the frame when the image
+    /// size disagrees with the intrinsics or the intrinsics are invalid.
+    void trackInto(const RgbdFrame& frame, TrackingResult& out);
+    TrackingResult track(const RgbdFrame& frame);
+    /// The same for a bare image (grey or BGR, 8-bit) without depth.
+    void trackImageInto(const cv::Mat& image, const CameraIntrinsics& intrinsics, double timestampSeconds,
+                        std::int64_t frameIndex, TrackingResult& out);
+
+    /// Back to Lost; the filter forgets its history.
+    void reset();
+
+    const TagWorld& world() const noexcept;
+    const TrackerSettings& settings() const noexcept;
+    /// This frame's detections (corners undistorted), valid until the next call.
+    const std::vector<TagDetection>& lastDetections() const noexcept;
+
+    /// For replay without tracking: the frame's ground-truth pose as a Tracking result, or a Lost
+    /// result (reason "no ground truth") when the frame has none.
+    static TrackingResult fromGroundTruth(const RgbdFrame& frame);
+
+private:
+    struct Impl;
+    explicit PoseTracker(std::unique_ptr<Impl> impl);
+    std::unique_ptr<Impl> impl_;
+    void trackImpl(const cv::Mat& image, const CameraIntrinsics& intrinsics, double timestampSeconds,
+                   std::int64_t frameIndex, const RgbdFrame* depthFrame, TrackingResult& out);
+};
+
+} // namespace lightskin::tracking

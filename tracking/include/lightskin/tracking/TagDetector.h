@@ -1,0 +1,91 @@
+#pragma once
+// AprilTag detection with Debian's libapriltag 3.3 (the C library stays behind this interface).
+//
+// Pixel convention: OpenCV's, (0,0) is the centre of the top-left pixel. Corners are in the pixel
+// coordinates of the image given to detect(); PoseTracker undistorts them when the camera has
+// lens distortion.
+
+#include <lightskin/tracking/TagFamily.h>
+
+#include <glm/vec2.hpp>
+#include <opencv2/core/mat.hpp>
+
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace lightskin::tracking {
+
+/// The library's tunables, with the library's defaults unless stated, and what each one trades.
+struct DetectorSettings {
+    /// Tag family (see supportedTagFamilies()). Default tag36h11: 587 ids, minimum Hamming
+    /// distance 11, the best false-positive rate among the square families.
+    std::string family = defaultTagFamily;
+    /// Quads are searched in an image decimated by this factor (decoding still uses the full
+    /// image). 2 (default) is ~3-4x faster than 1; 4 is faster again but misses tags below
+    /// ~40 px. Small tags (10-30 px) need 1. Corner accuracy is recovered by refineEdges.
+    float quadDecimate = 2.0f;
+    /// Gaussian blur (sigma, pixels) of the segmented image. 0 (default) = none; ~0.8 helps very
+    /// noisy images at the cost of small tags and a little time.
+    float quadSigma = 0.0f;
+    /// Worker threads of the library. 1 (default) leaves the cores to the GI stages; more threads
+    /// cut latency roughly linearly up to the core count.
+    int threads = 1;
+    /// Snap quad edges to strong image gradients. Default true: nearly free and essential for
+    /// sub-pixel corners when quadDecimate > 1. false reproduces the upstream test outputs.
+    bool refineEdges = true;
+    /// Sharpening of the sampled bits before decoding. 0.25 (default) helps small tags decode;
+    /// larger values can hurt in low light or with strong noise.
+    double decodeSharpening = 0.25;
+    /// Detections with more corrected bits are dropped. 0..2 (the library corrects at most 2).
+    /// Default 0: every corrected bit raises the false-positive rate a lot; 1 helps motion blur.
+    int maxHamming = 0;
+    /// Detections whose decision margin (mean distance of the bits from the decode threshold,
+    /// grey levels 0..255) is below this are dropped. Default 20: real tags are typically 40+,
+    /// spurious decodes in clutter below 20. The margin is meaningful mostly for small tags.
+    float minDecisionMargin = 20.0f;
+};
+
+struct TagDetection {
+    int id = -1;
+    /// Corrected bits (0..2).
+    int hamming = 0;
+    /// See DetectorSettings::minDecisionMargin.
+    float decisionMargin = 0.0f;
+    /// Corners of the black-border square, pixels. Order (the library's): counter-clockwise on
+    /// screen starting at the tag's bottom-left, i.e. the tag-frame corners
+    /// (-s/2,-s/2), (s/2,-s/2), (s/2,s/2), (-s/2,s/2) of TagFamily.h's tag frame.
+    std::array<glm::dvec2, 4> corners{};
+    /// Centre of the detection (the homography's image of the tag centre), pixels.
+    glm::dvec2 centre{0.0};
+};
+
+/// Owns one apriltag_detector_t and its family (create/destroy pairs); move-only. Not thread-safe:
+/// one detector per thread.
+class TagDetector {
+public:
+    /// Throws lightskin::Error for an unknown family or settings outside their ranges.
+    static TagDetector create(const DetectorSettings& settings = {});
+
+    TagDetector(TagDetector&&) noexcept;
+    TagDetector& operator=(TagDetector&&) noexcept;
+    TagDetector(const TagDetector&) = delete;
+    TagDetector& operator=(const TagDetector&) = delete;
+    ~TagDetector();
+
+    /// Detects tags in `grey` (CV_8UC1, any size; BGR CV_8UC3 is converted first) and writes the
+    /// detections that pass the Hamming and decision-margin filters into `out` (cleared first),
+    /// sorted by id. Returns the number of detections the library reported before filtering.
+    int detectInto(const cv::Mat& image, std::vector<TagDetection>& out);
+    std::vector<TagDetection> detect(const cv::Mat& image);
+
+    const DetectorSettings& settings() const noexcept;
+
+private:
+    struct Impl;
+    explicit TagDetector(std::unique_ptr<Impl> impl);
+    std::unique_ptr<Impl> impl_;
+};
+
+} // namespace lightskin::tracking
