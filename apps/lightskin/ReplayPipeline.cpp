@@ -1,0 +1,204 @@
+#include "ReplayPipeline.h"
+
+#include <lightskin/core/Error.h>
+#include <lightskin/core/Log.h>
+#include <lightskin/gi/ValGenerator.h>
+#include <lightskin/gl/DebugOutput.h>
+#include <lightskin/render/NullIndirectIllumination.h>
+#include <lightskin/tracking/TagWorld.h>
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+
+namespace lightskin::apps {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point start) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+void addTime(std::vector<gl::StageTime>& times, std::size_t& used, const char* name, double ms) {
+    if (times.size() <= used) times.resize(used + 1);
+    times[used].name = name;
+    times[used].milliseconds = ms;
+    ++used;
+}
+
+tracking::TagWorld tagWorldFromScene(const render::Scene& scene) {
+    const std::string source = (scene.file.empty() ? std::string("scene") : scene.file.string()) + " /tracking";
+    const nlohmann::json tracking = nlohmann::json::parse(scene.trackingJson);
+    if (tracking.empty())
+        throw Error(source, std::nullopt, "--pose tracking needs a \"tracking\" object in the scene (tag family, size, bundle)");
+    if (tracking.contains("file")) {
+        if (tracking.size() != 1 || !tracking["file"].is_string())
+            throw Error(source, std::nullopt, "/tracking/file: expected a path string as the only key");
+        return tracking::TagWorld::load(scene.file.parent_path() / tracking["file"].get<std::string>());
+    }
+    return tracking::TagWorld::fromJson(scene.trackingJson, source);
+}
+
+} // namespace
+
+const char* toString(PoseMode mode) noexcept {
+    switch (mode) {
+    case PoseMode::GroundTruth: return "ground-truth";
+    case PoseMode::Tracking: return "tracking";
+    case PoseMode::Fixed: return "fixed";
+    }
+    return "?";
+}
+
+PoseMode parsePoseMode(const std::string& text) {
+    if (text == "ground-truth") return PoseMode::GroundTruth;
+    if (text == "tracking") return PoseMode::Tracking;
+    if (text == "fixed") return PoseMode::Fixed;
+    throw Error("--pose", std::nullopt, "expected ground-truth, tracking or fixed, got '" + text + "'");
+}
+
+std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettings& settings) {
+    if (settings.technique != "none")
+        log::warning("GI technique '" + settings.technique +
+                     "' is not available in this build yet: rendering without indirect light (technique 'none')");
+    return std::make_unique<render::NullIndirectIllumination>();
+}
+
+struct FramePipeline::State {
+    const render::Scene* scene = nullptr;
+    capture::FrameSourceInfo source;
+    std::unique_ptr<gi::IndirectIllumination> technique;
+    std::optional<tracking::PoseTracker> tracker;
+    std::optional<gi::ValGenerator> vals;
+    bool valsUsable = false;
+    render::Compositor compositor;
+    cv::Mat depthMetres, virtualColour, virtualDepth;
+    std::vector<gl::StageTime> scratchTimes;
+};
+
+FramePipeline::~FramePipeline() = default;
+
+std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene, const capture::FrameSourceInfo& source,
+                                                     const PipelineOptions& options) {
+    std::unique_ptr<FramePipeline> p(new FramePipeline());
+    p->state_ = std::make_unique<State>();
+    State& s = *p->state_;
+    s.scene = &scene;
+    s.source = source;
+    p->options_ = options;
+    p->gi_ = scene.gi;
+    const CameraIntrinsics& colour = source.colourIntrinsics;
+    if (!colour.isValid()) throw Error(source.uri, std::nullopt, "the source has no valid colour intrinsics");
+    p->renderer_ = render::Renderer::create(colour);
+    p->renderer_->setScene(scene);
+    s.compositor = render::Compositor::create(colour, scene.compositing);
+    if (options.poseMode == PoseMode::Tracking) s.tracker = tracking::PoseTracker::create(tagWorldFromScene(scene));
+
+    // VALs need depth and colour of one size, registered (the ValGenerator's contract).
+    s.valsUsable = source.registration == DepthRegistration::RegisteredToColour &&
+                   source.depthIntrinsics.width == colour.width && source.depthIntrinsics.height == colour.height;
+    if (s.valsUsable) {
+        gi::ValGeneratorSettings settings;
+        settings.stride = scene.gi.valStride;
+        s.vals = gi::ValGenerator::create(colour.width, colour.height, settings);
+    } else {
+        log::warning(source.uri + ": depth is not registered to colour; no VALs and no occlusion by real geometry");
+    }
+    p->setGiSettings(scene.gi);
+    gl::DebugOutput::throwIfErrors("pipeline creation");
+    return p;
+}
+
+void FramePipeline::setGiSettings(const render::GiSettings& settings) {
+    gi_ = settings;
+    state_->technique = createTechnique(settings);
+    state_->technique->prepare(renderer_->instances());
+}
+
+std::string FramePipeline::techniqueName() const { return std::string(state_->technique->name()); }
+
+void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
+    State& s = *state_;
+    const auto frameStart = Clock::now();
+    std::size_t used = 0;
+    out.frameIndex = frame.index;
+    out.valCount = 0;
+
+    // Depth in metres (CV_32FC1, 0 = missing), registered to colour.
+    auto t = Clock::now();
+    const bool haveDepth = frame.hasDepth() && s.valsUsable && frame.depth.cols == frame.colour.cols &&
+                           frame.depth.rows == frame.colour.rows;
+    if (haveDepth) frame.depth.convertTo(s.depthMetres, CV_32F, frame.depthScaleMetres);
+    addTime(out.cpuTimes, used, "depth", msSince(t));
+
+    // Pose.
+    t = Clock::now();
+    switch (options_.poseMode) {
+    case PoseMode::GroundTruth: out.tracking = tracking::PoseTracker::fromGroundTruth(frame); break;
+    case PoseMode::Tracking: s.tracker->trackInto(frame, out.tracking); break;
+    case PoseMode::Fixed:
+        out.tracking = tracking::TrackingResult{};
+        out.tracking.frameIndex = frame.index;
+        out.tracking.state = tracking::TrackingState::Tracking;
+        out.tracking.world_T_camera = Pose();
+        break;
+    }
+    out.world_T_camera = out.tracking.world_T_camera;
+    addTime(out.cpuTimes, used, "pose", msSince(t));
+
+    if (!out.world_T_camera) {
+        // Lost: nothing virtual can be placed; the frame passes through unchanged.
+        frame.colour.copyTo(out.withGi);
+        if (options_.compare) frame.colour.copyTo(out.withoutGi);
+        out.cpuTimes.resize(used);
+        out.gpuTimes.clear();
+        out.totalMs = msSince(frameStart);
+        return;
+    }
+    const Pose& world_T_camera = *out.world_T_camera;
+
+    // VALs from the depth map.
+    t = Clock::now();
+    gi::ValSetView valSet;
+    const bool runGi = options_.giEnabled && gi_.technique != "none";
+    if (haveDepth && runGi && s.vals) {
+        valSet = s.vals->generate(s.depthMetres, 1.0, frame.colour, frame.colourIntrinsics, world_T_camera);
+        out.valCount = valSet.count;
+    }
+    addTime(out.cpuTimes, used, "vals", msSince(t));
+
+    // G-buffer and indirect light.
+    t = Clock::now();
+    render::Renderer& r = *renderer_;
+    r.renderGBuffer(world_T_camera);
+    if (runGi) s.technique->render(valSet, r.instances(), r.gbuffer(), r.viewParameters(), r.indirectTarget());
+    addTime(out.cpuTimes, used, "gbuffer+gi", msSince(t));
+
+    // Shade, read back, composite.
+    t = Clock::now();
+    const cv::Mat realDepth = haveDepth ? s.depthMetres : cv::Mat();
+    render::ShadeOptions shade{.includeIndirect = runGi, .exposureStops = s.scene->exposureStops, .view = options_.view};
+    r.shade(shade);
+    r.readOutputsInto(s.virtualColour, s.virtualDepth);
+    s.compositor.compositeInto(frame.colour, s.virtualColour, s.virtualDepth, realDepth, out.withGi);
+    if (options_.compare) {
+        shade.includeIndirect = false;
+        if (shade.view == render::DebugView::IndirectOnly) shade.view = render::DebugView::Final;
+        r.shade(shade);
+        r.readOutputsInto(s.virtualColour, s.virtualDepth);
+        s.compositor.compositeInto(frame.colour, s.virtualColour, s.virtualDepth, realDepth, out.withoutGi);
+    }
+    addTime(out.cpuTimes, used, "shade+composite", msSince(t));
+    out.cpuTimes.resize(used);
+
+    r.lastStageTimes(out.gpuTimes);
+    if (runGi) {
+        s.technique->lastStageTimes(s.scratchTimes);
+        out.gpuTimes.insert(out.gpuTimes.end(), s.scratchTimes.begin(), s.scratchTimes.end());
+    }
+    out.totalMs = msSince(frameStart);
+}
+
+} // namespace lightskin::apps
