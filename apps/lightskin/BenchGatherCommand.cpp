@@ -1,0 +1,270 @@
+// `lightskin bench-gather`: timings of the LightSkin stages (GL timer queries: upload, gather,
+// normalisation, occlusion, interpolation, shading) for the paper's three setups, the speed-up
+// over the brute force at equal inputs with the error at that point, and the gather throughput
+// in VAL-receiver interactions per second. A benchmark, not a test: results go to
+// docs/BENCHMARKS.md with the command line that produced them.
+//
+// Scene: a sphere over a floor (two meshes, 2/3 of the sparse points on the sphere), lit by a
+// VAL "map" (a width x height grid of disc VALs on a wall and the ceiling, like a depth camera's
+// VAL map), seen by a camera at the output resolution.
+#include "Commands.h"
+
+#include <lightskin/core/Error.h>
+#include <lightskin/gi/BruteForceIllumination.h>
+#include <lightskin/gi/LightSkinIllumination.h>
+#include <lightskin/gi/SimpleGBuffer.h>
+#include <lightskin/gi/VertexSparsePoints.h>
+#include <lightskin/gl/Context.h>
+#include <lightskin/gl/DebugOutput.h>
+
+#include <glm/ext/matrix_clip_space.hpp>
+#include <glm/ext/matrix_transform.hpp>
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <numbers>
+#include <string>
+#include <vector>
+
+namespace lightskin::apps {
+
+namespace {
+
+TriangleMesh benchSphere(float radius, int stacks, int slices) {
+    TriangleMesh mesh;
+    const float pi = std::numbers::pi_v<float>;
+    for (int i = 0; i <= stacks; ++i)
+        for (int j = 0; j <= slices; ++j) {
+            const float theta = pi * float(i) / float(stacks), phi = 2.0f * pi * float(j) / float(slices);
+            const glm::vec3 n(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+            mesh.positions.push_back(radius * n);
+            mesh.normals.push_back(n);
+        }
+    for (int i = 0; i < stacks; ++i)
+        for (int j = 0; j < slices; ++j) {
+            const auto a = std::uint32_t(i * (slices + 1) + j), b = a + std::uint32_t(slices + 1);
+            mesh.indices.insert(mesh.indices.end(), {a, b, b + 1, a, b + 1, a + 1});
+        }
+    return mesh;
+}
+
+TriangleMesh benchGrid(float size, int cells) {
+    TriangleMesh mesh;
+    for (int i = 0; i <= cells; ++i)
+        for (int j = 0; j <= cells; ++j) {
+            mesh.positions.emplace_back(size * (float(j) / float(cells) - 0.5f), size * (float(i) / float(cells) - 0.5f), 0.0f);
+            mesh.normals.emplace_back(0.0f, 0.0f, 1.0f);
+        }
+    for (int i = 0; i < cells; ++i)
+        for (int j = 0; j < cells; ++j) {
+            const auto a = std::uint32_t(i * (cells + 1) + j), b = a + std::uint32_t(cells + 1);
+            mesh.indices.insert(mesh.indices.end(), {a, a + 1, b + 1, a, b + 1, b});
+        }
+    return mesh;
+}
+
+/// A width x height VAL map: half on a wall (x = -1.2, facing +x), half on the ceiling.
+std::vector<gi::VirtualAreaLight> valMap(int width, int height) {
+    std::vector<gi::VirtualAreaLight> vals;
+    vals.reserve(std::size_t(width) * std::size_t(height));
+    const float pi = std::numbers::pi_v<float>;
+    for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) {
+            const float u = (float(x) + 0.5f) / float(width), v = (float(y) + 0.5f) / float(height);
+            gi::VirtualAreaLight l;
+            const glm::vec3 colour(0.6f + 0.4f * std::sin(7.0f * u), 0.5f + 0.3f * std::cos(5.0f * v), 0.4f + 0.2f * u);
+            if (y < height / 2) {
+                const float vv = v * 2.0f;
+                l.position = {-1.2f, 2.4f * (u - 0.5f), 1.6f * vv};
+                l.normal = {1.0f, 0.0f, 0.0f};
+                l.area = (2.4f / float(width)) * (1.6f / float(height / 2));
+            } else {
+                const float vv = (v - 0.5f) * 2.0f;
+                l.position = {2.4f * (u - 0.5f), 2.4f * (vv - 0.5f), 1.8f};
+                l.normal = {0.0f, 0.0f, -1.0f};
+                l.area = (2.4f / float(width)) * (2.4f / float(height - height / 2));
+            }
+            l.flux = pi * 0.5f * colour * l.area;
+            vals.push_back(l);
+        }
+    return vals;
+}
+
+struct BenchOptions {
+    int outputWidth = 320, outputHeight = 240;
+    std::vector<int> sparse{1024};
+    std::vector<std::string> valMaps{"160x120"};
+    std::vector<int> kCache{128};
+    int repeat = 3;
+    bool brute = true;
+    bool compute = false;
+};
+
+double minimum(const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); }
+
+void runBench(const BenchOptions& options) {
+    auto context = gl::createHeadlessContext();
+    std::printf("renderer: %s\n", context->describe().c_str());
+    std::vector<TriangleMesh> meshes{benchSphere(0.4f, 64, 128), benchGrid(2.4f, 64)};
+    std::vector<gi::UploadedMesh> gpu;
+    std::vector<gi::MeshInstance> instances(2);
+    for (std::size_t i = 0; i < 2; ++i) {
+        gpu.push_back(gi::UploadedMesh::create(meshes[i]));
+        instances[i].meshId = std::uint32_t(i);
+        instances[i].mesh = &meshes[i];
+        instances[i].gpu = gpu[i].view();
+    }
+    instances[0].world_T_model = glm::translate(glm::mat4(1.0f), {0.0f, 0.0f, 0.55f});
+    instances[0].material.specularAlbedo = glm::vec3(0.3f);
+    instances[0].material.specularExponent = 30.0f;
+    instances[1].material.diffuseAlbedo = glm::vec3(0.6f);
+    const glm::vec3 eye(1.8f, -2.0f, 1.6f);
+    const glm::mat4 projection = glm::perspective(0.8f, float(options.outputWidth) / float(options.outputHeight), 0.05f, 50.0f);
+    const gi::ViewParameters view{projection * glm::lookAt(eye, glm::vec3(0.0f, 0.0f, 0.4f), glm::vec3(0, 0, 1)), eye};
+    gi::SimpleGBuffer gbuffer = gi::SimpleGBuffer::create(options.outputWidth, options.outputHeight);
+    gbuffer.render(instances, view.clip_T_world);
+    std::vector<glm::vec4> positions(std::size_t(options.outputWidth) * std::size_t(options.outputHeight));
+    glGetTextureImage(gbuffer.position().id(), 0, GL_RGBA, GL_FLOAT, GLsizei(positions.size() * sizeof(glm::vec4)),
+                      positions.data());
+    const auto covered = std::size_t(std::count_if(positions.begin(), positions.end(), [](const glm::vec4& p) { return p.w != 0.0f; }));
+    std::printf("output %dx%d, %zu covered pixels; meshes: sphere %zu + floor %zu vertices\n", options.outputWidth,
+                options.outputHeight, covered, meshes[0].vertexCount(), meshes[1].vertexCount());
+    gl::Texture target = gl::Texture::create2D(GL_RGBA32F, options.outputWidth, options.outputHeight);
+    std::vector<glm::vec4> image(positions.size()), reference(positions.size());
+    auto readImage = [&](std::vector<glm::vec4>& out) {
+        glGetTextureImage(target.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(out.size() * sizeof(glm::vec4)), out.data());
+    };
+
+    for (const std::string& mapName : options.valMaps) {
+        int mapWidth = 0, mapHeight = 0;
+        if (std::sscanf(mapName.c_str(), "%dx%d", &mapWidth, &mapHeight) != 2 || mapWidth <= 0 || mapHeight <= 1)
+            throw Error("--vals", std::nullopt, "expected WIDTHxHEIGHT, got '" + mapName + "'");
+        const auto vals = valMap(mapWidth, mapHeight);
+        const gl::Buffer valBuffer = gl::Buffer::create(GLsizeiptr(vals.size() * sizeof(gi::VirtualAreaLight)), vals.data(), 0);
+        const gi::ValSetView valSet{valBuffer.id(), std::uint32_t(vals.size())};
+
+        double bruteMs = 0.0;
+        if (options.brute) {
+            gi::BruteForceSettings bruteSettings;
+            bruteSettings.glossy = false;
+            auto brute = gi::BruteForceIllumination::create(bruteSettings);
+            std::vector<double> times;
+            std::vector<gl::StageTime> stages;
+            for (int r = 0; r < std::max(1, options.repeat / 2); ++r) {
+                brute->render(valSet, instances, gbuffer.view(), view, target.id());
+                brute->lastStageTimes(stages);
+                double total = 0.0;
+                for (const auto& s : stages) total += s.milliseconds;
+                times.push_back(total);
+            }
+            bruteMs = minimum(times);
+            readImage(reference);
+            std::printf("\nVAL map %s (%zu VALs): brute force (diffuse) %.1f ms, %.3g interactions/s\n", mapName.c_str(),
+                        vals.size(), bruteMs, double(covered) * double(vals.size()) / (bruteMs * 1e-3));
+        } else {
+            std::printf("\nVAL map %s (%zu VALs)\n", mapName.c_str(), vals.size());
+        }
+
+        for (int sparse : options.sparse)
+            for (int kCache : options.kCache) {
+                const auto sparseSphere = std::size_t(sparse) * 2 / 3;
+                const gi::SparsePointProvider provider = [&](const gi::MeshInstance& instance) {
+                    return gi::sparsePointsFromVertices(*instance.mesh, instance.meshId == 0 ? sparseSphere
+                                                                                              : std::size_t(sparse) - sparseSphere);
+                };
+                struct SetupSpec {
+                    const char* name;
+                    bool glossy, occlusion;
+                };
+                for (const SetupSpec setup : {SetupSpec{"diffuse", false, false}, SetupSpec{"+glossy", true, false},
+                                              SetupSpec{"+occlusion", true, true}}) {
+                    gi::LightSkinSettings settings;
+                    settings.kCache = kCache;
+                    settings.glossy = setup.glossy;
+                    settings.occlusion = setup.occlusion;
+                    settings.valCapacity = std::uint32_t(vals.size());
+                    settings.computeGather = options.compute;
+                    auto technique = gi::LightSkinIllumination::create(settings, provider);
+                    technique->prepare(instances);
+                    std::map<std::string, std::vector<double>> stageTimes;
+                    std::vector<gl::StageTime> stages;
+                    std::vector<double> totals;
+                    for (int r = 0; r < options.repeat; ++r) {
+                        technique->render(valSet, instances, gbuffer.view(), view, target.id());
+                        technique->lastStageTimes(stages);
+                        double total = 0.0;
+                        for (const auto& s : stages) {
+                            stageTimes[s.name].push_back(s.milliseconds);
+                            total += s.milliseconds;
+                        }
+                        totals.push_back(total);
+                    }
+                    const double gatherMs = minimum(stageTimes["gather"]);
+                    const double totalMs = minimum(totals);
+                    std::printf("  sparse %5d K_cache %4d %-10s total %8.2f ms |", sparse, kCache, setup.name, totalMs);
+                    for (const auto& s : stages) std::printf(" %s %.2f", s.name.c_str(), minimum(stageTimes[s.name]));
+                    std::printf(" | gather %.3g interactions/s", double(sparse) * double(vals.size()) / (gatherMs * 1e-3));
+                    if (options.brute && !setup.glossy) {
+                        readImage(image);
+                        double sumAbs = 0.0, sumRef = 0.0, sum = 0.0;
+                        for (std::size_t i = 0; i < image.size(); ++i)
+                            for (int c = 0; c < 3; ++c) {
+                                sumAbs += double(std::abs(image[i][c] - reference[i][c]));
+                                sumRef += double(reference[i][c]);
+                                sum += double(image[i][c]);
+                            }
+                        std::printf(" | speed-up over brute force %.1fx, mean abs error %.2f%% of the mean, total %+.2f%%",
+                                    bruteMs / totalMs, 100.0 * sumAbs / sumRef, 100.0 * (sum / sumRef - 1.0));
+                    }
+                    std::printf("\n");
+                    std::fflush(stdout);
+                }
+            }
+    }
+    gl::DebugOutput::throwIfErrors("bench-gather");
+}
+
+template <typename T>
+std::vector<T> splitList(const std::string& text, T (*parse)(const std::string&)) {
+    std::vector<T> out;
+    std::size_t start = 0;
+    while (start <= text.size()) {
+        const std::size_t end = std::min(text.find(',', start), text.size());
+        if (end > start) out.push_back(parse(text.substr(start, end - start)));
+        start = end + 1;
+    }
+    return out;
+}
+
+void addBenchGatherCommand(CLI::App& app, int& exitCode) {
+    auto* command = app.add_subcommand("bench-gather", "Time the LightSkin stages and compare with the brute force");
+    auto options = std::make_shared<BenchOptions>();
+    auto sparse = std::make_shared<std::string>("1024");
+    auto maps = std::make_shared<std::string>("160x120");
+    auto kCache = std::make_shared<std::string>("128");
+    command->add_option("--width", options->outputWidth, "Output width (pixels)");
+    command->add_option("--height", options->outputHeight, "Output height (pixels)");
+    command->add_option("--sparse", *sparse, "Comma-separated sparse point counts (total of both meshes)");
+    command->add_option("--vals", *maps, "Comma-separated VAL map sizes WxH, e.g. 160x120,320x240");
+    command->add_option("--kcache", *kCache, "Comma-separated K_cache values (multiples of 16)");
+    command->add_option("--repeat", options->repeat, "Frames per configuration (the minimum is reported)");
+    command->add_flag("--no-brute", [options](std::int64_t) { options->brute = false; }, "Skip the brute force");
+    command->add_flag("--compute", options->compute, "Gather with the compute-shader variant instead of fragment passes");
+    command->callback([=, &exitCode] {
+        options->sparse = splitList<int>(*sparse, [](const std::string& s) { return std::stoi(s); });
+        options->kCache = splitList<int>(*kCache, [](const std::string& s) { return std::stoi(s); });
+        options->valMaps = splitList<std::string>(*maps, [](const std::string& s) { return s; });
+        runBench(*options);
+        exitCode = 0;
+    });
+}
+
+} // namespace
+
+static const CommandRegistration registration{"bench-gather", &addBenchGatherCommand};
+
+} // namespace lightskin::apps

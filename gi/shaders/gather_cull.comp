@@ -1,0 +1,30 @@
+#version 450 core
+// Adaptive mode: copies the VALs that can reach a receiver into the technique's own buffer.
+// Dropped: invalid (area <= 0 or NaN), receivers' bounding sphere wholly behind the VAL's plane
+// (exactly zero contribution), and an irradiance upper bound below uInfluenceCutoff.
+layout(local_size_x = 64) in;
+layout(std430, binding = 0) readonly buffer Source { vec4 source[]; };
+layout(std430, binding = 1) writeonly buffer Destination { vec4 destination[]; };
+layout(std430, binding = 2) buffer Counter { uint kept; };
+uniform uint uCount;
+uniform vec4 uReceiverSphere; // centre xyz, radius w (world metres)
+uniform float uInfluenceCutoff;
+
+void main() {
+    const uint i = gl_GlobalInvocationID.x;
+    if (i >= uCount) return;
+    const vec4 a = source[3u * i];
+    const vec4 b = source[3u * i + 1u];
+    const vec4 f = source[3u * i + 2u];
+    if (!(a.w > 0.0)) return;
+    const vec3 toCentre = uReceiverSphere.xyz - a.xyz;
+    if (dot(b.xyz, toCentre) < -uReceiverSphere.w) return; // sphere behind the emitting side
+    const float dMin = max(length(toCentre) - uReceiverSphere.w, 0.0);
+    const float r2 = a.w / 3.14159265;
+    const float bound = max(max(f.r, f.g), f.b) / (3.14159265 * (r2 + dMin * dMin)); // >= M w cos
+    if (bound < uInfluenceCutoff) return;
+    const uint slot = atomicAdd(kept, 1u);
+    destination[3u * slot] = a;
+    destination[3u * slot + 1u] = b;
+    destination[3u * slot + 2u] = f;
+}

@@ -1,0 +1,68 @@
+#version 450 core
+// Vertex interpolation (eq. 12-13): per vertex of one mesh instance, the weighted average of the
+// renormalised (and occlusion-attenuated) VPLs of its 8 nearest sparse points, in world space.
+#include "lightskin_math.glsl"
+#include "gather_sparse_points.glsl"
+#include "gather_vertex_vpl.glsl"
+
+layout(local_size_x = 64) in;
+
+struct VertexInput {
+    vec4 position;      // model space xyz
+    vec4 normal;        // model space xyz
+    uvec4 neighbours0;  // global sparse-point indices, nearest first
+    uvec4 neighbours1;
+};
+layout(std430, binding = 0) readonly buffer VertexInputs { VertexInput vertexInputs[]; };
+layout(std430, binding = 1) writeonly buffer VertexVpls { VertexVpl vertexVpls[]; };
+
+layout(binding = 0) uniform sampler2D uDiffuse;
+layout(binding = 1) uniform sampler2D uPositionD;
+layout(binding = 2) uniform sampler2D uGlossy;
+layout(binding = 3) uniform sampler2D uPositionS;
+layout(binding = 4) uniform sampler2D uOcclusion;
+uniform mat4 uWorldFromModel;
+uniform mat3 uNormalFromModel;
+uniform uint uFirstVertex;
+uniform uint uVertexCount;
+uniform int uApplyOcclusion;
+
+void main() {
+    const uint local = gl_GlobalInvocationID.x;
+    if (local >= uVertexCount) return;
+    const uint v = uFirstVertex + local;
+    const VertexInput vin = vertexInputs[v];
+    const vec3 p = (uWorldFromModel * vec4(vin.position.xyz, 1.0)).xyz;
+    const vec3 nv = normalize(uNormalFromModel * vin.normal.xyz);
+    uint index[kNeighbours];
+    float dist[kNeighbours];
+    float cosN[kNeighbours];
+    bool unique[kNeighbours];
+    for (int j = 0; j < kNeighbours; ++j) {
+        index[j] = j < 4 ? vin.neighbours0[j] : vin.neighbours1[j - 4];
+        const ivec2 texel = gather_pointTexel(int(index[j]));
+        dist[j] = length(p - texelFetch(uPointPosition, texel, 0).xyz);
+        cosN[j] = dot(nv, texelFetch(uPointNormal, texel, 0).xyz);
+        unique[j] = j == 0 || index[j] != index[j - 1];
+    }
+    const VertexWeights weights = ls_vertexWeights(dist, cosN, unique);
+    VertexVpl result;
+    result.diffuse = vec4(0.0);
+    result.diffusePosition = vec4(0.0);
+    result.glossy = vec4(0.0);
+    result.glossyPosition = vec4(0.0);
+    for (int j = 0; j < kNeighbours; ++j) {
+        const float w = weights.w[j];
+        if (w == 0.0) continue;
+        const ivec2 texel = gather_pointTexel(int(index[j]));
+        vec2 keep = vec2(1.0);
+        if (uApplyOcclusion != 0) keep = vec2(1.0) - clamp(texelFetch(uOcclusion, texel, 0).xy, 0.0, 1.0);
+        const vec4 d = texelFetch(uDiffuse, texel, 0);
+        const vec4 g = texelFetch(uGlossy, texel, 0);
+        result.diffuse += w * vec4(d.rgb * keep.x, d.w);
+        result.diffusePosition += w * vec4(texelFetch(uPositionD, texel, 0).xyz, 0.0);
+        result.glossy += w * vec4(g.rgb * keep.y, g.w);
+        result.glossyPosition += w * vec4(texelFetch(uPositionS, texel, 0).xyz, 0.0);
+    }
+    vertexVpls[v] = result;
+}

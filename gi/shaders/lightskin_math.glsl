@@ -1,0 +1,321 @@
+// LightSkin per-interaction math (Lensing & Broll, sections 3.1-3.3), written ONCE in the common
+// subset of GLSL 4.50 and C++/GLM: the GPU shaders #include this file with real = float, and the
+// double-precision CPU reference (gi/src/reference/LightSkinMath.h) #includes the very same file
+// with real = double, rvec3 = glm::dvec3. Rules for editing: no `out`/`inout` parameters, no
+// struct constructors (assign fields), only 0.0-style real literals, functions prefixed LS_FN.
+//
+// ---------------------------------------------------------------------------------------------
+// Units (decided once for the whole GI core)
+// A VAL j is a Lambertian disc of area a_j (m^2, radius r_j^2 = a_j / pi), unit normal n_j and
+// radiant flux phi_j (linear RGB, W). Its radiant exitance is M_j = phi_j / a_j = pi * L_e.
+// The paper writes eq. 4 as f_r * phi_j * w_j * cos(theta_i) with w_j the dimensionless disc form
+// factor of eq. 3; dimensionally that product only yields radiance if phi_j is a flux per unit
+// area, i.e. the exitance M_j: the irradiance of a receiver from a Lambertian disc is
+// E_j = M_j * F_disk = M_j * w_j * cos(theta_i) (Nusselt / reciprocity). With phi_j taken
+// literally, sum_j phi_j w_j would grow linearly with the VAL resolution (phi_j and w_j both scale
+// with a_j); with M_j it is resolution independent, and the paper's own remark (4.1) that l'
+// decouples from the VAL density only holds this way. So everywhere below "phi" of the paper is
+// M_j = phi_j / a_j, evaluated without dividing by a_j:  M_j w_j = phi_j cos(theta_j) / (pi (r_j^2 + d^2)).
+//
+//   eq. 3   w_j      = r_j^2 cos(theta_j) / (r_j^2 + |x - l_j|^2)            (dimensionless)
+//   eq. 4   E_j      = M_j w_j cos(theta_i)  [W/m^2];  L_d = (rho_d / pi) sum_j E_j   [W/(sr m^2)]
+//   eq. 5   L_s      = f_s c_k sum_j M_j w_j cos^k(gamma),  c_k = c (k + 1);  c in 1/sr, default
+//                      1/(2 pi) (normalised Phong lobe), so f_s is the specular albedo.
+//   eq. 7   L'_d = sum E_j (irradiance), L'_s = c_k sum M_j w_j cos^k(gamma) (radiance / f_s),
+//           W = sum (eps_l + weight_j), l' = sum l_j (eps_l + weight_j) / W
+//   eq.10   L^phong = (rho_d/pi) L''_d cos(theta) / D_d + f_s L''_s cos^k(gamma) / D_s
+//   eq.11   L'' = L' D / cos  (renormalisation: eq. 10 reproduces L' at the sparse point)
+// A coaxial disc thus gives the exact disc form factor r^2/(r^2+h^2), and a large uniform plane of
+// radiance L gives E -> pi L.
+//
+// Deviations from the paper, all documented where they occur:
+//  * D = |x - l'|^2 + rbar^2 instead of |x - l'|^2 (eq. 10/11): the averaged VPL keeps the
+//    weighted mean disc r^2 of its VALs, the regularisation the disc form factor (eq. 3) has
+//    itself. Equal to the paper when rbar << |x - l'|; finite when l' reaches the receiver.
+//  * Both channels are gated to VALs above the receiver's horizon (cos(theta_i) > 0): eq. 5 has
+//    no cos(theta_i), but light from below a surface cannot be reflected by it.
+//  * Light positions are accumulated relative to the receiver (l_j - x): same l' after adding x,
+//    but far better float precision for scenes far from the origin (1e3 m).
+//  * eps_l (eq. 7) is the paper's; the GPU adds its terms analytically in the renormalisation
+//    (sum_j eps (l_j - x) = eps (sum_j l_j - n x), gather_val_sums.comp) instead of per VAL in the
+//    gather loop: identical sums, and independent of VALs the adaptive mode culled. (With eq. 13
+//    the eps_l-weighted position of an unlit sparse point moves the interpolated VPL position of
+//    its vertices, so culling VALs per VAL would change the image.)
+//
+// Guards (each keeps results finite and non-negative; error stated):
+//  G1 |x - l| -> 0: direction cosines use 1/sqrt(max(d^2 + kCoincident r^2, kTinyLength2)).
+//     For d >> 1e-6 r the error is < 1e-12 relative; at d = 0 both cosines become 0, so a VAL
+//     exactly at the receiver contributes nothing (true value: between 0 and M_j, face-to-face).
+//  G2 r^2 + d^2 -> 0: divisor max(r^2 + d^2, kTinyLength2); only reached for zero-area VALs at the
+//     receiver, which are invalid anyway (area <= 0 => the VAL is skipped entirely).
+//  G3 cos^k underflow (k up to 1e4 and beyond): cos^k = exp(k log(max(cos, kTinyCos))), and 0 when
+//     cos <= 0 or k log(cos) < kMinLogPow (-80): absolute error < e^-80 = 1.8e-35, so float never
+//     sees denormals or inf*0 (c_k <= 1e5 keeps the product < 2e-30).
+//  G4 renormalisation cos -> 0 (eq. 11): divide by max(cos, kMinRenormCos = 1e-3). Exact whenever
+//     the averaged VPL is >= 1e-3 (0.06 deg) above the horizon; below, eq. 10 reproduces
+//     L' * cos/1e-3 < L' (an underestimate, never more light) and L'' <= 1e3 L' D.
+//  G5 W -> 0 (no VAL at all): divide by max(W, kTinyWeight); all sums are 0 so the VPL is 0 at x.
+//  G6 W_v = 0 (eq. 13): if all eq.-12 weights vanish (all neighbours equidistant, or
+//     the farthest is the only one facing the vertex) fall back to the normal term alone, then to
+//     the nearest neighbour with weight 1: model-space geometry only, so never flickers.
+//  G7 occlusion: projected sphere area <= kTinyArea => no occlusion; total o clamped to [0, 1].
+// ---------------------------------------------------------------------------------------------
+
+#ifndef LIGHTSKIN_MATH_GLSL
+#define LIGHTSKIN_MATH_GLSL
+
+#ifndef LS_CPP
+#define real float
+#define rvec2 vec2
+#define rvec3 vec3
+#define LS_FN
+#endif
+
+const real kPi = 3.14159265358979323846;
+const real kCoincident = 1.0e-12;   // G1, relative to r^2
+const real kTinyLength2 = 1.0e-36;  // G1/G2, m^2 (a normal float)
+const real kTinyCos = 1.0e-30;      // G3
+const real kMinLogPow = -80.0;      // G3
+const real kMinRenormCos = 1.0e-3;  // G4
+const real kTinyWeight = 1.0e-35;   // G5
+const real kTinyArea = 1.0e-30;     // G7 (unit-circle area, dimensionless)
+const int kNeighbours = 8;          // eq. 12/13
+
+// G3: cos^k with k >= 1, 0 for cos <= 0, no underflow to denormals.
+LS_FN real ls_cosPow(real c, real k) {
+    if (!(c > 0.0)) return 0.0;
+    const real e = k * log(max(min(c, 1.0), kTinyCos));
+    return e < kMinLogPow ? 0.0 : exp(e);
+}
+
+// Phong: cosine between the mirror direction of the light and the eye direction (eq. 5).
+LS_FN real ls_cosGamma(rvec3 n, rvec3 toLight, rvec3 toEye) {
+    const rvec3 mirror = 2.0 * dot(n, toLight) * n - toLight;
+    return dot(mirror, toEye);
+}
+
+// Unit vector from p to the eye (0 vector if p is at the eye).
+LS_FN rvec3 ls_toEye(rvec3 p, rvec3 eye) {
+    const rvec3 v = eye - p;
+    return v * inversesqrt(max(dot(v, v), kTinyLength2));
+}
+
+// One VAL seen from one receiver (eq. 3, 4, 5, 7).
+struct GatherSample {
+    rvec3 irradiance; // E_j = M_j w_j cos(theta_i), W/m^2              (eq. 4 / L'_d term of eq. 7)
+    real weightD;     // eps_l + w_j cos(theta_i)                        (eq. 7)
+    rvec3 glossy;     // c_k M_j w_j cos^k(gamma), W/(sr m^2) per f_s     (eq. 5 / L'_s term of eq. 7)
+    real weightS;     // eps_l + w_j cos^k(gamma)                         (eq. 7)
+    rvec3 offset;     // l_j - x, metres
+    real r2;          // r_j^2 = a_j / pi, m^2
+};
+
+// eq. 3 geometry of one VAL (l, nl, area) seen from a receiver (x, n), with guards G1, G2.
+struct DiscTerms {
+    rvec3 offset;  // l - x
+    rvec3 toLight; // unit (G1-regularised)
+    real r2;       // a / pi, 0 for an invalid VAL
+    real cosI;     // max(cos(theta_i), 0)
+    real g;        // cos(theta_j) / (r^2 + d^2): w = r^2 g, M w = flux g / pi
+};
+
+LS_FN DiscTerms ls_discTerms(rvec3 x, rvec3 n, rvec3 l, rvec3 nl, real area) {
+    DiscTerms t;
+    t.offset = l - x;
+    t.r2 = area > 0.0 ? area / kPi : 0.0;
+    const real d2 = dot(t.offset, t.offset);
+    const real invLength = inversesqrt(max(d2 + kCoincident * t.r2, kTinyLength2)); // G1
+    t.toLight = t.offset * invLength;
+    t.cosI = max(dot(n, t.toLight), 0.0);
+    const real cosJ = max(-dot(nl, t.toLight), 0.0);
+    t.g = cosJ / max(t.r2 + d2, kTinyLength2);                                     // G2
+    return t;
+}
+
+// x, n: receiver position and unit normal; l, nl, area, flux: the VAL; toEye: unit vector to the
+// eye; k: Phong exponent; ck = c (k+1); epsL: eps_l. An invalid VAL (area <= 0 or NaN) gives all 0.
+LS_FN GatherSample ls_gatherSample(rvec3 x, rvec3 n, rvec3 l, rvec3 nl, real area, rvec3 flux, rvec3 toEye,
+                                   real k, real ck, real epsL) {
+    const DiscTerms t = ls_discTerms(x, n, l, nl, area);
+    const bool valid = area > 0.0;
+    GatherSample s;
+    s.offset = t.offset;
+    s.r2 = t.r2;
+    const real w = t.r2 * t.g;                                                    // eq. 3
+    const rvec3 mw = flux * (t.g / kPi);                                          // M_j w_j
+    const real lobe = t.cosI > 0.0 ? ls_cosPow(ls_cosGamma(n, t.toLight, toEye), k) : 0.0;
+    s.irradiance = valid ? mw * t.cosI : rvec3(0.0);
+    s.glossy = valid ? mw * (ck * lobe) : rvec3(0.0);
+    s.weightD = valid ? epsL + w * t.cosI : 0.0;
+    s.weightS = valid ? epsL + w * lobe : 0.0;
+    return s;
+}
+
+// Irradiance E_j = M_j w_j cos(theta_i) alone (eq. 3, 4): the diffuse-only brute force.
+LS_FN rvec3 ls_irradiance(rvec3 x, rvec3 n, rvec3 l, rvec3 nl, real area, rvec3 flux) {
+    const DiscTerms t = ls_discTerms(x, n, l, nl, area);
+    return area > 0.0 ? flux * (t.g / kPi * t.cosI) : rvec3(0.0);
+}
+
+// Brute force (eq. 2 with 4 and 5) for one VAL at one pixel: reflected radiance toward the eye.
+LS_FN rvec3 ls_bruteForceRadiance(GatherSample s, rvec3 rhoD, rvec3 fs) {
+    return rhoD * (s.irradiance / kPi) + fs * s.glossy;
+}
+
+// An averaged, renormalised VPL (eq. 11) with its occlusion sphere S_o (section 3.3).
+struct Vpl {
+    rvec3 radiance;     // L'' (diffuse: irradiance * m^2; glossy: radiance/f_s * m^2)
+    real r2;            // rbar^2, m^2
+    rvec3 position;     // l', world metres
+    real sphereRadius;  // radius of S_o, metres
+};
+
+// eq. 10, diffuse factor of one VPL at p with normal n: L'' cos(theta) / D (irradiance, W/m^2).
+LS_FN rvec3 ls_applyDiffuse(Vpl v, rvec3 p, rvec3 n) {
+    const rvec3 o = v.position - p;
+    const real d2 = dot(o, o);
+    const real cosT = max(dot(n, o) * inversesqrt(max(d2 + kCoincident * v.r2, kTinyLength2)), 0.0);
+    return v.radiance * (cosT / max(d2 + v.r2, kTinyLength2));
+}
+
+// eq. 10, glossy factor of one VPL at p: L'' cos^k(gamma) / D (radiance per unit f_s), gated
+// to VPLs above the horizon like the gather.
+LS_FN rvec3 ls_applyGlossy(Vpl v, rvec3 p, rvec3 n, rvec3 toEye, real k) {
+    const rvec3 o = v.position - p;
+    const real d2 = dot(o, o);
+    const rvec3 toLight = o * inversesqrt(max(d2 + kCoincident * v.r2, kTinyLength2));
+    const real lobe = dot(n, toLight) > 0.0 ? ls_cosPow(ls_cosGamma(n, toLight, toEye), k) : 0.0;
+    return v.radiance * (lobe / max(d2 + v.r2, kTinyLength2));
+}
+
+// eq. 8-11 for the diffuse channel. sumL = L'_d, sumOffset = sum (l_j - x) weight_j, sumW = W_d,
+// sumR2 = sum r_j^2 weight_j, sumMoment = sum (l_j - x)^2 weight_j per axis (for S_o).
+LS_FN Vpl ls_renormaliseDiffuse(rvec3 sumL, rvec3 sumOffset, real sumW, real sumR2, rvec3 sumMoment, rvec3 x,
+                                rvec3 n) {
+    const real invW = 1.0 / max(sumW, kTinyWeight);                 // G5
+    const rvec3 mean = sumOffset * invW;
+    Vpl v;
+    v.r2 = max(sumR2 * invW, 0.0);
+    v.position = x + mean;
+    const rvec3 variance = max(sumMoment * invW - mean * mean, rvec3(0.0));
+    v.sphereRadius = sqrt(max(max(variance.x, variance.y), variance.z)); // radius = max sigma_i
+    const real d2 = dot(mean, mean);
+    const real cosT = dot(n, mean) * inversesqrt(max(d2 + kCoincident * v.r2, kTinyLength2));
+    v.radiance = sumL * (max(d2 + v.r2, kTinyLength2) / max(cosT, kMinRenormCos)); // eq. 11, G4
+    return v;
+}
+
+// eq. 8-11 for the glossy channel; sumMoment2 = sum |l_j - x|^2 weight_j (scalar), S_o radius
+// sqrt(trace / 3) (the isotropic equivalent of max sigma_i).
+LS_FN Vpl ls_renormaliseGlossy(rvec3 sumL, rvec3 sumOffset, real sumW, real sumR2, real sumMoment2, rvec3 x,
+                               rvec3 n, rvec3 toEye, real k) {
+    const real invW = 1.0 / max(sumW, kTinyWeight);
+    const rvec3 mean = sumOffset * invW;
+    Vpl v;
+    v.r2 = max(sumR2 * invW, 0.0);
+    v.position = x + mean;
+    const real d2 = dot(mean, mean);
+    v.sphereRadius = sqrt(max(sumMoment2 * invW - d2, 0.0) / 3.0);
+    const rvec3 toLight = mean * inversesqrt(max(d2 + kCoincident * v.r2, kTinyLength2));
+    const real lobe = dot(n, toLight) > 0.0 ? ls_cosPow(ls_cosGamma(n, toLight, toEye), k) : 0.0;
+    v.radiance = sumL * (max(d2 + v.r2, kTinyLength2) / max(lobe, kMinRenormCos));
+    return v;
+}
+
+// Tangent t of a right-handed orthonormal frame (t, b, n) (Duff et al. 2017), eq. 14's t.
+LS_FN rvec3 ls_tangent(rvec3 n) {
+    const real s = n.z >= 0.0 ? 1.0 : -1.0;
+    const real a = -1.0 / (s + n.z);
+    const real c = n.x * n.y * a;
+    return rvec3(1.0 + s * n.x * n.x * a, s * c, -s * n.x);
+}
+LS_FN rvec3 ls_binormal(rvec3 n) {
+    const real s = n.z >= 0.0 ? 1.0 : -1.0;
+    const real a = -1.0 / (s + n.z);
+    const real c = n.x * n.y * a;
+    return rvec3(c, s + n.y * n.y * a, -n.y);
+}
+
+// Occlusion target of one sparse point (section 3.3): S_o double-projected to a quad.
+struct OcclusionTarget {
+    rvec2 centre;  // eq. 14
+    real side;     // sqrt(pi F) with F of eq. 3 at cos(theta_j) = 1
+    real area;     // pi F (area of the projected sphere on the unit circle)
+    real distance; // |c - x|
+    real radius;   // radius of S_o
+};
+
+LS_FN OcclusionTarget ls_occlusionTarget(rvec3 x, rvec3 n, rvec3 t, rvec3 b, rvec3 c, real radius) {
+    OcclusionTarget o;
+    const rvec3 v = c - x;
+    const real d2 = dot(v, v);
+    const rvec3 u = v * inversesqrt(max(d2, kTinyLength2));
+    const real r2 = radius * radius;
+    const real cosI = max(dot(n, u), 0.0);
+    o.area = kPi * cosI * r2 / max(r2 + d2, kTinyLength2);
+    o.side = sqrt(o.area);
+    o.centre = rvec2(dot(u, t), dot(u, b));
+    o.distance = sqrt(d2);
+    o.radius = radius;
+    return o;
+}
+
+// Fraction of S_o one occluder disc (y, ny, ry) hides from x, scaled linearly to zero for
+// occluders between the near side and the centre of S_o (section 3.3). Not clamped: the caller
+// sums over occluders ("double occlusion" as in the paper) and clamps the total to [0, 1].
+LS_FN real ls_occluderAmount(OcclusionTarget target, rvec3 x, rvec3 n, rvec3 t, rvec3 b, rvec3 y, rvec3 ny, real ry) {
+    if (!(target.area > kTinyArea)) return 0.0;                 // G7
+    const rvec3 v = y - x;
+    const real d2 = dot(v, v);
+    if (!(d2 > kTinyLength2)) return 0.0;                        // the point itself
+    const rvec3 u = v * inversesqrt(d2);
+    const real cosI = dot(n, u);
+    if (!(cosI > 0.0)) return 0.0;                               // below the horizon: cannot occlude
+    const real r2 = ry * ry;
+    const real area = kPi * abs(dot(ny, u)) * r2 / max(r2 + d2, kTinyLength2) * cosI; // pi F_disk, eq. 3
+    const real side = sqrt(area);
+    const rvec2 centre = rvec2(dot(u, t), dot(u, b));                                // eq. 14
+    const real ox = max(min(target.centre.x + 0.5 * target.side, centre.x + 0.5 * side) -
+                            max(target.centre.x - 0.5 * target.side, centre.x - 0.5 * side), 0.0);
+    const real oy = max(min(target.centre.y + 0.5 * target.side, centre.y + 0.5 * side) -
+                            max(target.centre.y - 0.5 * target.side, centre.y - 0.5 * side), 0.0);
+    const real dy = sqrt(d2);
+    const real depth = clamp((target.distance - dy) / max(target.radius, 1.0e-30), 0.0, 1.0);
+    return ox * oy / target.area * depth;
+}
+
+struct VertexWeights {
+    real w[kNeighbours]; // normalised: sum = 1 (eq. 13's 1/W_v applied)
+};
+
+// eq. 12/13 weights of the 8 neighbours with guard G6. dist: |v - x_j|; cosN: n_v . n_x_j;
+// unique: false for repeats of an earlier index (sets with < 8 points).
+LS_FN VertexWeights ls_vertexWeights(real dist[kNeighbours], real cosN[kNeighbours], bool unique[kNeighbours]) {
+    VertexWeights r;
+    real dMax = 0.0;
+    for (int j = 0; j < kNeighbours; ++j)
+        if (unique[j]) dMax = max(dMax, dist[j]);
+    real total = 0.0;
+    for (int j = 0; j < kNeighbours; ++j) {
+        // eq. 12: (1 - d_j / d_max) (n_v . n_x,j), the dot product clamped to [0, 1]
+        const real distanceTerm = dMax > 0.0 ? max(1.0 - dist[j] / dMax, 0.0) : 1.0;
+        r.w[j] = unique[j] ? distanceTerm * clamp(cosN[j], 0.0, 1.0) : 0.0;
+        total += r.w[j];
+    }
+    if (!(total > 0.0)) { // G6a: normal term alone
+        total = 0.0;
+        for (int j = 0; j < kNeighbours; ++j) {
+            r.w[j] = unique[j] ? clamp(cosN[j], 0.0, 1.0) : 0.0;
+            total += r.w[j];
+        }
+    }
+    if (!(total > 0.0)) { // G6b: nearest neighbour
+        for (int j = 0; j < kNeighbours; ++j) r.w[j] = 0.0;
+        r.w[0] = 1.0;
+        total = 1.0;
+    }
+    for (int j = 0; j < kNeighbours; ++j) r.w[j] = r.w[j] / total;
+    return r;
+}
+
+#endif

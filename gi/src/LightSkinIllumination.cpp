@@ -1,0 +1,544 @@
+// LightSkin on OpenGL 4.5. Texture layouts (one texel per sparse point, index = y * width + x):
+//   point position  RGBA32F  xyz world metres, w = Phong exponent k of the point's material
+//   point normal    RGBA32F  xyz unit world normal, w = occluder radius (world metres)
+//   gather[0..4]    RGBA32F  (L'_d, sum r^2 w_d), (sum (l-x) w_d, W_d), (L'_s, sum r^2 w_s),
+//                            (sum (l-x) w_s, W_s), (sum (l-x)^2 w_d per axis, sum |l-x|^2 w_s)
+//   vpl[0..3]       RGBA32F  (L''_d, rbar^2_d), (l'_d, S_o radius), (L''_s, rbar^2_s), (l'_s, S_o radius)
+//   occlusion       RGBA32F  x = sum of diffuse occluder amounts, y = glossy (clamped where used)
+// Per vertex (SSBO, 4 vec4): (L'''_d, rbar^2), (l'''_d, 0), (L'''_s, rbar^2), (l'''_s, 0), world.
+#include <lightskin/core/Error.h>
+#include <lightskin/core/Log.h>
+#include <lightskin/gi/LightSkinIllumination.h>
+#include <lightskin/gl/ShaderLibrary.h>
+
+#include "GatherShaders.h"
+
+#include <glm/gtc/type_ptr.hpp>
+#include <glm/mat3x3.hpp>
+#include <glm/matrix.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+namespace lightskin::gi {
+
+namespace {
+
+constexpr int kGatherTargets = 5;
+constexpr int kVplTargets = 4;
+
+struct VertexInput {
+    glm::vec4 position;
+    glm::vec4 normal;
+    std::array<std::uint32_t, 8> neighbours;
+};
+static_assert(sizeof(VertexInput) == 64);
+
+struct GatherProgram {
+    gl::Program program;
+    GLint valCount = -1, pointCount = -1, eye = -1, c = -1;
+};
+
+GatherProgram buildGather(const gl::ShaderLibrary& library, int kCache, bool glossy, bool occlusion) {
+    const auto defines = detail::variantDefines(kCache, glossy, occlusion);
+    GatherProgram p;
+    p.program = library.buildProgram({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "gather_sparse.frag"}},
+                                     defines);
+    p.valCount = p.program.uniformLocation("uValCount");
+    p.pointCount = p.program.uniformLocation("uPointCount");
+    p.eye = p.program.uniformLocation("uEye");
+    p.c = p.program.uniformLocation("uC");
+    return p;
+}
+
+/// Convex with respect to the occluder model: no sparse point sees another above its horizon,
+/// so the occlusion pass would add exactly zero.
+bool convexForOcclusion(const SparsePointSet& set) {
+    const auto& points = set.points;
+    float extent = 0.0f;
+    for (const SparsePoint& p : points) extent = std::max(extent, glm::length(p.position - points.front().position));
+    const float tolerance = 1e-5f * extent;
+    for (const SparsePoint& a : points)
+        for (const SparsePoint& b : points)
+            if (glm::dot(a.normal, b.position - a.position) > tolerance) return false;
+    return true;
+}
+
+} // namespace
+
+struct LightSkinIllumination::Impl {
+    LightSkinSettings settings;
+    SparsePointProvider provider;
+    gl::ShaderLibrary library{embeddedShaders()};
+
+    // Programs: gather variants indexed [glossy][occlusion], occlusion variants [glossy].
+    GatherProgram gather[2][2];
+    gl::Program gatherCompute[2][2];
+    gl::Program renormalise, occlusion[2], interpolate, shade, cull, valSums;
+    gl::Buffer valSumsBuffer; // 2 vec4: (sum l, sum r^2), (sum l^2, count) over all valid VALs
+    gl::VertexArray emptyVertexArray;
+    gl::GpuStageTimer timer;
+    std::vector<gl::StageTime> stageTimes;
+
+    // Prepared data.
+    std::vector<SparsePointSet> sparse;
+    std::vector<std::uint32_t> sparseOffsets, vertexOffsets;
+    std::vector<bool> convex;
+    std::uint32_t pointCount = 0, vertexCount = 0;
+    int textureWidth = 1, textureHeight = 1;
+    gl::Texture pointPosition, pointNormal;
+    std::array<gl::Texture, kGatherTargets> gatherTargets;
+    std::array<gl::Texture, kVplTargets> vplTargets;
+    gl::Texture occlusionTarget;
+    gl::Framebuffer gatherFramebuffer, vplFramebuffer, occlusionFramebuffer, shadeFramebuffer;
+    gl::Buffer vertexInputs, vertexVpls;
+    detail::ValChunkBuffer vals;
+    gl::Buffer cullSource, cullCounter;
+    std::vector<glm::vec4> scratchPositions, scratchNormals;
+    LightSkinChoice choice;
+    std::string lastReason;
+
+    void buildPrograms() {
+        for (int g = 0; g < 2; ++g)
+            for (int o = 0; o < 2; ++o) {
+                gather[g][o] = buildGather(library, settings.kCache, g != 0, o != 0);
+                gatherCompute[g][o] = library.buildProgram({{GL_COMPUTE_SHADER, "gather_sparse.comp"}},
+                                                           detail::variantDefines(settings.kCache, g != 0, o != 0));
+            }
+        renormalise =
+            library.buildProgram({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "gather_renormalise.frag"}});
+        for (int g = 0; g < 2; ++g)
+            occlusion[g] = library.buildProgram(
+                {{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "gather_occlusion.frag"}},
+                detail::variantDefines(settings.kCache, g != 0, true));
+        interpolate = library.buildProgram({{GL_COMPUTE_SHADER, "gather_interpolate.comp"}});
+        shade = library.buildProgram({{GL_VERTEX_SHADER, "gather_shade.vert"}, {GL_FRAGMENT_SHADER, "gather_shade.frag"}});
+        cull = library.buildProgram({{GL_COMPUTE_SHADER, "gather_cull.comp"}});
+        valSums = library.buildProgram({{GL_COMPUTE_SHADER, "gather_val_sums.comp"}});
+    }
+
+    void readTexels(const gl::Texture& texture, std::vector<glm::vec4>& all) const {
+        all.resize(std::size_t(textureWidth) * std::size_t(textureHeight));
+        glGetTextureImage(texture.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(all.size() * sizeof(glm::vec4)), all.data());
+    }
+
+    void readInterleaved(std::span<const gl::Texture* const> textures, std::vector<glm::vec4>& out) const {
+        const std::size_t stride = textures.size();
+        out.assign(std::size_t(pointCount) * stride, glm::vec4(0.0f));
+        std::vector<glm::vec4> all;
+        for (std::size_t t = 0; t < stride; ++t) {
+            readTexels(*textures[t], all);
+            for (std::size_t i = 0; i < pointCount; ++i) out[i * stride + t] = all[i];
+        }
+    }
+
+    void uploadPoints(std::span<const MeshInstance> instances) {
+        std::size_t at = 0;
+        for (std::size_t m = 0; m < instances.size(); ++m) {
+            const glm::mat4& transform = instances[m].world_T_model;
+            const glm::mat3 linear(transform);
+            const glm::mat3 normalMatrix = glm::transpose(glm::inverse(linear));
+            const float scale = std::cbrt(std::abs(glm::determinant(linear)));
+            const float k = std::max(instances[m].material.specularExponent, 1.0f);
+            for (const SparsePoint& p : sparse[m].points) {
+                scratchPositions[at] = glm::vec4(glm::vec3(transform * glm::vec4(p.position, 1.0f)), k);
+                scratchNormals[at] = glm::vec4(glm::normalize(normalMatrix * p.normal), p.occluderRadius * scale);
+                ++at;
+            }
+        }
+        glTextureSubImage2D(pointPosition.id(), 0, 0, 0, textureWidth, textureHeight, GL_RGBA, GL_FLOAT,
+                            scratchPositions.data());
+        glTextureSubImage2D(pointNormal.id(), 0, 0, 0, textureWidth, textureHeight, GL_RGBA, GL_FLOAT,
+                            scratchNormals.data());
+    }
+
+    glm::vec4 receiverSphere() const {
+        glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+        for (std::size_t i = 0; i < pointCount; ++i) {
+            lo = glm::min(lo, glm::vec3(scratchPositions[i]));
+            hi = glm::max(hi, glm::vec3(scratchPositions[i]));
+        }
+        const glm::vec3 centre = 0.5f * (lo + hi);
+        return glm::vec4(centre, glm::length(hi - centre) * 1.0001f + 1e-6f);
+    }
+};
+
+LightSkinIllumination::LightSkinIllumination() : impl_(std::make_unique<Impl>()) {}
+LightSkinIllumination::~LightSkinIllumination() = default;
+
+std::unique_ptr<LightSkinIllumination> LightSkinIllumination::create(const LightSkinSettings& settings,
+                                                                     SparsePointProvider provider) {
+    LIGHTSKIN_ASSERT(bool(provider), "lightskin::gi::LightSkinIllumination::create(): a sparse point provider is required");
+    detail::ValChunkBuffer::validateKCache(settings.kCache, "LightSkinSettings.kCache");
+    std::unique_ptr<LightSkinIllumination> technique(new LightSkinIllumination());
+    Impl& impl = *technique->impl_;
+    impl.settings = settings;
+    impl.provider = std::move(provider);
+    impl.buildPrograms();
+    impl.emptyVertexArray = gl::VertexArray::create();
+    impl.timer = gl::GpuStageTimer::create(8);
+    impl.vals.reserve(settings.valCapacity, settings.kCache);
+    impl.cullCounter = gl::Buffer::create(sizeof(std::uint32_t), nullptr, GL_DYNAMIC_STORAGE_BIT);
+    impl.valSumsBuffer = gl::Buffer::create(2 * sizeof(glm::vec4), nullptr, GL_DYNAMIC_STORAGE_BIT);
+    return technique;
+}
+
+const LightSkinSettings& LightSkinIllumination::settings() const noexcept { return impl_->settings; }
+const LightSkinChoice& LightSkinIllumination::lastChoice() const noexcept { return impl_->choice; }
+const std::vector<SparsePointSet>& LightSkinIllumination::sparsePoints() const noexcept { return impl_->sparse; }
+const std::vector<std::uint32_t>& LightSkinIllumination::sparseOffsets() const noexcept { return impl_->sparseOffsets; }
+const std::vector<std::uint32_t>& LightSkinIllumination::vertexOffsets() const noexcept { return impl_->vertexOffsets; }
+
+void LightSkinIllumination::setSettings(const LightSkinSettings& settings) {
+    detail::ValChunkBuffer::validateKCache(settings.kCache, "LightSkinSettings.kCache");
+    const bool rebuild = settings.kCache != impl_->settings.kCache;
+    impl_->settings = settings;
+    if (rebuild) {
+        impl_->buildPrograms();
+        impl_->vals.reserve(std::max(impl_->vals.capacity(), settings.valCapacity), settings.kCache);
+    }
+}
+
+void LightSkinIllumination::prepare(std::span<const MeshInstance> instances) {
+    Impl& impl = *impl_;
+    impl.sparse.clear();
+    impl.sparseOffsets.clear();
+    impl.vertexOffsets.clear();
+    impl.convex.clear();
+    impl.pointCount = 0;
+    impl.vertexCount = 0;
+    for (const MeshInstance& instance : instances) {
+        LIGHTSKIN_ASSERT(instance.mesh != nullptr, "lightskin::gi::LightSkinIllumination::prepare(): instance without mesh");
+        SparsePointSet set = impl.provider(instance);
+        const std::string source = "mesh " + std::to_string(instance.meshId);
+        if (set.points.empty()) throw Error(source, std::nullopt, "the sparse point provider returned no points");
+        if (set.vertexNeighbours.size() != instance.mesh->vertexCount())
+            throw Error(source, std::nullopt, "sparse point set has " + std::to_string(set.vertexNeighbours.size()) +
+                                                  " neighbour lists for " + std::to_string(instance.mesh->vertexCount()) +
+                                                  " vertices");
+        for (const auto& list : set.vertexNeighbours)
+            for (std::uint32_t index : list)
+                if (index >= set.points.size()) throw Error(source, std::nullopt, "neighbour index out of range");
+        if (set.tessellationRatio > 1.0f)
+            log::warning("lightskin: " + source + " is tessellated coarser than its sparse points (ratio " +
+                         std::to_string(set.tessellationRatio) + "): indirect detail will be lost (paper section 6)");
+        impl.sparseOffsets.push_back(impl.pointCount);
+        impl.vertexOffsets.push_back(impl.vertexCount);
+        impl.pointCount += std::uint32_t(set.points.size());
+        impl.vertexCount += std::uint32_t(instance.mesh->vertexCount());
+        impl.convex.push_back(convexForOcclusion(set));
+        impl.sparse.push_back(std::move(set));
+    }
+    LIGHTSKIN_ASSERT(impl.pointCount > 0, "lightskin::gi::LightSkinIllumination::prepare(): no instances");
+
+    impl.textureWidth = std::min<int>(impl.settings.sparseTextureWidth, int(impl.pointCount));
+    impl.textureHeight = int((impl.pointCount + std::uint32_t(impl.textureWidth) - 1) / std::uint32_t(impl.textureWidth));
+    const std::size_t texels = std::size_t(impl.textureWidth) * std::size_t(impl.textureHeight);
+    impl.scratchPositions.assign(texels, glm::vec4(0.0f));
+    impl.scratchNormals.assign(texels, glm::vec4(0.0f, 0.0f, 1.0f, 0.0f));
+    auto makeTarget = [&] { return gl::Texture::create2D(GL_RGBA32F, impl.textureWidth, impl.textureHeight); };
+    impl.pointPosition = makeTarget();
+    impl.pointNormal = makeTarget();
+    impl.gatherFramebuffer = gl::Framebuffer::create();
+    impl.vplFramebuffer = gl::Framebuffer::create();
+    impl.occlusionFramebuffer = gl::Framebuffer::create();
+    impl.shadeFramebuffer = gl::Framebuffer::create();
+    std::array<GLenum, 8> drawBuffers{};
+    for (int i = 0; i < kGatherTargets; ++i) {
+        impl.gatherTargets[std::size_t(i)] = makeTarget();
+        impl.gatherFramebuffer.attach(GLenum(GL_COLOR_ATTACHMENT0 + i), impl.gatherTargets[std::size_t(i)]);
+        drawBuffers[std::size_t(i)] = GLenum(GL_COLOR_ATTACHMENT0 + i);
+    }
+    glNamedFramebufferDrawBuffers(impl.gatherFramebuffer.id(), kGatherTargets, drawBuffers.data());
+    impl.gatherFramebuffer.checkComplete("LightSkin gather targets");
+    for (int i = 0; i < kVplTargets; ++i) {
+        impl.vplTargets[std::size_t(i)] = makeTarget();
+        impl.vplFramebuffer.attach(GLenum(GL_COLOR_ATTACHMENT0 + i), impl.vplTargets[std::size_t(i)]);
+    }
+    glNamedFramebufferDrawBuffers(impl.vplFramebuffer.id(), kVplTargets, drawBuffers.data());
+    impl.vplFramebuffer.checkComplete("LightSkin VPL targets");
+    impl.occlusionTarget = makeTarget();
+    impl.occlusionFramebuffer.attach(GL_COLOR_ATTACHMENT0, impl.occlusionTarget);
+    impl.occlusionFramebuffer.checkComplete("LightSkin occlusion target");
+
+    std::vector<VertexInput> inputs;
+    inputs.reserve(impl.vertexCount);
+    for (std::size_t m = 0; m < instances.size(); ++m) {
+        const TriangleMesh& mesh = *instances[m].mesh;
+        for (std::size_t v = 0; v < mesh.vertexCount(); ++v) {
+            VertexInput in{glm::vec4(mesh.positions[v], 1.0f), glm::vec4(mesh.normals[v], 0.0f), {}};
+            for (std::size_t j = 0; j < 8; ++j) in.neighbours[j] = impl.sparse[m].vertexNeighbours[v][j] + impl.sparseOffsets[m];
+            inputs.push_back(in);
+        }
+    }
+    impl.vertexInputs = gl::Buffer::create(GLsizeiptr(std::max<std::size_t>(inputs.size(), 1) * sizeof(VertexInput)),
+                                           inputs.data(), 0);
+    impl.vertexVpls = gl::Buffer::create(GLsizeiptr(std::max<std::uint32_t>(impl.vertexCount, 1)) * 64, nullptr, 0);
+    log::info("lightskin: prepared " + std::to_string(instances.size()) + " instance(s), " +
+              std::to_string(impl.pointCount) + " sparse points, " + std::to_string(impl.vertexCount) + " vertices");
+}
+
+void LightSkinIllumination::render(const ValSetView& lights, std::span<const MeshInstance> instances,
+                                   const GBufferView& gbuffer, const ViewParameters& view, std::uint32_t targetTexture) {
+    Impl& impl = *impl_;
+    const LightSkinSettings& s = impl.settings;
+    LIGHTSKIN_ASSERT(instances.size() == impl.sparse.size(),
+                     "lightskin::gi::LightSkinIllumination::render(): instances differ from prepare()");
+    for (std::size_t m = 0; m < instances.size(); ++m)
+        LIGHTSKIN_ASSERT(instances[m].mesh != nullptr && instances[m].mesh->vertexCount() == impl.sparse[m].vertexNeighbours.size(),
+                         "lightskin::gi::LightSkinIllumination::render(): instance mesh differs from prepare()");
+
+    // "Model only what the scene requires".
+    LightSkinChoice& choice = impl.choice;
+    choice.glossy = s.glossy;
+    choice.occlusion = s.occlusion;
+    choice.valsIn = lights.count;
+    choice.reason.clear();
+    if (s.adaptive) {
+        const bool anySpecular = std::any_of(instances.begin(), instances.end(),
+                                             [](const MeshInstance& i) { return i.material.hasSpecular(); });
+        if (choice.glossy && !anySpecular) {
+            choice.glossy = false;
+            choice.reason += "glossy off (no material has f_s); ";
+        }
+        if (choice.occlusion && instances.size() == 1 && impl.convex[0]) {
+            choice.occlusion = false;
+            choice.reason += "occlusion off (one convex object); ";
+        }
+    }
+
+    // gather_val_sums.comp loops count / 256 times per thread: stay below llvmpipe's ~65k limit.
+    constexpr std::uint32_t kMaxVals = 256u * 60000u;
+    if (lights.count > kMaxVals)
+        throw Error("ValSetView", std::nullopt, std::to_string(lights.count) + " VALs exceed the supported " +
+                                                    std::to_string(kMaxVals) + " (increase the VAL stride)");
+
+    impl.timer.beginFrame();
+    glDisable(GL_DEPTH_TEST);
+    glDisable(GL_CULL_FACE);
+    glDisable(GL_SCISSOR_TEST);
+    glDisable(GL_BLEND);
+
+    impl.timer.begin("upload");
+    impl.uploadPoints(instances);
+    std::uint32_t count = lights.count;
+    // eps_l terms of eq. 7 over ALL valid VALs (before any culling), folded in the renormalisation.
+    glClearNamedBufferData(impl.valSumsBuffer.id(), GL_RGBA32F, GL_RGBA, GL_FLOAT, nullptr);
+    if (count > 0) {
+        impl.valSums.use();
+        glUniform1ui(impl.valSums.uniformLocation("uCount"), count);
+        glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 0, lights.buffer, 0, GLsizeiptr(count) * detail::kValBytes);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, impl.valSumsBuffer.id());
+        glDispatchCompute(1, 1, 1);
+        glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    }
+    if (count > 0) {
+        if (s.adaptive) {
+            if (impl.vals.capacity() < count) impl.vals.reserve(count, s.kCache);
+            const std::uint32_t zero = 0;
+            glNamedBufferSubData(impl.cullCounter.id(), 0, sizeof zero, &zero);
+            impl.cull.use();
+            glUniform1ui(impl.cull.uniformLocation("uCount"), count);
+            glUniform4fv(impl.cull.uniformLocation("uReceiverSphere"), 1, glm::value_ptr(impl.receiverSphere()));
+            glUniform1f(impl.cull.uniformLocation("uInfluenceCutoff"), s.valInfluenceCutoff);
+            glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 0, lights.buffer, 0, GLsizeiptr(count) * detail::kValBytes);
+            glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, impl.vals.buffer().id());
+            glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, impl.cullCounter.id());
+            glDispatchCompute((count + 63) / 64, 1, 1);
+            glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT | GL_UNIFORM_BARRIER_BIT);
+            glGetNamedBufferSubData(impl.cullCounter.id(), 0, sizeof count, &count);
+            if (count < lights.count)
+                choice.reason += std::to_string(lights.count - count) + " of " + std::to_string(lights.count) +
+                                 " VALs culled (cannot reach a receiver); ";
+        } else {
+            impl.vals.copyFrom(lights.buffer, count);
+        }
+    }
+    choice.valsGathered = count;
+    impl.timer.end();
+    if (s.adaptive && choice.reason != impl.lastReason) {
+        log::info("lightskin adaptive: " + (choice.reason.empty() ? std::string("everything on") : choice.reason));
+        impl.lastReason = choice.reason;
+    }
+
+    // 1. Gather.
+    impl.timer.begin("gather");
+    const float zeros[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+    for (int i = 0; i < kGatherTargets; ++i) glClearNamedFramebufferfv(impl.gatherFramebuffer.id(), GL_COLOR, i, zeros);
+    glViewport(0, 0, impl.textureWidth, impl.textureHeight);
+    glBindVertexArray(impl.emptyVertexArray.id());
+    glBindTextureUnit(8, impl.pointPosition.id());
+    glBindTextureUnit(9, impl.pointNormal.id());
+    if (count > 0 && s.computeGather) {
+        const gl::Program& p = impl.gatherCompute[choice.glossy ? 1 : 0][choice.occlusion ? 1 : 0];
+        p.use();
+        glUniform1i(p.uniformLocation("uPointCount"), int(impl.pointCount));
+        glUniform3fv(p.uniformLocation("uEye"), 1, glm::value_ptr(view.cameraPositionWorld));
+        glUniform1f(p.uniformLocation("uC"), s.cParameter);
+        for (int i = 0; i < kGatherTargets; ++i)
+            glBindImageTexture(GLuint(i), impl.gatherTargets[std::size_t(i)].id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_RGBA32F);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, impl.vals.buffer().id());
+        // each thread loops over perDispatch VALs: far below llvmpipe's ~65k iterations
+        const std::uint32_t perDispatch = std::uint32_t(std::clamp(s.computeValsPerDispatch, 64, 32768));
+        for (std::uint32_t first = 0; first < count; first += perDispatch) {
+            glUniform1ui(p.uniformLocation("uValFirst"), first);
+            glUniform1ui(p.uniformLocation("uValCount"), std::min(perDispatch, count - first));
+            glDispatchCompute((impl.pointCount + 63) / 64, 1, 1);
+            glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
+        }
+        glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT);
+    } else if (count > 0) {
+        const GatherProgram& p = impl.gather[choice.glossy ? 1 : 0][choice.occlusion ? 1 : 0];
+        p.program.use();
+        glUniform1i(p.pointCount, int(impl.pointCount));
+        glUniform3fv(p.eye, 1, glm::value_ptr(view.cameraPositionWorld));
+        glUniform1f(p.c, s.cParameter);
+        glBindFramebuffer(GL_FRAMEBUFFER, impl.gatherFramebuffer.id());
+        glEnable(GL_BLEND);
+        glBlendFunc(GL_ONE, GL_ONE);
+        glBlendEquation(GL_FUNC_ADD);
+        const std::uint32_t chunks = impl.vals.chunkCount(count);
+        for (std::uint32_t c = 0; c < chunks; ++c) {
+            impl.vals.bindChunk(c);
+            glUniform1i(p.valCount, int(impl.vals.chunkSize(c, count)));
+            glDrawArrays(GL_TRIANGLES, 0, 3);
+        }
+        glDisable(GL_BLEND);
+    }
+    impl.timer.end();
+
+    // 2. Renormalisation.
+    impl.timer.begin("normalisation");
+    glBindFramebuffer(GL_FRAMEBUFFER, impl.vplFramebuffer.id());
+    for (int i = 0; i < kVplTargets; ++i) glClearNamedFramebufferfv(impl.vplFramebuffer.id(), GL_COLOR, i, zeros);
+    impl.renormalise.use();
+    glUniform1i(impl.renormalise.uniformLocation("uPointCount"), int(impl.pointCount));
+    glUniform3fv(impl.renormalise.uniformLocation("uEye"), 1, glm::value_ptr(view.cameraPositionWorld));
+    glUniform1f(impl.renormalise.uniformLocation("uEpsilonL"), s.epsilonL);
+    glUniform1i(impl.renormalise.uniformLocation("uGlossyOn"), choice.glossy ? 1 : 0);
+    glUniform1i(impl.renormalise.uniformLocation("uOcclusionOn"), choice.occlusion ? 1 : 0);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, impl.valSumsBuffer.id());
+    for (int i = 0; i < kGatherTargets; ++i) glBindTextureUnit(GLuint(i), impl.gatherTargets[std::size_t(i)].id());
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    impl.timer.end();
+
+    // 3. Occlusion.
+    impl.timer.begin("occlusion");
+    glClearNamedFramebufferfv(impl.occlusionFramebuffer.id(), GL_COLOR, 0, zeros);
+    if (choice.occlusion) {
+        const gl::Program& p = impl.occlusion[choice.glossy ? 1 : 0];
+        p.use();
+        glUniform1i(p.uniformLocation("uPointCount"), int(impl.pointCount));
+        glBindFramebuffer(GL_FRAMEBUFFER, impl.occlusionFramebuffer.id());
+        glBindTextureUnit(1, impl.vplTargets[1].id());
+        glBindTextureUnit(3, impl.vplTargets[3].id());
+        glEnable(GL_BLEND);
+        glBlendFunc(GL_ONE, GL_ONE);
+        const GLint begin = p.uniformLocation("uOccluderBegin");
+        const GLint countLocation = p.uniformLocation("uOccluderCount");
+        const std::uint32_t chunk = std::uint32_t(std::clamp(s.occluderChunk, 1, 60000)); // llvmpipe loop limit
+        for (std::uint32_t first = 0; first < impl.pointCount; first += chunk) {
+            glUniform1i(begin, int(first));
+            glUniform1i(countLocation, int(std::min(chunk, impl.pointCount - first)));
+            glDrawArrays(GL_TRIANGLES, 0, 3);
+        }
+        glDisable(GL_BLEND);
+    }
+    impl.timer.end();
+
+    // 4. Vertex interpolation.
+    impl.timer.begin("interpolation");
+    impl.interpolate.use();
+    for (int i = 0; i < kVplTargets; ++i) glBindTextureUnit(GLuint(i), impl.vplTargets[std::size_t(i)].id());
+    glBindTextureUnit(4, impl.occlusionTarget.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, impl.vertexInputs.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, impl.vertexVpls.id());
+    glUniform1i(impl.interpolate.uniformLocation("uApplyOcclusion"), choice.occlusion ? 1 : 0);
+    for (std::size_t m = 0; m < instances.size(); ++m) {
+        const glm::mat3 normalMatrix = glm::transpose(glm::inverse(glm::mat3(instances[m].world_T_model)));
+        const std::uint32_t vertices = std::uint32_t(instances[m].mesh->vertexCount());
+        glUniformMatrix4fv(impl.interpolate.uniformLocation("uWorldFromModel"), 1, GL_FALSE,
+                           glm::value_ptr(instances[m].world_T_model));
+        glUniformMatrix3fv(impl.interpolate.uniformLocation("uNormalFromModel"), 1, GL_FALSE, glm::value_ptr(normalMatrix));
+        glUniform1ui(impl.interpolate.uniformLocation("uFirstVertex"), impl.vertexOffsets[m]);
+        glUniform1ui(impl.interpolate.uniformLocation("uVertexCount"), vertices);
+        if (vertices > 0) glDispatchCompute((vertices + 63) / 64, 1, 1);
+    }
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    impl.timer.end();
+
+    // 5. Per-pixel shading.
+    impl.timer.begin("shading");
+    glNamedFramebufferTexture(impl.shadeFramebuffer.id(), GL_COLOR_ATTACHMENT0, targetTexture, 0);
+    glBindFramebuffer(GL_FRAMEBUFFER, impl.shadeFramebuffer.id());
+    glClearNamedFramebufferfv(impl.shadeFramebuffer.id(), GL_COLOR, 0, zeros);
+    glViewport(0, 0, gbuffer.width, gbuffer.height);
+    impl.shade.use();
+    glUniformMatrix4fv(impl.shade.uniformLocation("uClipFromWorld"), 1, GL_FALSE, glm::value_ptr(view.clip_T_world));
+    glUniform3fv(impl.shade.uniformLocation("uEye"), 1, glm::value_ptr(view.cameraPositionWorld));
+    glUniform1f(impl.shade.uniformLocation("uPositionTolerance"), s.shadingPositionTolerance);
+    glUniform1i(impl.shade.uniformLocation("uGlossy"), choice.glossy ? 1 : 0);
+    glBindTextureUnit(0, gbuffer.worldPosition);
+    glBindTextureUnit(1, gbuffer.worldNormal);
+    glBindTextureUnit(2, gbuffer.diffuseAlbedo);
+    glBindTextureUnit(3, gbuffer.specular);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, impl.vertexVpls.id());
+    for (std::size_t m = 0; m < instances.size(); ++m) {
+        glUniformMatrix4fv(impl.shade.uniformLocation("uWorldFromModel"), 1, GL_FALSE,
+                           glm::value_ptr(instances[m].world_T_model));
+        glUniform1ui(impl.shade.uniformLocation("uFirstVertex"), impl.vertexOffsets[m]);
+        glBindVertexArray(instances[m].gpu.vertexArray);
+        glDrawElements(GL_TRIANGLES, GLsizei(instances[m].gpu.indexCount), GL_UNSIGNED_INT, nullptr);
+    }
+    glBindVertexArray(0);
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    impl.timer.end();
+    impl.timer.collect(impl.stageTimes);
+}
+
+void LightSkinIllumination::lastStageTimes(std::vector<gl::StageTime>& out) const { out = impl_->stageTimes; }
+
+void LightSkinIllumination::readGatherSums(std::vector<glm::vec4>& out) const {
+    const gl::Texture* t[kGatherTargets];
+    for (int i = 0; i < kGatherTargets; ++i) t[i] = &impl_->gatherTargets[std::size_t(i)];
+    impl_->readInterleaved(t, out);
+    // add the folded eps_l terms (as gather_renormalise.frag does) so that these are eq. 7's sums
+    glm::vec4 sums[2];
+    glGetNamedBufferSubData(impl_->valSumsBuffer.id(), 0, sizeof sums, sums);
+    const float eps = impl_->settings.epsilonL;
+    const float n = sums[1].w;
+    for (std::size_t i = 0; i < impl_->pointCount; ++i) {
+        const glm::vec3 x(impl_->scratchPositions[i]);
+        const glm::vec3 offset = eps * (glm::vec3(sums[0]) - n * x);
+        const glm::vec3 moment = eps * glm::max(glm::vec3(sums[1]) - 2.0f * x * glm::vec3(sums[0]) + n * x * x, glm::vec3(0.0f));
+        glm::vec4* g = &out[kGatherTargets * i];
+        g[0].w += eps * sums[0].w;
+        g[1] += glm::vec4(offset, eps * n);
+        if (impl_->choice.glossy) {
+            g[2].w += eps * sums[0].w;
+            g[3] += glm::vec4(offset, eps * n);
+        }
+        if (impl_->choice.occlusion) g[4] += glm::vec4(moment, impl_->choice.glossy ? moment.x + moment.y + moment.z : 0.0f);
+    }
+}
+
+void LightSkinIllumination::readSparseVpls(std::vector<glm::vec4>& out) const {
+    const gl::Texture* t[kVplTargets];
+    for (int i = 0; i < kVplTargets; ++i) t[i] = &impl_->vplTargets[std::size_t(i)];
+    impl_->readInterleaved(t, out);
+}
+
+void LightSkinIllumination::readOcclusion(std::vector<glm::vec4>& out) const {
+    const gl::Texture* t[1] = {&impl_->occlusionTarget};
+    impl_->readInterleaved(t, out);
+}
+
+void LightSkinIllumination::readVertexVpls(std::vector<glm::vec4>& out) const {
+    out.resize(std::size_t(impl_->vertexCount) * 4);
+    if (!out.empty())
+        glGetNamedBufferSubData(impl_->vertexVpls.id(), 0, GLsizeiptr(out.size() * sizeof(glm::vec4)), out.data());
+}
+
+} // namespace lightskin::gi

@@ -1,0 +1,268 @@
+// The double-precision reference and the shared math against analytic results: disc form
+// factor, infinite plane, square emitter, energy conservation, resolution invariance, and the
+// numerical extremes of the issue (finite, non-negative, bounded, guards exact where stated).
+#include "GatherTestScenes.h"
+
+#include <lightskin/gi/LightSkinReference.h>
+
+#include <glm/geometric.hpp>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+namespace lightskin::test {
+namespace {
+
+namespace ref = gi::reference;
+using glm::dvec3;
+constexpr double kPi = std::numbers::pi;
+
+double exitance(const gi::VirtualAreaLight& l) { return double(l.flux.x) / double(l.area); }
+
+// Exact form factor of a differential area on the axis of a parallel square of side s at height h.
+double squareFormFactor(double s, double h) {
+    const double x = s / (2.0 * h);
+    const double q = std::sqrt(1.0 + x * x);
+    return 4.0 / kPi * x / q * std::atan(x / q);
+}
+
+TEST(GatherReference, SingleCoaxialDiscGivesTheExactDiscFormFactor) {
+    for (double h : {1e-3, 0.1, 1.0, 10.0}) {
+        const double area = 0.05;
+        const auto l = disc({0, 0, float(h)}, {0, 0, -1}, float(area), {2, 2, 2});
+        const double r2 = area / kPi;
+        const double e = ref::irradiance(std::span(&l, 1), dvec3(0.0), dvec3(0, 0, 1));
+        EXPECT_NEAR(e / exitance(l), r2 / (r2 + h * h), 1e-6 * r2 / (r2 + h * h)) << "h = " << h;
+    }
+}
+
+TEST(GatherReference, FinelyDiscretisedDiscConvergesToTheDiscFormFactor) {
+    // Independent of eq. 3 for the big disc: many small discs (near-point sources) on a polar grid.
+    const double radius = 1.0, h = 0.7;
+    std::vector<gi::VirtualAreaLight> vals;
+    const int rings = 400, sectors = 400;
+    for (int i = 0; i < rings; ++i) {
+        const double r0 = radius * i / rings, r1 = radius * (i + 1) / rings;
+        const double area = kPi * (r1 * r1 - r0 * r0) / sectors;
+        for (int j = 0; j < sectors; ++j) {
+            const double phi = 2.0 * kPi * (j + 0.5) / sectors;
+            const double r = 0.5 * (r0 + r1);
+            vals.push_back(disc({float(r * std::cos(phi)), float(r * std::sin(phi)), float(h)}, {0, 0, -1}, float(area),
+                                glm::vec3(float(area))));
+        }
+    }
+    const double e = ref::irradiance(vals, dvec3(0.0), dvec3(0, 0, 1));
+    EXPECT_NEAR(e, radius * radius / (radius * radius + h * h), 2e-3);
+}
+
+TEST(GatherReference, LargeUniformPlaneGivesPiTimesRadiance) {
+    const double radiance = 0.8, h = 1.0;
+    double previousError = 1.0;
+    for (float size : {6.0f, 20.0f, 60.0f}) {
+        // cells of 0.1 h: the disc approximation of each cell is then within ~0.3 %
+        const auto vals = squareEmitter({0, 0, float(h)}, {0, 0, -1}, size, int(size * 10.0f), glm::vec3(float(radiance)));
+        const double e = ref::irradiance(vals, dvec3(0.0), dvec3(0, 0, 1));
+        const double error = std::abs(e / (kPi * radiance) - 1.0);
+        EXPECT_LT(error, previousError) << "must converge as the plane grows";
+        EXPECT_NEAR(e / (kPi * radiance), squareFormFactor(size, h), 4e-3) << "finite square of side " << size;
+        previousError = error;
+    }
+    EXPECT_LT(previousError, 5e-3);
+}
+
+TEST(GatherReference, MillionValsMatchTheExactSquareFormFactor) {
+    const double radiance = 1.5, h = 0.5, side = 1.0;
+    const auto vals = squareEmitter({0, 0, float(h)}, {0, 0, -1}, float(side), 1000, glm::vec3(float(radiance)));
+    ASSERT_EQ(vals.size(), 1000000u);
+    const double e = ref::irradiance(vals, dvec3(0.0), dvec3(0, 0, 1));
+    EXPECT_NEAR(e / (kPi * radiance), squareFormFactor(side, h), 1e-4);
+}
+
+TEST(GatherReference, HalvingOrDoublingValResolutionChangesTotalLightByAtMostTwoPercent) {
+    const auto receiver = makeGrid(2.0f, 20);
+    auto total = [&](int resolution) {
+        const auto vals = squareEmitter({0.3f, 0.0f, 0.4f}, {-0.3f, 0.1f, -1.0f}, 1.0f, resolution, {1, 1, 1});
+        double sum = 0.0;
+        for (const glm::vec3& p : receiver.positions) sum += ref::irradiance(vals, dvec3(p), dvec3(0, 0, 1));
+        return sum;
+    };
+    const double base = total(32);
+    EXPECT_NEAR(total(16) / base, 1.0, 0.02);
+    EXPECT_NEAR(total(64) / base, 1.0, 0.02);
+}
+
+TEST(GatherReference, EnergyIsNeverCreated) {
+    // Receivers tile a closed sphere around the VALs: received power <= emitted power.
+    const TriangleMesh sphere = makeSphere(1.0f, 200, 400);
+    std::vector<double> areas(sphere.vertexCount(), 0.0);
+    for (std::size_t t = 0; t < sphere.indices.size(); t += 3) {
+        const dvec3 a(sphere.positions[sphere.indices[t]]), b(sphere.positions[sphere.indices[t + 1]]),
+            c(sphere.positions[sphere.indices[t + 2]]);
+        const double area = 0.5 * glm::length(glm::cross(b - a, c - a));
+        for (int k = 0; k < 3; ++k) areas[sphere.indices[t + std::size_t(k)]] += area / 3.0;
+    }
+    for (std::uint32_t seed : {1u, 2u, 3u}) {
+        const auto vals = randomVals(20, {-0.5f, -0.5f, -0.5f}, {0.5f, 0.5f, 0.5f}, {0, 0, -3}, 0.01f, seed);
+        double emitted = 0.0;
+        for (const auto& l : vals) emitted += double(l.flux.x);
+        double received = 0.0;
+        for (std::size_t v = 0; v < sphere.vertexCount(); ++v)
+            received += areas[v] * ref::irradiance(vals, dvec3(sphere.positions[v]), -dvec3(sphere.normals[v]));
+        EXPECT_LE(received, emitted * 1.001) << "seed " << seed;
+        EXPECT_GT(received, emitted * 0.9) << "a closed receiver must catch nearly all power";
+    }
+}
+
+// Renormalisation (eq. 8-11): applying the averaged VPLs at the sparse point reproduces eq. 8.
+TEST(GatherReference, RenormalisedVplsReproduceTheGatheredRadianceAtTheSparsePoint) {
+    const auto vals = randomVals(300, {-1, -1, 0.5f}, {1, 1, 2}, {0, 0, 0}, 0.01f, 7);
+    std::vector<ref::Receiver> receivers;
+    for (int i = 0; i < 20; ++i) {
+        ref::Receiver r;
+        r.position = dvec3(0.1 * i - 1.0, 0.05 * i, 0.0);
+        r.normal = glm::normalize(dvec3(0.02 * i - 0.2, 0.1, 1.0));
+        r.exponent = 1.0 + 10.0 * i;
+        receivers.push_back(r);
+    }
+    const dvec3 eye(0.3, -2.0, 3.0);
+    std::vector<ref::GatherSums> sums;
+    ref::gatherInto(vals, receivers, eye, {}, sums);
+    std::vector<ref::VplPair> vpls;
+    ref::renormaliseInto(sums, receivers, eye, vpls);
+    for (std::size_t i = 0; i < receivers.size(); ++i) {
+        ref::Surface s{receivers[i].position, receivers[i].normal, dvec3(0.7), dvec3(0.3), receivers[i].exponent};
+        const dvec3 expected = s.diffuseAlbedo * sums[i].irradiance / kPi + s.specular * sums[i].glossy;
+        const dvec3 shaded = ref::shade(vpls[i], s, eye);
+        ref::Surface diffuseOnly = s;
+        diffuseOnly.specular = dvec3(0.0);
+        const dvec3 shadedDiffuse = ref::shade(vpls[i], diffuseOnly, eye);
+        const dvec3 brute = ref::bruteForce(vals, s, eye, {});
+        for (int c = 0; c < 3; ++c) {
+            const double diffuse = s.diffuseAlbedo[c] * sums[i].irradiance[c] / kPi;
+            EXPECT_NEAR(shadedDiffuse[c], diffuse, 1e-9 * diffuse) << "point " << i;
+            // the glossy lobe at the averaged position may fall below guard G4 (1e-3): then eq. 10
+            // underestimates, never overestimates
+            EXPECT_LE(shaded[c], expected[c] * (1.0 + 1e-9)) << "point " << i;
+            EXPECT_GE(shaded[c], expected[c] * (1.0 - 1e-3)) << "point " << i;
+            EXPECT_NEAR(brute[c], expected[c], 1e-9 * expected[c] + 1e-15) << "point " << i;
+        }
+    }
+}
+
+TEST(GatherReference, VertexWeightsNeverProduceNaN) {
+    std::vector<ref::Receiver> sparse(3);
+    sparse[0].position = dvec3(1, 0, 0);
+    sparse[1].position = dvec3(-1, 0, 0);
+    sparse[2].position = dvec3(0, 1, 0);
+    sparse[2].normal = dvec3(0, 0, -1);
+    std::vector<ref::VplPair> vpls(3);
+    for (std::size_t i = 0; i < 3; ++i) {
+        vpls[i].diffuse.radiance = dvec3(double(i + 1));
+        vpls[i].diffuse.position = sparse[i].position + dvec3(0, 0, 1);
+    }
+    using List = std::array<std::uint32_t, 8>;
+    // equidistant (W_v = 0 by eq. 12), a single repeated neighbour, and all facing away
+    const std::vector<dvec3> positions{dvec3(0.0), dvec3(0.0), dvec3(0, 1, 0)};
+    const std::vector<dvec3> normals{dvec3(0, 0, 1), dvec3(0, 0, 1), dvec3(0, 0, 1)};
+    const std::vector<List> neighbours{List{0, 1, 1, 1, 1, 1, 1, 1}, List{1, 1, 1, 1, 1, 1, 1, 1},
+                                       List{2, 2, 2, 2, 2, 2, 2, 2}};
+    std::vector<ref::VplPair> out;
+    ref::interpolateVerticesInto(positions, normals, neighbours, sparse, vpls, out);
+    EXPECT_DOUBLE_EQ(out[0].diffuse.radiance.x, 1.5) << "equidistant: normal term alone, equal weights";
+    EXPECT_DOUBLE_EQ(out[1].diffuse.radiance.x, 2.0) << "one unique neighbour";
+    EXPECT_DOUBLE_EQ(out[2].diffuse.radiance.x, 3.0) << "facing away: nearest neighbour";
+}
+
+// Numerical extremes on the reference: finite, non-negative, bounded by sum M_j, guards exact.
+struct Extreme {
+    const char* name;
+    std::vector<gi::VirtualAreaLight> vals;
+    dvec3 x{0.0};
+    dvec3 n{0, 0, 1};
+    double k = 20.0;
+    bool expectZero = false;
+};
+
+std::vector<Extreme> extremes() {
+    std::vector<Extreme> cases;
+    cases.push_back({"no VAL", {}, dvec3(0.0), dvec3(0, 0, 1), 20.0, true});
+    cases.push_back({"coincident", {disc({0, 0, 0}, {0, 0, -1}, 1e-4f, {1, 1, 1})}, dvec3(0.0), dvec3(0, 0, 1), 20.0, true});
+    cases.push_back({"1e-6 apart", {disc({0, 0, 1e-6f}, {0, 0, -1}, 1e-4f, {1, 1, 1})}});
+    for (float scale : {1e-3f, 1e3f}) {
+        Extreme e{scale < 1 ? "scale 1e-3" : "scale 1e3", {}, dvec3(scale), dvec3(0, 0, 1)};
+        e.vals = squareEmitter(glm::vec3(scale) + glm::vec3(0, 0, 0.5f * scale), {0, 0.2f, -1}, scale, 8, {1, 1, 1});
+        cases.push_back(e);
+    }
+    cases.push_back({"grazing above", {disc({1, 0, 1e-4f}, {-1, 0, 0}, 1e-2f, {1, 1, 1})}});
+    cases.push_back({"grazing below", {disc({1, 0, -1e-4f}, {-1, 0, 0}, 1e-2f, {1, 1, 1})}, dvec3(0.0), dvec3(0, 0, 1), 20.0, true});
+    cases.push_back({"back-facing", {disc({0, 0, 1}, {0, 0, 1}, 1e-2f, {1, 1, 1})}, dvec3(0.0), dvec3(0, 0, 1), 20.0, true});
+    for (double k : {1.0, 100.0, 1e4}) {
+        Extreme e{"exponent", {disc({0, 0.01f, 1}, {0, 0, -1}, 1e-2f, {1, 1, 1}), disc({1, 0, 1}, {-1, 0, -1}, 1e-2f, {1, 1, 1})}};
+        e.k = k;
+        cases.push_back(e);
+    }
+    cases.push_back({"single VAL", {disc({0.3f, 0.2f, 1}, {0, 0, -1}, 1e-2f, {1, 2, 3})}});
+    {
+        Extreme e{"all at one point", {}};
+        for (int i = 0; i < 1000; ++i) e.vals.push_back(disc({0.2f, 0, 1}, {0, 0, -1}, 1e-3f, {1, 1, 1}));
+        cases.push_back(e);
+    }
+    {
+        Extreme e{"all below the horizon", randomVals(500, {-1, -1, -2}, {1, 1, -0.01f}, {0, 0, 0}, 1e-2f, 3)};
+        e.expectZero = true;
+        cases.push_back(e);
+    }
+    return cases;
+}
+
+TEST(GatherReference, NumericalExtremesStayFiniteNonNegativeAndBounded) {
+    const dvec3 eye(0.5, 0.3, 2.0);
+    for (const Extreme& c : extremes()) {
+        SCOPED_TRACE(c.name);
+        ref::Receiver r;
+        r.position = c.x;
+        r.normal = c.n;
+        r.exponent = c.k;
+        std::vector<ref::GatherSums> sums;
+        ref::gatherInto(c.vals, std::span(&r, 1), eye, {}, sums);
+        std::vector<ref::VplPair> vpls;
+        ref::renormaliseInto(sums, std::span(&r, 1), eye, vpls);
+        double bound = 0.0;
+        for (const auto& l : c.vals) bound += exitance(l);
+        const ref::Surface s{c.x, c.n, dvec3(1.0), dvec3(1.0), c.k};
+        const dvec3 shaded = ref::shade(vpls[0], s, eye);
+        const double ck = (c.k + 1.0) / (2.0 * kPi);
+        for (int ch = 0; ch < 3; ++ch) {
+            EXPECT_TRUE(std::isfinite(sums[0].irradiance[ch]) && std::isfinite(sums[0].glossy[ch]));
+            EXPECT_TRUE(std::isfinite(vpls[0].diffuse.radiance[ch]) && std::isfinite(vpls[0].glossy.radiance[ch]));
+            EXPECT_TRUE(std::isfinite(shaded[ch]));
+            EXPECT_GE(sums[0].irradiance[ch], 0.0);
+            EXPECT_GE(sums[0].glossy[ch], 0.0);
+            EXPECT_GE(shaded[ch], 0.0);
+            EXPECT_LE(sums[0].irradiance[ch], bound * 3.0 + 1e-300);
+            EXPECT_LE(sums[0].glossy[ch], ck * bound * 3.0 + 1e-300);
+            EXPECT_LE(shaded[ch], (1.0 / kPi + ck) * bound * 3.0 + 1e-300) << "eq. 10 at the point reproduces eq. 8 or less";
+            if (c.expectZero) {
+                EXPECT_EQ(sums[0].irradiance[ch], 0.0);
+                EXPECT_EQ(sums[0].glossy[ch], 0.0);
+                EXPECT_EQ(shaded[ch], 0.0);
+            }
+        }
+        EXPECT_TRUE(std::isfinite(vpls[0].diffuse.position.x) && std::isfinite(vpls[0].glossy.position.z));
+    }
+}
+
+TEST(GatherReference, GlossyLobeUnderflowIsExactlyZeroNotDenormal) {
+    // cos(gamma) = 0.5 at k = 1e4: 0.5^1e4 underflows any float; the guard returns exactly 0.
+    const auto l = disc({1, 0, 1}, {-1, 0, -1}, 1e-2f, {1, 1, 1});
+    ref::Receiver r;
+    r.exponent = 1e4;
+    std::vector<ref::GatherSums> sums;
+    ref::gatherInto(std::span(&l, 1), std::span(&r, 1), dvec3(0, 0, 5), {}, sums);
+    EXPECT_EQ(sums[0].glossy.x, 0.0);
+    EXPECT_GT(sums[0].irradiance.x, 0.0);
+}
+
+} // namespace
+} // namespace lightskin::test
