@@ -2,6 +2,8 @@
 
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
+#include <lightskin/gi/BruteForceIllumination.h>
+#include <lightskin/gi/LightSkinIllumination.h>
 #include <lightskin/gi/ValGenerator.h>
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/render/NullIndirectIllumination.h>
@@ -59,10 +61,27 @@ PoseMode parsePoseMode(const std::string& text) {
     throw Error("--pose", std::nullopt, "expected ground-truth, tracking or fixed, got '" + text + "'");
 }
 
-std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettings& settings) {
-    if (settings.technique != "none")
-        log::warning("GI technique '" + settings.technique +
-                     "' is not available in this build yet: rendering without indirect light (technique 'none')");
+std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettings& settings, const render::Renderer& renderer) {
+    if (!settings.diffuse && settings.technique != "none")
+        log::warning("gi.diffuse = false is not supported by the techniques: the diffuse channel stays on");
+    if (settings.technique == "lightskin") {
+        gi::LightSkinSettings s;
+        s.kCache = settings.kCache;
+        s.glossy = settings.glossy;
+        s.occlusion = settings.occlusion;
+        const gi::SparsePointProvider provider = [&renderer](const gi::MeshInstance& instance) {
+            const gi::SparsePointSet* points = renderer.sparsePoints(instance.meshId);
+            LIGHTSKIN_ASSERT(points != nullptr, "lightskin::apps::createTechnique(): the renderer prepared no sparse points");
+            return *points;
+        };
+        return gi::LightSkinIllumination::create(s, provider);
+    }
+    if (settings.technique == "brute-force") {
+        gi::BruteForceSettings s;
+        s.kCache = settings.kCache;
+        s.glossy = settings.glossy;
+        return gi::BruteForceIllumination::create(s);
+    }
     return std::make_unique<render::NullIndirectIllumination>();
 }
 
@@ -92,7 +111,7 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
     const CameraIntrinsics& colour = source.colourIntrinsics;
     if (!colour.isValid()) throw Error(source.uri, std::nullopt, "the source has no valid colour intrinsics");
     p->renderer_ = render::Renderer::create(colour);
-    p->renderer_->setScene(scene);
+    p->renderer_->setScene(scene, scene.gi.technique == "lightskin");
     s.compositor = render::Compositor::create(colour, scene.compositing);
     if (options.poseMode == PoseMode::Tracking) s.tracker = tracking::PoseTracker::create(tagWorldFromScene(scene));
 
@@ -113,7 +132,7 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
 
 void FramePipeline::setGiSettings(const render::GiSettings& settings) {
     gi_ = settings;
-    state_->technique = createTechnique(settings);
+    state_->technique = createTechnique(settings, *renderer_);
     state_->technique->prepare(renderer_->instances());
 }
 

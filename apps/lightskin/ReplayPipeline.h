@@ -28,7 +28,8 @@ PoseMode parsePoseMode(const std::string& text);
 
 /// Creates the scene's GI technique ("lightskin", "brute-force", "none"). Techniques that this
 /// build does not have fall back to "none" with a warning (the pipeline runs without GI).
-std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettings& settings);
+/// LightSkin takes the sparse points the renderer prepared (Renderer::setScene with sparse points).
+std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettings& settings, const render::Renderer& renderer);
 
 struct PipelineOptions {
     PoseMode poseMode = PoseMode::GroundTruth;

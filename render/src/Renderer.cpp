@@ -2,6 +2,7 @@
 
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
+#include <lightskin/gi/SparsePointSampler.h>
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/gl/Readback.h>
 #include <lightskin/gl/ShaderLibrary.h>
@@ -16,7 +17,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <optional>
 #include <numbers>
 
 namespace lightskin::render {
@@ -27,6 +30,7 @@ struct Renderer::Object {
     Material material;
     glm::mat4 world_T_model{1.0f};
     gl::Texture texture; ///< empty when the material has none
+    std::optional<gi::SparsePointSet> sparse;
 };
 
 namespace {
@@ -129,7 +133,12 @@ std::unique_ptr<Renderer> Renderer::create(const CameraIntrinsics& intrinsics, c
     return r;
 }
 
-void Renderer::setScene(const Scene& scene) {
+const gi::SparsePointSet* Renderer::sparsePoints(std::uint32_t meshId) const noexcept {
+    if (meshId >= objects_.size() || !objects_[meshId]->sparse) return nullptr;
+    return &*objects_[meshId]->sparse;
+}
+
+void Renderer::setScene(const Scene& scene, bool prepareSparsePoints) {
     objects_.clear();
     instances_.clear();
     const std::string sceneName = scene.file.empty() ? std::string("scene") : scene.file.string();
@@ -141,8 +150,18 @@ void Renderer::setScene(const Scene& scene) {
         } catch (const Error& error) {
             throw Error(sceneName, std::nullopt, "/objects/" + std::to_string(i) + "/mesh ('" + so.name + "'): " + error.what());
         }
-        for (MeshPart& part : model.parts) {
+        double totalArea = 0.0;
+        for (const MeshPart& part : model.parts) totalArea += gi::surfaceArea(part.mesh);
+        for (std::size_t partIndex = 0; partIndex < model.parts.size(); ++partIndex) {
+            MeshPart& part = model.parts[partIndex];
             auto object = std::make_unique<Object>();
+            if (prepareSparsePoints) {
+                gi::SparsePointSettings settings;
+                const double share = totalArea > 0.0 ? gi::surfaceArea(part.mesh) / totalArea : 1.0;
+                settings.pointCount = std::clamp(int(std::lround(share * double(scene.gi.sparsePoints))), 16, 65536);
+                object->sparse = gi::prepareSparsePoints(part.mesh, settings,
+                                                         so.name + " part " + std::to_string(partIndex) + " (" + so.mesh.string() + ")");
+            }
             object->material = part.material;
             const MaterialOverride& o = so.material;
             if (o.diffuseAlbedo) object->material.diffuseAlbedo = *o.diffuseAlbedo;

@@ -192,9 +192,12 @@ GiSettings readGi(const Reader& r, const json& value, const std::string& p) {
         if (g.technique != "lightskin" && g.technique != "brute-force" && g.technique != "none")
             r.fail(p + "/technique", "\"lightskin\", \"brute-force\" or \"none\"", &value["technique"]);
     }
-    if (value.contains("sparsePoints")) g.sparsePoints = r.integer(value["sparsePoints"], p + "/sparsePoints", 1, 1 << 20);
+    if (value.contains("sparsePoints")) g.sparsePoints = r.integer(value["sparsePoints"], p + "/sparsePoints", 16, 65536);
     if (value.contains("valStride")) g.valStride = r.integer(value["valStride"], p + "/valStride", 1, 64);
-    if (value.contains("kCache")) g.kCache = r.integer(value["kCache"], p + "/kCache", 1, 4096);
+    if (value.contains("kCache")) {
+        g.kCache = r.integer(value["kCache"], p + "/kCache", 16, 4096);
+        if (g.kCache % 16 != 0) r.fail(p + "/kCache", "a multiple of 16 (uniform-buffer alignment) in [16, 4096]", &value["kCache"]);
+    }
     if (value.contains("diffuse")) g.diffuse = r.boolean(value["diffuse"], p + "/diffuse");
     if (value.contains("glossy")) g.glossy = r.boolean(value["glossy"], p + "/glossy");
     if (value.contains("occlusion")) g.occlusion = r.boolean(value["occlusion"], p + "/occlusion");

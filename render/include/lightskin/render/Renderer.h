@@ -18,6 +18,7 @@
 #include <lightskin/core/CameraIntrinsics.h>
 #include <lightskin/core/Pose.h>
 #include <lightskin/gi/IndirectIllumination.h>
+#include <lightskin/gi/SparsePointSet.h>
 #include <lightskin/gl/GpuTimer.h>
 #include <lightskin/gl/Objects.h>
 #include <lightskin/render/GpuMesh.h>
@@ -62,7 +63,13 @@ public:
     /// Loads the scene's meshes (throws lightskin::Error naming the scene file, object and mesh),
     /// uploads them, applies material overrides and renders the shadow maps (lights and objects are
     /// static in the world frame, so shadow maps do not change per frame).
-    void setScene(const Scene& scene);
+    /// With `prepareSparsePoints` (the LightSkin technique needs them), each mesh part gets its
+    /// sparse points (gi::prepareSparsePoints, scene.gi.sparsePoints per object, split over its
+    /// parts by surface area, at least 16 each) *before* upload, because that step may refine the
+    /// mesh and the renderer must draw the refined mesh (vertexNeighbours index its vertices).
+    void setScene(const Scene& scene, bool prepareSparsePoints = false);
+    /// The prepared sparse points of instance `meshId`, or nullptr when they were not prepared.
+    const gi::SparsePointSet* sparsePoints(std::uint32_t meshId) const noexcept;
     /// Objects as the GI techniques see them (valid until the next setScene()).
     std::span<const gi::MeshInstance> instances() const noexcept { return instances_; }
 
