@@ -102,8 +102,13 @@ public:
         const std::string& uri = info_.uri;
         file_ = file;
         if (device_.open(file ? uri.c_str() : (uri.empty() ? openni::ANY_DEVICE : uri.c_str())) != openni::STATUS_OK)
+        {
+            const std::string detail = openni::OpenNI::getExtendedError();
             throw Error(file ? uri : "openni2://" + uri, std::nullopt,
-                        std::string("cannot open: ") + openni::OpenNI::getExtendedError());
+                        std::string(file ? "OpenNI2 cannot open the file (truncated, header only or not an .oni?)"
+                                         : "OpenNI2 cannot open the device (not connected, no driver, or in use?)") +
+                            (detail.empty() ? "" : ": " + detail));
+        }
         info_.deviceName = device_.getDeviceInfo().getName();
         if (!file) info_.deviceName = std::string(device_.getDeviceInfo().getVendor()) + " " + info_.deviceName;
         if (file) {

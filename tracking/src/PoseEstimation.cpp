@@ -103,6 +103,7 @@ void estimatePoseInto(const std::vector<TagDetection>& detections, const TagWorl
     out.tagsUsed.clear();
     out.unknownTags.clear();
     out.candidates.clear();
+    out.ambiguityRatio = std::numeric_limits<double>::infinity();
 
     std::vector<const TagDetection*> used;
     std::vector<const WorldTag*> usedTags;
@@ -133,7 +134,26 @@ void estimatePoseInto(const std::vector<TagDetection>& detections, const TagWorl
     for (std::size_t t = 0; t < used.size(); ++t) singleTagCandidates(*used[t], *usedTags[t], intrinsics, starts);
 
     if (used.size() == 1) {
-        for (const Pose& pose : starts) out.candidates.push_back({pose, rmsError(pose, points, intrinsics)});
+        // Each IPPE solution polished by Levenberg-Marquardt on the 8 corner coordinates, unless that
+        // slides it over to the other solution's side (then the two would merge and the ambiguity
+        // would be hidden).
+        std::array<double, 2> ippeErrors{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
+        for (std::size_t i = 0; i < starts.size(); ++i) {
+            PoseCandidate candidate{starts[i], rmsError(starts[i], points, intrinsics)};
+            if (i < 2) ippeErrors[i] = candidate.rmsErrorPx;
+            const Pose refined = refineLm(starts[i], points, intrinsics);
+            const double error = rmsError(refined, points, intrinsics);
+            bool staysOnItsSide = true;
+            for (std::size_t j = 0; j < starts.size(); ++j) {
+                if (j != i && Pose::rotationAngleBetween(refined, starts[j]) <= Pose::rotationAngleBetween(refined, starts[i]))
+                    staysOnItsSide = false;
+            }
+            if (staysOnItsSide && error < candidate.rmsErrorPx) candidate = {refined, error};
+            out.candidates.push_back(candidate);
+        }
+        if (starts.size() == 2) {
+            out.ambiguityRatio = std::max(ippeErrors[0], ippeErrors[1]) / std::max(std::min(ippeErrors[0], ippeErrors[1]), 1e-9);
+        }
     } else {
         cv::Vec3d rvec;
         cv::Vec3d tvec;
@@ -149,15 +169,23 @@ void estimatePoseInto(const std::vector<TagDetection>& detections, const TagWorl
         // The best start and the best one that is a genuinely different pose (> 5 degrees away),
         // each refined on all corners.
         constexpr double distinctRadians = 5.0 * std::numbers::pi / 180.0;
+        int refinements = 0;
         for (const PoseCandidate& candidate : scored) {
             if (!std::isfinite(candidate.rmsErrorPx)) break;
-            const bool distinct = std::all_of(out.candidates.begin(), out.candidates.end(), [&](const PoseCandidate& c) {
-                return Pose::rotationAngleBetween(c.world_T_camera, candidate.world_T_camera) > distinctRadians;
+            // Starts near an existing candidate would refine onto it: skip them without the cost.
+            const bool nearExisting = std::any_of(out.candidates.begin(), out.candidates.end(), [&](const PoseCandidate& c) {
+                return Pose::rotationAngleBetween(c.world_T_camera, candidate.world_T_camera) <= distinctRadians;
             });
-            if (!distinct) continue;
+            if (nearExisting) continue;
+            if (++refinements > 4) break;
             const Pose refined = refineLm(candidate.world_T_camera, points, intrinsics);
             const double error = rmsError(refined, points, intrinsics);
-            out.candidates.push_back(error <= candidate.rmsErrorPx ? PoseCandidate{refined, error} : candidate);
+            const PoseCandidate improved = error <= candidate.rmsErrorPx ? PoseCandidate{refined, error} : candidate;
+            // Starts that converge onto an existing candidate are the same solution.
+            const bool distinct = std::all_of(out.candidates.begin(), out.candidates.end(), [&](const PoseCandidate& c) {
+                return Pose::rotationAngleBetween(c.world_T_camera, improved.world_T_camera) > distinctRadians;
+            });
+            if (distinct) out.candidates.push_back(improved);
             if (out.candidates.size() == 2) break;
         }
     }
@@ -166,6 +194,8 @@ void estimatePoseInto(const std::vector<TagDetection>& detections, const TagWorl
                          out.candidates.end());
     std::sort(out.candidates.begin(), out.candidates.end(),
               [](const PoseCandidate& a, const PoseCandidate& b) { return a.rmsErrorPx < b.rmsErrorPx; });
+    if (used.size() > 1 && out.candidates.size() == 2)
+        out.ambiguityRatio = out.candidates[1].rmsErrorPx / std::max(out.candidates[0].rmsErrorPx, 1e-9);
 }
 
 PoseMeasurement estimatePose(const std::vector<TagDetection>& detections, const TagWorld& world,
@@ -190,6 +220,40 @@ double reprojectionRmsPx(const Pose& world_T_camera, const std::vector<TagDetect
     }
     if (points.world.empty()) return std::numeric_limits<double>::quiet_NaN();
     return rmsError(world_T_camera, points, intrinsics);
+}
+
+PoseUncertainty estimateUncertainty(const Pose& world_T_camera, const std::vector<TagDetection>& detections,
+                                    const TagWorld& world, const CameraIntrinsics& intrinsics, double cornerSigmaPx) {
+    Correspondences points;
+    for (const TagDetection& detection : detections) {
+        const WorldTag* tag = world.find(detection.id);
+        if (tag == nullptr) continue;
+        const auto corners = tagCorners(tag->sizeMetres);
+        for (std::size_t c = 0; c < 4; ++c) {
+            const glm::dvec3 w = tag->world_T_tag.transformPoint(corners[c]);
+            points.world.emplace_back(w.x, w.y, w.z);
+        }
+    }
+    PoseUncertainty result;
+    if (points.world.size() < 4) return result;
+    cv::Vec3d rvec;
+    cv::Vec3d tvec;
+    rvecTvecFromPose(world_T_camera.inverse(), rvec, tvec);
+    std::vector<cv::Point2d> projected;
+    cv::Mat jacobian; // 2N x (3 rotation + 3 translation + 2 focal + 2 centre + distortion)
+    cv::projectPoints(cv::Mat(static_cast<int>(points.world.size()), 1, CV_64FC3, points.world.data()), rvec, tvec,
+                      cameraMatrix(intrinsics), cv::noArray(), projected, jacobian);
+    const cv::Mat poseJacobian = jacobian.colRange(0, 6);
+    cv::Mat information = poseJacobian.t() * poseJacobian;
+    cv::Mat covariance;
+    if (cv::invert(information, covariance, cv::DECOMP_CHOLESKY) == 0.0) return result; // singular
+    covariance *= cornerSigmaPx * cornerSigmaPx;
+    cv::Mat eigenvalues;
+    cv::eigen(covariance(cv::Rect(0, 0, 3, 3)), eigenvalues);
+    result.rotationStdDegrees = std::sqrt(std::max(eigenvalues.at<double>(0), 0.0)) * 180.0 / std::numbers::pi;
+    cv::eigen(covariance(cv::Rect(3, 3, 3, 3)), eigenvalues);
+    result.translationStdMetres = std::sqrt(std::max(eigenvalues.at<double>(0), 0.0));
+    return result;
 }
 
 bool refinePoseWithDepth(const cv::Mat& depth, double depthScaleMetres, const CameraIntrinsics& intrinsics,

@@ -36,12 +36,11 @@ struct PoseMeasurement {
     std::vector<PoseCandidate> candidates;
 
     bool valid() const noexcept { return !candidates.empty(); }
-    /// candidates[1].rms / candidates[0].rms; infinity with one candidate. Close to 1 means the
-    /// two solutions explain the corners equally well: the choice between them is a guess.
-    double ambiguityRatio() const noexcept {
-        if (candidates.size() < 2) return std::numeric_limits<double>::infinity();
-        return candidates[1].rmsErrorPx / std::max(candidates[0].rmsErrorPx, 1e-9);
-    }
+    /// How clearly the best solution beats the other one: second / best reprojection error, both
+    /// straight from IPPE for a single tag (before the Levenberg-Marquardt polish, which could move
+    /// only one of them), both refined for a bundle; infinity with one candidate. Close to 1 means
+    /// the two solutions explain the corners equally well: the choice between them is a guess.
+    double ambiguityRatio = std::numeric_limits<double>::infinity();
 };
 
 /// Estimates world_T_camera from `detections` whose corners are in an UNDISTORTED image of the
@@ -53,6 +52,23 @@ void estimatePoseInto(const std::vector<TagDetection>& detections, const TagWorl
                       const CameraIntrinsics& intrinsics, PoseMeasurement& out);
 PoseMeasurement estimatePose(const std::vector<TagDetection>& detections, const TagWorld& world,
                              const CameraIntrinsics& intrinsics);
+
+/// First-order (Gauss-Newton) uncertainty of a PnP pose, from the corner Jacobian and an assumed
+/// corner noise: covariance = sigma^2 (J^T J)^-1 over the 6 pose parameters.
+struct PoseUncertainty {
+    /// Standard deviation of the rotation along its worst axis, degrees. Large (> 0.5) for
+    /// nearly fronto-parallel, small or distant single tags: the pose is poorly determined.
+    double rotationStdDegrees = std::numeric_limits<double>::infinity();
+    /// Standard deviation of the world origin's position in the camera frame along its worst
+    /// axis, metres (mostly along the viewing ray). The camera's position in the world also moves
+    /// with the rotation error times the distance (lever arm).
+    double translationStdMetres = std::numeric_limits<double>::infinity();
+};
+
+/// Uncertainty of `world_T_camera` given the used corners of `detections` and a corner noise of
+/// `cornerSigmaPx` pixels (PoseTracker uses max(RMS reprojection error, 0.1 px)).
+PoseUncertainty estimateUncertainty(const Pose& world_T_camera, const std::vector<TagDetection>& detections,
+                                    const TagWorld& world, const CameraIntrinsics& intrinsics, double cornerSigmaPx);
 
 /// RMS reprojection error (pixels) of `world_T_camera` on the used corners of `detections`.
 double reprojectionRmsPx(const Pose& world_T_camera, const std::vector<TagDetection>& detections,

@@ -87,6 +87,8 @@ struct TrackingResult {
     double reprojectionErrorPx = 0.0;
     /// Second-best / best error of this frame's measurement (infinity for a clear bundle view).
     double ambiguityRatio = 0.0;
+    /// First-order uncertainty of the accepted measurement (PoseEstimation.h); infinite without one.
+    PoseUncertainty uncertainty;
     /// The chosen solution was not clearly better than its flipped alternative.
     bool ambiguous = false;
     /// The alternative solution was chosen because it agrees with the previous pose.
