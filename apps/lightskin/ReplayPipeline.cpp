@@ -1,5 +1,6 @@
 #include "ReplayPipeline.h"
 
+#include <lightskin/capture/DepthFilter.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
 #include <lightskin/gi/BruteForceIllumination.h>
@@ -12,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include <chrono>
+#include <cmath>
 
 namespace lightskin::apps {
 
@@ -93,6 +95,7 @@ struct FramePipeline::State {
     std::optional<gi::ValGenerator> vals;
     bool valsUsable = false;
     render::Compositor compositor;
+    capture::BilateralDepthFilter depthFilter; // KinectFusion defaults (capture/DepthFilter.h)
     cv::Mat depthMetres, virtualColour, virtualDepth;
     std::vector<gl::StageTime> scratchTimes;
 };
@@ -121,6 +124,8 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
     if (s.valsUsable) {
         gi::ValGeneratorSettings settings;
         settings.stride = scene.gi.valStride;
+        // The camera's exposure: a linear pixel value p is radiance p / 2^exposureStops.
+        settings.exposure = std::exp2(-scene.exposureStops);
         s.vals = gi::ValGenerator::create(colour.width, colour.height, settings);
     } else {
         log::warning(source.uri + ": depth is not registered to colour; no VALs and no occlusion by real geometry");
@@ -149,8 +154,8 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     auto t = Clock::now();
     const bool haveDepth = frame.hasDepth() && s.valsUsable && frame.depth.cols == frame.colour.cols &&
                            frame.depth.rows == frame.colour.rows;
-    if (haveDepth) frame.depth.convertTo(s.depthMetres, CV_32F, frame.depthScaleMetres);
-    addTime(out.cpuTimes, used, "depth", msSince(t));
+    if (haveDepth) s.depthFilter.filterInto(frame.depth, frame.depthScaleMetres, s.depthMetres);
+    addTime(out.cpuTimes, used, "depth filter", msSince(t));
 
     // Pose.
     t = Clock::now();
