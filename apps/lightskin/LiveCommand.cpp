@@ -98,7 +98,9 @@ std::string statusLine(double fps, const FrameOutput& out, const FramePipeline& 
     line += pipeline.giSettings().glossy ? " +glossy" : "";
     line += pipeline.giSettings().occlusion ? " +occl" : "";
     line += " | ";
+    const char* overlays[] = {"", " + vals", " + sparse points", " + error vs brute force"};
     line += render::toString(options.view);
+    line += overlays[int(options.overlay)];
     line += " | ";
     line += tracking::toString(out.tracking.state);
     return line;
@@ -164,7 +166,17 @@ int runLive(const LiveArgs& args) {
             case 'G': o.giEnabled = !o.giEnabled; break;
             case 'L': gi.glossy = !gi.glossy; pipeline->setGiSettings(gi); break;
             case 'O': gi.occlusion = !gi.occlusion; pipeline->setGiSettings(gi); break;
-            case 'V': o.view = render::DebugView((int(o.view) + 1) % 5); break;
+            case 'V':
+                // final, direct, indirect, normals, albedo, then the overlays vals, sparse, error.
+                if (o.overlay != Overlay::None) {
+                    o.overlay = Overlay((int(o.overlay) + 1) % 4);
+                } else if (o.view == render::DebugView::Albedo) {
+                    o.view = render::DebugView::Final;
+                    o.overlay = Overlay::Vals;
+                } else {
+                    o.view = render::DebugView(int(o.view) + 1);
+                }
+                break;
             case 'C': o.compare = !o.compare; break;
             case 'P': snapshotRequested = true; break;
             case 'Q':

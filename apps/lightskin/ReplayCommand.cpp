@@ -72,13 +72,6 @@ std::set<std::int64_t> parseFrameList(const std::string& text) {
     return frames;
 }
 
-render::DebugView parseView(const std::string& text) {
-    for (auto v : {render::DebugView::Final, render::DebugView::DirectOnly, render::DebugView::IndirectOnly,
-                   render::DebugView::Normals, render::DebugView::Albedo})
-        if (text == render::toString(v)) return v;
-    throw Error("--view", std::nullopt, "expected final, direct, indirect, normals or albedo, got '" + text + "'");
-}
-
 class Progress {
 public:
     Progress(std::optional<std::int64_t> total) : total_(total), tty_(isatty(STDERR_FILENO) != 0), start_(Clock::now()) {}
@@ -148,7 +141,9 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     }
     const render::Scene scene = render::loadScene(scenePath);
     const std::set<std::int64_t> chosen = parseFrameList(args.frames);
-    const render::DebugView view = parseView(args.view);
+    render::DebugView view = render::DebugView::Final;
+    Overlay overlay = Overlay::None;
+    parseView(args.view, view, overlay);
 
     auto source = capture::openFrameSource(args.recording, {});
     const capture::FrameSourceInfo& info = source->info();
@@ -168,6 +163,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     PipelineOptions options;
     options.poseMode = poseMode;
     options.view = view;
+    options.overlay = overlay;
     options.compare = !args.noCompare;
     auto pipeline = FramePipeline::create(scene, info, options);
     // Without a GI technique both halves of the comparison would be the same image.
@@ -209,6 +205,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
             rf.cpuTimes = output.cpuTimes;
             rf.gpuTimes = output.gpuTimes;
             rf.totalMs = output.totalMs;
+            rf.errorVsBruteForce = output.meanRelativeErrorVsBruteForce;
             if (compare) render::sideBySideInto(output.withGi, "with GI (" + pipeline->techniqueName() + ")", output.withoutGi, "without GI", sideBySide);
             const bool write = chosen.empty() || chosen.count(frame.index) > 0;
             if (write) {
@@ -262,7 +259,7 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
     command->add_option("--frames", args->frames, "Frames to write as PNG: all (default) or a list like 0,5,10-20");
     command->add_option("--max-frames", args->maxFrames, "Stop after this many frames");
     command->add_option("--pose", args->pose, "ground-truth | tracking | fixed (default: ground truth when the recording has it, else tracking)");
-    command->add_option("--view", args->view, "final | direct | indirect | normals | albedo (debug views)");
+    command->add_option("--view", args->view, "Debug view: final | direct | indirect | normals | albedo | vals (VALs by flux) | sparse (sparse points) | error (vs brute force)");
     command->add_flag("--no-video", args->noVideo, "Do not write a video");
     command->add_option("--video-format", args->videoFormat, "auto (MP4, falling back to MJPG AVI) | mp4 | avi");
     command->add_flag("--side-by-side-video", args->sideBySideVideo, "Video frames show with GI | without GI");

@@ -11,7 +11,11 @@
 #include <lightskin/tracking/TagWorld.h>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
 
+#include <glm/exponential.hpp>
+
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -87,6 +91,65 @@ std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettin
     return std::make_unique<render::NullIndirectIllumination>();
 }
 
+void parseView(const std::string& text, render::DebugView& view, Overlay& overlay) {
+    overlay = Overlay::None;
+    view = render::DebugView::Final;
+    if (text == "vals") overlay = Overlay::Vals;
+    else if (text == "sparse") overlay = Overlay::SparsePoints;
+    else if (text == "error") overlay = Overlay::ErrorVsBruteForce;
+    else {
+        for (auto v : {render::DebugView::Final, render::DebugView::DirectOnly, render::DebugView::IndirectOnly,
+                       render::DebugView::Normals, render::DebugView::Albedo})
+            if (text == render::toString(v)) {
+                view = v;
+                return;
+            }
+        throw Error("--view", std::nullopt,
+                    "expected final, direct, indirect, normals, albedo, vals, sparse or error, got '" + text + "'");
+    }
+}
+
+namespace {
+
+bool projectToPixel(const CameraIntrinsics& k, const Pose& camera_T_world, const glm::dvec3& world, cv::Point& pixel) {
+    const glm::dvec3 c = camera_T_world.transformPoint(world);
+    if (c.z <= 0.05) return false;
+    const glm::dvec2 p = k.project(c);
+    if (!(p.x >= 0 && p.y >= 0 && p.x < k.width && p.y < k.height)) return false;
+    pixel = cv::Point(int(std::lround(p.x)), int(std::lround(p.y)));
+    return true;
+}
+
+void drawVals(cv::Mat& image, const std::vector<gi::VirtualAreaLight>& vals, const CameraIntrinsics& k, const Pose& world_T_camera) {
+    float brightest = 0.0f;
+    for (const auto& v : vals) brightest = std::max({brightest, v.flux.x, v.flux.y, v.flux.z});
+    if (!(brightest > 0.0f)) return;
+    const Pose camera_T_world = world_T_camera.inverse();
+    for (const auto& v : vals) {
+        cv::Point pixel;
+        if (!projectToPixel(k, camera_T_world, glm::dvec3(v.position), pixel)) continue;
+        const glm::vec3 c = glm::sqrt(v.flux / brightest) * 255.0f; // square root: dim VALs stay visible
+        cv::circle(image, pixel, 1, cv::Scalar(c.z, c.y, c.x), cv::FILLED);
+    }
+}
+
+void drawSparsePoints(cv::Mat& image, const render::Renderer& renderer, const CameraIntrinsics& k, const Pose& world_T_camera) {
+    const Pose camera_T_world = world_T_camera.inverse();
+    for (const gi::MeshInstance& instance : renderer.instances()) {
+        const gi::SparsePointSet* set = renderer.sparsePoints(instance.meshId);
+        if (set == nullptr) continue;
+        for (const gi::SparsePoint& point : set->points) {
+            const glm::vec4 world = instance.world_T_model * glm::vec4(point.position, 1.0f);
+            cv::Point pixel;
+            if (!projectToPixel(k, camera_T_world, glm::dvec3(world), pixel)) continue;
+            cv::circle(image, pixel, 2, cv::Scalar(0, 0, 0), cv::FILLED);
+            cv::circle(image, pixel, 1, cv::Scalar(0, 255, 255), cv::FILLED);
+        }
+    }
+}
+
+} // namespace
+
 struct FramePipeline::State {
     const render::Scene* scene = nullptr;
     capture::FrameSourceInfo source;
@@ -97,6 +160,8 @@ struct FramePipeline::State {
     render::Compositor compositor;
     capture::BilateralDepthFilter depthFilter; // KinectFusion defaults (capture/DepthFilter.h)
     cv::Mat depthMetres, virtualColour, virtualDepth;
+    std::unique_ptr<gi::IndirectIllumination> bruteForce; // error view only
+    cv::Mat indirectTechnique, indirectReference, errorMap;
     std::vector<gl::StageTime> scratchTimes;
 };
 
@@ -149,6 +214,7 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     std::size_t used = 0;
     out.frameIndex = frame.index;
     out.valCount = 0;
+    out.meanRelativeErrorVsBruteForce = -1.0;
 
     // Depth in metres (CV_32FC1, 0 = missing), registered to colour.
     auto t = Clock::now();
@@ -207,6 +273,39 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     r.shade(shade);
     r.readOutputsInto(s.virtualColour, s.virtualDepth);
     s.compositor.compositeInto(frame.colour, s.virtualColour, s.virtualDepth, realDepth, out.withGi);
+    if (options_.overlay == Overlay::Vals && out.valCount > 0 && s.vals)
+        drawVals(out.withGi, s.vals->downloadVals(), frame.colourIntrinsics, world_T_camera);
+    if (options_.overlay == Overlay::SparsePoints) drawSparsePoints(out.withGi, r, frame.colourIntrinsics, world_T_camera);
+    if (options_.overlay == Overlay::ErrorVsBruteForce && runGi) {
+        if (!s.bruteForce) {
+            render::GiSettings reference = gi_;
+            reference.technique = "brute-force";
+            s.bruteForce = createTechnique(reference, r);
+            s.bruteForce->prepare(r.instances());
+        }
+        r.readIndirectInto(s.indirectTechnique);
+        s.bruteForce->render(valSet, r.instances(), r.gbuffer(), r.viewParameters(), r.indirectTarget());
+        r.readIndirectInto(s.indirectReference);
+        // Luminance of |a - b| mapped to a colour ramp over covered pixels; the mean relative error in text.
+        s.errorMap.create(s.indirectTechnique.size(), CV_8UC3);
+        double sumError = 0.0, sumReference = 0.0;
+        for (int v = 0; v < s.errorMap.rows; ++v)
+            for (int u = 0; u < s.errorMap.cols; ++u) {
+                const cv::Vec4f a = s.indirectTechnique.at<cv::Vec4f>(v, u), b = s.indirectReference.at<cv::Vec4f>(v, u);
+                const float la = 0.2126f * a[0] + 0.7152f * a[1] + 0.0722f * a[2];
+                const float lb = 0.2126f * b[0] + 0.7152f * b[1] + 0.0722f * b[2];
+                if (s.virtualColour.at<cv::Vec4b>(v, u)[3] == 0) continue;
+                sumError += std::abs(double(la) - double(lb));
+                sumReference += std::abs(double(lb));
+                const float level = std::clamp(std::abs(la - lb) / options_.errorScale, 0.0f, 1.0f);
+                out.withGi.at<cv::Vec3b>(v, u) = cv::Vec3b(std::uint8_t(255.0f * (1.0f - level)), 0, std::uint8_t(255.0f * level));
+            }
+        out.meanRelativeErrorVsBruteForce = sumReference > 0.0 ? sumError / sumReference : 0.0;
+        char text[96];
+        std::snprintf(text, sizeof text, "|%s - brute force| / brute force: %.3f", std::string(s.technique->name()).c_str(),
+                      out.meanRelativeErrorVsBruteForce);
+        cv::putText(out.withGi, text, cv::Point(6, 16), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+    }
     if (options_.compare) {
         shade.includeIndirect = false;
         if (shade.view == render::DebugView::IndirectOnly) shade.view = render::DebugView::Final;

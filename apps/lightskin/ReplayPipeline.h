@@ -31,10 +31,24 @@ PoseMode parsePoseMode(const std::string& text);
 /// LightSkin takes the sparse points the renderer prepared (Renderer::setScene with sparse points).
 std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettings& settings, const render::Renderer& renderer);
 
+/// Debug overlays drawn over the with-GI composite (beyond the renderer's DebugView):
+/// Vals: every VAL as a dot at its position, coloured by its flux (normalised to the frame's
+/// brightest VAL); SparsePoints: the technique's sparse points (LightSkin only); ErrorVsBruteForce:
+/// |indirect(technique) - indirect(brute force)| per pixel as a colour map (blue 0 .. red at
+/// errorScale, linear RGB luminance), with the mean relative error in the corner (brute force has no
+/// occlusion term, so with occlusion on the difference includes it).
+enum class Overlay { None, Vals, SparsePoints, ErrorVsBruteForce };
+
+/// Parses a view name: final, direct, indirect, normals, albedo (render::DebugView) or vals,
+/// sparse, error (overlays over the final image). Throws lightskin::Error otherwise.
+void parseView(const std::string& text, render::DebugView& view, Overlay& overlay);
+
 struct PipelineOptions {
     PoseMode poseMode = PoseMode::GroundTruth;
     bool compare = true;           ///< also render without GI (the side-by-side comparison)
     render::DebugView view = render::DebugView::Final;
+    Overlay overlay = Overlay::None;
+    float errorScale = 0.05f; ///< radiance difference shown as full red in the error view
     bool giEnabled = true;         ///< live toggle; off = direct light only
 };
 
@@ -45,6 +59,7 @@ struct FrameOutput {
     tracking::TrackingResult tracking;
     std::optional<Pose> world_T_camera;
     std::uint32_t valCount = 0;
+    double meanRelativeErrorVsBruteForce = -1.0; ///< error view only: mean |a-b| / mean |b| over covered pixels
     std::vector<gl::StageTime> cpuTimes; ///< wall-clock per stage, ms (incl. waiting for the GPU)
     std::vector<gl::StageTime> gpuTimes; ///< GL timer queries, ms
     double totalMs = 0.0;

@@ -85,6 +85,7 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
         j["world_T_camera"] = f.world_T_camera ? poseJson(*f.world_T_camera) : nlohmann::json(nullptr);
         j["vals"] = f.valCount;
         j["totalMs"] = f.totalMs;
+        if (f.errorVsBruteForce >= 0.0) j["meanRelativeErrorVsBruteForce"] = f.errorVsBruteForce;
         for (const auto& st : f.cpuTimes) j["cpuMs"][st.name] = st.milliseconds;
         for (const auto& st : f.gpuTimes) {
             const bool seen = j.contains("gpuMs") && j["gpuMs"].contains(st.name);

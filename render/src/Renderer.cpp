@@ -317,6 +317,8 @@ void Renderer::readOutputsInto(cv::Mat& colourRgba, cv::Mat& depthMetres) const 
     gl::readTextureR32fInto(outputDepth_, depthMetres);
 }
 
+void Renderer::readIndirectInto(cv::Mat& out) const { gl::readTextureRgba32fInto(indirect_, out); }
+
 void Renderer::lastStageTimes(std::vector<gl::StageTime>& out) { timer_.collect(out); }
 
 } // namespace lightskin::render

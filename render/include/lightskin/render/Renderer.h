@@ -85,6 +85,9 @@ public:
     /// Reads the outputs: colour CV_8UC4 (RGBA, sRGB), depth CV_32FC1 (metres), top row first.
     void readOutputsInto(cv::Mat& colourRgba, cv::Mat& depthMetres) const;
 
+    /// Reads the indirect target (CV_32FC4 linear RGBA, top row first): debug views.
+    void readIndirectInto(cv::Mat& out) const;
+
     /// GPU times of the last renderGBuffer()/shade() pair ("gbuffer", "shade").
     void lastStageTimes(std::vector<gl::StageTime>& out);
 
