@@ -82,3 +82,29 @@ TEST(MainJob, TrackingModeFollowsTheGroundTruth) {
         EXPECT_LT(glm::distance(translation(frame["world_T_camera"]), translation(truth[std::size_t(i)]["world_T_camera"])), 0.15);
     }
 }
+
+// Ctrl-C stops after the current frame and keeps what was written: every frame read has its PNG,
+// the video is finalised with that many frames, the report says "interrupted", exit code 130.
+TEST(MainJob, CtrlCStopsCleanlyAndKeepsWhatWasWritten) {
+    const fs::path scratch = test::scratchDir("main_job_interrupt");
+    const fs::path out = scratch / "out", root = test::sourceDir();
+    const std::string script = std::string(LIGHTSKIN_PROGRAM) + " replay " + (root / "recordings" / "synth-orbit").string() +
+                               " --scene " + (root / "recordings" / "scenes" / "orbit.json").string() + " --out " + out.string() +
+                               " > " + (scratch / "stdout.txt").string() + " 2> " + (scratch / "stderr.txt").string() +
+                               " & pid=$!; i=0; while [ ! -e " + (out / "frames" / "000001.png").string() +
+                               " ] && [ $i -lt 600 ]; do sleep 0.1; i=$((i+1)); done; kill -INT $pid; wait $pid; echo $? > " +
+                               (scratch / "rc.txt").string();
+    ASSERT_EQ(std::system(("sh -c '" + script + "'").c_str()), 0);
+    EXPECT_EQ(readText(scratch / "rc.txt"), "130\n") << readText(scratch / "stderr.txt");
+    const nlohmann::json report = nlohmann::json::parse(readText(out / "report.json"));
+    EXPECT_EQ(report["interrupted"], true);
+    const int read = report["framesRead"].get<int>();
+    EXPECT_GE(read, 2);
+    EXPECT_LT(read, 40);
+    std::size_t pngs = 0;
+    for (const auto& entry : fs::directory_iterator(out / "frames")) pngs += entry.path().extension() == ".png" ? 1u : 0u;
+    EXPECT_EQ(pngs, std::size_t(read));
+    cv::VideoCapture video((out / report["video"].get<std::string>()).string());
+    ASSERT_TRUE(video.isOpened());
+    EXPECT_EQ(int(video.get(cv::CAP_PROP_FRAME_COUNT)), read);
+}
