@@ -230,3 +230,34 @@ TEST_F(RendererGLTest, NullTechniqueWritesZeroAndNoVirtualContentLeavesTheFrame)
     compositor.compositeInto(camera, colour, depth, cv::Mat(), out);
     EXPECT_EQ(cv::norm(out, camera, cv::NORM_INF), 0.0);
 }
+
+// A spot light aimed at the receiver lights the inside of its cone with the point-light formula
+// (intensity P / 4 pi) and nothing beyond cone + falloff.
+TEST_F(RendererGLTest, SpotLightConeLimitsTheLitArea) {
+    auto renderer = Renderer::create(kCamera);
+    render::Scene scene;
+    scene.objects.push_back(cubeInCameraFrame({0.0, 0.0, 1.3}, 0.6, glm::vec3(0.6f))); // front face z = 1.0
+    render::SceneLight spot = pointLightInCameraFrame({0.0, 0.0, 0.0}, 20.0f, false);
+    spot.type = render::LightType::Spot;
+    spot.direction = glm::vec3(kWorld_T_camera.transformDirection({0.0, 0.0, 1.0}));
+    spot.coneAngleDegrees = 5.0f;   // full intensity within 0.087 m of the centre at 1 m
+    spot.coneFalloffDegrees = 2.0f; // dark beyond tan(7 deg) = 0.123 m
+    scene.lights.push_back(spot);
+    renderer->setScene(scene);
+    renderer->renderGBuffer(kWorld_T_camera);
+    renderer->shade({.includeIndirect = false, .exposureStops = 1.0f, .view = render::DebugView::Final});
+    cv::Mat colour, depth;
+    renderer->readOutputsInto(colour, depth);
+    const auto at = [&](double x, double y) {
+        const glm::dvec2 p = kCamera.project({x, y, 1.0});
+        return colour.at<cv::Vec4b>(int(std::lround(p.y)), int(std::lround(p.x)));
+    };
+    const glm::dvec2 centre = kCamera.project({0.05, 0.0, 1.0});
+    const glm::dvec3 hit = kCamera.backProject(std::round(centre.x), std::round(centre.y), 1.0);
+    const double d2 = glm::dot(hit, hit), cosTheta = 1.0 / std::sqrt(d2);
+    const double expected = 2.0 * 0.6 / std::numbers::pi * (20.0 / (4.0 * std::numbers::pi)) * cosTheta / d2;
+    EXPECT_NEAR(srgbDecode(at(0.05, 0.0)[0] / 255.0), expected, 0.01 * expected + 0.004);
+    EXPECT_EQ(at(0.2, 0.0)[0], 0);
+    EXPECT_EQ(at(0.0, -0.2)[0], 0);
+    EXPECT_EQ(at(0.2, 0.0)[3], 255); // covered, just not lit
+}
