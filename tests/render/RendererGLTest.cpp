@@ -13,10 +13,12 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include <cmath>
+#include <fstream>
 #include <numbers>
 
 using namespace lightskin;
 using render::Renderer;
+namespace fs = std::filesystem;
 
 namespace {
 
@@ -260,4 +262,45 @@ TEST_F(RendererGLTest, SpotLightConeLimitsTheLitArea) {
     EXPECT_EQ(at(0.2, 0.0)[0], 0);
     EXPECT_EQ(at(0.0, -0.2)[0], 0);
     EXPECT_EQ(at(0.2, 0.0)[3], 255); // covered, just not lit
+}
+
+// A textured quad (OBJ + MTL map_Kd) facing the camera: the albedo view shows the texture's
+// four quadrant colours where the texture coordinates put them (v = 0 is the image's bottom row).
+TEST_F(RendererGLTest, DiffuseTextureFromMtlIsSampledInSrgb) {
+    const fs::path folder = test::scratchDir("renderer_texture");
+    cv::Mat texture(64, 64, CV_8UC3);
+    texture(cv::Rect(0, 0, 32, 32)).setTo(cv::Scalar(0, 0, 255));    // top left: red (BGR)
+    texture(cv::Rect(32, 0, 32, 32)).setTo(cv::Scalar(0, 255, 0));   // top right: green
+    texture(cv::Rect(0, 32, 32, 32)).setTo(cv::Scalar(255, 0, 0));   // bottom left: blue
+    texture(cv::Rect(32, 32, 32, 32)).setTo(cv::Scalar(128, 128, 128)); // bottom right: sRGB grey 128
+    ASSERT_TRUE(cv::imwrite((folder / "quadrants.png").string(), texture));
+    std::ofstream(folder / "quad.mtl") << "newmtl tex\nKd 1 1 1\nKs 0 0 0\nmap_Kd quadrants.png\n";
+    // Unit quad in z = 0 facing +z, u along +x, v along +y.
+    std::ofstream(folder / "quad.obj") << "mtllib quad.mtl\nv -0.5 -0.5 0\nv 0.5 -0.5 0\nv 0.5 0.5 0\nv -0.5 0.5 0\n"
+                                          "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl tex\nf 1/1 2/2 3/3 4/4\n";
+    render::SceneObject quad;
+    quad.mesh = folder / "quad.obj";
+    // Camera frame: x right, y down, z forward. Model +y must appear up in the image (camera -y) and
+    // model +z face the camera (camera -z): rotate 180 degrees about x, place at z = 1.
+    const glm::dmat4 camera_T_model = glm::translate(glm::dmat4(1.0), glm::dvec3(0.0, 0.0, 1.0)) *
+                                      glm::rotate(glm::dmat4(1.0), glm::pi<double>(), glm::dvec3(1.0, 0.0, 0.0)) *
+                                      glm::scale(glm::dmat4(1.0), glm::dvec3(0.6));
+    quad.world_T_model = glm::mat4(kWorld_T_camera.matrix() * camera_T_model);
+    render::Scene scene;
+    scene.objects.push_back(quad);
+    auto renderer = Renderer::create(kCamera);
+    renderer->setScene(scene);
+    renderer->renderGBuffer(kWorld_T_camera);
+    renderer->shade({.includeIndirect = false, .exposureStops = 0.0f, .view = render::DebugView::Albedo});
+    cv::Mat colour, depth;
+    renderer->readOutputsInto(colour, depth);
+    const auto at = [&](double x, double y) { // camera-frame point on the quad plane z = 1
+        const glm::dvec2 p = kCamera.project({x, y, 1.0});
+        return colour.at<cv::Vec4b>(int(std::lround(p.y)), int(std::lround(p.x)));
+    };
+    EXPECT_EQ(at(-0.15, -0.15), cv::Vec4b(255, 0, 0, 255)); // image top left: red (RGBA)
+    EXPECT_EQ(at(0.15, -0.15), cv::Vec4b(0, 255, 0, 255));
+    EXPECT_EQ(at(-0.15, 0.15), cv::Vec4b(0, 0, 255, 255));
+    // Grey 128 decoded to linear by the sRGB texture and encoded again by the tone mapping: 128 +- 1.
+    EXPECT_NEAR(at(0.15, 0.15)[0], 128, 1);
 }
