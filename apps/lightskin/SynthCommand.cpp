@@ -3,6 +3,8 @@
 // (docs/SYNTH.md). Headless: OpenGL 4.5 through EGL, no GPU needed.
 #include "Commands.h"
 
+#include <lightskin/capture/Fakenect.h>
+#include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/gl/Context.h>
 #include <lightskin/synth/SynthRecording.h>
@@ -21,6 +23,7 @@ struct SynthArguments {
     int maxFrames = 0;
     bool noNoise = false;
     std::optional<std::uint64_t> noiseSeed;
+    std::string fakenect;
 };
 
 void addSynthCommand(CLI::App& app, int& exitCode) {
@@ -31,6 +34,8 @@ void addSynthCommand(CLI::App& app, int& exitCode) {
     command->add_option("--frames", arguments->maxFrames, "Write at most this many frames (default: the whole path)");
     command->add_flag("--no-noise", arguments->noNoise, "Exact depth: switch the depth noise model off");
     command->add_option("--noise-seed", arguments->noiseSeed, "Override the noise seed");
+    command->add_option("--fakenect", arguments->fakenect,
+                        "Also write the recording as a fakenect dump into this folder (needs 640x480; capture/Fakenect.h)");
     command->callback([arguments, &exitCode] {
         std::ifstream file(arguments->scene, std::ios::binary);
         if (!file) throw Error(arguments->scene, std::nullopt, "cannot open the scene description");
@@ -50,6 +55,13 @@ void addSynthCommand(CLI::App& app, int& exitCode) {
         const std::int64_t frames = synth::writeSynthRecording(scene, text.str(), arguments->out, options);
         std::printf("wrote %lld frames of %s (%s) to %s\n", static_cast<long long>(frames), scene.name.c_str(),
                     scene.intrinsics.describe().c_str(), arguments->out.c_str());
+        if (!arguments->fakenect.empty()) {
+            if (scene.intrinsics.width != 640 || scene.intrinsics.height != 480)
+                throw Error(arguments->scene, std::nullopt, "--fakenect needs a 640x480 camera (fakenect's only resolution)");
+            auto source = capture::openFrameSource(arguments->out);
+            const std::int64_t dumped = capture::writeFakenectDump(*source, arguments->fakenect);
+            std::printf("wrote %lld frames as a fakenect dump to %s\n", static_cast<long long>(dumped), arguments->fakenect.c_str());
+        }
         exitCode = 0;
     });
 }

@@ -216,13 +216,7 @@ protected:
             }
         }
         if (colour_.isValid() == false) out.colour.release();
-        out.index = next_++;
-        out.depthScaleMetres = info_.depthScaleMetres;
-        out.colourIntrinsics = info_.colourIntrinsics;
-        out.depthIntrinsics = info_.depthIntrinsics;
-        out.registration = info_.registration;
-        out.colour_T_depth = info_.colour_T_depth;
-        out.groundTruth_world_T_camera.reset();
+        stampFrame(out, next_++);
         return true;
     }
 

@@ -177,14 +177,9 @@ protected:
         const cv::Size size(info_.colourIntrinsics.width, info_.colourIntrinsics.height);
         readDepth16(folder_ / frame.depthFile, next_, size, scratch_, out.depth);
         readColour8(folder_ / frame.colourFile, next_, size, scratch_, out.colour);
-        out.index = next_;
-        out.depthScaleMetres = info_.depthScaleMetres;
+        stampFrame(out, next_);
         out.colourTimestampSeconds = frame.colourTime;
         out.depthTimestampSeconds = frame.depthTime;
-        out.colourIntrinsics = info_.colourIntrinsics;
-        out.depthIntrinsics = info_.depthIntrinsics;
-        out.registration = DepthRegistration::RegisteredToColour;
-        out.colour_T_depth = Pose();
         out.groundTruth_world_T_camera = frame.pose;
         ++next_;
         return true;

@@ -36,6 +36,12 @@ double disparityStepMetres(const DepthNoiseDescription& noise, double z) noexcep
 
 void applyDepthNoiseInto(const cv::Mat& exactDepth, const cv::Mat& cameraNormals, const CameraIntrinsics& intrinsics,
                          const DepthNoiseDescription& noise, std::int64_t frameIndex, cv::Mat& out) {
+    cv::Mat scratch;
+    applyDepthNoiseInto(exactDepth, cameraNormals, intrinsics, noise, frameIndex, out, scratch);
+}
+
+void applyDepthNoiseInto(const cv::Mat& exactDepth, const cv::Mat& cameraNormals, const CameraIntrinsics& intrinsics,
+                         const DepthNoiseDescription& noise, std::int64_t frameIndex, cv::Mat& out, cv::Mat& scratch) {
     LIGHTSKIN_ASSERT(exactDepth.type() == CV_32FC1 && cameraNormals.type() == CV_32FC3 &&
                          exactDepth.size() == cameraNormals.size(),
                      "lightskin::synth::applyDepthNoiseInto(): expects CV_32FC1 depth and CV_32FC3 normals of one size");
@@ -53,7 +59,9 @@ void applyDepthNoiseInto(const cv::Mat& exactDepth, const cv::Mat& cameraNormals
     const double lateralScale = std::abs(intrinsics.fx) / noise.sensorFocalPixels;
 
     // 1. Projector shadow, per row (see the header). Out-of-range surfaces still cast shadows.
-    cv::Mat_<std::uint8_t> dropped(height, width, std::uint8_t(0));
+    scratch.create(height, width, CV_8UC1);
+    scratch.setTo(0);
+    cv::Mat_<std::uint8_t> dropped(scratch); // shares the pixels
     if (noise.projectorShadow && noise.baselineMetres != 0.0) {
         const double fb = intrinsics.fx * noise.baselineMetres;
         constexpr double tolerancePixels = 1e-3;

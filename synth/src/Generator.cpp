@@ -74,7 +74,8 @@ void Generator::renderFrameInto(int index, SynthFrame& out) {
             camera[u] = cv::Vec3f(float(n.x), float(n.y), float(n.z));
         }
     }
-    applyDepthNoiseInto(out.exact.depthMetres, cameraNormals_, scene_.intrinsics, scene_.noise, index, out.noisyDepthMetres);
+    applyDepthNoiseInto(out.exact.depthMetres, cameraNormals_, scene_.intrinsics, scene_.noise, index, out.noisyDepthMetres,
+                        noiseScratch_);
     depthMetresToUnitsInto(out.noisyDepthMetres, scene_.depthScaleMetres, frame.depth);
 }
 

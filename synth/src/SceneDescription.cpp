@@ -227,6 +227,10 @@ void SceneDescription::validate() const {
     if (path.frameCount() > 100000) throw Error(source, std::nullopt, "path: more than 100000 frames");
     if (!(nearMetres > 0.0 && farMetres > nearMetres)) throw Error(source, std::nullopt, "camera: need 0 < near < far");
     if (lights.size() > 8) throw Error(source, std::nullopt, "lights: at most 8 lights");
+    int lightSamples = 0;
+    for (const LightDescription& light : lights) lightSamples += light.type == LightType::Area ? light.samples * light.samples : 1;
+    if (lightSamples > 256)
+        throw Error(source, std::nullopt, "lights: " + std::to_string(lightSamples) + " light samples, at most 256 in total");
     if (boxes.size() > 32) throw Error(source, std::nullopt, "boxes: at most 32 boxes");
     if (tags.size() > 64) throw Error(source, std::nullopt, "tags: at most 64 tags (boards included)");
     std::set<std::pair<std::string, int>> ids;

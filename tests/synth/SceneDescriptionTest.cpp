@@ -55,6 +55,11 @@ TEST(SceneDescriptionTest, RejectsUnknownKeysWrongTypesAndBadRanges) {
     expectError(withPath(hold, R"("tags": [{"id": 3, "facing": [0, 0, 0]}],)"), "facing");
     expectError(withPath(hold, R"("tags": [{"id": 3}, {"id": 3}],)"), "appears twice");
     expectError(withPath(""), "at least one segment");
+    const std::string areaLight = R"({"type": "area", "position": [2, 2, 2.5], "facing": [0, 0, -1], "samples": 8})";
+    expectError(withPath(hold, R"("lights": [)" + areaLight + "," + areaLight + "," + areaLight + "," + areaLight + "," + areaLight + "],"),
+                "320 light samples");
+    expectError(withPath(hold, R"("camera": {"width": 100000},)"), "camera.width");
+    expectError(withPath(R"({"type": "hold", "frames": 100001})"), "frames");
 }
 
 TEST(SceneDescriptionTest, TagBoardExpandsRowByRowFromTheTopLeft) {

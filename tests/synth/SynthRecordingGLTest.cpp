@@ -124,20 +124,22 @@ TEST_F(SynthRecordingGLTest, AprilTagDetectorFindsTheRealTagsWhereTheGroundTruth
         EXPECT_EQ(found, (std::set<int>{0, 1, 2, 3, 10})) << "frame " << index;
     }
     ASSERT_FALSE(differences.empty());
-    // The detector's corners sit a common ~(+0.5, +0.5) px from the ground truth: libapriltag
-    // puts pixel centres at +0.5 (its decimation code scales about 0.5), while lightskin (and this
-    // renderer, see SceneRendererGLTest) uses OpenCV's integer pixel centres. Reported to
-    // tracking; here the common shift is allowed up to 0.75 px and removed, and each corner must
-    // then agree within 0.5 px (a wrong orientation or mirrored bitmap would be off by a tag edge).
+    // tracking reports corners in OpenCV's pixel convention (it removes libapriltag's +0.5 px
+    // pixel-centre offset), like the renderer: no common shift beyond 0.15 px. Each corner within
+    // 0.75 px: the detector's own accuracy on ~40 px tags (the renderer's corners are checked to
+    // 0.5 px, measured 0.16 px, by the edge fit in SceneRendererGLTest). A rotated or mirrored
+    // bitmap would be off by a whole tag edge (~40 px).
     glm::dvec2 mean(0.0);
-    for (const glm::dvec2& d : differences) mean += d;
-    mean /= double(differences.size());
     double worst = 0.0;
-    for (const glm::dvec2& d : differences) worst = std::max(worst, glm::length(d - mean));
-    std::printf("apriltag: %zu corners, mean offset detector - ground truth (%+.3f, %+.3f) px, worst residual %.3f px\n",
+    for (const glm::dvec2& d : differences) {
+        mean += d;
+        worst = std::max(worst, glm::length(d));
+    }
+    mean /= double(differences.size());
+    std::printf("apriltag: %zu corners, mean offset detector - ground truth (%+.3f, %+.3f) px, worst %.3f px\n",
                 differences.size(), mean.x, mean.y, worst);
-    EXPECT_LT(glm::length(mean), 0.75);
-    EXPECT_LT(worst, 0.5);
+    EXPECT_LT(glm::length(mean), 0.15);
+    EXPECT_LT(worst, 0.75);
 }
 
 } // namespace

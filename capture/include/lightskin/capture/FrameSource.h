@@ -100,6 +100,10 @@ public:
 protected:
     FrameSource(FrameSourceInfo info, FrameSourceOptions options);
 
+    /// Sets `out`'s index and the per-stream facts every frame of this source shares (depth
+    /// scale, intrinsics, registration, colour_T_depth) from info(), and clears its ground truth.
+    void stampFrame(RgbdFrame& out, std::int64_t index) const;
+
     /// Reads the next frame in order; false at the end. `out.index` must be set.
     virtual bool readNext(RgbdFrame& out) = 0;
     /// Timestamp (seconds) of the next frame readNext() would deliver, without decoding it;

@@ -50,6 +50,11 @@ double disparityStepMetres(const DepthNoiseDescription& noise, double z) noexcep
 /// `cameraNormals`: CV_32FC3 unit surface normals in the camera frame (x right, y down, z forward).
 /// `out`: CV_32FC1 metres, 0 = missing (reallocated only if its size or type differ).
 /// With noise.enabled false, out is a copy of exactDepth.
+/// `scratch` (CV_8UC1, the projector-shadow mask) is reused across calls: pass the same Mat every
+/// frame and nothing is allocated in steady state.
+void applyDepthNoiseInto(const cv::Mat& exactDepth, const cv::Mat& cameraNormals, const CameraIntrinsics& intrinsics,
+                         const DepthNoiseDescription& noise, std::int64_t frameIndex, cv::Mat& out, cv::Mat& scratch);
+/// As above with a scratch buffer of its own (allocates per call).
 void applyDepthNoiseInto(const cv::Mat& exactDepth, const cv::Mat& cameraNormals, const CameraIntrinsics& intrinsics,
                          const DepthNoiseDescription& noise, std::int64_t frameIndex, cv::Mat& out);
 

@@ -42,7 +42,7 @@ public:
 private:
     SceneDescription scene_;
     SceneRenderer renderer_;
-    cv::Mat cameraNormals_;
+    cv::Mat cameraNormals_, noiseScratch_;
 };
 
 /// Converts exact, noise-free or noisy depth in metres to 16-bit units (rounded; 0 stays 0;
