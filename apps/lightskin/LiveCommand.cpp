@@ -6,6 +6,7 @@
 // comparison side by side, P snapshot (PNG in --snapshot-dir), Q or Esc quit.
 // --headless runs the same loop without a window (EGL), for tests and machines without a display.
 #include "Commands.h"
+#include "LiveWindowDisplay.h"
 #include "ReplayPipeline.h"
 
 #include <lightskin/capture/FrameSource.h>
@@ -43,45 +44,6 @@ struct LiveArgs {
     std::string device = "freenect://0", scene, pose, snapshot, snapshotDir = ".", record;
     bool headless = false, loop = false, fast = false;
     std::int64_t maxFrames = -1, snapshotAfter = -1;
-};
-
-/// Shows BGR images in the window: uploads into a texture, blits to the default framebuffer
-/// (flipped: image row 0 is the top, GL row 0 the bottom), scaled to the framebuffer size.
-class WindowDisplay {
-public:
-    void show(gl::WindowContext& window, const cv::Mat& bgr) {
-        if (texture_.width() != bgr.cols || texture_.height() != bgr.rows) {
-            texture_ = gl::Texture::create2D(GL_RGB8, bgr.cols, bgr.rows);
-            framebuffer_ = gl::Framebuffer::create();
-            framebuffer_.attach(GL_COLOR_ATTACHMENT0, texture_);
-            framebuffer_.checkComplete("live display");
-        }
-        glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-        glPixelStorei(GL_UNPACK_ROW_LENGTH, int(bgr.step / bgr.elemSize()));
-        glTextureSubImage2D(texture_.id(), 0, 0, 0, bgr.cols, bgr.rows, GL_BGR, GL_UNSIGNED_BYTE, bgr.data);
-        glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
-        int width = 0, height = 0;
-        window.framebufferSize(width, height);
-        const float black[4] = {0, 0, 0, 1};
-        glClearNamedFramebufferfv(0, GL_COLOR, 0, black);
-        glBlitNamedFramebuffer(framebuffer_.id(), 0, 0, 0, bgr.cols, bgr.rows, 0, height, width, 0, GL_COLOR_BUFFER_BIT, GL_NEAREST);
-    }
-    /// The window's back buffer as BGR, top row first (what show() drew).
-    static cv::Mat readBack(gl::WindowContext& window) {
-        int width = 0, height = 0;
-        window.framebufferSize(width, height);
-        cv::Mat image(height, width, CV_8UC3);
-        glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
-        glReadBuffer(GL_BACK);
-        glPixelStorei(GL_PACK_ALIGNMENT, 1);
-        glReadPixels(0, 0, width, height, GL_BGR, GL_UNSIGNED_BYTE, image.data);
-        cv::flip(image, image, 0);
-        return image;
-    }
-
-private:
-    gl::Texture texture_;
-    gl::Framebuffer framebuffer_;
 };
 
 std::string statusLine(double fps, const FrameOutput& out, const FramePipeline& pipeline, const PipelineOptions& options) {

@@ -4,6 +4,7 @@
 // a report (JSON + Markdown). Headless (EGL) unless --window. Ctrl-C stops after the current frame
 // and keeps everything written so far (video finalised, report marked "interrupted"; exit 130).
 #include "Commands.h"
+#include "LiveWindowDisplay.h"
 #include "ReplayPipeline.h"
 #include "ReplayReport.h"
 
@@ -151,6 +152,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
 
     std::unique_ptr<gl::Context> context;
     std::unique_ptr<gl::WindowContext> window;
+    std::optional<WindowDisplay> display; // declared after the window: destroyed first
     if (args.window) {
         window = gl::createWindowContext(info.colourIntrinsics.width, info.colourIntrinsics.height, "lightskin replay");
     } else {
@@ -224,6 +226,9 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
                 video.write(videoFrame);
             }
             if (window) {
+                if (!display) display.emplace();
+                display->show(*window, args.sideBySideVideo && compare ? sideBySide : output.withGi);
+                window->swapBuffers();
                 window->pollEvents();
                 if (window->shouldClose()) interruptRequested = true;
             }
