@@ -49,6 +49,17 @@ TEST(Scene, SampleScenesLoad) {
     const Scene cube = loadScene(folder / "cube_no_gi.json");
     EXPECT_EQ(cube.gi.technique, "none");
     EXPECT_EQ(cube.lights[0].type, LightType::Point);
+
+    int scenes = 0;
+    for (const auto& entry : std::filesystem::directory_iterator(folder))
+        if (entry.path().extension() == ".json") {
+            EXPECT_NO_THROW(loadScene(entry.path())) << entry.path();
+            ++scenes;
+        }
+    EXPECT_GE(scenes, 3);
+    const Scene orbit = loadScene(folder / "orbit.json");
+    EXPECT_NE(orbit.trackingJson.find("tag-world.json"), std::string::npos);
+    EXPECT_TRUE(std::filesystem::exists(folder / "../synth-orbit/synth/tag-world.json"));
 }
 
 TEST(Scene, TransformComposesTranslationRotationScale) {
