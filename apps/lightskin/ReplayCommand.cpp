@@ -27,6 +27,7 @@
 #include <set>
 #include <sstream>
 #include <unistd.h>
+#include <utility>
 
 namespace lightskin::apps {
 
@@ -107,16 +108,26 @@ private:
     Clock::time_point start_, lastPrint_{};
 };
 
-/// Opens a video writer: MP4 (mp4v) when this OpenCV can write it, else MJPG in .avi.
+/// Opens a video writer: MP4 with H.264 (avc1; plays in browsers) when this OpenCV/FFmpeg can
+/// write it, else MP4 with MPEG-4 part 2 (mp4v), else MJPG in .avi. On Debian 12's OpenCV 4.6 both
+/// MP4 variants work (checked by writing and decoding, also for odd sizes).
 cv::VideoWriter openVideo(const std::filesystem::path& folder, const std::string& format, cv::Size size, double fps,
                           std::string& path, std::string& codec) {
     cv::VideoWriter writer;
+    if (format != "auto" && format != "mp4" && format != "avi")
+        throw Error("--video-format", std::nullopt, "expected auto, mp4 or avi, got '" + format + "'");
     if (format == "auto" || format == "mp4") {
         path = (folder / "replay.mp4").string();
-        codec = "mp4v (MPEG-4 part 2) in MP4";
-        if (writer.open(path, cv::CAP_FFMPEG, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), fps, size)) return writer;
+        const std::pair<int, const char*> codecs[] = {{cv::VideoWriter::fourcc('a', 'v', 'c', '1'), "H.264 (avc1) in MP4"},
+                                                      {cv::VideoWriter::fourcc('m', 'p', '4', 'v'), "MPEG-4 part 2 (mp4v) in MP4"}};
+        for (const auto& [fourcc, name] : codecs) {
+            if (writer.open(path, cv::CAP_FFMPEG, fourcc, fps, size)) {
+                codec = name;
+                return writer;
+            }
+        }
         std::filesystem::remove(path);
-        if (format == "mp4") throw Error(path, std::nullopt, "this OpenCV build cannot write MP4 (mp4v)");
+        if (format == "mp4") throw Error(path, std::nullopt, "this OpenCV build cannot write MP4 (avc1 or mp4v)");
     }
     path = (folder / "replay.avi").string();
     codec = "MJPG in AVI";
@@ -124,7 +135,7 @@ cv::VideoWriter openVideo(const std::filesystem::path& folder, const std::string
         if (format == "auto") log::warning("MP4 writing is not available: wrote MJPG " + path);
         return writer;
     }
-    throw Error(path, std::nullopt, "OpenCV's VideoWriter can write neither MP4 (mp4v) nor MJPG AVI here");
+    throw Error(path, std::nullopt, "OpenCV's VideoWriter can write neither MP4 (avc1, mp4v) nor MJPG AVI here");
 }
 
 void writePng(const std::filesystem::path& path, const cv::Mat& image) {

@@ -150,6 +150,23 @@ TEST(ReplayCommand, FrameListChoosesThePngsButEveryFrameIsRead) {
     EXPECT_EQ(report["video"], "");
 }
 
+TEST(ReplayCommand, AviFallbackHasTheFrameCount) {
+    const fs::path scratch = test::scratchDir("replay_avi");
+    const fs::path recording = writeRecording(scratch / "recording");
+    const fs::path scene = writeScene(scratch, kScene);
+    const fs::path out = scratch / "out";
+    const RunResult r = runLightskin("replay " + recording.string() + " --scene " + scene.string() + " --out " + out.string() +
+                                         " --video-format avi --frames 0",
+                                     scratch);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json report = nlohmann::json::parse(readText(out / "report.json"));
+    EXPECT_EQ(report["video"], "replay.avi");
+    EXPECT_EQ(report["videoCodec"], "MJPG in AVI");
+    cv::VideoCapture capture((out / "replay.avi").string());
+    ASSERT_TRUE(capture.isOpened());
+    EXPECT_EQ(int(capture.get(cv::CAP_PROP_FRAME_COUNT)), kFrames);
+}
+
 TEST(ReplayCommand, BadSceneAndMissingMeshGiveClearErrorsAndFail) {
     const fs::path scratch = test::scratchDir("replay_bad");
     const fs::path recording = writeRecording(scratch / "recording");
