@@ -279,7 +279,7 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
         const cv::Mat actual = keepAround(linear, mask, c.roi);
         const std::string name = c.name + "_final_" + std::to_string(index);
         const eval::GoldenResult result = eval::compareWithGolden(actual, goldens, name, c.composite, scratch / "golden", renderer);
-        EXPECT_TRUE(result.passed) << result.describe();
+        EXPECT_TRUE(result.passed) << result.describe() << "\n  this run's renderer: " << renderer;
         std::printf("%s: %s\n", name.c_str(), result.describe().c_str());
         // The thresholds must catch GI switched off: the without-GI half of the comparison image
         // (same mask) must fail them. (Only where the source has VALs, i.e. where GI shows.)
@@ -320,7 +320,7 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
         const eval::GoldenResult result =
             eval::compareWithGolden(keepAround(linear, mask, c.roi), goldens, c.name + "_indirect_" + std::to_string(index), c.indirect,
                                     scratch / "golden", renderer);
-        EXPECT_TRUE(result.passed) << result.describe();
+        EXPECT_TRUE(result.passed) << result.describe() << "\n  this run's renderer: " << renderer;
         std::printf("%s_indirect_%lld: %s; mean %.4f, saturated %.4f over %d virtual pixels\n", c.name.c_str(),
                     static_cast<long long>(index), result.describe().c_str(), mean, saturatedFraction, cv::countNonZero(mask));
     }
