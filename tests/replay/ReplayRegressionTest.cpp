@@ -357,9 +357,9 @@ std::vector<ReplayCase> cases() {
     recordingTruth(root / "recordings" / "synth-orbit", orbitFrames);
     recordingTruth(root / "recordings" / "synth-pan", panFrames);
     recordingTruth(root / "recordings" / "synth-clean-channels", cleanFrames);
-    // Synthetic recordings with their exact ground-truth poses (tracking on synth-orbit is checked
-    // separately below; its decimetre-level pose noise would make goldens of a tracked run measure
-    // the tracker, not the rendering).
+    // Synthetic recordings with their exact ground-truth poses (tracking is checked separately
+    // below: goldens of a tracked run would change with every tracker change, measuring the
+    // tracker rather than the rendering).
     add({.name = "synth_orbit", .recording = "recordings/synth-orbit", .scene = "recordings/scenes/orbit.json", .pose = "ground-truth",
          .maxFrames = 3, .goldenFrames = {0, 2}, .indirectFrame = 2, .recordedFrames = orbitFrames, .truth = Truth::RecordingIndex,
          .composite = kComposite, .indirect = kIndirect, .minIndirectMean = 0.01, .minVirtualPixels = 300, .roi = cv::Rect{100, 94, 164, 72}});
@@ -391,34 +391,83 @@ std::vector<ReplayCase> cases() {
 INSTANTIATE_TEST_SUITE_P(Recordings, ReplayRegression, ::testing::ValuesIn(cases()),
                          [](const ::testing::TestParamInfo<ReplayCase>& param) { return param.param.name; });
 
-// AprilTag tracking through the whole pipeline on synth-orbit: the tracked pose against the
-// recording's exact ground truth. The tag board covers ~40x40 px of a noisy 320x240 image, so the
-// tracker's pose is coarse here (its own accuracy is tested in tests/tracking); the bounds are
-// the measured errors of the first frames (docs/TESTING.md) with about 1.5x headroom.
-constexpr std::int64_t kTrackedFrames = 6;
-// Measured (Mesa 22.3.6 llvmpipe): frame 0 0.445 m / 9.0 deg, frames 1-5 0.04-0.24 m / 2.4-6.6 deg.
-constexpr double kMaxTranslationError = 0.65;  // metres
-constexpr double kMaxRotationErrorDegrees = 14.0;
+// AprilTag tracking through the whole pipeline: the tracked pose against the recordings' exact
+// ground truth. Bounds are the measured errors (Mesa 22.3.6 llvmpipe, quadDecimate 1) with ~1.5x
+// headroom; the tracker's own accuracy is tested in tests/tracking, these catch a broken pose path
+// (wrong frame, inverted pose, detector settings not reaching the tracker, lost tracking).
+struct TrackedFrame {
+    std::string state;
+    double translationError = -1.0, rotationErrorDegrees = -1.0; // < 0: no pose
+};
 
-TEST(ReplayTracking, SynthOrbitTrackedPoseFollowsGroundTruth) {
-    const fs::path root = sourceDir(), scratch = scratchDir("replay_tracking");
-    const std::string args = (root / "recordings/synth-orbit").string() + " --scene " + (root / "recordings/scenes/orbit.json").string() +
-                             " --pose tracking --no-video --no-compare --frames 0 --max-frames " + std::to_string(kTrackedFrames) +
-                             " --out " + (scratch / "out").string();
-    ASSERT_EQ(runLightskin(args, scratch, "tracking"), 0) << readText(scratch / "tracking.stderr.txt");
+std::vector<TrackedFrame> replayTracked(const std::string& recording, const std::string& scene, std::int64_t frames, const std::string& tag) {
+    const fs::path root = sourceDir(), scratch = scratchDir("replay_tracking_" + tag);
+    const std::string args = (root / recording).string() + " --scene " + (root / scene).string() +
+                             " --pose tracking --no-video --no-compare --frames 0 --max-frames " + std::to_string(frames) + " --out " +
+                             (scratch / "out").string();
+    if (runLightskin(args, scratch, "tracking") != 0) {
+        ADD_FAILURE() << "lightskin replay " << args << "\n" << readText(scratch / "tracking.stderr.txt");
+        return {};
+    }
     const nlohmann::json report = nlohmann::json::parse(readText(scratch / "out" / "report.json"));
     std::int64_t recorded = 0;
-    const std::vector<TruthPose> truth = recordingTruth(root / "recordings/synth-orbit", recorded);
-    ASSERT_EQ(std::int64_t(report["frames"].size()), kTrackedFrames);
+    const std::vector<TruthPose> truth = recordingTruth(root / recording, recorded);
+    std::vector<TrackedFrame> out;
     for (const auto& f : report["frames"]) {
         const std::size_t i = f["index"].get<std::size_t>();
-        // "held" (a recent pose kept for a frame without a usable detection) also has a pose.
-        ASSERT_NE(f["tracking"], "lost") << f.dump();
-        const double dt = translationError(f["world_T_camera"], truth[i]), dr = rotationErrorDegrees(f["world_T_camera"], truth[i]);
-        std::printf("synth-orbit frame %zu: tracked pose error %.3f m, %.2f deg\n", i, dt, dr);
-        EXPECT_LT(dt, kMaxTranslationError) << f.dump();
-        EXPECT_LT(dr, kMaxRotationErrorDegrees) << f.dump();
+        TrackedFrame t;
+        t.state = f["tracking"].get<std::string>();
+        if (f["world_T_camera"].is_object() && i < truth.size()) {
+            t.translationError = translationError(f["world_T_camera"], truth[i]);
+            t.rotationErrorDegrees = rotationErrorDegrees(f["world_T_camera"], truth[i]);
+        }
+        std::printf("%s frame %zu: %s, pose error %.3f m, %.2f deg\n", tag.c_str(), i, t.state.c_str(), t.translationError,
+                    t.rotationErrorDegrees);
+        out.push_back(t);
     }
+    return out;
+}
+
+// First 6 frames of synth-orbit: measured 0.015-0.039 m, 0.48-1.27 deg. (Later frames of the orbit
+// are worse: up to 0.66 m / 11 deg at frame 22, where the board is seen at a grazing angle; not
+// asserted here.)
+TEST(ReplayTracking, SynthOrbitTrackedPoseFollowsGroundTruth) {
+    const auto frames = replayTracked("recordings/synth-orbit", "recordings/scenes/orbit.json", 6, "synth_orbit");
+    ASSERT_EQ(frames.size(), 6u);
+    for (const TrackedFrame& f : frames) {
+        EXPECT_EQ(f.state, "tracking");
+        EXPECT_GE(f.translationError, 0.0);
+        EXPECT_LT(f.translationError, 0.06);
+        EXPECT_LT(f.rotationErrorDegrees, 2.0);
+    }
+}
+
+// synth-pan, all 40 frames: the tag board leaves the view in frames 13-27 and comes back. Measured:
+// frames 0-12 and 28-39 tracked to 0.005-0.014 m, 0.04-3.2 deg; 13-22 held (the last pose, so the
+// rotation error grows to 58 deg as the camera turns away), 23-27 lost, re-acquired at frame 28.
+TEST(ReplayTracking, SynthPanLosesTheTagAndReacquiresIt) {
+    const auto frames = replayTracked("recordings/synth-pan", "recordings/scenes/pan.json", 40, "synth_pan");
+    ASSERT_EQ(frames.size(), 40u);
+    int notTracking = 0, lost = 0;
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+        const TrackedFrame& f = frames[i];
+        const bool tagInView = i <= 12 || i >= 28;
+        if (tagInView) {
+            EXPECT_EQ(f.state, "tracking") << "frame " << i;
+            EXPECT_GE(f.translationError, 0.0) << "frame " << i;
+            EXPECT_LT(f.translationError, 0.025) << "frame " << i;
+            EXPECT_LT(f.rotationErrorDegrees, 5.0) << "frame " << i;
+        } else {
+            notTracking += f.state != "tracking" ? 1 : 0;
+            lost += f.state == "lost" ? 1 : 0;
+            if (f.state == "lost") {
+                EXPECT_LT(f.translationError, 0.0) << "a lost frame has no pose, frame " << i;
+            }
+        }
+    }
+    // Without the tag the tracker must not claim to track; it holds for a while, then gives up.
+    EXPECT_EQ(notTracking, 15);
+    EXPECT_GE(lost, 1);
 }
 
 } // namespace
