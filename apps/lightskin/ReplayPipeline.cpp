@@ -36,17 +36,34 @@ void addTime(std::vector<gl::StageTime>& times, std::size_t& used, const char* n
     ++used;
 }
 
-tracking::TagWorld tagWorldFromScene(const render::Scene& scene) {
-    const std::string source = (scene.file.empty() ? std::string("scene") : scene.file.string()) + " /tracking";
-    const nlohmann::json tracking = nlohmann::json::parse(scene.trackingJson);
+/// The scene's "tracking" object: the tag world (inline, or {"file": path}) plus the tracker
+/// options "quadDecimate" (number >= 1; 1 for small tags, e.g. 15-40 px in a 320x240 image) and
+/// "useDepth" (boolean), which are taken out before the rest goes to TagWorld::fromJson.
+tracking::PoseTracker trackerFromScene(const render::Scene& scene) {
+    const std::string source = (scene.file.empty() ? std::string("scene") : scene.file.string());
+    nlohmann::json tracking = nlohmann::json::parse(scene.trackingJson);
     if (tracking.empty())
-        throw Error(source, std::nullopt, "--pose tracking needs a \"tracking\" object in the scene (tag family, size, bundle)");
+        throw Error(source, std::nullopt, "/tracking: --pose tracking needs a \"tracking\" object in the scene (tag family, size, bundle)");
+    tracking::TrackerSettings settings;
+    if (tracking.contains("quadDecimate")) {
+        const auto& q = tracking["quadDecimate"];
+        if (!q.is_number() || q.get<double>() < 1.0 || q.get<double>() > 8.0)
+            throw Error(source, std::nullopt, "/tracking/quadDecimate: expected a number in [1, 8], got " + q.dump());
+        settings.detector.quadDecimate = q.get<float>();
+        tracking.erase("quadDecimate");
+    }
+    if (tracking.contains("useDepth")) {
+        if (!tracking["useDepth"].is_boolean())
+            throw Error(source, std::nullopt, "/tracking/useDepth: expected true or false, got " + tracking["useDepth"].dump());
+        settings.useDepth = tracking["useDepth"].get<bool>();
+        tracking.erase("useDepth");
+    }
     if (tracking.contains("file")) {
         if (tracking.size() != 1 || !tracking["file"].is_string())
-            throw Error(source, std::nullopt, "/tracking/file: expected a path string as the only key");
-        return tracking::TagWorld::load(scene.file.parent_path() / tracking["file"].get<std::string>());
+            throw Error(source, std::nullopt, "/tracking/file: expected a path string, beside only quadDecimate and useDepth");
+        return tracking::PoseTracker::create(tracking::TagWorld::load(scene.file.parent_path() / tracking["file"].get<std::string>()), settings);
     }
-    return tracking::TagWorld::fromJson(scene.trackingJson, source);
+    return tracking::PoseTracker::create(tracking::TagWorld::fromJson(tracking.dump(), source + " /tracking"), settings);
 }
 
 } // namespace
@@ -181,7 +198,7 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
     p->renderer_ = render::Renderer::create(colour);
     p->renderer_->setScene(scene, scene.gi.technique == "lightskin");
     s.compositor = render::Compositor::create(colour, scene.compositing);
-    if (options.poseMode == PoseMode::Tracking) s.tracker = tracking::PoseTracker::create(tagWorldFromScene(scene));
+    if (options.poseMode == PoseMode::Tracking) s.tracker = trackerFromScene(scene);
 
     // VALs need depth and colour of one size, registered (the ValGenerator's contract).
     s.valsUsable = source.registration == DepthRegistration::RegisteredToColour &&
