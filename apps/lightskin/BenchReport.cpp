@@ -67,26 +67,33 @@ nlohmann::json errorJson(const std::optional<eval::ImageError>& e) {
             {"pixels", e->pixelsCompared}};
 }
 
-/// The error plotted for a run: against the ground truth when measured, else none.
-std::optional<double> plottedError(const RunResult& r) {
-    if (r.vsTruth && r.vsTruth->relativeMse > 0.0) return r.vsTruth->relativeMse;
+/// The error plotted for a run: against the ground truth or against the brute force on the same VALs.
+std::optional<double> plottedError(const RunResult& r, bool truth) {
+    const auto& e = truth ? r.vsTruth : r.vsBrute;
+    if (e && e->relativeMse > 0.0) return e->relativeMse;
     return std::nullopt;
 }
 
-void drawPlot(const Report& report, const std::string& path) {
+void drawPlot(const Report& report, const std::string& path, bool truth) {
     struct Point {
         double time, error;
         const RunResult* run;
     };
+    int defaultChannels = 3;
+    for (const auto& r : report.runs)
+        if (r.config.isDefault) defaultChannels = r.config.channels;
     std::vector<Point> points;
     for (const auto& r : report.runs) {
-        const auto e = plottedError(r);
+        const auto e = plottedError(r, truth);
         const double t = r.isBrute ? r.bruteMs.value_or(0.0) : r.gpuMs;
         if (e && t > 0.0) points.push_back({t, *e, &r});
     }
     const int W = 1100, H = 650, left = 90, right = 130, top = 50, bottom = 70;
     cv::Mat image(H, W, CV_8UC3, cv::Scalar(255, 255, 255));
-    cv::putText(image, "lightskin bench: error vs ground truth (relative MSE) against GPU time per frame", {left, 30},
+    cv::putText(image,
+                truth ? "lightskin bench: error vs ray-traced ground truth (relative MSE) against GPU time per frame"
+                      : "lightskin bench: error vs brute force on the same VALs (relative MSE) against GPU time per frame",
+                {left, 30},
                 cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
     if (points.empty()) {
         cv::imwrite(path, image);
@@ -131,7 +138,7 @@ void drawPlot(const Report& report, const std::string& path) {
     double best = std::numeric_limits<double>::infinity();
     std::set<const RunResult*> onFront;
     for (const auto& p : sorted)
-        if (p.error < best) {
+        if (p.run->config.channels == defaultChannels && p.error < best) {
             best = p.error;
             front.emplace_back(px(p.time), py(p.error));
             onFront.insert(p.run);
@@ -142,6 +149,8 @@ void drawPlot(const Report& report, const std::string& path) {
         const bool pareto = onFront.count(p.run) != 0;
         if (p.run->isBrute)
             cv::rectangle(image, c - cv::Point(5, 5), c + cv::Point(5, 5), black, cv::FILLED);
+        else if (p.run->config.channels != defaultChannels) // another reference (diffuse-only truth etc.)
+            cv::circle(image, c, 5, cv::Scalar(150, 150, 150), 1, cv::LINE_AA);
         else
             cv::circle(image, c, 5, pareto ? cv::Scalar(200, 120, 0) : cv::Scalar(150, 150, 150), cv::FILLED, cv::LINE_AA);
         if (p.run->config.isDefault && !p.run->isBrute) cv::circle(image, c, 10, cv::Scalar(0, 0, 230), 2, cv::LINE_AA);
@@ -154,6 +163,9 @@ void drawPlot(const Report& report, const std::string& path) {
     cv::putText(image, "default configuration", {W - right - 218, ly + 22}, cv::FONT_HERSHEY_SIMPLEX, 0.4, black, 1, cv::LINE_AA);
     cv::rectangle(image, {W - right - 235, ly + 31}, {W - right - 225, ly + 41}, black, cv::FILLED);
     cv::putText(image, "brute force (no visibility)", {W - right - 218, ly + 40}, cv::FONT_HERSHEY_SIMPLEX, 0.4, black, 1, cv::LINE_AA);
+    cv::circle(image, {W - right - 230, ly + 54}, 5, cv::Scalar(150, 150, 150), 1, cv::LINE_AA);
+    cv::putText(image, "other channels (own reference)", {W - right - 218, ly + 58}, cv::FONT_HERSHEY_SIMPLEX, 0.4, black, 1,
+                cv::LINE_AA);
     if (!cv::imwrite(path, image)) throw Error(path, std::nullopt, "cannot write the plot");
 }
 
@@ -225,14 +237,15 @@ std::string markdown(const Report& report) {
     }
     if (!report.temporal.empty()) {
         md << "\n### Temporal stability\n\n";
-        md << "Flicker = RMS over tracked surface points and consecutive frame pairs of the frame-to-frame change of the "
+        md << "Diffuse channel (with occlusion when the default has it) on both sides, so that the true change "
+              "under a moving camera is zero. Flicker = RMS over tracked surface points and consecutive frame pairs of the frame-to-frame change of the "
               "indirect radiance (mean of RGB) at the same surface point, divided by the mean reference radiance there. "
               "Points: mesh vertices projected with the known poses into each frame, kept where the G-buffer position "
               "matches the vertex within 1 cm and both frames see it. Reference = brute force on the same VALs (it has "
               "the same sampling of the surface points, so its flicker is the floor set by the scene and the "
               "re-projection). Excess = RMS of (our change - reference change) / mean reference radiance: the change "
               "the approximation adds. Sequences: `camera` = moving view camera, static light and content (the "
-              "reference's change is only view-dependent gloss and re-projection); `light` = a bright patch moving "
+              "reference's change is only the re-projection to the nearest pixel); `light` = a bright patch moving "
               "across the real wall (moving light); `edges` = the depth camera moving sideways so VALs appear and "
               "disappear at the real box's depth edges.\n\n";
         md << "| sequence | technique | frames | samples | flicker | reference flicker | excess flicker |\n|---|---|---|---|---|---|---|\n";
@@ -316,8 +329,89 @@ void writeOutputs(const Report& report, const std::string& dir) {
         for (const auto& c : report.checks) j["checks"].push_back({{"name", c.name}, {"passed", c.passed}, {"required", c.required}, {"detail", c.detail}});
         std::ofstream(dir + "/bench.json") << j.dump(2) << "\n";
     }
-    drawPlot(report, dir + "/bench.png");
+    drawPlot(report, dir + "/bench.png", true);
+    drawPlot(report, dir + "/bench-vs-brute.png", false);
     std::ofstream(dir + "/bench.md") << markdown(report);
+}
+
+namespace {
+
+std::optional<eval::ImageError> errorFromJson(const nlohmann::json& j) {
+    if (j.is_null()) return std::nullopt;
+    eval::ImageError e;
+    e.relativeMse = j.at("relative_mse").get<double>();
+    e.ssim = j.at("ssim").get<double>();
+    e.meanAbsoluteError = j.at("mae").get<double>();
+    e.maxAbsoluteError = j.at("max").get<double>();
+    e.psnr = j.at("psnr").is_null() ? std::numeric_limits<double>::infinity() : j.at("psnr").get<double>();
+    e.pixelsCompared = j.at("pixels").get<std::size_t>();
+    return e;
+}
+
+} // namespace
+
+Report readReport(const std::string& jsonFile) {
+    std::ifstream in(jsonFile);
+    if (!in) throw Error(jsonFile, std::nullopt, "cannot read the bench JSON");
+    try {
+        const nlohmann::json j = nlohmann::json::parse(in);
+        Report r;
+        r.machine = j.at("machine");
+        r.renderer = j.at("renderer");
+        r.date = j.at("date");
+        r.command = j.at("command");
+        r.loadStart = j.at("load_start");
+        r.loadEnd = j.at("load_end");
+        r.truthStride = j.at("truth_stride");
+        r.frames = j.at("frames");
+        r.seconds = j.at("seconds");
+        r.quick = j.at("quick");
+        for (const auto& x : j.value("runs", nlohmann::json::array())) {
+            RunResult run;
+            Config& c = run.config;
+            c.axis = x.at("axis");
+            c.value = x.at("value");
+            c.isDefault = x.at("is_default");
+            run.isBrute = x.at("is_brute");
+            c.sparse = x.at("sparse_per_model");
+            c.stride = x.at("val_stride");
+            c.kCache = x.at("kcache");
+            const std::string channels = x.at("channels");
+            c.channels = channels == "diffuse" ? 1 : channels == "+glossy" ? 2 : 3;
+            c.width = x.at("width");
+            c.height = x.at("height");
+            c.adaptive = x.at("adaptive");
+            run.vals = x.at("vals");
+            run.triangles = x.at("triangles");
+            run.covered = x.at("covered_pixels");
+            run.gpuMs = x.at("gpu_ms");
+            run.cpuMs = x.at("cpu_ms");
+            run.valsMs = x.at("val_generation_ms");
+            run.prepareMs = x.at("prepare_ms");
+            if (!x.at("brute_ms").is_null()) run.bruteMs = x.at("brute_ms").get<double>();
+            run.vsBrute = errorFromJson(x.at("vs_brute"));
+            run.vsTruth = errorFromJson(x.at("vs_truth"));
+            run.vsFineBrute = errorFromJson(x.value("vs_fine_brute", nlohmann::json()));
+            run.truthReceivers = x.at("truth_receivers");
+            if (x.contains("stages_ms"))
+                for (const auto& [name, ms] : x.at("stages_ms").items()) run.stages.emplace_back(name, ms.get<double>());
+            r.runs.push_back(std::move(run));
+        }
+        for (const auto& x : j.value("temporal", nlohmann::json::array()))
+            r.temporal.push_back({x.at("sequence"), x.at("technique"), x.at("frames"), x.at("samples"), x.at("flicker"),
+                                  x.at("reference_flicker"), x.at("excess_flicker")});
+        for (const auto& x : j.value("checks", nlohmann::json::array())) {
+            CheckResult c;
+            c.name = x.at("name");
+            c.passed = x.at("passed");
+            c.required = x.value("required", true);
+            c.detail = x.at("detail");
+            r.checks.push_back(c);
+        }
+        return r;
+    } catch (const nlohmann::json::exception& e) {
+        throw Error(jsonFile, std::nullopt, std::string("malformed bench JSON: ") + e.what());
+    }
 }
 
 void regenerateDocs(const Report& report, const std::string& docsFile) {

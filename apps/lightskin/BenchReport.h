@@ -77,6 +77,9 @@ struct Report {
     std::vector<CheckResult> checks;
 };
 
+/// Reads a bench.json back (to redraw the plot or regenerate the docs without re-running).
+/// Throws lightskin::Error on a missing or malformed file.
+Report readReport(const std::string& jsonFile);
 /// Writes bench.csv, bench.json, bench.png and bench.md into `dir` (created if missing).
 void writeOutputs(const Report& report, const std::string& dir);
 /// The Markdown section (between the markers).
