@@ -147,6 +147,7 @@ struct Options {
     int temporalFrames = 8;
     std::string temporalSparse = "256,1024,4096";
     int temporalStride = 8;
+    float temporalTolerance = 0.01f; ///< metres between a tracked vertex and the G-buffer position at its pixel
     bool temporal = true;
     bool check = false;
     double tolerance = 0.05;
@@ -605,7 +606,7 @@ struct Track {
 };
 
 void sampleTracked(const std::vector<glm::vec3>& points, const glm::mat4& clip, const ViewImages& view, const cv::Mat& image,
-                   std::vector<float>& out) {
+                   float tolerance, std::vector<float>& out) {
     const int w = view.position.cols, h = view.position.rows;
     for (const glm::vec3& p : points) {
         const glm::vec4 c = clip * glm::vec4(p, 1.0f);
@@ -615,7 +616,7 @@ void sampleTracked(const std::vector<glm::vec3>& points, const glm::mat4& clip, 
             const int y = int(std::floor((c.y / c.w * 0.5f + 0.5f) * float(h)));
             if (x >= 0 && y >= 0 && x < w && y < h) {
                 const cv::Vec4f g = view.position.at<cv::Vec4f>(y, x);
-                if (g[3] != 0.0f && glm::length(glm::vec3(g[0], g[1], g[2]) - p) < 0.01f) {
+                if (g[3] != 0.0f && glm::length(glm::vec3(g[0], g[1], g[2]) - p) < tolerance) {
                     const cv::Vec3f v = image.at<cv::Vec3f>(y, x);
                     value = (v[0] + v[1] + v[2]) / 3.0f;
                 }
@@ -674,10 +675,10 @@ std::vector<TemporalResult> runTemporal(World& world, const Options& options) {
             const gi::ViewParameters viewParameters{clip, moveCamera ? viewEye(f, n) : viewEye()};
             const ViewImages view = world.renderView(inst, width, height, clip);
             brute->render(set, inst, g.view(), viewParameters, target.id());
-            sampleTracked(points, clip, view, readRgb(target.id(), width, height), reference);
+            sampleTracked(points, clip, view, readRgb(target.id(), width, height), options.temporalTolerance, reference);
             for (std::size_t k = 0; k < techniques.size(); ++k) {
                 techniques[k]->render(set, inst, g.view(), viewParameters, target.id());
-                sampleTracked(points, clip, view, readRgb(target.id(), width, height), ours[k]);
+                sampleTracked(points, clip, view, readRgb(target.id(), width, height), options.temporalTolerance, ours[k]);
             }
         }
         // Mean reference level over all visible samples.
@@ -962,6 +963,8 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
     command->add_option("--max-brute", o->maxBruteInteractions, "Skip brute force above this many VAL x pixel interactions");
     command->add_option("--max-truth", o->maxTruthRays, "Skip the ground truth above this many rays");
     command->add_option("--temporal-frames", o->temporalFrames, "Frames per temporal sequence")->check(CLI::Range(2, 1000));
+    command->add_option("--temporal-tolerance", o->temporalTolerance,
+                        "Metres: a tracked vertex counts as seen when the G-buffer position at its pixel is this close");
     command->add_option("--temporal-sparse", o->temporalSparse, "Sparse points per model in the temporal sequences");
     command->add_flag("--no-temporal", [o](std::int64_t) { o->temporal = false; }, "Skip the temporal sequences");
     command->add_option("--export-blender", o->exportBlender,
