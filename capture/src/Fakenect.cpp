@@ -7,6 +7,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -28,7 +29,7 @@ std::int64_t writeFakenectDump(FrameSource& source, const std::filesystem::path&
     cv::Mat millimetres(480, 640, CV_16UC1) /* then disparity */, rgb(480, 640, CV_8UC3);
     std::vector<unsigned char> bytes;
     std::int64_t written = 0;
-    double firstTime = std::nan("");
+    double previousTime = std::nan(""), seconds = 1.0;
     while ((maxFrames < 0 || written < maxFrames) && source.next(frame)) {
         const auto fail = [&](const std::string& cause) { throw Error(source.info().uri, frame.index, cause); };
         if (!frame.hasDepth() || !frame.hasColour()) fail("fakenect dumps need both depth and colour in every frame");
@@ -42,11 +43,12 @@ std::int64_t writeFakenectDump(FrameSource& source, const std::filesystem::path&
         }
         cv::cvtColor(frame.colour, rgb, cv::COLOR_BGR2RGB);
 
-        // fakenect sleeps between index lines by the difference of the <seconds> fields.
+        // fakenect sleeps between index lines by the difference of the <seconds> fields: keep the
+        // recorded pace but cap gaps at 1 s, so a recording with a pause cannot stall a replay.
         double time = std::isfinite(frame.depthTimestampSeconds) ? frame.depthTimestampSeconds : frame.colourTimestampSeconds;
-        if (!std::isfinite(time)) time = double(written) / 30.0;
-        if (!std::isfinite(firstTime)) firstTime = time;
-        const double seconds = 1.0 + (time - firstTime);
+        if (!std::isfinite(time)) time = std::isfinite(previousTime) ? previousTime + 1.0 / 30.0 : 0.0;
+        if (std::isfinite(previousTime)) seconds += std::clamp(time - previousTime, 0.0, 1.0);
+        previousTime = time;
         const auto timestamp = static_cast<unsigned>(written);
         char depthName[96], rgbName[96];
         std::snprintf(depthName, sizeof depthName, "d-%.6f-%010u-depth.pgm", seconds, timestamp);

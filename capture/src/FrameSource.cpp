@@ -106,4 +106,14 @@ std::unique_ptr<FrameSource> openFrameSource(const std::string& uriOrPath, const
                                          "openni2://[uri] or freenect://<index>");
 }
 
+void FrameSource::stampFrame(RgbdFrame& out, std::int64_t index) const {
+    out.index = index;
+    out.depthScaleMetres = info_.depthScaleMetres;
+    out.colourIntrinsics = info_.colourIntrinsics;
+    out.depthIntrinsics = info_.depthIntrinsics;
+    out.registration = info_.registration;
+    out.colour_T_depth = info_.colour_T_depth;
+    out.groundTruth_world_T_camera.reset();
+}
+
 } // namespace lightskin::capture

@@ -151,13 +151,7 @@ protected:
             }
         }
         target_ = nullptr;
-        out.index = next_++;
-        out.depthScaleMetres = info_.depthScaleMetres;
-        out.colourIntrinsics = info_.colourIntrinsics;
-        out.depthIntrinsics = info_.depthIntrinsics;
-        out.registration = info_.registration;
-        out.colour_T_depth = info_.colour_T_depth;
-        out.groundTruth_world_T_camera.reset();
+        stampFrame(out, next_++);
         return true;
     }
 

@@ -41,9 +41,13 @@ void checkSide(std::uint64_t width, std::uint64_t height, const std::filesystem:
 std::string sizeText(cv::Size size) { return std::to_string(size.width) + "x" + std::to_string(size.height); }
 
 void decodeInto(const std::filesystem::path& path, std::optional<std::int64_t> frame, int flags,
-                const std::vector<unsigned char>& bytes, cv::Mat& out) {
-    const std::optional<cv::Size> headerSize = peekImageSize(bytes, path, frame);
-    (void)headerSize;
+                const std::vector<unsigned char>& bytes, std::optional<cv::Size> expected, const char* what,
+                cv::Mat& out) {
+    // The size in the header is checked before the decoder allocates anything for it.
+    if (const std::optional<cv::Size> headerSize = peekImageSize(bytes, path, frame); headerSize && expected &&
+                                                                                      *headerSize != *expected)
+        throw Error(path.string(), frame, std::string(what) + " image is " + sizeText(*headerSize) + ", expected " +
+                                              sizeText(*expected));
     try {
         cv::imdecode(bytes, flags, &out);
     } catch (const cv::Exception& error) {
@@ -90,6 +94,30 @@ std::optional<cv::Size> peekImageSize(const std::vector<unsigned char>& bytes, c
         checkSide(width, height, path, frame);
         return cv::Size(int(width), int(height));
     }
+    if (bytes.size() >= 3 && bytes[0] == 0xff && bytes[1] == 0xd8 && bytes[2] == 0xff) {
+        // JPEG: walk the marker segments to the start-of-frame (SOFn) header.
+        std::size_t at = 2;
+        while (at + 4 <= bytes.size()) {
+            if (bytes[at] != 0xff) break;
+            const unsigned char marker = bytes[at + 1];
+            if (marker == 0xff) { // fill byte
+                ++at;
+                continue;
+            }
+            const std::size_t length = std::size_t(bytes[at + 2]) << 8 | bytes[at + 3];
+            const bool startOfFrame = marker >= 0xc0 && marker <= 0xcf && marker != 0xc4 && marker != 0xc8 && marker != 0xcc;
+            if (startOfFrame) {
+                if (at + 9 > bytes.size()) break;
+                const std::uint64_t height = std::uint64_t(bytes[at + 5]) << 8 | bytes[at + 6];
+                const std::uint64_t width = std::uint64_t(bytes[at + 7]) << 8 | bytes[at + 8];
+                checkSide(width, height, path, frame);
+                return cv::Size(int(width), int(height));
+            }
+            if (length < 2) break;
+            at += 2 + length;
+        }
+        throw Error(path.string(), frame, "truncated or corrupt JPEG: no frame header");
+    }
     const bool little = bytes.size() >= 4 && bytes[0] == 'I' && bytes[1] == 'I' && bytes[2] == 42 && bytes[3] == 0;
     const bool big = bytes.size() >= 4 && bytes[0] == 'M' && bytes[1] == 'M' && bytes[2] == 0 && bytes[3] == 42;
     if (!little && !big) return std::nullopt;
@@ -114,7 +142,7 @@ std::optional<cv::Size> peekImageSize(const std::vector<unsigned char>& bytes, c
 void readDepth16(const std::filesystem::path& path, std::optional<std::int64_t> frame, std::optional<cv::Size> expected,
                  std::vector<unsigned char>& scratch, cv::Mat& out) {
     readFileBounded(path, frame, kMaxImageFileBytes, scratch);
-    decodeInto(path, frame, cv::IMREAD_UNCHANGED, scratch, out);
+    decodeInto(path, frame, cv::IMREAD_UNCHANGED, scratch, expected, "depth", out);
     if (out.type() != CV_16UC1)
         throw Error(path.string(), frame,
                     "depth must be 16-bit single-channel, the file holds " + describeMatType(out.type()) + " pixels");
@@ -125,7 +153,7 @@ void readDepth16(const std::filesystem::path& path, std::optional<std::int64_t> 
 void readColour8(const std::filesystem::path& path, std::optional<std::int64_t> frame, std::optional<cv::Size> expected,
                  std::vector<unsigned char>& scratch, cv::Mat& out) {
     readFileBounded(path, frame, kMaxImageFileBytes, scratch);
-    decodeInto(path, frame, cv::IMREAD_COLOR, scratch, out);
+    decodeInto(path, frame, cv::IMREAD_COLOR, scratch, expected, "colour", out);
     if (out.type() != CV_8UC3)
         throw Error(path.string(), frame, "colour must decode to 8-bit 3-channel, got " + describeMatType(out.type()));
     if (expected && out.size() != *expected)

@@ -21,7 +21,7 @@ inline constexpr int kMaxImageSide = 16384;
 void readFileBounded(const std::filesystem::path& path, std::optional<std::int64_t> frame, std::uintmax_t maxBytes,
                      std::vector<unsigned char>& bytes);
 
-/// Width and height from a PNG or TIFF header, when `bytes` is one of those (nullopt for other
+/// Width and height from a PNG, TIFF or JPEG header, when `bytes` is one of those (nullopt for other
 /// formats). Throws when the header is truncated or states an absurd size.
 std::optional<cv::Size> peekImageSize(const std::vector<unsigned char>& bytes, const std::filesystem::path& path,
                                       std::optional<std::int64_t> frame);

@@ -23,7 +23,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
+#include <chrono>
 #include <mutex>
+#include <thread>
 
 namespace lightskin::capture::detail {
 
@@ -88,12 +90,16 @@ public:
     ~OpenNI2Source() override { close(); }
 
     void close() {
-        for (openni::VideoStream* stream : {&depth_, &colour_}) {
-            if (stream->isValid()) {
-                stream->stop();
-                stream->destroy();
-            }
-        }
+        for (openni::VideoStream* stream : {&depth_, &colour_})
+            if (stream->isValid()) stream->stop();
+        // Debian's OniFile driver (OpenNI2 2.2) walks its stream list from the player thread
+        // without a lock, continuously while any stream is started (and spinning at end of file).
+        // Destroying a stream during that walk is a use-after-free: the .oni test segfaulted in
+        // about 1 run in 15. Once every stream is stopped the thread only looks at the list every
+        // 10 ms, so give it ten times that (the machine may be loaded) to park before the streams go away.
+        if (playback_ != nullptr) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        for (openni::VideoStream* stream : {&depth_, &colour_})
+            if (stream->isValid()) stream->destroy();
         if (device_.isValid()) device_.close();
         playback_ = nullptr;
     }
@@ -102,8 +108,13 @@ public:
         const std::string& uri = info_.uri;
         file_ = file;
         if (device_.open(file ? uri.c_str() : (uri.empty() ? openni::ANY_DEVICE : uri.c_str())) != openni::STATUS_OK)
+        {
+            const std::string detail = openni::OpenNI::getExtendedError();
             throw Error(file ? uri : "openni2://" + uri, std::nullopt,
-                        std::string("cannot open: ") + openni::OpenNI::getExtendedError());
+                        std::string(file ? "OpenNI2 cannot open the file (truncated, header only or not an .oni?)"
+                                         : "OpenNI2 cannot open the device (not connected, no driver, or in use?)") +
+                            (detail.empty() ? "" : ": " + detail));
+        }
         info_.deviceName = device_.getDeviceInfo().getName();
         if (!file) info_.deviceName = std::string(device_.getDeviceInfo().getVendor()) + " " + info_.deviceName;
         if (file) {
@@ -211,13 +222,7 @@ protected:
             }
         }
         if (colour_.isValid() == false) out.colour.release();
-        out.index = next_++;
-        out.depthScaleMetres = info_.depthScaleMetres;
-        out.colourIntrinsics = info_.colourIntrinsics;
-        out.depthIntrinsics = info_.depthIntrinsics;
-        out.registration = info_.registration;
-        out.colour_T_depth = info_.colour_T_depth;
-        out.groundTruth_world_T_camera.reset();
+        stampFrame(out, next_++);
         return true;
     }
 

@@ -31,14 +31,9 @@ protected:
         else readDepth16(folder_ / entry.depthFile, next_, depthSize, scratch_, out.depth);
         if (entry.colourFile.empty()) out.colour.release();
         else readColour8(folder_ / entry.colourFile, next_, colourSize, scratch_, out.colour);
-        out.index = next_;
-        out.depthScaleMetres = header_.depthScaleMetres;
+        stampFrame(out, next_);
         out.colourTimestampSeconds = entry.colourTimestamp;
         out.depthTimestampSeconds = entry.depthTimestamp;
-        out.colourIntrinsics = header_.colourIntrinsics;
-        out.depthIntrinsics = header_.depthIntrinsics;
-        out.registration = header_.registration;
-        out.colour_T_depth = header_.colour_T_depth;
         out.groundTruth_world_T_camera = entry.world_T_camera;
         ++next_;
         return true;

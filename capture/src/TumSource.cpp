@@ -177,14 +177,9 @@ protected:
         const cv::Size size(info_.colourIntrinsics.width, info_.colourIntrinsics.height);
         readDepth16(folder_ / frame.depthFile, next_, size, scratch_, out.depth);
         readColour8(folder_ / frame.colourFile, next_, size, scratch_, out.colour);
-        out.index = next_;
-        out.depthScaleMetres = info_.depthScaleMetres;
+        stampFrame(out, next_);
         out.colourTimestampSeconds = frame.colourTime;
         out.depthTimestampSeconds = frame.depthTime;
-        out.colourIntrinsics = info_.colourIntrinsics;
-        out.depthIntrinsics = info_.depthIntrinsics;
-        out.registration = DepthRegistration::RegisteredToColour;
-        out.colour_T_depth = Pose();
         out.groundTruth_world_T_camera = frame.pose;
         ++next_;
         return true;
@@ -222,6 +217,7 @@ std::unique_ptr<FrameSource> openTumSource(const std::filesystem::path& folder, 
     info.depthScaleMetres = 1.0 / 5000.0;
     info.registration = DepthRegistration::RegisteredToColour;
     std::optional<CameraIntrinsics> intrinsics = options.intrinsics;
+    bool warnDefaultIntrinsics = false;
     if (const auto sidecar = folder / kSidecarFile; std::filesystem::exists(sidecar)) {
         std::vector<unsigned char> bytes;
         readFileBounded(sidecar, std::nullopt, kMaxHeaderBytes, bytes);
@@ -249,8 +245,7 @@ std::unique_ptr<FrameSource> openTumSource(const std::filesystem::path& folder, 
         else if (folderName.find("freiburg3") != std::string::npos) intrinsics = CameraIntrinsics::tumFreiburg3();
         else {
             intrinsics = CameraIntrinsics::kinectV1Default();
-            log::warning(name + ": no intrinsics given (option, " + kSidecarFile +
-                         " or a freiburgN folder name): using the Kinect v1 default 525/525/319.5/239.5");
+            warnDefaultIntrinsics = true;
         }
         if (info.deviceName.empty()) info.deviceName = "TUM RGB-D (Kinect v1)";
     }
@@ -278,6 +273,9 @@ std::unique_ptr<FrameSource> openTumSource(const std::filesystem::path& folder, 
         info.hasGroundTruth = info.hasGroundTruth || frame.pose.has_value();
         frames.push_back(std::move(frame));
     }
+    if (warnDefaultIntrinsics)
+        log::warning(name + ": no intrinsics given (option, " + kSidecarFile +
+                     " or a freiburgN folder name): using the Kinect v1 default 525/525/319.5/239.5");
     return std::make_unique<TumSource>(std::move(info), options, folder, std::move(frames));
 }
 

@@ -34,9 +34,9 @@ void main() {
     const vec3 toEye = ls_toEye(x, uEye);
     vec3 sum = vec3(0.0);
     for (int j = 0; j < uValCount; ++j) {
-        const vec4 a = valData[3 * j];
-        const vec4 b = valData[3 * j + 1];
-        const vec4 f = valData[3 * j + 2];
+        const vec4 a = chunkVals[j].positionArea;
+        const vec4 b = chunkVals[j].normal;
+        const vec4 f = chunkVals[j].flux;
 #ifdef GLOSSY
         sum += ls_bruteForceRadiance(ls_gatherSample(x, n, a.xyz, b.xyz, a.w, f.rgb, toEye, k, ck, 0.0), rhoD, fs);
 #else

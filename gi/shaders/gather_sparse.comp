@@ -5,10 +5,11 @@
 // adds its sums to the targets (image load/store; one thread owns one texel). Same outputs as
 // gather_sparse.frag. Variants: GLOSSY, OCCLUSION.
 #include "lightskin_math.glsl"
+#include "virtual_area_light.glsl"
 #include "gather_sparse_points.glsl"
 
 layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Vals { vec4 vals[]; };
+layout(std430, binding = 0) readonly buffer Vals { VirtualAreaLight vals[]; };
 layout(binding = 0, rgba32f) uniform image2D uOutDiffuse;
 layout(binding = 1, rgba32f) uniform image2D uOutOffsetD;
 layout(binding = 2, rgba32f) uniform image2D uOutGlossy;
@@ -36,10 +37,10 @@ void main() {
     for (uint base = 0u; base < uValCount; base += 64u) {
         const uint j = base + local;
         if (j < uValCount) {
-            const uint v = 3u * (uValFirst + j);
-            tile[3u * local] = vals[v];
-            tile[3u * local + 1u] = vals[v + 1u];
-            tile[3u * local + 2u] = vals[v + 2u];
+            const VirtualAreaLight val = vals[uValFirst + j];
+            tile[3u * local] = val.positionArea;
+            tile[3u * local + 1u] = val.normal;
+            tile[3u * local + 2u] = val.flux;
         }
         barrier();
         const uint count = min(64u, uValCount - base);

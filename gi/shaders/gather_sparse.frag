@@ -26,9 +26,9 @@ void main() {
     const vec3 toEye = ls_toEye(x, uEye);
     vec4 diffuse = vec4(0.0), offsetD = vec4(0.0), glossy = vec4(0.0), offsetS = vec4(0.0), moments = vec4(0.0);
     for (int j = 0; j < uValCount; ++j) {
-        const vec4 a = valData[3 * j];
-        const vec4 b = valData[3 * j + 1];
-        const vec4 f = valData[3 * j + 2];
+        const vec4 a = chunkVals[j].positionArea;
+        const vec4 b = chunkVals[j].normal;
+        const vec4 f = chunkVals[j].flux;
         const GatherSample s = ls_gatherSample(x, n, a.xyz, b.xyz, a.w, f.rgb, toEye, k, ck, 0.0); // eps_l folded in gather_renormalise.frag
         diffuse += vec4(s.irradiance, s.r2 * s.weightD);
         offsetD += vec4(s.offset * s.weightD, s.weightD);

@@ -9,6 +9,7 @@
 #include <glm/gtc/type_ptr.hpp>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <string>
 
@@ -27,7 +28,9 @@ void validate(const RsmSettings& s) {
     };
     if (s.resolution < 1 || s.resolution > 4096) fail("resolution", "must be in [1, 4096]");
     if (s.maxLights < 1 || s.maxLights > 64) fail("maxLights", "must be in [1, 64]");
-    if (!(s.nearPlane > 0.0f) || !(s.farPlane > s.nearPlane)) fail("nearPlane/farPlane", "need 0 < near < far");
+    const bool automatic = s.nearPlane == 0.0f && s.farPlane == 0.0f;
+    if (!automatic && (!(s.nearPlane > 0.0f) || !(s.farPlane > s.nearPlane) || !std::isfinite(s.farPlane)))
+        fail("nearPlane/farPlane", "need 0 < near < far < inf, or both 0 (automatic)");
     if (!(s.minCosine > 0.0f && s.minCosine <= 1.0f)) fail("minCosine", "must be in (0, 1]");
     const double vals = double(s.maxLights) * 6.0 * double(s.resolution) * double(s.resolution);
     if (vals > 64.0 * 1024 * 1024) fail("resolution", "maxLights * 6 * resolution^2 exceeds 64M VALs");
@@ -108,7 +111,27 @@ ValSetView ReflectiveShadowMap::generate(std::span<const VirtualLight> lights, s
             const glm::vec3 axes[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
             for (const glm::vec3& axis : axes) faces[faceCount++] = {axis, std::abs(axis.y) < 0.5f ? glm::vec3(0, 1, 0) : glm::vec3(0, 0, 1)};
         }
-        const glm::mat4 projection = glm::perspective(2.0f * std::atan(tanHalf), 1.0f, settings_.nearPlane, settings_.farPlane);
+        float nearPlane = settings_.nearPlane, farPlane = settings_.farPlane;
+        if (nearPlane == 0.0f) {
+            // Bounding sphere of the placed meshes (box centre, farthest vertex), then the light's
+            // distance to it. Double precision: scenes from millimetres to kilometres.
+            glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+            for (const MeshInstance& instance : instances) {
+                LIGHTSKIN_ASSERT(instance.mesh != nullptr, "automatic RSM frustum needs MeshInstance::mesh");
+                const glm::dmat4 world_T_model(instance.world_T_model);
+                for (const glm::vec3& p : instance.mesh->positions) {
+                    const glm::dvec3 w(world_T_model * glm::dvec4(glm::dvec3(p), 1.0));
+                    lo = glm::min(lo, w), hi = glm::max(hi, w);
+                }
+            }
+            if (!(lo.x <= hi.x)) continue; // nothing to render
+            const glm::dvec3 centre = 0.5 * (lo + hi);
+            const double radius = 0.5 * glm::length(hi - lo);
+            const double distance = glm::length(centre - glm::dvec3(light.position));
+            farPlane = float((distance + radius) * 1.01 + 1e-30);
+            nearPlane = float(std::max(distance - radius, 1e-5 * (distance + radius)) * 0.99);
+        }
+        const glm::mat4 projection = glm::perspective(2.0f * std::atan(tanHalf), 1.0f, nearPlane, farPlane);
         for (int f = 0; f < faceCount; ++f) {
             const glm::mat4 view = glm::lookAt(light.position, light.position + faces[f].forward, faces[f].up);
             const glm::mat4 clip_T_world = projection * view;

@@ -292,4 +292,12 @@ SparsePointSet prepareSparsePoints(TriangleMesh& mesh, const SparsePointSettings
     return sampleSparsePoints(mesh, settings, meshName);
 }
 
+SparsePointProvider samplingProvider(const SparsePointSettings& settings) {
+    validate(settings);
+    return [settings](const MeshInstance& instance) {
+        LIGHTSKIN_ASSERT(instance.mesh != nullptr, "a MeshInstance needs its CPU mesh for sparse-point sampling");
+        return sampleSparsePoints(*instance.mesh, settings, "mesh " + std::to_string(instance.meshId));
+    };
+}
+
 } // namespace lightskin::gi

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 namespace lightskin::gi {
 
@@ -43,7 +44,11 @@ ValGenerator ValGenerator::create(int depthWidth, int depthHeight, const ValGene
     const int mapW = valMapWidth(depthWidth, settings), mapH = valMapHeight(depthHeight, settings);
     g.capacity_ = std::uint32_t(std::max(1, mapW * mapH));
     const gl::ShaderLibrary library{embeddedShaders()};
-    g.program_ = library.buildProgram({{GL_COMPUTE_SHADER, "val_from_depth.comp"}});
+    // Shared-memory tile of the work group's depth footprint when it fits in 16 KB (else texel fetches).
+    const int tileSize = 7 * settings.stride + 2 * settings.normalWindowRadius + 1;
+    std::vector<std::string> defines;
+    if (tileSize <= 64) defines.push_back("TILE_SIZE " + std::to_string(tileSize));
+    g.program_ = library.buildProgram({{GL_COMPUTE_SHADER, "val_from_depth.comp"}}, defines);
     g.depthTexture_ = gl::Texture::create2D(GL_R32F, depthWidth, depthHeight);
     g.colourTexture_ = gl::Texture::create2D(GL_RGBA8, depthWidth, depthHeight);
     g.vals_ = gl::Buffer::create(GLsizeiptr(g.capacity_) * GLsizeiptr(sizeof(VirtualAreaLight)));
@@ -55,7 +60,8 @@ ValGenerator ValGenerator::create(int depthWidth, int depthHeight, const ValGene
 
 void ValGenerator::setSettings(const ValGeneratorSettings& settings) {
     validate(settings);
-    LIGHTSKIN_ASSERT(settings.stride == settings_.stride, "the stride is fixed at create()");
+    LIGHTSKIN_ASSERT(settings.stride == settings_.stride && settings.normalWindowRadius == settings_.normalWindowRadius,
+                     "the stride and the normal window are fixed at create()");
     settings_ = settings;
 }
 
@@ -82,6 +88,7 @@ ValSetView ValGenerator::generate(const cv::Mat& depth, double depthScaleMetres,
         depth.convertTo(depthMetres_, CV_32FC1, depthScaleMetres); // sized at create(): no allocation
         depthMetres = &depthMetres_;
     }
+    if (timer_) timer_->begin("val upload");
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
     glPixelStorei(GL_UNPACK_ROW_LENGTH, int(depthMetres->step1()));
     glTextureSubImage2D(depthTexture_.id(), 0, 0, 0, width_, height_, GL_RED, GL_FLOAT, depthMetres->data);
@@ -90,6 +97,10 @@ ValSetView ValGenerator::generate(const cv::Mat& depth, double depthScaleMetres,
     glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
 
+    if (timer_) {
+        timer_->end();
+        timer_->begin("val pass");
+    }
     const std::uint32_t zero = 0;
     glClearNamedBufferData(counter_.id(), GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT, &zero);
     const int mapW = valMapWidth(width_, settings_), mapH = valMapHeight(height_, settings_);
@@ -115,6 +126,7 @@ ValSetView ValGenerator::generate(const cv::Mat& depth, double depthScaleMetres,
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, counter_.id());
     glDispatchCompute(GLuint((mapW + 7) / 8), GLuint((mapH + 7) / 8), 1);
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT | GL_UNIFORM_BARRIER_BIT);
+    if (timer_) timer_->end();
     std::uint32_t count = 0;
     glGetNamedBufferSubData(counter_.id(), 0, sizeof count, &count);
     lastCount_ = std::min(count, capacity_);

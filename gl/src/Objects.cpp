@@ -18,6 +18,18 @@ void deleteShader(GLuint id) { glDeleteShader(id); }
 void deleteProgram(GLuint id) { glDeleteProgram(id); }
 } // namespace detail
 
+namespace {
+/// The driver's compile or link log of a shader or program.
+template <typename GetParameter, typename GetLog>
+std::string infoLog(GLuint id, GetParameter getParameter, GetLog getLog) {
+    GLint logLength = 0;
+    getParameter(id, GL_INFO_LOG_LENGTH, &logLength);
+    std::string log(std::size_t(std::max(logLength, 1)), '\0');
+    getLog(id, GLsizei(log.size()), nullptr, log.data());
+    return log;
+}
+} // namespace
+
 Buffer Buffer::create(GLsizeiptr sizeBytes, const void* data, GLbitfield flags) {
     LIGHTSKIN_ASSERT(sizeBytes > 0, "buffer size must be positive");
     GLuint id = 0;
@@ -96,13 +108,9 @@ Shader Shader::compile(GLenum stage, std::string_view source, std::string_view n
     glCompileShader(shader.id());
     GLint ok = GL_FALSE;
     glGetShaderiv(shader.id(), GL_COMPILE_STATUS, &ok);
-    if (ok != GL_TRUE) {
-        GLint logLength = 0;
-        glGetShaderiv(shader.id(), GL_INFO_LOG_LENGTH, &logLength);
-        std::string log(std::size_t(std::max(logLength, 1)), '\0');
-        glGetShaderInfoLog(shader.id(), GLsizei(log.size()), nullptr, log.data());
-        throw Error(std::string(name), std::nullopt, "shader compilation failed:\n" + log);
-    }
+    if (ok != GL_TRUE)
+        throw Error(std::string(name), std::nullopt,
+                    "shader compilation failed:\n" + infoLog(shader.id(), glGetShaderiv, glGetShaderInfoLog));
     return shader;
 }
 
@@ -113,13 +121,9 @@ Program Program::link(std::span<const Shader> shaders, std::string_view name) {
     for (const Shader& shader : shaders) glDetachShader(program.id(), shader.id());
     GLint ok = GL_FALSE;
     glGetProgramiv(program.id(), GL_LINK_STATUS, &ok);
-    if (ok != GL_TRUE) {
-        GLint logLength = 0;
-        glGetProgramiv(program.id(), GL_INFO_LOG_LENGTH, &logLength);
-        std::string log(std::size_t(std::max(logLength, 1)), '\0');
-        glGetProgramInfoLog(program.id(), GLsizei(log.size()), nullptr, log.data());
-        throw Error(std::string(name), std::nullopt, "program link failed:\n" + log);
-    }
+    if (ok != GL_TRUE)
+        throw Error(std::string(name), std::nullopt,
+                    "program link failed:\n" + infoLog(program.id(), glGetProgramiv, glGetProgramInfoLog));
     return program;
 }
 

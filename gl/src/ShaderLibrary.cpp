@@ -63,7 +63,7 @@ std::string ShaderLibrary::preprocess(std::string_view name, std::span<const std
 
 Program ShaderLibrary::buildProgram(std::initializer_list<ShaderStage> stages, std::span<const std::string> defines) const {
     std::string variant;
-    for (const std::string& define : defines) variant += (variant.empty() ? " [" : ", ") + define;
+    for (const std::string& define : defines) variant.append(variant.empty() ? " [" : ", ").append(define);
     if (!variant.empty()) variant += "]";
 
     std::vector<Shader> shaders;
@@ -71,7 +71,7 @@ Program ShaderLibrary::buildProgram(std::initializer_list<ShaderStage> stages, s
     std::string programName;
     for (const ShaderStage& stage : stages) {
         shaders.push_back(Shader::compile(stage.stage, preprocess(stage.name, defines), std::string(stage.name) + variant));
-        programName += (programName.empty() ? "" : "+") + std::string(stage.name);
+        programName.append(programName.empty() ? "" : "+").append(stage.name);
     }
     return Program::link(shaders, programName + variant);
 }

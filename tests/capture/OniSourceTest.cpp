@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <fstream>
 
 namespace lightskin::test {
 namespace {
@@ -105,6 +106,27 @@ TEST(OniSourceTest, MirroredFileIsFlippedBackAndSeekWorks) {
     EXPECT_EQ(frame.index, 5);
     EXPECT_EQ(cv::norm(frame.depth, sequential[5], cv::NORM_INF), 0.0);
     EXPECT_GT(cv::norm(sequential[4], sequential[5], cv::NORM_INF), 0.0); // frames differ: the check means something
+}
+
+TEST(OniSourceTest, HeaderOnlyOrTruncatedFilesAreErrors) {
+    const auto scratch = scratchDir("oni_truncated");
+    std::ifstream in(oniPath(), std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    for (std::size_t keep : {std::size_t{40}, std::size_t{2000}, bytes.size() / 2}) {
+        const auto path = scratch / ("cut" + std::to_string(keep) + ".oni");
+        std::ofstream(path, std::ios::binary) << bytes.substr(0, keep);
+        try {
+            auto source = capture::openFrameSource(path.string());
+            ADD_FAILURE() << "a " << keep << "-byte .oni opened";
+        } catch (const Error& error) {
+            EXPECT_EQ(error.source(), path.string());
+            EXPECT_FALSE(error.frame().has_value());
+            EXPECT_FALSE(error.cause().empty());
+        }
+    }
+    // Not an .oni at all.
+    std::ofstream(scratch / "text.oni") << std::string(4096, 'x');
+    EXPECT_THROW(capture::openFrameSource((scratch / "text.oni").string()), Error);
 }
 
 } // namespace

@@ -49,6 +49,21 @@ TEST(RecorderTest, EveryFrameIsWrittenOrCountedAsDropped) {
     EXPECT_TRUE(capture::readRecordingSummary(folder).finished);
 }
 
+TEST(RecorderTest, WriteFailuresAreCountedAsDroppedAndReported) {
+    const auto folder = scratchDir("recorder_write_error") / "rec";
+    const auto info = smallRecordingInfo(64, 48);
+    auto writer = capture::RecordingWriter::create(folder, info);
+    // A folder where frame 3's depth file must go: the rename fails (even for root).
+    std::filesystem::create_directory(folder / "depth" / "000003.png");
+    auto recorder = capture::Recorder::start(std::move(writer), capture::RecorderOptions{64});
+    for (std::uint32_t i = 0; i < 6; ++i) EXPECT_TRUE(recorder->push(syntheticFrame(info, i)));
+    const auto stats = recorder->finish();
+    EXPECT_EQ(stats.written, 3);
+    EXPECT_EQ(stats.dropped, 3); // frame 3 and, numbered 3 again, every frame after it
+    EXPECT_NE(stats.firstError.find("000003.png"), std::string::npos) << stats.firstError;
+    EXPECT_EQ(capture::openFrameSource(folder.string())->frameCount(), 3);
+}
+
 TEST(RecorderTest, LargeQueueDropsNothing) {
     const auto folder = scratchDir("recorder_nodrop") / "rec";
     const auto info = smallRecordingInfo(64, 48);

@@ -61,6 +61,14 @@ TEST(RecordingTest, RoundTripIsBitExactWithPosesAndTimestamps) {
     source->seek(3);
     ASSERT_TRUE(source->next(frame));
     EXPECT_EQ(frame.index, 3);
+    // Steady state reuses the frame's pixel buffers (no allocation per frame).
+    const void* depthBuffer = frame.depth.data;
+    const void* colourBuffer = frame.colour.data;
+    ASSERT_TRUE(source->next(frame));
+    EXPECT_EQ(frame.depth.data, depthBuffer);
+    EXPECT_EQ(frame.colour.data, colourBuffer);
+    source->seek(3);
+    ASSERT_TRUE(source->next(frame));
     EXPECT_TRUE(identical(frame.depth, written[3].depth));
 
     const auto summary = capture::readRecordingSummary(folder);

@@ -7,7 +7,6 @@
 #include <apriltag/tag25h9.h>
 #include <apriltag/tag36h11.h>
 #include <apriltag/tagStandard41h12.h>
-
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 

@@ -1,6 +1,5 @@
-#include <lightskin/tracking/PoseEstimation.h>
-
 #include <lightskin/core/Error.h>
+#include <lightskin/tracking/PoseEstimation.h>
 
 #include <glm/gtc/quaternion.hpp>
 #include <opencv2/calib3d.hpp>
@@ -89,36 +88,18 @@ Pose refineLm(const Pose& world_T_camera, const Correspondences& points, const C
     cv::Vec3d rvec;
     cv::Vec3d tvec;
     rvecTvecFromPose(world_T_camera.inverse(), rvec, tvec);
-    cv::solvePnPRefineLM(cv::Mat(static_cast<int>(points.world.size()), 1, CV_64FC3, const_cast<cv::Point3d*>(points.world.data())),
-                         cv::Mat(static_cast<int>(points.image.size()), 1, CV_64FC2, const_cast<cv::Point2d*>(points.image.data())),
-                         cameraMatrix(k), cv::noArray(), rvec, tvec);
+    cv::solvePnPRefineLM(
+        cv::Mat(static_cast<int>(points.world.size()), 1, CV_64FC3, const_cast<cv::Point3d*>(points.world.data())),
+        cv::Mat(static_cast<int>(points.image.size()), 1, CV_64FC2, const_cast<cv::Point2d*>(points.image.data())),
+        cameraMatrix(k), cv::noArray(), rvec, tvec);
     return poseFromRvecTvec(rvec, tvec).inverse();
 }
 
-} // namespace
-
-void estimatePoseInto(const std::vector<TagDetection>& detections, const TagWorld& world,
-                      const CameraIntrinsics& intrinsics, PoseMeasurement& out) {
-    LIGHTSKIN_ASSERT(intrinsics.isValid(), "intrinsics must be valid");
-    out.tagsUsed.clear();
-    out.unknownTags.clear();
+/// The candidates (best first) and ambiguity ratio for one set of tags.
+void solveCandidates(const std::vector<const TagDetection*>& used, const std::vector<const WorldTag*>& usedTags,
+                     const CameraIntrinsics& intrinsics, PoseMeasurement& out) {
     out.candidates.clear();
-
-    std::vector<const TagDetection*> used;
-    std::vector<const WorldTag*> usedTags;
-    for (const TagDetection& detection : detections) {
-        const WorldTag* tag = world.find(detection.id);
-        if (tag == nullptr) {
-            if (out.unknownTags.empty() || out.unknownTags.back() != detection.id) out.unknownTags.push_back(detection.id);
-            continue;
-        }
-        if (!out.tagsUsed.empty() && out.tagsUsed.back() == detection.id) continue; // duplicate id
-        out.tagsUsed.push_back(detection.id);
-        used.push_back(&detection);
-        usedTags.push_back(tag);
-    }
-    if (used.empty()) return;
-
+    out.ambiguityRatio = std::numeric_limits<double>::infinity();
     Correspondences points;
     for (std::size_t t = 0; t < used.size(); ++t) {
         const auto corners = tagCorners(usedTags[t]->sizeMetres);
@@ -133,14 +114,36 @@ void estimatePoseInto(const std::vector<TagDetection>& detections, const TagWorl
     for (std::size_t t = 0; t < used.size(); ++t) singleTagCandidates(*used[t], *usedTags[t], intrinsics, starts);
 
     if (used.size() == 1) {
-        for (const Pose& pose : starts) out.candidates.push_back({pose, rmsError(pose, points, intrinsics)});
+        // Each IPPE solution polished by Levenberg-Marquardt on the 8 corner coordinates, unless that
+        // slides it over to the other solution's side (then the two would merge and the ambiguity
+        // would be hidden).
+        std::array<double, 2> ippeErrors{std::numeric_limits<double>::infinity(),
+                                         std::numeric_limits<double>::infinity()};
+        for (std::size_t i = 0; i < starts.size(); ++i) {
+            PoseCandidate candidate{starts[i], rmsError(starts[i], points, intrinsics)};
+            if (i < 2) ippeErrors[i] = candidate.rmsErrorPx;
+            const Pose refined = refineLm(starts[i], points, intrinsics);
+            const double error = rmsError(refined, points, intrinsics);
+            bool staysOnItsSide = true;
+            for (std::size_t j = 0; j < starts.size(); ++j) {
+                if (j != i &&
+                    Pose::rotationAngleBetween(refined, starts[j]) <= Pose::rotationAngleBetween(refined, starts[i]))
+                    staysOnItsSide = false;
+            }
+            if (staysOnItsSide && error < candidate.rmsErrorPx) candidate = {refined, error};
+            out.candidates.push_back(candidate);
+        }
+        if (starts.size() == 2) {
+            out.ambiguityRatio =
+                std::max(ippeErrors[0], ippeErrors[1]) / std::max(std::min(ippeErrors[0], ippeErrors[1]), 1e-9);
+        }
     } else {
         cv::Vec3d rvec;
         cv::Vec3d tvec;
-        const bool solved = cv::solvePnP(
-            cv::Mat(static_cast<int>(points.world.size()), 1, CV_64FC3, points.world.data()),
-            cv::Mat(static_cast<int>(points.image.size()), 1, CV_64FC2, points.image.data()), cameraMatrix(intrinsics),
-            cv::noArray(), rvec, tvec, false, cv::SOLVEPNP_SQPNP);
+        const bool solved =
+            cv::solvePnP(cv::Mat(static_cast<int>(points.world.size()), 1, CV_64FC3, points.world.data()),
+                         cv::Mat(static_cast<int>(points.image.size()), 1, CV_64FC2, points.image.data()),
+                         cameraMatrix(intrinsics), cv::noArray(), rvec, tvec, false, cv::SOLVEPNP_SQPNP);
         if (solved) starts.push_back(poseFromRvecTvec(rvec, tvec).inverse());
         std::vector<PoseCandidate> scored;
         for (const Pose& pose : starts) scored.push_back({pose, rmsError(pose, points, intrinsics)});
@@ -149,15 +152,25 @@ void estimatePoseInto(const std::vector<TagDetection>& detections, const TagWorl
         // The best start and the best one that is a genuinely different pose (> 5 degrees away),
         // each refined on all corners.
         constexpr double distinctRadians = 5.0 * std::numbers::pi / 180.0;
+        int refinements = 0;
         for (const PoseCandidate& candidate : scored) {
             if (!std::isfinite(candidate.rmsErrorPx)) break;
-            const bool distinct = std::all_of(out.candidates.begin(), out.candidates.end(), [&](const PoseCandidate& c) {
-                return Pose::rotationAngleBetween(c.world_T_camera, candidate.world_T_camera) > distinctRadians;
-            });
-            if (!distinct) continue;
+            // Starts near an existing candidate would refine onto it: skip them without the cost.
+            const bool nearExisting =
+                std::any_of(out.candidates.begin(), out.candidates.end(), [&](const PoseCandidate& c) {
+                    return Pose::rotationAngleBetween(c.world_T_camera, candidate.world_T_camera) <= distinctRadians;
+                });
+            if (nearExisting) continue;
+            if (++refinements > 4) break;
             const Pose refined = refineLm(candidate.world_T_camera, points, intrinsics);
             const double error = rmsError(refined, points, intrinsics);
-            out.candidates.push_back(error <= candidate.rmsErrorPx ? PoseCandidate{refined, error} : candidate);
+            const PoseCandidate improved = error <= candidate.rmsErrorPx ? PoseCandidate{refined, error} : candidate;
+            // Starts that converge onto an existing candidate are the same solution.
+            const bool distinct =
+                std::all_of(out.candidates.begin(), out.candidates.end(), [&](const PoseCandidate& c) {
+                    return Pose::rotationAngleBetween(c.world_T_camera, improved.world_T_camera) > distinctRadians;
+                });
+            if (distinct) out.candidates.push_back(improved);
             if (out.candidates.size() == 2) break;
         }
     }
@@ -166,17 +179,79 @@ void estimatePoseInto(const std::vector<TagDetection>& detections, const TagWorl
                          out.candidates.end());
     std::sort(out.candidates.begin(), out.candidates.end(),
               [](const PoseCandidate& a, const PoseCandidate& b) { return a.rmsErrorPx < b.rmsErrorPx; });
+    if (used.size() > 1 && out.candidates.size() == 2)
+        out.ambiguityRatio = out.candidates[1].rmsErrorPx / std::max(out.candidates[0].rmsErrorPx, 1e-9);
+}
+
+/// RMS reprojection error of one tag's corners under a pose.
+double tagRms(const Pose& world_T_camera, const TagDetection& detection, const WorldTag& tag,
+              const CameraIntrinsics& intrinsics) {
+    Correspondences points;
+    const auto corners = tagCorners(tag.sizeMetres);
+    for (std::size_t c = 0; c < 4; ++c) {
+        const glm::dvec3 w = tag.world_T_tag.transformPoint(corners[c]);
+        points.world.emplace_back(w.x, w.y, w.z);
+        points.image.emplace_back(detection.corners[c].x, detection.corners[c].y);
+    }
+    return rmsError(world_T_camera, points, intrinsics);
+}
+
+} // namespace
+
+void estimatePoseInto(const std::vector<TagDetection>& detections, const TagWorld& world,
+                      const CameraIntrinsics& intrinsics, PoseMeasurement& out, double maxTagRmsPx) {
+    LIGHTSKIN_ASSERT(intrinsics.isValid(), "intrinsics must be valid");
+    out.tagsUsed.clear();
+    out.unknownTags.clear();
+    out.rejectedTags.clear();
+    out.candidates.clear();
+    out.ambiguityRatio = std::numeric_limits<double>::infinity();
+
+    std::vector<const TagDetection*> used;
+    std::vector<const WorldTag*> usedTags;
+    for (const TagDetection& detection : detections) {
+        const WorldTag* tag = world.find(detection.id);
+        if (tag == nullptr) {
+            if (out.unknownTags.empty() || out.unknownTags.back() != detection.id)
+                out.unknownTags.push_back(detection.id);
+            continue;
+        }
+        if (!used.empty() && used.back()->id == detection.id) continue; // duplicate id: keep the best margin
+        used.push_back(&detection);
+        usedTags.push_back(tag);
+    }
+    // A tag whose corners disagree with the others (a tag cut by the image border, a false
+    // decode, a tag moved since the layout was measured) is dropped, worst first, until the rest
+    // agree or one tag is left.
+    while (!used.empty()) {
+        solveCandidates(used, usedTags, intrinsics, out);
+        if (used.size() == 1 || out.candidates.empty() || out.candidates[0].rmsErrorPx <= maxTagRmsPx) break;
+        std::size_t worst = 0;
+        double worstRms = -1.0;
+        for (std::size_t t = 0; t < used.size(); ++t) {
+            const double rms = tagRms(out.candidates[0].world_T_camera, *used[t], *usedTags[t], intrinsics);
+            if (rms > worstRms) {
+                worstRms = rms;
+                worst = t;
+            }
+        }
+        out.rejectedTags.push_back(used[worst]->id);
+        used.erase(used.begin() + static_cast<std::ptrdiff_t>(worst));
+        usedTags.erase(usedTags.begin() + static_cast<std::ptrdiff_t>(worst));
+    }
+    for (const TagDetection* detection : used) out.tagsUsed.push_back(detection->id);
+    std::sort(out.rejectedTags.begin(), out.rejectedTags.end());
 }
 
 PoseMeasurement estimatePose(const std::vector<TagDetection>& detections, const TagWorld& world,
-                             const CameraIntrinsics& intrinsics) {
+                             const CameraIntrinsics& intrinsics, double maxTagRmsPx) {
     PoseMeasurement out;
-    estimatePoseInto(detections, world, intrinsics, out);
+    estimatePoseInto(detections, world, intrinsics, out, maxTagRmsPx);
     return out;
 }
 
-double reprojectionRmsPx(const Pose& world_T_camera, const std::vector<TagDetection>& detections,
-                         const TagWorld& world, const CameraIntrinsics& intrinsics) {
+double reprojectionRmsPx(const Pose& world_T_camera, const std::vector<TagDetection>& detections, const TagWorld& world,
+                         const CameraIntrinsics& intrinsics) {
     Correspondences points;
     for (const TagDetection& detection : detections) {
         const WorldTag* tag = world.find(detection.id);
@@ -190,6 +265,42 @@ double reprojectionRmsPx(const Pose& world_T_camera, const std::vector<TagDetect
     }
     if (points.world.empty()) return std::numeric_limits<double>::quiet_NaN();
     return rmsError(world_T_camera, points, intrinsics);
+}
+
+PoseUncertainty estimateUncertainty(const Pose& world_T_camera, const std::vector<TagDetection>& detections,
+                                    const TagWorld& world, const CameraIntrinsics& intrinsics, double cornerSigmaPx,
+                                    const std::vector<int>& tagIds) {
+    Correspondences points;
+    for (const TagDetection& detection : detections) {
+        const WorldTag* tag = world.find(detection.id);
+        if (tag == nullptr) continue;
+        if (!tagIds.empty() && !std::binary_search(tagIds.begin(), tagIds.end(), detection.id)) continue;
+        const auto corners = tagCorners(tag->sizeMetres);
+        for (std::size_t c = 0; c < 4; ++c) {
+            const glm::dvec3 w = tag->world_T_tag.transformPoint(corners[c]);
+            points.world.emplace_back(w.x, w.y, w.z);
+        }
+    }
+    PoseUncertainty result;
+    if (points.world.size() < 4) return result;
+    cv::Vec3d rvec;
+    cv::Vec3d tvec;
+    rvecTvecFromPose(world_T_camera.inverse(), rvec, tvec);
+    std::vector<cv::Point2d> projected;
+    cv::Mat jacobian; // 2N x (3 rotation + 3 translation + 2 focal + 2 centre + distortion)
+    cv::projectPoints(cv::Mat(static_cast<int>(points.world.size()), 1, CV_64FC3, points.world.data()), rvec, tvec,
+                      cameraMatrix(intrinsics), cv::noArray(), projected, jacobian);
+    const cv::Mat poseJacobian = jacobian.colRange(0, 6);
+    cv::Mat information = poseJacobian.t() * poseJacobian;
+    cv::Mat covariance;
+    if (cv::invert(information, covariance, cv::DECOMP_CHOLESKY) == 0.0) return result; // singular
+    covariance *= cornerSigmaPx * cornerSigmaPx;
+    cv::Mat eigenvalues;
+    cv::eigen(covariance(cv::Rect(0, 0, 3, 3)), eigenvalues);
+    result.rotationStdDegrees = std::sqrt(std::max(eigenvalues.at<double>(0), 0.0)) * 180.0 / std::numbers::pi;
+    cv::eigen(covariance(cv::Rect(3, 3, 3, 3)), eigenvalues);
+    result.translationStdMetres = std::sqrt(std::max(eigenvalues.at<double>(0), 0.0));
+    return result;
 }
 
 bool refinePoseWithDepth(const cv::Mat& depth, double depthScaleMetres, const CameraIntrinsics& intrinsics,
@@ -280,7 +391,8 @@ bool refinePoseWithDepth(const cv::Mat& depth, double depthScaleMetres, const Ca
 
     // Shortest rotation taking imageNormal onto normal (the two are < 25 degrees apart).
     const glm::dvec3 axis = glm::cross(imageNormal, normal);
-    const glm::dquat tiltCorrection = glm::normalize(glm::dquat(1.0 + glm::dot(imageNormal, normal), axis.x, axis.y, axis.z));
+    const glm::dquat tiltCorrection =
+        glm::normalize(glm::dquat(1.0 + glm::dot(imageNormal, normal), axis.x, axis.y, axis.z));
     const Pose corrected(tiltCorrection * camera_T_tag.rotation(), distance * centreRay);
     world_T_camera = tag.world_T_tag * corrected.inverse();
     return true;

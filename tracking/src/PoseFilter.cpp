@@ -1,6 +1,5 @@
-#include <lightskin/tracking/PoseFilter.h>
-
 #include <lightskin/core/Error.h>
+#include <lightskin/tracking/PoseFilter.h>
 
 #include <glm/gtc/quaternion.hpp>
 

@@ -1,6 +1,5 @@
-#include <lightskin/tracking/PoseTracker.h>
-
 #include <lightskin/core/Error.h>
+#include <lightskin/tracking/PoseTracker.h>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -13,9 +12,12 @@ namespace lightskin::tracking {
 
 const char* toString(TrackingState state) noexcept {
     switch (state) {
-    case TrackingState::Tracking: return "tracking";
-    case TrackingState::Held: return "held";
-    case TrackingState::Lost: return "lost";
+    case TrackingState::Tracking:
+        return "tracking";
+    case TrackingState::Held:
+        return "held";
+    case TrackingState::Lost:
+        return "lost";
     }
     return "?";
 }
@@ -27,8 +29,8 @@ double millisecondsSince(Clock::time_point start) {
 }
 
 bool sameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
-    return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy && a.cx == b.cx &&
-           a.cy == b.cy && a.distortion == b.distortion;
+    return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy &&
+           a.distortion == b.distortion;
 }
 
 cv::Matx33d cameraMatrix(const CameraIntrinsics& k) { return {k.fx, 0.0, k.cx, 0.0, k.fy, k.cy, 0.0, 0.0, 1.0}; }
@@ -53,13 +55,17 @@ struct PoseTracker::Impl {
     double lastMeasurementTimestamp = std::numeric_limits<double>::quiet_NaN();
 
     Impl(TagWorld w, const TrackerSettings& s, TagDetector d)
-        : world(std::move(w)), settings(s), detector(std::move(d)), filter(s.filter) {}
+        : world(std::move(w))
+        , settings(s)
+        , detector(std::move(d))
+        , filter(s.filter) {}
 };
 
 PoseTracker PoseTracker::create(TagWorld world, const TrackerSettings& settings) {
     if (settings.maxHeldFrames < 0) throw Error("max_held_frames", std::nullopt, "must be >= 0");
     if (!(settings.maxReprojectionErrorPx > 0.0)) throw Error("max_reprojection_error_px", std::nullopt, "must be > 0");
     if (!(settings.ambiguityRatio >= 1.0)) throw Error("ambiguity_ratio", std::nullopt, "must be >= 1");
+    if (!(settings.historyRatio >= 1.0)) throw Error("history_ratio", std::nullopt, "must be >= 1");
     if (!(settings.nominalFrameIntervalSeconds > 0.0))
         throw Error("nominal_frame_interval", std::nullopt, "must be > 0 seconds");
     if (!(settings.filter.minCutoffHz > 0.0 && settings.filter.derivativeCutoffHz > 0.0 &&
@@ -73,7 +79,8 @@ PoseTracker PoseTracker::create(TagWorld world, const TrackerSettings& settings)
     return PoseTracker(std::make_unique<Impl>(std::move(world), stored, std::move(detector)));
 }
 
-PoseTracker::PoseTracker(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+PoseTracker::PoseTracker(std::unique_ptr<Impl> impl)
+    : impl_(std::move(impl)) {}
 PoseTracker::PoseTracker(PoseTracker&&) noexcept = default;
 PoseTracker& PoseTracker::operator=(PoseTracker&&) noexcept = default;
 PoseTracker::~PoseTracker() = default;
@@ -127,11 +134,13 @@ void PoseTracker::trackImpl(const cv::Mat& image, const CameraIntrinsics& intrin
     const TrackerSettings& settings = s.settings;
     const Clock::time_point start = Clock::now();
 
-    if (!intrinsics.isValid()) throw Error("tracking", frameIndex, "invalid colour intrinsics: " + intrinsics.describe());
+    if (!intrinsics.isValid())
+        throw Error("tracking", frameIndex, "invalid colour intrinsics: " + intrinsics.describe());
     if (image.empty() || image.cols != intrinsics.width || image.rows != intrinsics.height)
         throw Error("tracking", frameIndex,
-                    "image is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) + " but the intrinsics are " +
-                        std::to_string(intrinsics.width) + "x" + std::to_string(intrinsics.height));
+                    "image is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+                        " but the intrinsics are " + std::to_string(intrinsics.width) + "x" +
+                        std::to_string(intrinsics.height));
     if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3 && image.channels() != 4))
         throw Error("tracking", frameIndex, "the image must be 8-bit grey, BGR or BGRA");
 
@@ -139,12 +148,14 @@ void PoseTracker::trackImpl(const cv::Mat& image, const CameraIntrinsics& intrin
     out.measured_world_T_camera.reset();
     out.tagsUsed.clear();
     out.unknownTags.clear();
+    out.rejectedTags.clear();
     out.reprojectionErrorPx = std::numeric_limits<double>::quiet_NaN();
     out.ambiguityRatio = std::numeric_limits<double>::quiet_NaN();
     out.ambiguous = false;
     out.resolvedByHistory = false;
     out.poseJumped = false;
     out.depthRefined = false;
+    out.uncertainty = PoseUncertainty{};
     out.reason = "";
 
     // Greyscale, and the undistorted image when asked for.
@@ -157,8 +168,8 @@ void PoseTracker::trackImpl(const cv::Mat& image, const CameraIntrinsics& intrin
     if (distorted && settings.undistortion == Undistortion::Image) {
         if (!s.mapIntrinsics || !sameCamera(*s.mapIntrinsics, intrinsics)) {
             cv::initUndistortRectifyMap(cameraMatrix(intrinsics), intrinsics.distortion, cv::noArray(),
-                                        cameraMatrix(intrinsics), cv::Size(intrinsics.width, intrinsics.height), CV_16SC2,
-                                        s.mapX, s.mapY);
+                                        cameraMatrix(intrinsics), cv::Size(intrinsics.width, intrinsics.height),
+                                        CV_16SC2, s.mapX, s.mapY);
             s.mapIntrinsics = intrinsics;
         }
         cv::remap(*grey, s.undistorted, s.mapX, s.mapY, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(255));
@@ -184,8 +195,9 @@ void PoseTracker::trackImpl(const cv::Mat& image, const CameraIntrinsics& intrin
                 s.detections[i].corners[c] = {s.cornerBuffer[i * 4 + c].x, s.cornerBuffer[i * 4 + c].y};
     }
 
-    estimatePoseInto(s.detections, s.world, intrinsics, s.measurement);
+    estimatePoseInto(s.detections, s.world, intrinsics, s.measurement, settings.maxReprojectionErrorPx);
     out.unknownTags = s.measurement.unknownTags;
+    out.rejectedTags = s.measurement.rejectedTags;
 
     const bool havePrevious = s.state != TrackingState::Lost && s.filter.initialised();
     std::optional<Pose> accepted;
@@ -193,13 +205,14 @@ void PoseTracker::trackImpl(const cv::Mat& image, const CameraIntrinsics& intrin
         out.reason = s.detections.empty() ? "no tags detected" : "no tag of the world detected";
     } else {
         const auto& candidates = s.measurement.candidates;
-        out.ambiguityRatio = s.measurement.ambiguityRatio();
+        out.ambiguityRatio = s.measurement.ambiguityRatio;
         out.ambiguous = out.ambiguityRatio < settings.ambiguityRatio;
         std::size_t chosen = 0;
         const double maxJump = settings.maxJumpDegrees * std::numbers::pi / 180.0;
         if (havePrevious) {
             const Pose& previous = s.filter.current();
-            if (out.ambiguous && candidates.size() == 2 && candidates[1].rmsErrorPx <= settings.maxReprojectionErrorPx &&
+            if (out.ambiguous && out.ambiguityRatio < settings.historyRatio && candidates.size() == 2 &&
+                candidates[1].rmsErrorPx <= settings.maxReprojectionErrorPx &&
                 Pose::rotationAngleBetween(previous, candidates[1].world_T_camera) <
                     Pose::rotationAngleBetween(previous, candidates[0].world_T_camera)) {
                 chosen = 1;
@@ -242,6 +255,10 @@ void PoseTracker::trackImpl(const cv::Mat& image, const CameraIntrinsics& intrin
     }
 
     if (accepted) {
+        // Corner noise: the measured RMS, but not below 0.1 px (a perfect fit of 8 numbers by 6
+        // parameters underestimates the noise; 0.1 px is what good detections achieve).
+        out.uncertainty = estimateUncertainty(*accepted, s.detections, s.world, intrinsics,
+                                              std::max(out.reprojectionErrorPx, 0.1), s.measurement.tagsUsed);
         double dt = settings.nominalFrameIntervalSeconds * (s.framesWithoutMeasurement + 1);
         if (std::isfinite(timestampSeconds) && std::isfinite(s.lastMeasurementTimestamp) &&
             timestampSeconds > s.lastMeasurementTimestamp)

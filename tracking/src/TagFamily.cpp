@@ -1,8 +1,7 @@
-#include <lightskin/tracking/TagFamily.h>
-
 #include "Families.h"
 
 #include <lightskin/core/Error.h>
+#include <lightskin/tracking/TagFamily.h>
 
 #include <apriltag/tag16h5.h>
 #include <apriltag/tag25h9.h>
@@ -61,9 +60,7 @@ std::vector<std::string> familyNames() {
 
 std::vector<std::string> supportedTagFamilies() { return detail::familyNames(); }
 
-int tagFamilySize(const std::string& family) {
-    return static_cast<int>(detail::createFamily(family)->ncodes);
-}
+int tagFamilySize(const std::string& family) { return static_cast<int>(detail::createFamily(family)->ncodes); }
 
 TagLayout tagLayout(const std::string& family) {
     const detail::FamilyPtr tagFamily = detail::createFamily(family);

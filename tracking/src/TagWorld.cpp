@@ -1,7 +1,6 @@
-#include <lightskin/tracking/TagWorld.h>
-
 #include <lightskin/core/Error.h>
 #include <lightskin/tracking/TagFamily.h>
+#include <lightskin/tracking/TagWorld.h>
 
 #include <nlohmann/json.hpp>
 
@@ -93,7 +92,8 @@ TagWorld TagWorld::bundle(std::vector<WorldTag> tags, const std::string& family,
         const WorldTag& tag = tags[i];
         if (tag.id < 0 || tag.id >= familySize)
             fail(sourceName, key + ".id",
-                 "id " + std::to_string(tag.id) + " is not in " + family + " (0.." + std::to_string(familySize - 1) + ")");
+                 "id " + std::to_string(tag.id) + " is not in " + family + " (0.." + std::to_string(familySize - 1) +
+                     ")");
         // 1 mm .. 100 m: anything else is a unit mistake (millimetres or centimetres given as metres).
         if (!std::isfinite(tag.sizeMetres) || tag.sizeMetres < 0.001 || tag.sizeMetres > 100.0)
             fail(sourceName, key + ".size",
@@ -137,7 +137,8 @@ TagWorld TagWorld::fromJson(const std::string& text, const std::string& sourceNa
     }
     const bool hasTag = root.contains("tag");
     const bool hasTags = root.contains("tags");
-    if (hasTag == hasTags) fail(sourceName, "tag/tags", "give exactly one of \"tag\" (single tag) or \"tags\" (bundle)");
+    if (hasTag == hasTags)
+        fail(sourceName, "tag/tags", "give exactly one of \"tag\" (single tag) or \"tags\" (bundle)");
     std::vector<WorldTag> tags;
     if (hasTag) {
         tags.push_back(readTag(root["tag"], "tag", sourceName, false));
@@ -166,7 +167,8 @@ TagWorld TagWorld::load(const std::filesystem::path& path) {
 }
 
 const WorldTag* TagWorld::find(int id) const noexcept {
-    const auto it = std::lower_bound(tags_.begin(), tags_.end(), id, [](const WorldTag& tag, int value) { return tag.id < value; });
+    const auto it =
+        std::lower_bound(tags_.begin(), tags_.end(), id, [](const WorldTag& tag, int value) { return tag.id < value; });
     return it != tags_.end() && it->id == id ? &*it : nullptr;
 }
 

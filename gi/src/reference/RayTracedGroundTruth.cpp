@@ -8,6 +8,9 @@
 #include <limits>
 #include <numbers>
 #include <string>
+#include <thread>
+#include <vector>
+#include <algorithm>
 
 namespace lightskin::gi {
 
@@ -110,70 +113,87 @@ void RayTracedGroundTruth::compute(std::span<const VirtualAreaLight> vals, std::
     const int cells = settings.discRings * settings.discSectors;
     const double pi = std::numbers::pi;
 
-    for (std::size_t r = 0; r < receivers.size(); ++r) {
-        const GroundTruthReceiver& receiver = receivers[r];
-        const glm::dvec3 x = receiver.position;
-        const glm::dvec3 nx = glm::normalize(receiver.normal);
-        const glm::dvec3 view = glm::normalize(receiver.toViewer);
-        const glm::dvec3 rho(receiver.material.diffuseAlbedo), fs(receiver.material.specularAlbedo);
-        const double k = double(receiver.material.specularExponent);
-        const bool glossy = receiver.material.hasSpecular();
-        glm::dvec3 irradiance(0.0), unoccluded(0.0), glossyRadiance(0.0);
-        for (const VirtualAreaLight& val : vals) {
-            if (!(val.area > 0.0f) || !std::isfinite(val.area) || !finite(val.position) || !finite(val.normal) ||
-                !finite(val.flux))
-                continue;
-            const double area = double(val.area);
-            const glm::dvec3 centre(val.position);
-            const glm::dvec3 nl = glm::normalize(glm::dvec3(val.normal));
-            const glm::dvec3 emitted = glm::dvec3(val.flux) / (pi * area); // L_e
-            const double radius2 = area / pi;
-            // Adds one quadrature point y with weight `weight` (cos/d^2 * dA or the centre form factor).
-            const auto add = [&](const glm::dvec3& y, double geometric, const glm::dvec3& towardLight) {
-                if (!(geometric > 0.0)) return;
-                const glm::dvec3 e = emitted * geometric;
-                unoccluded += e;
-                if (settings.visibility && occluded(x, y, settings.rayEpsilon)) return;
-                irradiance += e;
-                if (glossy) {
-                    const glm::dvec3 mirror = 2.0 * glm::dot(towardLight, nx) * nx - towardLight;
-                    const double cosGamma = std::max(0.0, glm::dot(mirror, view));
-                    glossyRadiance += fs * e * ((k + 2.0) / (2.0 * pi) * std::pow(cosGamma, k));
-                }
-            };
-            if (centreMode) {
-                const glm::dvec3 toLight = centre - x;
-                const double d2 = glm::dot(toLight, toLight);
-                if (!(d2 > 0.0)) continue;
-                const glm::dvec3 w = toLight / std::sqrt(d2);
-                const double cosI = glm::dot(nx, w), cosJ = -glm::dot(nl, w);
-                if (cosI <= 0.0 || cosJ <= 0.0) continue;
-                add(centre, pi * radius2 * cosJ * cosI / (radius2 + d2), w); // pi * F_disk (eq. 3)
-                continue;
-            }
-            glm::dvec3 t, b;
-            tangents(nl, t, b);
-            const double radius = std::sqrt(radius2);
-            const double cellArea = area / double(cells);
-            for (int ring = 0; ring < settings.discRings; ++ring) {
-                const double rho_r = radius * std::sqrt((ring + 0.5) / settings.discRings);
-                for (int sector = 0; sector < settings.discSectors; ++sector) {
-                    const double phi = 2.0 * pi * (sector + 0.5) / settings.discSectors;
-                    const glm::dvec3 y = centre + rho_r * (std::cos(phi) * t + std::sin(phi) * b);
-                    const glm::dvec3 toLight = y - x;
+    const auto evaluateRange = [&](std::size_t begin, std::size_t end) {
+        for (std::size_t r = begin; r < end; ++r) {
+            const GroundTruthReceiver& receiver = receivers[r];
+            const glm::dvec3 x = receiver.position;
+            const glm::dvec3 nx = glm::normalize(receiver.normal);
+            const glm::dvec3 view = glm::normalize(receiver.toViewer);
+            const glm::dvec3 rho(receiver.material.diffuseAlbedo), fs(receiver.material.specularAlbedo);
+            const double k = double(receiver.material.specularExponent);
+            const bool glossy = receiver.material.hasSpecular();
+            glm::dvec3 irradiance(0.0), unoccluded(0.0), glossyRadiance(0.0);
+            for (const VirtualAreaLight& val : vals) {
+                if (!(val.area > 0.0f) || !std::isfinite(val.area) || !finite(val.position) || !finite(val.normal) ||
+                    !finite(val.flux))
+                    continue;
+                const double area = double(val.area);
+                const glm::dvec3 centre(val.position);
+                const glm::dvec3 nl = glm::normalize(glm::dvec3(val.normal));
+                const glm::dvec3 emitted = glm::dvec3(val.flux) / (pi * area); // L_e
+                const double radius2 = area / pi;
+                // Adds one quadrature point y with weight `weight` (cos/d^2 * dA or the centre form factor).
+                const auto add = [&](const glm::dvec3& y, double geometric, const glm::dvec3& towardLight) {
+                    if (!(geometric > 0.0)) return;
+                    const glm::dvec3 e = emitted * geometric;
+                    unoccluded += e;
+                    if (settings.visibility && occluded(x, y, settings.rayEpsilon)) return;
+                    irradiance += e;
+                    if (glossy) {
+                        const glm::dvec3 mirror = 2.0 * glm::dot(towardLight, nx) * nx - towardLight;
+                        const double cosGamma = std::max(0.0, glm::dot(mirror, view));
+                        glossyRadiance += fs * e * ((k + 2.0) / (2.0 * pi) * std::pow(cosGamma, k));
+                    }
+                };
+                if (centreMode) {
+                    const glm::dvec3 toLight = centre - x;
                     const double d2 = glm::dot(toLight, toLight);
                     if (!(d2 > 0.0)) continue;
                     const glm::dvec3 w = toLight / std::sqrt(d2);
                     const double cosI = glm::dot(nx, w), cosJ = -glm::dot(nl, w);
                     if (cosI <= 0.0 || cosJ <= 0.0) continue;
-                    add(y, cosJ * cosI / d2 * cellArea, w);
+                    add(centre, pi * radius2 * cosJ * cosI / (radius2 + d2), w); // pi * F_disk (eq. 3)
+                    continue;
+                }
+                glm::dvec3 t, b;
+                tangents(nl, t, b);
+                const double radius = std::sqrt(radius2);
+                const double cellArea = area / double(cells);
+                for (int ring = 0; ring < settings.discRings; ++ring) {
+                    const double rho_r = radius * std::sqrt((ring + 0.5) / settings.discRings);
+                    for (int sector = 0; sector < settings.discSectors; ++sector) {
+                        const double phi = 2.0 * pi * (sector + 0.5) / settings.discSectors;
+                        const glm::dvec3 y = centre + rho_r * (std::cos(phi) * t + std::sin(phi) * b);
+                        const glm::dvec3 toLight = y - x;
+                        const double d2 = glm::dot(toLight, toLight);
+                        if (!(d2 > 0.0)) continue;
+                        const glm::dvec3 w = toLight / std::sqrt(d2);
+                        const double cosI = glm::dot(nx, w), cosJ = -glm::dot(nl, w);
+                        if (cosI <= 0.0 || cosJ <= 0.0) continue;
+                        add(y, cosJ * cosI / d2 * cellArea, w);
+                    }
                 }
             }
+            out[r].irradiance = irradiance;
+            out[r].unoccludedIrradiance = unoccluded;
+            out[r].radiance = rho / pi * irradiance + glossyRadiance;
         }
-        out[r].irradiance = irradiance;
-        out[r].unoccludedIrradiance = unoccluded;
-        out[r].radiance = rho / pi * irradiance + glossyRadiance;
+    };
+    // Receivers are independent and rtcOccluded1 is thread-safe: contiguous chunks per thread.
+    const std::size_t threadCount = std::clamp<std::size_t>(
+        settings.threads > 0 ? std::size_t(settings.threads) : std::max(1u, std::thread::hardware_concurrency()), 1,
+        std::max<std::size_t>(1, receivers.size()));
+    if (threadCount == 1) {
+        evaluateRange(0, receivers.size());
+        return;
     }
+    std::vector<std::thread> workers;
+    const std::size_t chunk = (receivers.size() + threadCount - 1) / threadCount;
+    for (std::size_t t = 0; t < threadCount; ++t) {
+        const std::size_t begin = t * chunk, end = std::min(receivers.size(), begin + chunk);
+        if (begin < end) workers.emplace_back(evaluateRange, begin, end);
+    }
+    for (std::thread& worker : workers) worker.join();
 }
 
 } // namespace lightskin::gi

@@ -155,6 +155,28 @@ TEST(RayTracedGroundTruthTest, SceneScaleDoesNotChangeTheHiddenFraction) {
     EXPECT_NEAR(fractions[2], fractions[1], 2e-3);
 }
 
+TEST(RayTracedGroundTruthTest, ThreadsGiveTheSameResultsAsOne) {
+    TriangleMesh blocker = planeGrid(0.3f, 3, 0.5f);
+    const gi::GroundTruthMesh meshes[] = {{&blocker, glm::dmat4(1.0)}};
+    const gi::RayTracedGroundTruth truth = gi::RayTracedGroundTruth::create(meshes);
+    std::vector<gi::VirtualAreaLight> vals;
+    for (int i = 0; i < 20; ++i) vals.push_back(disc({0.05f * float(i - 10), 0.0f, 1.0f}, {0, 0.2f, -1}, 0.01f, glm::vec3(0.01f)));
+    std::vector<GroundTruthReceiver> receivers(37);
+    for (std::size_t i = 0; i < receivers.size(); ++i) receivers[i].position = {0.02 * double(i) - 0.37, 0.01, 0.0};
+    std::vector<GroundTruthResult> one(receivers.size()), many(receivers.size());
+    GroundTruthSettings settings;
+    settings.threads = 1;
+    truth.compute(vals, receivers, one, settings);
+    settings.threads = 4;
+    truth.compute(vals, receivers, many, settings);
+    int shadowed = 0;
+    for (std::size_t i = 0; i < receivers.size(); ++i) {
+        EXPECT_EQ(one[i].irradiance, many[i].irradiance);
+        shadowed += one[i].irradiance.x < one[i].unoccludedIrradiance.x;
+    }
+    EXPECT_GT(shadowed, 10);
+}
+
 TEST(RayTracedGroundTruthTest, GlossyLobeIsNormalisedPhong) {
     // A small disc straight above, viewer along the mirror direction: cos(gamma) = 1, so the glossy
     // radiance is f_s (k + 2) / (2 pi) E for a point-like disc.

@@ -6,6 +6,7 @@
 
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/ReflectiveShadowMap.h>
+#include <lightskin/gi/ValSetMerger.h>
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <gtest/gtest.h>
@@ -97,6 +98,30 @@ TEST_F(ReflectiveShadowMapGLTest, PointLightAboveASquareReflectsItsSolidAngle) {
     EXPECT_NEAR(totalFlux(vals).x / (0.5 * solidAngle), 1.0, 5e-3);
 }
 
+// Millimetre to kilometre scenes: the automatic light frustum keeps the energy balance exact.
+TEST_F(ReflectiveShadowMapGLTest, EnergyIsScaleFree) {
+    const TriangleMesh plane = planeGrid(6.0f, 4);
+    const GpuTestMesh gpu = GpuTestMesh::upload(plane);
+    for (float scale : {1e-3f, 1e3f}) {
+        const gi::MeshInstance instances[] = {
+            instanceOf(gpu, plane, glm::vec3(0.5f), glm::scale(glm::mat4(1.0f), glm::vec3(scale)))};
+        VirtualLight spot;
+        spot.position = glm::vec3(0.0f, 0.0f, 1.5f * scale);
+        spot.spotHalfAngle = 0.5f;
+        gi::RsmSettings settings;
+        settings.resolution = 128;
+        gi::ReflectiveShadowMap rsm = gi::ReflectiveShadowMap::create(settings);
+        rsm.generate(std::span(&spot, 1), instances);
+        const auto vals = rsm.downloadVals();
+        EXPECT_NEAR(totalFlux(vals).x / (0.5 * gi::radiantPower(spot).x), 1.0, 1e-2) << scale;
+        double area = 0.0;
+        for (const auto& val : vals) area += double(val.area);
+        const double litRadius = 1.5 * double(scale) * std::tan(0.5);
+        EXPECT_GT(area, std::cos(0.5) * std::numbers::pi * litRadius * litRadius * 0.99) << scale;
+        EXPECT_LT(area, std::numbers::pi * litRadius * litRadius) << scale;
+    }
+}
+
 // Two lights and an occluder: each light contributes separately; a blocked region reflects nothing.
 TEST_F(ReflectiveShadowMapGLTest, SeveralLightsAddAndTheNearestSurfaceTakesTheLight) {
     const TriangleMesh floor = planeGrid(10.0f, 4);
@@ -128,6 +153,33 @@ TEST_F(ReflectiveShadowMapGLTest, SeveralLightsAddAndTheNearestSurfaceTakesTheLi
     }
     gi::ReflectiveShadowMap small = gi::ReflectiveShadowMap::create({.resolution = 8, .maxLights = 1});
     EXPECT_THROW(small.generate(lights, instances), Error);
+}
+
+// RSM VALs and any other set merge back to back into one packed set.
+TEST_F(ReflectiveShadowMapGLTest, SetsMergeInOrderAndOverflowIsCounted) {
+    const TriangleMesh plane = planeGrid(6.0f, 4);
+    const GpuTestMesh gpu = GpuTestMesh::upload(plane);
+    const gi::MeshInstance instances[] = {instanceOf(gpu, plane, glm::vec3(0.5f))};
+    VirtualLight spot;
+    spot.position = {0, 0, 1};
+    gi::ReflectiveShadowMap rsm = gi::ReflectiveShadowMap::create({.resolution = 16, .maxLights = 1});
+    const gi::ValSetView first = rsm.generate(std::span(&spot, 1), instances);
+    const auto firstVals = rsm.downloadVals();
+    std::vector<gi::VirtualAreaLight> other(5);
+    for (std::size_t i = 0; i < other.size(); ++i) other[i].area = float(i + 1);
+    gl::Buffer otherBuffer = gl::Buffer::create(GLsizeiptr(other.size() * sizeof(gi::VirtualAreaLight)), other.data());
+    const gi::ValSetView sets[] = {first, {otherBuffer.id(), 5}, {0, 0}};
+    gi::ValSetMerger merger = gi::ValSetMerger::create(first.count + 5);
+    const gi::ValSetView merged = merger.merge(sets);
+    ASSERT_EQ(merged.count, first.count + 5);
+    EXPECT_EQ(merger.lastDropped(), 0u);
+    std::vector<gi::VirtualAreaLight> out(merged.count);
+    glGetNamedBufferSubData(merged.buffer, 0, GLsizeiptr(out.size() * sizeof(gi::VirtualAreaLight)), out.data());
+    for (std::size_t i = 0; i < firstVals.size(); ++i) EXPECT_EQ(out[i].position, firstVals[i].position);
+    for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(out[first.count + i].area, float(i + 1));
+    gi::ValSetMerger small = gi::ValSetMerger::create(first.count + 2);
+    EXPECT_EQ(small.merge(sets).count, first.count + 2);
+    EXPECT_EQ(small.lastDropped(), 3u);
 }
 
 } // namespace

@@ -1,7 +1,6 @@
-// Sparse scene points: farthest-point sampling on analytic meshes and the Stanford bunny; vertex
-// neighbours and occluder radii against brute force; refinement of coarse meshes.
+// Sparse scene points: farthest-point sampling on analytic meshes; vertex neighbours against brute
+// force; refinement of coarse meshes. The bunny test is in SparsePointSamplerDataTest.cpp.
 #include "TestMeshes.h"
-#include "TestPaths.h"
 
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/SparsePointSampler.h>
@@ -106,27 +105,6 @@ TEST(SparsePointSamplerTest, VertexNeighboursAreTheEightNearestPoints) {
         for (int j = 0; j < gi::kVertexNeighbours; ++j)
             EXPECT_NEAR(distances[set.vertexNeighbours[v][std::size_t(j)]], sorted[std::size_t(j)], 1e-6f) << v << " " << j;
     }
-}
-
-TEST(SparsePointSamplerTest, OccluderRadiusReachesEveryVertexOfTheVoronoiRegion) {
-    TriangleMesh mesh = readAsciiPly(dataPath("stanford-bunny/bun_zipper_res4.ply").string());
-    ASSERT_EQ(mesh.vertexCount(), 453u);
-    ASSERT_EQ(mesh.triangleCount(), 946u);
-    SparsePointSettings settings;
-    settings.pointCount = 64;
-    const auto set = gi::prepareSparsePoints(mesh, settings, "bunny");
-    std::vector<float> expected(set.points.size(), 0.0f);
-    for (const glm::vec3& vertex : mesh.positions) {
-        std::size_t owner = 0;
-        for (std::size_t i = 1; i < set.points.size(); ++i)
-            if (glm::length(vertex - set.points[i].position) < glm::length(vertex - set.points[owner].position)) owner = i;
-        expected[owner] = std::max(expected[owner], glm::length(vertex - set.points[owner].position));
-    }
-    for (std::size_t i = 0; i < set.points.size(); ++i) {
-        EXPECT_NEAR(set.points[i].occluderRadius, expected[i], 1e-6f) << i;
-        EXPECT_GT(set.points[i].occluderRadius, 0.0f);
-    }
-    EXPECT_LE(set.tessellationRatio, 1.0f);
 }
 
 TEST(SparsePointSamplerTest, CoarseMeshesAreRefinedWithoutCracks) {

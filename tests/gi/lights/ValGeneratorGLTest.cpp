@@ -68,7 +68,8 @@ TEST_F(ValGeneratorGLTest, FrontoParallelPlaneAreasSumToThePatchArea) {
     const double z = 1.7;
     cv::Mat depth, normals;
     renderDepth(K, depth, normals, PlaneSurface{{0, 0, -1}, -z});
-    for (int stride : {1, 2, 4}) {
+    // Strides 1..4 stage depth in shared memory; stride 8 (tile 7 * 8 + 11 > 64) uses texel fetches.
+    for (int stride : {1, 2, 3, 4, 8}) {
         ValGeneratorSettings settings;
         settings.stride = stride;
         const GpuRun run = runGpu(depth, uniformColour(K.width, K.height, {128, 128, 128}), K, Pose{}, settings);
@@ -323,6 +324,35 @@ TEST_F(ValGeneratorGLTest, SceneScaleFromMillimetresToKilometres) {
             EXPECT_NEAR(total / (scale * scale) / unitTotal, 1.0, 1e-4) << scale;
         }
     }
+}
+
+// ICL-NUIM's negative fy (y up in the image) flips the back-projection; VALs must still face the
+// camera and keep their areas. Also covers the RgbdFrame overload (16-bit depth, registered).
+TEST_F(ValGeneratorGLTest, NegativeFyAndRgbdFrameInput) {
+    CameraIntrinsics K = smallCamera();
+    RgbdFrame frame;
+    frame.depth = cv::Mat(K.height, K.width, CV_16UC1, cv::Scalar(1500));
+    frame.depthScaleMetres = 0.001;
+    frame.colour = uniformColour(K.width, K.height, {20, 40, 60});
+    std::vector<double> totals;
+    for (double sign : {1.0, -1.0}) {
+        K.fy = sign * std::abs(K.fy);
+        frame.depthIntrinsics = frame.colourIntrinsics = K;
+        ValGenerator generator = ValGenerator::create(K.width, K.height);
+        generator.generate(frame, Pose{});
+        double total = 0.0;
+        for (const auto& val : generator.downloadVals()) {
+            expectFinite(val);
+            EXPECT_LT(angleDegrees(glm::dvec3(val.normal), {0, 0, -1}), 0.01);
+            total += double(val.area);
+        }
+        totals.push_back(total);
+    }
+    EXPECT_GT(totals[0], 0.0);
+    EXPECT_NEAR(totals[1] / totals[0], 1.0, 1e-6);
+    frame.registration = DepthRegistration::Unregistered;
+    ValGenerator generator = ValGenerator::create(K.width, K.height);
+    EXPECT_THROW(generator.generate(frame, Pose{}), Error);
 }
 
 TEST_F(ValGeneratorGLTest, RejectsBadInputs) {

@@ -27,9 +27,9 @@ namespace lightskin::capture {
 enum class Pacing : std::uint8_t {
     /// Deliver frames as fast as the consumer pulls them; never drop one (replay, tests). Default.
     AsFastAsPossible,
-    /// Honour the recorded timestamps: next() sleeps until a frame is due, and frames that are
-    /// already more than `realtimeLateToleranceSeconds` late when a later frame is due as well
-    /// are skipped and counted in framesDropped(). Live sources are paced by the device anyway.
+    /// Honour the recorded timestamps: next() sleeps until a frame is due, and a frame that is
+    /// already more than `realtimeLateToleranceSeconds` late (a slow consumer) is skipped without
+    /// decoding and counted in framesDropped(). Live sources are paced by the device anyway.
     Realtime,
 };
 
@@ -99,6 +99,10 @@ public:
 
 protected:
     FrameSource(FrameSourceInfo info, FrameSourceOptions options);
+
+    /// Sets `out`'s index and the per-stream facts every frame of this source shares (depth
+    /// scale, intrinsics, registration, colour_T_depth) from info(), and clears its ground truth.
+    void stampFrame(RgbdFrame& out, std::int64_t index) const;
 
     /// Reads the next frame in order; false at the end. `out.index` must be set.
     virtual bool readNext(RgbdFrame& out) = 0;

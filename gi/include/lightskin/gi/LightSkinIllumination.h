@@ -21,6 +21,7 @@
 // changes and readable through lastChoice().
 
 #include <lightskin/gi/IndirectIllumination.h>
+#include <lightskin/gi/SparsePointSampler.h>
 #include <lightskin/gi/SparsePointSet.h>
 
 #include <cstdint>
@@ -32,9 +33,6 @@
 
 namespace lightskin::gi {
 
-/// Computes the sparse points of one placed mesh (model space) at prepare(). The project's
-/// SparsePointSampler fills this; tests may build sets directly.
-using SparsePointProvider = std::function<SparsePointSet(const MeshInstance& instance)>;
 
 struct LightSkinSettings {
     /// VALs per gather pass (paper: K_cache = 128). Multiple of 16 (uniform-buffer offset

@@ -41,6 +41,7 @@ struct GroundTruthSettings {
     int discSectors = 16;  ///< >= 1; 1 x 1 = centre mode (see above)
     double rayEpsilon = 1e-4;
     bool visibility = true; ///< false: no shadow rays (the unoccluded integral)
+    int threads = 0;        ///< receivers are split over this many threads; 0 = hardware concurrency
 };
 
 struct GroundTruthReceiver {

@@ -45,8 +45,10 @@ glm::dvec3 radiantPower(const VirtualLight& light);
 struct RsmSettings {
     int resolution = 64;    ///< texels per side per face (VALs per spot light <= resolution^2)
     int maxLights = 4;      ///< buffers hold maxLights * 6 * resolution^2 VALs
-    float nearPlane = 0.01f; ///< metres: light frustum
-    float farPlane = 100.0f;
+    /// Light frustum, metres. Both 0 (default): per light from the bounding sphere of the instances
+    /// (far = distance + radius, near = max(distance - radius, 1e-5 far)), so any scene scale works.
+    float nearPlane = 0.0f;
+    float farPlane = 0.0f;
     bool areaFacingLight = true; ///< the paper's area (see above)
     float minCosine = 0.2f;      ///< clamp for the true-area variant
 };
@@ -59,7 +61,7 @@ public:
     ReflectiveShadowMap() = default;
     static ReflectiveShadowMap create(const RsmSettings& settings = {});
 
-    /// Renders every instance into each light's RSM and appends the VALs of all lights into one
+    /// Renders every instance (MeshInstance::mesh must be set when the frustum is automatic) into each light's RSM and appends the VALs of all lights into one
     /// packed set (reads the count back). Changes GL state: framebuffer, viewport, depth test, program.
     /// Throws lightskin::Error for more lights than maxLights or an invalid light.
     ValSetView generate(std::span<const VirtualLight> lights, std::span<const MeshInstance> instances);

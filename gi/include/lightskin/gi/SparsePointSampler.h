@@ -14,9 +14,11 @@
 // Spacing: the nominal spacing of N points on a surface of area A is sqrt(A / N) (metres).
 
 #include <lightskin/core/TriangleMesh.h>
+#include <lightskin/gi/IndirectIllumination.h>
 #include <lightskin/gi/SparsePointSet.h>
 
 #include <cstdint>
+#include <functional>
 
 namespace lightskin::gi {
 
@@ -61,5 +63,14 @@ SparsePointSet sampleSparsePoints(const TriangleMesh& mesh, const SparsePointSet
 /// draw the refined mesh, since vertexNeighbours index its vertices.
 SparsePointSet prepareSparsePoints(TriangleMesh& mesh, const SparsePointSettings& settings,
                                    const std::string& meshName = "mesh");
+
+/// Computes the sparse points of one placed mesh (model space) when a technique prepares its
+/// meshes. Tests may build sets directly; applications use samplingProvider().
+using SparsePointProvider = std::function<SparsePointSet(const MeshInstance& instance)>;
+
+/// The project's provider: sampleSparsePoints(*instance.mesh, settings) (no refinement: a mesh
+/// that needs it must be refined with prepareSparsePoints() or refineMeshToEdgeLength() at load,
+/// before it is uploaded, since vertexNeighbours index the drawn vertices).
+SparsePointProvider samplingProvider(const SparsePointSettings& settings);
 
 } // namespace lightskin::gi

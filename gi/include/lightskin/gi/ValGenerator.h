@@ -39,6 +39,7 @@
 #include <lightskin/core/Pose.h>
 #include <lightskin/core/RgbdFrame.h>
 #include <lightskin/gi/VirtualAreaLight.h>
+#include <lightskin/gl/GpuTimer.h>
 #include <lightskin/gl/Objects.h>
 
 #include <glm/vec3.hpp>
@@ -55,6 +56,7 @@ struct ValGeneratorSettings {
     /// Radiance scale: L = exposure * linear RGB (a scene setting: how bright "white" is).
     float exposure = 1.0f;
     /// R >= 1: half size of the normal window in full-resolution depth pixels (PCL smoothing 2R).
+    /// Fixed when the generator is created (it sizes the shared-memory tile).
     int normalWindowRadius = 5;
     /// Relative depth step between adjacent samples that counts as an edge (see above).
     float maxDepthChange = 0.03f;
@@ -87,15 +89,20 @@ public:
     /// Uploads depth and colour and runs the pass. `depth`: CV_16UC1 (raw units, metres = value *
     /// depthScaleMetres, 0 = missing) or CV_32FC1 (metres, NaN/0 = missing); `colourBgr`: CV_8UC3,
     /// BGR, sRGB-encoded, same size as depth (registered to depth). Reads the count back (a GPU sync).
-    /// Throws lightskin::Error (naming `source`) on wrong types or sizes.
+    /// Throws lightskin::Error on wrong types or sizes. GL state left changed: current program,
+    /// texture units 0-1, SSBO bindings 0-2 (everything else as found).
     ValSetView generate(const cv::Mat& depth, double depthScaleMetres, const cv::Mat& colourBgr,
                         const CameraIntrinsics& depthIntrinsics, const Pose& world_T_camera);
     /// The same for a registered RgbdFrame (its depth intrinsics and scale).
     ValSetView generate(const RgbdFrame& frame, const Pose& world_T_camera);
 
-    /// Exposure etc. may change per frame; the stride may not (it sizes the buffers).
+    /// Exposure etc. may change per frame; stride and normalWindowRadius may not (buffers, tile).
     void setSettings(const ValGeneratorSettings& settings);
     const ValGeneratorSettings& settings() const noexcept { return settings_; }
+
+    /// When set (not owned; may be null), generate() brackets its stages "val upload" and
+    /// "val pass" with begin()/end() on this timer; the caller runs beginFrame()/collect().
+    void setStageTimer(gl::GpuStageTimer* timer) noexcept { timer_ = timer; }
 
     /// The last generate()'s set (buffer owned by this generator).
     ValSetView lastSet() const noexcept { return {vals_.id(), lastCount_}; }
@@ -117,6 +124,7 @@ private:
     gl::Texture depthTexture_, colourTexture_;
     gl::Buffer vals_, pixelIndices_, counter_;
     cv::Mat depthMetres_; // CV_32FC1 staging for 16-bit input, sized once
+    gl::GpuStageTimer* timer_ = nullptr;
 };
 
 /// One VAL of the CPU reference, double precision.

@@ -12,11 +12,11 @@
 //             maxHeldFrames frames without one, or after reset(). Rendering must not place
 //             virtual content with a pose from a Lost frame.
 // Flips: a single tag's two pose solutions (planar ambiguity, PoseEstimation.h) are chosen by
-// reprojection error when it separates them clearly (ratio >= ambiguityRatio), otherwise by
-// closeness to the previous pose. A measurement that would move the orientation by more than
-// maxJumpDegrees in one frame is rejected (Held) when it is ambiguous; when it is unambiguous it is
-// accepted, the filter restarts from it and `poseJumped` says so. The first frame after Lost with an
-// ambiguous view picks the lower error and sets `ambiguous`. So a flip is never silent.
+// reprojection error when it separates them at all (ratio >= historyRatio; below
+// ambiguityRatio the view is still flagged ambiguous), otherwise by closeness to the previous pose. A measurement that
+// would move the orientation by more than maxJumpDegrees in one frame is rejected (Held) when it is ambiguous; when it
+// is unambiguous it is accepted, the filter restarts from it and `poseJumped` says so. The first frame after Lost with
+// an ambiguous view picks the lower error and sets `ambiguous`. So a flip is never silent.
 
 #include <lightskin/core/CameraIntrinsics.h>
 #include <lightskin/core/RgbdFrame.h>
@@ -53,6 +53,12 @@ struct TrackerSettings {
     /// Second-best / best reprojection error at or above which the best single-tag solution is
     /// trusted without history. Below it the view is ambiguous.
     double ambiguityRatio = 4.0;
+    /// Below this ratio (and only there) an ambiguous single-tag view takes the solution closer to
+    /// the previous pose instead of the better-fitting one. Between it and ambiguityRatio the fit
+    /// still decides: on the synth-orbit recording (a far, small wall tag) history alone locked
+    /// onto a wrong branch inherited from earlier noisy frames, while the better fit was right
+    /// at ratios 2.2-3.7; at ratios 1.0-1.7 the fit was a coin toss and history was better.
+    double historyRatio = 2.0;
     /// Largest orientation change accepted for an ambiguous measurement, degrees per frame.
     double maxJumpDegrees = 25.0;
     /// Frames the last pose is held without a measurement before the state becomes Lost.
@@ -83,10 +89,14 @@ struct TrackingResult {
     std::vector<int> tagsUsed;
     /// Detected ids that are not in the world (ignored).
     std::vector<int> unknownTags;
+    /// Ids in the world whose corners disagreed with the other visible tags (dropped this frame).
+    std::vector<int> rejectedTags;
     /// RMS corner reprojection error of the best measurement this frame, pixels; NaN without one.
     double reprojectionErrorPx = 0.0;
     /// Second-best / best error of this frame's measurement (infinity for a clear bundle view).
     double ambiguityRatio = 0.0;
+    /// First-order uncertainty of the accepted measurement (PoseEstimation.h); infinite without one.
+    PoseUncertainty uncertainty;
     /// The chosen solution was not clearly better than its flipped alternative.
     bool ambiguous = false;
     /// The alternative solution was chosen because it agrees with the previous pose.

@@ -1,0 +1,222 @@
+// `lightskin live`: the AR demo. Frames from a device (freenect://0, openni2://...) or a file
+// (.oni, recording, TUM folder: replayed at the recorded speed), the scene composited with GI,
+// shown in a GLFW window with an on-screen line (frame rate, stage times, switches).
+//
+// Keys: G GI on/off, L glossy on/off, O occlusion on/off, V next debug view, C with/without-GI
+// comparison side by side, P snapshot (PNG in --snapshot-dir), Q or Esc quit.
+// --headless runs the same loop without a window (EGL), for tests and machines without a display.
+#include "Commands.h"
+#include "LiveWindowDisplay.h"
+#include "ReplayPipeline.h"
+
+#include <lightskin/capture/FrameSource.h>
+#include <lightskin/capture/Recording.h>
+#include <lightskin/core/Error.h>
+#include <lightskin/core/Log.h>
+#include <lightskin/gl/Context.h>
+#include <lightskin/gl/DebugOutput.h>
+#include <lightskin/gl/Objects.h>
+#include <lightskin/render/Scene.h>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+
+namespace lightskin::apps {
+
+namespace {
+
+// GLFW key codes (printable keys are their upper-case ASCII codes; GLFW_KEY_ESCAPE = 256).
+constexpr int kKeyEscape = 256;
+
+std::atomic<bool> liveInterrupt{false};
+extern "C" void onLiveInterrupt(int) {
+    liveInterrupt = true;
+    std::signal(SIGINT, SIG_DFL);
+}
+
+struct LiveArgs {
+    std::string device = "freenect://0", scene, pose, snapshot, snapshotDir = ".", record;
+    bool headless = false, loop = false, fast = false;
+    std::int64_t maxFrames = -1, snapshotAfter = -1;
+};
+
+std::string statusLine(double fps, const FrameOutput& out, const FramePipeline& pipeline, const PipelineOptions& options) {
+    std::string line;
+    char text[64];
+    std::snprintf(text, sizeof text, "%.1f fps |", fps);
+    line += text;
+    for (const auto& st : out.cpuTimes) {
+        std::snprintf(text, sizeof text, " %s %.1f", st.name.c_str(), st.milliseconds);
+        line += text;
+    }
+    line += " ms | GI ";
+    line += options.giEnabled ? pipeline.techniqueName() : std::string("off");
+    line += pipeline.giSettings().glossy ? " +glossy" : "";
+    line += pipeline.giSettings().occlusion ? " +occl" : "";
+    line += " | ";
+    const char* overlays[] = {"", " + vals", " + sparse points", " + error vs brute force"};
+    line += render::toString(options.view);
+    line += overlays[int(options.overlay)];
+    line += " | ";
+    line += tracking::toString(out.tracking.state);
+    return line;
+}
+
+void drawStatus(cv::Mat& image, const std::string& line) {
+    const double scale = std::max(0.35, double(image.cols) / 1600.0);
+    const cv::Point origin(6, image.rows - 8);
+    cv::putText(image, line, origin, cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+    cv::putText(image, line, origin, cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+}
+
+void writePng(const std::filesystem::path& path, const cv::Mat& image) {
+    if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
+    if (!cv::imwrite(path.string(), image)) throw Error(path.string(), std::nullopt, "could not write the snapshot");
+    std::printf("live: wrote %s\n", path.string().c_str());
+}
+
+int runLive(const LiveArgs& args) {
+    if (args.scene.empty()) throw Error("--scene", std::nullopt, "live needs a scene file (docs/SCENE_FORMAT.md)");
+    const render::Scene scene = render::loadScene(args.scene);
+    const std::string uri = args.device == "freenect" ? "freenect://0" : args.device;
+    capture::FrameSourceOptions sourceOptions;
+    sourceOptions.pacing = args.fast ? capture::Pacing::AsFastAsPossible : capture::Pacing::Realtime;
+    sourceOptions.loop = args.loop;
+    auto source = capture::openFrameSource(uri, sourceOptions);
+    const capture::FrameSourceInfo& info = source->info();
+
+    std::unique_ptr<gl::Context> headless;
+    std::unique_ptr<gl::WindowContext> window;
+    if (args.headless) {
+        headless = gl::createHeadlessContext();
+    } else {
+        window = gl::createWindowContext(info.colourIntrinsics.width, info.colourIntrinsics.height, "lightskin live");
+    }
+    PipelineOptions options;
+    options.poseMode = args.pose.empty() ? (info.hasGroundTruth ? PoseMode::GroundTruth : PoseMode::Tracking) : parsePoseMode(args.pose);
+    options.compare = false;
+    auto pipeline = FramePipeline::create(scene, info, options);
+    std::printf("live: %s (%s), scene %s, pose %s, GI %s\n", info.uri.c_str(), info.kind.c_str(), args.scene.c_str(),
+                toString(options.poseMode), pipeline->techniqueName().c_str());
+    if (window) std::printf("keys: G GI, L glossy, O occlusion, V debug view, C side by side, P snapshot, Q/Esc quit\n");
+
+    std::optional<capture::RecordingWriter> recorder;
+    if (!args.record.empty()) {
+        capture::RecordingInfo recordingInfo;
+        recordingInfo.deviceName = info.deviceName;
+        recordingInfo.colourIntrinsics = info.colourIntrinsics;
+        recordingInfo.depthIntrinsics = info.depthIntrinsics;
+        recordingInfo.depthScaleMetres = info.depthScaleMetres;
+        recordingInfo.registration = info.registration;
+        recordingInfo.colour_T_depth = info.colour_T_depth;
+        recorder = capture::RecordingWriter::create(args.record, recordingInfo);
+    }
+
+    bool snapshotRequested = false, quit = false;
+    int snapshots = 0;
+    if (window) {
+        window->setKeyHandler([&](int key) {
+            PipelineOptions& o = pipeline->options();
+            render::GiSettings gi = pipeline->giSettings();
+            switch (key) {
+            case 'G': o.giEnabled = !o.giEnabled; break;
+            case 'L': gi.glossy = !gi.glossy; pipeline->setGiSettings(gi); break;
+            case 'O': gi.occlusion = !gi.occlusion; pipeline->setGiSettings(gi); break;
+            case 'V':
+                // final, direct, indirect, normals, albedo, then the overlays vals, sparse, error.
+                if (o.overlay != Overlay::None) {
+                    o.overlay = Overlay((int(o.overlay) + 1) % 4);
+                } else if (o.view == render::DebugView::Albedo) {
+                    o.view = render::DebugView::Final;
+                    o.overlay = Overlay::Vals;
+                } else {
+                    o.view = render::DebugView(int(o.view) + 1);
+                }
+                break;
+            case 'C': o.compare = !o.compare; break;
+            case 'P': snapshotRequested = true; break;
+            case 'Q':
+            case kKeyEscape: quit = true; break;
+            default: break;
+            }
+        });
+    }
+
+    liveInterrupt = false;
+    const auto previous = std::signal(SIGINT, onLiveInterrupt);
+    WindowDisplay display;
+    RgbdFrame frame;
+    FrameOutput out;
+    cv::Mat shown;
+    std::int64_t count = 0;
+    double fps = 0.0;
+    auto last = std::chrono::steady_clock::now();
+    try {
+        while (!quit && !liveInterrupt && (args.maxFrames < 0 || count < args.maxFrames) && source->next(frame)) {
+            ++count;
+            if (recorder) recorder->write(frame);
+            pipeline->process(frame, out);
+            if (pipeline->options().compare) render::sideBySideInto(out.withGi, "with GI", out.withoutGi, "without GI", shown);
+            else out.withGi.copyTo(shown);
+            const auto now = std::chrono::steady_clock::now();
+            const double seconds = std::chrono::duration<double>(now - last).count();
+            last = now;
+            fps = fps == 0.0 ? 1.0 / std::max(seconds, 1e-6) : 0.9 * fps + 0.1 / std::max(seconds, 1e-6);
+            drawStatus(shown, statusLine(fps, out, *pipeline, pipeline->options()));
+            const bool autoSnapshot = args.snapshotAfter >= 0 && count == args.snapshotAfter + 1;
+            if (window) {
+                display.show(*window, shown);
+                if (autoSnapshot || snapshotRequested) {
+                    const std::filesystem::path path = autoSnapshot && !args.snapshot.empty()
+                                                           ? std::filesystem::path(args.snapshot)
+                                                           : std::filesystem::path(args.snapshotDir) / ("snapshot-" + std::to_string(snapshots++) + ".png");
+                    writePng(path, WindowDisplay::readBack(*window));
+                }
+                window->swapBuffers();
+                window->pollEvents();
+                if (window->shouldClose()) quit = true;
+            } else {
+                if (autoSnapshot) writePng(args.snapshot.empty() ? std::filesystem::path(args.snapshotDir) / "snapshot-0.png" : std::filesystem::path(args.snapshot), shown);
+                if (count % 30 == 1) std::fprintf(stderr, "live: frame %lld: %s\n", static_cast<long long>(count), statusLine(fps, out, *pipeline, pipeline->options()).c_str());
+            }
+            snapshotRequested = false;
+            gl::DebugOutput::throwIfErrors("live frame");
+        }
+    } catch (...) {
+        std::signal(SIGINT, previous);
+        throw;
+    }
+    std::signal(SIGINT, previous);
+    if (recorder) recorder->finish();
+    std::printf("live: %lld frames, %lld dropped by the source\n", static_cast<long long>(count), static_cast<long long>(source->framesDropped()));
+    return 0;
+}
+
+void addLiveCommand(CLI::App& app, int& exitCode) {
+    auto* command = app.add_subcommand("live", "AR demo in a window: camera or file input, scene lit with GI, keys to toggle");
+    auto args = std::make_shared<LiveArgs>();
+    command->add_option("--device", args->device, "freenect (Kinect v1), freenect://<n>, openni2://[uri], a .oni file, a recording or TUM folder");
+    command->add_option("--scene", args->scene, "Scene file (docs/SCENE_FORMAT.md)")->required();
+    command->add_option("--pose", args->pose, "ground-truth | tracking | fixed (default: ground truth when the input has it, else tracking)");
+    command->add_flag("--headless", args->headless, "No window: render through EGL (tests, no display)");
+    command->add_flag("--loop", args->loop, "Start file input again at its end");
+    command->add_flag("--fast", args->fast, "File input as fast as possible instead of at the recorded speed");
+    command->add_option("--max-frames", args->maxFrames, "Stop after this many frames");
+    command->add_option("--snapshot-after", args->snapshotAfter, "Write a snapshot of what is shown after this many frames");
+    command->add_option("--snapshot", args->snapshot, "Path of that snapshot (default <snapshot-dir>/snapshot-0.png)");
+    command->add_option("--snapshot-dir", args->snapshotDir, "Folder for snapshots (key P)");
+    command->add_option("--record", args->record, "Also record the input frames into this new recording folder");
+    command->callback([args, &exitCode] { exitCode = runLive(*args); });
+}
+
+} // namespace
+
+static const CommandRegistration registration{"live", &addLiveCommand};
+
+} // namespace lightskin::apps

@@ -1,0 +1,297 @@
+// `lightskin replay <recording>`: the main job. Reads every frame of a recording (any FrameSource),
+// places the scene's virtual content with the recorded or tracked pose, lights it with direct
+// light and the GI technique, composites it over the colour image and writes PNGs, a video and
+// a report (JSON + Markdown). Headless (EGL) unless --window. Ctrl-C stops after the current frame
+// and keeps everything written so far (video finalised, report marked "interrupted"; exit 130).
+#include "Commands.h"
+#include "LiveWindowDisplay.h"
+#include "ReplayPipeline.h"
+#include "ReplayReport.h"
+
+#include <lightskin/capture/FrameSource.h>
+#include <lightskin/core/Error.h>
+#include <lightskin/core/Log.h>
+#include <lightskin/gl/Context.h>
+#include <lightskin/gl/DebugOutput.h>
+#include <lightskin/render/Scene.h>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <set>
+#include <sstream>
+#include <unistd.h>
+#include <utility>
+
+namespace lightskin::apps {
+
+namespace {
+
+std::atomic<bool> interruptRequested{false};
+extern "C" void onReplayInterrupt(int) {
+    interruptRequested = true;
+    std::signal(SIGINT, SIG_DFL); // a second Ctrl-C kills at once
+}
+
+struct ReplayArgs {
+    std::string recording, scene, out = "replay-out", frames, pose, view = "final", videoFormat = "auto";
+    bool window = false, noVideo = false, sideBySideVideo = false, noCompare = false;
+    std::int64_t maxFrames = -1;
+};
+
+/// "all" or a comma list of indices and ranges: "0,5,10-20". Empty set = all.
+std::set<std::int64_t> parseFrameList(const std::string& text) {
+    std::set<std::int64_t> frames;
+    if (text.empty() || text == "all") return frames;
+    std::stringstream stream(text);
+    std::string item;
+    while (std::getline(stream, item, ',')) {
+        try {
+            const auto dash = item.find('-');
+            std::size_t used = 0;
+            if (dash == std::string::npos) {
+                const long long v = std::stoll(item, &used);
+                if (used != item.size() || v < 0) throw std::invalid_argument(item);
+                frames.insert(v);
+            } else {
+                const long long a = std::stoll(item.substr(0, dash), &used);
+                if (used != dash) throw std::invalid_argument(item);
+                const std::string rest = item.substr(dash + 1);
+                const long long b = std::stoll(rest, &used);
+                if (used != rest.size() || a < 0 || b < a || b - a > 10'000'000) throw std::invalid_argument(item);
+                for (long long v = a; v <= b; ++v) frames.insert(v);
+            }
+        } catch (const std::exception&) {
+            throw Error("--frames", std::nullopt, "expected 'all' or indices and ranges like 0,5,10-20; cannot read '" + item + "'");
+        }
+    }
+    return frames;
+}
+
+class Progress {
+public:
+    Progress(std::optional<std::int64_t> total) : total_(total), tty_(isatty(STDERR_FILENO) != 0), start_(Clock::now()) {}
+    void update(std::int64_t done, bool last = false) {
+        const double seconds = std::chrono::duration<double>(Clock::now() - start_).count();
+        const double fps = seconds > 0 ? double(done) / seconds : 0.0;
+        const bool due = std::chrono::duration<double>(Clock::now() - lastPrint_).count() >= (tty_ ? 0.1 : 2.0);
+        if (!due && !last) return;
+        lastPrint_ = Clock::now();
+        char eta[32] = "?";
+        if (total_ && fps > 0) std::snprintf(eta, sizeof eta, "%.0f s", double(*total_ - done) / fps);
+        if (tty_) {
+            std::string bar;
+            if (total_ && *total_ > 0) {
+                const int width = 30, filled = int(double(width) * double(done) / double(*total_));
+                bar = "[" + std::string(std::size_t(std::min(filled, width)), '#') + std::string(std::size_t(std::max(0, width - filled)), '.') + "] ";
+            }
+            std::fprintf(stderr, "\r%sframe %lld%s  %.1f fps  ETA %s   ", bar.c_str(), static_cast<long long>(done),
+                         total_ ? (" / " + std::to_string(*total_)).c_str() : "", fps, eta);
+            if (last) std::fprintf(stderr, "\n");
+        } else {
+            std::fprintf(stderr, "replay: frame %lld%s, %.1f fps, ETA %s\n", static_cast<long long>(done),
+                         total_ ? (" of " + std::to_string(*total_)).c_str() : "", fps, eta);
+        }
+        std::fflush(stderr);
+    }
+
+private:
+    using Clock = std::chrono::steady_clock;
+    std::optional<std::int64_t> total_;
+    bool tty_;
+    Clock::time_point start_, lastPrint_{};
+};
+
+/// Opens a video writer: MP4 with H.264 (avc1; plays in browsers) when this OpenCV/FFmpeg can
+/// write it, else MP4 with MPEG-4 part 2 (mp4v), else MJPG in .avi. On Debian 12's OpenCV 4.6 both
+/// MP4 variants work (checked by writing and decoding, also for odd sizes).
+cv::VideoWriter openVideo(const std::filesystem::path& folder, const std::string& format, cv::Size size, double fps,
+                          std::string& path, std::string& codec) {
+    cv::VideoWriter writer;
+    if (format != "auto" && format != "mp4" && format != "avi")
+        throw Error("--video-format", std::nullopt, "expected auto, mp4 or avi, got '" + format + "'");
+    if (format == "auto" || format == "mp4") {
+        path = (folder / "replay.mp4").string();
+        const std::pair<int, const char*> codecs[] = {{cv::VideoWriter::fourcc('a', 'v', 'c', '1'), "H.264 (avc1) in MP4"},
+                                                      {cv::VideoWriter::fourcc('m', 'p', '4', 'v'), "MPEG-4 part 2 (mp4v) in MP4"}};
+        for (const auto& [fourcc, name] : codecs) {
+            if (writer.open(path, cv::CAP_FFMPEG, fourcc, fps, size)) {
+                codec = name;
+                return writer;
+            }
+        }
+        std::filesystem::remove(path);
+        if (format == "mp4") throw Error(path, std::nullopt, "this OpenCV build cannot write MP4 (avc1 or mp4v)");
+    }
+    path = (folder / "replay.avi").string();
+    codec = "MJPG in AVI";
+    if (writer.open(path, cv::CAP_ANY, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), fps, size)) {
+        if (format == "auto") log::warning("MP4 writing is not available: wrote MJPG " + path);
+        return writer;
+    }
+    throw Error(path, std::nullopt, "OpenCV's VideoWriter can write neither MP4 (avc1, mp4v) nor MJPG AVI here");
+}
+
+void writePng(const std::filesystem::path& path, const cv::Mat& image) {
+    if (!cv::imwrite(path.string(), image)) throw Error(path.string(), std::nullopt, "could not write the image");
+}
+
+int runReplay(const ReplayArgs& args, const std::string& commandLine) {
+    const auto start = std::chrono::steady_clock::now();
+    // Scene: --scene, else <recording>/scene.json.
+    std::filesystem::path scenePath = args.scene;
+    if (scenePath.empty()) {
+        scenePath = std::filesystem::path(args.recording) / "scene.json";
+        if (!std::filesystem::exists(scenePath))
+            throw Error(args.recording, std::nullopt, "no --scene given and the recording has no scene.json");
+    }
+    const render::Scene scene = render::loadScene(scenePath);
+    const std::set<std::int64_t> chosen = parseFrameList(args.frames);
+    render::DebugView view = render::DebugView::Final;
+    Overlay overlay = Overlay::None;
+    parseView(args.view, view, overlay);
+
+    auto source = capture::openFrameSource(args.recording, {});
+    const capture::FrameSourceInfo& info = source->info();
+    PoseMode poseMode = args.pose.empty() ? (info.hasGroundTruth ? PoseMode::GroundTruth : PoseMode::Tracking) : parsePoseMode(args.pose);
+
+    std::unique_ptr<gl::Context> context;
+    std::unique_ptr<gl::WindowContext> window;
+    std::optional<WindowDisplay> display; // declared after the window: destroyed first
+    if (args.window) {
+        window = gl::createWindowContext(info.colourIntrinsics.width, info.colourIntrinsics.height, "lightskin replay");
+    } else {
+        context = gl::createHeadlessContext();
+    }
+    const std::string rendererName = window ? window->describe() : context->describe();
+
+    const std::filesystem::path out(args.out);
+    std::filesystem::create_directories(out / "frames");
+    PipelineOptions options;
+    options.poseMode = poseMode;
+    options.view = view;
+    options.overlay = overlay;
+    options.compare = !args.noCompare;
+    auto pipeline = FramePipeline::create(scene, info, options);
+    // Without a GI technique both halves of the comparison would be the same image.
+    const bool compare = options.compare && pipeline->techniqueName() != "none";
+    pipeline->options().compare = compare;
+    if (compare) std::filesystem::create_directories(out / "compare");
+
+    std::string videoPath, videoCodec;
+    cv::VideoWriter video;
+    ReportSummary summary;
+    summary.recording = args.recording;
+    summary.scene = scenePath.string();
+    summary.renderer = rendererName;
+    summary.technique = pipeline->techniqueName() + (scene.gi.technique != pipeline->techniqueName() ? " (scene asked for " + scene.gi.technique + ", not available)" : "");
+    summary.poseMode = toString(poseMode);
+    summary.command = commandLine;
+    summary.framesInSource = source->frameCount();
+    std::int64_t total = summary.framesInSource.value_or(-1);
+    if (args.maxFrames >= 0 && (total < 0 || args.maxFrames < total)) total = args.maxFrames;
+
+    interruptRequested = false;
+    const auto previous = std::signal(SIGINT, onReplayInterrupt);
+    std::vector<ReportFrame> frames;
+    Progress progress(total >= 0 ? std::optional<std::int64_t>(total) : std::nullopt);
+    RgbdFrame frame;
+    FrameOutput output;
+    cv::Mat sideBySide;
+    std::int64_t read = 0;
+    try {
+        while (!interruptRequested && (args.maxFrames < 0 || read < args.maxFrames) && source->next(frame)) {
+            ++read;
+            pipeline->process(frame, output);
+            ReportFrame rf;
+            rf.index = frame.index;
+            rf.trackingState = tracking::toString(output.tracking.state);
+            rf.trackingReason = output.tracking.reason != nullptr ? output.tracking.reason : "";
+            rf.world_T_camera = output.world_T_camera;
+            rf.valCount = output.valCount;
+            rf.cpuTimes = output.cpuTimes;
+            rf.gpuTimes = output.gpuTimes;
+            rf.totalMs = output.totalMs;
+            rf.errorVsBruteForce = output.meanRelativeErrorVsBruteForce;
+            if (compare) render::sideBySideInto(output.withGi, "with GI (" + pipeline->techniqueName() + ")", output.withoutGi, "without GI", sideBySide);
+            const bool write = chosen.empty() || chosen.count(frame.index) > 0;
+            if (write) {
+                char name[32];
+                std::snprintf(name, sizeof name, "%06lld.png", static_cast<long long>(frame.index));
+                rf.image = std::string("frames/") + name;
+                writePng(out / rf.image, output.withGi);
+                if (compare) {
+                    rf.compareImage = std::string("compare/") + name;
+                    writePng(out / rf.compareImage, sideBySide);
+                }
+            }
+            if (!args.noVideo) {
+                const cv::Mat& videoFrame = args.sideBySideVideo && compare ? sideBySide : output.withGi;
+                if (!video.isOpened()) video = openVideo(out, args.videoFormat, videoFrame.size(), 30.0, videoPath, videoCodec);
+                video.write(videoFrame);
+            }
+            if (window) {
+                if (!display) display.emplace();
+                display->show(*window, args.sideBySideVideo && compare ? sideBySide : output.withGi);
+                window->swapBuffers();
+                window->pollEvents();
+                if (window->shouldClose()) interruptRequested = true;
+            }
+            frames.push_back(std::move(rf));
+            progress.update(read);
+        }
+    } catch (...) {
+        std::signal(SIGINT, previous);
+        video.release();
+        throw;
+    }
+    std::signal(SIGINT, previous);
+    progress.update(read, true);
+    video.release();
+    summary.framesRead = read;
+    summary.interrupted = interruptRequested;
+    summary.video = videoPath.empty() ? "" : std::filesystem::path(videoPath).filename().string();
+    summary.videoCodec = videoCodec;
+    summary.wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    writeReplayReport(out, summary, frames);
+    std::printf("replay: %lld frames read%s; outputs in %s (report.md, report.json%s)\n", static_cast<long long>(read),
+                summary.interrupted ? " (interrupted)" : "", out.string().c_str(), videoPath.empty() ? "" : (", " + summary.video).c_str());
+    return summary.interrupted ? 130 : 0;
+}
+
+void addReplayCommand(CLI::App& app, int& exitCode) {
+    auto* command = app.add_subcommand("replay", "Render a scene into a recording: PNGs, a video and a report (headless by default)");
+    auto args = std::make_shared<ReplayArgs>();
+    command->add_option("recording", args->recording, "Recording folder, TUM folder or .oni file")->required();
+    command->add_option("--scene", args->scene, "Scene file (docs/SCENE_FORMAT.md); default <recording>/scene.json");
+    command->add_option("--out", args->out, "Output folder (default replay-out)");
+    command->add_flag("--window", args->window, "Show a GLFW window while rendering (default: headless EGL)");
+    command->add_option("--frames", args->frames, "Frames to write as PNG: all (default) or a list like 0,5,10-20");
+    command->add_option("--max-frames", args->maxFrames, "Stop after this many frames");
+    command->add_option("--pose", args->pose, "ground-truth | tracking | fixed (default: ground truth when the recording has it, else tracking)");
+    command->add_option("--view", args->view, "Debug view: final | direct | indirect | normals | albedo | vals (VALs by flux) | sparse (sparse points) | error (vs brute force)");
+    command->add_flag("--no-video", args->noVideo, "Do not write a video");
+    command->add_option("--video-format", args->videoFormat, "auto (MP4, falling back to MJPG AVI) | mp4 | avi");
+    command->add_flag("--side-by-side-video", args->sideBySideVideo, "Video frames show with GI | without GI");
+    command->add_flag("--no-compare", args->noCompare, "Do not render the without-GI comparison");
+    command->callback([args, &exitCode, command] {
+        std::string line = "lightskin replay";
+        for (const auto& [name, value] : std::vector<std::pair<std::string, std::string>>{
+                 {"", args->recording}, {"--scene", args->scene}, {"--out", args->out}, {"--frames", args->frames}, {"--pose", args->pose}})
+            if (!value.empty()) line += (name.empty() ? " " : " " + name + " ") + value;
+        (void)command;
+        exitCode = runReplay(*args, line);
+    });
+}
+
+} // namespace
+
+static const CommandRegistration registration{"replay", &addReplayCommand};
+
+} // namespace lightskin::apps

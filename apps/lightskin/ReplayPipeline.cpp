@@ -1,0 +1,327 @@
+#include "ReplayPipeline.h"
+
+#include <lightskin/capture/DepthFilter.h>
+#include <lightskin/core/Error.h>
+#include <lightskin/core/Log.h>
+#include <lightskin/gi/BruteForceIllumination.h>
+#include <lightskin/gi/LightSkinIllumination.h>
+#include <lightskin/gi/ValGenerator.h>
+#include <lightskin/gl/DebugOutput.h>
+#include <lightskin/render/NullIndirectIllumination.h>
+#include <lightskin/tracking/TagWorld.h>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <glm/exponential.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace lightskin::apps {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point start) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+void addTime(std::vector<gl::StageTime>& times, std::size_t& used, const char* name, double ms) {
+    if (times.size() <= used) times.resize(used + 1);
+    times[used].name = name;
+    times[used].milliseconds = ms;
+    ++used;
+}
+
+tracking::TagWorld tagWorldFromScene(const render::Scene& scene) {
+    const std::string source = (scene.file.empty() ? std::string("scene") : scene.file.string()) + " /tracking";
+    const nlohmann::json tracking = nlohmann::json::parse(scene.trackingJson);
+    if (tracking.empty())
+        throw Error(source, std::nullopt, "--pose tracking needs a \"tracking\" object in the scene (tag family, size, bundle)");
+    if (tracking.contains("file")) {
+        if (tracking.size() != 1 || !tracking["file"].is_string())
+            throw Error(source, std::nullopt, "/tracking/file: expected a path string as the only key");
+        return tracking::TagWorld::load(scene.file.parent_path() / tracking["file"].get<std::string>());
+    }
+    return tracking::TagWorld::fromJson(scene.trackingJson, source);
+}
+
+} // namespace
+
+const char* toString(PoseMode mode) noexcept {
+    switch (mode) {
+    case PoseMode::GroundTruth: return "ground-truth";
+    case PoseMode::Tracking: return "tracking";
+    case PoseMode::Fixed: return "fixed";
+    }
+    return "?";
+}
+
+PoseMode parsePoseMode(const std::string& text) {
+    if (text == "ground-truth") return PoseMode::GroundTruth;
+    if (text == "tracking") return PoseMode::Tracking;
+    if (text == "fixed") return PoseMode::Fixed;
+    throw Error("--pose", std::nullopt, "expected ground-truth, tracking or fixed, got '" + text + "'");
+}
+
+std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettings& settings, const render::Renderer& renderer) {
+    if (!settings.diffuse && settings.technique != "none")
+        log::warning("gi.diffuse = false is not supported by the techniques: the diffuse channel stays on");
+    if (settings.technique == "lightskin") {
+        gi::LightSkinSettings s;
+        s.kCache = settings.kCache;
+        s.glossy = settings.glossy;
+        s.occlusion = settings.occlusion;
+        const gi::SparsePointProvider provider = [&renderer](const gi::MeshInstance& instance) {
+            const gi::SparsePointSet* points = renderer.sparsePoints(instance.meshId);
+            LIGHTSKIN_ASSERT(points != nullptr, "lightskin::apps::createTechnique(): the renderer prepared no sparse points");
+            return *points;
+        };
+        return gi::LightSkinIllumination::create(s, provider);
+    }
+    if (settings.technique == "brute-force") {
+        gi::BruteForceSettings s;
+        s.kCache = settings.kCache;
+        s.glossy = settings.glossy;
+        return gi::BruteForceIllumination::create(s);
+    }
+    return std::make_unique<render::NullIndirectIllumination>();
+}
+
+void parseView(const std::string& text, render::DebugView& view, Overlay& overlay) {
+    overlay = Overlay::None;
+    view = render::DebugView::Final;
+    if (text == "vals") overlay = Overlay::Vals;
+    else if (text == "sparse") overlay = Overlay::SparsePoints;
+    else if (text == "error") overlay = Overlay::ErrorVsBruteForce;
+    else {
+        for (auto v : {render::DebugView::Final, render::DebugView::DirectOnly, render::DebugView::IndirectOnly,
+                       render::DebugView::Normals, render::DebugView::Albedo})
+            if (text == render::toString(v)) {
+                view = v;
+                return;
+            }
+        throw Error("--view", std::nullopt,
+                    "expected final, direct, indirect, normals, albedo, vals, sparse or error, got '" + text + "'");
+    }
+}
+
+namespace {
+
+bool projectToPixel(const CameraIntrinsics& k, const Pose& camera_T_world, const glm::dvec3& world, cv::Point& pixel) {
+    const glm::dvec3 c = camera_T_world.transformPoint(world);
+    if (c.z <= 0.05) return false;
+    const glm::dvec2 p = k.project(c);
+    if (!(p.x >= 0 && p.y >= 0 && p.x < k.width && p.y < k.height)) return false;
+    pixel = cv::Point(int(std::lround(p.x)), int(std::lround(p.y)));
+    return true;
+}
+
+void drawVals(cv::Mat& image, const std::vector<gi::VirtualAreaLight>& vals, const CameraIntrinsics& k, const Pose& world_T_camera) {
+    float brightest = 0.0f;
+    for (const auto& v : vals) brightest = std::max({brightest, v.flux.x, v.flux.y, v.flux.z});
+    if (!(brightest > 0.0f)) return;
+    const Pose camera_T_world = world_T_camera.inverse();
+    for (const auto& v : vals) {
+        cv::Point pixel;
+        if (!projectToPixel(k, camera_T_world, glm::dvec3(v.position), pixel)) continue;
+        const glm::vec3 c = glm::sqrt(v.flux / brightest) * 255.0f; // square root: dim VALs stay visible
+        cv::circle(image, pixel, 1, cv::Scalar(c.z, c.y, c.x), cv::FILLED);
+    }
+}
+
+void drawSparsePoints(cv::Mat& image, const render::Renderer& renderer, const CameraIntrinsics& k, const Pose& world_T_camera) {
+    const Pose camera_T_world = world_T_camera.inverse();
+    for (const gi::MeshInstance& instance : renderer.instances()) {
+        const gi::SparsePointSet* set = renderer.sparsePoints(instance.meshId);
+        if (set == nullptr) continue;
+        for (const gi::SparsePoint& point : set->points) {
+            const glm::vec4 world = instance.world_T_model * glm::vec4(point.position, 1.0f);
+            cv::Point pixel;
+            if (!projectToPixel(k, camera_T_world, glm::dvec3(world), pixel)) continue;
+            cv::circle(image, pixel, 2, cv::Scalar(0, 0, 0), cv::FILLED);
+            cv::circle(image, pixel, 1, cv::Scalar(0, 255, 255), cv::FILLED);
+        }
+    }
+}
+
+} // namespace
+
+struct FramePipeline::State {
+    const render::Scene* scene = nullptr;
+    capture::FrameSourceInfo source;
+    std::unique_ptr<gi::IndirectIllumination> technique;
+    std::optional<tracking::PoseTracker> tracker;
+    std::optional<gi::ValGenerator> vals;
+    bool valsUsable = false;
+    render::Compositor compositor;
+    capture::BilateralDepthFilter depthFilter; // KinectFusion defaults (capture/DepthFilter.h)
+    cv::Mat depthMetres, virtualColour, virtualDepth;
+    std::unique_ptr<gi::IndirectIllumination> bruteForce; // error view only
+    cv::Mat indirectTechnique, indirectReference, errorMap;
+    std::vector<gl::StageTime> scratchTimes;
+};
+
+FramePipeline::~FramePipeline() = default;
+
+std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene, const capture::FrameSourceInfo& source,
+                                                     const PipelineOptions& options) {
+    std::unique_ptr<FramePipeline> p(new FramePipeline());
+    p->state_ = std::make_unique<State>();
+    State& s = *p->state_;
+    s.scene = &scene;
+    s.source = source;
+    p->options_ = options;
+    p->gi_ = scene.gi;
+    const CameraIntrinsics& colour = source.colourIntrinsics;
+    if (!colour.isValid()) throw Error(source.uri, std::nullopt, "the source has no valid colour intrinsics");
+    p->renderer_ = render::Renderer::create(colour);
+    p->renderer_->setScene(scene, scene.gi.technique == "lightskin");
+    s.compositor = render::Compositor::create(colour, scene.compositing);
+    if (options.poseMode == PoseMode::Tracking) s.tracker = tracking::PoseTracker::create(tagWorldFromScene(scene));
+
+    // VALs need depth and colour of one size, registered (the ValGenerator's contract).
+    s.valsUsable = source.registration == DepthRegistration::RegisteredToColour &&
+                   source.depthIntrinsics.width == colour.width && source.depthIntrinsics.height == colour.height;
+    if (s.valsUsable) {
+        gi::ValGeneratorSettings settings;
+        settings.stride = scene.gi.valStride;
+        // The camera's exposure: a linear pixel value p is radiance p / 2^exposureStops.
+        settings.exposure = std::exp2(-scene.exposureStops);
+        s.vals = gi::ValGenerator::create(colour.width, colour.height, settings);
+    } else {
+        log::warning(source.uri + ": depth is not registered to colour; no VALs and no occlusion by real geometry");
+    }
+    p->setGiSettings(scene.gi);
+    gl::DebugOutput::throwIfErrors("pipeline creation");
+    return p;
+}
+
+void FramePipeline::setGiSettings(const render::GiSettings& settings) {
+    gi_ = settings;
+    state_->technique = createTechnique(settings, *renderer_);
+    state_->technique->prepare(renderer_->instances());
+}
+
+std::string FramePipeline::techniqueName() const { return std::string(state_->technique->name()); }
+
+void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
+    State& s = *state_;
+    const auto frameStart = Clock::now();
+    std::size_t used = 0;
+    out.frameIndex = frame.index;
+    out.valCount = 0;
+    out.meanRelativeErrorVsBruteForce = -1.0;
+
+    // Depth in metres (CV_32FC1, 0 = missing), registered to colour.
+    auto t = Clock::now();
+    const bool haveDepth = frame.hasDepth() && s.valsUsable && frame.depth.cols == frame.colour.cols &&
+                           frame.depth.rows == frame.colour.rows;
+    if (haveDepth) s.depthFilter.filterInto(frame.depth, frame.depthScaleMetres, s.depthMetres);
+    addTime(out.cpuTimes, used, "depth filter", msSince(t));
+
+    // Pose.
+    t = Clock::now();
+    switch (options_.poseMode) {
+    case PoseMode::GroundTruth: out.tracking = tracking::PoseTracker::fromGroundTruth(frame); break;
+    case PoseMode::Tracking: s.tracker->trackInto(frame, out.tracking); break;
+    case PoseMode::Fixed:
+        out.tracking = tracking::TrackingResult{};
+        out.tracking.frameIndex = frame.index;
+        out.tracking.state = tracking::TrackingState::Tracking;
+        out.tracking.world_T_camera = Pose();
+        break;
+    }
+    out.world_T_camera = out.tracking.world_T_camera;
+    addTime(out.cpuTimes, used, "pose", msSince(t));
+
+    if (!out.world_T_camera) {
+        // Lost: nothing virtual can be placed; the frame passes through unchanged.
+        frame.colour.copyTo(out.withGi);
+        if (options_.compare) frame.colour.copyTo(out.withoutGi);
+        out.cpuTimes.resize(used);
+        out.gpuTimes.clear();
+        out.totalMs = msSince(frameStart);
+        return;
+    }
+    const Pose& world_T_camera = *out.world_T_camera;
+
+    // VALs from the depth map.
+    t = Clock::now();
+    gi::ValSetView valSet;
+    const bool runGi = options_.giEnabled && gi_.technique != "none";
+    if (haveDepth && runGi && s.vals) {
+        valSet = s.vals->generate(s.depthMetres, 1.0, frame.colour, frame.colourIntrinsics, world_T_camera);
+        out.valCount = valSet.count;
+    }
+    addTime(out.cpuTimes, used, "vals", msSince(t));
+
+    // G-buffer and indirect light.
+    t = Clock::now();
+    render::Renderer& r = *renderer_;
+    r.renderGBuffer(world_T_camera);
+    if (runGi) s.technique->render(valSet, r.instances(), r.gbuffer(), r.viewParameters(), r.indirectTarget());
+    addTime(out.cpuTimes, used, "gbuffer+gi", msSince(t));
+
+    // Shade, read back, composite.
+    t = Clock::now();
+    const cv::Mat realDepth = haveDepth ? s.depthMetres : cv::Mat();
+    render::ShadeOptions shade{.includeIndirect = runGi, .exposureStops = s.scene->exposureStops, .view = options_.view};
+    r.shade(shade);
+    r.readOutputsInto(s.virtualColour, s.virtualDepth);
+    s.compositor.compositeInto(frame.colour, s.virtualColour, s.virtualDepth, realDepth, out.withGi);
+    if (options_.overlay == Overlay::Vals && out.valCount > 0 && s.vals)
+        drawVals(out.withGi, s.vals->downloadVals(), frame.colourIntrinsics, world_T_camera);
+    if (options_.overlay == Overlay::SparsePoints) drawSparsePoints(out.withGi, r, frame.colourIntrinsics, world_T_camera);
+    if (options_.overlay == Overlay::ErrorVsBruteForce && runGi) {
+        if (!s.bruteForce) {
+            render::GiSettings reference = gi_;
+            reference.technique = "brute-force";
+            s.bruteForce = createTechnique(reference, r);
+            s.bruteForce->prepare(r.instances());
+        }
+        r.readIndirectInto(s.indirectTechnique);
+        s.bruteForce->render(valSet, r.instances(), r.gbuffer(), r.viewParameters(), r.indirectTarget());
+        r.readIndirectInto(s.indirectReference);
+        // Luminance of |a - b| mapped to a colour ramp over covered pixels; the mean relative error in text.
+        s.errorMap.create(s.indirectTechnique.size(), CV_8UC3);
+        double sumError = 0.0, sumReference = 0.0;
+        for (int v = 0; v < s.errorMap.rows; ++v)
+            for (int u = 0; u < s.errorMap.cols; ++u) {
+                const cv::Vec4f a = s.indirectTechnique.at<cv::Vec4f>(v, u), b = s.indirectReference.at<cv::Vec4f>(v, u);
+                const float la = 0.2126f * a[0] + 0.7152f * a[1] + 0.0722f * a[2];
+                const float lb = 0.2126f * b[0] + 0.7152f * b[1] + 0.0722f * b[2];
+                if (s.virtualColour.at<cv::Vec4b>(v, u)[3] == 0) continue;
+                sumError += std::abs(double(la) - double(lb));
+                sumReference += std::abs(double(lb));
+                const float level = std::clamp(std::abs(la - lb) / options_.errorScale, 0.0f, 1.0f);
+                out.withGi.at<cv::Vec3b>(v, u) = cv::Vec3b(std::uint8_t(255.0f * (1.0f - level)), 0, std::uint8_t(255.0f * level));
+            }
+        out.meanRelativeErrorVsBruteForce = sumReference > 0.0 ? sumError / sumReference : 0.0;
+        char text[96];
+        std::snprintf(text, sizeof text, "|%s - brute force| / brute force: %.3f", std::string(s.technique->name()).c_str(),
+                      out.meanRelativeErrorVsBruteForce);
+        cv::putText(out.withGi, text, cv::Point(6, 16), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+    }
+    if (options_.compare) {
+        shade.includeIndirect = false;
+        if (shade.view == render::DebugView::IndirectOnly) shade.view = render::DebugView::Final;
+        r.shade(shade);
+        r.readOutputsInto(s.virtualColour, s.virtualDepth);
+        s.compositor.compositeInto(frame.colour, s.virtualColour, s.virtualDepth, realDepth, out.withoutGi);
+    }
+    addTime(out.cpuTimes, used, "shade+composite", msSince(t));
+    out.cpuTimes.resize(used);
+
+    r.lastStageTimes(out.gpuTimes);
+    if (runGi) {
+        s.technique->lastStageTimes(s.scratchTimes);
+        out.gpuTimes.insert(out.gpuTimes.end(), s.scratchTimes.begin(), s.scratchTimes.end());
+    }
+    out.totalMs = msSince(frameStart);
+}
+
+} // namespace lightskin::apps

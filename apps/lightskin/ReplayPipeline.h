@@ -1,0 +1,94 @@
+#pragma once
+// The per-frame pipeline shared by `lightskin replay` and `lightskin live`:
+//   depth (metres, filtered) -> pose (ground truth | AprilTag tracking | fixed) -> VALs from depth
+//   -> G-buffer -> GI technique (gi::IndirectIllumination) -> direct + indirect, tone mapped
+//   -> composite over the colour image (with GI, and without GI for the figure-4 comparison).
+// Everything is sized on the first frame and reused; needs a current GL 4.5 context.
+
+#include <lightskin/capture/FrameSource.h>
+#include <lightskin/core/RgbdFrame.h>
+#include <lightskin/gi/IndirectIllumination.h>
+#include <lightskin/gl/GpuTimer.h>
+#include <lightskin/render/Compositor.h>
+#include <lightskin/render/Renderer.h>
+#include <lightskin/render/Scene.h>
+#include <lightskin/tracking/PoseTracker.h>
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace lightskin::apps {
+
+enum class PoseMode { GroundTruth, Tracking, Fixed };
+const char* toString(PoseMode mode) noexcept;
+/// "ground-truth", "tracking", "fixed"; throws lightskin::Error otherwise.
+PoseMode parsePoseMode(const std::string& text);
+
+/// Creates the scene's GI technique ("lightskin", "brute-force", "none"). Techniques that this
+/// build does not have fall back to "none" with a warning (the pipeline runs without GI).
+/// LightSkin takes the sparse points the renderer prepared (Renderer::setScene with sparse points).
+std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettings& settings, const render::Renderer& renderer);
+
+/// Debug overlays drawn over the with-GI composite (beyond the renderer's DebugView):
+/// Vals: every VAL as a dot at its position, coloured by its flux (normalised to the frame's
+/// brightest VAL); SparsePoints: the technique's sparse points (LightSkin only); ErrorVsBruteForce:
+/// |indirect(technique) - indirect(brute force)| per pixel as a colour map (blue 0 .. red at
+/// errorScale, linear RGB luminance), with the mean relative error in the corner (brute force has no
+/// occlusion term, so with occlusion on the difference includes it).
+enum class Overlay { None, Vals, SparsePoints, ErrorVsBruteForce };
+
+/// Parses a view name: final, direct, indirect, normals, albedo (render::DebugView) or vals,
+/// sparse, error (overlays over the final image). Throws lightskin::Error otherwise.
+void parseView(const std::string& text, render::DebugView& view, Overlay& overlay);
+
+struct PipelineOptions {
+    PoseMode poseMode = PoseMode::GroundTruth;
+    bool compare = true;           ///< also render without GI (the side-by-side comparison)
+    render::DebugView view = render::DebugView::Final;
+    Overlay overlay = Overlay::None;
+    float errorScale = 0.05f; ///< radiance difference shown as full red in the error view
+    bool giEnabled = true;         ///< live toggle; off = direct light only
+};
+
+struct FrameOutput {
+    std::int64_t frameIndex = 0;
+    cv::Mat withGi;       ///< CV_8UC3 BGR composite (GI on, or direct only when GI is off)
+    cv::Mat withoutGi;    ///< CV_8UC3 BGR composite without GI (when compare)
+    tracking::TrackingResult tracking;
+    std::optional<Pose> world_T_camera;
+    std::uint32_t valCount = 0;
+    double meanRelativeErrorVsBruteForce = -1.0; ///< error view only: mean |a-b| / mean |b| over covered pixels
+    std::vector<gl::StageTime> cpuTimes; ///< wall-clock per stage, ms (incl. waiting for the GPU)
+    std::vector<gl::StageTime> gpuTimes; ///< GL timer queries, ms
+    double totalMs = 0.0;
+};
+
+class FramePipeline {
+public:
+    /// `scene` must outlive the pipeline. `source` gives intrinsics and registration.
+    /// Throws lightskin::Error on bad scene content (meshes, tracking config) or intrinsics.
+    static std::unique_ptr<FramePipeline> create(const render::Scene& scene, const capture::FrameSourceInfo& source,
+                                                 const PipelineOptions& options);
+    ~FramePipeline();
+
+    void process(const RgbdFrame& frame, FrameOutput& out);
+
+    PipelineOptions& options() noexcept { return options_; }
+    /// Rebuilds the GI technique with changed settings (live toggles of glossy/occlusion).
+    void setGiSettings(const render::GiSettings& settings);
+    const render::GiSettings& giSettings() const noexcept { return gi_; }
+    std::string techniqueName() const;
+    render::Renderer& renderer() noexcept { return *renderer_; }
+
+private:
+    FramePipeline() = default;
+    struct State;
+    std::unique_ptr<State> state_;
+    std::unique_ptr<render::Renderer> renderer_;
+    PipelineOptions options_;
+    render::GiSettings gi_;
+};
+
+} // namespace lightskin::apps

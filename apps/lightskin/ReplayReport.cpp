@@ -1,0 +1,164 @@
+#include "ReplayReport.h"
+
+#include <lightskin/core/Error.h>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+
+namespace lightskin::apps {
+
+namespace {
+
+nlohmann::json poseJson(const Pose& pose) {
+    const glm::dquat& q = pose.rotation();
+    const glm::dvec3& t = pose.translation();
+    return {{"rotationXYZW", {q.x, q.y, q.z, q.w}}, {"translation", {t.x, t.y, t.z}}};
+}
+
+std::string fixed(double value, int decimals) {
+    char text[64];
+    std::snprintf(text, sizeof text, "%.*f", decimals, value);
+    return text;
+}
+
+std::string escapeCell(std::string text) {
+    for (std::size_t i = 0; (i = text.find('|', i)) != std::string::npos; i += 2) text.insert(i, "\\");
+    return text;
+}
+
+void writeFile(const std::filesystem::path& path, const std::string& text) {
+    std::ofstream file(path, std::ios::binary);
+    file << text;
+    if (!file) throw Error(path.string(), std::nullopt, "could not write the report");
+}
+
+} // namespace
+
+void writeReplayReport(const std::filesystem::path& folder, const ReportSummary& s, const std::vector<ReportFrame>& frames) {
+    // Stage names in first-seen order, and their means.
+    std::vector<std::string> cpuStages, gpuStages;
+    std::map<std::string, double> cpuSum, gpuSum;
+    std::map<std::string, int> trackingCounts;
+    for (const ReportFrame& f : frames) {
+        for (const auto& st : f.cpuTimes) {
+            if (std::find(cpuStages.begin(), cpuStages.end(), st.name) == cpuStages.end()) cpuStages.push_back(st.name);
+            cpuSum[st.name] += st.milliseconds;
+        }
+        for (const auto& st : f.gpuTimes) {
+            if (std::find(gpuStages.begin(), gpuStages.end(), st.name) == gpuStages.end()) gpuStages.push_back(st.name);
+            gpuSum[st.name] += st.milliseconds;
+        }
+        ++trackingCounts[f.trackingState];
+    }
+    double totalSum = 0.0;
+    for (const ReportFrame& f : frames) totalSum += f.totalMs;
+    const double n = std::max<double>(1.0, double(frames.size()));
+
+    nlohmann::json root;
+    root["recording"] = s.recording;
+    root["scene"] = s.scene;
+    root["renderer"] = s.renderer;
+    root["technique"] = s.technique;
+    root["poseMode"] = s.poseMode;
+    root["command"] = s.command;
+    root["framesRead"] = s.framesRead;
+    root["framesInSource"] = s.framesInSource ? nlohmann::json(*s.framesInSource) : nlohmann::json(nullptr);
+    root["interrupted"] = s.interrupted;
+    root["wallSeconds"] = s.wallSeconds;
+    root["video"] = s.video;
+    root["videoCodec"] = s.videoCodec;
+    root["meanFrameMs"] = totalSum / n;
+    for (const auto& name : cpuStages) root["meanCpuMs"][name] = cpuSum[name] / n;
+    for (const auto& name : gpuStages) root["meanGpuMs"][name] = gpuSum[name] / n;
+    for (const auto& [state, count] : trackingCounts) root["trackingStates"][state] = count;
+    root["frames"] = nlohmann::json::array();
+    for (const ReportFrame& f : frames) {
+        nlohmann::json j;
+        j["index"] = f.index;
+        j["tracking"] = f.trackingState;
+        if (!f.trackingReason.empty()) j["trackingReason"] = f.trackingReason;
+        j["world_T_camera"] = f.world_T_camera ? poseJson(*f.world_T_camera) : nlohmann::json(nullptr);
+        j["vals"] = f.valCount;
+        j["totalMs"] = f.totalMs;
+        if (f.errorVsBruteForce >= 0.0) j["meanRelativeErrorVsBruteForce"] = f.errorVsBruteForce;
+        for (const auto& st : f.cpuTimes) j["cpuMs"][st.name] = st.milliseconds;
+        for (const auto& st : f.gpuTimes) {
+            const bool seen = j.contains("gpuMs") && j["gpuMs"].contains(st.name);
+            j["gpuMs"][st.name] = (seen ? j["gpuMs"][st.name].get<double>() : 0.0) + st.milliseconds;
+        }
+        if (!f.image.empty()) j["image"] = f.image;
+        if (!f.compareImage.empty()) j["compareImage"] = f.compareImage;
+        root["frames"].push_back(std::move(j));
+    }
+    writeFile(folder / "report.json", root.dump(2) + "\n");
+
+    std::string md;
+    md += "# lightskin replay report\n\n";
+    md += "| | |\n|---|---|\n";
+    md += "| recording | `" + s.recording + "` |\n";
+    md += "| scene | `" + s.scene + "` |\n";
+    md += "| command | `" + s.command + "` |\n";
+    md += "| renderer | " + escapeCell(s.renderer) + " |\n";
+    md += "| GI technique | " + s.technique + " |\n";
+    md += "| pose | " + s.poseMode + " |\n";
+    md += "| frames read | " + std::to_string(s.framesRead) +
+          (s.framesInSource ? " of " + std::to_string(*s.framesInSource) : std::string()) + (s.interrupted ? " (interrupted by Ctrl-C)" : "") + " |\n";
+    md += "| wall time | " + fixed(s.wallSeconds, 1) + " s" + " (" + fixed(s.wallSeconds > 0 ? double(s.framesRead) / s.wallSeconds : 0.0, 2) + " frames/s) |\n";
+    md += "| video | " + (s.video.empty() ? std::string("none") : "`" + s.video + "` (" + s.videoCodec + ")") + " |\n";
+    std::string states;
+    for (const auto& [state, count] : trackingCounts) states += (states.empty() ? "" : ", ") + state + " " + std::to_string(count);
+    md += "| tracking states | " + states + " |\n\n";
+
+    md += "## Mean stage times\n\n| stage | kind | ms |\n|---|---|---|\n";
+    for (const auto& name : cpuStages) md += "| " + name + " | CPU wall | " + fixed(cpuSum[name] / n, 2) + " |\n";
+    for (const auto& name : gpuStages) md += "| " + name + " | GPU | " + fixed(gpuSum[name] / n, 2) + " |\n";
+    md += "| total | CPU wall | " + fixed(totalSum / n, 2) + " |\n\n";
+
+    md += "## With GI / without GI (the paper's figure 4)\n\n";
+    int shown = 0;
+    for (const ReportFrame& f : frames) {
+        if (f.compareImage.empty() && f.image.empty()) continue;
+        if (++shown > 8) break;
+        const std::string& image = f.compareImage.empty() ? f.image : f.compareImage;
+        md += "Frame " + std::to_string(f.index) + " (" + f.trackingState + ")\n\n![frame " + std::to_string(f.index) + "](" + image + ")\n\n";
+    }
+    if (shown == 0) md += "No images were written (see `--frames`).\n\n";
+
+    md += "## Per frame: tracking, pose track (world_T_camera translation, metres) and stage times (ms)\n\n";
+    md += "| frame | tracking | x | y | z | VALs |";
+    for (const auto& name : cpuStages) md += " " + name + " |";
+    for (const auto& name : gpuStages) md += " GPU " + name + " |";
+    md += " total |\n|---|---|---|---|---|---|";
+    for (std::size_t i = 0; i < cpuStages.size() + gpuStages.size() + 1; ++i) md += "---|";
+    md += "\n";
+    for (const ReportFrame& f : frames) {
+        md += "| " + std::to_string(f.index) + " | " + f.trackingState + " | ";
+        if (f.world_T_camera) {
+            const glm::dvec3 t = f.world_T_camera->translation();
+            md += fixed(t.x, 3) + " | " + fixed(t.y, 3) + " | " + fixed(t.z, 3) + " | ";
+        } else {
+            md += "- | - | - | ";
+        }
+        md += std::to_string(f.valCount) + " |";
+        for (const auto& name : cpuStages) {
+            double v = NAN;
+            for (const auto& st : f.cpuTimes) if (st.name == name) v = st.milliseconds;
+            md += " " + (std::isnan(v) ? std::string("-") : fixed(v, 2)) + " |";
+        }
+        for (const auto& name : gpuStages) {
+            double v = 0.0;
+            bool seen = false;
+            for (const auto& st : f.gpuTimes) if (st.name == name) { v += st.milliseconds; seen = true; }
+            md += " " + (seen ? fixed(v, 2) : std::string("-")) + " |";
+        }
+        md += " " + fixed(f.totalMs, 2) + " |\n";
+    }
+    writeFile(folder / "report.md", md);
+}
+
+} // namespace lightskin::apps

@@ -1,0 +1,37 @@
+#pragma once
+// The replay report: report.json (every frame's pose, tracking state, VAL count and stage times)
+// and report.md (summary, side-by-side images, per-stage timings per frame, pose track).
+
+#include "ReplayPipeline.h"
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace lightskin::apps {
+
+struct ReportFrame {
+    std::int64_t index = 0;
+    std::string trackingState;
+    std::string trackingReason;
+    std::optional<Pose> world_T_camera;
+    std::uint32_t valCount = 0;
+    std::vector<gl::StageTime> cpuTimes, gpuTimes;
+    double totalMs = 0.0;
+    double errorVsBruteForce = -1.0; ///< --view error: mean relative error of the technique's indirect light, else < 0
+    std::string image;        ///< PNG written for this frame (relative to the output folder), or empty
+    std::string compareImage; ///< side-by-side PNG, or empty
+};
+
+struct ReportSummary {
+    std::string recording, scene, renderer, technique, poseMode, video, videoCodec, command;
+    std::int64_t framesRead = 0;
+    std::optional<std::int64_t> framesInSource;
+    bool interrupted = false;
+    double wallSeconds = 0.0;
+};
+
+/// Writes report.json and report.md into `folder`. Throws lightskin::Error when a file cannot be written.
+void writeReplayReport(const std::filesystem::path& folder, const ReportSummary& summary, const std::vector<ReportFrame>& frames);
+
+} // namespace lightskin::apps

@@ -1,0 +1,153 @@
+// `lightskin track`: camera poses from AprilTags in a sequence of images, one line per frame.
+//
+//   lightskin track --world world.json [--intrinsics fx fy cx cy] [--decimate 2] [--threads 1]
+//                   [--no-filter] [--fps 30] image1.png image2.png ...
+//   lightskin track --tag-id 0 --tag-size 0.16 images...
+//   lightskin track --world recordings/synth-pan/synth/tag-world.json --decimate 1 recordings/synth-pan
+//     (a recording: its intrinsics and timestamps; with ground truth, two more columns: errors)
+//
+// Output columns: frame, state, tags used, RMS reprojection error (px), world_T_camera as
+// tx ty tz (metres) qw qx qy qz, rotation std (deg), ambiguous flag, total ms, reason.
+#include "Commands.h"
+
+#include <lightskin/capture/FrameSource.h>
+#include <lightskin/core/Error.h>
+#include <lightskin/core/Log.h>
+#include <lightskin/tracking/PoseTracker.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace lightskin::apps {
+
+namespace {
+struct TrackOptions {
+    std::string worldPath;
+    int tagId = -1;
+    double tagSize = 0.0;
+    std::string family = "tag36h11";
+    std::vector<double> intrinsics;
+    float decimate = 2.0f;
+    int threads = 1;
+    bool noFilter = false;
+    double fps = 30.0;
+    std::vector<std::string> images;
+};
+
+void runTrack(const TrackOptions& options, int& exitCode) {
+    tracking::TagWorld world = [&] {
+        if (!options.worldPath.empty()) return tracking::TagWorld::load(options.worldPath);
+        if (options.tagId < 0 || !(options.tagSize > 0.0))
+            throw Error("track", std::nullopt, "give --world <config.json> or --tag-id and --tag-size (metres)");
+        return tracking::TagWorld::singleTag(options.tagId, options.tagSize, options.family);
+    }();
+    tracking::TrackerSettings settings;
+    settings.detector.quadDecimate = options.decimate;
+    settings.detector.threads = options.threads;
+    settings.filter.enabled = !options.noFilter;
+    tracking::PoseTracker tracker = tracking::PoseTracker::create(std::move(world), settings);
+
+    std::printf("# frame state tags reprojection_px tx ty tz qw qx qy qz rotation_std_deg ambiguous total_ms "
+                "[gt_position_error_m gt_rotation_error_deg] reason\n");
+    tracking::TrackingResult result;
+    int trackedFrames = 0;
+    const auto printResult = [&](std::int64_t index, const std::optional<Pose>& groundTruth) {
+        std::string tags;
+        for (const int id : result.tagsUsed) tags += (tags.empty() ? "" : ",") + std::to_string(id);
+        if (tags.empty()) tags = "-";
+        std::printf("%lld %s %s %.3f", static_cast<long long>(index), tracking::toString(result.state), tags.c_str(),
+                    result.reprojectionErrorPx);
+        if (result.world_T_camera) {
+            const Pose& pose = *result.world_T_camera;
+            std::printf(" %.5f %.5f %.5f %.6f %.6f %.6f %.6f", pose.translation().x, pose.translation().y,
+                        pose.translation().z, pose.rotation().w, pose.rotation().x, pose.rotation().y,
+                        pose.rotation().z);
+        } else {
+            std::printf(" - - - - - - -");
+        }
+        std::printf(" %.3f %d %.2f", result.uncertainty.rotationStdDegrees, result.ambiguous ? 1 : 0,
+                    result.timing.totalMs);
+        if (groundTruth) {
+            if (result.world_T_camera)
+                std::printf(" %.4f %.3f", Pose::translationDistance(*result.world_T_camera, *groundTruth),
+                            Pose::rotationAngleBetween(*result.world_T_camera, *groundTruth) * 180.0 /
+                                3.141592653589793);
+            else
+                std::printf(" - -");
+        }
+        std::string notes;
+        for (const int id : result.unknownTags)
+            notes += (notes.empty() ? " (ids not in the world: " : ",") + std::to_string(id);
+        if (!notes.empty()) notes += ")";
+        for (std::size_t k = 0; k < result.rejectedTags.size(); ++k)
+            notes += (k == 0 ? " (dropped, disagreeing with the others: " : ",") +
+                     std::to_string(result.rejectedTags[k]) + (k + 1 == result.rejectedTags.size() ? ")" : "");
+        std::printf(" %s%s\n", result.reason[0] != '\0' ? result.reason : "-", notes.c_str());
+        trackedFrames += result.state == tracking::TrackingState::Tracking ? 1 : 0;
+    };
+
+    // One folder or .oni: a recording (intrinsics, timestamps and ground truth from the source).
+    const bool isRecording = options.images.size() == 1 &&
+                             (std::filesystem::is_directory(options.images[0]) || options.images[0].ends_with(".oni"));
+    if (isRecording) {
+        auto source = capture::openFrameSource(options.images[0]);
+        RgbdFrame frame;
+        while (source->next(frame)) {
+            tracker.trackInto(frame, result);
+            printResult(frame.index, frame.groundTruth_world_T_camera);
+        }
+        exitCode = trackedFrames > 0 ? 0 : 1;
+        return;
+    }
+
+    for (std::size_t i = 0; i < options.images.size(); ++i) {
+        const std::string& path = options.images[i];
+        const cv::Mat image = cv::imread(path, cv::IMREAD_GRAYSCALE);
+        if (image.empty()) throw Error(path, static_cast<std::int64_t>(i), "cannot read the image");
+        CameraIntrinsics intrinsics;
+        if (options.intrinsics.size() == 4) {
+            intrinsics.width = image.cols;
+            intrinsics.height = image.rows;
+            intrinsics.fx = options.intrinsics[0];
+            intrinsics.fy = options.intrinsics[1];
+            intrinsics.cx = options.intrinsics[2];
+            intrinsics.cy = options.intrinsics[3];
+        } else {
+            if (i == 0)
+                log::warning("track: no --intrinsics, using the Kinect v1 default (525/525) scaled to the image");
+            intrinsics = CameraIntrinsics::kinectV1Default().scaledTo(image.cols, image.rows);
+        }
+        tracker.trackImageInto(image, intrinsics, static_cast<double>(i) / options.fps, static_cast<std::int64_t>(i),
+                               result);
+        printResult(static_cast<std::int64_t>(i), std::nullopt);
+    }
+    exitCode = trackedFrames > 0 ? 0 : 1;
+}
+
+void addTrackCommand(CLI::App& app, int& exitCode) {
+    auto* command =
+        app.add_subcommand("track", "Camera poses from AprilTags in a sequence of images (one line per frame)");
+    auto options = std::make_shared<TrackOptions>();
+    command->add_option("--world", options->worldPath, "Tag world config (JSON, see tracking/TagWorld.h)");
+    command->add_option("--tag-id", options->tagId, "Single tag id (instead of --world)");
+    command->add_option("--tag-size", options->tagSize, "Single tag black-border edge length, metres");
+    command->add_option("--family", options->family, "Tag family for --tag-id")->capture_default_str();
+    command->add_option("--intrinsics", options->intrinsics, "fx fy cx cy in pixels (no distortion)")->expected(4);
+    command->add_option("--decimate", options->decimate, "quad_decimate (1 for small tags)")->capture_default_str();
+    command->add_option("--threads", options->threads, "Detector threads")->capture_default_str();
+    command->add_option("--fps", options->fps, "Frame rate the images were taken at")->capture_default_str();
+    command->add_flag("--no-filter", options->noFilter, "Report unfiltered poses");
+    command->add_option("images", options->images, "Images in order, or one recording folder / .oni file")->required();
+    command->callback([options, &exitCode] { runTrack(*options, exitCode); });
+}
+} // namespace
+
+static const CommandRegistration registration{"track", &addTrackCommand};
+
+} // namespace lightskin::apps

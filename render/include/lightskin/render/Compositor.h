@@ -1,0 +1,60 @@
+#pragma once
+// Compositing the rendered virtual layers onto the colour camera image.
+//
+// Inputs per frame, all the colour camera's size:
+// - camera image: CV_8UC3 BGR, sRGB (RgbdFrame::colour);
+// - virtual colour: CV_8UC4 RGBA from Renderer::readOutputsInto (a = 255 covered, 0 not), rendered
+//   with the pinhole part of the colour intrinsics;
+// - virtual depth: CV_32FC1 camera-frame z in metres (0 = not covered);
+// - real depth: CV_32FC1 metres registered to the colour camera (the filtered depth), 0 = missing;
+//   may be empty (no occlusion by real geometry).
+// Distortion: when the colour intrinsics have distortion, the virtual layers are warped (nearest
+// neighbour, maps computed once in create()) so that they line up with the distorted camera image.
+//
+// Occlusion by real geometry with a soft band (see visibility()): the output pixel is
+//   out = round(camera * (1 - a) + virtual * a),  a = coverage * visibility(z_virtual, z_real).
+// Where a == 0 the camera pixel is copied unchanged, so with no virtual content the output equals
+// the input bit for bit.
+
+#include <lightskin/core/CameraIntrinsics.h>
+#include <lightskin/render/Scene.h>
+
+#include <opencv2/core/mat.hpp>
+
+#include <string>
+
+namespace lightskin::render {
+
+/// Kinect v1 axial noise sigma_z(z) = 0.0012 + 0.0019 (z - 0.4)^2 metres (Nguyen et al. 2012).
+float kinectAxialNoiseMetres(float zMetres) noexcept;
+
+/// Weight in [0,1] of a virtual surface at z_virtual over a real surface at z_real (metres):
+/// clamp((z_real - z_virtual) / (2 b) + 0.5, 0, 1), b = max(minSoftBandMetres, softBandSigmas *
+/// sigma_z(z_virtual)). 1 when z_real is 0 (missing) or not finite.
+float visibility(float zVirtual, float zReal, const CompositeSettings& settings) noexcept;
+
+class Compositor {
+public:
+    Compositor() = default;
+    /// Throws lightskin::Error on invalid intrinsics.
+    static Compositor create(const CameraIntrinsics& colourIntrinsics, const CompositeSettings& settings = {});
+
+    /// Writes the composite into `out` (CV_8UC3, reallocated only when the size changes).
+    void compositeInto(const cv::Mat& cameraBgr, const cv::Mat& virtualRgba, const cv::Mat& virtualDepth,
+                       const cv::Mat& realDepthMetres, cv::Mat& out);
+
+    const CompositeSettings& settings() const noexcept { return settings_; }
+
+private:
+    CameraIntrinsics intrinsics_;
+    CompositeSettings settings_;
+    cv::Mat mapX_, mapY_; ///< distorted pixel -> undistorted render pixel (empty without distortion)
+    cv::Mat warpedColour_, warpedDepth_;
+};
+
+/// Two equally sized BGR images side by side with a caption on each (the paper's figure 4:
+/// "with GI" / "without GI"). Writes into `out`.
+void sideBySideInto(const cv::Mat& left, const std::string& leftCaption, const cv::Mat& right,
+                    const std::string& rightCaption, cv::Mat& out);
+
+} // namespace lightskin::render

@@ -1,0 +1,124 @@
+#pragma once
+// Renders a scene's virtual content for one camera view: G-buffer (gi::GBufferView, exactly as
+// documented there), shadow maps of the virtual lights, direct Phong light, the indirect light a
+// gi::IndirectIllumination technique wrote, and tone mapping to sRGB.
+//
+// Ownership: the Renderer owns the meshes (GpuMesh), G-buffer, shadow maps, the indirect target
+// texture and the output textures; all are created once (create()/setScene()) and reused every
+// frame. Needs a current OpenGL 4.5 core context; destroy before the context.
+//
+// Outputs (width x height of the colour camera):
+// - colour: RGBA8, rgb = sRGB-encoded tone-mapped radiance, a = 255 where virtual content covers
+//   the pixel, 0 elsewhere (rgb = 0 there);
+// - depth: R32F, the virtual surface's camera-frame z in metres (along the optical axis, like the
+//   sensor's depth), 0 where nothing is covered.
+// Tone mapping: displayed = sRGB_encode(clamp(2^exposureStops * L, 0, 1)), L linear radiance in
+// W/(sr m^2) (the lights' power in watts; the VALs' flux unit for the indirect part).
+
+#include <lightskin/core/CameraIntrinsics.h>
+#include <lightskin/core/Pose.h>
+#include <lightskin/gi/IndirectIllumination.h>
+#include <lightskin/gi/SparsePointSet.h>
+#include <lightskin/gl/GpuTimer.h>
+#include <lightskin/gl/Objects.h>
+#include <lightskin/render/GpuMesh.h>
+#include <lightskin/render/Scene.h>
+
+#include <opencv2/core/mat.hpp>
+
+#include <memory>
+#include <vector>
+
+namespace lightskin::render {
+
+enum class DebugView {
+    Final,        ///< direct + indirect (when enabled), tone mapped
+    DirectOnly,
+    IndirectOnly,
+    Normals,      ///< world normal * 0.5 + 0.5
+    Albedo,       ///< diffuse albedo
+};
+const char* toString(DebugView view) noexcept;
+
+struct ShadeOptions {
+    bool includeIndirect = true;
+    float exposureStops = 0.0f;
+    DebugView view = DebugView::Final;
+};
+
+struct RendererOptions {
+    double nearMetres = 0.05;
+    double farMetres = 20.0;
+    int shadowMapSize = 256; ///< per cube face (llvmpipe: keep small)
+};
+
+class Renderer {
+public:
+    /// Creates G-buffer and outputs for `intrinsics.width x height`. Throws lightskin::Error.
+    static std::unique_ptr<Renderer> create(const CameraIntrinsics& intrinsics, const RendererOptions& options = {});
+    ~Renderer();
+    Renderer(const Renderer&) = delete;
+    Renderer& operator=(const Renderer&) = delete;
+
+    /// Loads the scene's meshes (throws lightskin::Error naming the scene file, object and mesh),
+    /// uploads them, applies material overrides and renders the shadow maps (lights and objects are
+    /// static in the world frame, so shadow maps do not change per frame).
+    /// With `prepareSparsePoints` (the LightSkin technique needs them), each mesh part gets its
+    /// sparse points (gi::prepareSparsePoints, scene.gi.sparsePoints per object, split over its
+    /// parts by surface area, at least 16 each) *before* upload, because that step may refine the
+    /// mesh and the renderer must draw the refined mesh (vertexNeighbours index its vertices).
+    void setScene(const Scene& scene, bool prepareSparsePoints = false);
+    /// The prepared sparse points of instance `meshId`, or nullptr when they were not prepared.
+    const gi::SparsePointSet* sparsePoints(std::uint32_t meshId) const noexcept;
+    /// Objects as the GI techniques see them (valid until the next setScene()).
+    std::span<const gi::MeshInstance> instances() const noexcept { return instances_; }
+
+    /// Per frame: fills the G-buffer for the camera at `world_T_camera`.
+    void renderGBuffer(const Pose& world_T_camera);
+    const gi::GBufferView& gbuffer() const noexcept { return gbufferView_; }
+    gi::ViewParameters viewParameters() const noexcept { return view_; }
+    /// The RGBA32F texture techniques write indirect radiance into (cleared to 0 by renderGBuffer()).
+    std::uint32_t indirectTarget() const noexcept { return indirect_.id(); }
+
+    /// Direct light + (optionally) the indirect target, tone mapped, into the output textures.
+    void shade(const ShadeOptions& options);
+    /// Reads the outputs: colour CV_8UC4 (RGBA, sRGB), depth CV_32FC1 (metres), top row first.
+    void readOutputsInto(cv::Mat& colourRgba, cv::Mat& depthMetres) const;
+
+    /// Reads the indirect target (CV_32FC4 linear RGBA, top row first): debug views.
+    void readIndirectInto(cv::Mat& out) const;
+
+    /// GPU times of the last renderGBuffer()/shade() pair ("gbuffer", "shade").
+    void lastStageTimes(std::vector<gl::StageTime>& out);
+
+    const CameraIntrinsics& intrinsics() const noexcept { return intrinsics_; }
+    std::size_t triangleCount() const noexcept;
+
+private:
+    Renderer() = default;
+    void renderShadowMaps();
+
+    struct Object;
+    CameraIntrinsics intrinsics_;
+    RendererOptions options_;
+    std::vector<std::unique_ptr<Object>> objects_;
+    std::vector<gi::MeshInstance> instances_;
+    std::vector<SceneLight> lights_;
+
+    gl::Program gbufferProgram_, shadowProgram_, shadeProgram_;
+    gl::Texture worldPosition_, worldNormal_, diffuseAlbedo_, specular_, depth_, indirect_;
+    gl::Framebuffer gbufferFramebuffer_;
+    gl::Texture shadowCubes_; ///< R32F cube map array, 6 layers per light: distance to the light, metres
+    gl::Renderbuffer shadowDepth_;
+    gl::Framebuffer shadowFramebuffer_;
+    gl::Texture outputColour_, outputDepth_;
+    gl::Framebuffer outputFramebuffer_;
+    gl::VertexArray emptyVertexArray_;
+    gl::Texture whiteTexture_;
+    gl::GpuStageTimer timer_;
+    gi::GBufferView gbufferView_;
+    gi::ViewParameters view_;
+    glm::mat4 camera_T_world_{1.0f};
+};
+
+} // namespace lightskin::render

@@ -1,0 +1,98 @@
+#include <lightskin/core/Error.h>
+#include <lightskin/render/Compositor.h>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace lightskin::render {
+
+float kinectAxialNoiseMetres(float z) noexcept { return 0.0012f + 0.0019f * (z - 0.4f) * (z - 0.4f); }
+
+float visibility(float zVirtual, float zReal, const CompositeSettings& s) noexcept {
+    if (!(zReal > 0.0f) || !std::isfinite(zReal)) return 1.0f;
+    const float band = std::max(s.minSoftBandMetres, s.softBandSigmas * kinectAxialNoiseMetres(zVirtual));
+    if (!(band > 0.0f)) return zReal >= zVirtual ? 1.0f : 0.0f;
+    return std::clamp((zReal - zVirtual) / (2.0f * band) + 0.5f, 0.0f, 1.0f);
+}
+
+Compositor Compositor::create(const CameraIntrinsics& k, const CompositeSettings& settings) {
+    if (!k.isValid()) throw Error("compositor", std::nullopt, "invalid colour intrinsics " + k.describe());
+    Compositor c;
+    c.intrinsics_ = k;
+    c.settings_ = settings;
+    if (k.hasDistortion()) {
+        // For every pixel of the distorted camera image, where it lies in the ideal pinhole render.
+        std::vector<cv::Point2f> distorted;
+        distorted.reserve(std::size_t(k.width) * std::size_t(k.height));
+        for (int v = 0; v < k.height; ++v)
+            for (int u = 0; u < k.width; ++u) distorted.emplace_back(float(u), float(v));
+        const cv::Matx33d cameraMatrix(k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1);
+        std::vector<cv::Point2f> ideal;
+        cv::undistortPoints(distorted, ideal, cameraMatrix, cv::Mat(1, 5, CV_64F, const_cast<double*>(k.distortion.data())),
+                            cv::noArray(), cameraMatrix);
+        c.mapX_.create(k.height, k.width, CV_32FC1);
+        c.mapY_.create(k.height, k.width, CV_32FC1);
+        for (int v = 0; v < k.height; ++v)
+            for (int u = 0; u < k.width; ++u) {
+                const cv::Point2f& p = ideal[std::size_t(v) * std::size_t(k.width) + std::size_t(u)];
+                c.mapX_.at<float>(v, u) = p.x;
+                c.mapY_.at<float>(v, u) = p.y;
+            }
+    }
+    return c;
+}
+
+void Compositor::compositeInto(const cv::Mat& camera, const cv::Mat& virtualRgba, const cv::Mat& virtualDepth,
+                               const cv::Mat& realDepth, cv::Mat& out) {
+    const cv::Size size(intrinsics_.width, intrinsics_.height);
+    LIGHTSKIN_ASSERT(camera.type() == CV_8UC3 && camera.size() == size, "lightskin::render::Compositor::compositeInto(): camera image must be CV_8UC3 of the intrinsics' size");
+    LIGHTSKIN_ASSERT(virtualRgba.type() == CV_8UC4 && virtualRgba.size() == size, "lightskin::render::Compositor::compositeInto(): virtual colour must be CV_8UC4");
+    LIGHTSKIN_ASSERT(virtualDepth.type() == CV_32FC1 && virtualDepth.size() == size, "lightskin::render::Compositor::compositeInto(): virtual depth must be CV_32FC1");
+    LIGHTSKIN_ASSERT(realDepth.empty() || (realDepth.type() == CV_32FC1 && realDepth.size() == size),
+                     "lightskin::render::Compositor::compositeInto(): real depth must be empty or CV_32FC1 of the same size");
+    const cv::Mat* colour = &virtualRgba;
+    const cv::Mat* depth = &virtualDepth;
+    if (!mapX_.empty()) {
+        cv::remap(virtualRgba, warpedColour_, mapX_, mapY_, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+        cv::remap(virtualDepth, warpedDepth_, mapX_, mapY_, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+        colour = &warpedColour_;
+        depth = &warpedDepth_;
+    }
+    camera.copyTo(out);
+    for (int v = 0; v < size.height; ++v) {
+        const auto* rgba = colour->ptr<cv::Vec4b>(v);
+        const auto* zv = depth->ptr<float>(v);
+        const float* zr = realDepth.empty() ? nullptr : realDepth.ptr<float>(v);
+        auto* dst = out.ptr<cv::Vec3b>(v);
+        for (int u = 0; u < size.width; ++u) {
+            if (rgba[u][3] == 0) continue;
+            const float a = float(rgba[u][3]) / 255.0f * (zr != nullptr ? visibility(zv[u], zr[u], settings_) : 1.0f);
+            if (a <= 0.0f) continue;
+            for (int c = 0; c < 3; ++c) {
+                const float virtualValue = float(rgba[u][2 - c]); // RGBA -> BGR
+                dst[u][c] = cv::saturate_cast<std::uint8_t>(float(dst[u][c]) * (1.0f - a) + virtualValue * a);
+            }
+        }
+    }
+}
+
+void sideBySideInto(const cv::Mat& left, const std::string& leftCaption, const cv::Mat& right, const std::string& rightCaption,
+                    cv::Mat& out) {
+    LIGHTSKIN_ASSERT(left.type() == CV_8UC3 && right.type() == left.type() && left.size() == right.size(),
+                     "lightskin::render::sideBySideInto(): images must be equally sized CV_8UC3");
+    cv::hconcat(left, right, out);
+    const double scale = std::max(0.4, double(left.rows) / 600.0);
+    const auto caption = [&](const std::string& text, int x) {
+        const cv::Point origin(x + 8, int(24.0 * scale) + 4);
+        cv::putText(out, text, origin, cv::FONT_HERSHEY_SIMPLEX, 0.7 * scale, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+        cv::putText(out, text, origin, cv::FONT_HERSHEY_SIMPLEX, 0.7 * scale, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+    };
+    caption(leftCaption, 0);
+    caption(rightCaption, left.cols);
+}
+
+} // namespace lightskin::render

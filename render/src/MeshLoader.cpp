@@ -1,0 +1,288 @@
+#include <lightskin/core/Error.h>
+#include <lightskin/core/Log.h>
+#include <lightskin/render/MeshLoader.h>
+
+#include <assimp/Importer.hpp>
+#include <assimp/material.h>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <limits>
+#include <string>
+
+namespace lightskin::render {
+
+namespace {
+
+bool finite(const aiVector3D& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+glm::vec3 toVec3(const aiColor3D& c) { return {c.r, c.g, c.b}; }
+
+Material convertMaterial(const aiMaterial& source, const std::filesystem::path& folder, std::string& name,
+                         glm::vec3& emission) {
+    Material material;
+    aiString aiName;
+    if (source.Get(AI_MATKEY_NAME, aiName) == AI_SUCCESS) name = aiName.C_Str();
+
+    aiColor4D base;
+    aiColor3D colour;
+    if (source.Get(AI_MATKEY_BASE_COLOR, base) == AI_SUCCESS) {
+        material.diffuseAlbedo = {base.r, base.g, base.b};
+    } else if (source.Get(AI_MATKEY_COLOR_DIFFUSE, colour) == AI_SUCCESS) {
+        material.diffuseAlbedo = toVec3(colour);
+    }
+    bool isGltf = false;
+    {
+        float metallic = 0.0f;
+        isGltf = source.Get(AI_MATKEY_METALLIC_FACTOR, metallic) == AI_SUCCESS;
+    }
+    if (!isGltf && source.Get(AI_MATKEY_COLOR_SPECULAR, colour) == AI_SUCCESS) material.specularAlbedo = toVec3(colour);
+    float shininess = 0.0f;
+    if (!isGltf && source.Get(AI_MATKEY_SHININESS, shininess) == AI_SUCCESS && std::isfinite(shininess))
+        material.specularExponent = std::max(1.0f, shininess);
+    material.diffuseAlbedo = glm::clamp(material.diffuseAlbedo, glm::vec3(0.0f), glm::vec3(1.0f));
+    material.specularAlbedo = glm::clamp(material.specularAlbedo, glm::vec3(0.0f), glm::vec3(1.0f));
+
+    if (source.Get(AI_MATKEY_COLOR_EMISSIVE, colour) == AI_SUCCESS && (colour.r > 0 || colour.g > 0 || colour.b > 0)) {
+        emission = toVec3(colour);
+    } else if (source.Get(AI_MATKEY_COLOR_AMBIENT, colour) == AI_SUCCESS &&
+               (colour.r > 1.0f || colour.g > 1.0f || colour.b > 1.0f)) {
+        emission = toVec3(colour); // OBJ convention of some files: emission stored as Ka (see header)
+    }
+
+    aiString texture;
+    aiTextureType types[] = {aiTextureType_BASE_COLOR, aiTextureType_DIFFUSE};
+    for (aiTextureType type : types) {
+        if (source.GetTextureCount(type) > 0 && source.GetTexture(type, 0, &texture) == AI_SUCCESS) {
+            std::string file = texture.C_Str();
+            if (!file.empty() && file[0] != '*') { // '*n' = embedded texture: not supported, ignored
+                std::replace(file.begin(), file.end(), '\\', '/');
+                material.diffuseTexture = (folder / file).lexically_normal().string();
+            }
+            break;
+        }
+    }
+    return material;
+}
+
+std::size_t plyTypeSize(const std::string& type) {
+    if (type == "char" || type == "uchar" || type == "int8" || type == "uint8") return 1;
+    if (type == "short" || type == "ushort" || type == "int16" || type == "uint16") return 2;
+    if (type == "int" || type == "uint" || type == "float" || type == "int32" || type == "uint32" || type == "float32") return 4;
+    if (type == "double" || type == "float64") return 8;
+    return 0;
+}
+
+// assimp 5.2.5 loops forever on a PLY whose header is cut off, and reads past the data of a
+// truncated binary body. Check the header and the least size a binary body needs first.
+void checkPlyHeader(const std::filesystem::path& path) {
+    const std::string source = path.string();
+    std::ifstream file(path, std::ios::binary);
+    if (!file) throw Error(source, std::nullopt, "cannot open the file");
+    std::string line;
+    std::getline(file, line);
+    if (line.rfind("ply", 0) != 0) throw Error(source, std::nullopt, "not a PLY file (no 'ply' magic line)");
+    bool binary = false, ended = false;
+    std::uint64_t minimumBody = 0, elementCount = 0;
+    std::size_t headerBytes = line.size() + 1;
+    for (int lines = 0; lines < 10000 && std::getline(file, line); ++lines) {
+        headerBytes += line.size() + 1;
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        std::istringstream words(line);
+        std::string keyword;
+        words >> keyword;
+        if (keyword == "format") {
+            std::string format;
+            words >> format;
+            binary = format != "ascii";
+        } else if (keyword == "element") {
+            std::string name;
+            words >> name >> elementCount;
+            if (!words) throw Error(source, std::nullopt, "PLY header: malformed element line '" + line + "'");
+        } else if (keyword == "property") {
+            std::string type;
+            words >> type;
+            if (type == "list") words >> type; // the count type; at least the count is stored
+            minimumBody += elementCount * plyTypeSize(type);
+        } else if (keyword == "end_header") {
+            ended = true;
+            break;
+        }
+    }
+    if (!ended) throw Error(source, std::nullopt, "PLY header is truncated (no end_header line)");
+    if (binary) {
+        const std::uint64_t size = std::filesystem::file_size(path);
+        if (size < headerBytes + minimumBody)
+            throw Error(source, std::nullopt, "binary PLY is truncated: " + std::to_string(size) + " bytes, the header needs at least " +
+                                                  std::to_string(headerBytes + minimumBody));
+    }
+}
+
+} // namespace
+
+std::size_t LoadedModel::triangleCount() const noexcept {
+    std::size_t n = 0;
+    for (const MeshPart& part : parts) n += part.mesh.triangleCount();
+    return n;
+}
+
+std::size_t LoadedModel::vertexCount() const noexcept {
+    std::size_t n = 0;
+    for (const MeshPart& part : parts) n += part.mesh.vertexCount();
+    return n;
+}
+
+DegenerateRepair removeDegenerateTriangles(TriangleMesh& mesh) {
+    DegenerateRepair repair;
+    std::size_t kept = 0;
+    for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+        const std::uint32_t i0 = mesh.indices[t], i1 = mesh.indices[t + 1], i2 = mesh.indices[t + 2];
+        bool degenerate = i0 == i1 || i1 == i2 || i0 == i2;
+        if (!degenerate) {
+            const glm::vec3 a = mesh.positions[i0], b = mesh.positions[i1], c = mesh.positions[i2];
+            degenerate = !(glm::length(glm::cross(b - a, c - a)) > 0.0f);
+        }
+        if (degenerate) {
+            ++repair.droppedTriangles;
+            continue;
+        }
+        mesh.indices[kept++] = i0;
+        mesh.indices[kept++] = i1;
+        mesh.indices[kept++] = i2;
+    }
+    mesh.indices.resize(kept);
+    if (repair.droppedTriangles == 0) return repair;
+
+    // Compact the vertices the remaining triangles use, keeping their order.
+    constexpr std::uint32_t unused = std::numeric_limits<std::uint32_t>::max();
+    std::vector<std::uint32_t> remap(mesh.positions.size(), unused);
+    for (std::uint32_t index : mesh.indices) remap[index] = 0;
+    std::uint32_t next = 0;
+    for (std::size_t v = 0; v < remap.size(); ++v) {
+        if (remap[v] == unused) continue;
+        remap[v] = next;
+        mesh.positions[next] = mesh.positions[v];
+        if (!mesh.normals.empty()) mesh.normals[next] = mesh.normals[v];
+        if (!mesh.texcoords.empty()) mesh.texcoords[next] = mesh.texcoords[v];
+        ++next;
+    }
+    repair.removedVertices = mesh.positions.size() - next;
+    mesh.positions.resize(next);
+    if (!mesh.normals.empty()) mesh.normals.resize(next);
+    if (!mesh.texcoords.empty()) mesh.texcoords.resize(next);
+    for (std::uint32_t& index : mesh.indices) index = remap[index];
+    return repair;
+}
+
+LoadedModel loadModel(const std::filesystem::path& path) {
+    const std::string source = path.string();
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec)) throw Error(source, std::nullopt, "mesh file does not exist");
+
+    Assimp::Importer importer;
+    importer.SetPropertyFloat(AI_CONFIG_PP_GSN_MAX_SMOOTHING_ANGLE, kCreaseAngleDegrees);
+    if (!importer.IsExtensionSupported(path.extension().string()))
+        throw Error(source, std::nullopt,
+                    "unsupported mesh format '" + path.extension().string() + "' (use OBJ, PLY or glTF 2.0)");
+
+    if (path.extension() == ".ply" || path.extension() == ".PLY") checkPlyHeader(path);
+    // Debian's assimp 5.2.5 PLY importer flags triangle meshes as TRIANGLE|POLYGON; with that,
+    // SortByPType crashes (SIGBUS) and Triangulate hits an ai_assert that aborts (no handler can
+    // be installed). So: no SortByPType (points and lines are skipped below), and Triangulate
+    // only when a face really has more than three corners.
+    const aiScene* scene = importer.ReadFile(source, aiProcess_PreTransformVertices | aiProcess_ValidateDataStructure);
+    if (scene == nullptr) throw Error(source, std::nullopt, std::string("cannot read mesh: ") + importer.GetErrorString());
+    if ((scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE) != 0 || scene->mNumMeshes == 0)
+        throw Error(source, std::nullopt, "file contains no triangle meshes");
+
+    bool hasPolygons = false;
+    for (unsigned m = 0; m < scene->mNumMeshes; ++m)
+        for (unsigned f = 0; f < scene->mMeshes[m]->mNumFaces && !hasPolygons; ++f)
+            hasPolygons = scene->mMeshes[m]->mFaces[f].mNumIndices > 3;
+    if (hasPolygons) {
+        scene = importer.ApplyPostProcessing(aiProcess_Triangulate);
+        if (scene == nullptr) throw Error(source, std::nullopt, std::string("cannot triangulate: ") + importer.GetErrorString());
+    }
+    std::vector<bool> hadNormals(scene->mNumMeshes);
+    for (unsigned m = 0; m < scene->mNumMeshes; ++m) hadNormals[m] = scene->mMeshes[m]->HasNormals();
+    scene = importer.ApplyPostProcessing(aiProcess_GenSmoothNormals | aiProcess_JoinIdenticalVertices);
+    if (scene == nullptr) throw Error(source, std::nullopt, std::string("cannot process mesh: ") + importer.GetErrorString());
+
+    LoadedModel model;
+    model.path = path;
+    const std::filesystem::path folder = path.parent_path();
+    for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+        const aiMesh& in = *scene->mMeshes[m];
+        MeshPart part;
+        part.name = in.mName.C_Str();
+        const std::string where = source + " (mesh " + std::to_string(m) + (part.name.empty() ? "" : " '" + part.name + "'") + ")";
+        TriangleMesh& mesh = part.mesh;
+        mesh.positions.resize(in.mNumVertices);
+        mesh.normals.resize(in.mNumVertices);
+        for (unsigned v = 0; v < in.mNumVertices; ++v) {
+            if (!finite(in.mVertices[v]))
+                throw Error(where, std::nullopt, "vertex " + std::to_string(v) + " has a non-finite position");
+            mesh.positions[v] = {in.mVertices[v].x, in.mVertices[v].y, in.mVertices[v].z};
+            const aiVector3D n = in.HasNormals() ? in.mNormals[v] : aiVector3D(0.0f, 0.0f, 0.0f);
+            if (hadNormals[m] && !finite(n))
+                throw Error(where, std::nullopt, "vertex " + std::to_string(v) + " has a non-finite normal in the file");
+            mesh.normals[v] = {n.x, n.y, n.z};
+        }
+        if (in.HasTextureCoords(0)) {
+            mesh.texcoords.resize(in.mNumVertices);
+            for (unsigned v = 0; v < in.mNumVertices; ++v) {
+                const aiVector3D t = in.mTextureCoords[0][v];
+                if (!finite(t)) throw Error(where, std::nullopt, "vertex " + std::to_string(v) + " has non-finite texture coordinates");
+                mesh.texcoords[v] = {t.x, t.y};
+            }
+        }
+        mesh.indices.reserve(std::size_t(in.mNumFaces) * 3);
+        for (unsigned f = 0; f < in.mNumFaces; ++f) {
+            const aiFace& face = in.mFaces[f];
+            if (face.mNumIndices != 3) continue; // points/lines left in a mixed mesh
+            for (unsigned k = 0; k < 3; ++k) {
+                if (face.mIndices[k] >= in.mNumVertices)
+                    throw Error(where, std::nullopt, "triangle " + std::to_string(f) + " refers to vertex " +
+                                                         std::to_string(face.mIndices[k]) + " of " +
+                                                         std::to_string(in.mNumVertices));
+                mesh.indices.push_back(face.mIndices[k]);
+            }
+        }
+        const DegenerateRepair repair = removeDegenerateTriangles(mesh);
+        model.report.droppedDegenerateTriangles += repair.droppedTriangles;
+        model.report.removedUnusedVertices += repair.removedVertices;
+        if (mesh.indices.empty()) continue;
+
+        if (!hadNormals[m]) ++model.report.partsWithGeneratedNormals;
+        for (glm::vec3& n : mesh.normals) {
+            const float length = glm::length(n);
+            if (std::isfinite(length) && length > 0.0f) {
+                n /= length;
+            } else if (!hadNormals[m]) {
+                n = {0.0f, 0.0f, 1.0f};
+                ++model.report.repairedNormals;
+            } else {
+                throw Error(where, std::nullopt, "the file stores a zero-length normal");
+            }
+        }
+        if (in.mMaterialIndex < scene->mNumMaterials)
+            part.material = convertMaterial(*scene->mMaterials[in.mMaterialIndex], folder, part.materialName, part.emission);
+        mesh.validate(where);
+        model.parts.push_back(std::move(part));
+    }
+    if (model.parts.empty()) throw Error(source, std::nullopt, "file contains no non-degenerate triangles");
+
+    const MeshLoadReport& r = model.report;
+    if (r.droppedDegenerateTriangles > 0 || r.partsWithGeneratedNormals > 0)
+        log::info(source + ": dropped " + std::to_string(r.droppedDegenerateTriangles) + " degenerate triangles, generated normals for " +
+                  std::to_string(r.partsWithGeneratedNormals) + " part(s)");
+    return model;
+}
+
+} // namespace lightskin::render

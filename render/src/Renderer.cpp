@@ -1,0 +1,324 @@
+#include "EmbeddedShaders.h"
+
+#include <lightskin/core/Error.h>
+#include <lightskin/core/Log.h>
+#include <lightskin/gi/SparsePointSampler.h>
+#include <lightskin/gl/DebugOutput.h>
+#include <lightskin/gl/Readback.h>
+#include <lightskin/gl/ShaderLibrary.h>
+#include <lightskin/render/CameraProjection.h>
+#include <lightskin/render/MeshLoader.h>
+#include <lightskin/render/Renderer.h>
+
+#include <glm/gtc/matrix_inverse.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/type_ptr.hpp>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <numbers>
+
+namespace lightskin::render {
+
+struct Renderer::Object {
+    TriangleMesh mesh;
+    GpuMesh gpu;
+    Material material;
+    glm::mat4 world_T_model{1.0f};
+    gl::Texture texture; ///< empty when the material has none
+    std::optional<gi::SparsePointSet> sparse;
+};
+
+namespace {
+
+constexpr int kMaxLights = 4;
+
+gl::Texture loadTexture(const std::string& path) {
+    cv::Mat image = cv::imread(path, cv::IMREAD_COLOR);
+    if (image.empty()) throw Error(path, std::nullopt, "cannot read the texture image");
+    cv::Mat rgba;
+    cv::cvtColor(image, rgba, cv::COLOR_BGR2RGBA);
+    cv::flip(rgba, rgba, 0); // texture coordinate v = 0 is the bottom row (OBJ/glTF after assimp)
+    const int levels = 1 + int(std::floor(std::log2(std::max(rgba.cols, rgba.rows))));
+    gl::Texture texture = gl::Texture::create2D(GL_SRGB8_ALPHA8, rgba.cols, rgba.rows, levels);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTextureSubImage2D(texture.id(), 0, 0, 0, rgba.cols, rgba.rows, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data);
+    glGenerateTextureMipmap(texture.id());
+    glTextureParameteri(texture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+    glTextureParameteri(texture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
+    glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_T, GL_REPEAT);
+    return texture;
+}
+
+void setMat4(const gl::Program& program, const char* name, const glm::mat4& m) {
+    glProgramUniformMatrix4fv(program.id(), program.uniformLocation(name), 1, GL_FALSE, glm::value_ptr(m));
+}
+
+} // namespace
+
+const char* toString(DebugView view) noexcept {
+    switch (view) {
+    case DebugView::Final: return "final";
+    case DebugView::DirectOnly: return "direct";
+    case DebugView::IndirectOnly: return "indirect";
+    case DebugView::Normals: return "normals";
+    case DebugView::Albedo: return "albedo";
+    }
+    return "?";
+}
+
+Renderer::~Renderer() = default;
+
+std::unique_ptr<Renderer> Renderer::create(const CameraIntrinsics& intrinsics, const RendererOptions& options) {
+    if (!intrinsics.isValid()) throw Error("renderer", std::nullopt, "invalid camera intrinsics " + intrinsics.describe());
+    std::unique_ptr<Renderer> r(new Renderer());
+    r->intrinsics_ = intrinsics;
+    r->options_ = options;
+    const gl::ShaderLibrary library{embeddedShaders()};
+    r->gbufferProgram_ = library.buildProgram({{GL_VERTEX_SHADER, "gbuffer.vert"}, {GL_FRAGMENT_SHADER, "gbuffer.frag"}});
+    r->shadowProgram_ = library.buildProgram({{GL_VERTEX_SHADER, "shadow.vert"}, {GL_FRAGMENT_SHADER, "shadow.frag"}});
+    r->shadeProgram_ = library.buildProgram({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "shade.frag"}});
+
+    const int w = intrinsics.width, h = intrinsics.height;
+    r->worldPosition_ = gl::Texture::create2D(GL_RGBA32F, w, h);
+    r->worldNormal_ = gl::Texture::create2D(GL_RGBA16F, w, h);
+    r->diffuseAlbedo_ = gl::Texture::create2D(GL_RGBA8, w, h);
+    r->specular_ = gl::Texture::create2D(GL_RGBA16F, w, h);
+    r->depth_ = gl::Texture::create2D(GL_DEPTH_COMPONENT32F, w, h);
+    r->indirect_ = gl::Texture::create2D(GL_RGBA32F, w, h);
+    r->gbufferFramebuffer_ = gl::Framebuffer::create();
+    r->gbufferFramebuffer_.attach(GL_COLOR_ATTACHMENT0, r->worldPosition_);
+    r->gbufferFramebuffer_.attach(GL_COLOR_ATTACHMENT1, r->worldNormal_);
+    r->gbufferFramebuffer_.attach(GL_COLOR_ATTACHMENT2, r->diffuseAlbedo_);
+    r->gbufferFramebuffer_.attach(GL_COLOR_ATTACHMENT3, r->specular_);
+    r->gbufferFramebuffer_.attach(GL_DEPTH_ATTACHMENT, r->depth_);
+    const GLenum gbufferTargets[] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2, GL_COLOR_ATTACHMENT3};
+    glNamedFramebufferDrawBuffers(r->gbufferFramebuffer_.id(), 4, gbufferTargets);
+    r->gbufferFramebuffer_.checkComplete("G-buffer");
+    r->gbufferView_ = {r->worldPosition_.id(), r->worldNormal_.id(), r->diffuseAlbedo_.id(), r->specular_.id(), r->depth_.id(), w, h};
+
+    r->outputColour_ = gl::Texture::create2D(GL_RGBA8, w, h);
+    r->outputDepth_ = gl::Texture::create2D(GL_R32F, w, h);
+    r->outputFramebuffer_ = gl::Framebuffer::create();
+    r->outputFramebuffer_.attach(GL_COLOR_ATTACHMENT0, r->outputColour_);
+    r->outputFramebuffer_.attach(GL_COLOR_ATTACHMENT1, r->outputDepth_);
+    const GLenum outputTargets[] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+    glNamedFramebufferDrawBuffers(r->outputFramebuffer_.id(), 2, outputTargets);
+    r->outputFramebuffer_.checkComplete("renderer output");
+
+    const int s = options.shadowMapSize;
+    GLuint cubes = 0;
+    glCreateTextures(GL_TEXTURE_CUBE_MAP_ARRAY, 1, &cubes);
+    glTextureStorage3D(cubes, 1, GL_R32F, s, s, 6 * kMaxLights);
+    glTextureParameteri(cubes, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTextureParameteri(cubes, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    r->shadowCubes_ = gl::Texture::wrap(cubes, s, s);
+    r->shadowDepth_ = gl::Renderbuffer::create(GL_DEPTH_COMPONENT32F, s, s);
+    r->shadowFramebuffer_ = gl::Framebuffer::create();
+    r->shadowFramebuffer_.attach(GL_DEPTH_ATTACHMENT, r->shadowDepth_);
+    glNamedFramebufferTextureLayer(r->shadowFramebuffer_.id(), GL_COLOR_ATTACHMENT0, cubes, 0, 0);
+    r->shadowFramebuffer_.checkComplete("shadow maps");
+
+    r->emptyVertexArray_ = gl::VertexArray::create();
+    const std::uint8_t white[4] = {255, 255, 255, 255};
+    r->whiteTexture_ = gl::Texture::create2D(GL_SRGB8_ALPHA8, 1, 1);
+    glTextureSubImage2D(r->whiteTexture_.id(), 0, 0, 0, 1, 1, GL_RGBA, GL_UNSIGNED_BYTE, white);
+    r->timer_ = gl::GpuStageTimer::create(8);
+    gl::DebugOutput::throwIfErrors("renderer creation");
+    return r;
+}
+
+const gi::SparsePointSet* Renderer::sparsePoints(std::uint32_t meshId) const noexcept {
+    if (meshId >= objects_.size() || !objects_[meshId]->sparse) return nullptr;
+    return &*objects_[meshId]->sparse;
+}
+
+void Renderer::setScene(const Scene& scene, bool prepareSparsePoints) {
+    objects_.clear();
+    instances_.clear();
+    const std::string sceneName = scene.file.empty() ? std::string("scene") : scene.file.string();
+    for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+        const SceneObject& so = scene.objects[i];
+        LoadedModel model;
+        try {
+            model = loadModel(so.mesh);
+        } catch (const Error& error) {
+            throw Error(sceneName, std::nullopt, "/objects/" + std::to_string(i) + "/mesh ('" + so.name + "'): " + error.what());
+        }
+        double totalArea = 0.0;
+        for (const MeshPart& part : model.parts) totalArea += gi::surfaceArea(part.mesh);
+        for (std::size_t partIndex = 0; partIndex < model.parts.size(); ++partIndex) {
+            MeshPart& part = model.parts[partIndex];
+            auto object = std::make_unique<Object>();
+            if (prepareSparsePoints) {
+                gi::SparsePointSettings settings;
+                const double share = totalArea > 0.0 ? gi::surfaceArea(part.mesh) / totalArea : 1.0;
+                settings.pointCount = std::clamp(int(std::lround(share * double(scene.gi.sparsePoints))), 16, 65536);
+                object->sparse = gi::prepareSparsePoints(part.mesh, settings,
+                                                         so.name + " part " + std::to_string(partIndex) + " (" + so.mesh.string() + ")");
+            }
+            object->material = part.material;
+            const MaterialOverride& o = so.material;
+            if (o.diffuseAlbedo) object->material.diffuseAlbedo = *o.diffuseAlbedo;
+            if (o.specularAlbedo) object->material.specularAlbedo = *o.specularAlbedo;
+            if (o.specularExponent) object->material.specularExponent = *o.specularExponent;
+            if (o.diffuseTexture) object->material.diffuseTexture = o.diffuseTexture->string();
+            if (!object->material.diffuseTexture.empty()) {
+                if (part.mesh.texcoords.empty()) {
+                    log::warning(so.mesh.string() + ": texture " + object->material.diffuseTexture + " ignored: no texture coordinates");
+                    object->material.diffuseTexture.clear();
+                } else {
+                    object->texture = loadTexture(object->material.diffuseTexture);
+                }
+            }
+            object->world_T_model = so.world_T_model;
+            object->mesh = std::move(part.mesh);
+            object->gpu = GpuMesh::create(object->mesh, so.mesh.string());
+            objects_.push_back(std::move(object));
+        }
+    }
+    for (std::size_t i = 0; i < objects_.size(); ++i) {
+        const Object& o = *objects_[i];
+        instances_.push_back({std::uint32_t(i), &o.mesh, o.gpu.view(), o.world_T_model, o.material});
+    }
+    lights_ = scene.lights;
+    if (lights_.size() > std::size_t(kMaxLights)) throw Error(sceneName, std::nullopt, "/lights: more than 4 lights");
+    renderShadowMaps();
+    gl::DebugOutput::throwIfErrors("scene upload");
+}
+
+std::size_t Renderer::triangleCount() const noexcept {
+    std::size_t n = 0;
+    for (const auto& o : objects_) n += o->mesh.triangleCount();
+    return n;
+}
+
+void Renderer::renderShadowMaps() {
+    const int s = options_.shadowMapSize;
+    // Standard cube face orientations (GL spec table 8.19 sampling directions).
+    const glm::vec3 targets[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    const glm::vec3 ups[6] = {{0, -1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}, {0, -1, 0}, {0, -1, 0}};
+    const glm::mat4 projection = glm::perspective(glm::radians(90.0f), 1.0f, float(options_.nearMetres) * 0.2f, float(options_.farMetres));
+    const float far[4] = {1e30f, 0, 0, 0};
+    glBindFramebuffer(GL_FRAMEBUFFER, shadowFramebuffer_.id());
+    glViewport(0, 0, s, s);
+    glEnable(GL_DEPTH_TEST);
+    glDisable(GL_CULL_FACE);
+    shadowProgram_.use();
+    for (std::size_t light = 0; light < lights_.size(); ++light) {
+        const glm::vec3 position = lights_[light].position;
+        glProgramUniform3fv(shadowProgram_.id(), shadowProgram_.uniformLocation("lightPosition"), 1, glm::value_ptr(position));
+        for (int face = 0; face < 6; ++face) {
+            glNamedFramebufferTextureLayer(shadowFramebuffer_.id(), GL_COLOR_ATTACHMENT0, shadowCubes_.id(), 0, GLint(light) * 6 + face);
+            glClearNamedFramebufferfv(shadowFramebuffer_.id(), GL_COLOR, 0, far);
+            glClearNamedFramebufferfi(shadowFramebuffer_.id(), GL_DEPTH_STENCIL, 0, 1.0f, 0);
+            setMat4(shadowProgram_, "clip_T_world", projection * glm::lookAt(position, position + targets[face], ups[face]));
+            for (const auto& o : objects_) {
+                setMat4(shadowProgram_, "world_T_model", o->world_T_model);
+                o->gpu.draw();
+            }
+        }
+    }
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+}
+
+void Renderer::renderGBuffer(const Pose& world_T_camera) {
+    timer_.beginFrame();
+    timer_.begin("gbuffer");
+    const glm::mat4 clip_T_world(clipFromWorld(intrinsics_, world_T_camera, options_.nearMetres, options_.farMetres));
+    camera_T_world_ = glm::mat4(world_T_camera.inverse().matrix());
+    view_.clip_T_world = clip_T_world;
+    view_.cameraPositionWorld = glm::vec3(world_T_camera.translation());
+
+    const float zero[4] = {0, 0, 0, 0};
+    for (GLint i = 0; i < 4; ++i) glClearNamedFramebufferfv(gbufferFramebuffer_.id(), GL_COLOR, i, zero);
+    glClearNamedFramebufferfi(gbufferFramebuffer_.id(), GL_DEPTH_STENCIL, 0, 1.0f, 0);
+    glClearTexImage(indirect_.id(), 0, GL_RGBA, GL_FLOAT, zero);
+    glBindFramebuffer(GL_FRAMEBUFFER, gbufferFramebuffer_.id());
+    glViewport(0, 0, intrinsics_.width, intrinsics_.height);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    glDisable(GL_CULL_FACE);
+    glDisable(GL_BLEND);
+    gbufferProgram_.use();
+    setMat4(gbufferProgram_, "clip_T_world", clip_T_world);
+    const GLuint p = gbufferProgram_.id();
+    for (const auto& o : objects_) {
+        setMat4(gbufferProgram_, "world_T_model", o->world_T_model);
+        const glm::mat3 normalMatrix = glm::inverseTranspose(glm::mat3(o->world_T_model));
+        glProgramUniformMatrix3fv(p, gbufferProgram_.uniformLocation("normalMatrix"), 1, GL_FALSE, glm::value_ptr(normalMatrix));
+        glProgramUniform3fv(p, gbufferProgram_.uniformLocation("diffuseAlbedo"), 1, glm::value_ptr(o->material.diffuseAlbedo));
+        glProgramUniform3fv(p, gbufferProgram_.uniformLocation("specularAlbedo"), 1, glm::value_ptr(o->material.specularAlbedo));
+        glProgramUniform1f(p, gbufferProgram_.uniformLocation("specularExponent"), o->material.specularExponent);
+        glProgramUniform1i(p, gbufferProgram_.uniformLocation("hasTexture"), o->texture ? 1 : 0);
+        glBindTextureUnit(0, o->texture ? o->texture.id() : whiteTexture_.id());
+        o->gpu.draw();
+    }
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    glDisable(GL_DEPTH_TEST);
+    timer_.end();
+}
+
+void Renderer::shade(const ShadeOptions& options) {
+    timer_.begin("shade");
+    const GLuint p = shadeProgram_.id();
+    const auto loc = [&](const char* name) { return shadeProgram_.uniformLocation(name); };
+    glm::vec3 positions[kMaxLights]{}, directions[kMaxLights]{}, intensities[kMaxLights]{};
+    float cosOuter[kMaxLights]{}, cosInner[kMaxLights]{};
+    int shadows[kMaxLights]{};
+    for (std::size_t i = 0; i < lights_.size(); ++i) {
+        const SceneLight& l = lights_[i];
+        positions[i] = l.position;
+        directions[i] = l.direction;
+        intensities[i] = l.power / float(4.0 * std::numbers::pi);
+        if (l.type == LightType::Spot) {
+            cosInner[i] = std::cos(glm::radians(l.coneAngleDegrees));
+            cosOuter[i] = std::cos(glm::radians(std::min(89.9f, l.coneAngleDegrees + std::max(l.coneFalloffDegrees, 0.01f))));
+        } else {
+            cosOuter[i] = -2.0f;
+            cosInner[i] = -1.0f;
+        }
+        shadows[i] = l.castsShadows ? 1 : 0;
+    }
+    glProgramUniform1i(p, loc("lightCount"), GLint(lights_.size()));
+    glProgramUniform3fv(p, loc("lightPosition"), kMaxLights, glm::value_ptr(positions[0]));
+    glProgramUniform3fv(p, loc("lightDirection"), kMaxLights, glm::value_ptr(directions[0]));
+    glProgramUniform3fv(p, loc("lightIntensity"), kMaxLights, glm::value_ptr(intensities[0]));
+    glProgramUniform1fv(p, loc("lightCosOuter"), kMaxLights, cosOuter);
+    glProgramUniform1fv(p, loc("lightCosInner"), kMaxLights, cosInner);
+    glProgramUniform1iv(p, loc("lightShadows"), kMaxLights, shadows);
+    glProgramUniform3fv(p, loc("cameraPosition"), 1, glm::value_ptr(view_.cameraPositionWorld));
+    setMat4(shadeProgram_, "camera_T_world", camera_T_world_);
+    glProgramUniform1i(p, loc("includeIndirect"), options.includeIndirect ? 1 : 0);
+    glProgramUniform1f(p, loc("exposureScale"), std::exp2(options.exposureStops));
+    glProgramUniform1i(p, loc("debugView"), int(options.view));
+
+    const GLuint textures[] = {worldPosition_.id(), worldNormal_.id(), diffuseAlbedo_.id(), specular_.id(), indirect_.id(), shadowCubes_.id()};
+    glBindTextures(0, 6, textures);
+    glBindFramebuffer(GL_FRAMEBUFFER, outputFramebuffer_.id());
+    glViewport(0, 0, intrinsics_.width, intrinsics_.height);
+    glDisable(GL_DEPTH_TEST);
+    glDisable(GL_BLEND);
+    shadeProgram_.use();
+    glBindVertexArray(emptyVertexArray_.id());
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glBindVertexArray(0);
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    timer_.end();
+}
+
+void Renderer::readOutputsInto(cv::Mat& colourRgba, cv::Mat& depthMetres) const {
+    gl::readTextureRgba8Into(outputColour_, colourRgba);
+    gl::readTextureR32fInto(outputDepth_, depthMetres);
+}
+
+void Renderer::readIndirectInto(cv::Mat& out) const { gl::readTextureRgba32fInto(indirect_, out); }
+
+void Renderer::lastStageTimes(std::vector<gl::StageTime>& out) { timer_.collect(out); }
+
+} // namespace lightskin::render

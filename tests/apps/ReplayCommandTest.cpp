@@ -1,0 +1,229 @@
+// End-to-end tests of `lightskin replay` (the built program, run as a user would).
+#include <lightskin/capture/Recording.h>
+
+#include "TestPaths.h"
+
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
+
+#include <cstdlib>
+#include <fstream>
+#include <sys/wait.h>
+
+using namespace lightskin;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int kWidth = 64, kHeight = 48, kFrames = 6;
+
+/// A synthetic recording: a wall at 1.5 m with a box at 0.8 m in the left third; colour
+/// gradient; the camera translates along x, ground truth in every frame.
+fs::path writeRecording(const fs::path& folder) {
+    capture::RecordingInfo info;
+    info.deviceName = "replay test";
+    info.colourIntrinsics = {kWidth, kHeight, 60.0, 60.0, 31.5, 23.5, {}};
+    info.depthIntrinsics = info.colourIntrinsics;
+    info.depthScaleMetres = 0.001;
+    auto writer = capture::RecordingWriter::create(folder, info);
+    for (int i = 0; i < kFrames; ++i) {
+        RgbdFrame frame;
+        frame.colourIntrinsics = frame.depthIntrinsics = info.colourIntrinsics;
+        frame.depth = cv::Mat(kHeight, kWidth, CV_16UC1, cv::Scalar(1500));
+        frame.depth.colRange(0, kWidth / 3).setTo(800);
+        frame.colour.create(kHeight, kWidth, CV_8UC3);
+        for (int v = 0; v < kHeight; ++v)
+            for (int u = 0; u < kWidth; ++u) frame.colour.at<cv::Vec3b>(v, u) = cv::Vec3b(std::uint8_t(u * 3), std::uint8_t(v * 4), 120);
+        frame.colourTimestampSeconds = frame.depthTimestampSeconds = i / 30.0;
+        // Camera 1 m in front of the world origin looking at it: world z towards the camera.
+        frame.groundTruth_world_T_camera = Pose(glm::angleAxis(glm::pi<double>(), glm::dvec3(1, 0, 0)), {0.01 * i, 0.0, 1.0});
+        writer.write(frame);
+    }
+    writer.finish();
+    return folder;
+}
+
+fs::path writeScene(const fs::path& folder, const std::string& body) {
+    fs::copy_file(test::sourceDir() / "recordings" / "scenes" / "meshes" / "cube.obj", folder / "cube.obj",
+                  fs::copy_options::overwrite_existing);
+    const fs::path path = folder / "scene.json";
+    std::ofstream(path) << body;
+    return path;
+}
+
+// A 0.2 m cube standing on the world origin, lit by a point light; no GI.
+const std::string kScene = R"({"version": 1,
+  "objects": [{"name": "cube", "mesh": "cube.obj", "transform": {"translation": [0, 0, 0.1], "scale": 0.2},
+               "material": {"diffuseAlbedo": [0.9, 0.2, 0.1]}}],
+  "lights": [{"type": "point", "position": [0.3, 0.2, 1.0], "power": 30}],
+  "gi": {"technique": "none"}})";
+
+struct RunResult {
+    int exitCode = -1;
+    std::string out, err;
+};
+
+std::string readText(const fs::path& path) {
+    std::ifstream file(path);
+    return {std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>()};
+}
+
+RunResult runLightskin(const std::string& arguments, const fs::path& scratch) {
+    const fs::path out = scratch / "stdout.txt", err = scratch / "stderr.txt";
+    const std::string command = std::string(LIGHTSKIN_PROGRAM) + " " + arguments + " > " + out.string() + " 2> " + err.string();
+    const int status = std::system(command.c_str());
+    RunResult r;
+    r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = readText(out);
+    r.err = readText(err);
+    return r;
+}
+
+std::size_t countFiles(const fs::path& folder, const std::string& extension) {
+    if (!fs::exists(folder)) return 0;
+    std::size_t n = 0;
+    for (const auto& entry : fs::directory_iterator(folder)) n += entry.path().extension() == extension ? 1u : 0u;
+    return n;
+}
+
+} // namespace
+
+TEST(ReplayCommand, WritesEveryFrameAVideoWithTheFrameCountAndAReport) {
+    const fs::path scratch = test::scratchDir("replay_all");
+    const fs::path recording = writeRecording(scratch / "recording");
+    const fs::path scene = writeScene(scratch, kScene);
+    const fs::path out = scratch / "out";
+    const RunResult r = runLightskin("replay " + recording.string() + " --scene " + scene.string() + " --out " + out.string(), scratch);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(countFiles(out / "frames", ".png"), std::size_t(kFrames));
+
+    const nlohmann::json report = nlohmann::json::parse(readText(out / "report.json"));
+    EXPECT_EQ(report["framesRead"], kFrames);
+    EXPECT_EQ(report["frames"].size(), std::size_t(kFrames));
+    EXPECT_EQ(report["poseMode"], "ground-truth"); // the recording has ground truth
+    EXPECT_EQ(report["interrupted"], false);
+    EXPECT_EQ(report["trackingStates"].value("tracking", 0), kFrames);
+    EXPECT_TRUE(fs::exists(out / "report.md"));
+
+    const fs::path video = out / report["video"].get<std::string>();
+    cv::VideoCapture capture(video.string());
+    ASSERT_TRUE(capture.isOpened()) << video;
+    EXPECT_EQ(int(capture.get(cv::CAP_PROP_FRAME_COUNT)), kFrames);
+    int decoded = 0;
+    cv::Mat image;
+    cv::Size size;
+    while (capture.read(image)) {
+        ++decoded;
+        size = image.size();
+    }
+    EXPECT_EQ(decoded, kFrames);
+    EXPECT_EQ(size, cv::Size(kWidth, kHeight));
+
+    // The cube (world origin) is at the image centre: the composite shows it there; the corner
+    // (nothing virtual) is the recorded colour, bit for bit.
+    const cv::Mat first = cv::imread((out / "frames" / "000000.png").string(), cv::IMREAD_COLOR);
+    const cv::Mat recorded = cv::imread((recording / "colour" / "000000.png").string(), cv::IMREAD_COLOR);
+    ASSERT_FALSE(first.empty());
+    EXPECT_NE(first.at<cv::Vec3b>(24, 32), recorded.at<cv::Vec3b>(24, 32));
+    EXPECT_EQ(first.at<cv::Vec3b>(2, 2), recorded.at<cv::Vec3b>(2, 2));
+    EXPECT_EQ(first.at<cv::Vec3b>(45, 60), recorded.at<cv::Vec3b>(45, 60));
+}
+
+TEST(ReplayCommand, FrameListChoosesThePngsButEveryFrameIsRead) {
+    const fs::path scratch = test::scratchDir("replay_list");
+    const fs::path recording = writeRecording(scratch / "recording");
+    const fs::path scene = writeScene(scratch, kScene);
+    const fs::path out = scratch / "out";
+    const RunResult r = runLightskin("replay " + recording.string() + " --scene " + scene.string() + " --out " + out.string() +
+                                         " --frames 1,3-4 --no-video --pose fixed",
+                                     scratch);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(countFiles(out / "frames", ".png"), 3u);
+    EXPECT_TRUE(fs::exists(out / "frames" / "000003.png"));
+    const nlohmann::json report = nlohmann::json::parse(readText(out / "report.json"));
+    EXPECT_EQ(report["framesRead"], kFrames);
+    EXPECT_EQ(report["poseMode"], "fixed");
+    EXPECT_EQ(report["video"], "");
+}
+
+TEST(ReplayCommand, AviFallbackHasTheFrameCount) {
+    const fs::path scratch = test::scratchDir("replay_avi");
+    const fs::path recording = writeRecording(scratch / "recording");
+    const fs::path scene = writeScene(scratch, kScene);
+    const fs::path out = scratch / "out";
+    const RunResult r = runLightskin("replay " + recording.string() + " --scene " + scene.string() + " --out " + out.string() +
+                                         " --video-format avi --frames 0",
+                                     scratch);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json report = nlohmann::json::parse(readText(out / "report.json"));
+    EXPECT_EQ(report["video"], "replay.avi");
+    EXPECT_EQ(report["videoCodec"], "MJPG in AVI");
+    cv::VideoCapture capture((out / "replay.avi").string());
+    ASSERT_TRUE(capture.isOpened());
+    EXPECT_EQ(int(capture.get(cv::CAP_PROP_FRAME_COUNT)), kFrames);
+}
+
+TEST(ReplayCommand, BadSceneAndMissingMeshGiveClearErrorsAndFail) {
+    const fs::path scratch = test::scratchDir("replay_bad");
+    const fs::path recording = writeRecording(scratch / "recording");
+    std::string bad = kScene;
+    bad.replace(bad.find("\"diffuseAlbedo\": [0.9, 0.2, 0.1]"), 32, "\"specularExponent\": 0.5");
+    const fs::path scene = writeScene(scratch, bad);
+    RunResult r = runLightskin("replay " + recording.string() + " --scene " + scene.string() + " --out " + (scratch / "out").string(), scratch);
+    EXPECT_NE(r.exitCode, 0);
+    EXPECT_NE(r.err.find("/objects/0/material/specularExponent: expected a number >= 1"), std::string::npos) << r.err;
+
+    std::string missing = kScene;
+    missing.replace(missing.find("cube.obj"), 8, "gone.obj");
+    fs::create_directories(scratch / "missing");
+    const fs::path missingScene = writeScene(scratch / "missing", missing);
+    r = runLightskin("replay " + recording.string() + " --scene " + missingScene.string() + " --out " + (scratch / "out2").string(), scratch);
+    EXPECT_NE(r.exitCode, 0);
+    EXPECT_NE(r.err.find("/objects/0/mesh: mesh file"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("gone.obj' does not exist"), std::string::npos) << r.err;
+
+    fs::create_directories(scratch / "good");
+    const fs::path goodScene = writeScene(scratch / "good", kScene);
+    r = runLightskin("replay " + (scratch / "no-such-recording").string() + " --scene " + goodScene.string(), scratch);
+    EXPECT_NE(r.exitCode, 0);
+    EXPECT_NE(r.err.find("no-such-recording"), std::string::npos) << r.err;
+}
+
+// GI through the interface: the LightSkin technique lights the cube with the recording's VALs, so
+// the with-GI half of the comparison is brighter than the without-GI half, and equal where there is
+// no virtual content. The VALs (one per depth pixel block) all face the camera, so only a virtual
+// face tilted toward the wall beside it can receive their light: the cube is turned 45 degrees.
+TEST(ReplayCommand, LightSkinTechniqueAddsIndirectLightToTheComparison) {
+    const fs::path scratch = test::scratchDir("replay_gi");
+    const fs::path recording = writeRecording(scratch / "recording");
+    const std::string scene = R"({"version": 1,
+      "objects": [{"mesh": "cube.obj", "transform": {"translation": [-0.05, 0, -0.3], "rotationDegrees": [0, -45, 0], "scale": 0.2},
+                   "material": {"diffuseAlbedo": 0.8}}],
+      "lights": [{"type": "point", "position": [0.3, 0.2, 1.0], "power": 5}],
+      "gi": {"technique": "lightskin", "sparsePoints": 64, "valStride": 2}})";
+    const fs::path scenePath = writeScene(scratch, scene);
+    const fs::path out = scratch / "out";
+    const RunResult r = runLightskin("replay " + recording.string() + " --scene " + scenePath.string() + " --out " + out.string() +
+                                         " --frames 0 --max-frames 2",
+                                     scratch);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json report = nlohmann::json::parse(readText(out / "report.json"));
+    EXPECT_EQ(report["framesRead"], 2);
+    EXPECT_EQ(report["technique"], "lightskin");
+    EXPECT_GT(report["frames"][0]["vals"].get<int>(), 100);
+    const cv::Mat compare = cv::imread((out / "compare" / "000000.png").string(), cv::IMREAD_COLOR);
+    ASSERT_EQ(compare.size(), cv::Size(2 * kWidth, kHeight));
+    const cv::Rect belowCaptions(0, 18, kWidth, kHeight - 18);
+    const cv::Mat withGi = compare(belowCaptions), withoutGi = compare(belowCaptions + cv::Point(kWidth, 0));
+    const cv::Scalar a = cv::sum(withGi), b = cv::sum(withoutGi);
+    EXPECT_GT(a[0] + a[1] + a[2], b[0] + b[1] + b[2] + 100.0);
+    cv::Mat brighter;
+    cv::compare(withGi, withoutGi, brighter, cv::CMP_GT);
+    EXPECT_GT(cv::countNonZero(brighter.reshape(1)), 20);
+    const cv::Rect corner(2, 40, 6, 6);
+    EXPECT_EQ(cv::norm(compare(corner), compare(corner + cv::Point(kWidth, 0)), cv::NORM_INF), 0.0);
+}

@@ -1,0 +1,85 @@
+#include <lightskin/render/Compositor.h>
+
+#include <gtest/gtest.h>
+
+#include <opencv2/core.hpp>
+
+using namespace lightskin;
+
+namespace {
+cv::Mat noiseImage(int w, int h) {
+    cv::Mat image(h, w, CV_8UC3);
+    cv::randu(image, 0, 256);
+    return image;
+}
+} // namespace
+
+TEST(Compositor, NoVirtualContentGivesTheInputBitExact) {
+    const CameraIntrinsics k{64, 48, 60.0, 60.0, 31.5, 23.5, {}};
+    render::Compositor compositor = render::Compositor::create(k);
+    const cv::Mat camera = noiseImage(64, 48);
+    const cv::Mat virtualColour(48, 64, CV_8UC4, cv::Scalar::all(0));
+    const cv::Mat virtualDepth(48, 64, CV_32FC1, cv::Scalar(0));
+    cv::Mat realDepth(48, 64, CV_32FC1);
+    cv::randu(realDepth, 0.0, 4.0);
+    cv::Mat out;
+    compositor.compositeInto(camera, virtualColour, virtualDepth, realDepth, out);
+    EXPECT_EQ(cv::norm(out, camera, cv::NORM_INF), 0.0);
+    compositor.compositeInto(camera, virtualColour, virtualDepth, cv::Mat(), out);
+    EXPECT_EQ(cv::norm(out, camera, cv::NORM_INF), 0.0);
+}
+
+TEST(Compositor, CoveredPixelsInFrontOfRealDepthShowTheVirtualColour) {
+    const CameraIntrinsics k{8, 4, 10.0, 10.0, 3.5, 1.5, {}};
+    render::Compositor compositor = render::Compositor::create(k);
+    const cv::Mat camera(4, 8, CV_8UC3, cv::Scalar(10, 20, 30));
+    cv::Mat virtualColour(4, 8, CV_8UC4, cv::Scalar::all(0));
+    cv::Mat virtualDepth(4, 8, CV_32FC1, cv::Scalar(0));
+    virtualColour.at<cv::Vec4b>(1, 2) = {200, 100, 50, 255}; // RGBA
+    virtualDepth.at<float>(1, 2) = 1.0f;
+    virtualColour.at<cv::Vec4b>(1, 5) = {200, 100, 50, 255};
+    virtualDepth.at<float>(1, 5) = 1.0f;
+    cv::Mat realDepth(4, 8, CV_32FC1, cv::Scalar(2.0f));
+    realDepth.at<float>(1, 5) = 0.5f; // a real surface in front of the second virtual pixel
+    cv::Mat out;
+    compositor.compositeInto(camera, virtualColour, virtualDepth, realDepth, out);
+    EXPECT_EQ(out.at<cv::Vec3b>(1, 2), cv::Vec3b(50, 100, 200)); // BGR
+    EXPECT_EQ(out.at<cv::Vec3b>(1, 5), cv::Vec3b(10, 20, 30));
+    EXPECT_EQ(out.at<cv::Vec3b>(0, 0), cv::Vec3b(10, 20, 30));
+}
+
+TEST(Compositor, SoftBandIsLinearAndCentredOnEqualDepth) {
+    const render::CompositeSettings s{3.0f, 0.005f};
+    const float z = 2.0f;
+    const float band = 3.0f * (0.0012f + 0.0019f * 1.6f * 1.6f); // 0.01819 m at 2 m
+    EXPECT_FLOAT_EQ(render::visibility(z, z, s), 0.5f);
+    EXPECT_FLOAT_EQ(render::visibility(z, z + band, s), 1.0f);
+    EXPECT_FLOAT_EQ(render::visibility(z, z - band, s), 0.0f);
+    EXPECT_NEAR(render::visibility(z, z + 0.5f * band, s), 0.75f, 1e-5f);
+    EXPECT_FLOAT_EQ(render::visibility(z, 0.0f, s), 1.0f); // missing depth never hides
+    // Near the camera the noise is smaller than the minimum: the band is 5 mm.
+    EXPECT_NEAR(render::visibility(0.5f, 0.5f + 0.0025f, s), 0.75f, 1e-4f);
+}
+
+TEST(Compositor, DistortionWarpsTheVirtualLayer) {
+    // A pixel of the ideal render lands where the distortion model sends it in the camera image.
+    CameraIntrinsics k = CameraIntrinsics::tumFreiburg1();
+    render::Compositor compositor = render::Compositor::create(k);
+    const cv::Mat camera(k.height, k.width, CV_8UC3, cv::Scalar::all(0));
+    cv::Mat virtualColour(k.height, k.width, CV_8UC4, cv::Scalar::all(0));
+    cv::Mat virtualDepth(k.height, k.width, CV_32FC1, cv::Scalar(0));
+    // Ideal pixel (100, 80) -> distorted position by OpenCV's projectPoints.
+    const double xn = (100.0 - k.cx) / k.fx, yn = (80.0 - k.cy) / k.fy;
+    const double r2 = xn * xn + yn * yn, k1 = k.distortion[0], k2 = k.distortion[1], p1 = k.distortion[2],
+                 p2 = k.distortion[3], k3 = k.distortion[4];
+    const double radial = 1 + k1 * r2 + k2 * r2 * r2 + k3 * r2 * r2 * r2;
+    const double xd = xn * radial + 2 * p1 * xn * yn + p2 * (r2 + 2 * xn * xn);
+    const double yd = yn * radial + p1 * (r2 + 2 * yn * yn) + 2 * p2 * xn * yn;
+    const int ud = int(std::lround(k.fx * xd + k.cx)), vd = int(std::lround(k.fy * yd + k.cy));
+    virtualColour(cv::Rect(99, 79, 3, 3)).setTo(cv::Scalar(255, 255, 255, 255));
+    virtualDepth(cv::Rect(99, 79, 3, 3)).setTo(cv::Scalar(1.0));
+    cv::Mat out;
+    compositor.compositeInto(camera, virtualColour, virtualDepth, cv::Mat(), out);
+    EXPECT_EQ(out.at<cv::Vec3b>(vd, ud), cv::Vec3b(255, 255, 255)) << "expected at " << ud << "," << vd;
+    EXPECT_GT(std::abs(ud - 100) + std::abs(vd - 80), 2); // the distortion really moves it here
+}

@@ -1,0 +1,115 @@
+#include <lightskin/core/Error.h>
+#include <lightskin/render/Scene.h>
+
+#include "TestPaths.h"
+
+#include <gtest/gtest.h>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include <fstream>
+
+using lightskin::Error;
+using namespace lightskin::render;
+
+namespace {
+
+std::filesystem::path meshDir() { return lightskin::test::dataPath("meshes"); }
+
+/// The error cause for scene text, or "(no error)".
+std::string causeOf(const std::string& text) {
+    try {
+        parseScene(text, meshDir(), "test.json");
+    } catch (const Error& error) {
+        EXPECT_EQ(error.source(), "test.json");
+        return error.cause();
+    }
+    return "(no error)";
+}
+
+} // namespace
+
+TEST(Scene, SampleScenesLoad) {
+    const auto folder = lightskin::test::sourceDir() / "recordings" / "scenes";
+    const Scene tabletop = loadScene(folder / "tabletop.json");
+    ASSERT_EQ(tabletop.objects.size(), 2u);
+    EXPECT_EQ(tabletop.objects[0].name, "bunny");
+    EXPECT_TRUE(tabletop.objects[0].mesh.is_absolute());
+    EXPECT_TRUE(std::filesystem::exists(tabletop.objects[1].mesh));
+    ASSERT_EQ(tabletop.lights.size(), 1u);
+    EXPECT_EQ(tabletop.lights[0].type, LightType::Spot);
+    EXPECT_NEAR(glm::length(tabletop.lights[0].direction), 1.0f, 1e-6f);
+    EXPECT_EQ(tabletop.gi.technique, "lightskin");
+    EXPECT_EQ(tabletop.gi.kCache, 128);
+    EXPECT_NE(tabletop.trackingJson.find("tag36h11"), std::string::npos);
+    ASSERT_TRUE(tabletop.objects[1].material.specularExponent.has_value());
+    EXPECT_EQ(*tabletop.objects[1].material.specularExponent, 40.0f);
+    EXPECT_EQ(*tabletop.objects[1].material.specularAlbedo, glm::vec3(0.3f));
+
+    const Scene cube = loadScene(folder / "cube_no_gi.json");
+    EXPECT_EQ(cube.gi.technique, "none");
+    EXPECT_EQ(cube.lights[0].type, LightType::Point);
+
+    int scenes = 0;
+    for (const auto& entry : std::filesystem::directory_iterator(folder))
+        if (entry.path().extension() == ".json") {
+            EXPECT_NO_THROW(loadScene(entry.path())) << entry.path();
+            ++scenes;
+        }
+    EXPECT_GE(scenes, 3);
+    const Scene orbit = loadScene(folder / "orbit.json");
+    EXPECT_NE(orbit.trackingJson.find("tag-world.json"), std::string::npos);
+    EXPECT_TRUE(std::filesystem::exists(folder / "../synth-orbit/synth/tag-world.json"));
+}
+
+TEST(Scene, TransformComposesTranslationRotationScale) {
+    const std::string text = R"({"version": 1, "objects": [{"mesh": "box_no_normals.obj",
+        "transform": {"translation": [1, 2, 3], "rotationDegrees": [0, 0, 90], "scale": 2}}]})";
+    const Scene scene = parseScene(text, meshDir(), "t");
+    const glm::vec4 p = scene.objects[0].world_T_model * glm::vec4(1, 0, 0, 1);
+    // x axis scaled by 2 and turned 90 degrees about z -> +2 y, then translated.
+    EXPECT_NEAR(p.x, 1.0f, 1e-5f);
+    EXPECT_NEAR(p.y, 4.0f, 1e-5f);
+    EXPECT_NEAR(p.z, 3.0f, 1e-5f);
+
+    const std::string matrix = R"({"version": 1, "objects": [{"mesh": "box_no_normals.obj",
+        "transform": {"matrix": [1,0,0,5, 0,1,0,6, 0,0,1,7, 0,0,0,1]}}]})";
+    const glm::vec4 q = parseScene(matrix, meshDir(), "t").objects[0].world_T_model * glm::vec4(0, 0, 0, 1);
+    EXPECT_EQ(glm::vec3(q), glm::vec3(5, 6, 7)); // row-major in the file
+}
+
+TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
+    const std::string head = R"({"version": 1, )";
+    struct Case {
+        std::string text;
+        std::string expectedStart;
+    };
+    const Case cases[] = {
+        {head + R"("objects": [{"mesh": "box_no_normals.obj", "material": {"specularExponent": 0.5}}]})",
+         "/objects/0/material/specularExponent: expected a number >= 1"},
+        {head + R"("objects": [{"mesh": "box_no_normals.obj", "material": {"specularExponent": "shiny"}}]})",
+         "/objects/0/material/specularExponent: expected a number >= 1 (Phong exponent k), got \"shiny\""},
+        {head + R"("objects": [{"mesh": "no_such_mesh.obj"}]})", "/objects/0/mesh: mesh file '"},
+        {head + R"("objects": [{"mesh": "box_no_normals.obj", "materail": {}}]})", "/objects/0/materail: unknown key"},
+        {head + R"("objects": [{"mesh": "box_no_normals.obj", "material": {"diffuseAlbedo": [1, 2, 0]}}]})",
+         "/objects/0/material/diffuseAlbedo/1: expected a number in [0, 1]"},
+        {head + R"("lights": [{"type": "area", "position": [0, 0, 1]}]})", "/lights/0/type: expected \"point\" or \"spot\""},
+        {head + R"("lights": [{"type": "spot", "position": [0, 0, 1]}]})", "/lights/0/direction: expected a direction"},
+        {head + R"("lights": [{"type": "point", "position": [0, 0]}]})", "/lights/0/position: expected an array of 3 numbers"},
+        {head + R"("gi": {"technique": "magic"}})", "/gi/technique: expected \"lightskin\", \"brute-force\" or \"none\""},
+        {head + R"("gi": {"kCache": 0}})", "/gi/kCache: expected an integer in [16, 4096]"},
+        {head + R"("gi": {"kCache": 100}})", "/gi/kCache: expected a multiple of 16"},
+        {head + R"("exposureStops": "bright"})", "/exposureStops: expected a number"},
+        {R"({"objects": []})", "/version: expected 1"},
+        {R"([1, 2])", "/: expected an object"},
+        {R"({"version": 1, )", "not valid JSON"},
+    };
+    for (const Case& c : cases) {
+        const std::string cause = causeOf(c.text);
+        EXPECT_EQ(cause.rfind(c.expectedStart, 0), 0u) << "scene: " << c.text << "\ncause: " << cause;
+    }
+}
+
+TEST(Scene, MissingFileIsAnError) {
+    EXPECT_THROW(loadScene(lightskin::test::scratchDir("scene_missing") / "nope.json"), Error);
+}
