@@ -36,17 +36,25 @@ void addTime(std::vector<gl::StageTime>& times, std::size_t& used, const char* n
     ++used;
 }
 
-tracking::TagWorld tagWorldFromScene(const render::Scene& scene) {
+/// The scene's /tracking object: the tag world (inline, or {"file": path}) and optional detector
+/// settings under "detector" (e.g. {"quadDecimate": 1} for the small tags of 320x240 frames).
+tracking::PoseTracker trackerFromScene(const render::Scene& scene) {
     const std::string source = (scene.file.empty() ? std::string("scene") : scene.file.string()) + " /tracking";
-    const nlohmann::json tracking = nlohmann::json::parse(scene.trackingJson);
+    nlohmann::json tracking = nlohmann::json::parse(scene.trackingJson);
     if (tracking.empty())
         throw Error(source, std::nullopt, "--pose tracking needs a \"tracking\" object in the scene (tag family, size, bundle)");
+    tracking::TrackerSettings settings;
+    if (tracking.contains("detector")) {
+        settings.detector = tracking::detectorSettingsFromJson(tracking["detector"].dump(), source + "/detector");
+        tracking.erase("detector");
+    }
     if (tracking.contains("file")) {
         if (tracking.size() != 1 || !tracking["file"].is_string())
-            throw Error(source, std::nullopt, "/tracking/file: expected a path string as the only key");
-        return tracking::TagWorld::load(scene.file.parent_path() / tracking["file"].get<std::string>());
+            throw Error(source, std::nullopt, "/tracking/file: expected a path string, beside at most \"detector\"");
+        return tracking::PoseTracker::create(tracking::TagWorld::load(scene.file.parent_path() / tracking["file"].get<std::string>()),
+                                             settings);
     }
-    return tracking::TagWorld::fromJson(scene.trackingJson, source);
+    return tracking::PoseTracker::create(tracking::TagWorld::fromJson(tracking.dump(), source), settings);
 }
 
 } // namespace
@@ -181,7 +189,7 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
     p->renderer_ = render::Renderer::create(colour);
     p->renderer_->setScene(scene, scene.gi.technique == "lightskin");
     s.compositor = render::Compositor::create(colour, scene.compositing);
-    if (options.poseMode == PoseMode::Tracking) s.tracker = tracking::PoseTracker::create(tagWorldFromScene(scene));
+    if (options.poseMode == PoseMode::Tracking) s.tracker = trackerFromScene(scene);
 
     // VALs need depth and colour of one size, registered (the ValGenerator's contract).
     s.valsUsable = source.registration == DepthRegistration::RegisteredToColour &&

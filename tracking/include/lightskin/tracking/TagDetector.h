@@ -57,6 +57,13 @@ struct DetectorSettings {
     float minDecisionMargin = 20.0f;
 };
 
+/// Reads detector settings from a JSON object text (scene files' /tracking/detector), starting from
+/// `defaults`. Keys, all optional: family, quadDecimate, quadSigma, threads, refineEdges,
+/// decodeSharpening, refineCorners, maxHamming, minDecisionMargin. Unknown keys and wrong types
+/// throw lightskin::Error naming `sourceName` and the key; ranges are checked by TagDetector::create.
+DetectorSettings detectorSettingsFromJson(const std::string& jsonObjectText, const std::string& sourceName,
+                                          const DetectorSettings& defaults = {});
+
 struct TagDetection {
     int id = -1;
     /// Corrected bits (0..2).
