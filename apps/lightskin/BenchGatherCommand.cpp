@@ -7,6 +7,7 @@
 // Scene: a sphere over a floor (two meshes, 2/3 of the sparse points on the sphere), lit by a
 // VAL "map" (a width x height grid of disc VALs on a wall and the ceiling, like a depth camera's
 // VAL map), seen by a camera at the output resolution.
+#include "BenchScene.h"
 #include "Commands.h"
 
 #include <lightskin/core/Error.h>
@@ -33,24 +34,6 @@
 namespace lightskin::apps {
 
 namespace {
-
-TriangleMesh benchSphere(float radius, int stacks, int slices) {
-    TriangleMesh mesh;
-    const float pi = std::numbers::pi_v<float>;
-    for (int i = 0; i <= stacks; ++i)
-        for (int j = 0; j <= slices; ++j) {
-            const float theta = pi * float(i) / float(stacks), phi = 2.0f * pi * float(j) / float(slices);
-            const glm::vec3 n(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
-            mesh.positions.push_back(radius * n);
-            mesh.normals.push_back(n);
-        }
-    for (int i = 0; i < stacks; ++i)
-        for (int j = 0; j < slices; ++j) {
-            const auto a = std::uint32_t(i * (slices + 1) + j), b = a + std::uint32_t(slices + 1);
-            mesh.indices.insert(mesh.indices.end(), {a, b, b + 1, a, b + 1, a + 1});
-        }
-    return mesh;
-}
 
 TriangleMesh benchGrid(float size, int cells) {
     TriangleMesh mesh;
@@ -109,7 +92,7 @@ double minimum(const std::vector<double>& v) { return *std::min_element(v.begin(
 void runBench(const BenchOptions& options) {
     auto context = gl::createHeadlessContext();
     std::printf("renderer: %s\n", context->describe().c_str());
-    std::vector<TriangleMesh> meshes{benchSphere(0.4f, 64, 128), benchGrid(2.4f, 64)};
+    std::vector<TriangleMesh> meshes{bench::uvSphere(0.4f, 4 * 64 * 64), benchGrid(2.4f, 64)}; // 64 stacks x 128 slices
     std::vector<gi::UploadedMesh> gpu;
     std::vector<gi::MeshInstance> instances(2);
     for (std::size_t i = 0; i < 2; ++i) {

@@ -36,25 +36,32 @@ void addTime(std::vector<gl::StageTime>& times, std::size_t& used, const char* n
     ++used;
 }
 
-/// The scene's /tracking object: the tag world (inline, or {"file": path}) and optional detector
-/// settings under "detector" (e.g. {"quadDecimate": 1} for the small tags of 320x240 frames).
+/// The scene's /tracking object: the tag world (inline, or {"file": path}) plus tracker options
+/// taken out before the rest goes to TagWorld: "detector" (AprilTag detector settings, e.g.
+/// {"quadDecimate": 1} for the 15-40 px tags of a 320x240 image) and "useDepth" (boolean:
+/// depth-aided refinement).
 tracking::PoseTracker trackerFromScene(const render::Scene& scene) {
-    const std::string source = (scene.file.empty() ? std::string("scene") : scene.file.string()) + " /tracking";
+    const std::string source = (scene.file.empty() ? std::string("scene") : scene.file.string());
     nlohmann::json tracking = nlohmann::json::parse(scene.trackingJson);
     if (tracking.empty())
-        throw Error(source, std::nullopt, "--pose tracking needs a \"tracking\" object in the scene (tag family, size, bundle)");
+        throw Error(source, std::nullopt, "/tracking: --pose tracking needs a \"tracking\" object in the scene (tag family, size, bundle)");
     tracking::TrackerSettings settings;
     if (tracking.contains("detector")) {
-        settings.detector = tracking::detectorSettingsFromJson(tracking["detector"].dump(), source + "/detector");
+        settings.detector = tracking::detectorSettingsFromJson(tracking["detector"].dump(), source + " /tracking/detector");
         tracking.erase("detector");
+    }
+    if (tracking.contains("useDepth")) {
+        if (!tracking["useDepth"].is_boolean())
+            throw Error(source, std::nullopt, "/tracking/useDepth: expected true or false, got " + tracking["useDepth"].dump());
+        settings.useDepth = tracking["useDepth"].get<bool>();
+        tracking.erase("useDepth");
     }
     if (tracking.contains("file")) {
         if (tracking.size() != 1 || !tracking["file"].is_string())
-            throw Error(source, std::nullopt, "/tracking/file: expected a path string, beside at most \"detector\"");
-        return tracking::PoseTracker::create(tracking::TagWorld::load(scene.file.parent_path() / tracking["file"].get<std::string>()),
-                                             settings);
+            throw Error(source, std::nullopt, "/tracking/file: expected a path string, beside only detector and useDepth");
+        return tracking::PoseTracker::create(tracking::TagWorld::load(scene.file.parent_path() / tracking["file"].get<std::string>()), settings);
     }
-    return tracking::PoseTracker::create(tracking::TagWorld::fromJson(tracking.dump(), source), settings);
+    return tracking::PoseTracker::create(tracking::TagWorld::fromJson(tracking.dump(), source + " /tracking"), settings);
 }
 
 } // namespace

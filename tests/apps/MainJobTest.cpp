@@ -77,9 +77,9 @@ TEST(MainJob, TrackingModeFollowsTheGroundTruth) {
     for (const auto& frame : report["frames"]) {
         ASSERT_EQ(frame["tracking"], "tracking") << frame.dump();
         const int i = frame["index"].get<int>();
-        // The tag board fills a small part of a noisy 320x240 image: decimetre-level agreement is
-        // what the tracker gives here (its own accuracy is tested in tests/tracking).
-        EXPECT_LT(glm::distance(translation(frame["world_T_camera"]), translation(truth[std::size_t(i)]["world_T_camera"])), 0.15);
+        // Small tags (15-40 px) in a noisy 320x240 image, with the scene's quadDecimate 1: measured
+        // 2-4 cm in frames 0-2 (the tracker's own accuracy is tested in tests/tracking).
+        EXPECT_LT(glm::distance(translation(frame["world_T_camera"]), translation(truth[std::size_t(i)]["world_T_camera"])), 0.08);
     }
 }
 

@@ -1,0 +1,1000 @@
+// `lightskin bench`: the speed/accuracy trade-off of LightSkin (issue 8). Sweeps one knob at a time
+// around a default configuration (sparse points per model, VAL stride, K_cache, channels, output
+// resolution, mesh size, adaptive mode) on the synthetic mixed-reality scene of BenchScene.h and, for
+// every configuration, measures GPU stage times (timer queries) and CPU times (median of several frames
+// after a warm-up) and the error of the indirect light in linear space against (a) the brute force on
+// the same VALs and G-buffer and (b) the Embree ground truth with visibility. Then temporal stability
+// (flicker at re-projected surface points) on three sequences. Writes CSV, JSON, a plot and a Markdown
+// table (optionally regenerated into docs/BENCHMARKS.md). A benchmark, not a test: `--quick` is the
+// CI smoke run (tests/bench) and checks that the error falls as sparse points or VALs grow.
+#include "BenchReport.h"
+#include "BenchScene.h"
+#include "Commands.h"
+
+#include <lightskin/core/Error.h>
+#include <lightskin/gi/BruteForceIllumination.h>
+#include <lightskin/gi/LightSkinIllumination.h>
+#include <lightskin/gi/RayTracedGroundTruth.h>
+#include <lightskin/gi/SimpleGBuffer.h>
+#include <lightskin/gi/SparsePointSampler.h>
+#include <lightskin/gi/ValGenerator.h>
+#include <lightskin/gl/Context.h>
+#include <lightskin/gl/DebugOutput.h>
+#include <lightskin/gl/GpuTimer.h>
+
+#include <epoxy/gl.h>
+#include <glm/geometric.hpp>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <numbers>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <tuple>
+#include <vector>
+
+namespace lightskin::apps {
+
+namespace {
+
+using namespace bench;
+using Clock = std::chrono::steady_clock;
+
+double median(std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::sort(v.begin(), v.end());
+    return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
+
+double msSince(Clock::time_point start) { return std::chrono::duration<double, std::milli>(Clock::now() - start).count(); }
+
+std::string readFirstLine(const std::string& path, const std::string& key) {
+    std::ifstream in(path);
+    std::string line;
+    while (std::getline(in, line))
+        if (key.empty() || line.rfind(key, 0) == 0) {
+            const auto colon = line.find(':');
+            return key.empty() || colon == std::string::npos ? line : line.substr(colon + 2);
+        }
+    return "unknown";
+}
+
+std::string commandLine() {
+    std::ifstream in("/proc/self/cmdline", std::ios::binary);
+    std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()), out;
+    std::size_t start = 0;
+    bool first = true;
+    while (start < all.size()) {
+        const std::size_t end = std::min(all.find('\0', start), all.size());
+        std::string word = all.substr(start, end - start);
+        if (first) word = std::filesystem::path(word).filename().string();
+        out += (first ? "" : " ") + word;
+        first = false;
+        start = end + 1;
+    }
+    return out;
+}
+
+std::string utcNow() {
+    const std::time_t now = std::time(nullptr);
+    std::tm tm{};
+    gmtime_r(&now, &tm);
+    char buffer[64];
+    std::strftime(buffer, sizeof buffer, "%Y-%m-%d %H:%M UTC", &tm);
+    return buffer;
+}
+
+std::string loadAverage() {
+    std::string line = readFirstLine("/proc/loadavg", "");
+    std::istringstream words(line);
+    std::string a, b, c;
+    words >> a >> b >> c;
+    return a + " " + b + " " + c;
+}
+
+template <typename T, typename Parse>
+std::vector<T> splitList(const std::string& text, Parse parse) {
+    std::vector<T> out;
+    std::size_t start = 0;
+    while (start <= text.size()) {
+        const std::size_t end = std::min(text.find(',', start), text.size());
+        if (end > start) out.push_back(parse(text.substr(start, end - start)));
+        start = end + 1;
+    }
+    return out;
+}
+
+int parseInt(const std::string& s, const char* option) {
+    try {
+        std::size_t used = 0;
+        const int v = std::stoi(s, &used);
+        if (used == s.size() && v > 0) return v;
+    } catch (const std::exception&) {
+    }
+    throw Error(option, std::nullopt, "expected a positive integer, got '" + s + "'");
+}
+
+struct Options {
+    bool quick = false;
+    std::string out = "bench-out";
+    std::string docs;
+    std::string bunnyPath = "tests/data/stanford-bunny/bun_zipper_res4.ply";
+    std::string sparse = "64,256,1024,4096,16384";
+    std::string strides = "8,4,2,1";
+    std::string kCache = "32,128,512";
+    std::string channels = "diffuse,glossy,occlusion";
+    std::string resolutions = "640x480,1280x720,1920x1080";
+    std::string meshes = "20000,200000,730000";
+    std::string adaptive = "off,on";
+    Config defaults;
+    int frames = 3;
+    int truthStride = 2;
+    int truthGrid = 48;
+    double maxBruteInteractions = 1e10;
+    double maxTruthRays = 3e8;
+    int temporalFrames = 8;
+    std::string temporalSparse = "256,1024,4096";
+    int temporalStride = 8;
+    float temporalTolerance = 0.01f; ///< metres between a tracked vertex and the G-buffer position at its pixel
+    bool temporal = true;
+    bool check = false;
+    double tolerance = 0.05;
+    std::string exportBlender;
+    std::string fromJson;
+};
+
+void applyQuick(Options& o) {
+    o.sparse = "64,256,1024";
+    o.strides = "16,8,4";
+    o.kCache = "";
+    o.channels = "diffuse,glossy,occlusion";
+    o.resolutions = "";
+    o.meshes = "";
+    o.adaptive = "off,on";
+    o.defaults.sparse = 256;
+    o.defaults.stride = 4;
+    o.defaults.channels = 1; // the checks compare like with like: brute force has no occlusion
+    o.defaults.width = 320;
+    o.defaults.height = 240;
+    o.defaults.sphereTriangles = 8000;
+    o.frames = 2;
+    o.truthStride = 4;
+    o.truthGrid = 40;
+    o.temporalFrames = 4;
+    o.temporalSparse = "256";
+    o.check = true;
+}
+
+/// Images of one rendered view (host copies of the G-buffer) for error and re-projection.
+struct ViewImages {
+    cv::Mat position, normal, albedo, specular; // CV_32FC4, GL row order (row 0 = bottom)
+    cv::Mat mask;                               // CV_8UC1: covered
+    std::size_t covered = 0;
+};
+
+cv::Mat readRgba(std::uint32_t texture, int width, int height) {
+    cv::Mat m(height, width, CV_32FC4);
+    glGetTextureImage(texture, 0, GL_RGBA, GL_FLOAT, GLsizei(m.total() * m.elemSize()), m.data);
+    return m;
+}
+
+cv::Mat readRgb(std::uint32_t texture, int width, int height) {
+    cv::Mat rgb;
+    cv::cvtColor(readRgba(texture, width, height), rgb, cv::COLOR_RGBA2RGB);
+    return rgb;
+}
+
+/// The benchmark world: meshes, GPU copies, sparse points, VAL generators, caches of references.
+class World {
+public:
+    World(const Options& options) : options_(options) {
+        K_ = depthIntrinsics();
+        renderRoom(K_, depthCameraPose(), 0.0, depth_, colour_);
+        bunny_ = std::make_unique<TriangleMesh>(bunny(options.bunnyPath));
+        bunnyGpu_ = std::make_unique<gi::UploadedMesh>(gi::UploadedMesh::create(*bunny_));
+    }
+
+    std::vector<gi::MeshInstance> instances(std::size_t sphereTriangles) {
+        auto& entry = spheres_[sphereTriangles];
+        if (!entry.first) {
+            entry.first = std::make_unique<TriangleMesh>(uvSphere(0.3f, sphereTriangles));
+            entry.second = std::make_unique<gi::UploadedMesh>(gi::UploadedMesh::create(*entry.first));
+        }
+        std::vector<gi::MeshInstance> out(2);
+        out[0].meshId = std::uint32_t(1 + sphereTriangles);
+        out[0].mesh = entry.first.get();
+        out[0].gpu = entry.second->view();
+        out[0].world_T_model = sphereWorld();
+        out[0].material = sphereMaterial();
+        out[1].meshId = 0;
+        out[1].mesh = bunny_.get();
+        out[1].gpu = bunnyGpu_->view();
+        out[1].world_T_model = bunnyWorld();
+        out[1].material = bunnyMaterial();
+        return out;
+    }
+
+    std::size_t triangles(std::size_t sphereTriangles) {
+        const auto inst = instances(sphereTriangles);
+        return inst[0].mesh->triangleCount() + inst[1].mesh->triangleCount();
+    }
+
+    gi::SparsePointProvider provider(int count) {
+        return [this, count](const gi::MeshInstance& instance) {
+            const auto key = std::make_pair(instance.meshId, count);
+            auto it = sparse_.find(key);
+            if (it == sparse_.end()) {
+                gi::SparsePointSettings s;
+                s.pointCount = count;
+                s.refine = false;
+                it = sparse_.emplace(key, gi::sampleSparsePoints(*instance.mesh, s, "bench mesh")).first;
+            }
+            return it->second;
+        };
+    }
+
+    gi::ValGenerator& generator(int stride) {
+        auto it = generators_.find(stride);
+        if (it == generators_.end()) {
+            gi::ValGeneratorSettings s;
+            s.stride = stride;
+            s.exposure = 2.0f;
+            it = generators_.emplace(stride, gi::ValGenerator::create(K_.width, K_.height, s)).first;
+        }
+        return it->second;
+    }
+
+    /// VALs of the static frame at `stride` (generated now; the view stays valid until the next call
+    /// for the same stride). `gpuMs` receives the generation's GPU time.
+    gi::ValSetView vals(int stride, double* gpuMs = nullptr, const cv::Mat* depth = nullptr, const cv::Mat* colour = nullptr,
+                        const Pose* pose = nullptr) {
+        if (!timer_.has_value()) timer_ = gl::GpuStageTimer::create(1);
+        timer_->beginFrame();
+        timer_->begin("vals");
+        const gi::ValSetView set = generator(stride).generate(depth ? *depth : depth_, 1.0, colour ? *colour : colour_, K_,
+                                                              pose ? *pose : depthCameraPose());
+        timer_->end();
+        timer_->collect(stages_);
+        if (gpuMs) *gpuMs = stages_.empty() ? 0.0 : stages_[0].milliseconds;
+        return set;
+    }
+
+    gi::SimpleGBuffer& gbuffer(int width, int height) {
+        auto it = gbuffers_.find({width, height});
+        if (it == gbuffers_.end()) it = gbuffers_.emplace(std::make_pair(width, height), gi::SimpleGBuffer::create(width, height)).first;
+        return it->second;
+    }
+
+    gl::Texture& target(int width, int height) {
+        auto it = targets_.find({width, height});
+        if (it == targets_.end())
+            it = targets_.emplace(std::make_pair(width, height), gl::Texture::create2D(GL_RGBA32F, width, height)).first;
+        return it->second;
+    }
+
+    ViewImages renderView(const std::vector<gi::MeshInstance>& inst, int width, int height, const glm::mat4& clip) {
+        auto& g = gbuffer(width, height);
+        g.render(inst, clip);
+        const gi::GBufferView v = g.view();
+        ViewImages images;
+        images.position = readRgba(v.worldPosition, width, height);
+        images.normal = readRgba(v.worldNormal, width, height);
+        images.albedo = readRgba(v.diffuseAlbedo, width, height);
+        images.specular = readRgba(v.specular, width, height);
+        images.mask = cv::Mat(height, width, CV_8UC1, cv::Scalar(0));
+        for (int y = 0; y < height; ++y)
+            for (int x = 0; x < width; ++x)
+                if (images.position.at<cv::Vec4f>(y, x)[3] != 0.0f) {
+                    images.mask.at<std::uint8_t>(y, x) = 255;
+                    ++images.covered;
+                }
+        return images;
+    }
+
+    /// Brute force (GPU) on the static frame's VALs at `stride`, cached.
+    struct BruteImage {
+        cv::Mat image;
+        double ms = 0.0;
+        std::size_t vals = 0;
+        bool valid = false;
+    };
+    const BruteImage& brute(const Config& c, bool glossy, std::size_t covered) {
+        const auto key = std::make_tuple(c.stride, c.width, c.height, c.sphereTriangles, glossy);
+        auto it = brute_.find(key);
+        if (it != brute_.end()) return it->second;
+        BruteImage b;
+        const gi::ValSetView set = vals(c.stride);
+        b.vals = set.count;
+        if (double(set.count) * double(covered) <= options_.maxBruteInteractions) {
+            std::printf("    brute force (%s, %u VALs x %zu pixels) ...", glossy ? "+glossy" : "diffuse", set.count, covered);
+            std::fflush(stdout);
+            gi::BruteForceSettings s;
+            s.glossy = glossy;
+            s.valCapacity = std::max(1u, set.count);
+            auto technique = gi::BruteForceIllumination::create(s);
+            const auto inst = instances(c.sphereTriangles);
+            technique->prepare(inst);
+            auto& g = gbuffer(c.width, c.height);
+            const glm::mat4 clip = viewClip(c.width, c.height);
+            g.render(inst, clip);
+            auto& t = target(c.width, c.height);
+            technique->render(set, inst, g.view(), {clip, viewEye()}, t.id());
+            std::vector<gl::StageTime> stages;
+            technique->lastStageTimes(stages);
+            for (const auto& s2 : stages) b.ms += s2.milliseconds;
+            b.image = readRgb(t.id(), c.width, c.height);
+            b.valid = true;
+            std::printf(" %.0f ms\n", b.ms);
+        }
+        return brute_.emplace(key, std::move(b)).first->second;
+    }
+
+    /// Ray-traced ground truth at a receiver grid of the view, from the truth-stride VALs, cached.
+    struct Truth {
+        cv::Mat diffuse, full, mask; // grid images (CV_32FC3) and CV_8UC1 mask
+        int step = 1;
+        std::size_t receivers = 0;
+        bool valid = false;
+    };
+    const Truth& truth(const Config& c, const ViewImages& view) {
+        const auto key = std::make_tuple(c.width, c.height, c.sphereTriangles);
+        auto it = truth_.find(key);
+        if (it != truth_.end()) return it->second;
+        Truth t;
+        t.step = std::max(1, c.width / options_.truthGrid);
+        const int gw = c.width / t.step, gh = c.height / t.step;
+        std::vector<gi::GroundTruthReceiver> receivers;
+        std::vector<cv::Point> where;
+        const glm::dvec3 eye(viewEye());
+        for (int j = 0; j < gh; ++j)
+            for (int i = 0; i < gw; ++i) {
+                const int x = i * t.step + t.step / 2, y = j * t.step + t.step / 2;
+                const cv::Vec4f p = view.position.at<cv::Vec4f>(y, x);
+                if (p[3] == 0.0f) continue;
+                const cv::Vec4f n = view.normal.at<cv::Vec4f>(y, x), a = view.albedo.at<cv::Vec4f>(y, x),
+                                s = view.specular.at<cv::Vec4f>(y, x);
+                gi::GroundTruthReceiver r;
+                r.position = glm::dvec3(p[0], p[1], p[2]);
+                r.normal = glm::normalize(glm::dvec3(n[0], n[1], n[2]));
+                r.toViewer = glm::normalize(eye - r.position);
+                r.material.diffuseAlbedo = glm::vec3(a[0], a[1], a[2]);
+                r.material.specularAlbedo = glm::vec3(s[0], s[1], s[2]);
+                r.material.specularExponent = std::max(1.0f, s[3]);
+                receivers.push_back(r);
+                where.emplace_back(i, j);
+            }
+        gi::ValGenerator& gen = generator(options_.truthStride);
+        vals(options_.truthStride);
+        const std::vector<gi::VirtualAreaLight> truthVals = gen.downloadVals();
+        const double rays = double(receivers.size()) * double(truthVals.size());
+        if (rays <= options_.maxTruthRays) {
+            std::printf("    ground truth (Embree, %zu receivers x %zu VALs) ...", receivers.size(), truthVals.size());
+            std::fflush(stdout);
+            const auto start = Clock::now();
+            const auto inst = instances(c.sphereTriangles);
+            std::vector<gi::GroundTruthMesh> meshes;
+            for (const auto& m : inst) meshes.push_back({m.mesh, glm::dmat4(m.world_T_model)});
+            const auto rt = gi::RayTracedGroundTruth::create(meshes);
+            std::vector<gi::GroundTruthResult> results(receivers.size());
+            gi::GroundTruthSettings settings;
+            settings.discRings = settings.discSectors = 1; // disc-centre visibility, the paper's disc form factor
+            rt.compute(truthVals, receivers, results, settings);
+            t.diffuse = cv::Mat(gh, gw, CV_32FC3, cv::Scalar::all(0));
+            t.full = cv::Mat(gh, gw, CV_32FC3, cv::Scalar::all(0));
+            t.mask = cv::Mat(gh, gw, CV_8UC1, cv::Scalar(0));
+            for (std::size_t k = 0; k < receivers.size(); ++k) {
+                const glm::dvec3 d = glm::dvec3(receivers[k].material.diffuseAlbedo) / std::numbers::pi * results[k].irradiance;
+                t.diffuse.at<cv::Vec3f>(where[k]) = cv::Vec3f(float(d.x), float(d.y), float(d.z));
+                t.full.at<cv::Vec3f>(where[k]) =
+                    cv::Vec3f(float(results[k].radiance.x), float(results[k].radiance.y), float(results[k].radiance.z));
+                t.mask.at<std::uint8_t>(where[k]) = 255;
+            }
+            t.receivers = receivers.size();
+            t.valid = true;
+            std::printf(" %.1f s\n", msSince(start) / 1000.0);
+        }
+        return truth_.emplace(key, std::move(t)).first->second;
+    }
+
+    const CameraIntrinsics& intrinsics() const { return K_; }
+
+private:
+    const Options& options_;
+    CameraIntrinsics K_;
+    cv::Mat depth_, colour_;
+    std::unique_ptr<TriangleMesh> bunny_;
+    std::unique_ptr<gi::UploadedMesh> bunnyGpu_;
+    std::map<std::size_t, std::pair<std::unique_ptr<TriangleMesh>, std::unique_ptr<gi::UploadedMesh>>> spheres_;
+    std::map<std::pair<std::uint32_t, int>, gi::SparsePointSet> sparse_;
+    std::map<int, gi::ValGenerator> generators_;
+    std::map<std::pair<int, int>, gi::SimpleGBuffer> gbuffers_;
+    std::map<std::pair<int, int>, gl::Texture> targets_;
+    std::map<std::tuple<int, int, int, std::size_t, bool>, BruteImage> brute_;
+    std::map<std::tuple<int, int, std::size_t>, Truth> truth_;
+    std::optional<gl::GpuStageTimer> timer_;
+    std::vector<gl::StageTime> stages_;
+};
+
+gi::LightSkinSettings settingsFor(const Config& c, std::uint32_t vals) {
+    gi::LightSkinSettings s;
+    s.kCache = c.kCache;
+    s.glossy = c.channels >= 2;
+    s.occlusion = c.channels >= 3;
+    s.adaptive = c.adaptive;
+    s.valCapacity = std::max(1u, vals);
+    return s;
+}
+
+cv::Mat sampleGrid(const cv::Mat& image, int step, int gw, int gh) {
+    cv::Mat out(gh, gw, CV_32FC3);
+    for (int j = 0; j < gh; ++j)
+        for (int i = 0; i < gw; ++i) out.at<cv::Vec3f>(j, i) = image.at<cv::Vec3f>(j * step + step / 2, i * step + step / 2);
+    return out;
+}
+
+/// Largest value of the reference (uncovered pixels are 0, so this is the maximum over the covered ones).
+double maxValue(const cv::Mat& image) {
+    double hi = 0.0;
+    cv::minMaxLoc(image.reshape(1), nullptr, &hi);
+    return hi > 0.0 ? hi : 1.0;
+}
+
+eval::ImageError compare(const cv::Mat& image, const cv::Mat& reference, const cv::Mat& mask) {
+    eval::ImageErrorOptions o;
+    o.ssimPeak = maxValue(reference);
+    o.mask = mask;
+    return eval::compareImages(image, reference, o);
+}
+
+RunResult runConfig(World& world, const Options& options, const Config& c) {
+    RunResult r;
+    r.config = c;
+    const auto inst = world.instances(c.sphereTriangles);
+    r.triangles = world.triangles(c.sphereTriangles);
+    const glm::mat4 clip = viewClip(c.width, c.height);
+    const ViewImages view = world.renderView(inst, c.width, c.height, clip);
+    r.covered = view.covered;
+    const bool glossy = c.channels >= 2;
+    const auto& brute = world.brute(c, glossy, view.covered);
+    const auto& truth = world.truth(c, view);
+
+    gi::ValSetView set = world.vals(c.stride);
+    r.vals = set.count;
+    const auto prepStart = Clock::now();
+    auto technique = gi::LightSkinIllumination::create(settingsFor(c, set.count), world.provider(c.sparse));
+    technique->prepare(inst);
+    r.prepareMs = msSince(prepStart);
+    auto& g = world.gbuffer(c.width, c.height);
+    g.render(inst, clip);
+    auto& target = world.target(c.width, c.height);
+    std::vector<double> gpu, cpu, valsMs;
+    std::map<std::string, std::vector<double>> stageTimes;
+    std::vector<std::string> order;
+    std::vector<gl::StageTime> stages;
+    for (int f = 0; f <= options.frames; ++f) { // frame 0: warm-up
+        double vMs = 0.0;
+        const auto start = Clock::now();
+        set = world.vals(c.stride, &vMs);
+        technique->render(set, inst, g.view(), {clip, viewEye()}, target.id());
+        glFinish();
+        const double wall = msSince(start);
+        technique->lastStageTimes(stages);
+        if (f == 0) continue;
+        double total = 0.0;
+        for (const auto& s : stages) {
+            if (std::find(order.begin(), order.end(), s.name) == order.end()) order.push_back(s.name);
+            stageTimes[s.name].push_back(s.milliseconds);
+            total += s.milliseconds;
+        }
+        gpu.push_back(total);
+        cpu.push_back(wall);
+        valsMs.push_back(vMs);
+    }
+    r.gpuMs = median(gpu);
+    r.cpuMs = median(cpu);
+    r.valsMs = median(valsMs);
+    for (const auto& name : order) r.stages.emplace_back(name, median(stageTimes[name]));
+    const cv::Mat image = readRgb(target.id(), c.width, c.height);
+    if (brute.valid) {
+        r.bruteMs = brute.ms;
+        r.vsBrute = compare(image, brute.image, view.mask);
+    }
+    if (truth.valid) {
+        const cv::Mat grid = sampleGrid(image, truth.step, truth.diffuse.cols, truth.diffuse.rows);
+        r.vsTruth = compare(grid, glossy ? truth.full : truth.diffuse, truth.mask);
+        r.truthReceivers = truth.receivers;
+    }
+    // Only where output and mesh are the default's (the VAL-stride question; saves the most expensive
+    // brute-force runs at large outputs and meshes).
+    if (c.width == options.defaults.width && c.height == options.defaults.height &&
+        c.sphereTriangles == options.defaults.sphereTriangles) {
+        Config fine = c;
+        fine.stride = options.truthStride;
+        const auto& fineBrute = world.brute(fine, glossy, view.covered);
+        if (fineBrute.valid) r.vsFineBrute = compare(image, fineBrute.image, view.mask);
+    }
+    return r;
+}
+
+/// The brute force's own error against the ground truth (default configuration's inputs).
+RunResult bruteRow(World& world, const Config& c) {
+    RunResult r;
+    r.config = c;
+    r.isBrute = true;
+    const auto inst = world.instances(c.sphereTriangles);
+    r.triangles = world.triangles(c.sphereTriangles);
+    const ViewImages view = world.renderView(inst, c.width, c.height, viewClip(c.width, c.height));
+    r.covered = view.covered;
+    const bool glossy = c.channels >= 2;
+    const auto& brute = world.brute(c, glossy, view.covered);
+    const auto& truth = world.truth(c, view);
+    r.vals = brute.vals;
+    if (!brute.valid) return r;
+    r.bruteMs = brute.ms;
+    if (truth.valid) {
+        const cv::Mat grid = sampleGrid(brute.image, truth.step, truth.diffuse.cols, truth.diffuse.rows);
+        r.vsTruth = compare(grid, glossy ? truth.full : truth.diffuse, truth.mask);
+        r.truthReceivers = truth.receivers;
+    }
+    return r;
+}
+
+std::vector<Config> buildSweep(const Options& o) {
+    std::vector<Config> configs;
+    Config d = o.defaults;
+    d.isDefault = true;
+    configs.push_back(d);
+    const auto add = [&](const std::string& axis, const std::string& value, auto mutate) {
+        Config c = o.defaults;
+        mutate(c);
+        c.axis = axis;
+        c.value = value;
+        Config probe = c;
+        probe.axis = "default";
+        probe.value = "-";
+        const bool same = probe.sparse == d.sparse && probe.stride == d.stride && probe.kCache == d.kCache &&
+                          probe.channels == d.channels && probe.width == d.width && probe.height == d.height &&
+                          probe.sphereTriangles == d.sphereTriangles && probe.adaptive == d.adaptive;
+        if (!same) configs.push_back(c);
+    };
+    for (int s : splitList<int>(o.sparse, [](const std::string& x) { return parseInt(x, "--sparse"); }))
+        add("sparse", std::to_string(s), [s](Config& c) { c.sparse = s; });
+    for (int s : splitList<int>(o.strides, [](const std::string& x) { return parseInt(x, "--strides"); }))
+        add("stride", std::to_string(s), [s](Config& c) { c.stride = s; });
+    for (int k : splitList<int>(o.kCache, [](const std::string& x) { return parseInt(x, "--kcache"); }))
+        add("kcache", std::to_string(k), [k](Config& c) { c.kCache = k; });
+    for (const std::string& ch : splitList<std::string>(o.channels, [](const std::string& x) { return x; })) {
+        const int n = ch == "diffuse" ? 1 : ch == "glossy" ? 2 : ch == "occlusion" ? 3 : 0;
+        if (n == 0) throw Error("--channels", std::nullopt, "expected diffuse, glossy or occlusion, got '" + ch + "'");
+        add("channels", channelName(n), [n](Config& c) { c.channels = n; });
+    }
+    for (const std::string& res : splitList<std::string>(o.resolutions, [](const std::string& x) { return x; })) {
+        int w = 0, h = 0;
+        if (std::sscanf(res.c_str(), "%dx%d", &w, &h) != 2 || w < 16 || h < 16 || w > 8192 || h > 8192)
+            throw Error("--resolutions", std::nullopt, "expected WIDTHxHEIGHT, got '" + res + "'");
+        add("output", res, [w, h](Config& c) {
+            c.width = w;
+            c.height = h;
+        });
+    }
+    for (int m : splitList<int>(o.meshes, [](const std::string& x) { return parseInt(x, "--meshes"); }))
+        add("mesh", std::to_string(m), [m](Config& c) { c.sphereTriangles = std::size_t(m); });
+    for (const std::string& a : splitList<std::string>(o.adaptive, [](const std::string& x) { return x; })) {
+        if (a != "on" && a != "off") throw Error("--adaptive", std::nullopt, "expected on or off, got '" + a + "'");
+        add("adaptive", a, [a](Config& c) { c.adaptive = a == "on"; });
+    }
+    return configs;
+}
+
+// ---- temporal stability ------------------------------------------------------------------------
+
+struct Track {
+    std::vector<std::vector<float>> ours; // [technique][frame * points + point] (NaN = not visible)
+    std::vector<float> reference;
+};
+
+void sampleTracked(const std::vector<glm::vec3>& points, const glm::mat4& clip, const ViewImages& view, const cv::Mat& image,
+                   float tolerance, std::vector<float>& out) {
+    const int w = view.position.cols, h = view.position.rows;
+    for (const glm::vec3& p : points) {
+        const glm::vec4 c = clip * glm::vec4(p, 1.0f);
+        float value = std::nanf("");
+        if (c.w > 0.0f) {
+            const int x = int(std::floor((c.x / c.w * 0.5f + 0.5f) * float(w)));
+            const int y = int(std::floor((c.y / c.w * 0.5f + 0.5f) * float(h)));
+            if (x >= 0 && y >= 0 && x < w && y < h) {
+                const cv::Vec4f g = view.position.at<cv::Vec4f>(y, x);
+                if (g[3] != 0.0f && glm::length(glm::vec3(g[0], g[1], g[2]) - p) < tolerance) {
+                    const cv::Vec3f v = image.at<cv::Vec3f>(y, x);
+                    value = (v[0] + v[1] + v[2]) / 3.0f;
+                }
+            }
+        }
+        out.push_back(value);
+    }
+}
+
+std::vector<TemporalResult> runTemporal(World& world, const Options& options) {
+    const int width = 320, height = 240, n = std::max(2, options.temporalFrames), stride = options.temporalStride;
+    const auto sparseList = splitList<int>(options.temporalSparse, [](const std::string& x) { return parseInt(x, "--temporal-sparse"); });
+    const auto inst = world.instances(options.defaults.sphereTriangles);
+    // Tracked surface points: every k-th vertex of both meshes, in world space.
+    std::vector<glm::vec3> points;
+    for (const auto& m : inst) {
+        const std::size_t step = std::max<std::size_t>(1, m.mesh->vertexCount() / 1500);
+        for (std::size_t i = 0; i < m.mesh->vertexCount(); i += step)
+            points.emplace_back(m.world_T_model * glm::vec4(m.mesh->positions[i], 1.0f));
+    }
+    std::vector<TemporalResult> results;
+    for (const std::string sequence : {"camera", "light", "edges"}) {
+        std::printf("  temporal sequence '%s' (%d frames, %zu tracked points)\n", sequence.c_str(), n, points.size());
+        std::fflush(stdout);
+        std::vector<std::unique_ptr<gi::LightSkinIllumination>> techniques;
+        Config c = options.defaults;
+        c.width = width;
+        c.height = height;
+        c.stride = stride;
+        std::vector<std::vector<float>> ours(sparseList.size());
+        std::vector<float> reference;
+        gi::BruteForceSettings bs;
+        bs.glossy = false; // diffuse on both sides: the true change in the camera sequence is then 0
+        bs.valCapacity = 1u << 16;
+        auto brute = gi::BruteForceIllumination::create(bs);
+        brute->prepare(inst);
+        for (int s : sparseList) {
+            c.sparse = s;
+            gi::LightSkinSettings settings = settingsFor(c, 1u << 16);
+            settings.glossy = false; // view-independent: see bs.glossy
+            auto t = gi::LightSkinIllumination::create(settings, world.provider(s));
+            t->prepare(inst);
+            techniques.push_back(std::move(t));
+        }
+        auto& g = world.gbuffer(width, height);
+        auto& target = world.target(width, height);
+        cv::Mat depth, colour;
+        for (int f = 0; f < n; ++f) {
+            const double phase = double(f) / double(n - 1);
+            const bool moveCamera = sequence == "camera";
+            const double spotX = sequence == "light" ? -1.0 + 2.0 * phase : 0.0;
+            const Pose pose = depthCameraPose(sequence == "edges" ? 0.15 * phase : 0.0);
+            renderRoom(world.intrinsics(), pose, spotX, depth, colour);
+            const gi::ValSetView set = world.vals(stride, nullptr, &depth, &colour, &pose);
+            const glm::mat4 clip = moveCamera ? viewClip(width, height, f, n) : viewClip(width, height);
+            const gi::ViewParameters viewParameters{clip, moveCamera ? viewEye(f, n) : viewEye()};
+            const ViewImages view = world.renderView(inst, width, height, clip);
+            brute->render(set, inst, g.view(), viewParameters, target.id());
+            sampleTracked(points, clip, view, readRgb(target.id(), width, height), options.temporalTolerance, reference);
+            for (std::size_t k = 0; k < techniques.size(); ++k) {
+                techniques[k]->render(set, inst, g.view(), viewParameters, target.id());
+                sampleTracked(points, clip, view, readRgb(target.id(), width, height), options.temporalTolerance, ours[k]);
+            }
+        }
+        // Mean reference level over all visible samples.
+        double level = 0.0;
+        std::size_t levelCount = 0;
+        for (float v : reference)
+            if (!std::isnan(v)) {
+                level += double(v);
+                ++levelCount;
+            }
+        level = levelCount ? level / double(levelCount) : 1.0;
+        const auto flickerOf = [&](const std::vector<float>& a, const std::vector<float>* refSeries, std::size_t& samples) {
+            double sum = 0.0;
+            samples = 0;
+            for (int f = 1; f < n; ++f)
+                for (std::size_t p = 0; p < points.size(); ++p) {
+                    const std::size_t i0 = std::size_t(f - 1) * points.size() + p, i1 = std::size_t(f) * points.size() + p;
+                    if (std::isnan(a[i0]) || std::isnan(a[i1]) || std::isnan(reference[i0]) || std::isnan(reference[i1])) continue;
+                    double d = double(a[i1]) - double(a[i0]);
+                    if (refSeries) d -= double((*refSeries)[i1]) - double((*refSeries)[i0]);
+                    sum += d * d;
+                    ++samples;
+                }
+            return samples ? std::sqrt(sum / double(samples)) / level : 0.0;
+        };
+        std::size_t samples = 0;
+        const double referenceFlicker = flickerOf(reference, nullptr, samples);
+        results.push_back({sequence, "brute force (reference, diffuse)", n, samples, referenceFlicker, referenceFlicker, 0.0});
+        for (std::size_t k = 0; k < sparseList.size(); ++k) {
+            TemporalResult t;
+            t.sequence = sequence;
+            t.technique = "lightskin, " + std::to_string(sparseList[k]) + " sparse/model, diffuse" +
+                          (c.channels >= 3 ? " + occlusion" : "");
+            t.frames = n;
+            t.flicker = flickerOf(ours[k], nullptr, samples);
+            t.excessFlicker = flickerOf(ours[k], &reference, samples);
+            t.referenceFlicker = referenceFlicker;
+            t.pointPairs = samples;
+            results.push_back(t);
+            std::printf("    %-45s flicker %.4f (reference %.4f), excess %.4f, %zu samples\n", t.technique.c_str(), t.flicker,
+                        t.referenceFlicker, t.excessFlicker, samples);
+        }
+        std::fflush(stdout);
+    }
+    return results;
+}
+
+// ---- checks (quick mode) -------------------------------------------------------------------------
+
+CheckResult monotone(const std::vector<RunResult>& runs, const std::string& axis, bool truth, double tolerance) {
+    std::vector<std::pair<double, double>> series; // (knob growing, error)
+    for (const auto& r : runs) {
+        if (r.isBrute) continue;
+        const bool onAxis = r.config.axis == axis || r.config.isDefault;
+        if (!onAxis) continue;
+        const auto& e = truth ? r.vsTruth : axis == "stride" ? r.vsFineBrute : r.vsBrute;
+        if (!e) continue;
+        const double knob = axis == "sparse" ? double(r.config.sparse) : -double(r.config.stride);
+        if (r.config.isDefault && std::any_of(series.begin(), series.end(), [&](const auto& s) { return s.first == knob; })) continue;
+        series.emplace_back(knob, e->relativeMse);
+    }
+    std::sort(series.begin(), series.end());
+    CheckResult c;
+    c.name = "error " + std::string(truth ? "vs ground truth" : axis == "stride" ? "vs brute force on the finest VALs" : "vs brute force (same VALs)") + " falls as " +
+             (axis == "sparse" ? "sparse points grow" : "VALs grow (stride shrinks)");
+    c.passed = series.size() >= 2;
+    std::ostringstream detail;
+    detail << "rel. MSE";
+    for (std::size_t i = 0; i < series.size(); ++i) {
+        detail << (i ? " -> " : " ") << series[i].second;
+        if (i > 0 && series[i].second > series[i - 1].second * (1.0 + tolerance)) c.passed = false;
+    }
+    detail << " (each at most " << 100.0 * tolerance << " % above the previous)";
+    c.detail = detail.str();
+    return c;
+}
+
+// ---- Blender Cycles reference export (scripts/blender_reference.py) ------------------------------
+
+void writeRaw(const cv::Mat& glImage, const std::string& path) {
+    cv::Mat flipped;
+    cv::flip(glImage, flipped, 0); // GL rows are bottom-up; the file is top-down like Blender's view
+    std::ofstream out(path, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(flipped.data), std::streamsize(flipped.total() * flipped.elemSize()));
+    if (!out) throw Error(path, std::nullopt, "cannot write");
+}
+
+/// Writes the default view of the scene (VAL discs with their radiance, the two meshes in world
+/// space with diffuse albedo only, the camera) as scene.json, and our images of it as raw float32 RGB
+/// (top-down rows): LightSkin (diffuse + occlusion), brute force (diffuse), ground truth (diffuse, with
+/// visibility, every covered pixel), plus the coverage mask.
+void exportBlender(World& world, const Options& options) {
+    const std::string dir = options.exportBlender;
+    std::filesystem::create_directories(dir);
+    Config c = options.defaults;
+    c.channels = 1;
+    const int width = c.width, height = c.height;
+    auto inst = world.instances(c.sphereTriangles);
+    for (auto& m : inst) m.material.specularAlbedo = glm::vec3(0.0f); // Cycles has no Phong lobe: diffuse scene
+    const glm::mat4 clip = viewClip(width, height);
+    const ViewImages view = world.renderView(inst, width, height, clip);
+    world.vals(c.stride);
+    const std::vector<gi::VirtualAreaLight> vals = world.generator(c.stride).downloadVals();
+    nlohmann::json j;
+    j["width"] = width;
+    j["height"] = height;
+    j["fovy_radians"] = 0.75;
+    const glm::vec3 eye = viewEye(), target = viewTarget();
+    j["eye"] = {eye.x, eye.y, eye.z};
+    j["target"] = {target.x, target.y, target.z};
+    j["val_stride"] = c.stride;
+    for (const auto& v : vals) {
+        const glm::vec3 radiance = v.flux / (std::numbers::pi_v<float> * v.area);
+        j["vals"].push_back({v.position.x, v.position.y, v.position.z, v.normal.x, v.normal.y, v.normal.z, v.area, radiance.x,
+                             radiance.y, radiance.z});
+    }
+    for (const auto& m : inst) {
+        nlohmann::json mesh;
+        for (std::size_t i = 0; i < m.mesh->vertexCount(); ++i) {
+            const glm::vec3 p = m.world_T_model * glm::vec4(m.mesh->positions[i], 1.0f);
+            const glm::vec3 n = glm::normalize(glm::mat3(m.world_T_model) * m.mesh->normals[i]);
+            mesh["positions"].push_back({p.x, p.y, p.z});
+            mesh["normals"].push_back({n.x, n.y, n.z});
+        }
+        mesh["indices"] = m.mesh->indices;
+        mesh["albedo"] = {m.material.diffuseAlbedo.x, m.material.diffuseAlbedo.y, m.material.diffuseAlbedo.z};
+        j["meshes"].push_back(mesh);
+    }
+    std::ofstream(dir + "/scene.json") << j.dump() << "\n";
+
+    auto& g = world.gbuffer(width, height);
+    auto& tex = world.target(width, height);
+    const gi::ValSetView set = world.vals(c.stride);
+    gi::LightSkinSettings s = settingsFor(c, set.count);
+    s.glossy = false;
+    s.occlusion = true;
+    auto technique = gi::LightSkinIllumination::create(s, world.provider(c.sparse));
+    technique->prepare(inst);
+    technique->render(set, inst, g.view(), {clip, eye}, tex.id());
+    writeRaw(readRgb(tex.id(), width, height), dir + "/lightskin.f32");
+    gi::BruteForceSettings bs;
+    bs.glossy = false;
+    bs.valCapacity = std::max(1u, set.count);
+    auto brute = gi::BruteForceIllumination::create(bs);
+    brute->prepare(inst);
+    brute->render(set, inst, g.view(), {clip, eye}, tex.id());
+    writeRaw(readRgb(tex.id(), width, height), dir + "/brute.f32");
+    std::printf("exporting: ground truth at %zu pixels x %zu VALs ...\n", view.covered, vals.size());
+    std::fflush(stdout);
+    std::vector<gi::GroundTruthMesh> meshes;
+    for (const auto& m : inst) meshes.push_back({m.mesh, glm::dmat4(m.world_T_model)});
+    const auto rt = gi::RayTracedGroundTruth::create(meshes);
+    std::vector<gi::GroundTruthReceiver> receivers;
+    std::vector<int> where;
+    for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) {
+            const cv::Vec4f p = view.position.at<cv::Vec4f>(y, x);
+            if (p[3] == 0.0f) continue;
+            const cv::Vec4f n = view.normal.at<cv::Vec4f>(y, x), a = view.albedo.at<cv::Vec4f>(y, x);
+            gi::GroundTruthReceiver r;
+            r.position = glm::dvec3(p[0], p[1], p[2]);
+            r.normal = glm::normalize(glm::dvec3(n[0], n[1], n[2]));
+            r.toViewer = glm::normalize(glm::dvec3(eye) - r.position);
+            r.material.diffuseAlbedo = glm::vec3(a[0], a[1], a[2]);
+            receivers.push_back(r);
+            where.push_back(y * width + x);
+        }
+    std::vector<gi::GroundTruthResult> results(receivers.size());
+    gi::GroundTruthSettings gs;
+    gs.discRings = gs.discSectors = 1;
+    rt.compute(vals, receivers, results, gs);
+    cv::Mat truthImage(height, width, CV_32FC3, cv::Scalar::all(0));
+    for (std::size_t k = 0; k < receivers.size(); ++k) {
+        const glm::dvec3 d = results[k].radiance;
+        truthImage.at<cv::Vec3f>(where[k] / width, where[k] % width) = cv::Vec3f(float(d.x), float(d.y), float(d.z));
+    }
+    writeRaw(truthImage, dir + "/truth.f32");
+    cv::Mat mask;
+    view.mask.convertTo(mask, CV_32F, 1.0 / 255.0);
+    cv::Mat mask3;
+    cv::merge(std::vector<cv::Mat>{mask, mask, mask}, mask3);
+    writeRaw(mask3, dir + "/mask.f32");
+    std::printf("wrote %s/scene.json (%zu VALs, 2 meshes) and lightskin/brute/truth/mask .f32 images (%dx%d RGB float32)\n",
+                dir.c_str(), vals.size(), width, height);
+}
+
+void runBench(const Options& options, int& exitCode) {
+    const auto start = Clock::now();
+    Report report;
+    report.command = commandLine();
+    report.date = utcNow();
+    report.machine = readFirstLine("/proc/cpuinfo", "model name") + ", " + std::to_string(std::thread::hardware_concurrency()) + " threads";
+    report.loadStart = loadAverage();
+    report.truthStride = options.truthStride;
+    report.frames = options.frames;
+    report.quick = options.quick;
+    auto context = gl::createHeadlessContext();
+    report.renderer = context->describe();
+    std::printf("lightskin bench%s: %s\nrenderer: %s\nload average: %s\n", options.quick ? " --quick" : "", report.machine.c_str(),
+                report.renderer.c_str(), report.loadStart.c_str());
+    World world(options);
+    if (!options.exportBlender.empty()) {
+        exportBlender(world, options);
+        exitCode = 0;
+        return;
+    }
+    const auto configs = buildSweep(options);
+    std::printf("%zu configurations (one knob at a time around the default), %d frames each after a warm-up\n", configs.size(),
+                options.frames);
+    for (std::size_t i = 0; i < configs.size(); ++i) {
+        const Config& c = configs[i];
+        std::printf("[%zu/%zu %5.0f s] %s%s%s: sparse %d, stride %d, K_cache %d, %s, %dx%d, sphere %zu tris, adaptive %s\n", i + 1,
+                    configs.size(), msSince(start) / 1000.0, c.axis.c_str(), c.isDefault ? "" : "=", c.isDefault ? "" : c.value.c_str(),
+                    c.sparse, c.stride, c.kCache, channelName(c.channels), c.width, c.height, c.sphereTriangles,
+                    c.adaptive ? "on" : "off");
+        std::fflush(stdout);
+        RunResult r = runConfig(world, options, c);
+        std::printf("    %zu VALs, %zu px: GPU %.1f ms (", r.vals, r.covered, r.gpuMs);
+        for (const auto& s : r.stages) std::printf(" %s %.1f", s.first.c_str(), s.second);
+        std::printf(" ), CPU %.1f ms, VAL generation %.1f ms", r.cpuMs, r.valsMs);
+        if (r.bruteMs) std::printf(", speed-up %.0fx", *r.bruteMs / r.gpuMs);
+        if (r.vsBrute) std::printf("\n    vs brute: %s", r.vsBrute->describe().c_str());
+        if (r.vsTruth) std::printf("\n    vs truth: %s", r.vsTruth->describe().c_str());
+        std::printf("\n");
+        std::fflush(stdout);
+        report.runs.push_back(std::move(r));
+        if (c.isDefault) report.runs.push_back(bruteRow(world, c));
+    }
+    if (options.temporal) {
+        std::printf("[temporal %5.0f s]\n", msSince(start) / 1000.0);
+        report.temporal = runTemporal(world, options);
+    }
+    if (options.check) {
+        report.checks.push_back(monotone(report.runs, "sparse", false, options.tolerance));
+        report.checks.push_back(monotone(report.runs, "stride", false, options.tolerance));
+        for (const char* axis : {"sparse", "stride"}) {
+            report.checks.push_back(monotone(report.runs, axis, true, options.tolerance));
+            report.checks.back().required = false;
+        }
+    }
+    gl::DebugOutput::throwIfErrors("bench");
+    report.loadEnd = loadAverage();
+    report.seconds = msSince(start) / 1000.0;
+    writeOutputs(report, options.out);
+    if (!options.docs.empty()) regenerateDocs(report, options.docs);
+    std::printf("wrote %s/bench.{csv,json,png,md}%s%s in %.0f s\n", options.out.c_str(), options.docs.empty() ? "" : " and ",
+                options.docs.c_str(), report.seconds);
+    exitCode = 0;
+    for (const auto& c : report.checks) {
+        std::printf("%s %s: %s\n", c.passed ? "PASS" : c.required ? "FAIL" : "INFO (does not hold, reported only)", c.name.c_str(),
+                    c.detail.c_str());
+        if (!c.passed && c.required) exitCode = 3;
+    }
+}
+
+void addBenchCommand(CLI::App& app, int& exitCode) {
+    auto* command = app.add_subcommand("bench", "Sweep the LightSkin knobs: time and error against brute force and ground truth");
+    auto o = std::make_shared<Options>();
+    command->add_flag("--quick", o->quick, "CI smoke run (< 2 min): small sweep, checks that error falls with sparse points and VALs");
+    command->add_option("--out", o->out, "Output folder for bench.csv/json/png/md");
+    command->add_option("--docs", o->docs, "Regenerate the section between the lightskin-bench markers in this Markdown file");
+    command->add_option("--bunny", o->bunnyPath, "Stanford bunny PLY (tests/data/stanford-bunny/bun_zipper_res4.ply)");
+    command->add_option("--sparse", o->sparse, "Sparse points per model to sweep (comma-separated)");
+    command->add_option("--strides", o->strides, "VAL strides on the 640x480 depth frame to sweep (1 = 640x480 VALs, 8 = 80x60)");
+    command->add_option("--kcache", o->kCache, "K_cache values to sweep");
+    command->add_option("--channels", o->channels, "Channels to sweep: diffuse,glossy,occlusion");
+    command->add_option("--resolutions", o->resolutions, "Output resolutions to sweep, WxH");
+    command->add_option("--meshes", o->meshes, "Sphere triangle counts to sweep (the bunny adds ~15k)");
+    command->add_option("--adaptive", o->adaptive, "Adaptive mode values to sweep: off,on");
+    command->add_option("--default-sparse", o->defaults.sparse, "Default configuration: sparse points per model");
+    command->add_option("--default-stride", o->defaults.stride, "Default configuration: VAL stride");
+    command->add_option("--default-kcache", o->defaults.kCache, "Default configuration: K_cache");
+    command->add_option("--default-channels", o->defaults.channels, "Default configuration: 1 diffuse, 2 +glossy, 3 +occlusion")
+        ->check(CLI::Range(1, 3));
+    command->add_option("--default-width", o->defaults.width, "Default configuration: output width")->check(CLI::Range(16, 8192));
+    command->add_option("--default-height", o->defaults.height, "Default configuration: output height")->check(CLI::Range(16, 8192));
+    command->add_option("--default-mesh", o->defaults.sphereTriangles, "Default configuration: sphere triangles");
+    command->add_option("--frames", o->frames, "Timed frames per configuration (median; after one warm-up)")->check(CLI::Range(1, 100));
+    command->add_option("--truth-stride", o->truthStride, "VAL stride of the ground truth")->check(CLI::Range(1, 64));
+    command->add_option("--truth-grid", o->truthGrid, "Ground-truth receivers per image row")->check(CLI::Range(4, 1024));
+    command->add_option("--max-brute", o->maxBruteInteractions, "Skip brute force above this many VAL x pixel interactions");
+    command->add_option("--max-truth", o->maxTruthRays, "Skip the ground truth above this many rays");
+    command->add_option("--temporal-frames", o->temporalFrames, "Frames per temporal sequence")->check(CLI::Range(2, 1000));
+    command->add_option("--temporal-tolerance", o->temporalTolerance,
+                        "Metres: a tracked vertex counts as seen when the G-buffer position at its pixel is this close");
+    command->add_option("--temporal-sparse", o->temporalSparse, "Sparse points per model in the temporal sequences");
+    command->add_flag("--no-temporal", [o](std::int64_t) { o->temporal = false; }, "Skip the temporal sequences");
+    command->add_option("--export-blender", o->exportBlender,
+                        "Only write the default view (diffuse) for scripts/blender_reference.sh into this folder");
+    command->add_flag("--check", o->check, "Fail (exit 3) unless error falls as sparse points and VALs grow");
+    command->add_option("--tolerance", o->tolerance, "Noise allowed in the monotonicity check (relative)");
+    command->add_option("--from-json", o->fromJson,
+                        "Do not measure: read this bench.json and rewrite the outputs (--out) and --docs from it");
+    command->callback([o, &exitCode] {
+        Options options = *o;
+        if (!options.fromJson.empty()) {
+            const Report report = readReport(options.fromJson);
+            writeOutputs(report, options.out);
+            if (!options.docs.empty()) regenerateDocs(report, options.docs);
+            exitCode = 0;
+            return;
+        }
+        if (options.quick) {
+            const Options given = options;
+            applyQuick(options);
+            options.out = given.out;
+            options.docs = given.docs;
+            options.bunnyPath = given.bunnyPath;
+            options.temporal = given.temporal;
+        }
+        runBench(options, exitCode);
+    });
+}
+
+} // namespace
+
+static const CommandRegistration registration{"bench", &addBenchCommand};
+
+} // namespace lightskin::apps

@@ -1,0 +1,59 @@
+#pragma once
+// The synthetic mixed-reality scene of `lightskin bench` (BenchCommand.cpp): a real room seen by a
+// depth camera, rendered analytically into a 640x480 depth + colour frame (so ValGenerator makes the
+// VALs exactly as from a Kinect frame, with depth edges at a real box), and two virtual objects
+// standing on the real floor: a glossy UV sphere (tessellated in memory to a chosen triangle count,
+// up to the paper's 200k / 730k) and the Stanford bunny (refined by edge midpoints to ~15k triangles).
+//
+// World frame: metres, Z up (Blender's convention, so scripts/blender_reference.py can rebuild the
+// same scene). Room: x in [-1.6, 1.6], y in [-1.0, 2.2], z in [0, 2.4]; real box x in [0.65, 1.15],
+// y in [0.95, 1.45], z in [0, 0.6]. Camera frames: OpenCV (x right, y down, z forward).
+#include <lightskin/core/CameraIntrinsics.h>
+#include <lightskin/core/Material.h>
+#include <lightskin/core/Pose.h>
+#include <lightskin/core/TriangleMesh.h>
+
+#include <glm/mat4x4.hpp>
+#include <glm/vec3.hpp>
+#include <opencv2/core/mat.hpp>
+
+#include <cstddef>
+#include <string>
+
+namespace lightskin::apps::bench {
+
+/// The paper-style Kinect intrinsics (525 px, 640x480) of the synthetic depth camera.
+CameraIntrinsics depthIntrinsics();
+
+/// world_T_camera of a camera at `eye` looking at `target` (Z up), OpenCV axes.
+Pose lookAtPose(const glm::dvec3& eye, const glm::dvec3& target);
+
+/// The default depth-camera pose; `shift` moves it along world x (metres) for the depth-edge sequence.
+Pose depthCameraPose(double shift = 0.0);
+
+/// Renders the room into depth (CV_32FC1, metres along the optical axis) and colour (CV_8UC3, BGR,
+/// sRGB-encoded). A bright "spot" (a lit patch, sRGB 255) of radius 0.3 m sits on the back wall
+/// (y = 2.2) at x = spotX, z = 1.3: moving it is the moving-light sequence.
+void renderRoom(const CameraIntrinsics& K, const Pose& world_T_camera, double spotX, cv::Mat& depth, cv::Mat& colourBgr);
+
+/// A UV sphere of `radius` with about `triangles` triangles (stacks x 2 stacks grid), normals set.
+TriangleMesh uvSphere(float radius, std::size_t triangles);
+
+/// The Stanford bunny (tests/data/stanford-bunny/bun_zipper_res4.ply, found from `sourceDir`),
+/// rotated to Z up, 0.45 m tall, standing on z = 0 at the origin, refined to ~15k triangles.
+/// Throws lightskin::Error when the file is missing or malformed.
+TriangleMesh bunny(const std::string& sourceDir);
+
+/// Placement and materials of the two virtual objects.
+glm::mat4 sphereWorld();
+glm::mat4 bunnyWorld();
+Material sphereMaterial();
+Material bunnyMaterial();
+
+/// The view camera of the composited image (static frames), and its path for the moving-camera
+/// sequence (frame t of n; t = 0 is the static view).
+glm::vec3 viewEye(int t = 0, int n = 1);
+glm::vec3 viewTarget();
+glm::mat4 viewClip(int width, int height, int t = 0, int n = 1);
+
+} // namespace lightskin::apps::bench
