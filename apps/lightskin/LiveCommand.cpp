@@ -60,7 +60,7 @@ std::string statusLine(double fps, const FrameOutput& out, const FramePipeline& 
     line += pipeline.giSettings().glossy ? " +glossy" : "";
     line += pipeline.giSettings().occlusion ? " +occl" : "";
     line += " | ";
-    const char* overlays[] = {"", " + vals", " + sparse points", " + error vs brute force"};
+    const char* overlays[] = {"", " + vals", " + sparse points", " + error vs brute force", " + vertex VPLs"};
     line += render::toString(options.view);
     line += overlays[int(options.overlay)];
     line += " | ";
@@ -129,9 +129,9 @@ int runLive(const LiveArgs& args) {
             case 'L': gi.glossy = !gi.glossy; pipeline->setGiSettings(gi); break;
             case 'O': gi.occlusion = !gi.occlusion; pipeline->setGiSettings(gi); break;
             case 'V':
-                // final, direct, indirect, normals, albedo, then the overlays vals, sparse, error.
+                // final, direct, indirect, normals, albedo, then the overlays vals, sparse, error, vpl.
                 if (o.overlay != Overlay::None) {
-                    o.overlay = Overlay((int(o.overlay) + 1) % 4);
+                    o.overlay = Overlay((int(o.overlay) + 1) % kOverlayCount);
                 } else if (o.view == render::DebugView::Albedo) {
                     o.view = render::DebugView::Final;
                     o.overlay = Overlay::Vals;

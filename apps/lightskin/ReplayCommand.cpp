@@ -219,6 +219,8 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
             rf.gpuTimes = output.gpuTimes;
             rf.totalMs = output.totalMs;
             rf.errorVsBruteForce = output.meanRelativeErrorVsBruteForce;
+            rf.vplSegments = output.vplSegments;
+            rf.vplNonFinite = output.vplNonFinite;
             if (compare) render::sideBySideInto(output.withGi, "with GI (" + pipeline->techniqueName() + ")", output.withoutGi, "without GI", sideBySide);
             const bool write = chosen.empty() || chosen.count(frame.index) > 0;
             if (write) {
@@ -275,7 +277,7 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
     command->add_option("--frames", args->frames, "Frames to write as PNG: all (default) or a list like 0,5,10-20");
     command->add_option("--max-frames", args->maxFrames, "Stop after this many frames");
     command->add_option("--pose", args->pose, "ground-truth | tracking | fixed (default: ground truth when the recording has it, else tracking)");
-    command->add_option("--view", args->view, "Debug view: final | direct | indirect | normals | albedo | vals (VALs by flux) | sparse (sparse points) | error (vs brute force)");
+    command->add_option("--view", args->view, "Debug view: final | direct | indirect | normals | albedo | vals (VALs by flux) | sparse (sparse points) | error (vs brute force) | vpl (interpolated vertex VPLs)");
     command->add_flag("--no-video", args->noVideo, "Do not write a video");
     command->add_option("--video-format", args->videoFormat, "auto (MP4, falling back to MJPG AVI) | mp4 | avi");
     command->add_flag("--side-by-side-video", args->sideBySideVideo, "Video frames show with GI | without GI");

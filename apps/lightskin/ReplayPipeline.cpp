@@ -13,11 +13,13 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <glm/common.hpp>
 #include <glm/exponential.hpp>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <span>
 
 namespace lightskin::apps {
 
@@ -112,6 +114,7 @@ void parseView(const std::string& text, render::DebugView& view, Overlay& overla
     if (text == "vals") overlay = Overlay::Vals;
     else if (text == "sparse") overlay = Overlay::SparsePoints;
     else if (text == "error") overlay = Overlay::ErrorVsBruteForce;
+    else if (text == "vpl") overlay = Overlay::VertexVpls;
     else {
         for (auto v : {render::DebugView::Final, render::DebugView::DirectOnly, render::DebugView::IndirectOnly,
                        render::DebugView::Normals, render::DebugView::Albedo})
@@ -120,7 +123,7 @@ void parseView(const std::string& text, render::DebugView& view, Overlay& overla
                 return;
             }
         throw Error("--view", std::nullopt,
-                    "expected final, direct, indirect, normals, albedo, vals, sparse or error, got '" + text + "'");
+                    "expected final, direct, indirect, normals, albedo, vals, sparse, error or vpl, got '" + text + "'");
     }
 }
 
@@ -163,6 +166,76 @@ void drawSparsePoints(cv::Mat& image, const render::Renderer& renderer, const Ca
     }
 }
 
+/// Clips the world segment a-b at the camera's near plane and projects it; false if it is wholly behind.
+bool projectSegment(const CameraIntrinsics& k, const Pose& camera_T_world, const glm::dvec3& a, const glm::dvec3& b,
+                    cv::Point& pa, cv::Point& pb) {
+    constexpr double kNear = 0.05;
+    glm::dvec3 ca = camera_T_world.transformPoint(a), cb = camera_T_world.transformPoint(b);
+    if (ca.z <= kNear && cb.z <= kNear) return false;
+    if (ca.z < kNear) ca += (cb - ca) * ((kNear - ca.z) / (cb.z - ca.z));
+    if (cb.z < kNear) cb += (ca - cb) * ((kNear - cb.z) / (ca.z - cb.z));
+    const auto toPixel = [&k](const glm::dvec3& c) {
+        const glm::dvec2 p = glm::clamp(k.project(c), glm::dvec2(-1e6), glm::dvec2(1e6)); // cv::line clips to the image
+        return cv::Point(int(std::lround(p.x)), int(std::lround(p.y)));
+    };
+    pa = toPixel(ca);
+    pb = toPixel(cb);
+    return true;
+}
+
+bool isFinite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+struct VplViewResult {
+    std::int64_t drawn = 0, nonFinite = 0;
+};
+
+/// The vpl view: per-vertex interpolated diffuse VPLs (layout: LightSkinIllumination.cpp, 4 vec4 per
+/// vertex: (L'''_d, rbar^2), (l'''_d world, 0), glossy...). Debug view only: the GPU->CPU readback
+/// of the per-vertex buffer stalls the pipeline every frame; no other view does this.
+VplViewResult drawVertexVpls(cv::Mat& image, const gi::LightSkinIllumination& technique, std::span<const gi::MeshInstance> instances,
+                             const CameraIntrinsics& k, const Pose& world_T_camera, std::vector<glm::vec4>& vpls) {
+    VplViewResult result;
+    technique.readVertexVpls(vpls);
+    const std::size_t vertexCount = vpls.size() / 4;
+    const std::vector<std::uint32_t>& offsets = technique.vertexOffsets();
+    LIGHTSKIN_ASSERT(offsets.size() == instances.size(), "lightskin::apps: the technique was prepared with other instances");
+    float brightest = 0.0f;
+    for (std::size_t v = 0; v < vertexCount; ++v) {
+        const glm::vec3 radiance(vpls[4 * v]), position(vpls[4 * v + 1]);
+        if (!isFinite(radiance) || !isFinite(position)) {
+            ++result.nonFinite;
+            continue;
+        }
+        brightest = std::max({brightest, radiance.x, radiance.y, radiance.z});
+    }
+    if (!(brightest > 0.0f)) return result;
+    const std::size_t step = std::max<std::size_t>(1, (vertexCount + kMaxVplSegments - 1) / kMaxVplSegments);
+    const Pose camera_T_world = world_T_camera.inverse();
+    for (std::size_t m = 0; m < instances.size(); ++m) {
+        const TriangleMesh& mesh = *instances[m].mesh;
+        // one global subsampling grid over all meshes' vertices
+        const std::size_t first = offsets[m];
+        for (std::size_t v = (step - first % step) % step; v < mesh.vertexCount(); v += step) {
+            const std::size_t g = first + v;
+            LIGHTSKIN_ASSERT(g < vertexCount, "lightskin::apps: vertex outside the technique's per-vertex buffer");
+            const glm::vec3 radiance(vpls[4 * g]), position(vpls[4 * g + 1]);
+            if (!isFinite(radiance) || !isFinite(position)) continue;
+            if (!(std::max({radiance.x, radiance.y, radiance.z}) > 0.0f)) continue; // no light: no VPL
+            const glm::dvec3 vertex(instances[m].world_T_model * glm::vec4(mesh.positions[v], 1.0f));
+            const glm::dvec3 vpl(position);
+            cv::Point a, b;
+            if (!projectSegment(k, camera_T_world, vertex, vertex + 0.25 * (vpl - vertex), a, b)) continue;
+            const glm::vec3 c = glm::sqrt(glm::max(radiance, 0.0f) / brightest) * 255.0f;
+            const cv::Scalar colour(c.z, c.y, c.x);
+            cv::line(image, a, b, colour, 1, cv::LINE_8);
+            cv::Point dot;
+            if (projectToPixel(k, camera_T_world, vpl, dot)) cv::circle(image, dot, 1, colour, cv::FILLED);
+            ++result.drawn;
+        }
+    }
+    return result;
+}
+
 } // namespace
 
 struct FramePipeline::State {
@@ -177,6 +250,7 @@ struct FramePipeline::State {
     cv::Mat depthMetres, virtualColour, virtualDepth;
     std::unique_ptr<gi::IndirectIllumination> bruteForce; // error view only
     cv::Mat indirectTechnique, indirectReference, errorMap;
+    std::vector<glm::vec4> vertexVpls; // vpl view only
     std::vector<gl::StageTime> scratchTimes;
 };
 
@@ -230,6 +304,8 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     out.frameIndex = frame.index;
     out.valCount = 0;
     out.meanRelativeErrorVsBruteForce = -1.0;
+    out.vplSegments = -1;
+    out.vplNonFinite = -1;
 
     // Depth in metres (CV_32FC1, 0 = missing), registered to colour.
     auto t = Clock::now();
@@ -291,6 +367,13 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     if (options_.overlay == Overlay::Vals && out.valCount > 0 && s.vals)
         drawVals(out.withGi, s.vals->downloadVals(), frame.colourIntrinsics, world_T_camera);
     if (options_.overlay == Overlay::SparsePoints) drawSparsePoints(out.withGi, r, frame.colourIntrinsics, world_T_camera);
+    if (options_.overlay == Overlay::VertexVpls && runGi) {
+        if (const auto* lightSkin = dynamic_cast<const gi::LightSkinIllumination*>(s.technique.get())) {
+            const VplViewResult vpl = drawVertexVpls(out.withGi, *lightSkin, r.instances(), frame.colourIntrinsics, world_T_camera, s.vertexVpls);
+            out.vplSegments = vpl.drawn;
+            out.vplNonFinite = vpl.nonFinite;
+        }
+    }
     if (options_.overlay == Overlay::ErrorVsBruteForce && runGi) {
         if (!s.bruteForce) {
             render::GiSettings reference = gi_;

@@ -36,11 +36,18 @@ std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettin
 /// brightest VAL); SparsePoints: the technique's sparse points (LightSkin only); ErrorVsBruteForce:
 /// |indirect(technique) - indirect(brute force)| per pixel as a colour map (blue 0 .. red at
 /// errorScale, linear RGB luminance), with the mean relative error in the corner (brute force has no
-/// occlusion term, so with occlusion on the difference includes it).
-enum class Overlay { None, Vals, SparsePoints, ErrorVsBruteForce };
+/// occlusion term, so with occlusion on the difference includes it). VertexVpls (LightSkin only):
+/// the interpolated diffuse VPL of every n-th vertex of the virtual meshes (eq. 13: l'''_d and
+/// L'''_d, after occlusion), at most kMaxVplSegments: a segment from the vertex a quarter of the
+/// way toward its VPL position plus a dot at the VPL position, coloured like the vals view
+/// (square root of L'''_d normalised to the brightest vertex VPL); segments are clipped at the
+/// camera's near plane (5 cm) and drawn without a depth test (hidden vertices too). This view reads the per-vertex VPL buffer back every frame.
+enum class Overlay { None, Vals, SparsePoints, ErrorVsBruteForce, VertexVpls };
+inline constexpr int kOverlayCount = 5;
+inline constexpr std::uint32_t kMaxVplSegments = 2000;
 
 /// Parses a view name: final, direct, indirect, normals, albedo (render::DebugView) or vals,
-/// sparse, error (overlays over the final image). Throws lightskin::Error otherwise.
+/// sparse, error, vpl (overlays over the final image). Throws lightskin::Error otherwise.
 void parseView(const std::string& text, render::DebugView& view, Overlay& overlay);
 
 struct PipelineOptions {
@@ -60,6 +67,8 @@ struct FrameOutput {
     std::optional<Pose> world_T_camera;
     std::uint32_t valCount = 0;
     double meanRelativeErrorVsBruteForce = -1.0; ///< error view only: mean |a-b| / mean |b| over covered pixels
+    std::int64_t vplSegments = -1;  ///< vpl view only: vertex VPLs drawn (in front of the camera), else -1
+    std::int64_t vplNonFinite = -1; ///< vpl view only: vertices (of all) whose l'''_d or L'''_d is not finite, else -1
     std::vector<gl::StageTime> cpuTimes; ///< wall-clock per stage, ms (incl. waiting for the GPU)
     std::vector<gl::StageTime> gpuTimes; ///< GL timer queries, ms
     double totalMs = 0.0;

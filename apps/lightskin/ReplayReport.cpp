@@ -86,6 +86,8 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
         j["vals"] = f.valCount;
         j["totalMs"] = f.totalMs;
         if (f.errorVsBruteForce >= 0.0) j["meanRelativeErrorVsBruteForce"] = f.errorVsBruteForce;
+        if (f.vplSegments >= 0) j["vplSegments"] = f.vplSegments;
+        if (f.vplNonFinite >= 0) j["vplNonFinite"] = f.vplNonFinite;
         for (const auto& st : f.cpuTimes) j["cpuMs"][st.name] = st.milliseconds;
         for (const auto& st : f.gpuTimes) {
             const bool seen = j.contains("gpuMs") && j["gpuMs"].contains(st.name);

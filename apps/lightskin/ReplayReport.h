@@ -18,6 +18,8 @@ struct ReportFrame {
     std::uint32_t valCount = 0;
     std::vector<gl::StageTime> cpuTimes, gpuTimes;
     double totalMs = 0.0;
+    std::int64_t vplSegments = -1;  ///< --view vpl: vertex VPLs drawn, else < 0
+    std::int64_t vplNonFinite = -1; ///< --view vpl: vertices with a non-finite VPL, else < 0
     double errorVsBruteForce = -1.0; ///< --view error: mean relative error of the technique's indirect light, else < 0
     std::string image;        ///< PNG written for this frame (relative to the output folder), or empty
     std::string compareImage; ///< side-by-side PNG, or empty
