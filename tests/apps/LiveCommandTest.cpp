@@ -32,8 +32,7 @@ fs::path writeScene(const fs::path& folder, const std::string& name, const std::
 int run(const std::string& prefix, const std::string& arguments, const fs::path& scratch) {
     const std::string command = prefix + std::string(LIGHTSKIN_PROGRAM) + " " + arguments + " > " +
                                 (scratch / "stdout.txt").string() + " 2> " + (scratch / "stderr.txt").string();
-    const int status = std::system(command.c_str());
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    return test::runShell(command);
 }
 
 std::string liveArguments(const fs::path& scene, const fs::path& snapshot) {

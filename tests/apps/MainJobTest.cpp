@@ -21,18 +21,12 @@ using namespace lightskin;
 
 namespace {
 
-std::string readText(const fs::path& path) {
-    std::ifstream file(path);
-    return {std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>()};
-}
-
 int replay(const std::string& arguments, const fs::path& scratch) {
     const fs::path root = test::sourceDir();
     const std::string command = std::string(LIGHTSKIN_PROGRAM) + " replay " + (root / "recordings" / "synth-orbit").string() +
                                 " --scene " + (root / "recordings" / "scenes" / "orbit.json").string() + " " + arguments +
                                 " > " + (scratch / "stdout.txt").string() + " 2> " + (scratch / "stderr.txt").string();
-    const int status = std::system(command.c_str());
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    return test::runShell(command);
 }
 
 glm::dvec3 translation(const nlohmann::json& pose) {
@@ -45,8 +39,8 @@ glm::dvec3 translation(const nlohmann::json& pose) {
 TEST(MainJob, ReplayOfTheBundledRecordingWritesImagesVideoAndReport) {
     const fs::path scratch = test::scratchDir("main_job");
     const fs::path out = scratch / "out";
-    ASSERT_EQ(replay("--out " + out.string() + " --max-frames 2", scratch), 0) << readText(scratch / "stderr.txt");
-    const nlohmann::json report = nlohmann::json::parse(readText(out / "report.json"));
+    ASSERT_EQ(replay("--out " + out.string() + " --max-frames 2", scratch), 0) << test::readText(scratch / "stderr.txt");
+    const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
     EXPECT_EQ(report["framesRead"], 2);
     EXPECT_EQ(report["framesInSource"], 40);
     EXPECT_EQ(report["technique"], "lightskin");
@@ -65,8 +59,8 @@ TEST(MainJob, TrackingModeFollowsTheGroundTruth) {
     const fs::path scratch = test::scratchDir("main_job_tracking");
     const fs::path out = scratch / "out";
     ASSERT_EQ(replay("--out " + out.string() + " --max-frames 3 --pose tracking --no-video --no-compare --frames 0", scratch), 0)
-        << readText(scratch / "stderr.txt");
-    const nlohmann::json report = nlohmann::json::parse(readText(out / "report.json"));
+        << test::readText(scratch / "stderr.txt");
+    const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
     EXPECT_EQ(report["poseMode"], "tracking");
     std::vector<nlohmann::json> truth;
     std::ifstream index(test::sourceDir() / "recordings" / "synth-orbit" / "frames.jsonl");
@@ -95,8 +89,8 @@ TEST(MainJob, CtrlCStopsCleanlyAndKeepsWhatWasWritten) {
                                " ] && [ $i -lt 600 ]; do sleep 0.1; i=$((i+1)); done; kill -INT $pid; wait $pid; echo $? > " +
                                (scratch / "rc.txt").string();
     ASSERT_EQ(std::system(("sh -c '" + script + "'").c_str()), 0);
-    EXPECT_EQ(readText(scratch / "rc.txt"), "130\n") << readText(scratch / "stderr.txt");
-    const nlohmann::json report = nlohmann::json::parse(readText(out / "report.json"));
+    EXPECT_EQ(test::readText(scratch / "rc.txt"), "130\n") << test::readText(scratch / "stderr.txt");
+    const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
     EXPECT_EQ(report["interrupted"], true);
     const int read = report["framesRead"].get<int>();
     EXPECT_GE(read, 2);

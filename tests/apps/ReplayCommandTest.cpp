@@ -67,19 +67,13 @@ struct RunResult {
     std::string out, err;
 };
 
-std::string readText(const fs::path& path) {
-    std::ifstream file(path);
-    return {std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>()};
-}
-
 RunResult runLightskin(const std::string& arguments, const fs::path& scratch) {
     const fs::path out = scratch / "stdout.txt", err = scratch / "stderr.txt";
     const std::string command = std::string(LIGHTSKIN_PROGRAM) + " " + arguments + " > " + out.string() + " 2> " + err.string();
-    const int status = std::system(command.c_str());
     RunResult r;
-    r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = readText(out);
-    r.err = readText(err);
+    r.exitCode = test::runShell(command);
+    r.out = test::readText(out);
+    r.err = test::readText(err);
     return r;
 }
 
@@ -101,7 +95,7 @@ TEST(ReplayCommand, WritesEveryFrameAVideoWithTheFrameCountAndAReport) {
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_EQ(countFiles(out / "frames", ".png"), std::size_t(kFrames));
 
-    const nlohmann::json report = nlohmann::json::parse(readText(out / "report.json"));
+    const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
     EXPECT_EQ(report["framesRead"], kFrames);
     EXPECT_EQ(report["frames"].size(), std::size_t(kFrames));
     EXPECT_EQ(report["poseMode"], "ground-truth"); // the recording has ground truth
@@ -144,7 +138,7 @@ TEST(ReplayCommand, FrameListChoosesThePngsButEveryFrameIsRead) {
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_EQ(countFiles(out / "frames", ".png"), 3u);
     EXPECT_TRUE(fs::exists(out / "frames" / "000003.png"));
-    const nlohmann::json report = nlohmann::json::parse(readText(out / "report.json"));
+    const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
     EXPECT_EQ(report["framesRead"], kFrames);
     EXPECT_EQ(report["poseMode"], "fixed");
     EXPECT_EQ(report["video"], "");
@@ -159,7 +153,7 @@ TEST(ReplayCommand, AviFallbackHasTheFrameCount) {
                                          " --video-format avi --frames 0",
                                      scratch);
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    const nlohmann::json report = nlohmann::json::parse(readText(out / "report.json"));
+    const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
     EXPECT_EQ(report["video"], "replay.avi");
     EXPECT_EQ(report["videoCodec"], "MJPG in AVI");
     cv::VideoCapture capture((out / "replay.avi").string());
@@ -211,7 +205,7 @@ TEST(ReplayCommand, LightSkinTechniqueAddsIndirectLightToTheComparison) {
                                          " --frames 0 --max-frames 2",
                                      scratch);
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    const nlohmann::json report = nlohmann::json::parse(readText(out / "report.json"));
+    const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
     EXPECT_EQ(report["framesRead"], 2);
     EXPECT_EQ(report["technique"], "lightskin");
     EXPECT_GT(report["frames"][0]["vals"].get<int>(), 100);

@@ -18,11 +18,6 @@ using namespace lightskin;
 
 namespace {
 
-std::string readText(const fs::path& path) {
-    std::ifstream file(path);
-    return {std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>()};
-}
-
 /// Replays the first frame of recordings/synth-orbit with `view` into scratch/<view>; returns the exit code.
 int replayFirstFrame(const std::string& view, const fs::path& scratch) {
     const fs::path root = test::sourceDir(), out = scratch / view;
@@ -30,19 +25,18 @@ int replayFirstFrame(const std::string& view, const fs::path& scratch) {
                                 " --scene " + (root / "recordings" / "scenes" / "orbit.json").string() + " --out " + out.string() +
                                 " --max-frames 1 --no-video --no-compare --view " + view + " > " + (scratch / (view + ".out")).string() +
                                 " 2> " + (scratch / (view + ".err")).string();
-    const int status = std::system(command.c_str());
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    return test::runShell(command);
 }
 
 } // namespace
 
 TEST(VplView, DrawsFiniteVertexVplsOverTheFinalCompositeOnly) {
     const fs::path scratch = test::scratchDir("vpl_view");
-    ASSERT_EQ(replayFirstFrame("final", scratch), 0) << readText(scratch / "final.err");
-    ASSERT_EQ(replayFirstFrame("vpl", scratch), 0) << readText(scratch / "vpl.err");
+    ASSERT_EQ(replayFirstFrame("final", scratch), 0) << test::readText(scratch / "final.err");
+    ASSERT_EQ(replayFirstFrame("vpl", scratch), 0) << test::readText(scratch / "vpl.err");
 
-    const nlohmann::json finalReport = nlohmann::json::parse(readText(scratch / "final" / "report.json"));
-    const nlohmann::json vplReport = nlohmann::json::parse(readText(scratch / "vpl" / "report.json"));
+    const nlohmann::json finalReport = nlohmann::json::parse(test::readText(scratch / "final" / "report.json"));
+    const nlohmann::json vplReport = nlohmann::json::parse(test::readText(scratch / "vpl" / "report.json"));
     ASSERT_EQ(vplReport["framesRead"], 1);
     const nlohmann::json& frame = vplReport["frames"][0];
     EXPECT_FALSE(finalReport["frames"][0].contains("vplSegments")); // only the vpl view reads the VPLs back

@@ -42,17 +42,11 @@ namespace fs = std::filesystem;
 namespace lightskin::test {
 namespace {
 
-std::string readText(const fs::path& path) {
-    std::ifstream file(path);
-    return {std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>()};
-}
-
 /// Runs `lightskin replay <arguments>`; stdout/stderr go to files in `scratch` (printed on failure).
 int runLightskin(const std::string& arguments, const fs::path& scratch, const std::string& tag) {
     const std::string command = std::string(LIGHTSKIN_PROGRAM) + " replay " + arguments + " > " +
                                 (scratch / (tag + ".stdout.txt")).string() + " 2> " + (scratch / (tag + ".stderr.txt")).string();
-    const int status = std::system(command.c_str());
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    return test::runShell(command);
 }
 
 struct TruthPose {
@@ -218,9 +212,9 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
     // indirect light alone, and the normals (for the virtual-content mask).
     for (const char* view : {"final", "indirect", "normals"}) {
         const std::string args = common + " --view " + view + " --out " + (scratch / view).string() + (std::string(view) == "final" ? "" : " --no-compare");
-        ASSERT_EQ(runLightskin(args, scratch, view), 0) << "lightskin replay " << args << "\n" << readText(scratch / (std::string(view) + ".stderr.txt"));
+        ASSERT_EQ(runLightskin(args, scratch, view), 0) << "lightskin replay " << args << "\n" << test::readText(scratch / (std::string(view) + ".stderr.txt"));
     }
-    const nlohmann::json report = nlohmann::json::parse(readText(scratch / "final" / "report.json"));
+    const nlohmann::json report = nlohmann::json::parse(test::readText(scratch / "final" / "report.json"));
     const std::string renderer = report["renderer"].get<std::string>();
 
     // Frame counts: the reader sees what was recorded, and replay processes all of it (or what was asked).
@@ -406,10 +400,10 @@ std::vector<TrackedFrame> replayTracked(const std::string& recording, const std:
                              " --pose tracking --no-video --no-compare --frames 0 --max-frames " + std::to_string(frames) + " --out " +
                              (scratch / "out").string();
     if (runLightskin(args, scratch, "tracking") != 0) {
-        ADD_FAILURE() << "lightskin replay " << args << "\n" << readText(scratch / "tracking.stderr.txt");
+        ADD_FAILURE() << "lightskin replay " << args << "\n" << test::readText(scratch / "tracking.stderr.txt");
         return {};
     }
-    const nlohmann::json report = nlohmann::json::parse(readText(scratch / "out" / "report.json"));
+    const nlohmann::json report = nlohmann::json::parse(test::readText(scratch / "out" / "report.json"));
     std::int64_t recorded = 0;
     const std::vector<TruthPose> truth = recordingTruth(root / recording, recorded);
     std::vector<TrackedFrame> out;

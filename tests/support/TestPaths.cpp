@@ -1,6 +1,11 @@
 #include "TestPaths.h"
 
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
 #include <stdexcept>
+
+#include <sys/wait.h>
 
 namespace lightskin::test {
 
@@ -17,6 +22,16 @@ std::filesystem::path scratchDir(const std::string& name) {
     std::filesystem::remove_all(path);
     std::filesystem::create_directories(path);
     return path;
+}
+
+std::string readText(const std::filesystem::path& path) {
+    std::ifstream file(path);
+    return {std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>()};
+}
+
+int runShell(const std::string& command) {
+    const int status = std::system(command.c_str());
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
 } // namespace lightskin::test
