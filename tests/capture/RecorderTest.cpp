@@ -164,5 +164,28 @@ TEST(RecorderTest, RecordCommandRoundTripIsBitExact) {
     }
 }
 
+TEST(RecorderTest, InfoCommandDescribesARecording) {
+    const auto scratch = scratchDir("recorder_cli_info");
+    const auto info = smallRecordingInfo(64, 48);
+    {
+        auto writer = capture::RecordingWriter::create(scratch / "rec", info);
+        for (std::uint32_t i = 0; i < 4; ++i) {
+            RgbdFrame frame = syntheticFrame(info, i);
+            if (i == 2) frame.groundTruth_world_T_camera = Pose();
+            writer.write(frame);
+        }
+    }
+    const std::string command = std::string(LIGHTSKIN_CLI) + " info " + (scratch / "rec").string() + " > " +
+                                (scratch / "info.txt").string();
+    ASSERT_EQ(std::system(command.c_str()), 0);
+    std::ifstream in(scratch / "info.txt");
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_NE(text.find("format version 1"), std::string::npos) << text;
+    EXPECT_NE(text.find("synthetic test camera"), std::string::npos) << text;
+    EXPECT_NE(text.find("frames:        4 (4 with colour, 4 with depth, 1 with ground-truth pose)"), std::string::npos) << text;
+    EXPECT_NE(text.find("64x48 fx=30.000"), std::string::npos) << text;
+    EXPECT_NE(text.find("state:         finished"), std::string::npos) << text;
+}
+
 } // namespace
 } // namespace lightskin::test
