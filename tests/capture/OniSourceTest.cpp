@@ -8,16 +8,13 @@
 #include <lightskin/core/Error.h>
 
 #include <OpenNI.h>
-
+#include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include <gtest/gtest.h>
-
-#include <unistd.h>
-
 #include <cmath>
 #include <fstream>
+#include <unistd.h>
 
 namespace lightskin::test {
 namespace {
@@ -97,7 +94,8 @@ TEST(OniSourceTest, MirroredFileIsFlippedBackAndSeekWorks) {
     ASSERT_TRUE(source->next(first));
     cv::Mat flipped;
     cv::flip(raw, flipped, 1);
-    EXPECT_EQ(cv::norm(first.depth, flipped, cv::NORM_INF), 0.0) << "the file's mirror flag is set: lightskin un-mirrors";
+    EXPECT_EQ(cv::norm(first.depth, flipped, cv::NORM_INF), 0.0)
+        << "the file's mirror flag is set: lightskin un-mirrors";
     EXPECT_GT(cv::norm(first.depth, raw, cv::NORM_INF), 0.0);
 
     std::vector<cv::Mat> sequential{first.depth.clone()};
@@ -115,10 +113,15 @@ TEST(OniSourceTest, RecordingTheFileAndReplayingItIsBitExact) {
     auto oni = capture::openFrameSource(oniPath());
     {
         const auto& info = oni->info();
-        capture::RecordingInfo recording{info.deviceName, info.colourIntrinsics, info.depthIntrinsics,
-                                         info.depthScaleMetres, info.registration, info.colour_T_depth, false};
-        auto recorder = capture::Recorder::start(capture::RecordingWriter::create(folder, recording),
-                                                 capture::RecorderOptions{16});
+        capture::RecordingInfo recording{info.deviceName,
+                                         info.colourIntrinsics,
+                                         info.depthIntrinsics,
+                                         info.depthScaleMetres,
+                                         info.registration,
+                                         info.colour_T_depth,
+                                         false};
+        auto recorder =
+            capture::Recorder::start(capture::RecordingWriter::create(folder, recording), capture::RecorderOptions{16});
         RgbdFrame frame;
         while (oni->next(frame)) recorder->push(frame);
         const auto stats = recorder->finish();
