@@ -37,7 +37,9 @@ struct RecordingWriter::State {
         const ssize_t n = ::write(indexFd, line.data(), line.size());
         if (n != ssize_t(line.size())) {
             const int code = n < 0 ? errno : ENOSPC;
-            if (before >= 0 && ::ftruncate(indexFd, before) != 0) { /* the reader ignores a partial tail anyway */
+            if (before >= 0) {
+                // Drop the partial line; if even that fails, readers ignore a tail without newline.
+                [[maybe_unused]] const int ignored = ::ftruncate(indexFd, before);
             }
             throw Error(file, frame, std::string("cannot append to the index: ") + std::strerror(code));
         }
