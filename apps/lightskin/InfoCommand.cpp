@@ -26,7 +26,8 @@ void addInfoCommand(CLI::App& app, int& exitCode) {
             const auto s = capture::readRecordingSummary(folder);
             std::printf("lightskin recording, format version %d\n", s.version);
             std::printf("device:        %s\n", s.info.deviceName.c_str());
-            std::printf("colour:        %s (%s)\n", s.info.colourIntrinsics.describe().c_str(), s.info.jpegColour ? "JPEG" : "PNG");
+            std::printf("colour:        %s (%s)\n", s.info.colourIntrinsics.describe().c_str(),
+                        s.info.jpegColour ? "JPEG" : "PNG");
             std::printf("depth:         %s (16-bit PNG, %.6g m per unit)\n", s.info.depthIntrinsics.describe().c_str(),
                         s.info.depthScaleMetres);
             std::printf("registration:  %s\n", toString(s.info.registration));
@@ -39,17 +40,21 @@ void addInfoCommand(CLI::App& app, int& exitCode) {
                 std::printf("time:          %.3f .. %.3f s (%.3f s)\n", s.firstTimestampSeconds, s.lastTimestampSeconds,
                             s.lastTimestampSeconds - s.firstTimestampSeconds);
             std::printf("size:          %.1f MB\n", double(s.totalBytes) / 1e6);
-            std::printf("state:         %s\n", s.finished ? "finished" : "cut off (no end marker): complete frames are readable");
+            std::printf("state:         %s\n",
+                        s.finished ? "finished" : "cut off (no end marker): complete frames are readable");
         } else {
             auto source = capture::openFrameSource(*path);
             const auto& info = source->info();
             std::printf("%s source %s\n", info.kind.c_str(), info.uri.c_str());
             std::printf("device:        %s\n", info.deviceName.c_str());
             std::printf("colour:        %s\n", info.colourIntrinsics.describe().c_str());
-            std::printf("depth:         %s (%.6g m per unit)\n", info.depthIntrinsics.describe().c_str(), info.depthScaleMetres);
+            std::printf("depth:         %s (%.6g m per unit)\n", info.depthIntrinsics.describe().c_str(),
+                        info.depthScaleMetres);
             std::printf("registration:  %s\n", toString(info.registration));
-            if (const auto count = source->frameCount()) std::printf("frames:        %lld\n", static_cast<long long>(*count));
-            else std::printf("frames:        live\n");
+            if (const auto count = source->frameCount())
+                std::printf("frames:        %lld\n", static_cast<long long>(*count));
+            else
+                std::printf("frames:        live\n");
             std::printf("ground truth:  %s\n", info.hasGroundTruth ? "yes" : "no");
         }
         exitCode = 0;

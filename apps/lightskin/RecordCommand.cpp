@@ -35,23 +35,29 @@ struct RecordArguments {
 };
 
 void addRecordCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand("record", "Record a camera, .oni, TUM folder or recording to a lightskin recording");
+    auto* command =
+        app.add_subcommand("record", "Record a camera, .oni, TUM folder or recording to a lightskin recording");
     auto args = std::make_shared<RecordArguments>();
-    command->add_option("--source", args->source, "openni2://[uri], freenect://<n>, a .oni file, a TUM folder or a recording")
+    command
+        ->add_option("--source", args->source,
+                     "openni2://[uri], freenect://<n>, a .oni file, a TUM folder or a recording")
         ->required();
     command->add_option("--out", args->out, "Output folder (must not exist or be empty)")->required();
     command->add_option("--frames", args->maxFrames, "Stop after this many frames (default: until the end or Ctrl-C)");
-    command->add_option("--queue", args->queue, "Frames that may wait for the disk (default 30)")->check(CLI::Range(1, 10000));
+    command->add_option("--queue", args->queue, "Frames that may wait for the disk (default 30)")
+        ->check(CLI::Range(1, 10000));
     command->add_flag("--jpeg", args->jpeg, "Store colour as JPEG (lossy, smaller) instead of PNG");
     command->add_flag("--realtime", args->realtime, "Replay recorded sources at their recorded speed");
-    command->add_flag("--to-fakenect", args->toFakenect, "Write a fakenect dump (640x480) instead of a lightskin recording");
+    command->add_flag("--to-fakenect", args->toFakenect,
+                      "Write a fakenect dump (640x480) instead of a lightskin recording");
     command->callback([args, &exitCode] {
         capture::FrameSourceOptions options;
         options.pacing = args->realtime ? capture::Pacing::Realtime : capture::Pacing::AsFastAsPossible;
         auto source = capture::openFrameSource(args->source, options);
         if (args->toFakenect) {
             const auto frames = capture::writeFakenectDump(*source, args->out, args->maxFrames);
-            std::printf("wrote %lld frames as a fakenect dump to %s\n", static_cast<long long>(frames), args->out.c_str());
+            std::printf("wrote %lld frames as a fakenect dump to %s\n", static_cast<long long>(frames),
+                        args->out.c_str());
             exitCode = 0;
             return;
         }
@@ -68,7 +74,8 @@ void addRecordCommand(CLI::App& app, int& exitCode) {
                                                  capture::RecorderOptions{args->queue});
         stopRequested = 0;
         const auto previous = std::signal(SIGINT, onInterrupt);
-        std::printf("recording %s (%s) to %s; Ctrl-C stops\n", args->source.c_str(), info.kind.c_str(), args->out.c_str());
+        std::printf("recording %s (%s) to %s; Ctrl-C stops\n", args->source.c_str(), info.kind.c_str(),
+                    args->out.c_str());
         std::fflush(stdout);
         RgbdFrame frame;
         std::string sourceError;

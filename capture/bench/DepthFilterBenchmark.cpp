@@ -5,7 +5,6 @@
 #include <lightskin/capture/DepthFilter.h>
 
 #include <benchmark/benchmark.h>
-
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>

@@ -8,7 +8,8 @@
 
 namespace lightskin::capture {
 
-BilateralDepthFilter::BilateralDepthFilter(const BilateralDepthFilterParams& params) : params_(params) {
+BilateralDepthFilter::BilateralDepthFilter(const BilateralDepthFilterParams& params)
+    : params_(params) {
     LIGHTSKIN_ASSERT(params.kernelSize >= 1 && params.kernelSize % 2 == 1, "kernelSize must be odd and positive");
     LIGHTSKIN_ASSERT(params.sigmaSpacePixels > 0.0 && params.sigmaDepthMetres > 0.0, "sigmas must be positive");
     LIGHTSKIN_ASSERT(params.minDepthMetres >= 0.0 && params.maxDepthMetres > params.minDepthMetres,
@@ -23,8 +24,8 @@ void BilateralDepthFilter::filterInto(const cv::Mat& depth, double depthScaleMet
 
     // Valid = positive, finite and inside the optional range clamp. NaN fails every comparison.
     const float low = std::max(float(params_.minDepthMetres), std::numeric_limits<float>::min());
-    const float high = std::isfinite(params_.maxDepthMetres) ? float(params_.maxDepthMetres)
-                                                             : std::numeric_limits<float>::max();
+    const float high =
+        std::isfinite(params_.maxDepthMetres) ? float(params_.maxDepthMetres) : std::numeric_limits<float>::max();
     cv::inRange(metres_, cv::Scalar(double(low)), cv::Scalar(double(high)), valid_);
     cv::bitwise_not(valid_, invalid_);
     outMetres.create(depth.size(), CV_32FC1);

@@ -35,8 +35,10 @@ std::int64_t writeFakenectDump(FrameSource& source, const std::filesystem::path&
         if (!frame.hasDepth() || !frame.hasColour()) fail("fakenect dumps need both depth and colour in every frame");
         if (frame.depth.size() != cv::Size(640, 480) || frame.colour.size() != cv::Size(640, 480))
             fail("fakenect replays 640x480 only");
-        if (std::abs(frame.depthScaleMetres - 0.001) < 1e-12) frame.depth.copyTo(millimetres);
-        else frame.depth.convertTo(millimetres, CV_16U, frame.depthScaleMetres / 0.001); // rounds, saturates
+        if (std::abs(frame.depthScaleMetres - 0.001) < 1e-12)
+            frame.depth.copyTo(millimetres);
+        else
+            frame.depth.convertTo(millimetres, CV_16U, frame.depthScaleMetres / 0.001); // rounds, saturates
         for (int v = 0; v < 480; ++v) {
             auto* row = millimetres.ptr<std::uint16_t>(v);
             for (int u = 0; u < 640; ++u) row[u] = static_cast<std::uint16_t>(detail::disparityFromMillimetres(row[u]));
@@ -45,7 +47,8 @@ std::int64_t writeFakenectDump(FrameSource& source, const std::filesystem::path&
 
         // fakenect sleeps between index lines by the difference of the <seconds> fields: keep the
         // recorded pace but cap gaps at 1 s, so a recording with a pause cannot stall a replay.
-        double time = std::isfinite(frame.depthTimestampSeconds) ? frame.depthTimestampSeconds : frame.colourTimestampSeconds;
+        double time =
+            std::isfinite(frame.depthTimestampSeconds) ? frame.depthTimestampSeconds : frame.colourTimestampSeconds;
         if (!std::isfinite(time)) time = std::isfinite(previousTime) ? previousTime + 1.0 / 30.0 : 0.0;
         if (std::isfinite(previousTime)) seconds += std::clamp(time - previousTime, 0.0, 1.0);
         previousTime = time;

@@ -10,7 +10,8 @@
 namespace lightskin::capture {
 
 FrameSource::FrameSource(FrameSourceInfo info, FrameSourceOptions options)
-    : info_(std::move(info)), options_(std::move(options)) {}
+    : info_(std::move(info))
+    , options_(std::move(options)) {}
 
 FrameSource::~FrameSource() = default;
 
@@ -56,7 +57,8 @@ bool FrameSource::next(RgbdFrame& out) {
         break;
     }
     if (pace) {
-        const double time = std::isfinite(out.depthTimestampSeconds) ? out.depthTimestampSeconds : out.colourTimestampSeconds;
+        const double time =
+            std::isfinite(out.depthTimestampSeconds) ? out.depthTimestampSeconds : out.colourTimestampSeconds;
         if (std::isfinite(time)) {
             if (!paceStarted_) {
                 paceStarted_ = true;
@@ -84,7 +86,8 @@ std::unique_ptr<FrameSource> openFrameSource(const std::string& uriOrPath, const
             } catch (const std::exception&) {
                 used = 0;
             }
-            if (used != rest.size() || index < 0) throw Error(uriOrPath, std::nullopt, "expected freenect://<device index>");
+            if (used != rest.size() || index < 0)
+                throw Error(uriOrPath, std::nullopt, "expected freenect://<device index>");
         }
         return detail::openFreenectSource(index, options);
     }
@@ -102,8 +105,9 @@ std::unique_ptr<FrameSource> openFrameSource(const std::string& uriOrPath, const
     std::string extension = path.extension().string();
     for (char& c : extension) c = char(std::tolower(static_cast<unsigned char>(c)));
     if (extension == ".oni") return detail::openOpenNI2Source(uriOrPath, true, options);
-    throw Error(uriOrPath, std::nullopt, "unknown source: expected a recording folder, a TUM folder, a .oni file, "
-                                         "openni2://[uri] or freenect://<index>");
+    throw Error(uriOrPath, std::nullopt,
+                "unknown source: expected a recording folder, a TUM folder, a .oni file, "
+                "openni2://[uri] or freenect://<index>");
 }
 
 void FrameSource::stampFrame(RgbdFrame& out, std::int64_t index) const {

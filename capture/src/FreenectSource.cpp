@@ -11,15 +11,13 @@
 #include <lightskin/core/Log.h>
 
 #include <libfreenect.h>
-
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
-
-#include <sys/time.h>
 
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <sys/time.h>
 
 namespace lightskin::capture::detail {
 
@@ -51,8 +49,9 @@ namespace {
 class FreenectSource final : public FrameSource {
 public:
     FreenectSource(FrameSourceInfo info, FrameSourceOptions options)
-        : FrameSource(std::move(info), std::move(options)), depthBuffer_(kHeight, kWidth, CV_16UC1),
-          videoBuffer_(kHeight, kWidth, CV_8UC3) {}
+        : FrameSource(std::move(info), std::move(options))
+        , depthBuffer_(kHeight, kWidth, CV_16UC1)
+        , videoBuffer_(kHeight, kWidth, CV_8UC3) {}
 
     ~FreenectSource() override {
         if (device_) {
@@ -73,8 +72,9 @@ public:
         freenect_select_subdevices(context_, FREENECT_DEVICE_CAMERA);
         const int devices = freenect_num_devices(context_);
         if (deviceIndex >= devices)
-            throw Error(uri, std::nullopt, "no Kinect v1 with index " + std::to_string(deviceIndex) + " (" +
-                                               std::to_string(devices) + " found)");
+            throw Error(uri, std::nullopt,
+                        "no Kinect v1 with index " + std::to_string(deviceIndex) + " (" + std::to_string(devices) +
+                            " found)");
         if (freenect_open_device(context_, &device_, deviceIndex) < 0 || !device_) {
             device_ = nullptr;
             throw Error(uri, std::nullopt, "cannot open the Kinect (permissions? another program using it?)");
@@ -91,7 +91,8 @@ public:
         }
         for (int i = 0; i < freenect_get_video_mode_count(); ++i) {
             const freenect_frame_mode mode = freenect_get_video_mode(i);
-            if (mode.is_valid && mode.resolution == FREENECT_RESOLUTION_MEDIUM && mode.video_format == FREENECT_VIDEO_RGB)
+            if (mode.is_valid && mode.resolution == FREENECT_RESOLUTION_MEDIUM &&
+                mode.video_format == FREENECT_VIDEO_RGB)
                 videoMode = mode;
         }
         // Without a metric mode (old libfreenect, Debian's fakenect 0.5.3) take raw 11-bit
@@ -104,7 +105,8 @@ public:
         if (freenect_set_depth_mode(device_, *depthMode) < 0 || freenect_set_video_mode(device_, *videoMode) < 0)
             throw Error(uri, std::nullopt, "cannot set the depth and video modes");
         if (rawDisparity_) {
-            log::info(uri + ": libfreenect offers no registered depth mode: converting raw 11-bit disparity (unregistered)");
+            log::info(uri +
+                      ": libfreenect offers no registered depth mode: converting raw 11-bit disparity (unregistered)");
             for (int d = 0; d < 2048; ++d) disparityToMillimetres_[std::size_t(d)] = millimetresFromDisparity(d);
         }
         freenect_set_depth_buffer(device_, depthBuffer_.data);
@@ -124,9 +126,10 @@ public:
         info_.registration = registered ? DepthRegistration::RegisteredToColour : DepthRegistration::Unregistered;
         // Unregistered: the IR camera; ROS openni_camera's default depth focal length 575.8 px.
         // colour_T_depth stays identity: the ~2.5 cm IR-RGB baseline is not calibrated here.
-        info_.depthIntrinsics = registered ? info_.colourIntrinsics
-                                                       : options_.intrinsics.value_or(
-                                                             CameraIntrinsics{kWidth, kHeight, 575.8157, 575.8157, 319.5, 239.5, {}});
+        info_.depthIntrinsics =
+            registered
+                ? info_.colourIntrinsics
+                : options_.intrinsics.value_or(CameraIntrinsics{kWidth, kHeight, 575.8157, 575.8157, 319.5, 239.5, {}});
         start_ = std::chrono::steady_clock::now();
     }
 
@@ -139,15 +142,17 @@ protected:
             timeval timeout{0, 100000};
             if (freenect_process_events_timeout(context_, &timeout) < 0) {
                 // A real device reports errors here; fakenect reports the end of its dump.
-                log::info(info_.uri + ": libfreenect stopped delivering events (end of a fakenect dump or device lost)");
+                log::info(info_.uri +
+                          ": libfreenect stopped delivering events (end of a fakenect dump or device lost)");
                 if (haveDepth_ || haveVideo_) ++unpaired_;
                 target_ = nullptr;
                 return false;
             }
             if (std::chrono::steady_clock::now() > deadline) {
                 target_ = nullptr;
-                throw Error(info_.uri, next_, "no frame pair for " + std::to_string(options_.liveTimeout.count()) +
-                                                  " ms: Kinect stalled or unplugged");
+                throw Error(info_.uri, next_,
+                            "no frame pair for " + std::to_string(options_.liveTimeout.count()) +
+                                " ms: Kinect stalled or unplugged");
             }
         }
         target_ = nullptr;

@@ -5,13 +5,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <fcntl.h>
 #include <fstream>
+#include <unistd.h>
 
 namespace lightskin::capture::detail {
 
@@ -44,24 +43,25 @@ void decodeInto(const std::filesystem::path& path, std::optional<std::int64_t> f
                 const std::vector<unsigned char>& bytes, std::optional<cv::Size> expected, const char* what,
                 cv::Mat& out) {
     // The size in the header is checked before the decoder allocates anything for it.
-    if (const std::optional<cv::Size> headerSize = peekImageSize(bytes, path, frame); headerSize && expected &&
-                                                                                      *headerSize != *expected)
-        throw Error(path.string(), frame, std::string(what) + " image is " + sizeText(*headerSize) + ", expected " +
-                                              sizeText(*expected));
+    if (const std::optional<cv::Size> headerSize = peekImageSize(bytes, path, frame);
+        headerSize && expected && *headerSize != *expected)
+        throw Error(path.string(), frame,
+                    std::string(what) + " image is " + sizeText(*headerSize) + ", expected " + sizeText(*expected));
     try {
         cv::imdecode(bytes, flags, &out);
     } catch (const cv::Exception& error) {
         throw Error(path.string(), frame, std::string("cannot decode the image: ") + error.what());
     }
-    if (out.empty()) throw Error(path.string(), frame, "cannot decode the image (truncated, corrupt or unknown format)");
+    if (out.empty())
+        throw Error(path.string(), frame, "cannot decode the image (truncated, corrupt or unknown format)");
 }
 
 } // namespace
 
 std::string describeMatType(int type) {
     const int depth = CV_MAT_DEPTH(type);
-    const char* names[] = {"8-bit unsigned", "8-bit signed", "16-bit unsigned", "16-bit signed", "32-bit signed",
-                           "32-bit float", "64-bit float", "16-bit float"};
+    const char* names[] = {"8-bit unsigned", "8-bit signed", "16-bit unsigned", "16-bit signed",
+                           "32-bit signed",  "32-bit float", "64-bit float",    "16-bit float"};
     return std::string(depth >= 0 && depth < 8 ? names[depth] : "unknown") + " " + std::to_string(CV_MAT_CN(type)) +
            "-channel";
 }
@@ -76,12 +76,14 @@ void readFileBounded(const std::filesystem::path& path, std::optional<std::int64
     if (error) throw Error(path.string(), frame, "cannot read the file size: " + error.message());
     if (size > maxBytes)
         throw Error(path.string(), frame,
-                    "file is " + std::to_string(size) + " bytes, more than the " + std::to_string(maxBytes) + " accepted");
+                    "file is " + std::to_string(size) + " bytes, more than the " + std::to_string(maxBytes) +
+                        " accepted");
     std::ifstream stream(path, std::ios::binary);
     if (!stream) throw Error(path.string(), frame, "cannot open the file");
     bytes.resize(size);
     stream.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(size));
-    if (static_cast<std::uintmax_t>(stream.gcount()) != size) throw Error(path.string(), frame, "cannot read the whole file");
+    if (static_cast<std::uintmax_t>(stream.gcount()) != size)
+        throw Error(path.string(), frame, "cannot read the whole file");
 }
 
 std::optional<cv::Size> peekImageSize(const std::vector<unsigned char>& bytes, const std::filesystem::path& path,
@@ -105,7 +107,8 @@ std::optional<cv::Size> peekImageSize(const std::vector<unsigned char>& bytes, c
                 continue;
             }
             const std::size_t length = std::size_t(bytes[at + 2]) << 8 | bytes[at + 3];
-            const bool startOfFrame = marker >= 0xc0 && marker <= 0xcf && marker != 0xc4 && marker != 0xc8 && marker != 0xcc;
+            const bool startOfFrame =
+                marker >= 0xc0 && marker <= 0xcf && marker != 0xc4 && marker != 0xc8 && marker != 0xcc;
             if (startOfFrame) {
                 if (at + 9 > bytes.size()) break;
                 const std::uint64_t height = std::uint64_t(bytes[at + 5]) << 8 | bytes[at + 6];
@@ -123,7 +126,8 @@ std::optional<cv::Size> peekImageSize(const std::vector<unsigned char>& bytes, c
     if (!little && !big) return std::nullopt;
     if (bytes.size() < 8) throw Error(path.string(), frame, "truncated TIFF header");
     const std::uint64_t ifd = readTiff32(bytes.data() + 4, little);
-    if (ifd + 2 > bytes.size()) throw Error(path.string(), frame, "truncated TIFF: first directory beyond the end of the file");
+    if (ifd + 2 > bytes.size())
+        throw Error(path.string(), frame, "truncated TIFF: first directory beyond the end of the file");
     const std::uint16_t entries = readTiff16(bytes.data() + ifd, little);
     if (ifd + 2 + std::uint64_t(entries) * 12 > bytes.size())
         throw Error(path.string(), frame, "truncated TIFF: directory runs past the end of the file");
@@ -147,7 +151,8 @@ void readDepth16(const std::filesystem::path& path, std::optional<std::int64_t> 
         throw Error(path.string(), frame,
                     "depth must be 16-bit single-channel, the file holds " + describeMatType(out.type()) + " pixels");
     if (expected && out.size() != *expected)
-        throw Error(path.string(), frame, "depth image is " + sizeText(out.size()) + ", expected " + sizeText(*expected));
+        throw Error(path.string(), frame,
+                    "depth image is " + sizeText(out.size()) + ", expected " + sizeText(*expected));
 }
 
 void readColour8(const std::filesystem::path& path, std::optional<std::int64_t> frame, std::optional<cv::Size> expected,
@@ -157,7 +162,8 @@ void readColour8(const std::filesystem::path& path, std::optional<std::int64_t> 
     if (out.type() != CV_8UC3)
         throw Error(path.string(), frame, "colour must decode to 8-bit 3-channel, got " + describeMatType(out.type()));
     if (expected && out.size() != *expected)
-        throw Error(path.string(), frame, "colour image is " + sizeText(out.size()) + ", expected " + sizeText(*expected));
+        throw Error(path.string(), frame,
+                    "colour image is " + sizeText(out.size()) + ", expected " + sizeText(*expected));
 }
 
 void writeFileAtomically(const std::filesystem::path& path, std::optional<std::int64_t> frame,
@@ -185,7 +191,8 @@ void writeFileAtomically(const std::filesystem::path& path, std::optional<std::i
     if (std::rename(temporary.c_str(), path.c_str()) != 0) {
         const int code = errno;
         ::unlink(temporary.c_str());
-        throw Error(path.string(), frame, std::string("cannot rename the finished file into place: ") + std::strerror(code));
+        throw Error(path.string(), frame,
+                    std::string("cannot rename the finished file into place: ") + std::strerror(code));
     }
 }
 
@@ -194,7 +201,8 @@ std::filesystem::path resolveInside(const std::filesystem::path& folder, const s
     const std::filesystem::path name(relative);
     if (relative.empty()) throw Error(listFile.string(), frame, "empty file name");
     if (name.is_absolute() || name.has_root_name() || name.has_root_directory())
-        throw Error(listFile.string(), frame, "file name '" + relative + "' is absolute: refused (must stay inside the folder)");
+        throw Error(listFile.string(), frame,
+                    "file name '" + relative + "' is absolute: refused (must stay inside the folder)");
     for (const auto& part : name.lexically_normal())
         if (part == "..")
             throw Error(listFile.string(), frame, "file name '" + relative + "' leaves the folder: refused");

@@ -28,13 +28,13 @@ std::optional<cv::Size> peekImageSize(const std::vector<unsigned char>& bytes, c
 
 /// Decodes a depth image (16-bit single-channel PNG/TIFF) into `out` (reused). Refuses 8-bit,
 /// float or multi-channel images, and a size other than `expected` when given.
-void readDepth16(const std::filesystem::path& path, std::optional<std::int64_t> frame,
-                 std::optional<cv::Size> expected, std::vector<unsigned char>& scratch, cv::Mat& out);
+void readDepth16(const std::filesystem::path& path, std::optional<std::int64_t> frame, std::optional<cv::Size> expected,
+                 std::vector<unsigned char>& scratch, cv::Mat& out);
 
 /// Decodes a colour image into 8-bit BGR `out` (reused). Greyscale is expanded to BGR. Refuses a
 /// size other than `expected` when given.
-void readColour8(const std::filesystem::path& path, std::optional<std::int64_t> frame,
-                 std::optional<cv::Size> expected, std::vector<unsigned char>& scratch, cv::Mat& out);
+void readColour8(const std::filesystem::path& path, std::optional<std::int64_t> frame, std::optional<cv::Size> expected,
+                 std::vector<unsigned char>& scratch, cv::Mat& out);
 
 /// Writes `bytes` to `path` through `path.tmp` + rename, so `path` is either absent or complete.
 void writeFileAtomically(const std::filesystem::path& path, std::optional<std::int64_t> frame,

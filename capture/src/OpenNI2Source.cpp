@@ -18,7 +18,6 @@
 #include <lightskin/core/Log.h>
 
 #include <OpenNI.h>
-
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -38,7 +37,8 @@ public:
         std::lock_guard lock(mutex());
         if (count()++ == 0 && openni::OpenNI::initialize() != openni::STATUS_OK) {
             --count();
-            throw Error(uri, std::nullopt, std::string("OpenNI2 initialisation failed: ") + openni::OpenNI::getExtendedError());
+            throw Error(uri, std::nullopt,
+                        std::string("OpenNI2 initialisation failed: ") + openni::OpenNI::getExtendedError());
         }
     }
     static void release() {
@@ -77,15 +77,19 @@ CameraIntrinsics intrinsicsFromFieldOfView(int width, int height, float horizont
 
 double depthScaleOf(openni::PixelFormat format) {
     switch (format) {
-    case openni::PIXEL_FORMAT_DEPTH_1_MM: return 0.001;
-    case openni::PIXEL_FORMAT_DEPTH_100_UM: return 0.0001;
-    default: return 0.0;
+    case openni::PIXEL_FORMAT_DEPTH_1_MM:
+        return 0.001;
+    case openni::PIXEL_FORMAT_DEPTH_100_UM:
+        return 0.0001;
+    default:
+        return 0.0;
     }
 }
 
 class OpenNI2Source final : public FrameSource {
 public:
-    OpenNI2Source(FrameSourceInfo info, FrameSourceOptions options) : FrameSource(std::move(info), std::move(options)) {}
+    OpenNI2Source(FrameSourceInfo info, FrameSourceOptions options)
+        : FrameSource(std::move(info), std::move(options)) {}
 
     ~OpenNI2Source() override { close(); }
 
@@ -107,8 +111,7 @@ public:
     void open(bool file) {
         const std::string& uri = info_.uri;
         file_ = file;
-        if (device_.open(file ? uri.c_str() : (uri.empty() ? openni::ANY_DEVICE : uri.c_str())) != openni::STATUS_OK)
-        {
+        if (device_.open(file ? uri.c_str() : (uri.empty() ? openni::ANY_DEVICE : uri.c_str())) != openni::STATUS_OK) {
             const std::string detail = openni::OpenNI::getExtendedError();
             throw Error(file ? uri : "openni2://" + uri, std::nullopt,
                         std::string(file ? "OpenNI2 cannot open the file (truncated, header only or not an .oni?)"
@@ -123,10 +126,13 @@ public:
             playback_->setRepeatEnabled(false);
             playback_->setSpeed(-1.0f); // manual stepping: every frame, in order
         }
-        if (!device_.hasSensor(openni::SENSOR_DEPTH) || depth_.create(device_, openni::SENSOR_DEPTH) != openni::STATUS_OK)
+        if (!device_.hasSensor(openni::SENSOR_DEPTH) ||
+            depth_.create(device_, openni::SENSOR_DEPTH) != openni::STATUS_OK)
             throw Error(uri, std::nullopt, std::string("no depth stream: ") + openni::OpenNI::getExtendedError());
-        if (device_.hasSensor(openni::SENSOR_COLOR) && colour_.create(device_, openni::SENSOR_COLOR) != openni::STATUS_OK)
-            throw Error(uri, std::nullopt, std::string("cannot create the colour stream: ") + openni::OpenNI::getExtendedError());
+        if (device_.hasSensor(openni::SENSOR_COLOR) &&
+            colour_.create(device_, openni::SENSOR_COLOR) != openni::STATUS_OK)
+            throw Error(uri, std::nullopt,
+                        std::string("cannot create the colour stream: ") + openni::OpenNI::getExtendedError());
         if (!file) configureLive();
 
         for (openni::VideoStream* stream : {&depth_, &colour_}) {
@@ -138,11 +144,13 @@ public:
         const openni::VideoMode depthMode = depth_.getVideoMode();
         info_.depthScaleMetres = depthScaleOf(depthMode.getPixelFormat());
         if (info_.depthScaleMetres == 0.0)
-            throw Error(uri, std::nullopt, "depth pixel format " + std::to_string(int(depthMode.getPixelFormat())) +
-                                               " is not metric (1 mm or 100 um)");
+            throw Error(uri, std::nullopt,
+                        "depth pixel format " + std::to_string(int(depthMode.getPixelFormat())) +
+                            " is not metric (1 mm or 100 um)");
         const int depthWidth = depthMode.getResolutionX(), depthHeight = depthMode.getResolutionY();
         if (depthWidth <= 0 || depthHeight <= 0 || depthWidth > 16384 || depthHeight > 16384)
-            throw Error(uri, std::nullopt, "absurd depth resolution " + std::to_string(depthWidth) + "x" + std::to_string(depthHeight));
+            throw Error(uri, std::nullopt,
+                        "absurd depth resolution " + std::to_string(depthWidth) + "x" + std::to_string(depthHeight));
         info_.depthIntrinsics = intrinsicsFromFieldOfView(depthWidth, depthHeight, depth_.getHorizontalFieldOfView(),
                                                           depth_.getVerticalFieldOfView());
         if (!info_.depthIntrinsics.isValid() || !(depth_.getHorizontalFieldOfView() > 0.0f))
@@ -151,18 +159,22 @@ public:
             const openni::VideoMode colourMode = colour_.getVideoMode();
             const int w = colourMode.getResolutionX(), h = colourMode.getResolutionY();
             if (w <= 0 || h <= 0 || w > 16384 || h > 16384)
-                throw Error(uri, std::nullopt, "absurd colour resolution " + std::to_string(w) + "x" + std::to_string(h));
+                throw Error(uri, std::nullopt,
+                            "absurd colour resolution " + std::to_string(w) + "x" + std::to_string(h));
             const float hfov = colour_.getHorizontalFieldOfView(), vfov = colour_.getVerticalFieldOfView();
-            if (hfov > 0.0f && vfov > 0.0f) info_.colourIntrinsics = intrinsicsFromFieldOfView(w, h, hfov, vfov);
+            if (hfov > 0.0f && vfov > 0.0f)
+                info_.colourIntrinsics = intrinsicsFromFieldOfView(w, h, hfov, vfov);
             else {
                 // The file holds no colour field of view: Kinect v1 / PrimeSense default (ROS 525).
                 info_.colourIntrinsics = CameraIntrinsics::kinectV1Default().scaledTo(w, h);
-                log::info(uri + ": colour field of view is 0, using the default intrinsics " + info_.colourIntrinsics.describe());
+                log::info(uri + ": colour field of view is 0, using the default intrinsics " +
+                          info_.colourIntrinsics.describe());
             }
             colourFormat_ = colourMode.getPixelFormat();
             if (colourFormat_ != openni::PIXEL_FORMAT_RGB888 && colourFormat_ != openni::PIXEL_FORMAT_YUV422 &&
                 colourFormat_ != openni::PIXEL_FORMAT_YUYV && colourFormat_ != openni::PIXEL_FORMAT_GRAY8)
-                throw Error(uri, std::nullopt, "colour pixel format " + std::to_string(int(colourFormat_)) + " is not supported");
+                throw Error(uri, std::nullopt,
+                            "colour pixel format " + std::to_string(int(colourFormat_)) + " is not supported");
         }
         registered_ = device_.getImageRegistrationMode() == openni::IMAGE_REGISTRATION_DEPTH_TO_COLOR;
         info_.registration = registered_ ? DepthRegistration::RegisteredToColour : DepthRegistration::Unregistered;
@@ -177,9 +189,11 @@ public:
             if (depthFrames_ <= 0) throw Error(uri, std::nullopt, "the file holds no depth frames");
         }
         if (depth_.start() != openni::STATUS_OK)
-            throw Error(uri, std::nullopt, std::string("cannot start the depth stream: ") + openni::OpenNI::getExtendedError());
+            throw Error(uri, std::nullopt,
+                        std::string("cannot start the depth stream: ") + openni::OpenNI::getExtendedError());
         if (colour_.isValid() && colour_.start() != openni::STATUS_OK)
-            throw Error(uri, std::nullopt, std::string("cannot start the colour stream: ") + openni::OpenNI::getExtendedError());
+            throw Error(uri, std::nullopt,
+                        std::string("cannot start the colour stream: ") + openni::OpenNI::getExtendedError());
     }
 
     std::optional<std::int64_t> frameCount() const override {
@@ -209,10 +223,12 @@ protected:
                             "no frame for " + std::to_string(timeout.count()) + " ms: device stalled or unplugged");
             }
             if (status != openni::STATUS_OK || ready < 0)
-                throw Error(info_.uri, next_, std::string("waiting for frames failed: ") + openni::OpenNI::getExtendedError());
+                throw Error(info_.uri, next_,
+                            std::string("waiting for frames failed: ") + openni::OpenNI::getExtendedError());
             openni::VideoFrameRef frame;
             if (streams[ready]->readFrame(&frame) != openni::STATUS_OK)
-                throw Error(info_.uri, next_, std::string("reading a frame failed: ") + openni::OpenNI::getExtendedError());
+                throw Error(info_.uri, next_,
+                            std::string("reading a frame failed: ") + openni::OpenNI::getExtendedError());
             if (ready == 0) {
                 if (haveDepth_) ++unpaired_; // a second depth before its colour: the older one is lost
                 takeDepth(frame, out);
@@ -270,14 +286,17 @@ private:
 
     void takeDepth(const openni::VideoFrameRef& frame, RgbdFrame& out) {
         const int w = frame.getWidth(), h = frame.getHeight();
-        if (w != info_.depthIntrinsics.width || h != info_.depthIntrinsics.height ||
-            frame.getDataSize() < w * h * 2 || frame.getStrideInBytes() < w * 2)
-            throw Error(info_.uri, next_, "depth frame size " + std::to_string(w) + "x" + std::to_string(h) +
-                                              " does not match the stream");
+        if (w != info_.depthIntrinsics.width || h != info_.depthIntrinsics.height || frame.getDataSize() < w * h * 2 ||
+            frame.getStrideInBytes() < w * 2)
+            throw Error(info_.uri, next_,
+                        "depth frame size " + std::to_string(w) + "x" + std::to_string(h) +
+                            " does not match the stream");
         const cv::Mat view(h, w, CV_16UC1, const_cast<void*>(frame.getData()), std::size_t(frame.getStrideInBytes()));
         out.depth.create(h, w, CV_16UC1);
-        if (flipDepth_) cv::flip(view, out.depth, 1);
-        else view.copyTo(out.depth);
+        if (flipDepth_)
+            cv::flip(view, out.depth, 1);
+        else
+            view.copyTo(out.depth);
         out.depthTimestampSeconds = double(frame.getTimestamp()) * 1e-6;
         countGap(frame.getFrameIndex(), lastDepthIndex_);
         haveDepth_ = true;
@@ -285,19 +304,30 @@ private:
 
     void takeColour(const openni::VideoFrameRef& frame, RgbdFrame& out) {
         const int w = frame.getWidth(), h = frame.getHeight();
-        const int bytesPerPixel = colourFormat_ == openni::PIXEL_FORMAT_RGB888 ? 3 : colourFormat_ == openni::PIXEL_FORMAT_GRAY8 ? 1 : 2;
+        const int bytesPerPixel = colourFormat_ == openni::PIXEL_FORMAT_RGB888  ? 3
+                                  : colourFormat_ == openni::PIXEL_FORMAT_GRAY8 ? 1
+                                                                                : 2;
         if (w != info_.colourIntrinsics.width || h != info_.colourIntrinsics.height ||
             frame.getDataSize() < w * h * bytesPerPixel || frame.getStrideInBytes() < w * bytesPerPixel)
-            throw Error(info_.uri, next_, "colour frame size " + std::to_string(w) + "x" + std::to_string(h) +
-                                              " does not match the stream");
+            throw Error(info_.uri, next_,
+                        "colour frame size " + std::to_string(w) + "x" + std::to_string(h) +
+                            " does not match the stream");
         void* data = const_cast<void*>(frame.getData());
         const std::size_t stride = std::size_t(frame.getStrideInBytes());
         out.colour.create(h, w, CV_8UC3);
         switch (colourFormat_) {
-        case openni::PIXEL_FORMAT_RGB888: cv::cvtColor(cv::Mat(h, w, CV_8UC3, data, stride), out.colour, cv::COLOR_RGB2BGR); break;
-        case openni::PIXEL_FORMAT_YUV422: cv::cvtColor(cv::Mat(h, w, CV_8UC2, data, stride), out.colour, cv::COLOR_YUV2BGR_UYVY); break;
-        case openni::PIXEL_FORMAT_YUYV: cv::cvtColor(cv::Mat(h, w, CV_8UC2, data, stride), out.colour, cv::COLOR_YUV2BGR_YUYV); break;
-        default: cv::cvtColor(cv::Mat(h, w, CV_8UC1, data, stride), out.colour, cv::COLOR_GRAY2BGR); break;
+        case openni::PIXEL_FORMAT_RGB888:
+            cv::cvtColor(cv::Mat(h, w, CV_8UC3, data, stride), out.colour, cv::COLOR_RGB2BGR);
+            break;
+        case openni::PIXEL_FORMAT_YUV422:
+            cv::cvtColor(cv::Mat(h, w, CV_8UC2, data, stride), out.colour, cv::COLOR_YUV2BGR_UYVY);
+            break;
+        case openni::PIXEL_FORMAT_YUYV:
+            cv::cvtColor(cv::Mat(h, w, CV_8UC2, data, stride), out.colour, cv::COLOR_YUV2BGR_YUYV);
+            break;
+        default:
+            cv::cvtColor(cv::Mat(h, w, CV_8UC1, data, stride), out.colour, cv::COLOR_GRAY2BGR);
+            break;
         }
         if (flipColour_) cv::flip(out.colour, out.colour, 1);
         out.colourTimestampSeconds = double(frame.getTimestamp()) * 1e-6;
@@ -330,7 +360,8 @@ std::unique_ptr<FrameSource> openOpenNI2Source(const std::string& uri, bool file
         const auto size = std::filesystem::file_size(uri, error);
         if (error) throw Error(uri, std::nullopt, "cannot read the file: " + error.message());
         // OpenNI's own header is 40+ bytes; a file without any frame data cannot be played.
-        if (size < 1024) throw Error(uri, std::nullopt, "file is only " + std::to_string(size) + " bytes: no frames in it");
+        if (size < 1024)
+            throw Error(uri, std::nullopt, "file is only " + std::to_string(size) + " bytes: no frames in it");
     }
     auto source = std::make_unique<OpenNI2Source>(std::move(info), options);
     source->open(file);

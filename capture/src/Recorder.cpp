@@ -12,10 +12,14 @@ namespace lightskin::capture {
 namespace {
 void copyFrameInto(const RgbdFrame& from, RgbdFrame& to) {
     // copyTo keeps the slot's buffers when the sizes match: no allocation in steady state.
-    if (from.hasColour()) from.colour.copyTo(to.colour);
-    else to.colour.release();
-    if (from.hasDepth()) from.depth.copyTo(to.depth);
-    else to.depth.release();
+    if (from.hasColour())
+        from.colour.copyTo(to.colour);
+    else
+        to.colour.release();
+    if (from.hasDepth())
+        from.depth.copyTo(to.depth);
+    else
+        to.depth.release();
     to.index = from.index;
     to.depthScaleMetres = from.depthScaleMetres;
     to.colourTimestampSeconds = from.colourTimestampSeconds;
@@ -40,7 +44,9 @@ struct Recorder::Impl {
     std::condition_variable wake;
     std::thread thread;
 
-    explicit Impl(RecordingWriter w, std::size_t capacity) : writer(std::move(w)), slots(capacity) {}
+    explicit Impl(RecordingWriter w, std::size_t capacity)
+        : writer(std::move(w))
+        , slots(capacity) {}
 
     void run() {
         for (;;) {
@@ -56,7 +62,8 @@ struct Recorder::Impl {
                 error = e.what();
             }
             lock.lock();
-            if (error.empty()) ++stats.written;
+            if (error.empty())
+                ++stats.written;
             else {
                 ++stats.dropped;
                 if (stats.firstError.empty()) stats.firstError = error;
@@ -68,11 +75,13 @@ struct Recorder::Impl {
     }
 };
 
-Recorder::Recorder(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Recorder::Recorder(std::unique_ptr<Impl> impl)
+    : impl_(std::move(impl)) {}
 
 std::unique_ptr<Recorder> Recorder::start(RecordingWriter writer, const RecorderOptions& options) {
     LIGHTSKIN_ASSERT(options.queueCapacity > 0, "the queue needs at least one slot");
-    auto recorder = std::unique_ptr<Recorder>(new Recorder(std::make_unique<Impl>(std::move(writer), options.queueCapacity)));
+    auto recorder =
+        std::unique_ptr<Recorder>(new Recorder(std::make_unique<Impl>(std::move(writer), options.queueCapacity)));
     Impl* impl = recorder->impl_.get();
     impl->thread = std::thread([impl] { impl->run(); });
     return recorder;

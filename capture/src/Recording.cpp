@@ -6,14 +6,13 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <fcntl.h>
 #include <limits>
+#include <unistd.h>
 
 namespace lightskin::capture {
 
@@ -38,20 +37,25 @@ struct RecordingWriter::State {
         const ssize_t n = ::write(indexFd, line.data(), line.size());
         if (n != ssize_t(line.size())) {
             const int code = n < 0 ? errno : ENOSPC;
-            if (before >= 0 && ::ftruncate(indexFd, before) != 0) { /* the reader ignores a partial tail anyway */ }
+            if (before >= 0) {
+                // Drop the partial line; if even that fails, readers ignore a tail without newline.
+                [[maybe_unused]] const int ignored = ::ftruncate(indexFd, before);
+            }
             throw Error(file, frame, std::string("cannot append to the index: ") + std::strerror(code));
         }
     }
 };
 
-RecordingWriter::RecordingWriter(std::unique_ptr<State> state) : state_(std::move(state)) {}
+RecordingWriter::RecordingWriter(std::unique_ptr<State> state)
+    : state_(std::move(state)) {}
 RecordingWriter::RecordingWriter(RecordingWriter&&) noexcept = default;
 RecordingWriter& RecordingWriter::operator=(RecordingWriter&& other) noexcept {
     if (this != &other) {
         if (state_) {
             try {
                 finish();
-            } catch (const Error&) { /* the recording stays readable up to its last frame */ }
+            } catch (const Error&) { /* the recording stays readable up to its last frame */
+            }
         }
         state_ = std::move(other.state_);
     }
@@ -62,7 +66,8 @@ RecordingWriter::~RecordingWriter() {
     if (!state_) return;
     try {
         finish();
-    } catch (const Error&) { /* destructors do not throw; the frames written so far stay readable */ }
+    } catch (const Error&) { /* destructors do not throw; the frames written so far stay readable */
+    }
 }
 
 RecordingWriter RecordingWriter::create(const std::filesystem::path& folder, const RecordingInfo& info) {
@@ -72,7 +77,8 @@ RecordingWriter RecordingWriter::create(const std::filesystem::path& folder, con
     if (!(info.depthScaleMetres > 0.0) || !std::isfinite(info.depthScaleMetres))
         throw Error(name, std::nullopt, "depth scale must be positive and finite");
     if (info.registration == DepthRegistration::RegisteredToColour &&
-        (info.colourIntrinsics.width != info.depthIntrinsics.width || info.colourIntrinsics.height != info.depthIntrinsics.height))
+        (info.colourIntrinsics.width != info.depthIntrinsics.width ||
+         info.colourIntrinsics.height != info.depthIntrinsics.height))
         throw Error(name, std::nullopt, "depth is marked registered to colour but the two streams' sizes differ");
     if (info.jpegQuality < 1 || info.jpegQuality > 100) throw Error(name, std::nullopt, "JPEG quality must be 1..100");
     std::error_code error;
@@ -93,7 +99,8 @@ RecordingWriter RecordingWriter::create(const std::filesystem::path& folder, con
                                 std::vector<unsigned char>(header.begin(), header.end()));
     const std::string index = (folder / kRecordingIndexFile).string();
     state->indexFd = ::open(index.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
-    if (state->indexFd < 0) throw Error(index, std::nullopt, std::string("cannot create the index: ") + std::strerror(errno));
+    if (state->indexFd < 0)
+        throw Error(index, std::nullopt, std::string("cannot create the index: ") + std::strerror(errno));
     return RecordingWriter(std::move(state));
 }
 
@@ -106,24 +113,28 @@ void RecordingWriter::write(const RgbdFrame& frame) {
     if (!frame.hasColour() && !frame.hasDepth()) throw Error(name, index, "frame has neither colour nor depth");
     if (frame.hasDepth()) {
         if (frame.depth.type() != CV_16UC1)
-            throw Error(name, index, "depth must be 16-bit single-channel, got " + detail::describeMatType(frame.depth.type()));
+            throw Error(name, index,
+                        "depth must be 16-bit single-channel, got " + detail::describeMatType(frame.depth.type()));
         if (frame.depth.cols != s.info.depthIntrinsics.width || frame.depth.rows != s.info.depthIntrinsics.height)
-            throw Error(name, index, "depth is " + std::to_string(frame.depth.cols) + "x" + std::to_string(frame.depth.rows) +
-                                         " but the recording's depth stream is " + std::to_string(s.info.depthIntrinsics.width) +
-                                         "x" + std::to_string(s.info.depthIntrinsics.height));
+            throw Error(name, index,
+                        "depth is " + std::to_string(frame.depth.cols) + "x" + std::to_string(frame.depth.rows) +
+                            " but the recording's depth stream is " + std::to_string(s.info.depthIntrinsics.width) +
+                            "x" + std::to_string(s.info.depthIntrinsics.height));
         if (std::abs(frame.depthScaleMetres - s.info.depthScaleMetres) > 1e-12 * s.info.depthScaleMetres)
             throw Error(name, index, "frame depth scale differs from the recording's");
     }
     if (frame.hasColour()) {
         if (frame.colour.type() != CV_8UC3)
-            throw Error(name, index, "colour must be 8-bit 3-channel BGR, got " + detail::describeMatType(frame.colour.type()));
+            throw Error(name, index,
+                        "colour must be 8-bit 3-channel BGR, got " + detail::describeMatType(frame.colour.type()));
         if (frame.colour.cols != s.info.colourIntrinsics.width || frame.colour.rows != s.info.colourIntrinsics.height)
-            throw Error(name, index, "colour is " + std::to_string(frame.colour.cols) + "x" + std::to_string(frame.colour.rows) +
-                                         " but the recording's colour stream is " +
-                                         std::to_string(s.info.colourIntrinsics.width) + "x" +
-                                         std::to_string(s.info.colourIntrinsics.height));
+            throw Error(name, index,
+                        "colour is " + std::to_string(frame.colour.cols) + "x" + std::to_string(frame.colour.rows) +
+                            " but the recording's colour stream is " + std::to_string(s.info.colourIntrinsics.width) +
+                            "x" + std::to_string(s.info.colourIntrinsics.height));
     }
-    const double time = std::isfinite(frame.depthTimestampSeconds) ? frame.depthTimestampSeconds : frame.colourTimestampSeconds;
+    const double time =
+        std::isfinite(frame.depthTimestampSeconds) ? frame.depthTimestampSeconds : frame.colourTimestampSeconds;
     if (std::isfinite(time)) {
         if (time < s.lastTime) throw Error(name, index, "timestamps go backwards");
         s.lastTime = time;

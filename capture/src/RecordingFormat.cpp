@@ -31,14 +31,16 @@ double timestampFromJson(const json& object, const char* key, const std::string&
 } // namespace
 
 json intrinsicsToJson(const CameraIntrinsics& k) {
-    return {{"width", k.width}, {"height", k.height}, {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy},
-            {"distortion", k.distortion}};
+    return {{"width", k.width}, {"height", k.height},        {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx},
+            {"cy", k.cy},       {"distortion", k.distortion}};
 }
 
 CameraIntrinsics intrinsicsFromJson(const json& value, const std::string& file, const std::string& key) {
-    if (!value.is_object()) throw Error(file, std::nullopt, "'" + key + "' must be an object with width, height, fx, fy, cx, cy");
+    if (!value.is_object())
+        throw Error(file, std::nullopt, "'" + key + "' must be an object with width, height, fx, fy, cx, cy");
     CameraIntrinsics k;
-    const double width = number(value, "width", file, std::nullopt), height = number(value, "height", file, std::nullopt);
+    const double width = number(value, "width", file, std::nullopt),
+                 height = number(value, "height", file, std::nullopt);
     if (width < 1 || height < 1 || width > kMaxImageSide || height > kMaxImageSide || width != std::floor(width) ||
         height != std::floor(height))
         throw Error(file, std::nullopt,
@@ -74,7 +76,8 @@ Pose poseFromJson(const json& value, const std::string& file, std::optional<std:
     };
     if (!value.is_object()) fail();
     const auto q = value.find("rotationXYZW"), t = value.find("translation");
-    if (q == value.end() || t == value.end() || !q->is_array() || !t->is_array() || q->size() != 4 || t->size() != 3) fail();
+    if (q == value.end() || t == value.end() || !q->is_array() || !t->is_array() || q->size() != 4 || t->size() != 3)
+        fail();
     double v[7];
     for (std::size_t i = 0; i < 7; ++i) {
         const json& item = i < 4 ? (*q)[i] : (*t)[i - 4];
@@ -114,7 +117,8 @@ RecordingInfo readHeader(const std::filesystem::path& folder, int& version) {
         throw Error(file, std::nullopt, std::string("malformed JSON: ") + error.what());
     }
     if (!header.is_object() || header.value("format", std::string()) != "lightskin-recording")
-        throw Error(file, std::nullopt, "not a lightskin recording header (\"format\" must be \"lightskin-recording\")");
+        throw Error(file, std::nullopt,
+                    "not a lightskin recording header (\"format\" must be \"lightskin-recording\")");
     const double versionNumber = number(header, "version", file, std::nullopt);
     if (versionNumber < 1 || versionNumber > kRecordingFormatVersion || versionNumber != std::floor(versionNumber))
         throw Error(file, std::nullopt,
@@ -137,7 +141,8 @@ RecordingInfo readHeader(const std::filesystem::path& folder, int& version) {
             info.registration = DepthRegistration::Unregistered;
         else
             throw Error(file, std::nullopt, "'registration' must be \"registered-to-colour\" or \"unregistered\"");
-        if (header.contains("colour_T_depth")) info.colour_T_depth = poseFromJson(header["colour_T_depth"], file, std::nullopt);
+        if (header.contains("colour_T_depth"))
+            info.colour_T_depth = poseFromJson(header["colour_T_depth"], file, std::nullopt);
         const std::string encoding = header.value("colourEncoding", std::string("png"));
         if (encoding != "png" && encoding != "jpeg")
             throw Error(file, std::nullopt, "'colourEncoding' must be \"png\" or \"jpeg\"");
@@ -206,7 +211,8 @@ ParsedIndex readIndex(const std::filesystem::path& folder) {
             if (std::isfinite(time)) {
                 if (time < lastTime)
                     throw Error(file, expectedFrame,
-                                "timestamps go backwards (" + std::to_string(time) + " s after " + std::to_string(lastTime) + " s)");
+                                "timestamps go backwards (" + std::to_string(time) + " s after " +
+                                    std::to_string(lastTime) + " s)");
                 lastTime = time;
             }
             if (line.contains("colour")) {
@@ -219,7 +225,8 @@ ParsedIndex readIndex(const std::filesystem::path& folder) {
             }
             if (entry.colourFile.empty() && entry.depthFile.empty())
                 throw Error(file, expectedFrame, "index line names neither a colour nor a depth file");
-            if (line.contains("world_T_camera")) entry.world_T_camera = poseFromJson(line["world_T_camera"], file, expectedFrame);
+            if (line.contains("world_T_camera"))
+                entry.world_T_camera = poseFromJson(line["world_T_camera"], file, expectedFrame);
             index.entries.push_back(std::move(entry));
         } catch (const json::exception& error) {
             throw Error(file, expectedFrame, std::string("malformed index line: ") + error.what());

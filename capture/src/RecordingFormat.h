@@ -33,7 +33,7 @@ struct IndexEntry {
     std::int64_t frame = 0;
     double colourTimestamp = 0.0; ///< NaN when unknown
     double depthTimestamp = 0.0;
-    std::string colourFile;       ///< relative to the folder; empty = no colour in this frame
+    std::string colourFile; ///< relative to the folder; empty = no colour in this frame
     std::string depthFile;
     std::optional<Pose> world_T_camera;
 };
@@ -42,8 +42,8 @@ std::string indexLine(const IndexEntry& entry);
 
 struct ParsedIndex {
     std::vector<IndexEntry> entries;
-    bool finished = false;     ///< the end marker line was found
-    bool partialTail = false;  ///< the last line had no newline (cut off) and was ignored
+    bool finished = false;    ///< the end marker line was found
+    bool partialTail = false; ///< the last line had no newline (cut off) and was ignored
 };
 /// Parses the index of `folder`: complete lines only; throws on a malformed complete line,
 /// frame numbers out of order, timestamps going backwards or paths leaving the folder.

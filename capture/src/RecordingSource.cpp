@@ -13,10 +13,12 @@ namespace {
 
 class RecordingSource final : public FrameSource {
 public:
-    RecordingSource(FrameSourceInfo info, FrameSourceOptions options, std::filesystem::path folder, RecordingInfo header,
-                    ParsedIndex index)
-        : FrameSource(std::move(info), std::move(options)), folder_(std::move(folder)), header_(std::move(header)),
-          index_(std::move(index)) {}
+    RecordingSource(FrameSourceInfo info, FrameSourceOptions options, std::filesystem::path folder,
+                    RecordingInfo header, ParsedIndex index)
+        : FrameSource(std::move(info), std::move(options))
+        , folder_(std::move(folder))
+        , header_(std::move(header))
+        , index_(std::move(index)) {}
 
     std::optional<std::int64_t> frameCount() const override { return std::int64_t(index_.entries.size()); }
     bool canSeek() const noexcept override { return true; }
@@ -27,10 +29,14 @@ protected:
         const IndexEntry& entry = index_.entries[std::size_t(next_)];
         const cv::Size colourSize(header_.colourIntrinsics.width, header_.colourIntrinsics.height);
         const cv::Size depthSize(header_.depthIntrinsics.width, header_.depthIntrinsics.height);
-        if (entry.depthFile.empty()) out.depth.release();
-        else readDepth16(folder_ / entry.depthFile, next_, depthSize, scratch_, out.depth);
-        if (entry.colourFile.empty()) out.colour.release();
-        else readColour8(folder_ / entry.colourFile, next_, colourSize, scratch_, out.colour);
+        if (entry.depthFile.empty())
+            out.depth.release();
+        else
+            readDepth16(folder_ / entry.depthFile, next_, depthSize, scratch_, out.depth);
+        if (entry.colourFile.empty())
+            out.colour.release();
+        else
+            readColour8(folder_ / entry.colourFile, next_, colourSize, scratch_, out.colour);
         stampFrame(out, next_);
         out.colourTimestampSeconds = entry.colourTimestamp;
         out.depthTimestampSeconds = entry.depthTimestamp;
@@ -60,7 +66,8 @@ private:
 
 } // namespace
 
-std::unique_ptr<FrameSource> openRecordingSource(const std::filesystem::path& folder, const FrameSourceOptions& options) {
+std::unique_ptr<FrameSource> openRecordingSource(const std::filesystem::path& folder,
+                                                 const FrameSourceOptions& options) {
     int version = 0;
     RecordingInfo header = readHeader(folder, version);
     ParsedIndex index = readIndex(folder);

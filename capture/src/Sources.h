@@ -9,7 +9,8 @@
 
 namespace lightskin::capture::detail {
 
-std::unique_ptr<FrameSource> openRecordingSource(const std::filesystem::path& folder, const FrameSourceOptions& options);
+std::unique_ptr<FrameSource> openRecordingSource(const std::filesystem::path& folder,
+                                                 const FrameSourceOptions& options);
 std::unique_ptr<FrameSource> openTumSource(const std::filesystem::path& folder, const FrameSourceOptions& options);
 /// `uri` empty = first device; otherwise an OpenNI2 device URI or a .oni path.
 std::unique_ptr<FrameSource> openOpenNI2Source(const std::string& uri, bool file, const FrameSourceOptions& options);

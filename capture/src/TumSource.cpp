@@ -64,7 +64,8 @@ double parseNumber(const std::string& token, const std::filesystem::path& path, 
         used = 0;
     }
     if (used != token.size() || !std::isfinite(value))
-        throw Error(path.string(), std::nullopt, "line " + std::to_string(lineNumber) + ": '" + token + "' is not a number");
+        throw Error(path.string(), std::nullopt,
+                    "line " + std::to_string(lineNumber) + ": '" + token + "' is not a number");
     return value;
 }
 
@@ -97,9 +98,11 @@ std::vector<StampedPose> readGroundTruth(const std::filesystem::path& path) {
         for (std::size_t i = 0; i < 8; ++i) v[i] = parseNumber(tokens[i], path, lineNumber);
         const double norm = std::sqrt(v[4] * v[4] + v[5] * v[5] + v[6] * v[6] + v[7] * v[7]);
         if (std::abs(norm - 1.0) > 1e-2)
-            throw Error(path.string(), std::nullopt, "line " + std::to_string(lineNumber) + ": quaternion is not unit length");
+            throw Error(path.string(), std::nullopt,
+                        "line " + std::to_string(lineNumber) + ": quaternion is not unit length");
         if (!poses.empty() && v[0] <= poses.back().time)
-            throw Error(path.string(), std::nullopt, "line " + std::to_string(lineNumber) + ": timestamps go backwards or repeat");
+            throw Error(path.string(), std::nullopt,
+                        "line " + std::to_string(lineNumber) + ": timestamps go backwards or repeat");
         poses.push_back({v[0], Pose(glm::dquat(v[7], v[4], v[5], v[6]), glm::dvec3(v[1], v[2], v[3]))});
     });
     return poses;
@@ -109,7 +112,8 @@ struct Pair {
     std::size_t colour, depth;
 };
 
-std::vector<Pair> associate(const std::vector<Stamped>& colour, const std::vector<Stamped>& depth, double maxDifference) {
+std::vector<Pair> associate(const std::vector<Stamped>& colour, const std::vector<Stamped>& depth,
+                            double maxDifference) {
     struct Candidate {
         double difference;
         std::size_t colour, depth;
@@ -138,8 +142,8 @@ std::vector<Pair> associate(const std::vector<Stamped>& colour, const std::vecto
 /// most 2 * maxDifference apart, else the nearest sample within maxDifference, else none.
 std::optional<Pose> poseAt(const std::vector<StampedPose>& poses, double time, double maxDifference) {
     if (poses.empty()) return std::nullopt;
-    const auto after = std::lower_bound(poses.begin(), poses.end(), time,
-                                        [](const StampedPose& p, double t) { return p.time < t; });
+    const auto after =
+        std::lower_bound(poses.begin(), poses.end(), time, [](const StampedPose& p, double t) { return p.time < t; });
     if (after != poses.end() && after->time == time) return after->pose;
     if (after != poses.begin() && after != poses.end()) {
         const auto before = after - 1;
@@ -151,7 +155,8 @@ std::optional<Pose> poseAt(const std::vector<StampedPose>& poses, double time, d
     }
     const StampedPose* nearest = nullptr;
     if (after != poses.end()) nearest = &*after;
-    if (after != poses.begin() && (!nearest || time - (after - 1)->time < nearest->time - time)) nearest = &*(after - 1);
+    if (after != poses.begin() && (!nearest || time - (after - 1)->time < nearest->time - time))
+        nearest = &*(after - 1);
     if (nearest && std::abs(nearest->time - time) <= maxDifference) return nearest->pose;
     return std::nullopt;
 }
@@ -164,8 +169,11 @@ struct TumFrame {
 
 class TumSource final : public FrameSource {
 public:
-    TumSource(FrameSourceInfo info, FrameSourceOptions options, std::filesystem::path folder, std::vector<TumFrame> frames)
-        : FrameSource(std::move(info), std::move(options)), folder_(std::move(folder)), frames_(std::move(frames)) {}
+    TumSource(FrameSourceInfo info, FrameSourceOptions options, std::filesystem::path folder,
+              std::vector<TumFrame> frames)
+        : FrameSource(std::move(info), std::move(options))
+        , folder_(std::move(folder))
+        , frames_(std::move(frames)) {}
 
     std::optional<std::int64_t> frameCount() const override { return std::int64_t(frames_.size()); }
     bool canSeek() const noexcept override { return true; }
@@ -209,7 +217,8 @@ std::unique_ptr<FrameSource> openTumSource(const std::filesystem::path& folder, 
     if (!(options.maxAssociationSeconds > 0.0)) throw Error(name, std::nullopt, "association limit must be positive");
     for (const char* list : {"rgb.txt", "depth.txt"})
         if (!std::filesystem::exists(folder / list))
-            throw Error((folder / list).string(), std::nullopt, "file is missing (a TUM folder needs rgb.txt and depth.txt)");
+            throw Error((folder / list).string(), std::nullopt,
+                        "file is missing (a TUM folder needs rgb.txt and depth.txt)");
 
     FrameSourceInfo info;
     info.kind = "tum";
@@ -240,9 +249,12 @@ std::unique_ptr<FrameSource> openTumSource(const std::filesystem::path& folder, 
     if (!intrinsics) {
         // TUM sequence folders are named rgbd_dataset_freiburgN_*: use that camera's calibration.
         const std::string folderName = std::filesystem::absolute(folder).lexically_normal().filename().string();
-        if (folderName.find("freiburg1") != std::string::npos) intrinsics = CameraIntrinsics::tumFreiburg1();
-        else if (folderName.find("freiburg2") != std::string::npos) intrinsics = CameraIntrinsics::tumFreiburg2();
-        else if (folderName.find("freiburg3") != std::string::npos) intrinsics = CameraIntrinsics::tumFreiburg3();
+        if (folderName.find("freiburg1") != std::string::npos)
+            intrinsics = CameraIntrinsics::tumFreiburg1();
+        else if (folderName.find("freiburg2") != std::string::npos)
+            intrinsics = CameraIntrinsics::tumFreiburg2();
+        else if (folderName.find("freiburg3") != std::string::npos)
+            intrinsics = CameraIntrinsics::tumFreiburg3();
         else {
             intrinsics = CameraIntrinsics::kinectV1Default();
             warnDefaultIntrinsics = true;

@@ -7,9 +7,8 @@
 #include <lightskin/capture/Recording.h>
 #include <lightskin/core/Error.h>
 
-#include <opencv2/imgcodecs.hpp>
-
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include <fstream>
 
@@ -30,8 +29,9 @@ void expectError(Action&& action, const Expected& expected) {
         ADD_FAILURE() << "no error; expected one about " << expected.fileEnds << ": " << expected.causeContains;
     } catch (const Error& error) {
         const std::string& source = error.source();
-        EXPECT_TRUE(source.size() >= expected.fileEnds.size() &&
-                    source.compare(source.size() - expected.fileEnds.size(), expected.fileEnds.size(), expected.fileEnds) == 0)
+        EXPECT_TRUE(
+            source.size() >= expected.fileEnds.size() &&
+            source.compare(source.size() - expected.fileEnds.size(), expected.fileEnds.size(), expected.fileEnds) == 0)
             << "source '" << source << "' should end with '" << expected.fileEnds << "' (" << error.what() << ")";
         EXPECT_EQ(error.frame(), expected.frame) << error.what();
         EXPECT_NE(error.cause().find(expected.causeContains), std::string::npos)
@@ -43,7 +43,8 @@ void expectError(Action&& action, const Expected& expected) {
 void readAll(const std::filesystem::path& path) {
     auto source = capture::openFrameSource(path.string());
     RgbdFrame frame;
-    while (source->next(frame)) {}
+    while (source->next(frame)) {
+    }
 }
 
 /// A finished 3-frame recording of 32x24 frames.
@@ -150,7 +151,7 @@ TEST(BadInputTest, TruncatedAndCorruptTiff) {
     for (int i = 0; i < entries; ++i) {
         char* entry = &bytes[ifd + 2 + std::uint32_t(i) * 12];
         if ((std::uint8_t(entry[0]) | std::uint8_t(entry[1]) << 8) == 256) { // ImageWidth
-            entry[2] = 4; // LONG
+            entry[2] = 4;                                                    // LONG
             entry[3] = 0;
             const std::uint32_t huge = 1000000;
             std::memcpy(entry + 8, &huge, 4);
@@ -189,15 +190,18 @@ TEST(BadInputTest, AbsurdSizes) {
 
     const auto header = makeRecording("bad_absurd_header");
     replaceInFile(header / capture::kRecordingHeaderFile, "\"width\": 32", "\"width\": 1000000000");
-    expectError([&] { capture::openFrameSource(header.string()); }, {capture::kRecordingHeaderFile, std::nullopt, "absurd image size"});
+    expectError([&] { capture::openFrameSource(header.string()); },
+                {capture::kRecordingHeaderFile, std::nullopt, "absurd image size"});
 }
 
 TEST(BadInputTest, EmptyFolderAndUnknownSources) {
     const auto empty = scratchDir("bad_empty");
     expectError([&] { capture::openFrameSource(empty.string()); }, {"bad_empty", std::nullopt, "neither"});
-    expectError([&] { capture::openFrameSource((empty / "nothing").string()); }, {"nothing", std::nullopt, "no such file"});
+    expectError([&] { capture::openFrameSource((empty / "nothing").string()); },
+                {"nothing", std::nullopt, "no such file"});
     std::ofstream(empty / "clip.mp4") << "x";
-    expectError([&] { capture::openFrameSource((empty / "clip.mp4").string()); }, {"clip.mp4", std::nullopt, "unknown source"});
+    expectError([&] { capture::openFrameSource((empty / "clip.mp4").string()); },
+                {"clip.mp4", std::nullopt, "unknown source"});
     expectError([&] { capture::openFrameSource("freenect://abc"); }, {"freenect://abc", std::nullopt, "device index"});
     // An empty rgb.txt/depth.txt pair: nothing to associate.
     std::ofstream(empty / "rgb.txt") << "# nothing\n";
@@ -207,28 +211,36 @@ TEST(BadInputTest, EmptyFolderAndUnknownSources) {
 
 TEST(BadInputTest, MalformedManifest) {
     const auto folder = makeRecording("bad_manifest");
-    std::ofstream(folder / capture::kRecordingHeaderFile, std::ios::trunc) << "{\"format\": \"lightskin-recording\", \"vers";
-    expectError([&] { capture::openFrameSource(folder.string()); }, {capture::kRecordingHeaderFile, std::nullopt, "malformed JSON"});
+    std::ofstream(folder / capture::kRecordingHeaderFile, std::ios::trunc)
+        << "{\"format\": \"lightskin-recording\", \"vers";
+    expectError([&] { capture::openFrameSource(folder.string()); },
+                {capture::kRecordingHeaderFile, std::nullopt, "malformed JSON"});
 
     const auto newer = makeRecording("bad_manifest_version");
     replaceInFile(newer / capture::kRecordingHeaderFile, "\"version\": 1", "\"version\": 99");
-    expectError([&] { capture::openFrameSource(newer.string()); }, {capture::kRecordingHeaderFile, std::nullopt, "not supported"});
+    expectError([&] { capture::openFrameSource(newer.string()); },
+                {capture::kRecordingHeaderFile, std::nullopt, "not supported"});
 
     const auto index = makeRecording("bad_manifest_index");
     replaceInFile(index / capture::kRecordingIndexFile, "{\"colour\":\"colour/000001.png\"", "{\"colour\":[1,2]");
-    expectError([&] { capture::openFrameSource(index.string()); }, {capture::kRecordingIndexFile, 1, "malformed index line"});
+    expectError([&] { capture::openFrameSource(index.string()); },
+                {capture::kRecordingIndexFile, 1, "malformed index line"});
 
     const auto garbage = makeRecording("bad_manifest_garbage");
-    replaceInFile(garbage / capture::kRecordingIndexFile, "{\"colour\":\"colour/000001.png\"", "#!garbage {\"colour\":\"colour/000001.png\"");
-    expectError([&] { capture::openFrameSource(garbage.string()); }, {capture::kRecordingIndexFile, 1, "malformed index line"});
+    replaceInFile(garbage / capture::kRecordingIndexFile, "{\"colour\":\"colour/000001.png\"",
+                  "#!garbage {\"colour\":\"colour/000001.png\"");
+    expectError([&] { capture::openFrameSource(garbage.string()); },
+                {capture::kRecordingIndexFile, 1, "malformed index line"});
 
     // TUM lists with a malformed line.
     const auto tum = scratchDir("bad_manifest_tum");
     std::ofstream(tum / "rgb.txt") << "# header\n1.0 c.png\nabc c.png\n";
     std::ofstream(tum / "depth.txt") << "1.0 d.png\n";
-    expectError([&] { capture::openFrameSource(tum.string()); }, {"rgb.txt", std::nullopt, "line 3: 'abc' is not a number"});
+    expectError([&] { capture::openFrameSource(tum.string()); },
+                {"rgb.txt", std::nullopt, "line 3: 'abc' is not a number"});
     std::ofstream(tum / "rgb.txt", std::ios::trunc) << "1.0 c.png extra\n";
-    expectError([&] { capture::openFrameSource(tum.string()); }, {"rgb.txt", std::nullopt, "line 1: expected 'timestamp file'"});
+    expectError([&] { capture::openFrameSource(tum.string()); },
+                {"rgb.txt", std::nullopt, "line 1: expected 'timestamp file'"});
     std::ofstream(tum / "rgb.txt", std::ios::trunc) << "1.0 c.png\n";
     std::ofstream(tum / "groundtruth.txt") << "1.0 0 0 0 0 0 0\n";
     expectError([&] { capture::openFrameSource(tum.string()); }, {"groundtruth.txt", std::nullopt, "line 1"});
@@ -238,14 +250,16 @@ TEST(BadInputTest, TimestampsGoingBackwards) {
     const auto tum = scratchDir("bad_time_tum");
     std::ofstream(tum / "rgb.txt") << "2.0 a.png\n1.0 b.png\n";
     std::ofstream(tum / "depth.txt") << "1.0 d.png\n";
-    expectError([&] { capture::openFrameSource(tum.string()); }, {"rgb.txt", std::nullopt, "line 2: timestamps go backwards"});
+    expectError([&] { capture::openFrameSource(tum.string()); },
+                {"rgb.txt", std::nullopt, "line 2: timestamps go backwards"});
 
     const auto folder = makeRecording("bad_time_recording");
     std::string index = readText(folder / capture::kRecordingIndexFile);
     const auto first = index.find("\"depthTime\":");
     index.replace(index.find("\"depthTime\":", first + 1), 12, "\"depthTime\":-5.0,\"x\":");
     std::ofstream(folder / capture::kRecordingIndexFile, std::ios::trunc) << index;
-    expectError([&] { capture::openFrameSource(folder.string()); }, {capture::kRecordingIndexFile, 1, "timestamps go backwards"});
+    expectError([&] { capture::openFrameSource(folder.string()); },
+                {capture::kRecordingIndexFile, 1, "timestamps go backwards"});
 }
 
 TEST(BadInputTest, PathsLeavingTheFolderAreRefused) {
@@ -253,7 +267,8 @@ TEST(BadInputTest, PathsLeavingTheFolderAreRefused) {
     std::ofstream(folder.parent_path() / "outside.png") << "x";
     const std::string original = readText(folder / capture::kRecordingIndexFile);
     replaceInFile(folder / capture::kRecordingIndexFile, "\"depth/000001.png\"", "\"../outside.png\"");
-    expectError([&] { capture::openFrameSource(folder.string()); }, {capture::kRecordingIndexFile, 1, "leaves the folder"});
+    expectError([&] { capture::openFrameSource(folder.string()); },
+                {capture::kRecordingIndexFile, 1, "leaves the folder"});
     std::ofstream(folder / capture::kRecordingIndexFile, std::ios::trunc) << original;
     replaceInFile(folder / capture::kRecordingIndexFile, "\"depth/000001.png\"", "\"/etc/hostname\"");
     expectError([&] { capture::openFrameSource(folder.string()); }, {capture::kRecordingIndexFile, 1, "absolute"});
@@ -261,7 +276,8 @@ TEST(BadInputTest, PathsLeavingTheFolderAreRefused) {
     std::ofstream(folder / capture::kRecordingIndexFile, std::ios::trunc) << original;
     std::filesystem::create_directory_symlink(folder.parent_path(), folder / "link");
     replaceInFile(folder / capture::kRecordingIndexFile, "\"depth/000001.png\"", "\"link/outside.png\"");
-    expectError([&] { capture::openFrameSource(folder.string()); }, {capture::kRecordingIndexFile, 1, "outside the folder"});
+    expectError([&] { capture::openFrameSource(folder.string()); },
+                {capture::kRecordingIndexFile, 1, "outside the folder"});
 
     const auto tum = scratchDir("bad_paths_tum");
     std::ofstream(tum / "rgb.txt") << "1.0 ../../secret.png\n";

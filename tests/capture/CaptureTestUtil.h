@@ -12,8 +12,8 @@ namespace lightskin::test {
 inline capture::RecordingInfo smallRecordingInfo(int width = 32, int height = 24) {
     capture::RecordingInfo info;
     info.deviceName = "synthetic test camera";
-    info.colourIntrinsics = info.depthIntrinsics =
-        CameraIntrinsics{width, height, 30.0, 31.0, width / 2.0 - 0.5, height / 2.0 - 0.5, {0.1, -0.2, 0.001, 0.002, 0.05}};
+    info.colourIntrinsics = info.depthIntrinsics = CameraIntrinsics{
+        width, height, 30.0, 31.0, width / 2.0 - 0.5, height / 2.0 - 0.5, {0.1, -0.2, 0.001, 0.002, 0.05}};
     info.depthScaleMetres = 0.001;
     return info;
 }

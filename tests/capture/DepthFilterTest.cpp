@@ -2,10 +2,9 @@
 // as cv::bilateralFilter where no hole is in reach.
 #include <lightskin/capture/DepthFilter.h>
 
+#include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
-
-#include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
@@ -33,7 +32,8 @@ TEST(DepthFilterTest, ReducesNoiseOnANoisyPlaneByMoreThanThreeTimes) {
     const cv::Rect inner(8, 8, 320 - 16, 240 - 16); // away from the image border
     const double before = cv::norm(noisy(inner), truth(inner), cv::NORM_L2) / std::sqrt(double(inner.area()));
     const double after = cv::norm(filtered(inner), truth(inner), cv::NORM_L2) / std::sqrt(double(inner.area()));
-    std::printf("plane noise RMS: %.2f mm before, %.2f mm after (factor %.2f)\n", before * 1e3, after * 1e3, before / after);
+    std::printf("plane noise RMS: %.2f mm before, %.2f mm after (factor %.2f)\n", before * 1e3, after * 1e3,
+                before / after);
     // An average of the 37 taps of a radius-3 disk would cut the noise by sqrt(37) = 6x; the
     // spatial fall-off (sigma 4.5 px) and the range weights (exp(-dz^2 / 2 (3 cm)^2) at the
     // 1.4 cm RMS difference of two noisy pixels) give about 4.5x here. Demand 3x.
@@ -42,7 +42,7 @@ TEST(DepthFilterTest, ReducesNoiseOnANoisyPlaneByMoreThanThreeTimes) {
 
 TEST(DepthFilterTest, PreservesADepthEdge) {
     cv::Mat depth(60, 80, CV_16UC1, cv::Scalar(1000)); // 1.0 m
-    depth(cv::Rect(40, 0, 40, 60)).setTo(1500);           // 1.5 m on the right half
+    depth(cv::Rect(40, 0, 40, 60)).setTo(1500);        // 1.5 m on the right half
     BilateralDepthFilter filter;
     const cv::Mat filtered = filter.filter(depth, 0.001);
     for (int v = 0; v < 60; ++v) {
@@ -119,7 +119,7 @@ TEST(DepthFilterTest, AgreesWithOpenCvAwayFromHoles) {
 TEST(DepthFilterTest, RangeClampRemovesAndIsolatesOutOfRangeDepth) {
     cv::Mat depth(30, 30, CV_16UC1, cv::Scalar(1000));
     depth(cv::Rect(0, 0, 15, 30)).setTo(1020); // 2 cm step: within sigma_depth, blends
-    depth.at<std::uint16_t>(15, 22) = 5000;     // 5 m: beyond the clamp
+    depth.at<std::uint16_t>(15, 22) = 5000;    // 5 m: beyond the clamp
     capture::BilateralDepthFilterParams params;
     params.maxDepthMetres = 4.0;
     BilateralDepthFilter filter(params);

@@ -10,14 +10,12 @@
 #include <lightskin/capture/Recording.h>
 #include <lightskin/core/Error.h>
 
-#include <libfreenect.h>
-
-#include <dlfcn.h>
-
 #include <gtest/gtest.h>
+#include <libfreenect.h>
 
 #include <cmath>
 #include <cstdlib>
+#include <dlfcn.h>
 
 namespace lightskin::test {
 namespace {

@@ -5,9 +5,8 @@
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/Error.h>
 
-#include <opencv2/imgcodecs.hpp>
-
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -35,9 +34,10 @@ TEST(RecordedDataTest, TumFreiburg2FramesAreDeliveredUnchanged) {
     RgbdFrame frame;
     for (int i = 1; i <= 2; ++i) {
         ASSERT_TRUE(source->next(frame));
-        EXPECT_TRUE(identical(frame.colour, cv::imread((folder / (std::to_string(i) + ".png")).string(), cv::IMREAD_COLOR)));
-        EXPECT_TRUE(identical(frame.depth,
-                              cv::imread((folder / (std::to_string(i) + "_depth.png")).string(), cv::IMREAD_UNCHANGED)));
+        EXPECT_TRUE(
+            identical(frame.colour, cv::imread((folder / (std::to_string(i) + ".png")).string(), cv::IMREAD_COLOR)));
+        EXPECT_TRUE(identical(
+            frame.depth, cv::imread((folder / (std::to_string(i) + "_depth.png")).string(), cv::IMREAD_UNCHANGED)));
         EXPECT_NEAR(frame.depthTimestampSeconds - frame.colourTimestampSeconds, 0.005, 1e-6);
         EXPECT_DOUBLE_EQ(frame.colourIntrinsics.fx, 520.9);
         EXPECT_NO_THROW(frame.validate("tum"));

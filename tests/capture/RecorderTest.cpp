@@ -9,13 +9,12 @@
 
 #include <gtest/gtest.h>
 
-#include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <chrono>
 #include <fstream>
+#include <signal.h>
+#include <sys/wait.h>
 #include <thread>
+#include <unistd.h>
 
 namespace lightskin::test {
 namespace {
@@ -23,7 +22,8 @@ namespace {
 TEST(RecorderTest, EveryFrameIsWrittenOrCountedAsDropped) {
     const auto folder = scratchDir("recorder_queue") / "rec";
     const auto info = smallRecordingInfo(320, 240);
-    auto recorder = capture::Recorder::start(capture::RecordingWriter::create(folder, info), capture::RecorderOptions{2});
+    auto recorder =
+        capture::Recorder::start(capture::RecordingWriter::create(folder, info), capture::RecorderOptions{2});
     std::vector<std::uint32_t> accepted;
     RgbdFrame frame = syntheticFrame(info, 0);
     for (std::uint32_t i = 0; i < 40; ++i) {
@@ -67,7 +67,8 @@ TEST(RecorderTest, WriteFailuresAreCountedAsDroppedAndReported) {
 TEST(RecorderTest, LargeQueueDropsNothing) {
     const auto folder = scratchDir("recorder_nodrop") / "rec";
     const auto info = smallRecordingInfo(64, 48);
-    auto recorder = capture::Recorder::start(capture::RecordingWriter::create(folder, info), capture::RecorderOptions{64});
+    auto recorder =
+        capture::Recorder::start(capture::RecordingWriter::create(folder, info), capture::RecorderOptions{64});
     for (std::uint32_t i = 0; i < 50; ++i) EXPECT_TRUE(recorder->push(syntheticFrame(info, i)));
     const auto stats = recorder->finish();
     EXPECT_EQ(stats.written, 50);
@@ -96,8 +97,8 @@ int recordAndSignal(const std::filesystem::path& source, const std::filesystem::
     const pid_t child = fork();
     if (child == 0) {
         const std::string src = source.string(), dst = out.string();
-        execl(LIGHTSKIN_CLI, LIGHTSKIN_CLI, "--quiet", "record", "--source", src.c_str(), "--out", dst.c_str(), "--realtime",
-              static_cast<char*>(nullptr));
+        execl(LIGHTSKIN_CLI, LIGHTSKIN_CLI, "--quiet", "record", "--source", src.c_str(), "--out", dst.c_str(),
+              "--realtime", static_cast<char*>(nullptr));
         _exit(127);
     }
     EXPECT_GT(child, 0);
@@ -151,8 +152,9 @@ TEST(RecorderTest, RecordCommandRoundTripIsBitExact) {
         auto writer = capture::RecordingWriter::create(scratch / "source", info);
         for (std::uint32_t i = 0; i < 10; ++i) writer.write(syntheticFrame(info, i));
     }
-    const std::string command = std::string(LIGHTSKIN_CLI) + " --quiet record --source " + (scratch / "source").string() +
-                                " --out " + (scratch / "copy").string() + " > /dev/null";
+    const std::string command = std::string(LIGHTSKIN_CLI) + " --quiet record --source " +
+                                (scratch / "source").string() + " --out " + (scratch / "copy").string() +
+                                " > /dev/null";
     ASSERT_EQ(std::system(command.c_str()), 0);
     auto copy = capture::openFrameSource((scratch / "copy").string());
     EXPECT_EQ(copy->frameCount(), 10);
@@ -162,6 +164,30 @@ TEST(RecorderTest, RecordCommandRoundTripIsBitExact) {
         EXPECT_TRUE(identical(frame.depth, syntheticFrame(info, i).depth));
         EXPECT_TRUE(identical(frame.colour, syntheticFrame(info, i).colour));
     }
+}
+
+TEST(RecorderTest, InfoCommandDescribesARecording) {
+    const auto scratch = scratchDir("recorder_cli_info");
+    const auto info = smallRecordingInfo(64, 48);
+    {
+        auto writer = capture::RecordingWriter::create(scratch / "rec", info);
+        for (std::uint32_t i = 0; i < 4; ++i) {
+            RgbdFrame frame = syntheticFrame(info, i);
+            if (i == 2) frame.groundTruth_world_T_camera = Pose();
+            writer.write(frame);
+        }
+    }
+    const std::string command =
+        std::string(LIGHTSKIN_CLI) + " info " + (scratch / "rec").string() + " > " + (scratch / "info.txt").string();
+    ASSERT_EQ(std::system(command.c_str()), 0);
+    std::ifstream in(scratch / "info.txt");
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_NE(text.find("format version 1"), std::string::npos) << text;
+    EXPECT_NE(text.find("synthetic test camera"), std::string::npos) << text;
+    EXPECT_NE(text.find("frames:        4 (4 with colour, 4 with depth, 1 with ground-truth pose)"), std::string::npos)
+        << text;
+    EXPECT_NE(text.find("64x48 fx=30.000"), std::string::npos) << text;
+    EXPECT_NE(text.find("state:         finished"), std::string::npos) << text;
 }
 
 } // namespace

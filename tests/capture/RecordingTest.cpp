@@ -5,9 +5,8 @@
 #include <lightskin/capture/Recording.h>
 #include <lightskin/core/Error.h>
 
-#include <opencv2/imgproc.hpp>
-
 #include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include <cmath>
 #include <fstream>
@@ -26,7 +25,9 @@ TEST(RecordingTest, RoundTripIsBitExactWithPosesAndTimestamps) {
         auto writer = RecordingWriter::create(folder, info);
         for (std::uint32_t i = 0; i < 5; ++i) {
             RgbdFrame frame = syntheticFrame(info, i);
-            if (i % 2 == 0) frame.groundTruth_world_T_camera = Pose(glm::normalize(glm::dquat(1.0, 0.1 * i, -0.2, 0.3)), {0.1 * i, -1.0 / 3.0, 2.0});
+            if (i % 2 == 0)
+                frame.groundTruth_world_T_camera =
+                    Pose(glm::normalize(glm::dquat(1.0, 0.1 * i, -0.2, 0.3)), {0.1 * i, -1.0 / 3.0, 2.0});
             writer.write(frame);
             written.push_back(frame.clone());
         }
@@ -49,8 +50,12 @@ TEST(RecordingTest, RoundTripIsBitExactWithPosesAndTimestamps) {
         EXPECT_EQ(frame.colourTimestampSeconds, written[i].colourTimestampSeconds);
         ASSERT_EQ(frame.groundTruth_world_T_camera.has_value(), written[i].groundTruth_world_T_camera.has_value());
         if (frame.groundTruth_world_T_camera) {
-            EXPECT_LT(Pose::translationDistance(*frame.groundTruth_world_T_camera, *written[i].groundTruth_world_T_camera), 1e-12);
-            EXPECT_LT(Pose::rotationAngleBetween(*frame.groundTruth_world_T_camera, *written[i].groundTruth_world_T_camera), 1e-9);
+            EXPECT_LT(
+                Pose::translationDistance(*frame.groundTruth_world_T_camera, *written[i].groundTruth_world_T_camera),
+                1e-12);
+            EXPECT_LT(
+                Pose::rotationAngleBetween(*frame.groundTruth_world_T_camera, *written[i].groundTruth_world_T_camera),
+                1e-9);
         }
         EXPECT_NO_THROW(frame.validate("roundtrip"));
     }
@@ -157,7 +162,8 @@ TEST(RecordingTest, RealtimePacingHonoursTimestamps) {
     auto source = capture::openFrameSource(folder.string(), options);
     RgbdFrame frame;
     const auto start = std::chrono::steady_clock::now();
-    while (source->next(frame)) {}
+    while (source->next(frame)) {
+    }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     EXPECT_GE(seconds, 3.0 / 30.0 - 0.005); // three frame periods after the first frame
     EXPECT_EQ(source->framesDelivered(), 4);

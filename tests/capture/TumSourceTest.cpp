@@ -4,9 +4,8 @@
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/Error.h>
 
-#include <opencv2/imgcodecs.hpp>
-
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include <cmath>
 #include <fstream>
@@ -86,8 +85,8 @@ TEST(TumSourceTest, EachImageIsUsedOnceClosestPairFirst) {
 TEST(TumSourceTest, GroundTruthIsInterpolatedAtTheColourTimestamp) {
     // Camera-to-world: translation moves 1 m along x per 0.04 s, rotation 90 degrees about z.
     const double s = std::sqrt(0.5);
-    const std::string groundTruth = "# ground truth\n0.0 0 0 0 0 0 0 1\n0.04 1 0 0 0 0 " + std::to_string(s) + " " +
-                                    std::to_string(s) + "\n";
+    const std::string groundTruth =
+        "# ground truth\n0.0 0 0 0 0 0 0 1\n0.04 1 0 0 0 0 " + std::to_string(s) + " " + std::to_string(s) + "\n";
     const auto folder = makeTumFolder("tum_groundtruth", {0.01, 0.5}, {0.01, 0.5}, groundTruth);
     auto source = capture::openFrameSource(folder.string(), smallCamera());
     EXPECT_TRUE(source->info().hasGroundTruth);

@@ -21,9 +21,9 @@
 namespace lightskin::capture {
 
 struct BilateralDepthFilterParams {
-    int kernelSize = 7;               ///< odd diameter, pixels (KinectFusion: 7)
-    double sigmaSpacePixels = 4.5;    ///< spatial Gaussian sigma, pixels
-    double sigmaDepthMetres = 0.03;   ///< range Gaussian sigma, metres (Kinect noise ~1-3 cm at 1-3 m)
+    int kernelSize = 7;             ///< odd diameter, pixels (KinectFusion: 7)
+    double sigmaSpacePixels = 4.5;  ///< spatial Gaussian sigma, pixels
+    double sigmaDepthMetres = 0.03; ///< range Gaussian sigma, metres (Kinect noise ~1-3 cm at 1-3 m)
     /// Optional range clamp: depth outside [min, max] metres is treated as missing (output 0)
     /// and does not influence its neighbours. Defaults keep every positive depth.
     double minDepthMetres = 0.0;

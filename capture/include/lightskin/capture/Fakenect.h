@@ -23,8 +23,8 @@ namespace lightskin::capture {
 
 /// Writes up to `maxFrames` frames of `source` (all when negative) into a new fakenect dump
 /// folder. Frames must be 640x480 (fakenect's only resolution) with both images present; pixel
-/// positions are kept (registered depth is replayed as if it were the IR camera's). Returns the frames written. Throws lightskin::Error naming the
-/// source or folder, the frame and the cause.
+/// positions are kept (registered depth is replayed as if it were the IR camera's). Returns the frames written. Throws
+/// lightskin::Error naming the source or folder, the frame and the cause.
 std::int64_t writeFakenectDump(FrameSource& source, const std::filesystem::path& folder, std::int64_t maxFrames = -1);
 
 } // namespace lightskin::capture

@@ -59,15 +59,15 @@ struct FrameSourceOptions {
 
 /// What a source is and what its frames will carry. Filled by the factory before the first frame.
 struct FrameSourceInfo {
-    std::string kind;        ///< "lightskin-recording", "tum", "openni2", "oni", "freenect"
-    std::string uri;         ///< path or URI the source was opened from
-    std::string deviceName;  ///< camera model or data set name; may be empty
-    bool live = false;       ///< a device (cannot seek, never ends by itself)
+    std::string kind;       ///< "lightskin-recording", "tum", "openni2", "oni", "freenect"
+    std::string uri;        ///< path or URI the source was opened from
+    std::string deviceName; ///< camera model or data set name; may be empty
+    bool live = false;      ///< a device (cannot seek, never ends by itself)
     CameraIntrinsics colourIntrinsics;
     CameraIntrinsics depthIntrinsics;
     double depthScaleMetres = 0.001;
     DepthRegistration registration = DepthRegistration::RegisteredToColour;
-    Pose colour_T_depth;     ///< identity when registered
+    Pose colour_T_depth;         ///< identity when registered
     bool hasGroundTruth = false; ///< frames carry groundTruth_world_T_camera (where the source has it)
 };
 

@@ -23,11 +23,11 @@ struct RecorderOptions {
 };
 
 struct RecorderStats {
-    std::int64_t pushed = 0;   ///< frames offered to push()
-    std::int64_t written = 0;  ///< frames complete in the recording
-    std::int64_t dropped = 0;  ///< queue full or write failed
-    std::int64_t queued = 0;   ///< waiting for the writer right now
-    std::string firstError;    ///< the first write error (empty when none)
+    std::int64_t pushed = 0;  ///< frames offered to push()
+    std::int64_t written = 0; ///< frames complete in the recording
+    std::int64_t dropped = 0; ///< queue full or write failed
+    std::int64_t queued = 0;  ///< waiting for the writer right now
+    std::string firstError;   ///< the first write error (empty when none)
 };
 
 class Recorder {

@@ -35,8 +35,8 @@ struct RecordingInfo {
     CameraIntrinsics colourIntrinsics, depthIntrinsics;
     double depthScaleMetres = 0.001; ///< metres per depth unit
     DepthRegistration registration = DepthRegistration::RegisteredToColour;
-    Pose colour_T_depth;             ///< depth camera -> colour camera, metres
-    bool jpegColour = false;         ///< colour as JPEG (quality jpegQuality): lossy, much smaller
+    Pose colour_T_depth;     ///< depth camera -> colour camera, metres
+    bool jpegColour = false; ///< colour as JPEG (quality jpegQuality): lossy, much smaller
     int jpegQuality = 95;
 };
 
@@ -75,14 +75,14 @@ private:
 struct RecordingSummary {
     int version = 0;
     RecordingInfo info;
-    std::int64_t frameCount = 0;          ///< complete index lines
-    bool finished = false;                ///< the end marker was written (not cut off)
+    std::int64_t frameCount = 0; ///< complete index lines
+    bool finished = false;       ///< the end marker was written (not cut off)
     std::int64_t framesWithColour = 0;
     std::int64_t framesWithDepth = 0;
     std::int64_t framesWithGroundTruth = 0;
-    double firstTimestampSeconds = 0.0;   ///< depth (or colour) timestamps; NaN when absent
+    double firstTimestampSeconds = 0.0; ///< depth (or colour) timestamps; NaN when absent
     double lastTimestampSeconds = 0.0;
-    std::uintmax_t totalBytes = 0;        ///< header + index + frame files
+    std::uintmax_t totalBytes = 0; ///< header + index + frame files
 };
 
 /// Reads the header and the index of a recording folder. Throws lightskin::Error on a missing,
