@@ -104,18 +104,6 @@ std::string loadAverage() {
     return a + " " + b + " " + c;
 }
 
-template <typename T, typename Parse>
-std::vector<T> splitList(const std::string& text, Parse parse) {
-    std::vector<T> out;
-    std::size_t start = 0;
-    while (start <= text.size()) {
-        const std::size_t end = std::min(text.find(',', start), text.size());
-        if (end > start) out.push_back(parse(text.substr(start, end - start)));
-        start = end + 1;
-    }
-    return out;
-}
-
 int parseInt(const std::string& s, const char* option) {
     try {
         std::size_t used = 0;

@@ -211,18 +211,6 @@ void runBench(const BenchOptions& options) {
     gl::DebugOutput::throwIfErrors("bench-gather");
 }
 
-template <typename T>
-std::vector<T> splitList(const std::string& text, T (*parse)(const std::string&)) {
-    std::vector<T> out;
-    std::size_t start = 0;
-    while (start <= text.size()) {
-        const std::size_t end = std::min(text.find(',', start), text.size());
-        if (end > start) out.push_back(parse(text.substr(start, end - start)));
-        start = end + 1;
-    }
-    return out;
-}
-
 void addBenchGatherCommand(CLI::App& app, int& exitCode) {
     auto* command = app.add_subcommand("bench-gather", "Time the LightSkin stages and compare with the brute force");
     auto options = std::make_shared<BenchOptions>();
@@ -238,9 +226,9 @@ void addBenchGatherCommand(CLI::App& app, int& exitCode) {
     command->add_flag("--no-brute", [options](std::int64_t) { options->brute = false; }, "Skip the brute force");
     command->add_flag("--compute", options->compute, "Gather with the compute-shader variant instead of fragment passes");
     command->callback([=, &exitCode] {
-        options->sparse = splitList<int>(*sparse, [](const std::string& s) { return std::stoi(s); });
-        options->kCache = splitList<int>(*kCache, [](const std::string& s) { return std::stoi(s); });
-        options->valMaps = splitList<std::string>(*maps, [](const std::string& s) { return s; });
+        options->sparse = bench::splitList<int>(*sparse, [](const std::string& s) { return std::stoi(s); });
+        options->kCache = bench::splitList<int>(*kCache, [](const std::string& s) { return std::stoi(s); });
+        options->valMaps = bench::splitList<std::string>(*maps, [](const std::string& s) { return s; });
         runBench(*options);
         exitCode = 0;
     });
