@@ -2,11 +2,13 @@
 // Gather, compute-shader variant (kept to measure against the fragment passes, as the paper
 // did): a work group of 64 sparse points stages 64 VALs at a time in shared memory; each
 // dispatch covers at most uValCount VALs (keeps each loop far below llvmpipe's ~65k limit) and
-// adds its sums to the targets (image load/store; one thread owns one texel). Same outputs as
-// gather_sparse.frag. Variants: GLOSSY, OCCLUSION.
+// continues the running sums in the targets (image load/store; one thread owns one texel) in the
+// fixed 16-VAL blocks of gather_sum_block.glsl (uValFirst is a multiple of 64): the same sums as
+// gather_sparse.frag, for any dispatch size. Variants: GLOSSY, OCCLUSION.
 #include "lightskin_math.glsl"
 #include "virtual_area_light.glsl"
 #include "gather_sparse_points.glsl"
+#include "gather_sum_block.glsl"
 
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer Vals { VirtualAreaLight vals[]; };
@@ -32,7 +34,14 @@ void main() {
     const float k = positionK.w;
     const float ck = uC * (k + 1.0);
     const vec3 toEye = ls_toEye(x, uEye);
-    vec4 diffuse = vec4(0.0), offsetD = vec4(0.0), glossy = vec4(0.0), offsetS = vec4(0.0), moments = vec4(0.0);
+    GatherSums running = gather_zeroSums();
+    if (inRange) {
+        running.diffuse = imageLoad(uOutDiffuse, texel);
+        running.offsetD = imageLoad(uOutOffsetD, texel);
+        running.glossy = imageLoad(uOutGlossy, texel);
+        running.offsetS = imageLoad(uOutOffsetS, texel);
+        running.moments = imageLoad(uOutMoments, texel);
+    }
     const uint local = gl_LocalInvocationID.x;
     for (uint base = 0u; base < uValCount; base += 64u) {
         const uint j = base + local;
@@ -44,30 +53,23 @@ void main() {
         }
         barrier();
         const uint count = min(64u, uValCount - base);
-        for (uint t = 0u; t < count; ++t) {
-            const vec4 a = tile[3u * t];
-            const vec4 b = tile[3u * t + 1u];
-            const vec4 f = tile[3u * t + 2u];
-            const GatherSample s = ls_gatherSample(x, n, a.xyz, b.xyz, a.w, f.rgb, toEye, k, ck, 0.0);
-            diffuse += vec4(s.irradiance, s.r2 * s.weightD);
-            offsetD += vec4(s.offset * s.weightD, s.weightD);
-#ifdef GLOSSY
-            glossy += vec4(s.glossy, s.r2 * s.weightS);
-            offsetS += vec4(s.offset * s.weightS, s.weightS);
-#endif
-#ifdef OCCLUSION
-            moments.xyz += s.offset * s.offset * s.weightD;
-#ifdef GLOSSY
-            moments.w += dot(s.offset, s.offset) * s.weightS;
-#endif
-#endif
+        for (uint first = 0u; first < count; first += uint(kSumBlock)) {
+            GatherSums block = gather_zeroSums();
+            const uint end = min(first + uint(kSumBlock), count);
+            for (uint t = first; t < end; ++t) {
+                const vec4 a = tile[3u * t];
+                const vec4 b = tile[3u * t + 1u];
+                const vec4 f = tile[3u * t + 2u];
+                block = gather_addSample(block, ls_gatherSample(x, n, a.xyz, b.xyz, a.w, f.rgb, toEye, k, ck, 0.0));
+            }
+            running = gather_addBlock(running, block);
         }
         barrier();
     }
     if (!inRange) return;
-    imageStore(uOutDiffuse, texel, imageLoad(uOutDiffuse, texel) + diffuse);
-    imageStore(uOutOffsetD, texel, imageLoad(uOutOffsetD, texel) + offsetD);
-    imageStore(uOutGlossy, texel, imageLoad(uOutGlossy, texel) + glossy);
-    imageStore(uOutOffsetS, texel, imageLoad(uOutOffsetS, texel) + offsetS);
-    imageStore(uOutMoments, texel, imageLoad(uOutMoments, texel) + moments);
+    imageStore(uOutDiffuse, texel, running.diffuse);
+    imageStore(uOutOffsetD, texel, running.offsetD);
+    imageStore(uOutGlossy, texel, running.glossy);
+    imageStore(uOutOffsetS, texel, running.offsetS);
+    imageStore(uOutMoments, texel, running.moments);
 }

@@ -381,7 +381,9 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
             glBindImageTexture(GLuint(i), impl.gatherTargets[std::size_t(i)].id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_RGBA32F);
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, impl.vals.buffer().id());
         // each thread loops over perDispatch VALs: far below llvmpipe's ~65k iterations
-        const std::uint32_t perDispatch = std::uint32_t(std::clamp(s.computeValsPerDispatch, 64, 32768));
+        // a multiple of 64 (one shared-memory tile, four 16-VAL sum blocks): the sums are those
+        // of the fragment gather whatever the dispatch size (gather_sum_block.glsl)
+        const std::uint32_t perDispatch = std::uint32_t(std::clamp(s.computeValsPerDispatch, 64, 32768)) / 64u * 64u;
         for (std::uint32_t first = 0; first < count; first += perDispatch) {
             glUniform1ui(p.uniformLocation("uValFirst"), first);
             glUniform1ui(p.uniformLocation("uValCount"), std::min(perDispatch, count - first));
@@ -396,16 +398,18 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
         glUniform3fv(p.eye, 1, glm::value_ptr(view.cameraPositionWorld));
         glUniform1f(p.c, s.cParameter);
         glBindFramebuffer(GL_FRAMEBUFFER, impl.gatherFramebuffer.id());
-        glEnable(GL_BLEND);
-        glBlendFunc(GL_ONE, GL_ONE);
-        glBlendEquation(GL_FUNC_ADD);
+        // Each pass reads its fragment's running sums from the targets it writes (no blending;
+        // fixed 16-VAL blocks make the sums independent of K_cache, gather_sum_block.glsl). A
+        // texel read and written once by its own fragment is defined (GL 4.5, 9.3.1);
+        // glTextureBarrier makes the previous pass's writes visible.
+        for (int i = 0; i < kGatherTargets; ++i) glBindTextureUnit(GLuint(i), impl.gatherTargets[std::size_t(i)].id());
         const std::uint32_t chunks = impl.vals.chunkCount(count);
         for (std::uint32_t c = 0; c < chunks; ++c) {
             impl.vals.bindChunk(c);
             glUniform1i(p.valCount, int(impl.vals.chunkSize(c, count)));
+            glTextureBarrier();
             glDrawArrays(GL_TRIANGLES, 0, 3);
         }
-        glDisable(GL_BLEND);
     }
     impl.timer.end();
 

@@ -1,7 +1,9 @@
 #pragma once
 // The LightSkin technique (Lensing & Broll, sections 3-4) on OpenGL 4.5: per frame
-//   1. gather (eq. 3-5, 7) of all VALs at every sparse point: additive fragment passes, one
-//      texel per sparse point, K_cache VALs per pass read from a uniform buffer (Listing 1);
+//   1. gather (eq. 3-5, 7) of all VALs at every sparse point: fragment passes, one texel per
+//      sparse point, K_cache VALs per pass read from a uniform buffer (Listing 1); each pass
+//      continues its texel's running sums in fixed blocks of 16 VALs, so the sums (and the
+//      image) do not depend on K_cache (gi/shaders/gather_sum_block.glsl);
 //   2. renormalisation (eq. 8-11);
 //   3. occlusion (section 3.3, eq. 14) by the sparse-point discs of all virtual meshes;
 //   4. vertex interpolation (eq. 12-13) from the 8 nearest sparse points (compute pass);
@@ -37,6 +39,7 @@ namespace lightskin::gi {
 struct LightSkinSettings {
     /// VALs per gather pass (paper: K_cache = 128). Multiple of 16 (uniform-buffer offset
     /// alignment), at most GL_MAX_UNIFORM_BLOCK_SIZE / 48. Larger: fewer passes, longer loops.
+    /// Speed only: the results do not depend on it (fixed 16-VAL summation blocks).
     int kCache = 128;
     bool glossy = true;     ///< the paper's setup 2 (diffuse + glossy)
     bool occlusion = true;  ///< the paper's setup 3 (+ occlusion)
@@ -55,9 +58,10 @@ struct LightSkinSettings {
     /// camera) from the G-buffer position is a hidden surface and is discarded.
     float shadingPositionTolerance = 1e-4f;
     /// Gather with the compute-shader variant (shared-memory tiles of 64 VALs, image
-    /// load/store) instead of additive fragment passes; for measurement (see docs/BENCHMARKS.md).
+    /// load/store) instead of fragment passes; for measurement (see docs/BENCHMARKS.md).
     bool computeGather = false;
-    /// VALs per compute dispatch (compute variant; each thread loops over them).
+    /// VALs per compute dispatch (compute variant; each thread loops over them), rounded down
+    /// to a multiple of 64 (one shared-memory tile); clamped to [64, 32768].
     int computeValsPerDispatch = 16384;
     /// VAL capacity reserved in prepare(); grows (once, logged) if a frame brings more.
     std::uint32_t valCapacity = 1u << 16;
