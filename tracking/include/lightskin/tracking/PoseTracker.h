@@ -59,6 +59,16 @@ struct TrackerSettings {
     /// onto a wrong branch inherited from earlier noisy frames, while the better fit was right
     /// at ratios 2.2-3.7; at ratios 1.0-1.7 the fit was a coin toss and history was better.
     double historyRatio = 2.0;
+    /// Measurements that place the world's own tags worse than this are not accepted: the frame is
+    /// Held (reason "pose poorly determined") instead of Tracking with a pose that may be many
+    /// centimetres off. Measured by PoseUncertainty::worldCornerStdPx (first-order, corner noise =
+    /// max(RMS error, 0.1 px)), the projection std of every corner of every world tag, seen or
+    /// not. This refuses a bundle seen only through one small or distant tag (on synth-orbit the
+    /// 20 cm wall tag alone at ~3 m, 17 px: rotation std 2.5-5.4 degrees, errors 1-17 degrees and
+    /// 0.08-1.0 m, world-corner std 13-61 px), and never a single-tag world, whose only corners are
+    /// the measured ones (std about the corner noise: those views stay Tracking, flagged ambiguous
+    /// with their rotation std). Infinity switches the check off.
+    double maxWorldCornerStdPx = 6.0;
     /// Largest orientation change accepted for an ambiguous measurement, degrees per frame.
     double maxJumpDegrees = 25.0;
     /// Frames the last pose is held without a measurement before the state becomes Lost.
