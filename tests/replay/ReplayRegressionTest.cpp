@@ -425,8 +425,8 @@ std::vector<TrackedFrame> replayTracked(const std::string& recording, const std:
 // All 40 frames of synth-orbit with the scene's tracking settings (quadDecimate 1, upsample 2).
 // Each frame either tracks within 0.08 m and 2 degrees of the truth, or honestly does not (held:
 // the tracker refuses the far wall tag alone, whose pose cannot place the table's board - see
-// tests/tracking/SynthReplayTest.cpp). Measured: 34 frames tracked, filtered pose 0.010-0.069 m,
-// 0.18-1.31 degrees (the larger rotations are the One-Euro filter's lag in the first frames of
+// tests/tracking/SynthReplayTest.cpp). Measured: 34 frames tracked, filtered pose 0.010-0.066 m,
+// 0.23-1.31 degrees (the larger rotations are the One-Euro filter's lag in the first frames of
 // the orbit, the largest position error is frame 25 where only one board tag and the wall tag are
 // decoded); frames 14, 16-18, 22 and 24 held. Before (native-size detection, every frame accepted):
 // up to 0.66 m / 11 degrees at frame 22.
