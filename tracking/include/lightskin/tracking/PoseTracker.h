@@ -6,8 +6,10 @@
 //
 // States:
 //   Tracking  this frame's tags gave an accepted pose (filtered).
-//   Held      no acceptable measurement this frame; the last pose is repeated (not extrapolated)
-//             for at most TrackerSettings::maxHeldFrames consecutive frames.
+//   Held      no acceptable measurement this frame (no tag, reprojection error, possible flip, or a
+//             pose too poorly determined to place the world's tags: maxWorldCornerStdPx); the last
+//             pose is repeated (not extrapolated) for at most TrackerSettings::maxHeldFrames
+//             consecutive frames.
 //   Lost      no pose at all (world_T_camera is empty): before the first measurement, after
 //             maxHeldFrames frames without one, or after reset(). Rendering must not place
 //             virtual content with a pose from a Lost frame.
