@@ -422,18 +422,30 @@ std::vector<TrackedFrame> replayTracked(const std::string& recording, const std:
     return out;
 }
 
-// First 6 frames of synth-orbit: measured 0.015-0.039 m, 0.48-1.27 deg. (Later frames of the orbit
-// are worse: up to 0.66 m / 11 deg at frame 22, where the board is seen at a grazing angle; not
-// asserted here.)
+// All 40 frames of synth-orbit with the scene's tracking settings (quadDecimate 1, upsample 2).
+// Each frame either tracks within 0.08 m and 2 degrees of the truth, or honestly does not (held:
+// the tracker refuses the far wall tag alone, whose pose cannot place the table's board - see
+// tests/tracking/SynthReplayTest.cpp). Measured: 34 frames tracked, filtered pose 0.010-0.066 m,
+// 0.23-1.31 degrees (the larger rotations are the One-Euro filter's lag in the first frames of
+// the orbit, the largest position error is frame 25 where only one board tag and the wall tag are
+// decoded); frames 14, 16-18, 22 and 24 held. Before (native-size detection, every frame accepted):
+// up to 0.66 m / 11 degrees at frame 22.
 TEST(ReplayTracking, SynthOrbitTrackedPoseFollowsGroundTruth) {
-    const auto frames = replayTracked("recordings/synth-orbit", "recordings/scenes/orbit.json", 6, "synth_orbit");
-    ASSERT_EQ(frames.size(), 6u);
-    for (const TrackedFrame& f : frames) {
-        EXPECT_EQ(f.state, "tracking");
-        EXPECT_GE(f.translationError, 0.0);
-        EXPECT_LT(f.translationError, 0.06);
-        EXPECT_LT(f.rotationErrorDegrees, 2.0);
+    const auto frames = replayTracked("recordings/synth-orbit", "recordings/scenes/orbit.json", 40, "synth_orbit");
+    ASSERT_EQ(frames.size(), 40u);
+    int tracking = 0;
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+        const TrackedFrame& f = frames[i];
+        if (f.state == "tracking") {
+            ++tracking;
+            EXPECT_GE(f.translationError, 0.0) << "frame " << i;
+            EXPECT_LT(f.translationError, 0.08) << "frame " << i;
+            EXPECT_LT(f.rotationErrorDegrees, 2.0) << "frame " << i;
+        } else {
+            EXPECT_TRUE(f.state == "held" || f.state == "lost") << "frame " << i << ": " << f.state;
+        }
     }
+    EXPECT_GE(tracking, 32); // measured 34 of 40
 }
 
 // synth-pan, all 40 frames: the tag board leaves the view in frames 13-27 and comes back. Measured:

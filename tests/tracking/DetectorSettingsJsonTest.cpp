@@ -9,7 +9,8 @@ namespace {
 TEST(DetectorSettingsJsonTest, ReadsEveryKeyOverTheDefaults) {
     const tracking::DetectorSettings settings = tracking::detectorSettingsFromJson(
         R"({"family": "tag25h9", "quadDecimate": 1, "quadSigma": 0.8, "threads": 2, "refineEdges": false,
-            "decodeSharpening": 0.5, "refineCorners": false, "maxHamming": 1, "minDecisionMargin": 30})",
+            "decodeSharpening": 0.5, "refineCorners": false, "maxHamming": 1, "minDecisionMargin": 30,
+            "upsample": 2})",
         "scene /tracking/detector");
     EXPECT_EQ(settings.family, "tag25h9");
     EXPECT_EQ(settings.quadDecimate, 1.0f);
@@ -20,11 +21,13 @@ TEST(DetectorSettingsJsonTest, ReadsEveryKeyOverTheDefaults) {
     EXPECT_FALSE(settings.refineCorners);
     EXPECT_EQ(settings.maxHamming, 1);
     EXPECT_EQ(settings.minDecisionMargin, 30.0f);
+    EXPECT_EQ(settings.upsample, 2);
     // Keys not given keep the defaults.
     const tracking::DetectorSettings partial = tracking::detectorSettingsFromJson(R"({"quadDecimate": 1})", "x");
     EXPECT_EQ(partial.quadDecimate, 1.0f);
     EXPECT_EQ(partial.family, tracking::DetectorSettings{}.family);
     EXPECT_TRUE(partial.refineEdges);
+    EXPECT_EQ(partial.upsample, 1);
 }
 
 TEST(DetectorSettingsJsonTest, ErrorsNameTheSourceAndKey) {

@@ -10,7 +10,9 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <numbers>
+#include <string>
 
 namespace lightskin::tracking {
 namespace {
@@ -60,41 +62,82 @@ TEST(SynthReplayTest, PanAwayAndBackStatesAndAccuracy) {
     EXPECT_LE(worstPosition, 0.030); // measured 22 mm at ~1.5 m with 15-30 px tags
 }
 
-// synth-orbit: an orbit around the table; often only the wall tag (20 cm, ~15 px, seen nearly
-// head-on from 3 m) is visible - a badly conditioned single-tag view. Every frame must track; with
-// board tags in view the pose is accurate; with the wall tag alone the error may be large, but
-// never larger than 3x the rotation uncertainty the tracker reports (plus 0.5 degree).
-TEST(SynthReplayTest, OrbitIsTrackedAndHonestAboutTheFarWallTag) {
+// synth-orbit: an orbit around the table at ~2.5-3.5 m; the table's 2x2 board (15 cm tags) is seen
+// at a grazing angle (~24 x 10 px per tag), the 20 cm wall tag nearly head-on at ~17-21 px. At
+// native size the library decodes a board tag in only 12 of the 40 frames, so most frames were the
+// wall tag alone, whose orientation 17-21 px barely determine (rotation std 0.9-6 degrees; errors
+// up to 12 degrees / 0.71 m). With the scene's detector settings (quadDecimate 1, upsample 2) board
+// tags are found in 34 frames; the 6 frames left with the wall tag alone (14, 16-18, 22, 24) place
+// the board's corners with a std of 11-26 px and are refused (maxWorldCornerStdPx): Held, not a
+// wrong Tracking pose. Measured (unfiltered): tracked frames <= 0.067 m, <= 0.90 degrees.
+TEST(SynthReplayTest, OrbitTracksWithBoardTagsAndHoldsWhenOnlyTheFarWallTagIsSeen) {
     const std::string folder = recording("synth-orbit");
     const TagWorld world = TagWorld::load(folder + "/synth/tag-world.json");
     TrackerSettings settings = smallTagSettings();
-    settings.filter.enabled = false; // judge the measurements against their own uncertainty
+    settings.detector.upsample = 2;  // as recordings/scenes/orbit.json
+    settings.filter.enabled = false; // judge the measurements themselves
     PoseTracker tracker = PoseTracker::create(world, settings);
     auto source = capture::openFrameSource(folder);
     RgbdFrame frame;
     TrackingResult result;
-    double worstBoard = 0.0, worstWall = 0.0, worstSigmas = 0.0;
+    int tracked = 0, held = 0;
+    double worstRotation = 0.0, worstPosition = 0.0, worstHeldWallStd = std::numeric_limits<double>::infinity();
     while (source->next(frame)) {
         tracker.trackInto(frame, result);
-        ASSERT_EQ(result.state, TrackingState::Tracking) << "frame " << frame.index << ": " << result.reason;
-        const double rotation =
-            degrees(Pose::rotationAngleBetween(*result.world_T_camera, *frame.groundTruth_world_T_camera));
-        const bool boardVisible = result.tagsUsed.size() > 1 || result.tagsUsed.front() != 10;
-        if (boardVisible) {
-            worstBoard = std::max(worstBoard, rotation);
+        const Pose& truth = *frame.groundTruth_world_T_camera;
+        if (result.state == TrackingState::Tracking) {
+            ++tracked;
+            const double rotation = degrees(Pose::rotationAngleBetween(*result.world_T_camera, truth));
+            const double position = Pose::translationDistance(*result.world_T_camera, truth);
+            worstRotation = std::max(worstRotation, rotation);
+            worstPosition = std::max(worstPosition, position);
             EXPECT_LE(rotation, 1.5) << "frame " << frame.index;
-            EXPECT_LE(Pose::translationDistance(*result.world_T_camera, *frame.groundTruth_world_T_camera), 0.05)
-                << "frame " << frame.index;
+            EXPECT_LE(position, 0.10) << "frame " << frame.index;
+            EXPECT_LE(result.uncertainty.worldCornerStdPx, settings.maxWorldCornerStdPx);
         } else {
-            worstWall = std::max(worstWall, rotation);
-            worstSigmas = std::max(worstSigmas, rotation / result.uncertainty.rotationStdDegrees);
-            EXPECT_LE(rotation, 3.0 * result.uncertainty.rotationStdDegrees + 0.5)
-                << "frame " << frame.index << " std " << result.uncertainty.rotationStdDegrees;
+            ++held;
+            // Never lost here (a few frames at a time), and refused for the stated reason only.
+            EXPECT_EQ(result.state, TrackingState::Held) << "frame " << frame.index;
+            EXPECT_NE(std::string(result.reason).find("poorly determined"), std::string::npos)
+                << "frame " << frame.index << ": " << result.reason;
+            EXPECT_GT(result.uncertainty.worldCornerStdPx, settings.maxWorldCornerStdPx);
+            worstHeldWallStd = std::min(worstHeldWallStd, result.uncertainty.worldCornerStdPx);
         }
     }
-    std::printf("synth-orbit: worst rotation error %.2f deg with board tags, %.2f deg with the wall tag alone "
-                "(%.1f reported sigmas)\n",
-                worstBoard, worstWall, worstSigmas);
+    std::printf("synth-orbit: %d tracked (worst %.3f m, %.2f deg), %d held (smallest world-corner std %.1f px)\n",
+                tracked, worstPosition, worstRotation, held, worstHeldWallStd);
+    EXPECT_EQ(tracked + held, 40);
+    EXPECT_GE(tracked, 32); // measured 34
+}
+
+// Without the upsampling the board is decoded in 12 frames: the tracker must still never report
+// the far wall tag's badly determined poses as Tracking. Measured: 18 frames tracked (the 12 with
+// board tags and 6 wall-tag-only frames whose world-corner std is 4.0-4.6 px), worst 0.066 m,
+// 1.13 degrees; unchecked, the wall-tag-only frames were up to 0.71 m / 12.2 degrees off.
+TEST(SynthReplayTest, OrbitAtNativeSizeIsHonestAboutTheFarWallTag) {
+    const std::string folder = recording("synth-orbit");
+    const TagWorld world = TagWorld::load(folder + "/synth/tag-world.json");
+    TrackerSettings settings = smallTagSettings();
+    settings.filter.enabled = false;
+    PoseTracker tracker = PoseTracker::create(world, settings);
+    auto source = capture::openFrameSource(folder);
+    RgbdFrame frame;
+    TrackingResult result;
+    int tracked = 0;
+    double worstRotation = 0.0, worstPosition = 0.0;
+    while (source->next(frame)) {
+        tracker.trackInto(frame, result);
+        if (result.state != TrackingState::Tracking) continue;
+        ++tracked;
+        const Pose& truth = *frame.groundTruth_world_T_camera;
+        worstRotation = std::max(worstRotation, degrees(Pose::rotationAngleBetween(*result.world_T_camera, truth)));
+        worstPosition = std::max(worstPosition, Pose::translationDistance(*result.world_T_camera, truth));
+        EXPECT_LE(Pose::translationDistance(*result.world_T_camera, truth), 0.10) << "frame " << frame.index;
+    }
+    std::printf("synth-orbit at native size: %d tracked (worst %.3f m, %.2f deg)\n", tracked, worstPosition,
+                worstRotation);
+    EXPECT_GE(tracked, 1);
+    EXPECT_LE(worstRotation, 1.5);
 }
 
 } // namespace

@@ -181,6 +181,14 @@ TEST(TrackingSequenceTest, BadFramesThrowNamingTheFrame) {
     bad = {};
     bad.detector.maxHamming = 3;
     EXPECT_THROW(PoseTracker::create(TagWorld::singleTag(5, 0.16), bad), Error);
+    for (const int upsample : {0, 5}) {
+        bad = {};
+        bad.detector.upsample = upsample;
+        EXPECT_THROW(PoseTracker::create(TagWorld::singleTag(5, 0.16), bad), Error) << upsample;
+    }
+    bad = {};
+    bad.maxWorldCornerStdPx = 0.0;
+    EXPECT_THROW(PoseTracker::create(TagWorld::singleTag(5, 0.16), bad), Error);
 }
 
 TEST(TrackingSequenceTest, GroundTruthPassThroughForReplay) {

@@ -1,7 +1,12 @@
 // lightskin_tracking_bench: detection + pose time per frame against the raw AprilTag library
 // call on the same frames, and the temporal filter's lag measured through the whole pipeline.
 //
-//   lightskin_tracking_bench [--frames N] [--threads T]
+//   lightskin_tracking_bench [--frames N] [--threads T] [--recording FOLDER [--world TAGS.json]]
+//
+// With --recording (a lightskin recording with ground truth, e.g. recordings/synth-orbit; the tag
+// world defaults to FOLDER/synth/tag-world.json) only that recording is measured, tracked with
+// quadDecimate 1 and DetectorSettings::upsample 1 and 2 (filter off): median tracker and library
+// time per frame, tags decoded, frames tracked and held, and the worst error of tracked frames.
 //
 // Frames: synthetic 640x480 and 1280x720 images (renderSyntheticTagImage) of a four-tag bundle
 // (16 cm tag36h11 tags on a 50 cm square) seen from a camera moving on an arc at 0.7-2.2 m, over
@@ -15,6 +20,7 @@
 // the median over the frames; overhead = lightskin / raw. "library" and "pose" are the tracker's
 // own split of its time (TrackingTiming): the library call plus corner refinement, and PnP +
 // selection + uncertainty + filter.
+#include <lightskin/capture/FrameSource.h>
 #include <lightskin/tracking/PoseTracker.h>
 #include <lightskin/tracking/SyntheticTagImage.h>
 
@@ -225,20 +231,78 @@ void measureFilter() {
                 lagSum / moveCount * 1000.0);
 }
 
+void benchRecording(const std::string& folder, const std::string& worldPath, int threads) {
+    const TagWorld world = TagWorld::load(worldPath);
+    std::printf("\nrecording %s (quadDecimate 1, filter off), median per frame:\n", folder.c_str());
+    std::printf(
+        "| upsample | tracker | of which library | tags decoded | tracking | held/lost | worst tracked error |\n");
+    std::printf("|---|---|---|---|---|---|---|\n");
+    for (const int upsample : {1, 2}) {
+        TrackerSettings settings;
+        settings.detector.quadDecimate = 1.0f;
+        settings.detector.upsample = upsample;
+        settings.detector.threads = threads;
+        settings.filter.enabled = false;
+        PoseTracker tracker = PoseTracker::create(world, settings);
+        auto source = capture::openFrameSource(folder);
+        RgbdFrame frame;
+        TrackingResult result;
+        std::vector<double> total, library;
+        int tags = 0, tracked = 0, other = 0;
+        double worstPosition = 0.0, worstRotation = 0.0;
+        while (source->next(frame)) {
+            tracker.trackInto(frame, result);
+            total.push_back(result.timing.totalMs);
+            library.push_back(result.timing.detectMs);
+            tags += static_cast<int>(tracker.lastDetections().size());
+            if (result.state != TrackingState::Tracking) {
+                ++other;
+                continue;
+            }
+            ++tracked;
+            if (frame.groundTruth_world_T_camera) {
+                worstPosition = std::max(worstPosition, Pose::translationDistance(*result.world_T_camera,
+                                                                                  *frame.groundTruth_world_T_camera));
+                worstRotation = std::max(worstRotation, Pose::rotationAngleBetween(*result.world_T_camera,
+                                                                                   *frame.groundTruth_world_T_camera) *
+                                                            180.0 / std::numbers::pi);
+            }
+        }
+        if (total.empty()) return;
+        std::printf("| %d | %.2f ms | %.2f ms | %d | %d | %d | %.3f m, %.2f deg |\n", upsample, median(total),
+                    median(library), tags, tracked, other, worstPosition, worstRotation);
+    }
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
     int frames = 30;
     int threads = 1;
+    std::string recording, world;
     for (int i = 1; i + 1 < argc; i += 2) {
         if (std::strcmp(argv[i], "--frames") == 0)
             frames = std::max(1, std::atoi(argv[i + 1]));
         else if (std::strcmp(argv[i], "--threads") == 0)
             threads = std::max(1, std::atoi(argv[i + 1]));
+        else if (std::strcmp(argv[i], "--recording") == 0)
+            recording = argv[i + 1];
+        else if (std::strcmp(argv[i], "--world") == 0)
+            world = argv[i + 1];
         else {
-            std::fprintf(stderr, "usage: %s [--frames N] [--threads T]\n", argv[0]);
+            std::fprintf(stderr, "usage: %s [--frames N] [--threads T] [--recording FOLDER [--world TAGS.json]]\n",
+                         argv[0]);
             return 2;
         }
+    }
+    if (!recording.empty()) {
+        try {
+            benchRecording(recording, world.empty() ? recording + "/synth/tag-world.json" : world, threads);
+        } catch (const std::exception& error) {
+            std::fprintf(stderr, "%s\n", error.what());
+            return 1;
+        }
+        return 0;
     }
     std::printf("lightskin tracking benchmark: %d frames per resolution, %d library thread(s)\n", frames, threads);
     benchResolution(640, 480, frames, threads);

@@ -46,10 +46,15 @@ DetectorSettings detectorSettingsFromJson(const std::string& jsonObjectText, con
         } else if (key == "minDecisionMargin") {
             expect(value.is_number(), "a number");
             settings.minDecisionMargin = value.get<float>();
+        } else if (key == "upsample") {
+            expect(value.is_number_integer(), "an integer");
+            settings.upsample = value.get<int>();
         } else {
             throw Error(sourceName, std::nullopt,
-                        "/" + key + ": unknown detector setting (known: family, quadDecimate, quadSigma, threads, "
-                                    "refineEdges, decodeSharpening, refineCorners, maxHamming, minDecisionMargin)");
+                        "/" + key +
+                            ": unknown detector setting (known: family, quadDecimate, quadSigma, threads, "
+                            "refineEdges, decodeSharpening, refineCorners, maxHamming, minDecisionMargin, "
+                            "upsample)");
         }
     }
     return settings;

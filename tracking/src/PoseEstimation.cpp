@@ -300,6 +300,27 @@ PoseUncertainty estimateUncertainty(const Pose& world_T_camera, const std::vecto
     result.rotationStdDegrees = std::sqrt(std::max(eigenvalues.at<double>(0), 0.0)) * 180.0 / std::numbers::pi;
     cv::eigen(covariance(cv::Rect(3, 3, 3, 3)), eigenvalues);
     result.translationStdMetres = std::sqrt(std::max(eigenvalues.at<double>(0), 0.0));
+
+    // Every corner of the world, propagated: cov_uv = J cov J^T per corner in front of the camera.
+    Correspondences worldPoints;
+    const Pose camera_T_world = world_T_camera.inverse();
+    for (const WorldTag& tag : world.tags()) {
+        for (const glm::dvec3& corner : tagCorners(tag.sizeMetres)) {
+            const glm::dvec3 w = tag.world_T_tag.transformPoint(corner);
+            if (camera_T_world.transformPoint(w).z > 0.05) worldPoints.world.emplace_back(w.x, w.y, w.z);
+        }
+    }
+    result.worldCornerStdPx = 0.0;
+    if (worldPoints.world.empty()) return result;
+    cv::projectPoints(cv::Mat(static_cast<int>(worldPoints.world.size()), 1, CV_64FC3, worldPoints.world.data()), rvec,
+                      tvec, cameraMatrix(intrinsics), cv::noArray(), projected, jacobian);
+    for (int i = 0; i < static_cast<int>(worldPoints.world.size()); ++i) {
+        const cv::Mat rows = jacobian.rowRange(2 * i, 2 * i + 2).colRange(0, 6);
+        const cv::Mat pointCovariance = rows * covariance * rows.t();
+        cv::eigen(pointCovariance, eigenvalues);
+        result.worldCornerStdPx =
+            std::max(result.worldCornerStdPx, std::sqrt(std::max(eigenvalues.at<double>(0), 0.0)));
+    }
     return result;
 }
 

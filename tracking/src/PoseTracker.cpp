@@ -65,6 +65,7 @@ PoseTracker PoseTracker::create(TagWorld world, const TrackerSettings& settings)
     if (settings.maxHeldFrames < 0) throw Error("max_held_frames", std::nullopt, "must be >= 0");
     if (!(settings.maxReprojectionErrorPx > 0.0)) throw Error("max_reprojection_error_px", std::nullopt, "must be > 0");
     if (!(settings.ambiguityRatio >= 1.0)) throw Error("ambiguity_ratio", std::nullopt, "must be >= 1");
+    if (!(settings.maxWorldCornerStdPx > 0.0)) throw Error("max_world_corner_std_px", std::nullopt, "must be > 0");
     if (!(settings.historyRatio >= 1.0)) throw Error("history_ratio", std::nullopt, "must be >= 1");
     if (!(settings.nominalFrameIntervalSeconds > 0.0))
         throw Error("nominal_frame_interval", std::nullopt, "must be > 0 seconds");
@@ -208,6 +209,16 @@ void PoseTracker::trackImpl(const cv::Mat& image, const CameraIntrinsics& intrin
         out.ambiguityRatio = s.measurement.ambiguityRatio;
         out.ambiguous = out.ambiguityRatio < settings.ambiguityRatio;
         std::size_t chosen = 0;
+        // A pose that cannot place the world's tags is not reported as tracking.
+        const auto poorlyDetermined = [&](const Pose& pose, double rmsErrorPx) {
+            if (!std::isfinite(settings.maxWorldCornerStdPx)) return false;
+            out.uncertainty = estimateUncertainty(pose, s.detections, s.world, intrinsics, std::max(rmsErrorPx, 0.1),
+                                                  s.measurement.tagsUsed);
+            if (out.uncertainty.worldCornerStdPx <= settings.maxWorldCornerStdPx) return false;
+            out.reprojectionErrorPx = rmsErrorPx;
+            out.reason = "pose poorly determined (world corners' std above maxWorldCornerStdPx): not accepted";
+            return true;
+        };
         const double maxJump = settings.maxJumpDegrees * std::numbers::pi / 180.0;
         if (havePrevious) {
             const Pose& previous = s.filter.current();
@@ -218,7 +229,9 @@ void PoseTracker::trackImpl(const cv::Mat& image, const CameraIntrinsics& intrin
                 chosen = 1;
                 out.resolvedByHistory = true;
             }
-            if (Pose::rotationAngleBetween(previous, candidates[chosen].world_T_camera) > maxJump) {
+            if (poorlyDetermined(candidates[chosen].world_T_camera, candidates[chosen].rmsErrorPx)) {
+                chosen = candidates.size();
+            } else if (Pose::rotationAngleBetween(previous, candidates[chosen].world_T_camera) > maxJump) {
                 if (out.ambiguous) {
                     out.reason = "ambiguous pose far from the previous one (possible flip): rejected";
                     chosen = candidates.size();
@@ -228,6 +241,8 @@ void PoseTracker::trackImpl(const cv::Mat& image, const CameraIntrinsics& intrin
                 }
             }
         }
+        if (!havePrevious && poorlyDetermined(candidates[chosen].world_T_camera, candidates[chosen].rmsErrorPx))
+            chosen = candidates.size();
         if (chosen < candidates.size()) {
             out.reprojectionErrorPx = candidates[chosen].rmsErrorPx;
             if (candidates[chosen].rmsErrorPx > settings.maxReprojectionErrorPx) {

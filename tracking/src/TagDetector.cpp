@@ -159,6 +159,7 @@ struct TagDetector::Impl {
     detail::FamilyPtr family;
     std::unique_ptr<apriltag_detector_t, DetectorDeleter> detector;
     cv::Mat grey;                       // conversion buffer, reused
+    cv::Mat upsampled;                  // DetectorSettings::upsample buffer, reused
     std::vector<glm::dvec2> edgePoints; // refineCorners scratch, reused
 };
 
@@ -172,6 +173,8 @@ TagDetector TagDetector::create(const DetectorSettings& settings) {
     if (!(settings.decodeSharpening >= 0.0 && settings.decodeSharpening <= 10.0))
         throw Error("decode_sharpening", std::nullopt,
                     "must be in [0, 10], got " + std::to_string(settings.decodeSharpening));
+    if (settings.upsample < 1 || settings.upsample > 4)
+        throw Error("upsample", std::nullopt, "must be 1, 2, 3 or 4, got " + std::to_string(settings.upsample));
     if (settings.maxHamming < 0 || settings.maxHamming > 2)
         throw Error("max_hamming", std::nullopt, "must be 0, 1 or 2, got " + std::to_string(settings.maxHamming));
 
@@ -214,9 +217,20 @@ int TagDetector::detectInto(const cv::Mat& image, std::vector<TagDetection>& out
         cv::cvtColor(image, impl_->grey, cv::COLOR_BGRA2GRAY);
         grey = &impl_->grey;
     }
+    // The library sees the enlarged image with upsample > 1. cv::resize maps input pixel centres x to
+    // (x + 0.5) f - 0.5, so a library corner u (OpenCV convention) is at (u + 0.5) / f - 0.5.
+    const cv::Mat* libraryImage = grey;
+    const double factor = static_cast<double>(impl_->settings.upsample);
+    if (impl_->settings.upsample > 1) {
+        cv::resize(*grey, impl_->upsampled, cv::Size(), factor, factor, cv::INTER_CUBIC);
+        libraryImage = &impl_->upsampled;
+    }
+    const auto toInput = [factor](double libraryCoordinate) {
+        return (libraryCoordinate - libraryPixelOffset + 0.5) / factor - 0.5;
+    };
     // The library only reads the pixels; image_u8_t has no const variant.
-    image_u8_t view{grey->cols, grey->rows, static_cast<std::int32_t>(grey->step[0]),
-                    const_cast<std::uint8_t*>(grey->data)};
+    image_u8_t view{libraryImage->cols, libraryImage->rows, static_cast<std::int32_t>(libraryImage->step[0]),
+                    const_cast<std::uint8_t*>(libraryImage->data)};
     const std::unique_ptr<zarray_t, DetectionsDeleter> detections(
         apriltag_detector_detect(impl_->detector.get(), &view));
     const int count = zarray_size(detections.get());
@@ -231,9 +245,8 @@ int TagDetector::detectInto(const cv::Mat& image, std::vector<TagDetection>& out
         detection.decisionMargin = raw->decision_margin;
         // libapriltag 3.3 puts pixel centres at +0.5 (an edge between pixels 51 and 52 is reported
         // at 52.0, measured on rendered tags); lightskin uses OpenCV's convention (centres at integers).
-        for (std::size_t k = 0; k < 4; ++k)
-            detection.corners[k] = {raw->p[k][0] - libraryPixelOffset, raw->p[k][1] - libraryPixelOffset};
-        detection.centre = {raw->c[0] - libraryPixelOffset, raw->c[1] - libraryPixelOffset};
+        for (std::size_t k = 0; k < 4; ++k) detection.corners[k] = {toInput(raw->p[k][0]), toInput(raw->p[k][1])};
+        detection.centre = {toInput(raw->c[0]), toInput(raw->c[1])};
         if (impl_->settings.refineCorners)
             refineCorners(*grey, impl_->family->width_at_border, impl_->family->reversed_border, detection.corners,
                           impl_->edgePoints);

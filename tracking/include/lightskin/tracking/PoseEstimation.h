@@ -67,6 +67,14 @@ struct PoseUncertainty {
     /// axis, metres (mostly along the viewing ray). The camera's position in the world also moves
     /// with the rotation error times the distance (lever arm).
     double translationStdMetres = std::numeric_limits<double>::infinity();
+    /// Largest standard deviation (pixels, worst axis) of the projection of any corner of any tag
+    /// of the WORLD - also the tags not seen this frame - that lies in front of the camera: how
+    /// well the pose places the world's content in this image, not only the measured tags. For a
+    /// single-tag world it stays near the corner noise (the seen corners are what was measured);
+    /// for a bundle seen through one small, distant tag the other tags' corners move with the
+    /// rotation uncertainty times their distance from the seen tag (PoseTracker's
+    /// maxWorldCornerStdPx refuses such poses).
+    double worldCornerStdPx = std::numeric_limits<double>::infinity();
 };
 
 /// Uncertainty of `world_T_camera` given the corners of the detections whose ids are in `tagIds`

@@ -6,8 +6,10 @@
 //
 // States:
 //   Tracking  this frame's tags gave an accepted pose (filtered).
-//   Held      no acceptable measurement this frame; the last pose is repeated (not extrapolated)
-//             for at most TrackerSettings::maxHeldFrames consecutive frames.
+//   Held      no acceptable measurement this frame (no tag, reprojection error, possible flip, or a
+//             pose too poorly determined to place the world's tags: maxWorldCornerStdPx); the last
+//             pose is repeated (not extrapolated) for at most TrackerSettings::maxHeldFrames
+//             consecutive frames.
 //   Lost      no pose at all (world_T_camera is empty): before the first measurement, after
 //             maxHeldFrames frames without one, or after reset(). Rendering must not place
 //             virtual content with a pose from a Lost frame.
@@ -59,6 +61,17 @@ struct TrackerSettings {
     /// onto a wrong branch inherited from earlier noisy frames, while the better fit was right
     /// at ratios 2.2-3.7; at ratios 1.0-1.7 the fit was a coin toss and history was better.
     double historyRatio = 2.0;
+    /// Measurements that place the world's own tags worse than this are not accepted: the frame is
+    /// Held (reason "pose poorly determined") instead of Tracking with a pose that may be many
+    /// centimetres off. Measured by PoseUncertainty::worldCornerStdPx (first-order, corner noise =
+    /// max(RMS error, 0.1 px)), the projection std of every corner of every world tag, seen or
+    /// not. This refuses a bundle seen only through one small or distant tag, and never a
+    /// single-tag world, whose only corners are the measured ones (std about the corner noise:
+    /// those views stay Tracking, flagged ambiguous with their rotation std). On synth-orbit the
+    /// 20 cm wall tag alone at ~3 m (17-21 px) gave 4.0-29.5 px; every such measurement more than
+    /// 0.1 m off had > 6 px, the ones <= 6 px were within 0.066 m and 1.13 degrees; views with
+    /// board tags 0.1-0.3 px. Infinity switches the check off.
+    double maxWorldCornerStdPx = 6.0;
     /// Largest orientation change accepted for an ambiguous measurement, degrees per frame.
     double maxJumpDegrees = 25.0;
     /// Frames the last pose is held without a measurement before the state becomes Lost.
