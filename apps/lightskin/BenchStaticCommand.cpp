@@ -9,7 +9,8 @@
 //           ping-pong order; a sphere is placed in front of the camera.
 // Every stream's frames go through one ValGenerator (skipUnchangedInput) and then through one
 // LightSkin instance per mode: "full" (adaptive, reuseStatic off: the reference), "exact"
-// (staticTolerance 0) and "tol=<tau>". Per mode: reuse rate, mean GPU time of the technique's
+// (staticTolerance 0), "bound, tolerance <tau>" (StaticChangeTest::Bound, keyed by the depth pixel)
+// and "probes 1/<n>, tolerance <tau>" (StaticChangeTest::Probes). Per mode: reuse rate, mean GPU time of the technique's
 // stages, and the image error against "full" of the same frame (max |a - b| / max b and
 // mean |a - b| / mean b over covered pixels). Materials are made diffuse with --diffuse (the
 // tolerance mode needs the glossy channel off).
@@ -49,7 +50,8 @@ struct StaticOptions {
     int stride = 4;
     int sparse = 1024;
     int width = 640, height = 480;
-    std::string tolerances = "0.02,0.05,0.1,0.2";
+    std::string tolerances = "0.01,0.03,0.1";
+    int probeStride = 16;
     bool diffuse = false;
     std::string recording;
     std::string bunnyPath = "tests/data/stanford-bunny/bun_zipper_res4.ply";
@@ -175,7 +177,7 @@ void runStream(const Stream& stream, const StaticOptions& o, Meshes& meshes, std
     std::printf("\n### stream %s: %d frames, %u VALs (stride %d), %d sparse points per object, %dx%d, "
                 "ValGenerator skipped %d of %d passes\n\n",
                 stream.name.c_str(), o.frames, vals, o.stride, o.sparse, o.width, o.height, skipped, o.frames);
-    std::printf("| mode | reused | GI GPU ms/frame | vs full | max error | mean error | mean bound |\n");
+    std::printf("| mode | reused | GI GPU ms/frame | speed-up vs full | max image error | mean image error | mean change measure |\n");
     std::printf("|---|---|---|---|---|---|---|\n");
     const double fullMs = modes.front().gpuMs / std::max(1, modes.front().frames);
     for (const Mode& m : modes) {
@@ -197,7 +199,8 @@ void addBenchStaticCommand(CLI::App& app, int& exitCode) {
     command->add_option("--sparse", o->sparse, "Sparse points per object (default 1024)");
     command->add_option("--width", o->width, "Output width (default 640)");
     command->add_option("--height", o->height, "Output height (default 480)");
-    command->add_option("--tolerances", o->tolerances, "staticTolerance values (default 0.02,0.05,0.1,0.2)");
+    command->add_option("--tolerances", o->tolerances, "staticTolerance values (default 0.01,0.03,0.1)");
+    command->add_option("--probe-stride", o->probeStride, "staticProbeStride of the probe modes (default 16)");
     command->add_flag("--diffuse", o->diffuse, "Drop f_s from all materials (the tolerance mode needs the glossy channel off)");
     command->add_option("--recording", o->recording, "Also run the real stream on this recording (.oni, TUM or lightskin folder)");
     command->add_option("--bunny", o->bunnyPath, "Stanford bunny PLY");
@@ -205,21 +208,30 @@ void addBenchStaticCommand(CLI::App& app, int& exitCode) {
     command->callback([o, &exitCode] {
         auto context = gl::createHeadlessContext();
         std::vector<Mode> modes;
-        const auto addMode = [&](std::string name, bool reuse, float tolerance) {
+        const auto addMode = [&](std::string name, bool reuse, float tolerance,
+                                 gi::StaticChangeTest test = gi::StaticChangeTest::Bound) {
             Mode m;
             m.name = std::move(name);
             m.settings.adaptive = true;
             m.settings.reuseStatic = reuse;
             m.settings.staticTolerance = tolerance;
+            m.settings.staticChangeTest = test;
+            m.settings.staticProbeStride = o->probeStride;
             m.settings.kCache = 128;
             modes.push_back(std::move(m));
         };
         addMode("full (adaptive, reuseStatic off)", false, 0.0f);
         addMode("exact (staticTolerance 0)", true, 0.0f);
-        for (float tau : bench::splitList<float>(o->tolerances, [](const std::string& x) { return std::stof(x); })) {
+        const auto tolerances = bench::splitList<float>(o->tolerances, [](const std::string& x) { return std::stof(x); });
+        for (float tau : tolerances) {
             char name[48];
-            std::snprintf(name, sizeof name, "tolerance %.3g", double(tau));
+            std::snprintf(name, sizeof name, "bound, tolerance %.3g", double(tau));
             addMode(name, true, tau);
+        }
+        for (float tau : tolerances) {
+            char name[48];
+            std::snprintf(name, sizeof name, "probes 1/%d, tolerance %.3g", o->probeStride, double(tau));
+            addMode(name, true, tau, gi::StaticChangeTest::Probes);
         }
 
         Meshes meshes;

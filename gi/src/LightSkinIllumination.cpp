@@ -133,12 +133,20 @@ struct LightSkinIllumination::Impl {
         std::string reason;
         bool referenceKeyed = false; ///< denseReference holds its VALs, staticCheck its max L'_d
         std::uint32_t keyCount = 0;
+        bool probesValid = false;    ///< probeReference holds its probe gather, staticCheck its max L'_d
     } last;
     std::vector<InstanceKey> lastInstances; // sized in prepare()
     std::string lastStructuralReason;
     gl::Program staticScatter, staticBound, staticSum, staticReference;
     gl::Buffer denseReference, denseCurrent, boundPartials, staticCheck;
     std::uint32_t denseKeyCount = 0;
+    // Probes (StaticChangeTest::Probes): every probeStride-th sparse point, sized lazily.
+    gl::Program staticProbeCompare;
+    std::uint32_t probeCount = 0, probeStride = 0;
+    int probeWidth = 1, probeHeight = 1;
+    gl::Texture probePosition, probeNormal, probeTarget, probeReference;
+    gl::Framebuffer probeFramebuffer;
+    std::vector<glm::vec4> probePositions, probeNormals;
 
     void buildPrograms() {
         for (int g = 0; g < 2; ++g)
@@ -161,6 +169,7 @@ struct LightSkinIllumination::Impl {
         staticBound = library.buildProgram({{GL_COMPUTE_SHADER, "gather_static_bound.comp"}});
         staticSum = library.buildProgram({{GL_COMPUTE_SHADER, "gather_static_sum.comp"}});
         staticReference = library.buildProgram({{GL_COMPUTE_SHADER, "gather_static_reference.comp"}});
+        staticProbeCompare = library.buildProgram({{GL_COMPUTE_SHADER, "gather_static_probes.comp"}});
     }
 
     // ---- static content --------------------------------------------------------------------
@@ -213,7 +222,6 @@ struct LightSkinIllumination::Impl {
         denseReference = gl::Buffer::create(bytes, nullptr, GL_DYNAMIC_STORAGE_BIT);
         denseCurrent = gl::Buffer::create(bytes, nullptr, GL_DYNAMIC_STORAGE_BIT);
         boundPartials = gl::Buffer::create(GLsizeiptr((keyCount + 255) / 256) * GLsizeiptr(sizeof(float)), nullptr, 0);
-        if (!staticCheck) staticCheck = gl::Buffer::create(sizeof(StaticCheck), nullptr, GL_DYNAMIC_STORAGE_BIT);
         denseKeyCount = keyCount;
         last.referenceKeyed = false;
         log::info("lightskin adaptive: static-content check sized for " + std::to_string(keyCount) + " VAL keys (" +
@@ -254,6 +262,93 @@ struct LightSkinIllumination::Impl {
         glUniform1ui(staticSum.uniformLocation("uPartialCount"), groups);
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, staticCheck.id());
         glDispatchCompute(1, 1, 1);
+        glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+        StaticCheck result;
+        glGetNamedBufferSubData(staticCheck.id(), 0, sizeof result, &result);
+        return result;
+    }
+
+    /// Probe textures for every stride-th sparse point (re-created when the count changes).
+    void reserveProbes(int stride) {
+        const std::uint32_t step = std::uint32_t(std::max(stride, 1));
+        const std::uint32_t count = (pointCount + step - 1) / step;
+        if (count == probeCount && step == probeStride) return;
+        probeCount = count;
+        probeStride = step;
+        probeWidth = std::min<int>(settings.sparseTextureWidth, int(count));
+        probeHeight = int((count + std::uint32_t(probeWidth) - 1) / std::uint32_t(probeWidth));
+        const auto make = [&] { return gl::Texture::create2D(GL_RGBA32F, probeWidth, probeHeight); };
+        probePosition = make();
+        probeNormal = make();
+        probeTarget = make();
+        probeReference = make();
+        probeFramebuffer = gl::Framebuffer::create();
+        probeFramebuffer.attach(GL_COLOR_ATTACHMENT0, probeTarget);
+        probeFramebuffer.checkComplete("LightSkin static-content probes");
+        probePositions.assign(std::size_t(probeWidth) * std::size_t(probeHeight), glm::vec4(0.0f));
+        probeNormals.assign(probePositions.size(), glm::vec4(0.0f, 0.0f, 1.0f, 0.0f));
+        last.probesValid = false;
+    }
+
+    /// Copies every probeStride-th uploaded sparse point into the probe textures.
+    void uploadProbes() {
+        for (std::uint32_t i = 0; i < probeCount; ++i) {
+            probePositions[i] = scratchPositions[std::size_t(i) * probeStride];
+            probeNormals[i] = scratchNormals[std::size_t(i) * probeStride];
+        }
+        glTextureSubImage2D(probePosition.id(), 0, 0, 0, probeWidth, probeHeight, GL_RGBA, GL_FLOAT, probePositions.data());
+        glTextureSubImage2D(probeNormal.id(), 0, 0, 0, probeWidth, probeHeight, GL_RGBA, GL_FLOAT, probeNormals.data());
+    }
+
+    /// The diffuse gather (the gather pass itself, diffuse variant) of the first `count` VALs of
+    /// `vals` at the probes into probeTarget (L'_d; the other outputs have no attachment). Leaves
+    /// texture units 8/9 bound to the main sparse-point textures.
+    void gatherProbes(std::uint32_t count, const ViewParameters& view) {
+        const float zeros[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+        glClearNamedFramebufferfv(probeFramebuffer.id(), GL_COLOR, 0, zeros);
+        if (count > 0) {
+            const GatherProgram& p = gather[0][0];
+            p.program.use();
+            glUniform1i(p.pointCount, int(probeCount));
+            glUniform3fv(p.eye, 1, glm::value_ptr(view.cameraPositionWorld));
+            glUniform1f(p.c, settings.cParameter);
+            glBindFramebuffer(GL_FRAMEBUFFER, probeFramebuffer.id());
+            glViewport(0, 0, probeWidth, probeHeight);
+            glBindVertexArray(emptyVertexArray.id());
+            glBindTextureUnit(8, probePosition.id());
+            glBindTextureUnit(9, probeNormal.id());
+            glEnable(GL_BLEND);
+            glBlendFunc(GL_ONE, GL_ONE);
+            glBlendEquation(GL_FUNC_ADD);
+            const std::uint32_t chunks = vals.chunkCount(count);
+            for (std::uint32_t c = 0; c < chunks; ++c) {
+                vals.bindChunk(c);
+                glUniform1i(p.valCount, int(vals.chunkSize(c, count)));
+                glDrawArrays(GL_TRIANGLES, 0, 3);
+            }
+            glDisable(GL_BLEND);
+        }
+        glBindTextureUnit(8, pointPosition.id());
+        glBindTextureUnit(9, pointNormal.id());
+        glViewport(0, 0, textureWidth, textureHeight);
+    }
+
+    /// Probe check: re-gathers the probes with `lights` and returns max |L'_d,new - L'_d,ref|
+    /// over probes and channels in StaticCheck::bound (one read-back).
+    StaticCheck checkProbes(const ValSetView& lights, const ViewParameters& view) {
+        vals.copyFrom(lights.buffer, lights.count);
+        glMemoryBarrier(GL_UNIFORM_BARRIER_BIT);
+        gatherProbes(lights.count, view);
+        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        const std::uint32_t zero = 0;
+        glNamedBufferSubData(staticCheck.id(), offsetof(StaticCheck, bound), sizeof zero, &zero);
+        staticProbeCompare.use();
+        glUniform1i(staticProbeCompare.uniformLocation("uProbeCount"), int(probeCount));
+        glBindTextureUnit(0, probeTarget.id());
+        glBindTextureUnit(1, probeReference.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, staticCheck.id());
+        glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT);
+        glDispatchCompute((probeCount + 63) / 64, 1, 1);
         glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
         StaticCheck result;
         glGetNamedBufferSubData(staticCheck.id(), 0, sizeof result, &result);
@@ -377,6 +472,7 @@ std::unique_ptr<LightSkinIllumination> LightSkinIllumination::create(const Light
     impl.vals.reserve(settings.valCapacity, settings.kCache);
     impl.cullCounter = gl::Buffer::create(sizeof(std::uint32_t), nullptr, GL_DYNAMIC_STORAGE_BIT);
     impl.valSumsBuffer = gl::Buffer::create(2 * sizeof(glm::vec4), nullptr, GL_DYNAMIC_STORAGE_BIT);
+    impl.staticCheck = gl::Buffer::create(sizeof(StaticCheck), nullptr, GL_DYNAMIC_STORAGE_BIT);
     return technique;
 }
 
@@ -405,6 +501,7 @@ void LightSkinIllumination::prepare(std::span<const MeshInstance> instances) {
     impl.vertexOffsets.clear();
     impl.convex.clear();
     impl.last = {};
+    impl.probeCount = 0;
     impl.pointCount = 0;
     impl.vertexCount = 0;
     for (const MeshInstance& instance : instances) {
@@ -525,7 +622,10 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     choice.reused = false;
     choice.staticChangeBound = -1.0f;
     const bool reuseEnabled = s.adaptive && s.reuseStatic;
-    const bool keepReference = reuseEnabled && s.staticTolerance > 0.0f && !choice.glossy && Impl::keyedWithinLimits(lights);
+    const bool toleranceMode = reuseEnabled && s.staticTolerance > 0.0f && !choice.glossy;
+    const bool useProbes = s.staticChangeTest == StaticChangeTest::Probes;
+    const bool keepReference = toleranceMode && !useProbes && Impl::keyedWithinLimits(lights);
+    const bool keepProbeReference = toleranceMode && useProbes;
     bool referenceScattered = false;
     const char* reuseReason = "";
     if (reuseEnabled && impl.sceneUnchanged(instances, view, choice)) {
@@ -547,6 +647,15 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
                 glCopyNamedBufferSubData(impl.staticCheck.id(), impl.staticCheck.id(), offsetof(StaticCheck, badKeys),
                                          offsetof(StaticCheck, referenceBadKeys), sizeof(std::uint32_t));
                 referenceScattered = true;
+            }
+        } else if (keepProbeReference && impl.last.probesValid) {
+            const StaticCheck check = impl.checkProbes(lights, view);
+            const float reference = std::bit_cast<float>(check.referenceBits);
+            choice.staticChangeBound = reference > 0.0f ? check.bound / reference
+                                                        : (check.bound == 0.0f ? 0.0f : std::numeric_limits<float>::infinity());
+            if (check.bound <= s.staticTolerance * reference) {
+                choice.reused = true;
+                reuseReason = "VPLs reused (probe change within staticTolerance); ";
             }
         }
     }
@@ -654,7 +763,15 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
         }
         glDisable(GL_BLEND);
     }
-    if (keepReference) impl.measureReference();
+    if (keepProbeReference) {
+        impl.reserveProbes(s.staticProbeStride);
+        impl.uploadProbes();
+        impl.gatherProbes(count, view); // the same (culled) VALs as the sparse points
+        glBindFramebuffer(GL_FRAMEBUFFER, impl.gatherFramebuffer.id());
+        glCopyImageSubData(impl.probeTarget.id(), GL_TEXTURE_2D, 0, 0, 0, 0, impl.probeReference.id(), GL_TEXTURE_2D, 0, 0,
+                           0, 0, impl.probeWidth, impl.probeHeight, 1);
+    }
+    if (keepReference || keepProbeReference) impl.measureReference();
     impl.timer.end();
 
     // 2. Renormalisation.
@@ -724,6 +841,7 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     if (reuseEnabled) impl.recordComputation(lights, instances, view);
     else impl.last.valid = false;
     impl.last.referenceKeyed = keepReference;
+    impl.last.probesValid = keepProbeReference;
     impl.last.keyCount = keepReference ? lights.keyCount : 0;
     impl.timer.collect(impl.stageTimes);
 }

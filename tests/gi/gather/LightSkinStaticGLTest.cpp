@@ -348,6 +348,69 @@ TEST_F(LightSkinStaticGLTest, ToleranceModeStaysWithinItsBoundWhileTheStageTimeD
     EXPECT_FALSE(unkeyed.choice.reused);
 }
 
+TEST_F(LightSkinStaticGLTest, ProbeModeHoldsTheToleranceAtTheProbesWithoutKeys) {
+    Rig rig;
+    Material diffuse;
+    rig.add(makeSphere(0.3f, 24, 48), glm::translate(glm::mat4(1.0f), {0.0f, 0.0f, 0.3f}), diffuse, 1500);
+    rig.eye = {1.5f, -1.5f, 1.0f};
+    rig.upload();
+    const auto base = squareEmitter({0.0f, -1.2f, 0.6f}, {0.0f, 1.0f, -0.2f}, 1.6f, 48, {1.0f, 0.9f, 0.8f});
+    const auto set = [&](const gl::Buffer& b, std::uint64_t generation) {
+        return gi::ValSetView{b.id(), std::uint32_t(base.size()), generation}; // no keys
+    };
+    const float tolerance = 0.01f;
+    const int stride = 8;
+    gi::LightSkinSettings settings = adaptive();
+    settings.staticTolerance = tolerance;
+    settings.staticChangeTest = gi::StaticChangeTest::Probes;
+    settings.staticProbeStride = stride;
+    auto technique = rig.technique(settings);
+    const gl::Buffer first = upload(jittered(base, 1e-3f, 0.01f, 1));
+    const Frame full = render(rig, *technique, set(first, 1));
+    EXPECT_FALSE(full.choice.reused);
+    const gl::Buffer second = upload(jittered(base, 1e-3f, 0.01f, 2));
+    const Frame reused = render(rig, *technique, set(second, 2));
+    ASSERT_TRUE(reused.choice.reused) << "probe change " << reused.choice.staticChangeBound;
+    EXPECT_LE(reused.choice.staticChangeBound, tolerance);
+    EXPECT_LT(reused.gpuMilliseconds, 0.5 * full.gpuMilliseconds)
+        << "reused " << reused.gpuMilliseconds << " ms, full " << full.gpuMilliseconds << " ms";
+
+    // the probe measure is the true change at the probes (a fresh computation there), and the
+    // tolerance holds there; elsewhere it is measured
+    auto fresh = rig.technique(adaptive());
+    const Frame reference = render(rig, *fresh, set(second, 2));
+    double largest = 0.0, atProbes = 0.0, everywhere = 0.0;
+    for (std::size_t point = 0; point * 5 < reference.gather.size(); ++point)
+        for (int c = 0; c < 3; ++c) {
+            const double diff = std::abs(double(reused.gather[5 * point][c]) - double(reference.gather[5 * point][c]));
+            largest = std::max(largest, double(full.gather[5 * point][c]));
+            everywhere = std::max(everywhere, diff);
+            if (point % std::size_t(stride) == 0) atProbes = std::max(atProbes, diff);
+        }
+    ASSERT_GT(largest, 0.0);
+    EXPECT_GT(atProbes, 0.0);
+    // 1e-5: float summation order of two gathers of ~2300 positive terms
+    EXPECT_NEAR(atProbes / largest, double(reused.choice.staticChangeBound), 1e-5);
+    EXPECT_LE(atProbes / largest, double(tolerance) + 1e-5);
+    std::printf("probe mode: change at the probes %.5f, at all sparse points %.5f, image %.5f (relative to the maximum)\n",
+                atProbes / largest, everywhere / largest, relativeDifference(reused.image, reference.image));
+
+    // independent noise cancels (2 cm / 20 % noise moves L'_d by ~0.3 %); a light turned up by
+    // 5 % does not: recomputed, equal to a fresh computation
+    auto brighter = jittered(base, 1e-3f, 0.01f, 2);
+    for (auto& v : brighter) v.flux *= 1.05f;
+    const gl::Buffer noisy = upload(brighter);
+    const Frame recomputed = render(rig, *technique, set(noisy, 3));
+    EXPECT_FALSE(recomputed.choice.reused);
+    EXPECT_GT(recomputed.choice.staticChangeBound, tolerance);
+    auto fresh2 = rig.technique(adaptive());
+    EXPECT_LE(relativeDifference(recomputed.image, render(rig, *fresh2, set(noisy, 3)).image), 1e-6);
+    // the glossy channel needs exact reuse
+    rig.instances[0].material.specularAlbedo = glm::vec3(0.2f);
+    (void)render(rig, *technique, set(noisy, 3));
+    EXPECT_FALSE(render(rig, *technique, set(second, 4)).choice.reused);
+}
+
 TEST_F(LightSkinStaticGLTest, ChangeBoundHoldsForRandomSingleValChanges) {
     // The derivation in gather_static_bound.comp, checked against full recomputations: one of a
     // few VALs near a diffuse sphere moves (<= 5 cm), tilts (<= 0.3), changes area (+-30 %) and

@@ -42,7 +42,18 @@
 //     by at most tau times the largest gathered irradiance (up to float rounding of the full
 //     recomputation, ~1e-5 relative). The reference stays the last full computation, so
 //     consecutive reuses do not drift. The weights and averaged positions (eq. 7) are not bounded;
-//     the image error is measured (docs/BENCHMARKS.md). Costs one uint read-back per frame.
+//     the image error is measured (docs/BENCHMARKS.md). Costs one 16-byte read-back per frame.
+//     The bound adds per-VAL worst cases: it is far from the true change when sensor noise moves
+//     many VALs a little (the changes cancel) and useless when real surfaces touch the virtual
+//     objects (VALs at distance ~0 from a receiver); it suits far, slowly changing light.
+//   * Tolerance mode with probes (staticChangeTest = Probes, diffuse channel only, any VAL set):
+//     every staticProbeStride-th sparse point is gathered again with the new VALs (the gather
+//     pass itself on a small texture, ~1/stride of its cost) and compared with its gather at the
+//     last full computation; reuse when max |L'_d,new - L'_d,ref| over probes and channels is
+//     <= tau * max L'_d. The tolerance then holds exactly at the probes and is a measurement, not
+//     a guarantee, at the other sparse points (their error is reported in docs/BENCHMARKS.md).
+//     The probes see all VALs; the adaptive VAL culling only removes VALs that add nothing (or,
+//     with valInfluenceCutoff, less than the cutoff each).
 // setSettings() and prepare() always force a full computation.
 
 #include <lightskin/gi/IndirectIllumination.h>
@@ -58,6 +69,12 @@
 
 namespace lightskin::gi {
 
+
+/// How the static-content tolerance mode judges a changed VAL set (see the file comment).
+enum class StaticChangeTest {
+    Bound,  ///< guaranteed bound over all sparse points; needs ValSetView::keys
+    Probes, ///< measured change at every staticProbeStride-th sparse point; any VAL set
+};
 
 struct LightSkinSettings {
     /// VALs per gather pass (paper: K_cache = 128). Multiple of 16 (uniform-buffer offset
@@ -93,6 +110,9 @@ struct LightSkinSettings {
     /// the change of every sparse point's gathered irradiance is <= tau * the largest gathered
     /// irradiance (needs ValSetView::keys; the glossy channel always needs exact reuse).
     float staticTolerance = 0.0f;
+    StaticChangeTest staticChangeTest = StaticChangeTest::Bound;
+    /// Probes: every n-th sparse point is a probe (re-gathering them costs ~1/n of the gather).
+    int staticProbeStride = 16;
 };
 
 /// What the adaptive mode chose for the last frame.
@@ -103,7 +123,8 @@ struct LightSkinChoice {
     std::uint32_t valsGathered = 0; ///< after culling
     /// Static content: this frame reused the VPLs of the last full computation (only shading ran).
     bool reused = false;
-    /// Tolerance mode: sum_j B_j / max L'_d of the last check (relative; -1 if no check ran).
+    /// Tolerance mode: the change measure of the last check relative to max L'_d (Bound:
+    /// sum_j B_j; Probes: max change at the probes); -1 if no check ran this frame.
     float staticChangeBound = -1.0f;
     std::string reason;
 };
