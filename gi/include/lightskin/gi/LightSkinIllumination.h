@@ -30,8 +30,10 @@
 //   * Exact mode (staticTolerance = 0): the VAL set counts as unchanged only when the producer
 //     says so: same buffer, count and nonzero ValSetView::generation (ValGenerator keeps the
 //     generation when depth, colour, pose, intrinsics and settings are bit-identical). No read-back,
-//     no GPU work; the image is bit-identical to a full recomputation of the same inputs.
-//   * Tolerance mode (staticTolerance = tau > 0, diffuse channel only, keyed VALs): a GPU pass pairs
+//     no GPU work; the image is bit-identical to that of the full computation it reuses (two full
+//     computations may differ in the last bits: the adaptive cull appends VALs atomically).
+//   * Tolerance mode (staticTolerance = tau > 0, diffuse channel only; with the glossy channel on
+//     only exact reuse applies), change test Bound (the default; keyed VALs): a GPU pass pairs
 //     every VAL with the one of the same key at the last full computation and sums a bound B_j on
 //     how much that change can move the irradiance E = sum_j phi_j h(x; l_j, n_j, r_j^2) at any point
 //     of the receivers' bounding sphere S (derivation in gather_static_bound.comp: product rule on
@@ -53,7 +55,7 @@
 //     <= tau * max L'_d. The tolerance then holds exactly at the probes and is a measurement, not
 //     a guarantee, at the other sparse points (their error is reported in docs/BENCHMARKS.md).
 //     The probes see all VALs; the adaptive VAL culling only removes VALs that add nothing (or,
-//     with valInfluenceCutoff, less than the cutoff each).
+//     with valInfluenceCutoff, less than the cutoff each). One 16-byte read-back per frame, too.
 // setSettings() and prepare() always force a full computation.
 
 #include <lightskin/gi/IndirectIllumination.h>
