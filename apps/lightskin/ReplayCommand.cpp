@@ -42,6 +42,9 @@ extern "C" void onReplayInterrupt(int) {
 struct ReplayArgs {
     std::string recording, scene, out = "replay-out", frames, pose, view = "final", videoFormat = "auto";
     bool window = false, noVideo = false, sideBySideVideo = false, noCompare = false;
+    bool adaptive = false;
+    float staticTolerance = 0.0f;
+    std::string staticTest = "probes";
     std::int64_t maxFrames = -1;
 };
 
@@ -178,6 +181,11 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     options.view = view;
     options.overlay = overlay;
     options.compare = !args.noCompare;
+    options.adaptive = args.adaptive;
+    options.staticTolerance = args.staticTolerance;
+    if (args.staticTest != "probes" && args.staticTest != "bound")
+        throw Error("--static-test", std::nullopt, "expected probes or bound, got '" + args.staticTest + "'");
+    options.staticProbes = args.staticTest == "probes";
     auto pipeline = FramePipeline::create(scene, info, options);
     // Without a GI technique both halves of the comparison would be the same image.
     const bool compare = options.compare && pipeline->techniqueName() != "none";
@@ -221,6 +229,8 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
             rf.errorVsBruteForce = output.meanRelativeErrorVsBruteForce;
             rf.vplSegments = output.vplSegments;
             rf.vplNonFinite = output.vplNonFinite;
+            rf.giReused = output.giReused;
+            rf.giChangeMeasure = output.giChangeMeasure;
             if (compare) render::sideBySideInto(output.withGi, "with GI (" + pipeline->techniqueName() + ")", output.withoutGi, "without GI", sideBySide);
             const bool write = chosen.empty() || chosen.count(frame.index) > 0;
             if (write) {
@@ -282,6 +292,11 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
     command->add_option("--video-format", args->videoFormat, "auto (MP4, falling back to MJPG AVI) | mp4 | avi");
     command->add_flag("--side-by-side-video", args->sideBySideVideo, "Video frames show with GI | without GI");
     command->add_flag("--no-compare", args->noCompare, "Do not render the without-GI comparison");
+    command->add_flag("--adaptive", args->adaptive,
+                      "LightSkin's adaptive mode: turn off what cannot change the image and reuse the VPLs for static content");
+    command->add_option("--static-tolerance", args->staticTolerance,
+                        "With --adaptive: also reuse when the gathered irradiance changed by at most this fraction of its maximum (default 0: exact only; diffuse channel only)");
+    command->add_option("--static-test", args->staticTest, "With --static-tolerance: probes (default; re-gather every 16th sparse point) or bound (guaranteed, keyed)");
     command->callback([args, &exitCode, command] {
         std::string line = "lightskin replay";
         for (const auto& [name, value] : std::vector<std::pair<std::string, std::string>>{

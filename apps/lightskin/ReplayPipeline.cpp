@@ -280,6 +280,7 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
         settings.stride = scene.gi.valStride;
         // The camera's exposure: a linear pixel value p is radiance p / 2^exposureStops.
         settings.exposure = std::exp2(-scene.exposureStops);
+        settings.skipUnchangedInput = options.adaptive; // keeps the VAL generation for a paused recording
         s.vals = gi::ValGenerator::create(colour.width, colour.height, settings);
     } else {
         log::warning(source.uri + ": depth is not registered to colour; no VALs and no occlusion by real geometry");
@@ -292,6 +293,13 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
 void FramePipeline::setGiSettings(const render::GiSettings& settings) {
     gi_ = settings;
     state_->technique = createTechnique(settings, *renderer_);
+    if (auto* lightSkin = dynamic_cast<gi::LightSkinIllumination*>(state_->technique.get()); lightSkin && options_.adaptive) {
+        gi::LightSkinSettings s = lightSkin->settings();
+        s.adaptive = true;
+        s.staticTolerance = options_.staticTolerance;
+        s.staticChangeTest = options_.staticProbes ? gi::StaticChangeTest::Probes : gi::StaticChangeTest::Bound;
+        lightSkin->setSettings(s);
+    }
     state_->technique->prepare(renderer_->instances());
 }
 
@@ -306,6 +314,8 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     out.meanRelativeErrorVsBruteForce = -1.0;
     out.vplSegments = -1;
     out.vplNonFinite = -1;
+    out.giReused = -1;
+    out.giChangeMeasure = -1.0f;
 
     // Depth in metres (CV_32FC1, 0 = missing), registered to colour.
     auto t = Clock::now();
@@ -354,7 +364,14 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     t = Clock::now();
     render::Renderer& r = *renderer_;
     r.renderGBuffer(world_T_camera);
-    if (runGi) s.technique->render(valSet, r.instances(), r.gbuffer(), r.viewParameters(), r.indirectTarget());
+    if (runGi) {
+        s.technique->render(valSet, r.instances(), r.gbuffer(), r.viewParameters(), r.indirectTarget());
+        if (const auto* lightSkin = dynamic_cast<const gi::LightSkinIllumination*>(s.technique.get());
+            lightSkin && lightSkin->settings().adaptive) {
+            out.giReused = lightSkin->lastChoice().reused ? 1 : 0;
+            out.giChangeMeasure = lightSkin->lastChoice().staticChangeBound;
+        }
+    }
     addTime(out.cpuTimes, used, "gbuffer+gi", msSince(t));
 
     // Shade, read back, composite.

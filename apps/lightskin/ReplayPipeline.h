@@ -57,6 +57,11 @@ struct PipelineOptions {
     Overlay overlay = Overlay::None;
     float errorScale = 0.05f; ///< radiance difference shown as full red in the error view
     bool giEnabled = true;         ///< live toggle; off = direct light only
+    /// LightSkin's adaptive mode (LightSkinSettings::adaptive) incl. static-content reuse, and its
+    /// tolerance (0 = exact reuse only; > 0 with staticProbes: the probe test, else the bound).
+    bool adaptive = false;
+    float staticTolerance = 0.0f;
+    bool staticProbes = true;
 };
 
 struct FrameOutput {
@@ -72,6 +77,8 @@ struct FrameOutput {
     std::vector<gl::StageTime> cpuTimes; ///< wall-clock per stage, ms (incl. waiting for the GPU)
     std::vector<gl::StageTime> gpuTimes; ///< GL timer queries, ms
     double totalMs = 0.0;
+    int giReused = -1;                ///< adaptive LightSkin: 1 = VPLs reused (static content), 0 = recomputed, else -1
+    float giChangeMeasure = -1.0f;    ///< adaptive LightSkin: LightSkinChoice::staticChangeBound
 };
 
 class FramePipeline {

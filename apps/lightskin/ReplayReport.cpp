@@ -73,6 +73,15 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
     root["video"] = s.video;
     root["videoCodec"] = s.videoCodec;
     root["meanFrameMs"] = totalSum / n;
+    {
+        std::int64_t adaptive = 0, reused = 0;
+        for (const ReportFrame& f : frames)
+            if (f.giReused >= 0) {
+                ++adaptive;
+                reused += f.giReused;
+            }
+        if (adaptive > 0) root["giReusedFrames"] = reused;
+    }
     for (const auto& name : cpuStages) root["meanCpuMs"][name] = cpuSum[name] / n;
     for (const auto& name : gpuStages) root["meanGpuMs"][name] = gpuSum[name] / n;
     for (const auto& [state, count] : trackingCounts) root["trackingStates"][state] = count;
@@ -88,6 +97,8 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
         if (f.errorVsBruteForce >= 0.0) j["meanRelativeErrorVsBruteForce"] = f.errorVsBruteForce;
         if (f.vplSegments >= 0) j["vplSegments"] = f.vplSegments;
         if (f.vplNonFinite >= 0) j["vplNonFinite"] = f.vplNonFinite;
+        if (f.giReused >= 0) j["giReused"] = f.giReused == 1;
+        if (f.giChangeMeasure >= 0.0f) j["giChangeMeasure"] = f.giChangeMeasure;
         for (const auto& st : f.cpuTimes) j["cpuMs"][st.name] = st.milliseconds;
         for (const auto& st : f.gpuTimes) {
             const bool seen = j.contains("gpuMs") && j["gpuMs"].contains(st.name);
@@ -114,7 +125,17 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
     md += "| video | " + (s.video.empty() ? std::string("none") : "`" + s.video + "` (" + s.videoCodec + ")") + " |\n";
     std::string states;
     for (const auto& [state, count] : trackingCounts) states += (states.empty() ? "" : ", ") + state + " " + std::to_string(count);
-    md += "| tracking states | " + states + " |\n\n";
+    md += "| tracking states | " + states + " |\n";
+    std::size_t adaptiveFrames = 0, reusedFrames = 0;
+    for (const ReportFrame& f : frames)
+        if (f.giReused >= 0) {
+            ++adaptiveFrames;
+            if (f.giReused == 1) ++reusedFrames;
+        }
+    if (adaptiveFrames > 0)
+        md += "| static-content reuse (adaptive) | " + std::to_string(reusedFrames) + " of " + std::to_string(adaptiveFrames) +
+              " frames reused the VPLs |\n";
+    md += "\n";
 
     md += "## Mean stage times\n\n| stage | kind | ms |\n|---|---|---|\n";
     for (const auto& name : cpuStages) md += "| " + name + " | CPU wall | " + fixed(cpuSum[name] / n, 2) + " |\n";

@@ -21,6 +21,8 @@ struct ReportFrame {
     std::int64_t vplSegments = -1;  ///< --view vpl: vertex VPLs drawn, else < 0
     std::int64_t vplNonFinite = -1; ///< --view vpl: vertices with a non-finite VPL, else < 0
     double errorVsBruteForce = -1.0; ///< --view error: mean relative error of the technique's indirect light, else < 0
+    int giReused = -1;               ///< --adaptive: 1 = static content, VPLs reused; 0 = recomputed; else < 0
+    float giChangeMeasure = -1.0f;   ///< --adaptive with a tolerance: LightSkinChoice::staticChangeBound, else < 0
     std::string image;        ///< PNG written for this frame (relative to the output folder), or empty
     std::string compareImage; ///< side-by-side PNG, or empty
 };

@@ -19,8 +19,11 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
+#include <cstddef>
 #include <limits>
+#include <utility>
 
 namespace lightskin::gi {
 
@@ -52,6 +55,24 @@ GatherProgram buildGather(const gl::ShaderLibrary& library, int kCache, bool glo
     p.c = p.program.uniformLocation("uC");
     return p;
 }
+
+/// Static content, tolerance mode: the result of the change check (std430 block Check of the
+/// gather_static_*.comp shaders).
+struct StaticCheck {
+    float bound = 0.0f;                 ///< sum_j B_j, W/m^2
+    std::uint32_t referenceBits = 0;    ///< max L'_d of the last full computation (float bits)
+    std::uint32_t badKeys = 0;          ///< VALs of this frame with key >= keyCount
+    std::uint32_t referenceBadKeys = 0; ///< the same for the reference set
+};
+static_assert(sizeof(StaticCheck) == 16);
+
+/// What the last full computation depended on, per instance (see the header's "Static content").
+struct InstanceKey {
+    const TriangleMesh* mesh = nullptr;
+    std::uint32_t meshId = 0;
+    glm::mat4 world_T_model{1.0f};
+    float specularExponent = 1.0f;
+};
 
 /// Convex with respect to the occluder model: no sparse point sees another above its horizon,
 /// so the occlusion pass would add exactly zero.
@@ -100,6 +121,33 @@ struct LightSkinIllumination::Impl {
     LightSkinChoice choice;
     std::string lastReason;
 
+    // Static content: the inputs of the last full computation (valid = one happened since
+    // prepare() / setSettings()) and, for the tolerance mode, its VALs in a dense keyed array.
+    struct LastComputation {
+        bool valid = false;
+        std::uint32_t buffer = 0, count = 0;
+        std::uint64_t generation = 0;
+        glm::vec3 eye{0.0f};
+        bool glossy = false, occlusion = false;
+        std::uint32_t valsGathered = 0;
+        std::string reason;
+        bool referenceKeyed = false; ///< denseReference holds its VALs, staticCheck its max L'_d
+        std::uint32_t keyCount = 0;
+        bool probesValid = false;    ///< probeReference holds its probe gather, staticCheck its max L'_d
+    } last;
+    std::vector<InstanceKey> lastInstances; // sized in prepare()
+    std::string lastStructuralReason;
+    gl::Program staticScatter, staticBound, staticSum, staticReference;
+    gl::Buffer denseReference, denseCurrent, boundPartials, staticCheck;
+    std::uint32_t denseKeyCount = 0;
+    // Probes (StaticChangeTest::Probes): every probeStride-th sparse point, sized lazily.
+    gl::Program staticProbeCompare;
+    std::uint32_t probeCount = 0, probeStride = 0;
+    int probeWidth = 1, probeHeight = 1;
+    gl::Texture probePosition, probeNormal, probeTarget, probeReference;
+    gl::Framebuffer probeFramebuffer;
+    std::vector<glm::vec4> probePositions, probeNormals;
+
     void buildPrograms() {
         for (int g = 0; g < 2; ++g)
             for (int o = 0; o < 2; ++o) {
@@ -117,6 +165,248 @@ struct LightSkinIllumination::Impl {
         shade = library.buildProgram({{GL_VERTEX_SHADER, "gather_shade.vert"}, {GL_FRAGMENT_SHADER, "gather_shade.frag"}});
         cull = library.buildProgram({{GL_COMPUTE_SHADER, "gather_cull.comp"}});
         valSums = library.buildProgram({{GL_COMPUTE_SHADER, "gather_val_sums.comp"}});
+        staticScatter = library.buildProgram({{GL_COMPUTE_SHADER, "gather_static_scatter.comp"}});
+        staticBound = library.buildProgram({{GL_COMPUTE_SHADER, "gather_static_bound.comp"}});
+        staticSum = library.buildProgram({{GL_COMPUTE_SHADER, "gather_static_sum.comp"}});
+        staticReference = library.buildProgram({{GL_COMPUTE_SHADER, "gather_static_reference.comp"}});
+        staticProbeCompare = library.buildProgram({{GL_COMPUTE_SHADER, "gather_static_probes.comp"}});
+    }
+
+    // ---- static content --------------------------------------------------------------------
+    /// Everything but the VAL set that stages 0-4 read is as at the last full computation.
+    bool sceneUnchanged(std::span<const MeshInstance> instances, const ViewParameters& view,
+                        const LightSkinChoice& now) const {
+        if (!last.valid || now.glossy != last.glossy || now.occlusion != last.occlusion) return false;
+        if (now.glossy && view.cameraPositionWorld != last.eye) return false; // eq. 5 depends on the eye
+        for (std::size_t m = 0; m < instances.size(); ++m) {
+            const InstanceKey& k = lastInstances[m];
+            if (instances[m].mesh != k.mesh || instances[m].meshId != k.meshId ||
+                instances[m].world_T_model != k.world_T_model ||
+                instances[m].material.specularExponent != k.specularExponent)
+                return false;
+        }
+        return true;
+    }
+
+    /// The producer promises identical VALs (or both sets are empty).
+    bool valsIdentical(const ValSetView& lights) const {
+        if (lights.count == 0 && last.count == 0) return true;
+        return lights.generation != 0 && lights.generation == last.generation && lights.buffer == last.buffer &&
+               lights.count == last.count;
+    }
+
+    /// The tolerance mode can compare this set with the reference (dispatch sizes within limits).
+    static bool keyedWithinLimits(const ValSetView& lights) {
+        return lights.keys != 0 && lights.keyCount > 0 && lights.keyCount <= 65535u * 256u && lights.count <= 65535u * 64u;
+    }
+
+    void recordComputation(const ValSetView& lights, std::span<const MeshInstance> instances, const ViewParameters& view) {
+        last.valid = true;
+        last.buffer = lights.buffer;
+        last.count = lights.count;
+        last.generation = lights.generation;
+        last.eye = view.cameraPositionWorld;
+        last.glossy = choice.glossy;
+        last.occlusion = choice.occlusion;
+        last.valsGathered = choice.valsGathered;
+        last.reason = choice.reason;
+        for (std::size_t m = 0; m < instances.size(); ++m)
+            lastInstances[m] = {instances[m].mesh, instances[m].meshId, instances[m].world_T_model,
+                                instances[m].material.specularExponent};
+    }
+
+    /// Sizes the dense keyed arrays (once per key space; logged).
+    void reserveDense(std::uint32_t keyCount) {
+        if (denseKeyCount == keyCount) return;
+        const auto bytes = GLsizeiptr(keyCount) * GLsizeiptr(detail::kValBytes);
+        denseReference = gl::Buffer::create(bytes, nullptr, GL_DYNAMIC_STORAGE_BIT);
+        denseCurrent = gl::Buffer::create(bytes, nullptr, GL_DYNAMIC_STORAGE_BIT);
+        boundPartials = gl::Buffer::create(GLsizeiptr((keyCount + 255) / 256) * GLsizeiptr(sizeof(float)), nullptr, 0);
+        denseKeyCount = keyCount;
+        last.referenceKeyed = false;
+        log::info("lightskin adaptive: static-content check sized for " + std::to_string(keyCount) + " VAL keys (" +
+                  std::to_string(2 * bytes / (1 << 20)) + " MiB)");
+    }
+
+    /// Clears `dense` and writes the VALs of `lights` at their keys; counts bad keys into
+    /// staticCheck.badKeys (cleared first).
+    void scatterKeyed(const ValSetView& lights, const gl::Buffer& dense) {
+        glClearNamedBufferData(dense.id(), GL_R32F, GL_RED, GL_FLOAT, nullptr);
+        const std::uint32_t zero = 0;
+        glNamedBufferSubData(staticCheck.id(), offsetof(StaticCheck, badKeys), sizeof zero, &zero);
+        if (lights.count == 0) return;
+        staticScatter.use();
+        glUniform1ui(staticScatter.uniformLocation("uCount"), lights.count);
+        glUniform1ui(staticScatter.uniformLocation("uKeyCount"), lights.keyCount);
+        glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 0, lights.buffer, 0, GLsizeiptr(lights.count) * detail::kValBytes);
+        glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 1, lights.keys, 0, GLsizeiptr(lights.count) * GLsizeiptr(sizeof(std::uint32_t)));
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, dense.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, staticCheck.id());
+        glDispatchCompute((lights.count + 63) / 64, 1, 1);
+        glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
+    }
+
+    /// The bound of gather_static_bound.comp between the reference and `lights` (one read-back).
+    StaticCheck checkChange(const ValSetView& lights) {
+        scatterKeyed(lights, denseCurrent);
+        const std::uint32_t groups = (lights.keyCount + 255) / 256;
+        staticBound.use();
+        glUniform1ui(staticBound.uniformLocation("uKeyCount"), lights.keyCount);
+        glUniform4fv(staticBound.uniformLocation("uReceiverSphere"), 1, glm::value_ptr(receiverSphere()));
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, denseReference.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, denseCurrent.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, boundPartials.id());
+        glDispatchCompute(groups, 1, 1);
+        glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+        staticSum.use();
+        glUniform1ui(staticSum.uniformLocation("uPartialCount"), groups);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, staticCheck.id());
+        glDispatchCompute(1, 1, 1);
+        glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+        StaticCheck result;
+        glGetNamedBufferSubData(staticCheck.id(), 0, sizeof result, &result);
+        return result;
+    }
+
+    /// Probe textures for every stride-th sparse point (re-created when the count changes).
+    void reserveProbes(int stride) {
+        const std::uint32_t step = std::uint32_t(std::max(stride, 1));
+        const std::uint32_t count = (pointCount + step - 1) / step;
+        if (count == probeCount && step == probeStride) return;
+        probeCount = count;
+        probeStride = step;
+        probeWidth = std::min<int>(settings.sparseTextureWidth, int(count));
+        probeHeight = int((count + std::uint32_t(probeWidth) - 1) / std::uint32_t(probeWidth));
+        const auto make = [&] { return gl::Texture::create2D(GL_RGBA32F, probeWidth, probeHeight); };
+        probePosition = make();
+        probeNormal = make();
+        probeTarget = make();
+        probeReference = make();
+        probeFramebuffer = gl::Framebuffer::create();
+        probeFramebuffer.attach(GL_COLOR_ATTACHMENT0, probeTarget);
+        probeFramebuffer.checkComplete("LightSkin static-content probes");
+        probePositions.assign(std::size_t(probeWidth) * std::size_t(probeHeight), glm::vec4(0.0f));
+        probeNormals.assign(probePositions.size(), glm::vec4(0.0f, 0.0f, 1.0f, 0.0f));
+        last.probesValid = false;
+    }
+
+    /// Copies every probeStride-th uploaded sparse point into the probe textures.
+    void uploadProbes() {
+        for (std::uint32_t i = 0; i < probeCount; ++i) {
+            probePositions[i] = scratchPositions[std::size_t(i) * probeStride];
+            probeNormals[i] = scratchNormals[std::size_t(i) * probeStride];
+        }
+        glTextureSubImage2D(probePosition.id(), 0, 0, 0, probeWidth, probeHeight, GL_RGBA, GL_FLOAT, probePositions.data());
+        glTextureSubImage2D(probeNormal.id(), 0, 0, 0, probeWidth, probeHeight, GL_RGBA, GL_FLOAT, probeNormals.data());
+    }
+
+    /// The diffuse gather (the gather pass itself, diffuse variant) of the first `count` VALs of
+    /// `vals` at the probes into probeTarget (L'_d; the other outputs have no attachment). Leaves
+    /// texture units 8/9 bound to the main sparse-point textures.
+    void gatherProbes(std::uint32_t count, const ViewParameters& view) {
+        const float zeros[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+        glClearNamedFramebufferfv(probeFramebuffer.id(), GL_COLOR, 0, zeros);
+        if (count > 0) {
+            const GatherProgram& p = gather[0][0];
+            p.program.use();
+            glUniform1i(p.pointCount, int(probeCount));
+            glUniform3fv(p.eye, 1, glm::value_ptr(view.cameraPositionWorld));
+            glUniform1f(p.c, settings.cParameter);
+            glBindFramebuffer(GL_FRAMEBUFFER, probeFramebuffer.id());
+            glViewport(0, 0, probeWidth, probeHeight);
+            glBindVertexArray(emptyVertexArray.id());
+            glBindTextureUnit(8, probePosition.id());
+            glBindTextureUnit(9, probeNormal.id());
+            glEnable(GL_BLEND);
+            glBlendFunc(GL_ONE, GL_ONE);
+            glBlendEquation(GL_FUNC_ADD);
+            const std::uint32_t chunks = vals.chunkCount(count);
+            for (std::uint32_t c = 0; c < chunks; ++c) {
+                vals.bindChunk(c);
+                glUniform1i(p.valCount, int(vals.chunkSize(c, count)));
+                glDrawArrays(GL_TRIANGLES, 0, 3);
+            }
+            glDisable(GL_BLEND);
+        }
+        glBindTextureUnit(8, pointPosition.id());
+        glBindTextureUnit(9, pointNormal.id());
+        glViewport(0, 0, textureWidth, textureHeight);
+    }
+
+    /// Probe check: re-gathers the probes with `lights` and returns max |L'_d,new - L'_d,ref|
+    /// over probes and channels in StaticCheck::bound (one read-back).
+    StaticCheck checkProbes(const ValSetView& lights, const ViewParameters& view) {
+        vals.copyFrom(lights.buffer, lights.count);
+        glMemoryBarrier(GL_UNIFORM_BARRIER_BIT);
+        gatherProbes(lights.count, view);
+        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        const std::uint32_t zero = 0;
+        glNamedBufferSubData(staticCheck.id(), offsetof(StaticCheck, bound), sizeof zero, &zero);
+        staticProbeCompare.use();
+        glUniform1i(staticProbeCompare.uniformLocation("uProbeCount"), int(probeCount));
+        glBindTextureUnit(0, probeTarget.id());
+        glBindTextureUnit(1, probeReference.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, staticCheck.id());
+        glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT);
+        glDispatchCompute((probeCount + 63) / 64, 1, 1);
+        glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+        StaticCheck result;
+        glGetNamedBufferSubData(staticCheck.id(), 0, sizeof result, &result);
+        return result;
+    }
+
+    /// After a gather: max L'_d into staticCheck.referenceBits.
+    void measureReference() {
+        const std::uint32_t zero = 0;
+        glNamedBufferSubData(staticCheck.id(), offsetof(StaticCheck, referenceBits), sizeof zero, &zero);
+        staticReference.use();
+        glUniform1i(staticReference.uniformLocation("uPointCount"), int(pointCount));
+        glBindTextureUnit(0, gatherTargets[0].id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, staticCheck.id());
+        glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT);
+        glDispatchCompute((pointCount + 63) / 64, 1, 1);
+        glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
+    }
+
+    /// 5. Per-pixel shading (every frame, also when the VPLs are reused).
+    void shadePixels(std::span<const MeshInstance> instances, const GBufferView& gbuffer, const ViewParameters& view,
+                     std::uint32_t targetTexture) {
+        const float zeros[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+        glNamedFramebufferTexture(shadeFramebuffer.id(), GL_COLOR_ATTACHMENT0, targetTexture, 0);
+        glBindFramebuffer(GL_FRAMEBUFFER, shadeFramebuffer.id());
+        glClearNamedFramebufferfv(shadeFramebuffer.id(), GL_COLOR, 0, zeros);
+        glViewport(0, 0, gbuffer.width, gbuffer.height);
+        shade.use();
+        glUniformMatrix4fv(shade.uniformLocation("uClipFromWorld"), 1, GL_FALSE, glm::value_ptr(view.clip_T_world));
+        glUniform3fv(shade.uniformLocation("uEye"), 1, glm::value_ptr(view.cameraPositionWorld));
+        glUniform1f(shade.uniformLocation("uPositionTolerance"), settings.shadingPositionTolerance);
+        glUniform1i(shade.uniformLocation("uGlossy"), choice.glossy ? 1 : 0);
+        glBindTextureUnit(0, gbuffer.worldPosition);
+        glBindTextureUnit(1, gbuffer.worldNormal);
+        glBindTextureUnit(2, gbuffer.diffuseAlbedo);
+        glBindTextureUnit(3, gbuffer.specular);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, vertexVpls.id());
+        for (std::size_t m = 0; m < instances.size(); ++m) {
+            glUniformMatrix4fv(shade.uniformLocation("uWorldFromModel"), 1, GL_FALSE,
+                               glm::value_ptr(instances[m].world_T_model));
+            glUniform1ui(shade.uniformLocation("uFirstVertex"), vertexOffsets[m]);
+            glBindVertexArray(instances[m].gpu.vertexArray);
+            glDrawElements(GL_TRIANGLES, GLsizei(instances[m].gpu.indexCount), GL_UNSIGNED_INT, nullptr);
+        }
+        glBindVertexArray(0);
+        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    }
+
+    /// Logs the adaptive choice when it changes (reuse toggles alone only at debug level in the
+    /// tolerance mode, where they may alternate frame by frame).
+    void logChoice(const std::string& structural) {
+        if (choice.reason == lastReason) return;
+        const std::string message =
+            "lightskin adaptive: " + (choice.reason.empty() ? std::string("everything on") : choice.reason);
+        if (structural == lastStructuralReason && settings.staticTolerance > 0.0f) log::debug(message);
+        else log::info(message);
+        lastReason = choice.reason;
+        lastStructuralReason = structural;
     }
 
     void readTexels(const gl::Texture& texture, std::vector<glm::vec4>& all) const {
@@ -182,6 +472,7 @@ std::unique_ptr<LightSkinIllumination> LightSkinIllumination::create(const Light
     impl.vals.reserve(settings.valCapacity, settings.kCache);
     impl.cullCounter = gl::Buffer::create(sizeof(std::uint32_t), nullptr, GL_DYNAMIC_STORAGE_BIT);
     impl.valSumsBuffer = gl::Buffer::create(2 * sizeof(glm::vec4), nullptr, GL_DYNAMIC_STORAGE_BIT);
+    impl.staticCheck = gl::Buffer::create(sizeof(StaticCheck), nullptr, GL_DYNAMIC_STORAGE_BIT);
     return technique;
 }
 
@@ -195,6 +486,7 @@ void LightSkinIllumination::setSettings(const LightSkinSettings& settings) {
     detail::ValChunkBuffer::validateKCache(settings.kCache, "LightSkinSettings.kCache");
     const bool rebuild = settings.kCache != impl_->settings.kCache;
     impl_->settings = settings;
+    impl_->last.valid = false; // any setting may change stages 0-4
     if (rebuild) {
         impl_->buildPrograms();
         impl_->vals.reserve(std::max(impl_->vals.capacity(), settings.valCapacity), settings.kCache);
@@ -204,9 +496,12 @@ void LightSkinIllumination::setSettings(const LightSkinSettings& settings) {
 void LightSkinIllumination::prepare(std::span<const MeshInstance> instances) {
     Impl& impl = *impl_;
     impl.sparse.clear();
+    impl.lastInstances.clear();
     impl.sparseOffsets.clear();
     impl.vertexOffsets.clear();
     impl.convex.clear();
+    impl.last = {};
+    impl.probeCount = 0;
     impl.pointCount = 0;
     impl.vertexCount = 0;
     for (const MeshInstance& instance : instances) {
@@ -229,6 +524,7 @@ void LightSkinIllumination::prepare(std::span<const MeshInstance> instances) {
         impl.pointCount += std::uint32_t(set.points.size());
         impl.vertexCount += std::uint32_t(instance.mesh->vertexCount());
         impl.convex.push_back(convexForOcclusion(set));
+        impl.lastInstances.emplace_back();
         impl.sparse.push_back(std::move(set));
     }
     LIGHTSKIN_ASSERT(impl.pointCount > 0, "lightskin::gi::LightSkinIllumination::prepare(): no instances");
@@ -322,6 +618,69 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     glDisable(GL_BLEND);
 
     impl.timer.begin("upload");
+    // Static content: reuse the last full computation's VPLs when nothing stages 0-4 read changed.
+    choice.reused = false;
+    choice.staticChangeBound = -1.0f;
+    const bool reuseEnabled = s.adaptive && s.reuseStatic;
+    const bool toleranceMode = reuseEnabled && s.staticTolerance > 0.0f && !choice.glossy;
+    const bool useProbes = s.staticChangeTest == StaticChangeTest::Probes;
+    const bool keepReference = toleranceMode && !useProbes && Impl::keyedWithinLimits(lights);
+    const bool keepProbeReference = toleranceMode && useProbes;
+    bool referenceScattered = false;
+    const char* reuseReason = "";
+    if (reuseEnabled && impl.sceneUnchanged(instances, view, choice)) {
+        if (impl.valsIdentical(lights)) {
+            choice.reused = true;
+            reuseReason = "VPLs reused (static content, identical inputs); ";
+        } else if (keepReference && impl.last.referenceKeyed && lights.keyCount == impl.last.keyCount) {
+            const StaticCheck check = impl.checkChange(lights);
+            const float reference = std::bit_cast<float>(check.referenceBits);
+            choice.staticChangeBound = reference > 0.0f ? check.bound / reference
+                                                        : (check.bound == 0.0f ? 0.0f : std::numeric_limits<float>::infinity());
+            // 1.001: float rounding of the bound's own sum (positive terms, tree reduction)
+            if (check.badKeys == 0 && check.referenceBadKeys == 0 && check.bound * 1.001f <= s.staticTolerance * reference) {
+                choice.reused = true;
+                reuseReason = "VPLs reused (VAL change within staticTolerance); ";
+            } else {
+                // this frame's dense set becomes the reference of the full computation below
+                std::swap(impl.denseReference, impl.denseCurrent);
+                glCopyNamedBufferSubData(impl.staticCheck.id(), impl.staticCheck.id(), offsetof(StaticCheck, badKeys),
+                                         offsetof(StaticCheck, referenceBadKeys), sizeof(std::uint32_t));
+                referenceScattered = true;
+            }
+        } else if (keepProbeReference && impl.last.probesValid) {
+            const StaticCheck check = impl.checkProbes(lights, view);
+            const float reference = std::bit_cast<float>(check.referenceBits);
+            choice.staticChangeBound = reference > 0.0f ? check.bound / reference
+                                                        : (check.bound == 0.0f ? 0.0f : std::numeric_limits<float>::infinity());
+            if (check.bound <= s.staticTolerance * reference) {
+                choice.reused = true;
+                reuseReason = "VPLs reused (probe change within staticTolerance); ";
+            }
+        }
+    }
+    if (choice.reused) {
+        choice.valsGathered = impl.last.valsGathered;
+        choice.reason = impl.last.reason; // what the reused computation chose
+        choice.reason += reuseReason;
+        impl.timer.end();
+        impl.logChoice(impl.last.reason);
+        for (const char* stage : {"gather", "normalisation", "occlusion", "interpolation"}) {
+            impl.timer.begin(stage);
+            impl.timer.end();
+        }
+        impl.timer.begin("shading");
+        impl.shadePixels(instances, gbuffer, view, targetTexture);
+        impl.timer.end();
+        impl.timer.collect(impl.stageTimes);
+        return;
+    }
+    if (keepReference && !referenceScattered) {
+        impl.reserveDense(lights.keyCount);
+        impl.scatterKeyed(lights, impl.denseReference);
+        glCopyNamedBufferSubData(impl.staticCheck.id(), impl.staticCheck.id(), offsetof(StaticCheck, badKeys),
+                                 offsetof(StaticCheck, referenceBadKeys), sizeof(std::uint32_t));
+    }
     impl.uploadPoints(instances);
     std::uint32_t count = lights.count;
     // eps_l terms of eq. 7 over ALL valid VALs (before any culling), folded in the renormalisation.
@@ -358,10 +717,7 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     }
     choice.valsGathered = count;
     impl.timer.end();
-    if (s.adaptive && choice.reason != impl.lastReason) {
-        log::info("lightskin adaptive: " + (choice.reason.empty() ? std::string("everything on") : choice.reason));
-        impl.lastReason = choice.reason;
-    }
+    if (s.adaptive) impl.logChoice(choice.reason);
 
     // 1. Gather.
     impl.timer.begin("gather");
@@ -411,6 +767,15 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
             glDrawArrays(GL_TRIANGLES, 0, 3);
         }
     }
+    if (keepProbeReference) {
+        impl.reserveProbes(s.staticProbeStride);
+        impl.uploadProbes();
+        impl.gatherProbes(count, view); // the same (culled) VALs as the sparse points
+        glBindFramebuffer(GL_FRAMEBUFFER, impl.gatherFramebuffer.id());
+        glCopyImageSubData(impl.probeTarget.id(), GL_TEXTURE_2D, 0, 0, 0, 0, impl.probeReference.id(), GL_TEXTURE_2D, 0, 0,
+                           0, 0, impl.probeWidth, impl.probeHeight, 1);
+    }
+    if (keepReference || keepProbeReference) impl.measureReference();
     impl.timer.end();
 
     // 2. Renormalisation.
@@ -475,30 +840,13 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
 
     // 5. Per-pixel shading.
     impl.timer.begin("shading");
-    glNamedFramebufferTexture(impl.shadeFramebuffer.id(), GL_COLOR_ATTACHMENT0, targetTexture, 0);
-    glBindFramebuffer(GL_FRAMEBUFFER, impl.shadeFramebuffer.id());
-    glClearNamedFramebufferfv(impl.shadeFramebuffer.id(), GL_COLOR, 0, zeros);
-    glViewport(0, 0, gbuffer.width, gbuffer.height);
-    impl.shade.use();
-    glUniformMatrix4fv(impl.shade.uniformLocation("uClipFromWorld"), 1, GL_FALSE, glm::value_ptr(view.clip_T_world));
-    glUniform3fv(impl.shade.uniformLocation("uEye"), 1, glm::value_ptr(view.cameraPositionWorld));
-    glUniform1f(impl.shade.uniformLocation("uPositionTolerance"), s.shadingPositionTolerance);
-    glUniform1i(impl.shade.uniformLocation("uGlossy"), choice.glossy ? 1 : 0);
-    glBindTextureUnit(0, gbuffer.worldPosition);
-    glBindTextureUnit(1, gbuffer.worldNormal);
-    glBindTextureUnit(2, gbuffer.diffuseAlbedo);
-    glBindTextureUnit(3, gbuffer.specular);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, impl.vertexVpls.id());
-    for (std::size_t m = 0; m < instances.size(); ++m) {
-        glUniformMatrix4fv(impl.shade.uniformLocation("uWorldFromModel"), 1, GL_FALSE,
-                           glm::value_ptr(instances[m].world_T_model));
-        glUniform1ui(impl.shade.uniformLocation("uFirstVertex"), impl.vertexOffsets[m]);
-        glBindVertexArray(instances[m].gpu.vertexArray);
-        glDrawElements(GL_TRIANGLES, GLsizei(instances[m].gpu.indexCount), GL_UNSIGNED_INT, nullptr);
-    }
-    glBindVertexArray(0);
-    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    impl.shadePixels(instances, gbuffer, view, targetTexture);
     impl.timer.end();
+    if (reuseEnabled) impl.recordComputation(lights, instances, view);
+    else impl.last.valid = false;
+    impl.last.referenceKeyed = keepReference;
+    impl.last.probesValid = keepProbeReference;
+    impl.last.keyCount = keepReference ? lights.keyCount : 0;
     impl.timer.collect(impl.stageTimes);
 }
 

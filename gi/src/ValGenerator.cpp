@@ -8,6 +8,7 @@
 #include <opencv2/core.hpp>
 
 #include <cmath>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -55,6 +56,7 @@ ValGenerator ValGenerator::create(int depthWidth, int depthHeight, const ValGene
     g.pixelIndices_ = gl::Buffer::create(GLsizeiptr(g.capacity_) * GLsizeiptr(sizeof(std::uint32_t)));
     g.counter_ = gl::Buffer::create(sizeof(std::uint32_t));
     g.depthMetres_.create(depthHeight, depthWidth, CV_32FC1);
+    if (settings.skipUnchangedInput) g.reservePreviousInput();
     return g;
 }
 
@@ -63,7 +65,26 @@ void ValGenerator::setSettings(const ValGeneratorSettings& settings) {
     LIGHTSKIN_ASSERT(settings.stride == settings_.stride && settings.normalWindowRadius == settings_.normalWindowRadius,
                      "the stride and the normal window are fixed at create()");
     settings_ = settings;
+    previousValid_ = false; // the next generate() runs the pass
+    if (settings.skipUnchangedInput) reservePreviousInput();
 }
+
+void ValGenerator::reservePreviousInput() {
+    previousDepth_.create(height_, width_, CV_32FC1);
+    previousColour_.create(height_, width_, CV_8UC3);
+}
+
+namespace {
+
+/// Bit-exact comparison of two images of equal size and type (NaN equals NaN of the same bits).
+bool sameBits(const cv::Mat& a, const cv::Mat& b) {
+    const std::size_t rowBytes = std::size_t(a.cols) * a.elemSize();
+    for (int y = 0; y < a.rows; ++y)
+        if (std::memcmp(a.ptr(y), b.ptr(y), rowBytes) != 0) return false;
+    return true;
+}
+
+} // namespace
 
 ValSetView ValGenerator::generate(const RgbdFrame& frame, const Pose& world_T_camera) {
     if (frame.registration != DepthRegistration::RegisteredToColour)
@@ -88,6 +109,27 @@ ValSetView ValGenerator::generate(const cv::Mat& depth, double depthScaleMetres,
         depth.convertTo(depthMetres_, CV_32FC1, depthScaleMetres); // sized at create(): no allocation
         depthMetres = &depthMetres_;
     }
+    lastSkipped_ = false;
+    if (settings_.skipUnchangedInput) {
+        const glm::dvec4 intrinsics(K.fx, K.fy, K.cx, K.cy);
+        if (previousValid_ && intrinsics == previousIntrinsics_ && world_T_camera.rotation() == previousPose_.rotation() &&
+            world_T_camera.translation() == previousPose_.translation() && sameBits(*depthMetres, previousDepth_) &&
+            sameBits(colourBgr, previousColour_)) {
+            lastSkipped_ = true;
+            if (timer_) // the same stages every frame, empty
+                for (const char* stage : {"val upload", "val pass"}) {
+                    timer_->begin(stage);
+                    timer_->end();
+                }
+            return lastSet();
+        }
+        depthMetres->copyTo(previousDepth_); // same size and type: no allocation
+        colourBgr.copyTo(previousColour_);
+        previousIntrinsics_ = intrinsics;
+        previousPose_ = world_T_camera;
+        previousValid_ = true;
+    }
+    ++generation_;
     if (timer_) timer_->begin("val upload");
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
     glPixelStorei(GL_UNPACK_ROW_LENGTH, int(depthMetres->step1()));

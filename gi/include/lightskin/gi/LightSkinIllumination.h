@@ -21,6 +21,44 @@
 // behind the VAL's plane: exact up to eps_l; optionally VALs whose irradiance bound is below
 // Settings::valInfluenceCutoff: error <= dropped count * cutoff). The choice is logged when it
 // changes and readable through lastChoice().
+//
+// Static content (Settings::adaptive with Settings::reuseStatic): stages 1-4 and the upload
+// depend only on the VAL set, the instances (mesh, world_T_model, Phong exponent k, whether a
+// material has f_s), the settings and, with the glossy channel on, the camera position (eq. 5:
+// cos(gamma) of every gathered VAL and the renormalised glossy VPL depend on the eye direction;
+// the diffuse channel, occlusion and interpolation do not). When none of these changed since the
+// last full computation, render() keeps the sparse-point and vertex VPLs of that computation and
+// runs only the per-pixel shading (which depends on the G-buffer and the view every frame).
+//   * Exact mode (staticTolerance = 0): the VAL set counts as unchanged only when the producer
+//     says so: same buffer, count and nonzero ValSetView::generation (ValGenerator keeps the
+//     generation when depth, colour, pose, intrinsics and settings are bit-identical). No read-back,
+//     no GPU work; the image is bit-identical to that of the full computation it reuses (two full
+//     computations may differ in the last bits: the adaptive cull appends VALs atomically).
+//   * Tolerance mode (staticTolerance = tau > 0, diffuse channel only; with the glossy channel on
+//     only exact reuse applies), change test Bound (the default; keyed VALs): a GPU pass pairs
+//     every VAL with the one of the same key at the last full computation and sums a bound B_j on
+//     how much that change can move the irradiance E = sum_j phi_j h(x; l_j, n_j, r_j^2) at any point
+//     of the receivers' bounding sphere S (derivation in gather_static_bound.comp: product rule on
+//     phi h, then r^2, n_l and l one at a time with |grad_l h| <= 4 / (pi d (r^2 + d^2)), d the
+//     distance to S; at most the sum of both VALs' bounds). The VPLs are reused when
+//     sum_j B_j <= tau * max_x L'_d(x) of the last full computation, which guarantees: every
+//     sparse point's gathered irradiance L'_d (each channel) differs from a full recomputation
+//     by at most tau times the largest gathered irradiance (up to float rounding of the full
+//     recomputation, ~1e-5 relative). The reference stays the last full computation, so
+//     consecutive reuses do not drift. The weights and averaged positions (eq. 7) are not bounded;
+//     the image error is measured (docs/BENCHMARKS.md). Costs one 16-byte read-back per frame.
+//     The bound adds per-VAL worst cases: it is far from the true change when sensor noise moves
+//     many VALs a little (the changes cancel) and useless when real surfaces touch the virtual
+//     objects (VALs at distance ~0 from a receiver); it suits far, slowly changing light.
+//   * Tolerance mode with probes (staticChangeTest = Probes, diffuse channel only, any VAL set):
+//     every staticProbeStride-th sparse point is gathered again with the new VALs (the gather
+//     pass itself on a small texture, ~1/stride of its cost) and compared with its gather at the
+//     last full computation; reuse when max |L'_d,new - L'_d,ref| over probes and channels is
+//     <= tau * max L'_d. The tolerance then holds exactly at the probes and is a measurement, not
+//     a guarantee, at the other sparse points (their error is reported in docs/BENCHMARKS.md).
+//     The probes see all VALs; the adaptive VAL culling only removes VALs that add nothing (or,
+//     with valInfluenceCutoff, less than the cutoff each). One 16-byte read-back per frame, too.
+// setSettings() and prepare() always force a full computation.
 
 #include <lightskin/gi/IndirectIllumination.h>
 #include <lightskin/gi/SparsePointSampler.h>
@@ -35,6 +73,12 @@
 
 namespace lightskin::gi {
 
+
+/// How the static-content tolerance mode judges a changed VAL set (see the file comment).
+enum class StaticChangeTest {
+    Bound,  ///< guaranteed bound over all sparse points; needs ValSetView::keys
+    Probes, ///< measured change at every staticProbeStride-th sparse point; any VAL set
+};
 
 struct LightSkinSettings {
     /// VALs per gather pass (paper: K_cache = 128). Multiple of 16 (uniform-buffer offset
@@ -65,6 +109,16 @@ struct LightSkinSettings {
     int computeValsPerDispatch = 16384;
     /// VAL capacity reserved in prepare(); grows (once, logged) if a frame brings more.
     std::uint32_t valCapacity = 1u << 16;
+    /// With `adaptive`: reuse the VPLs of the last full computation for static content (see the
+    /// file comment). false: every frame recomputes everything (for measurement).
+    bool reuseStatic = true;
+    /// With `adaptive` and `reuseStatic`: 0 = exact reuse only; tau > 0 also reuses when the bound on
+    /// the change of every sparse point's gathered irradiance is <= tau * the largest gathered
+    /// irradiance (needs ValSetView::keys; the glossy channel always needs exact reuse).
+    float staticTolerance = 0.0f;
+    StaticChangeTest staticChangeTest = StaticChangeTest::Bound;
+    /// Probes: every n-th sparse point is a probe (re-gathering them costs ~1/n of the gather).
+    int staticProbeStride = 16;
 };
 
 /// What the adaptive mode chose for the last frame.
@@ -73,6 +127,11 @@ struct LightSkinChoice {
     bool occlusion = true;
     std::uint32_t valsIn = 0;      ///< VALs handed to render()
     std::uint32_t valsGathered = 0; ///< after culling
+    /// Static content: this frame reused the VPLs of the last full computation (only shading ran).
+    bool reused = false;
+    /// Tolerance mode: the change measure of the last check relative to max L'_d (Bound:
+    /// sum_j B_j; Probes: max change at the probes); -1 if no check ran this frame.
+    float staticChangeBound = -1.0f;
     std::string reason;
 };
 

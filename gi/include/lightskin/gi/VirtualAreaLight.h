@@ -27,9 +27,19 @@ static_assert(sizeof(VirtualAreaLight) == 48, "VirtualAreaLight must match the G
 
 /// A set of VALs on the GPU: `count` valid, packed VirtualAreaLight records at the start of `buffer`
 /// (a GL buffer name usable as SSBO, or as UBO ranges). Not owning: the producer owns the buffer.
+///
+/// Optional change information (lets a consumer reuse work for static content without reading the
+/// VALs back): `generation` != 0 promises that two views with equal buffer, count and generation
+/// hold bit-identical VALs (the producer bumps it whenever it rewrites the buffer); 0 = unknown,
+/// consumers must assume the set changed. `keys` (a GL buffer of one uint per VAL, < keyCount)
+/// names each VAL stably across frames (ValGenerator: the depth pixel it came from), so that a
+/// consumer can compare a VAL with its predecessor; 0 = no keys.
 struct ValSetView {
     std::uint32_t buffer = 0;
     std::uint32_t count = 0;
+    std::uint64_t generation = 0;
+    std::uint32_t keys = 0;
+    std::uint32_t keyCount = 0;
 };
 
 } // namespace lightskin::gi
