@@ -317,16 +317,18 @@ struct LightSkinIllumination::Impl {
             glBindVertexArray(emptyVertexArray.id());
             glBindTextureUnit(8, probePosition.id());
             glBindTextureUnit(9, probeNormal.id());
-            glEnable(GL_BLEND);
-            glBlendFunc(GL_ONE, GL_ONE);
-            glBlendEquation(GL_FUNC_ADD);
+            // The running-sum protocol of the main gather (no blending, gather_sum_block.glsl): the
+            // pass reads L'_d from the probe target it writes. Units 1-4 (sums without a target
+            // here) keep the main targets: read at probe texels, never written by this pass.
+            glBindTextureUnit(0, probeTarget.id());
             const std::uint32_t chunks = vals.chunkCount(count);
             for (std::uint32_t c = 0; c < chunks; ++c) {
                 vals.bindChunk(c);
                 glUniform1i(p.valCount, int(vals.chunkSize(c, count)));
+                glTextureBarrier();
                 glDrawArrays(GL_TRIANGLES, 0, 3);
             }
-            glDisable(GL_BLEND);
+            glBindTextureUnit(0, gatherTargets[0].id());
         }
         glBindTextureUnit(8, pointPosition.id());
         glBindTextureUnit(9, pointNormal.id());

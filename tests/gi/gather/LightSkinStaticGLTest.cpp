@@ -112,6 +112,30 @@ double relativeDifference(const std::vector<glm::vec4>& a, const std::vector<glm
     return largest > 0.0 ? worst / largest : worst;
 }
 
+/// GPU times (ms) of a full frame and of the reused frame after it: total and gather stage.
+struct PairTimes {
+    double full = 0.0, reused = 0.0, fullGather = 0.0, reusedGather = 0.0;
+};
+
+double stageMilliseconds(const Frame& f, const char* name);
+
+/// Timing on a shared 2-core machine: one descheduled llvmpipe thread can double a frame, so the
+/// best of three full -> reused pairs (each with a fresh technique) decides.
+template <class RunPair>
+PairTimes bestOfThree(RunPair runPair) {
+    PairTimes best{1e30, 1e30, 1e30, 1e30};
+    for (int i = 0; i < 3; ++i) {
+        const auto [full, reused] = runPair();
+        EXPECT_FALSE(full.choice.reused);
+        EXPECT_TRUE(reused.choice.reused);
+        best.full = std::min(best.full, full.gpuMilliseconds);
+        best.reused = std::min(best.reused, reused.gpuMilliseconds);
+        best.fullGather = std::min(best.fullGather, stageMilliseconds(full, "gather"));
+        best.reusedGather = std::min(best.reusedGather, stageMilliseconds(reused, "gather"));
+    }
+    return best;
+}
+
 bool bitIdentical(const std::vector<glm::vec4>& a, const std::vector<glm::vec4>& b) {
     return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](const glm::vec4& x, const glm::vec4& y) {
                return std::memcmp(&x, &y, sizeof x) == 0;
@@ -314,9 +338,14 @@ TEST_F(LightSkinStaticGLTest, ToleranceModeStaysWithinItsBoundWhileTheStageTimeD
     ASSERT_TRUE(reused.choice.reused) << "bound " << reused.choice.staticChangeBound;
     EXPECT_GT(reused.choice.staticChangeBound, 0.0f);
     EXPECT_LE(reused.choice.staticChangeBound, tolerance);
-    EXPECT_LT(stageMilliseconds(reused, "gather"), 0.1 * stageMilliseconds(full, "gather") + 0.05);
-    EXPECT_LT(reused.gpuMilliseconds, 0.5 * full.gpuMilliseconds)
-        << "reused " << reused.gpuMilliseconds << " ms, full " << full.gpuMilliseconds << " ms";
+    const PairTimes times = bestOfThree([&] {
+        auto fresh = rig.technique(settings);
+        Frame a = render(rig, *fresh, keyed(first, 1));
+        Frame b = render(rig, *fresh, keyed(second, 2));
+        return std::pair{std::move(a), std::move(b)};
+    });
+    EXPECT_LT(times.reusedGather, 0.1 * times.fullGather + 0.05);
+    EXPECT_LT(times.reused, 0.5 * times.full) << "reused " << times.reused << " ms, full " << times.full << " ms";
 
     // against a full recomputation of the second frame: every sparse point's L'_d (slot 0 of 5)
     // within the stated bound, staticChangeBound * max L'_d (+ 1e-5 float rounding of the gather)
@@ -372,8 +401,13 @@ TEST_F(LightSkinStaticGLTest, ProbeModeHoldsTheToleranceAtTheProbesWithoutKeys) 
     const Frame reused = render(rig, *technique, set(second, 2));
     ASSERT_TRUE(reused.choice.reused) << "probe change " << reused.choice.staticChangeBound;
     EXPECT_LE(reused.choice.staticChangeBound, tolerance);
-    EXPECT_LT(reused.gpuMilliseconds, 0.5 * full.gpuMilliseconds)
-        << "reused " << reused.gpuMilliseconds << " ms, full " << full.gpuMilliseconds << " ms";
+    const PairTimes times = bestOfThree([&] {
+        auto fresh = rig.technique(settings);
+        Frame a = render(rig, *fresh, set(first, 1));
+        Frame b = render(rig, *fresh, set(second, 2));
+        return std::pair{std::move(a), std::move(b)};
+    });
+    EXPECT_LT(times.reused, 0.5 * times.full) << "reused " << times.reused << " ms, full " << times.full << " ms";
 
     // the probe measure is the true change at the probes (a fresh computation there), and the
     // tolerance holds there; elsewhere it is measured
