@@ -15,6 +15,7 @@
 #include "Sources.h"
 
 #include <lightskin/core/Error.h>
+#include <lightskin/core/LeakCheck.h>
 #include <lightskin/core/Log.h>
 
 #include <OpenNI.h>
@@ -40,6 +41,7 @@ public:
             throw Error(uri, std::nullopt,
                         std::string("OpenNI2 initialisation failed: ") + openni::OpenNI::getExtendedError());
         }
+        sanitizer::keepLoadedModulesMapped(); // OpenNI2/Drivers/*.so, for LeakSanitizer's report at exit
     }
     static void release() {
         std::lock_guard lock(mutex());

@@ -2,6 +2,7 @@
 // file needed: llvmpipe in CI), then EGL devices (GPU drivers without a display), then the
 // default display with a 1x1 pbuffer (old drivers).
 #include <lightskin/core/Error.h>
+#include <lightskin/core/LeakCheck.h>
 #include <lightskin/core/Log.h>
 #include <lightskin/gl/Context.h>
 
@@ -91,6 +92,7 @@ std::unique_ptr<Context> createHeadlessContext(const ContextOptions& options) {
             failures += "\n  " + candidate.platform + ": eglInitialize failed (" + eglErrorText(eglGetError()) + ")";
             continue;
         }
+        sanitizer::keepLoadedModulesMapped(); // the DRI driver, for LeakSanitizer's report at exit
         const bool needsSurface = candidate.platform == "egl-pbuffer" ||
                                   !hasExtension(eglQueryString(candidate.display, EGL_EXTENSIONS), "EGL_KHR_surfaceless_context");
         const EGLint configAttributes[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_SURFACE_TYPE,

@@ -1,4 +1,5 @@
 #include <lightskin/core/Error.h>
+#include <lightskin/core/LeakCheck.h>
 #include <lightskin/gl/Context.h>
 
 #include <epoxy/gl.h>
@@ -72,6 +73,7 @@ std::unique_ptr<WindowContext> createWindowContext(int width, int height, const 
         throw Error("GLFW", std::nullopt, "could not open a window with an OpenGL " + std::to_string(options.versionMajor) +
                                               "." + std::to_string(options.versionMinor) + " core context: " + lastGlfwError());
     }
+    sanitizer::keepLoadedModulesMapped(); // the GLX/DRI driver, for LeakSanitizer's report at exit
     auto context = std::make_unique<GlfwWindowContext>(window);
     context->makeCurrent();
     glfwSwapInterval(0);

@@ -6,6 +6,7 @@
 #include <lightskin/capture/Recorder.h>
 #include <lightskin/capture/Recording.h>
 #include <lightskin/core/Error.h>
+#include <lightskin/core/LeakCheck.h>
 
 #include <OpenNI.h>
 #include <gtest/gtest.h>
@@ -24,6 +25,7 @@ std::string oniPath() { return std::filesystem::absolute(dataPath("oni-kinect-v1
 /// The first depth frame as OpenNI2 itself delivers it (mirrored), read without lightskin.
 cv::Mat rawFirstDepthFrame() {
     EXPECT_EQ(openni::OpenNI::initialize(), openni::STATUS_OK);
+    sanitizer::keepLoadedModulesMapped(); // as capture does, so LeakSanitizer can scan OpenNI2's drivers
     cv::Mat copy;
     {
         openni::Device device;
