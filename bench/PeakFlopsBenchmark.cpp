@@ -4,8 +4,9 @@
 // CPU: single-precision FMA in vector registers, kChains independent accumulator chains (more than
 // FMA latency x FMA ports, so the loop is throughput-bound), on 1 and 2 threads. Two widths: 256-bit
 // (AVX2 + FMA3: the width llvmpipe's LLVM back end uses, "256 bits" in its renderer string) and 512-bit
-// (AVX-512F, when the compiler targets it). Counter GFLOP/s = 2 flops per FMA lane over wall time
-// (with 2 threads: both threads' flops over the wall time).
+// (AVX-512F, when the compiler targets it). Counter GFLOP/s = 2 flops per FMA lane over the
+// benchmark's time: wall time for the /real_time rows, CPU time of the threads otherwise (the rate per
+// core while it runs, independent of other jobs on a shared machine).
 //
 // llvmpipe: a fragment shader (bench/shaders/fma_peak.frag) of 8 independent vec4 FMA chains per
 // fragment over a 1024x1024 RGBA32F viewport (one draw), timed by wall clock from the draw call to
@@ -27,6 +28,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <ctime>
 #include <memory>
 #include <span>
 #include <string>
@@ -64,6 +66,7 @@ __m256 set1x8(float v) { return _mm256_set1_ps(v); }
 __m256 fmax8(__m256 a, __m256 b, __m256 c) { return _mm256_fmadd_ps(a, b, c); }
 void BM_CpuFma256(benchmark::State& state) { cpuFma<__m256, set1x8, fmax8, 8>(state); }
 BENCHMARK(BM_CpuFma256)->Threads(1)->Threads(2)->UseRealTime();
+BENCHMARK(BM_CpuFma256)->Threads(1)->Threads(2);
 #endif
 
 #if defined(__AVX512F__)
@@ -71,6 +74,7 @@ __m512 set1x16(float v) { return _mm512_set1_ps(v); }
 __m512 fmax16(__m512 a, __m512 b, __m512 c) { return _mm512_fmadd_ps(a, b, c); }
 void BM_CpuFma512(benchmark::State& state) { cpuFma<__m512, set1x16, fmax16, 16>(state); }
 BENCHMARK(BM_CpuFma512)->Threads(1)->Threads(2)->UseRealTime();
+BENCHMARK(BM_CpuFma512)->Threads(1)->Threads(2);
 #endif
 
 /// The headless context and the peak program, made once (benchmarks run on the main thread).
@@ -84,6 +88,13 @@ struct GlPeak {
     gl::GpuStageTimer timer;
     std::vector<gl::StageTime> stages;
 };
+
+/// CPU time of the whole process (all threads, llvmpipe's rasteriser threads included), seconds.
+double processCpuSeconds() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
+}
 
 constexpr int kSize = 1024;      // viewport side, fragments
 constexpr int kGlChains = 8;     // vec4 chains per fragment (fma_peak.frag's CHAINS)
@@ -119,8 +130,9 @@ void BM_LlvmpipeFma(benchmark::State& state) {
     glUniform1f(p.program.uniformLocation("uB"), 1.0e-3f);
     glDrawArrays(GL_TRIANGLES, 0, 3); // warm-up (shader compile on first draw)
     glFinish();
-    double flops = 0.0, wallSeconds = 0.0, queriedSeconds = 0.0;
+    double flops = 0.0, wallSeconds = 0.0, queriedSeconds = 0.0, cpuSeconds = 0.0;
     for (auto _ : state) {
+        const double cpuStart = processCpuSeconds();
         const auto start = std::chrono::steady_clock::now();
         p.timer.beginFrame();
         p.timer.begin("fma");
@@ -128,6 +140,7 @@ void BM_LlvmpipeFma(benchmark::State& state) {
         p.timer.end();
         glFinish();
         const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        cpuSeconds += processCpuSeconds() - cpuStart;
         p.timer.collect(p.stages);
         const double queried = p.stages.at(0).milliseconds / 1000.0;
         state.SetIterationTime(wall);
@@ -136,6 +149,9 @@ void BM_LlvmpipeFma(benchmark::State& state) {
         flops += 8.0 * kGlChains * double(iterations) * double(kSize) * double(kSize);
     }
     state.counters["query/wall"] = queriedSeconds / wallSeconds;
+    // Flops per CPU-second of this process (llvmpipe's threads included): the shader's rate per
+    // core while it runs, independent of other jobs sharing the machine.
+    state.counters["GFLOP/cpu-s"] = flops * 1e-9 / cpuSeconds;
     float pixel[4] = {0.0f, 0.0f, 0.0f, 0.0f};
     glReadPixels(kSize / 2, kSize / 2, 1, 1, GL_RGBA, GL_FLOAT, pixel);
     benchmark::DoNotOptimize(pixel);

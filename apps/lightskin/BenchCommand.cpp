@@ -61,6 +61,14 @@ double median(std::vector<double> v) {
 
 double msSince(Clock::time_point start) { return std::chrono::duration<double, std::milli>(Clock::now() - start).count(); }
 
+/// CPU time of the whole process in ms (all threads: llvmpipe's rasteriser threads are ours). On a
+/// machine shared with other jobs, CPU time is what a frame costs; wall time includes waiting.
+double processCpuMs() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return 1e3 * double(t.tv_sec) + 1e-6 * double(t.tv_nsec);
+}
+
 std::string readFirstLine(const std::string& path, const std::string& key) {
     std::ifstream in(path);
     std::string line;
@@ -903,7 +911,7 @@ void exportBlender(World& world, const Options& options) {
 // it runs on a uniform pixel subset: every s-th pixel in each direction of the same full-resolution
 // G-buffer (copied into an (W/s) x (H/s) G-buffer, so each subset pixel is exactly one full-resolution
 // pixel), and its full-frame time is extrapolated by the covered-pixel ratio (the brute force's cost is
-// VALs x covered pixels). The error is LightSkin's full-resolution image at the subset pixels against
+// VALs x covered pixels), unless it exceeds --max-brute interactions. The error is LightSkin's full-resolution image at the subset pixels against
 // the subset brute force (and against the full brute force where that was measured).
 
 struct TableSpec {
@@ -918,7 +926,8 @@ struct TableBrute {
     std::size_t vals = 0;
     double subsetMs[2] = {0.0, 0.0};               ///< diffuse, + glossy (timer queries)
     double subsetWallMs[2] = {0.0, 0.0};           ///< the same, wall time of render() + glFinish
-    std::optional<double> fullMs[2], fullWallMs[2]; ///< measured at the full output (first map only)
+    double subsetCpuMs[2] = {0.0, 0.0};            ///< the same, process CPU time
+    std::optional<double> fullMs[2], fullWallMs[2], fullCpuMs[2]; ///< measured at the full output (first map only)
     cv::Mat subsetImage[2], fullImage[2];
 };
 
@@ -929,8 +938,9 @@ struct TableRow {
     int channels = 1;
     double gpuMs = 0.0, cpuMs = 0.0;
     std::vector<std::pair<std::string, double>> stages;
-    double bruteMs = 0.0, bruteWallMs = 0.0;        ///< extrapolated from the subset
-    std::optional<double> bruteFullMs, bruteFullWallMs; ///< measured at the full output
+    double cpuTimeMs = 0.0;                         ///< process CPU time of render() + glFinish
+    double bruteMs = 0.0, bruteWallMs = 0.0, bruteCpuMs = 0.0; ///< extrapolated from the subset
+    std::optional<double> bruteFullMs, bruteFullWallMs, bruteFullCpuMs; ///< measured at the full output
     std::optional<eval::ImageError> vsSubset, vsFull;
     double meanRatio = 0.0;                         ///< total light / the brute force's, subset pixels
 };
@@ -984,8 +994,8 @@ SubsetGBuffer subsetGBuffer(const ViewImages& view, int s) {
 }
 
 /// One brute-force frame (after a warm-up on the first VALs, which compiles and binds everything):
-/// {timer-query ms, wall ms of render() + glFinish}.
-std::pair<double, double> bruteFrame(const gi::ValSetView& set, bool glossy, std::span<const gi::MeshInstance> inst,
+/// {timer-query ms, wall ms of render() + glFinish, process CPU ms of the same}.
+std::tuple<double, double, double> bruteFrame(const gi::ValSetView& set, bool glossy, std::span<const gi::MeshInstance> inst,
                                      const gi::GBufferView& g, const gi::ViewParameters& view, gl::Texture& target, cv::Mat& image) {
     gi::BruteForceSettings s;
     s.glossy = glossy;
@@ -994,16 +1004,18 @@ std::pair<double, double> bruteFrame(const gi::ValSetView& set, bool glossy, std
     technique->prepare(inst);
     technique->render({set.buffer, std::min(set.count, 16u)}, inst, g, view, target.id());
     glFinish();
+    const double cpuStart = processCpuMs();
     const auto start = Clock::now();
     technique->render(set, inst, g, view, target.id());
     glFinish();
     const double wall = msSince(start);
+    const double cpu = processCpuMs() - cpuStart;
     std::vector<gl::StageTime> stages;
     technique->lastStageTimes(stages);
     double ms = 0.0;
     for (const auto& st : stages) ms += st.milliseconds;
     image = readRgb(target.id(), g.width, g.height);
-    return {ms, wall};
+    return {ms, wall, cpu};
 }
 
 std::string mapName(const std::pair<int, int>& m) { return std::to_string(m.first) + "x" + std::to_string(m.second); }
@@ -1021,22 +1033,26 @@ std::string tableMarkdown(const TableSpec& spec, const std::vector<TableRow>& ro
     md << header;
     md << "- Output " << spec.width << "x" << spec.height << ", " << coveredFull << " covered pixels; brute-force subset: every "
        << spec.subset << "th pixel per direction, " << coveredSubset << " covered pixels (ratio " << fixed(ratio, 3) << ").\n\n";
-    md << "Brute force, GPU ms by timer queries / wall ms (render() + glFinish). `extrapolated` = subset time x covered-pixel "
+    md << "Brute force, ms: timer queries / wall (render() + glFinish) / process CPU time of the same. `extrapolated` = subset time x covered-pixel "
           "ratio; `measured` = the full output; scaling check = measured / extrapolated.\n\n"
           "| VAL map | VALs | diffuse, subset | diffuse, extrapolated | diffuse, measured | + glossy, subset | + glossy, "
-          "extrapolated | + glossy, measured | scaling check (query; wall) |\n|---|---|---|---|---|---|---|---|---|\n";
-    const auto pair = [](double q, double w) { return fixed(q, 0) + " / " + fixed(w, 0); };
+          "extrapolated | + glossy, measured | scaling check (query; wall; CPU) |\n|---|---|---|---|---|---|---|---|---|\n";
+    const auto triple = [](double q, double w, double c) { return fixed(q, 0) + " / " + fixed(w, 0) + " / " + fixed(c, 0); };
     for (std::size_t m = 0; m < brutes.size(); ++m) {
         const TableBrute& b = brutes[m];
         std::string check = "-";
-        if (b.fullMs[0] && b.fullMs[1])
-            check = "diffuse " + fixed(*b.fullMs[0] / (b.subsetMs[0] * ratio), 3) + "; " +
-                    fixed(*b.fullWallMs[0] / (b.subsetWallMs[0] * ratio), 3) + ", + glossy " +
-                    fixed(*b.fullMs[1] / (b.subsetMs[1] * ratio), 3) + "; " + fixed(*b.fullWallMs[1] / (b.subsetWallMs[1] * ratio), 3);
+        if (b.fullMs[0] && b.fullMs[1]) {
+            const auto scale = [&](int k) {
+                return fixed(*b.fullMs[k] / (b.subsetMs[k] * ratio), 3) + "; " + fixed(*b.fullWallMs[k] / (b.subsetWallMs[k] * ratio), 3) +
+                       "; " + fixed(*b.fullCpuMs[k] / (b.subsetCpuMs[k] * ratio), 3);
+            };
+            check = "diffuse " + scale(0) + ", + glossy " + scale(1);
+        }
         md << "| " << mapName(spec.valMaps[m]) << " | " << b.vals;
         for (int k = 0; k < 2; ++k) {
-            md << " | " << pair(b.subsetMs[k], b.subsetWallMs[k]) << " | " << pair(b.subsetMs[k] * ratio, b.subsetWallMs[k] * ratio)
-               << " | " << (b.fullMs[k] ? pair(*b.fullMs[k], *b.fullWallMs[k]) : std::string("-"));
+            md << " | " << triple(b.subsetMs[k], b.subsetWallMs[k], b.subsetCpuMs[k]) << " | "
+               << triple(b.subsetMs[k] * ratio, b.subsetWallMs[k] * ratio, b.subsetCpuMs[k] * ratio) << " | "
+               << (b.fullMs[k] ? triple(*b.fullMs[k], *b.fullWallMs[k], *b.fullCpuMs[k]) : std::string("-"));
         }
         md << " | " << check << " |\n";
     }
@@ -1044,20 +1060,20 @@ std::string tableMarkdown(const TableSpec& spec, const std::vector<TableRow>& ro
     for (const auto& r : rows)
         for (const auto& st : r.stages)
             if (std::find(stageNames.begin(), stageNames.end(), st.first) == stageNames.end()) stageNames.push_back(st.first);
-    md << "\nLightSkin: GPU ms per stage (timer queries), total = their sum, fps = 1000 / total, wall = render() + glFinish. "
+    md << "\nLightSkin: GPU ms per stage (timer queries), total = their sum, fps = 1000 / total, wall = render() + glFinish, CPU = process CPU time of the same. "
           "Speed-up over the brute force of the same reflectance (diffuse for the diffuse setup, + glossy otherwise; the brute "
-          "force has no occlusion): by timer queries and by wall time, `(x)` = extrapolated from the subset. Error against the "
+          "force has no occlusion): by timer queries, wall time and CPU time, `(x)` = extrapolated from the subset. Error against the "
           "brute force at the subset pixels (rel. MSE, SSIM, total light ratio) and at every pixel where the full brute force "
           "was measured. Gather interactions/s = sparse points x VALs / gather time.\n\n";
-    md << "| VAL map | VALs | sparse | setup | total | fps | wall |";
+    md << "| VAL map | VALs | sparse | setup | total | fps | wall | CPU |";
     for (const auto& n : stageNames) md << " " << n << " |";
-    md << " gather interactions/s | speed-up (query) | speed-up (wall) | rel. MSE vs brute | SSIM | total / brute | rel. MSE vs full "
-          "brute |\n|---|---|---|---|---|---|---|";
+    md << " gather interactions/s | speed-up (query) | speed-up (wall) | speed-up (CPU) | rel. MSE vs brute | SSIM | total / brute | "
+          "rel. MSE vs full brute |\n|---|---|---|---|---|---|---|---|";
     for (std::size_t i = 0; i < stageNames.size(); ++i) md << "---|";
-    md << "---|---|---|---|---|---|---|\n";
+    md << "---|---|---|---|---|---|---|---|\n";
     for (const auto& r : rows) {
         md << "| " << mapName(r.map) << " | " << r.vals << " | " << r.sparse << " | " << channelName(r.channels) << " | "
-           << fixed(r.gpuMs, 1) << " | " << fixed(1000.0 / r.gpuMs, 2) << " | " << fixed(r.cpuMs, 1) << " |";
+           << fixed(r.gpuMs, 1) << " | " << fixed(1000.0 / r.gpuMs, 2) << " | " << fixed(r.cpuMs, 1) << " | " << fixed(r.cpuTimeMs, 1) << " |";
         double gather = 0.0;
         for (const auto& n : stageNames) {
             const auto it = std::find_if(r.stages.begin(), r.stages.end(), [&](const auto& st) { return st.first == n; });
@@ -1072,9 +1088,11 @@ std::string tableMarkdown(const TableSpec& spec, const std::vector<TableRow>& ro
         std::snprintf(rate, sizeof rate, "%.2e", gather > 0.0 ? double(r.sparse) * double(r.vals) / (gather / 1000.0) : 0.0);
         md << " " << rate << " | ";
         if (r.bruteFullMs)
-            md << fixed(*r.bruteFullMs / r.gpuMs, 0) << "x | " << fixed(*r.bruteFullWallMs / r.cpuMs, 0) << "x |";
+            md << fixed(*r.bruteFullMs / r.gpuMs, 0) << "x | " << fixed(*r.bruteFullWallMs / r.cpuMs, 0) << "x | "
+               << fixed(*r.bruteFullCpuMs / r.cpuTimeMs, 0) << "x |";
         else
-            md << "(" << fixed(r.bruteMs / r.gpuMs, 0) << "x) | (" << fixed(r.bruteWallMs / r.cpuMs, 0) << "x) |";
+            md << "(" << fixed(r.bruteMs / r.gpuMs, 0) << "x) | (" << fixed(r.bruteWallMs / r.cpuMs, 0) << "x) | ("
+               << fixed(r.bruteCpuMs / r.cpuTimeMs, 0) << "x) |";
         char err[160];
         if (r.vsSubset)
             std::snprintf(err, sizeof err, " %.2e | %.4f | %.4f |", r.vsSubset->relativeMse, r.vsSubset->ssim, r.meanRatio);
@@ -1127,19 +1145,21 @@ void runTable(const Options& options, const TableSpec& spec, const std::string& 
             std::printf("[%5.0f s] VAL map %s (%u VALs): brute force %s, subset ...", msSince(start) / 1000.0, mapName(map).c_str(),
                         set.count, glossy ? "+ glossy" : "diffuse");
             std::fflush(stdout);
-            std::tie(b.subsetMs[glossy], b.subsetWallMs[glossy]) =
+            std::tie(b.subsetMs[glossy], b.subsetWallMs[glossy], b.subsetCpuMs[glossy]) =
                 bruteFrame(set, glossy != 0, inst, subset.view, viewParams, subsetTarget, b.subsetImage[glossy]);
             std::printf(" %.0f ms, wall %.0f ms (extrapolated %.0f ms)", b.subsetMs[glossy], b.subsetWallMs[glossy],
                         b.subsetMs[glossy] * ratio);
-            if (m == 0) {
+            if (m == 0 && double(set.count) * double(view.covered) <= options.maxBruteInteractions) { // the scaling check
                 std::printf(", full ...");
                 std::fflush(stdout);
                 gbuffer.render(inst, clip);
-                const auto [ms, wall] = bruteFrame(set, glossy != 0, inst, gbuffer.view(), viewParams, target, b.fullImage[glossy]);
+                const auto [ms, wall, cpu] = bruteFrame(set, glossy != 0, inst, gbuffer.view(), viewParams, target, b.fullImage[glossy]);
                 b.fullMs[glossy] = ms;
                 b.fullWallMs[glossy] = wall;
-                std::printf(" %.0f ms, wall %.0f ms (measured / extrapolated %.3f, wall %.3f)", ms, wall, ms / (b.subsetMs[glossy] * ratio),
-                            wall / (b.subsetWallMs[glossy] * ratio));
+                b.fullCpuMs[glossy] = cpu;
+                std::printf(" %.0f ms, wall %.0f ms, CPU %.0f ms (measured / extrapolated %.3f, wall %.3f, CPU %.3f)", ms, wall, cpu,
+                            ms / (b.subsetMs[glossy] * ratio), wall / (b.subsetWallMs[glossy] * ratio),
+                            cpu / (b.subsetCpuMs[glossy] * ratio));
             }
             std::printf("\n");
             std::fflush(stdout);
@@ -1161,15 +1181,17 @@ void runTable(const Options& options, const TableSpec& spec, const std::string& 
                 // Warm-up on the first VALs only (compiles and binds everything; the full gather takes minutes).
                 technique->render({set.buffer, std::min(set.count, 256u)}, inst, gbuffer.view(), viewParams, target.id());
                 glFinish();
-                std::vector<double> gpu, cpu;
+                std::vector<double> gpu, cpu, cpuTime;
                 std::map<std::string, std::vector<double>> stageTimes;
                 std::vector<std::string> order;
                 std::vector<gl::StageTime> stages;
                 for (int f = 0; f < spec.frames; ++f) {
+                    const double cpuStart = processCpuMs();
                     const auto frameStart = Clock::now();
                     technique->render(set, inst, gbuffer.view(), viewParams, target.id());
                     glFinish();
                     cpu.push_back(msSince(frameStart));
+                    cpuTime.push_back(processCpuMs() - cpuStart);
                     technique->lastStageTimes(stages);
                     double total2 = 0.0;
                     for (const auto& st : stages) {
@@ -1181,12 +1203,15 @@ void runTable(const Options& options, const TableSpec& spec, const std::string& 
                 }
                 r.gpuMs = median(gpu);
                 r.cpuMs = median(cpu);
+                r.cpuTimeMs = median(cpuTime);
                 for (const auto& name : order) r.stages.emplace_back(name, median(stageTimes[name]));
                 const int glossy = channels >= 2 ? 1 : 0;
                 r.bruteMs = b.subsetMs[glossy] * ratio;
                 r.bruteWallMs = b.subsetWallMs[glossy] * ratio;
                 r.bruteFullMs = b.fullMs[glossy];
                 r.bruteFullWallMs = b.fullWallMs[glossy];
+                r.bruteCpuMs = b.subsetCpuMs[glossy] * ratio;
+                r.bruteFullCpuMs = b.fullCpuMs[glossy];
                 const cv::Mat image = readRgb(target.id(), spec.width, spec.height);
                 const cv::Mat sampled = subsample(image, spec.subset);
                 r.vsSubset = compare(sampled, b.subsetImage[glossy], subset.mask);
@@ -1195,8 +1220,8 @@ void runTable(const Options& options, const TableSpec& spec, const std::string& 
                 std::printf("[%5.0f s] %s, %zu sparse, %s: GPU %.1f ms (", msSince(start) / 1000.0, mapName(map).c_str(), r.sparse,
                             channelName(channels), r.gpuMs);
                 for (const auto& st : r.stages) std::printf(" %s %.1f", st.first.c_str(), st.second);
-                std::printf(" ), CPU %.1f ms; speed-up %.0fx%s; vs brute (subset) %s\n", r.cpuMs,
-                            (r.bruteFullMs ? *r.bruteFullMs : r.bruteMs) / r.gpuMs, r.bruteFullMs ? "" : " (extrapolated)",
+                std::printf(" ), wall %.1f ms, process CPU %.1f ms; speed-up %.0fx%s; vs brute (subset) %s\n", r.cpuMs, r.cpuTimeMs,
+                            (r.bruteFullWallMs ? *r.bruteFullWallMs : r.bruteWallMs) / r.cpuMs, r.bruteFullMs ? " (wall)" : " (wall, extrapolated)",
                             r.vsSubset->describe().c_str());
                 std::fflush(stdout);
                 rows.push_back(std::move(r));
