@@ -1239,11 +1239,12 @@ void runTable(const Options& options, const TableSpec& spec, const std::string& 
     std::printf("\n%s\nwrote %s\n", md.c_str(), file.c_str());
 }
 
-std::vector<std::pair<int, int>> parseMaps(const std::string& text) {
-    return splitList<std::pair<int, int>>(text, [](const std::string& item) {
+/// "WxH,WxH,..." of the command-line option `option` (named in the error on a bad item).
+std::vector<std::pair<int, int>> parseSizes(const std::string& text, const char* option) {
+    return splitList<std::pair<int, int>>(text, [option](const std::string& item) {
         const auto x = item.find('x');
-        if (x == std::string::npos) throw Error("--table-vals", std::nullopt, "expected WxH, got '" + item + "'");
-        return std::make_pair(parseInt(item.substr(0, x), "--table-vals"), parseInt(item.substr(x + 1), "--table-vals"));
+        if (x == std::string::npos) throw Error(option, std::nullopt, "expected WxH, got '" + item + "'");
+        return std::make_pair(parseInt(item.substr(0, x), option), parseInt(item.substr(x + 1), option));
     });
 }
 
@@ -1386,13 +1387,15 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
                 spec.valMaps = {{160, 120}, {320, 240}, {640, 480}};
             }
             if (!options.tableOutput.empty()) {
-                const auto size = parseMaps(options.tableOutput).at(0);
+                const auto sizes = parseSizes(options.tableOutput, "--table-output");
+                if (sizes.size() != 1) throw Error("--table-output", std::nullopt, "expected one WxH, got '" + options.tableOutput + "'");
+                const auto size = sizes[0];
                 spec.width = size.first;
                 spec.height = size.second;
             }
             if (!options.tableSparse.empty())
                 spec.sparseTotals = splitList<int>(options.tableSparse, [](const std::string& v) { return parseInt(v, "--table-sparse"); });
-            if (!options.tableVals.empty()) spec.valMaps = parseMaps(options.tableVals);
+            if (!options.tableVals.empty()) spec.valMaps = parseSizes(options.tableVals, "--table-vals");
             if (options.tableSubset > 0) spec.subset = options.tableSubset;
             spec.frames = options.tableFrames;
             runTable(options, spec, options.table1 ? "The paper's Table 1 setups" : "Kinect setups");
