@@ -24,11 +24,11 @@
 
 #include <benchmark/benchmark.h>
 #include <epoxy/gl.h>
-#include <immintrin.h>
 
 #include <chrono>
 #include <cstdint>
 #include <ctime>
+#include <immintrin.h>
 #include <memory>
 #include <span>
 #include <string>
@@ -96,15 +96,16 @@ double processCpuSeconds() {
     return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
 }
 
-constexpr int kSize = 1024;      // viewport side, fragments
-constexpr int kGlChains = 8;     // vec4 chains per fragment (fma_peak.frag's CHAINS)
+constexpr int kSize = 1024;  // viewport side, fragments
+constexpr int kGlChains = 8; // vec4 chains per fragment (fma_peak.frag's CHAINS)
 
 GlPeak& glPeak() {
     static const std::unique_ptr<GlPeak> peak = [] {
         auto p = std::make_unique<GlPeak>();
         p->context = gl::createHeadlessContext();
         const std::vector<std::string> defines{"CHAINS " + std::to_string(kGlChains)};
-        p->program = p->library.buildProgram({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "fma_peak.frag"}}, defines);
+        p->program = p->library.buildProgram(
+            {{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "fma_peak.frag"}}, defines);
         p->target = gl::Texture::create2D(GL_RGBA32F, kSize, kSize);
         p->framebuffer = gl::Framebuffer::create();
         p->framebuffer.attach(GL_COLOR_ATTACHMENT0, p->target);

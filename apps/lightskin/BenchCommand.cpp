@@ -150,12 +150,12 @@ struct Options {
     double tolerance = 0.05;
     std::string exportBlender;
     std::string fromJson;
-    bool table1 = false;          ///< the paper's Table 1 setups instead of the sweep
-    bool kinect = false;          ///< the Kinect setups instead of the sweep
-    std::string tableOutput;      ///< overrides the table's output WxH
-    std::string tableSparse;      ///< overrides the table's sparse totals
-    std::string tableVals;        ///< overrides the table's VAL maps
-    int tableSubset = 0;          ///< overrides the brute-force subset step
+    bool table1 = false;     ///< the paper's Table 1 setups instead of the sweep
+    bool kinect = false;     ///< the Kinect setups instead of the sweep
+    std::string tableOutput; ///< overrides the table's output WxH
+    std::string tableSparse; ///< overrides the table's sparse totals
+    std::string tableVals;   ///< overrides the table's VAL maps
+    int tableSubset = 0;     ///< overrides the brute-force subset step
     int tableFrames = 1;
 };
 
