@@ -39,6 +39,7 @@
 #include <memory>
 #include <numbers>
 #include <optional>
+#include <span>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -59,6 +60,14 @@ double median(std::vector<double> v) {
 }
 
 double msSince(Clock::time_point start) { return std::chrono::duration<double, std::milli>(Clock::now() - start).count(); }
+
+/// CPU time of the whole process in ms (all threads: llvmpipe's rasteriser threads are ours). On a
+/// machine shared with other jobs, CPU time is what a frame costs; wall time includes waiting.
+double processCpuMs() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return 1e3 * double(t.tv_sec) + 1e-6 * double(t.tv_nsec);
+}
 
 std::string readFirstLine(const std::string& path, const std::string& key) {
     std::ifstream in(path);
@@ -141,6 +150,13 @@ struct Options {
     double tolerance = 0.05;
     std::string exportBlender;
     std::string fromJson;
+    bool table1 = false;     ///< the paper's Table 1 setups instead of the sweep
+    bool kinect = false;     ///< the Kinect setups instead of the sweep
+    std::string tableOutput; ///< overrides the table's output WxH
+    std::string tableSparse; ///< overrides the table's sparse totals
+    std::string tableVals;   ///< overrides the table's VAL maps
+    int tableSubset = 0;     ///< overrides the brute-force subset step
+    int tableFrames = 1;
 };
 
 void applyQuick(Options& o) {
@@ -318,10 +334,15 @@ public:
             const glm::mat4 clip = viewClip(c.width, c.height);
             g.render(inst, clip);
             auto& t = target(c.width, c.height);
+            // Wall time of render() + glFinish after a warm-up on a few VALs: llvmpipe's timestamp
+            // queries under-report this single full-screen stage (its draws land in one binned scene and
+            // the end timestamp is taken when the first tiles finish; docs/BENCHMARKS.md, "Table 1").
+            technique->render({set.buffer, std::min(set.count, 16u)}, inst, g.view(), {clip, viewEye()}, t.id());
+            glFinish();
+            const auto start = Clock::now();
             technique->render(set, inst, g.view(), {clip, viewEye()}, t.id());
-            std::vector<gl::StageTime> stages;
-            technique->lastStageTimes(stages);
-            for (const auto& s2 : stages) b.ms += s2.milliseconds;
+            glFinish();
+            b.ms = msSince(start);
             b.image = readRgb(t.id(), c.width, c.height);
             b.valid = true;
             std::printf(" %.0f ms\n", b.ms);
@@ -398,7 +419,36 @@ public:
 
     const CameraIntrinsics& intrinsics() const { return K_; }
 
+    /// VALs of a mapWidth x mapHeight VAL map of the static frame. Maps that divide the 640x480 depth
+    /// frame by a common stride (160x120, 320x240, 640x480: the Kinect setups) are that frame at that
+    /// stride; any other size (the paper's 16k / 64k / 512k VALs) is the same room rendered by the
+    /// same camera with intrinsics scaled to mapWidth x mapHeight, at stride 1. The view stays valid
+    /// until the next call for the same map.
+    gi::ValSetView valMap(int mapWidth, int mapHeight) {
+        if (K_.width % mapWidth == 0 && K_.height % mapHeight == 0 && K_.width / mapWidth == K_.height / mapHeight)
+            return vals(K_.width / mapWidth);
+        auto it = maps_.find({mapWidth, mapHeight});
+        if (it == maps_.end()) {
+            ScaledMap m;
+            m.K = K_.scaledTo(mapWidth, mapHeight);
+            renderRoom(m.K, depthCameraPose(), 0.0, m.depth, m.colour);
+            gi::ValGeneratorSettings s;
+            s.stride = 1;
+            s.exposure = 2.0f;
+            m.generator.emplace(gi::ValGenerator::create(mapWidth, mapHeight, s));
+            it = maps_.emplace(std::make_pair(mapWidth, mapHeight), std::move(m)).first;
+        }
+        ScaledMap& m = it->second;
+        return m.generator->generate(m.depth, 1.0, m.colour, m.K, depthCameraPose());
+    }
+
 private:
+    struct ScaledMap {
+        CameraIntrinsics K;
+        cv::Mat depth, colour;
+        std::optional<gi::ValGenerator> generator;
+    };
+    std::map<std::pair<int, int>, ScaledMap> maps_;
     const Options& options_;
     CameraIntrinsics K_;
     cv::Mat depth_, colour_;
@@ -853,6 +903,351 @@ void exportBlender(World& world, const Options& options) {
                 dir.c_str(), vals.size(), width, height);
 }
 
+// ---- Paper-style tables (--table1: the paper's Table 1 setups; --kinect: the Kinect setups) ------
+//
+// For every VAL map x sparse-point count x setup (diffuse; + glossy; + occlusion): the technique's GPU
+// stage times (timer queries) at the full output, and the brute force on the same VALs. The brute
+// force at the full output is measured only for the first VAL map (the scaling check); for every map
+// it runs on a uniform pixel subset: every s-th pixel in each direction of the same full-resolution
+// G-buffer (copied into an (W/s) x (H/s) G-buffer, so each subset pixel is exactly one full-resolution
+// pixel), and its full-frame time is extrapolated by the covered-pixel ratio (the brute force's cost is
+// VALs x covered pixels), unless it exceeds --max-brute interactions. The error is LightSkin's full-resolution image at the subset pixels against
+// the subset brute force (and against the full brute force where that was measured).
+
+struct TableSpec {
+    int width = 1920, height = 1080;
+    std::vector<int> sparseTotals;                  ///< sparse points over both models (split evenly)
+    std::vector<std::pair<int, int>> valMaps;       ///< VAL map sizes
+    int subset = 4;                                 ///< brute force on every subset-th pixel per direction
+    int frames = 1;
+};
+
+struct TableBrute {
+    std::size_t vals = 0;
+    double subsetMs[2] = {0.0, 0.0};               ///< diffuse, + glossy (timer queries)
+    double subsetWallMs[2] = {0.0, 0.0};           ///< the same, wall time of render() + glFinish
+    double subsetCpuMs[2] = {0.0, 0.0};            ///< the same, process CPU time
+    std::optional<double> fullMs[2], fullWallMs[2], fullCpuMs[2]; ///< measured at the full output (first map only)
+    cv::Mat subsetImage[2], fullImage[2];
+};
+
+struct TableRow {
+    std::pair<int, int> map;
+    std::size_t vals = 0;
+    std::size_t sparse = 0;                         ///< actual sparse points over both models
+    int channels = 1;
+    double gpuMs = 0.0, cpuMs = 0.0;
+    std::vector<std::pair<std::string, double>> stages;
+    double cpuTimeMs = 0.0;                         ///< process CPU time of render() + glFinish
+    double bruteMs = 0.0, bruteWallMs = 0.0, bruteCpuMs = 0.0; ///< extrapolated from the subset
+    std::optional<double> bruteFullMs, bruteFullWallMs, bruteFullCpuMs; ///< measured at the full output
+    std::optional<eval::ImageError> vsSubset, vsFull;
+    double meanRatio = 0.0;                         ///< total light / the brute force's, subset pixels
+};
+
+/// Sum of `image` over the mask divided by the same sum of `reference` (total light ratio).
+double totalRatio(const cv::Mat& image, const cv::Mat& reference, const cv::Mat& mask) {
+    cv::Mat maskedImage, maskedReference;
+    image.copyTo(maskedImage, mask);
+    reference.copyTo(maskedReference, mask);
+    const cv::Scalar x = cv::sum(maskedImage), r = cv::sum(maskedReference);
+    const double rs = r[0] + r[1] + r[2];
+    return rs > 0.0 ? (x[0] + x[1] + x[2]) / rs : 0.0;
+}
+
+/// The G-buffer of every s-th pixel (at s*i + s/2) of the full-resolution host copies, as textures.
+struct SubsetGBuffer {
+    gl::Texture position, normal, albedo, specular;
+    cv::Mat mask;
+    std::size_t covered = 0;
+    gi::GBufferView view;
+};
+
+cv::Mat subsample(const cv::Mat& image, int s) {
+    cv::Mat out(image.rows / s, image.cols / s, image.type());
+    for (int j = 0; j < out.rows; ++j)
+        for (int i = 0; i < out.cols; ++i) image.row(j * s + s / 2).col(i * s + s / 2).copyTo(out.row(j).col(i));
+    return out;
+}
+
+SubsetGBuffer subsetGBuffer(const ViewImages& view, int s) {
+    SubsetGBuffer g;
+    const auto upload = [s](const cv::Mat& full, gl::Texture& texture) {
+        const cv::Mat small = subsample(full, s);
+        texture = gl::Texture::create2D(GL_RGBA32F, small.cols, small.rows);
+        glTextureSubImage2D(texture.id(), 0, 0, 0, small.cols, small.rows, GL_RGBA, GL_FLOAT, small.data);
+        return small;
+    };
+    const cv::Mat position = upload(view.position, g.position);
+    upload(view.normal, g.normal);
+    upload(view.albedo, g.albedo);
+    upload(view.specular, g.specular);
+    g.mask = subsample(view.mask, s);
+    g.covered = std::size_t(cv::countNonZero(g.mask));
+    g.view.worldPosition = g.position.id();
+    g.view.worldNormal = g.normal.id();
+    g.view.diffuseAlbedo = g.albedo.id();
+    g.view.specular = g.specular.id();
+    g.view.width = position.cols;
+    g.view.height = position.rows;
+    return g;
+}
+
+/// One brute-force frame (after a warm-up on the first VALs, which compiles and binds everything):
+/// {timer-query ms, wall ms of render() + glFinish, process CPU ms of the same}.
+std::tuple<double, double, double> bruteFrame(const gi::ValSetView& set, bool glossy, std::span<const gi::MeshInstance> inst,
+                                     const gi::GBufferView& g, const gi::ViewParameters& view, gl::Texture& target, cv::Mat& image) {
+    gi::BruteForceSettings s;
+    s.glossy = glossy;
+    s.valCapacity = std::max(1u, set.count);
+    auto technique = gi::BruteForceIllumination::create(s);
+    technique->prepare(inst);
+    technique->render({set.buffer, std::min(set.count, 16u)}, inst, g, view, target.id());
+    glFinish();
+    const double cpuStart = processCpuMs();
+    const auto start = Clock::now();
+    technique->render(set, inst, g, view, target.id());
+    glFinish();
+    const double wall = msSince(start);
+    const double cpu = processCpuMs() - cpuStart;
+    std::vector<gl::StageTime> stages;
+    technique->lastStageTimes(stages);
+    double ms = 0.0;
+    for (const auto& st : stages) ms += st.milliseconds;
+    image = readRgb(target.id(), g.width, g.height);
+    return {ms, wall, cpu};
+}
+
+std::string mapName(const std::pair<int, int>& m) { return std::to_string(m.first) + "x" + std::to_string(m.second); }
+
+std::string fixed(double v, int decimals) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+    return buf;
+}
+
+std::string tableMarkdown(const TableSpec& spec, const std::vector<TableRow>& rows, const std::vector<TableBrute>& brutes,
+                          std::size_t coveredFull, std::size_t coveredSubset, const std::string& header) {
+    const double ratio = double(coveredFull) / double(coveredSubset);
+    std::ostringstream md;
+    md << header;
+    md << "- Output " << spec.width << "x" << spec.height << ", " << coveredFull << " covered pixels; brute-force subset: every "
+       << spec.subset << "th pixel per direction, " << coveredSubset << " covered pixels (ratio " << fixed(ratio, 3) << ").\n\n";
+    md << "Brute force, ms: timer queries / wall (render() + glFinish) / process CPU time of the same. `extrapolated` = subset time x covered-pixel "
+          "ratio; `measured` = the full output; scaling check = measured / extrapolated.\n\n"
+          "| VAL map | VALs | diffuse, subset | diffuse, extrapolated | diffuse, measured | + glossy, subset | + glossy, "
+          "extrapolated | + glossy, measured | scaling check (query; wall; CPU) |\n|---|---|---|---|---|---|---|---|---|\n";
+    const auto triple = [](double q, double w, double c) { return fixed(q, 0) + " / " + fixed(w, 0) + " / " + fixed(c, 0); };
+    for (std::size_t m = 0; m < brutes.size(); ++m) {
+        const TableBrute& b = brutes[m];
+        std::string check = "-";
+        if (b.fullMs[0] && b.fullMs[1]) {
+            const auto scale = [&](int k) {
+                return fixed(*b.fullMs[k] / (b.subsetMs[k] * ratio), 3) + "; " + fixed(*b.fullWallMs[k] / (b.subsetWallMs[k] * ratio), 3) +
+                       "; " + fixed(*b.fullCpuMs[k] / (b.subsetCpuMs[k] * ratio), 3);
+            };
+            check = "diffuse " + scale(0) + ", + glossy " + scale(1);
+        }
+        md << "| " << mapName(spec.valMaps[m]) << " | " << b.vals;
+        for (int k = 0; k < 2; ++k) {
+            md << " | " << triple(b.subsetMs[k], b.subsetWallMs[k], b.subsetCpuMs[k]) << " | "
+               << triple(b.subsetMs[k] * ratio, b.subsetWallMs[k] * ratio, b.subsetCpuMs[k] * ratio) << " | "
+               << (b.fullMs[k] ? triple(*b.fullMs[k], *b.fullWallMs[k], *b.fullCpuMs[k]) : std::string("-"));
+        }
+        md << " | " << check << " |\n";
+    }
+    std::vector<std::string> stageNames;
+    for (const auto& r : rows)
+        for (const auto& st : r.stages)
+            if (std::find(stageNames.begin(), stageNames.end(), st.first) == stageNames.end()) stageNames.push_back(st.first);
+    md << "\nLightSkin: GPU ms per stage (timer queries), total = their sum, fps = 1000 / total, wall = render() + glFinish, CPU = process CPU time of the same. "
+          "Speed-up over the brute force of the same reflectance (diffuse for the diffuse setup, + glossy otherwise; the brute "
+          "force has no occlusion): by timer queries, wall time and CPU time, `(x)` = extrapolated from the subset. Error against the "
+          "brute force at the subset pixels (rel. MSE, SSIM, total light ratio) and at every pixel where the full brute force "
+          "was measured. Gather interactions/s = sparse points x VALs / gather time.\n\n";
+    md << "| VAL map | VALs | sparse | setup | total | fps | wall | CPU |";
+    for (const auto& n : stageNames) md << " " << n << " |";
+    md << " gather interactions/s | speed-up (query) | speed-up (wall) | speed-up (CPU) | rel. MSE vs brute | SSIM | total / brute | "
+          "rel. MSE vs full brute |\n|---|---|---|---|---|---|---|---|";
+    for (std::size_t i = 0; i < stageNames.size(); ++i) md << "---|";
+    md << "---|---|---|---|---|---|---|---|\n";
+    for (const auto& r : rows) {
+        md << "| " << mapName(r.map) << " | " << r.vals << " | " << r.sparse << " | " << channelName(r.channels) << " | "
+           << fixed(r.gpuMs, 1) << " | " << fixed(1000.0 / r.gpuMs, 2) << " | " << fixed(r.cpuMs, 1) << " | " << fixed(r.cpuTimeMs, 1) << " |";
+        double gather = 0.0;
+        for (const auto& n : stageNames) {
+            const auto it = std::find_if(r.stages.begin(), r.stages.end(), [&](const auto& st) { return st.first == n; });
+            if (it == r.stages.end()) {
+                md << " - |";
+                continue;
+            }
+            if (n == "gather") gather = it->second;
+            md << " " << fixed(it->second, 1) << " |";
+        }
+        char rate[32];
+        std::snprintf(rate, sizeof rate, "%.2e", gather > 0.0 ? double(r.sparse) * double(r.vals) / (gather / 1000.0) : 0.0);
+        md << " " << rate << " | ";
+        if (r.bruteFullMs)
+            md << fixed(*r.bruteFullMs / r.gpuMs, 0) << "x | " << fixed(*r.bruteFullWallMs / r.cpuMs, 0) << "x | "
+               << fixed(*r.bruteFullCpuMs / r.cpuTimeMs, 0) << "x |";
+        else
+            md << "(" << fixed(r.bruteMs / r.gpuMs, 0) << "x) | (" << fixed(r.bruteWallMs / r.cpuMs, 0) << "x) | ("
+               << fixed(r.bruteCpuMs / r.cpuTimeMs, 0) << "x) |";
+        char err[160];
+        if (r.vsSubset)
+            std::snprintf(err, sizeof err, " %.2e | %.4f | %.4f |", r.vsSubset->relativeMse, r.vsSubset->ssim, r.meanRatio);
+        else
+            std::snprintf(err, sizeof err, " - | - | - |");
+        md << err;
+        if (r.vsFull) {
+            std::snprintf(err, sizeof err, " %.2e |\n", r.vsFull->relativeMse);
+            md << err;
+        } else {
+            md << " - |\n";
+        }
+    }
+    return md.str();
+}
+
+void runTable(const Options& options, const TableSpec& spec, const std::string& title) {
+    const auto start = Clock::now();
+    auto context = gl::createHeadlessContext();
+    const std::string header = "### " + title + "\n\n- Command: `" + commandLine() + "`\n- Date: " + utcNow() +
+                               "\n- Machine: " + readFirstLine("/proc/cpuinfo", "model name") + ", " +
+                               std::to_string(std::thread::hardware_concurrency()) + " threads; renderer: " + context->describe() +
+                               "\n- Load average (1/5/15 min) at start: " + loadAverage() + "\n";
+    std::printf("%s", header.c_str());
+    std::fflush(stdout);
+    World world(options);
+    Config base = options.defaults;
+    base.width = spec.width;
+    base.height = spec.height;
+    const auto inst = world.instances(base.sphereTriangles);
+    const glm::mat4 clip = viewClip(spec.width, spec.height);
+    const gi::ViewParameters viewParams{clip, viewEye()};
+    const ViewImages view = world.renderView(inst, spec.width, spec.height, clip);
+    const SubsetGBuffer subset = subsetGBuffer(view, spec.subset);
+    auto& gbuffer = world.gbuffer(spec.width, spec.height);
+    auto& target = world.target(spec.width, spec.height);
+    gl::Texture subsetTarget = gl::Texture::create2D(GL_RGBA32F, subset.view.width, subset.view.height);
+    const double ratio = double(view.covered) / double(subset.covered);
+    std::printf("output %dx%d: %zu covered pixels; brute-force subset %dx%d: %zu covered (ratio %.3f)\n", spec.width, spec.height,
+                view.covered, subset.view.width, subset.view.height, subset.covered, ratio);
+
+    std::vector<TableRow> rows;
+    std::vector<TableBrute> brutes;
+    for (std::size_t m = 0; m < spec.valMaps.size(); ++m) {
+        const auto map = spec.valMaps[m];
+        gi::ValSetView set = world.valMap(map.first, map.second);
+        TableBrute b;
+        b.vals = set.count;
+        for (int glossy = 0; glossy < 2; ++glossy) {
+            std::printf("[%5.0f s] VAL map %s (%u VALs): brute force %s, subset ...", msSince(start) / 1000.0, mapName(map).c_str(),
+                        set.count, glossy ? "+ glossy" : "diffuse");
+            std::fflush(stdout);
+            std::tie(b.subsetMs[glossy], b.subsetWallMs[glossy], b.subsetCpuMs[glossy]) =
+                bruteFrame(set, glossy != 0, inst, subset.view, viewParams, subsetTarget, b.subsetImage[glossy]);
+            std::printf(" %.0f ms, wall %.0f ms (extrapolated %.0f ms)", b.subsetMs[glossy], b.subsetWallMs[glossy],
+                        b.subsetMs[glossy] * ratio);
+            if (m == 0 && double(set.count) * double(view.covered) <= options.maxBruteInteractions) { // the scaling check
+                std::printf(", full ...");
+                std::fflush(stdout);
+                gbuffer.render(inst, clip);
+                const auto [ms, wall, cpu] = bruteFrame(set, glossy != 0, inst, gbuffer.view(), viewParams, target, b.fullImage[glossy]);
+                b.fullMs[glossy] = ms;
+                b.fullWallMs[glossy] = wall;
+                b.fullCpuMs[glossy] = cpu;
+                std::printf(" %.0f ms, wall %.0f ms, CPU %.0f ms (measured / extrapolated %.3f, wall %.3f, CPU %.3f)", ms, wall, cpu,
+                            ms / (b.subsetMs[glossy] * ratio), wall / (b.subsetWallMs[glossy] * ratio),
+                            cpu / (b.subsetCpuMs[glossy] * ratio));
+            }
+            std::printf("\n");
+            std::fflush(stdout);
+        }
+        for (const int total : spec.sparseTotals) {
+            for (int channels = 1; channels <= 3; ++channels) {
+                Config c = base;
+                c.sparse = std::max(1, total / 2);
+                c.channels = channels;
+                TableRow r;
+                r.map = map;
+                r.vals = set.count;
+                r.channels = channels;
+                const auto provider = world.provider(c.sparse);
+                for (const auto& instance : inst) r.sparse += provider(instance).points.size();
+                auto technique = gi::LightSkinIllumination::create(settingsFor(c, set.count), provider);
+                technique->prepare(inst);
+                gbuffer.render(inst, clip);
+                // Warm-up on the first VALs only (compiles and binds everything; the full gather takes minutes).
+                technique->render({set.buffer, std::min(set.count, 256u)}, inst, gbuffer.view(), viewParams, target.id());
+                glFinish();
+                std::vector<double> gpu, cpu, cpuTime;
+                std::map<std::string, std::vector<double>> stageTimes;
+                std::vector<std::string> order;
+                std::vector<gl::StageTime> stages;
+                for (int f = 0; f < spec.frames; ++f) {
+                    const double cpuStart = processCpuMs();
+                    const auto frameStart = Clock::now();
+                    technique->render(set, inst, gbuffer.view(), viewParams, target.id());
+                    glFinish();
+                    cpu.push_back(msSince(frameStart));
+                    cpuTime.push_back(processCpuMs() - cpuStart);
+                    technique->lastStageTimes(stages);
+                    double total2 = 0.0;
+                    for (const auto& st : stages) {
+                        if (std::find(order.begin(), order.end(), st.name) == order.end()) order.push_back(st.name);
+                        stageTimes[st.name].push_back(st.milliseconds);
+                        total2 += st.milliseconds;
+                    }
+                    gpu.push_back(total2);
+                }
+                r.gpuMs = median(gpu);
+                r.cpuMs = median(cpu);
+                r.cpuTimeMs = median(cpuTime);
+                for (const auto& name : order) r.stages.emplace_back(name, median(stageTimes[name]));
+                const int glossy = channels >= 2 ? 1 : 0;
+                r.bruteMs = b.subsetMs[glossy] * ratio;
+                r.bruteWallMs = b.subsetWallMs[glossy] * ratio;
+                r.bruteFullMs = b.fullMs[glossy];
+                r.bruteFullWallMs = b.fullWallMs[glossy];
+                r.bruteCpuMs = b.subsetCpuMs[glossy] * ratio;
+                r.bruteFullCpuMs = b.fullCpuMs[glossy];
+                const cv::Mat image = readRgb(target.id(), spec.width, spec.height);
+                const cv::Mat sampled = subsample(image, spec.subset);
+                r.vsSubset = compare(sampled, b.subsetImage[glossy], subset.mask);
+                r.meanRatio = totalRatio(sampled, b.subsetImage[glossy], subset.mask);
+                if (b.fullMs[glossy]) r.vsFull = compare(image, b.fullImage[glossy], view.mask);
+                std::printf("[%5.0f s] %s, %zu sparse, %s: GPU %.1f ms (", msSince(start) / 1000.0, mapName(map).c_str(), r.sparse,
+                            channelName(channels), r.gpuMs);
+                for (const auto& st : r.stages) std::printf(" %s %.1f", st.first.c_str(), st.second);
+                std::printf(" ), wall %.1f ms, process CPU %.1f ms; speed-up %.0fx%s; vs brute (subset) %s\n", r.cpuMs, r.cpuTimeMs,
+                            (r.bruteFullWallMs ? *r.bruteFullWallMs : r.bruteWallMs) / r.cpuMs, r.bruteFullMs ? " (wall)" : " (wall, extrapolated)",
+                            r.vsSubset->describe().c_str());
+                std::fflush(stdout);
+                rows.push_back(std::move(r));
+            }
+        }
+        brutes.push_back(std::move(b));
+    }
+    gl::DebugOutput::throwIfErrors("bench table");
+    const std::string md = tableMarkdown(spec, rows, brutes, view.covered, subset.covered,
+                                         header + "- Load average at end: " + loadAverage() + "; run time " +
+                                             std::to_string(long(std::lround(msSince(start) / 1000.0))) + " s\n");
+    std::filesystem::create_directories(options.out);
+    const std::string file = options.out + "/table.md";
+    std::ofstream(file) << md;
+    std::printf("\n%s\nwrote %s\n", md.c_str(), file.c_str());
+}
+
+/// "WxH,WxH,..." of the command-line option `option` (named in the error on a bad item).
+std::vector<std::pair<int, int>> parseSizes(const std::string& text, const char* option) {
+    return splitList<std::pair<int, int>>(text, [option](const std::string& item) {
+        const auto x = item.find('x');
+        if (x == std::string::npos) throw Error(option, std::nullopt, "expected WxH, got '" + item + "'");
+        return std::make_pair(parseInt(item.substr(0, x), option), parseInt(item.substr(x + 1), option));
+    });
+}
+
 void runBench(const Options& options, int& exitCode) {
     const auto start = Clock::now();
     Report report;
@@ -958,6 +1353,17 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
                         "Only write the default view (diffuse) for scripts/blender_reference.sh into this folder");
     command->add_flag("--check", o->check, "Fail (exit 3) unless error falls as sparse points and VALs grow");
     command->add_option("--tolerance", o->tolerance, "Noise allowed in the monotonicity check (relative)");
+    command->add_flag("--table1", o->table1,
+                      "Instead of the sweep: the paper's Table 1 setups (1920x1080; 4k, 16k sparse points; 16k, 64k, 512k VALs), "
+                      "stage times and speed-up over the brute force (extrapolated from a pixel subset, checked on the first map)");
+    command->add_flag("--kinect", o->kinect,
+                      "Instead of the sweep: the Kinect setups (640x480 output; VAL maps 160x120, 320x240, 640x480; 1k, 4k sparse)");
+    command->add_option("--table-output", o->tableOutput, "--table1/--kinect: output WxH");
+    command->add_option("--table-sparse", o->tableSparse, "--table1/--kinect: sparse points over both models (comma-separated)");
+    command->add_option("--table-vals", o->tableVals, "--table1/--kinect: VAL maps WxH (comma-separated)");
+    command->add_option("--table-subset", o->tableSubset, "--table1/--kinect: brute force on every n-th pixel per direction")
+        ->check(CLI::Range(1, 64));
+    command->add_option("--table-frames", o->tableFrames, "--table1/--kinect: timed frames per cell (median)")->check(CLI::Range(1, 100));
     command->add_option("--from-json", o->fromJson,
                         "Do not measure: read this bench.json and rewrite the outputs (--out) and --docs from it");
     command->callback([o, &exitCode] {
@@ -966,6 +1372,33 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
             const Report report = readReport(options.fromJson);
             writeOutputs(report, options.out);
             if (!options.docs.empty()) regenerateDocs(report, options.docs);
+            exitCode = 0;
+            return;
+        }
+        if (options.table1 || options.kinect) {
+            TableSpec spec;
+            if (options.table1) {
+                spec.sparseTotals = {4096, 16384};
+                spec.valMaps = {{166, 124}, {312, 234}, {852, 639}}; // ~16k, ~64k, ~512k valid VALs (measured)
+            } else {
+                spec.width = 640;
+                spec.height = 480;
+                spec.sparseTotals = {1024, 4096};
+                spec.valMaps = {{160, 120}, {320, 240}, {640, 480}};
+            }
+            if (!options.tableOutput.empty()) {
+                const auto sizes = parseSizes(options.tableOutput, "--table-output");
+                if (sizes.size() != 1) throw Error("--table-output", std::nullopt, "expected one WxH, got '" + options.tableOutput + "'");
+                const auto size = sizes[0];
+                spec.width = size.first;
+                spec.height = size.second;
+            }
+            if (!options.tableSparse.empty())
+                spec.sparseTotals = splitList<int>(options.tableSparse, [](const std::string& v) { return parseInt(v, "--table-sparse"); });
+            if (!options.tableVals.empty()) spec.valMaps = parseSizes(options.tableVals, "--table-vals");
+            if (options.tableSubset > 0) spec.subset = options.tableSubset;
+            spec.frames = options.tableFrames;
+            runTable(options, spec, options.table1 ? "The paper's Table 1 setups" : "Kinect setups");
             exitCode = 0;
             return;
         }

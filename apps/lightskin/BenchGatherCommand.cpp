@@ -135,14 +135,15 @@ void runBench(const BenchOptions& options) {
             gi::BruteForceSettings bruteSettings;
             bruteSettings.glossy = false;
             auto brute = gi::BruteForceIllumination::create(bruteSettings);
+            // Wall time of render() + glFinish: llvmpipe's timestamp queries under-report the brute force's
+            // single full-screen stage (docs/BENCHMARKS.md, "Table 1 setups").
             std::vector<double> times;
-            std::vector<gl::StageTime> stages;
+            glFinish();
             for (int r = 0; r < std::max(1, options.repeat / 2); ++r) {
+                const auto start = std::chrono::steady_clock::now();
                 brute->render(valSet, instances, gbuffer.view(), view, target.id());
-                brute->lastStageTimes(stages);
-                double total = 0.0;
-                for (const auto& s : stages) total += s.milliseconds;
-                times.push_back(total);
+                glFinish();
+                times.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
             }
             bruteMs = minimum(times);
             readImage(reference);
