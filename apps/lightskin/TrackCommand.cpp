@@ -10,7 +10,9 @@
 // tx ty tz (metres) qw qx qy qz, rotation std (deg), world corner std (px: how well the pose places
 // every tag of the world in the image, PoseUncertainty::worldCornerStdPx; also printed for a frame
 // held because it exceeded --max-corner-std, "inf" without a measurement), ambiguous flag, total ms,
-// reason. A last comment line counts the states: "# frames N tracking T held H (poorly determined P) lost L".
+// reason. A last comment line counts the states and the frames whose measurement --max-corner-std
+// refused (held, or lost before the first pose): "# frames N tracking T held H lost L; measurements
+// refused as poorly determined P".
 #include "Commands.h"
 
 #include <lightskin/capture/FrameSource.h>
@@ -114,8 +116,8 @@ void runTrack(const TrackOptions& options, int& exitCode) {
                                       : 0;
     };
     const auto printSummary = [&] {
-        std::printf("# frames %d tracking %d held %d (poorly determined %d) lost %d\n", totalFrames, trackedFrames,
-                    heldFrames, poorlyDeterminedFrames, lostFrames);
+        std::printf("# frames %d tracking %d held %d lost %d; measurements refused as poorly determined %d\n",
+                    totalFrames, trackedFrames, heldFrames, lostFrames, poorlyDeterminedFrames);
     };
 
     // One folder or .oni: a recording (intrinsics, timestamps and ground truth from the source).
