@@ -386,7 +386,8 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     // Shade, read back, composite.
     t = Clock::now();
     const cv::Mat realDepth = haveDepth ? s.depthMetres : cv::Mat();
-    render::ShadeOptions shade{.includeIndirect = runGi, .exposureStops = s.scene->exposureStops, .view = options_.view};
+    render::ShadeOptions shade{.includeIndirect = runGi, .exposureStops = s.scene->exposureStops, .view = options_.view,
+                               .linearOutput = options_.linearComposite};
     r.shade(shade);
     r.readOutputsInto(s.virtualColour, s.virtualDepth);
     s.compositor.compositeInto(frame.colour, s.virtualColour, s.virtualDepth, realDepth, out.withGi);
@@ -449,6 +450,7 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     }
     if (options_.compare) {
         shade.includeIndirect = false;
+        shade.linearOutput = false;
         if (shade.view == render::DebugView::IndirectOnly) shade.view = render::DebugView::Final;
         r.shade(shade);
         r.readOutputsInto(s.virtualColour, s.virtualDepth);

@@ -302,6 +302,9 @@ void Renderer::shade(const ShadeOptions& options) {
 
     const GLuint textures[] = {worldPosition_.id(), worldNormal_.id(), diffuseAlbedo_.id(), specular_.id(), indirect_.id(), shadowCubes_.id()};
     glBindTextures(0, 6, textures);
+    const GLenum outputTargets[] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1,
+                                    GLenum(options.linearOutput ? GL_COLOR_ATTACHMENT2 : GL_NONE)};
+    glNamedFramebufferDrawBuffers(outputFramebuffer_.id(), 3, outputTargets);
     glBindFramebuffer(GL_FRAMEBUFFER, outputFramebuffer_.id());
     glViewport(0, 0, intrinsics_.width, intrinsics_.height);
     glDisable(GL_DEPTH_TEST);

@@ -12,7 +12,8 @@
 //   the pixel, 0 elsewhere (rgb = 0 there);
 // - depth: R32F, the virtual surface's camera-frame z in metres (along the optical axis, like the
 //   sensor's depth), 0 where nothing is covered;
-// - linear: RGBA32F, rgb = 2^exposureStops * L before the clamp and the sRGB encoding (values > 1
+// - linear (written only by shade() with ShadeOptions::linearOutput): RGBA32F,
+//   rgb = 2^exposureStops * L before the clamp and the sRGB encoding (values > 1
 //   and NaN/inf are kept: what the colour output would show as clamped), a = 1 covered, 0 not
 //   (rgb = 0 there). Normals view: pow(display, 2.2); albedo view: the albedo.
 // Tone mapping: displayed = sRGB_encode(clamp(2^exposureStops * L, 0, 1)), L linear radiance in
@@ -47,6 +48,9 @@ struct ShadeOptions {
     bool includeIndirect = true;
     float exposureStops = 0.0f;
     DebugView view = DebugView::Final;
+    /// Also write the linear output (readLinearOutputInto); off, its float target is not written
+    /// (llvmpipe: the extra RGBA32F store costs about as much as the rest of shade()).
+    bool linearOutput = false;
 };
 
 struct RendererOptions {
@@ -90,7 +94,8 @@ public:
 
     /// Reads the indirect target (CV_32FC4 linear RGBA, top row first): debug views.
     void readIndirectInto(cv::Mat& out) const;
-    /// Reads the linear output of the last shade() (CV_32FC4, see "linear" above, top row first).
+    /// Reads the linear output of the last shade() with linearOutput (CV_32FC4, see "linear" above,
+    /// top row first; stale or undefined after a shade() without it).
     void readLinearOutputInto(cv::Mat& out) const;
 
     /// GPU times of the last renderGBuffer()/shade() pair ("gbuffer", "shade").
