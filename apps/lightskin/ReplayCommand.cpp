@@ -11,6 +11,7 @@
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
+#include <lightskin/eval/GoldenImage.h>
 #include <lightskin/gl/Context.h>
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/render/Scene.h>
@@ -23,6 +24,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <set>
 #include <sstream>
@@ -42,7 +44,7 @@ extern "C" void onReplayInterrupt(int) {
 struct ReplayArgs {
     std::string recording, scene, out = "replay-out", frames, pose, view = "final", videoFormat = "auto";
     bool window = false, noVideo = false, sideBySideVideo = false, noCompare = false;
-    bool adaptive = false;
+    bool adaptive = false, linearOut = false;
     float staticTolerance = 0.0f;
     std::string staticTest = "probes";
     std::int64_t maxFrames = -1;
@@ -145,6 +147,22 @@ void writePng(const std::filesystem::path& path, const cv::Mat& image) {
     if (!cv::imwrite(path.string(), image)) throw Error(path.string(), std::nullopt, "could not write the image");
 }
 
+/// --linear-out: a linear float image as OpenEXR (32-bit float: NaN, inf and values > 1 survive)
+/// when this OpenCV writes EXR (Debian 12's does), else as a golden-format 16-bit PNG + sidecar
+/// (eval::writeLinearPng16: clamped to [0, 1], NaN written as 0). Returns the file name used.
+std::string writeLinear(const std::filesystem::path& folder, const std::string& stem, const cv::Mat& linear,
+                        const std::string& renderer) {
+    static const bool exr = cv::haveImageWriter(".exr");
+    static const std::vector<int> exrParams{cv::IMWRITE_EXR_TYPE, cv::IMWRITE_EXR_TYPE_FLOAT};
+    const std::filesystem::path path = folder / (stem + (exr ? ".exr" : ".png"));
+    if (exr) {
+        if (!cv::imwrite(path.string(), linear, exrParams)) throw Error(path.string(), std::nullopt, "could not write the EXR image");
+    } else {
+        eval::writeLinearPng16(path, linear, renderer);
+    }
+    return path.filename().string();
+}
+
 int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     const auto start = std::chrono::steady_clock::now();
     // Scene: --scene, else <recording>/scene.json.
@@ -183,6 +201,8 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     options.compare = !args.noCompare;
     options.adaptive = args.adaptive;
     options.staticTolerance = args.staticTolerance;
+    options.linearComposite = true; // the report's NaN/inf counts
+    options.linearIndirect = args.linearOut;
     if (args.staticTest != "probes" && args.staticTest != "bound")
         throw Error("--static-test", std::nullopt, "expected probes or bound, got '" + args.staticTest + "'");
     options.staticProbes = args.staticTest == "probes";
@@ -191,6 +211,8 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     const bool compare = options.compare && pipeline->techniqueName() != "none";
     pipeline->options().compare = compare;
     if (compare) std::filesystem::create_directories(out / "compare");
+    if (args.linearOut) std::filesystem::create_directories(out / "linear");
+    if (args.linearOut && pipeline->techniqueName() != "none") std::filesystem::create_directories(out / "linear-indirect");
 
     std::string videoPath, videoCodec;
     cv::VideoWriter video;
@@ -231,6 +253,8 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
             rf.vplNonFinite = output.vplNonFinite;
             rf.giReused = output.giReused;
             rf.giChangeMeasure = output.giChangeMeasure;
+            rf.linearNanPixels = output.linearNanPixels;
+            rf.linearInfPixels = output.linearInfPixels;
             if (compare) render::sideBySideInto(output.withGi, "with GI (" + pipeline->techniqueName() + ")", output.withoutGi, "without GI", sideBySide);
             const bool write = chosen.empty() || chosen.count(frame.index) > 0;
             if (write) {
@@ -241,6 +265,13 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
                 if (compare) {
                     rf.compareImage = std::string("compare/") + name;
                     writePng(out / rf.compareImage, sideBySide);
+                }
+                if (args.linearOut) {
+                    const std::string stem(name, std::strlen(name) - 4); // without ".png"
+                    rf.linearImage = "linear/" + writeLinear(out / "linear", stem, output.linearWithGi, rendererName);
+                    if (!output.linearIndirect.empty())
+                        rf.linearIndirectImage =
+                            "linear-indirect/" + writeLinear(out / "linear-indirect", stem, output.linearIndirect, rendererName);
                 }
             }
             if (!args.noVideo) {
@@ -292,6 +323,9 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
     command->add_option("--video-format", args->videoFormat, "auto (MP4, falling back to MJPG AVI) | mp4 | avi");
     command->add_flag("--side-by-side-video", args->sideBySideVideo, "Video frames show with GI | without GI");
     command->add_flag("--no-compare", args->noCompare, "Do not render the without-GI comparison");
+    command->add_flag("--linear-out", args->linearOut,
+                      "Also write each written frame's linear-light composite (linear/) and indirect-only light (linear-indirect/) "
+                      "as 32-bit float OpenEXR (NaN, inf and values > 1 kept; 16-bit PNG clamped to [0,1] if this OpenCV has no EXR)");
     command->add_flag("--adaptive", args->adaptive,
                       "LightSkin's adaptive mode: turn off what cannot change the image and reuse the VPLs for static content");
     command->add_option("--static-tolerance", args->staticTolerance,

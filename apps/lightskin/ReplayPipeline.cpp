@@ -3,6 +3,7 @@
 #include <lightskin/capture/DepthFilter.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
+#include <lightskin/eval/ColourSpace.h>
 #include <lightskin/gi/BruteForceIllumination.h>
 #include <lightskin/gi/LightSkinIllumination.h>
 #include <lightskin/gi/ValGenerator.h>
@@ -247,7 +248,7 @@ struct FramePipeline::State {
     bool valsUsable = false;
     render::Compositor compositor;
     capture::BilateralDepthFilter depthFilter; // KinectFusion defaults (capture/DepthFilter.h)
-    cv::Mat depthMetres, virtualColour, virtualDepth;
+    cv::Mat depthMetres, virtualColour, virtualDepth, virtualLinear, srgbToLinearTable;
     std::unique_ptr<gi::IndirectIllumination> bruteForce; // error view only
     cv::Mat indirectTechnique, indirectReference, errorMap;
     std::vector<glm::vec4> vertexVpls; // vpl view only
@@ -316,6 +317,9 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     out.vplNonFinite = -1;
     out.giReused = -1;
     out.giChangeMeasure = -1.0f;
+    out.linearNanPixels = 0;
+    out.linearInfPixels = 0;
+    if (!out.linearIndirect.empty()) out.linearIndirect.setTo(cv::Scalar::all(0)); // keeps the buffer, no stale light
 
     // Depth in metres (CV_32FC1, 0 = missing), registered to colour.
     auto t = Clock::now();
@@ -343,6 +347,11 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
         // Lost: nothing virtual can be placed; the frame passes through unchanged.
         frame.colour.copyTo(out.withGi);
         if (options_.compare) frame.colour.copyTo(out.withoutGi);
+        if (s.srgbToLinearTable.empty()) {
+            s.srgbToLinearTable.create(1, 256, CV_32FC1);
+            for (int i = 0; i < 256; ++i) s.srgbToLinearTable.at<float>(0, i) = eval::srgbToLinear(float(i) / 255.0f);
+        }
+        if (options_.linearComposite) cv::LUT(frame.colour, s.srgbToLinearTable, out.linearWithGi);
         out.cpuTimes.resize(used);
         out.gpuTimes.clear();
         out.totalMs = msSince(frameStart);
@@ -377,10 +386,28 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     // Shade, read back, composite.
     t = Clock::now();
     const cv::Mat realDepth = haveDepth ? s.depthMetres : cv::Mat();
-    render::ShadeOptions shade{.includeIndirect = runGi, .exposureStops = s.scene->exposureStops, .view = options_.view};
+    render::ShadeOptions shade{.includeIndirect = runGi, .exposureStops = s.scene->exposureStops, .view = options_.view,
+                               .linearOutput = options_.linearComposite};
     r.shade(shade);
     r.readOutputsInto(s.virtualColour, s.virtualDepth);
     s.compositor.compositeInto(frame.colour, s.virtualColour, s.virtualDepth, realDepth, out.withGi);
+    if (options_.linearComposite) {
+        r.readLinearOutputInto(s.virtualLinear);
+        s.compositor.compositeLinearInto(frame.colour, s.virtualLinear, s.virtualColour, s.virtualDepth, realDepth, out.linearWithGi);
+    }
+    for (int v = 0; v < (options_.linearComposite ? out.linearWithGi.rows : 0); ++v) {
+        const auto* row = out.linearWithGi.ptr<cv::Vec3f>(v);
+        for (int u = 0; u < out.linearWithGi.cols; ++u) {
+            const cv::Vec3f& p = row[u];
+            if (std::isnan(p[0]) || std::isnan(p[1]) || std::isnan(p[2])) ++out.linearNanPixels;
+            else if (std::isinf(p[0]) || std::isinf(p[1]) || std::isinf(p[2])) ++out.linearInfPixels;
+        }
+    }
+    if (options_.linearIndirect && runGi) {
+        r.readIndirectInto(s.indirectTechnique);
+        cv::cvtColor(s.indirectTechnique, out.linearIndirect, cv::COLOR_RGBA2BGR);
+        out.linearIndirect.convertTo(out.linearIndirect, -1, double(std::exp2(s.scene->exposureStops)));
+    }
     if (options_.overlay == Overlay::Vals && out.valCount > 0 && s.vals)
         drawVals(out.withGi, s.vals->downloadVals(), frame.colourIntrinsics, world_T_camera);
     if (options_.overlay == Overlay::SparsePoints) drawSparsePoints(out.withGi, r, frame.colourIntrinsics, world_T_camera);
@@ -423,6 +450,7 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     }
     if (options_.compare) {
         shade.includeIndirect = false;
+        shade.linearOutput = false;
         if (shade.view == render::DebugView::IndirectOnly) shade.view = render::DebugView::Final;
         r.shade(shade);
         r.readOutputsInto(s.virtualColour, s.virtualDepth);

@@ -62,12 +62,26 @@ struct PipelineOptions {
     bool adaptive = false;
     float staticTolerance = 0.0f;
     bool staticProbes = true;
+    /// Fill FrameOutput::linearWithGi and its NaN/inf counts (replay: always; live: off, it costs a
+    /// float readback and a CPU pass per frame).
+    bool linearComposite = false;
+    /// Also fill FrameOutput::linearIndirect (replay --linear-out).
+    bool linearIndirect = false;
 };
 
 struct FrameOutput {
     std::int64_t frameIndex = 0;
     cv::Mat withGi;       ///< CV_8UC3 BGR composite (GI on, or direct only when GI is off)
     cv::Mat withoutGi;    ///< CV_8UC3 BGR composite without GI (when compare)
+    /// options.linearComposite: CV_32FC3 BGR linear-light composite of withGi (render::Compositor::compositeLinearInto:
+    /// the view's 2^exposure * radiance before clamp and sRGB encoding, NaN/inf and values > 1 kept;
+    /// camera pixels sRGB-decoded). Overlays (vals, sparse, error, vpl) are not drawn into it.
+    cv::Mat linearWithGi;
+    /// Pixels of linearWithGi with a NaN / an infinite channel (NaN counted first); 0 without linearComposite.
+    std::int64_t linearNanPixels = 0, linearInfPixels = 0;
+    /// options.linearIndirect and GI ran: CV_32FC3 BGR 2^exposure * the technique's indirect radiance
+    /// (unclamped, 0 where no virtual content), else empty.
+    cv::Mat linearIndirect;
     tracking::TrackingResult tracking;
     std::optional<Pose> world_T_camera;
     std::uint32_t valCount = 0;

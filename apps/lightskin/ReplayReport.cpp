@@ -81,6 +81,13 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
                 reused += f.giReused;
             }
         if (adaptive > 0) root["giReusedFrames"] = reused;
+        std::int64_t nanPixels = 0, infPixels = 0;
+        for (const ReportFrame& f : frames) {
+            nanPixels += f.linearNanPixels;
+            infPixels += f.linearInfPixels;
+        }
+        root["linearNanPixels"] = nanPixels;
+        root["linearInfPixels"] = infPixels;
     }
     for (const auto& name : cpuStages) root["meanCpuMs"][name] = cpuSum[name] / n;
     for (const auto& name : gpuStages) root["meanGpuMs"][name] = gpuSum[name] / n;
@@ -104,6 +111,10 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
             const bool seen = j.contains("gpuMs") && j["gpuMs"].contains(st.name);
             j["gpuMs"][st.name] = (seen ? j["gpuMs"][st.name].get<double>() : 0.0) + st.milliseconds;
         }
+        j["linearNanPixels"] = f.linearNanPixels;
+        j["linearInfPixels"] = f.linearInfPixels;
+        if (!f.linearImage.empty()) j["linearImage"] = f.linearImage;
+        if (!f.linearIndirectImage.empty()) j["linearIndirectImage"] = f.linearIndirectImage;
         if (!f.image.empty()) j["image"] = f.image;
         if (!f.compareImage.empty()) j["compareImage"] = f.compareImage;
         root["frames"].push_back(std::move(j));
@@ -126,6 +137,16 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
     std::string states;
     for (const auto& [state, count] : trackingCounts) states += (states.empty() ? "" : ", ") + state + " " + std::to_string(count);
     md += "| tracking states | " + states + " |\n";
+    {
+        std::int64_t nanPixels = 0, infPixels = 0, badFrames = 0;
+        for (const ReportFrame& f : frames) {
+            nanPixels += f.linearNanPixels;
+            infPixels += f.linearInfPixels;
+            badFrames += f.linearNanPixels + f.linearInfPixels > 0 ? 1 : 0;
+        }
+        md += "| non-finite linear pixels | " + std::to_string(nanPixels) + " NaN, " + std::to_string(infPixels) + " inf (" +
+              std::to_string(badFrames) + " frames) |\n";
+    }
     std::size_t adaptiveFrames = 0, reusedFrames = 0;
     for (const ReportFrame& f : frames)
         if (f.giReused >= 0) {

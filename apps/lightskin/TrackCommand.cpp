@@ -1,13 +1,18 @@
 // `lightskin track`: camera poses from AprilTags in a sequence of images, one line per frame.
 //
-//   lightskin track --world world.json [--intrinsics fx fy cx cy] [--decimate 2] [--threads 1]
-//                   [--no-filter] [--fps 30] image1.png image2.png ...
+//   lightskin track --world world.json [--intrinsics fx fy cx cy] [--decimate 2] [--upsample 1]
+//                   [--threads 1] [--max-corner-std 6] [--no-filter] [--fps 30] image1.png image2.png ...
 //   lightskin track --tag-id 0 --tag-size 0.16 images...
 //   lightskin track --world recordings/synth-pan/synth/tag-world.json --decimate 1 recordings/synth-pan
 //     (a recording: its intrinsics and timestamps; with ground truth, two more columns: errors)
 //
 // Output columns: frame, state, tags used, RMS reprojection error (px), world_T_camera as
-// tx ty tz (metres) qw qx qy qz, rotation std (deg), ambiguous flag, total ms, reason.
+// tx ty tz (metres) qw qx qy qz, rotation std (deg), world corner std (px: how well the pose places
+// every tag of the world in the image, PoseUncertainty::worldCornerStdPx; also printed for a frame
+// held because it exceeded --max-corner-std, "inf" without a measurement), ambiguous flag, total ms,
+// reason. A last comment line counts the states and the frames whose measurement --max-corner-std
+// refused (held, or lost before the first pose): "# frames N tracking T held H lost L; measurements
+// refused as poorly determined P".
 #include "Commands.h"
 
 #include <lightskin/capture/FrameSource.h>
@@ -17,6 +22,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -34,13 +40,21 @@ struct TrackOptions {
     std::string family = "tag36h11";
     std::vector<double> intrinsics;
     float decimate = 2.0f;
+    int upsample = 1;
     int threads = 1;
+    double maxCornerStd = tracking::TrackerSettings{}.maxWorldCornerStdPx;
     bool noFilter = false;
     double fps = 30.0;
     std::vector<std::string> images;
 };
 
 void runTrack(const TrackOptions& options, int& exitCode) {
+    // The library checks these too, under its own names; here the message names the option.
+    if (options.upsample < 1 || options.upsample > 4)
+        throw Error("--upsample", std::nullopt, "must be 1, 2, 3 or 4, got " + std::to_string(options.upsample));
+    if (!(options.maxCornerStd > 0.0))
+        throw Error("--max-corner-std", std::nullopt,
+                    "must be > 0 pixels (inf switches the check off), got " + std::to_string(options.maxCornerStd));
     tracking::TagWorld world = [&] {
         if (!options.worldPath.empty()) return tracking::TagWorld::load(options.worldPath);
         if (options.tagId < 0 || !(options.tagSize > 0.0))
@@ -49,14 +63,16 @@ void runTrack(const TrackOptions& options, int& exitCode) {
     }();
     tracking::TrackerSettings settings;
     settings.detector.quadDecimate = options.decimate;
+    settings.detector.upsample = options.upsample;
     settings.detector.threads = options.threads;
+    settings.maxWorldCornerStdPx = options.maxCornerStd;
     settings.filter.enabled = !options.noFilter;
     tracking::PoseTracker tracker = tracking::PoseTracker::create(std::move(world), settings);
 
-    std::printf("# frame state tags reprojection_px tx ty tz qw qx qy qz rotation_std_deg ambiguous total_ms "
+    std::printf("# frame state tags reprojection_px tx ty tz qw qx qy qz rotation_std_deg world_corner_std_px ambiguous total_ms "
                 "[gt_position_error_m gt_rotation_error_deg] reason\n");
     tracking::TrackingResult result;
-    int trackedFrames = 0;
+    int trackedFrames = 0, heldFrames = 0, poorlyDeterminedFrames = 0, lostFrames = 0, totalFrames = 0;
     const auto printResult = [&](std::int64_t index, const std::optional<Pose>& groundTruth) {
         std::string tags;
         for (const int id : result.tagsUsed) tags += (tags.empty() ? "" : ",") + std::to_string(id);
@@ -71,8 +87,8 @@ void runTrack(const TrackOptions& options, int& exitCode) {
         } else {
             std::printf(" - - - - - - -");
         }
-        std::printf(" %.3f %d %.2f", result.uncertainty.rotationStdDegrees, result.ambiguous ? 1 : 0,
-                    result.timing.totalMs);
+        std::printf(" %.3f %.3f %d %.2f", result.uncertainty.rotationStdDegrees, result.uncertainty.worldCornerStdPx,
+                    result.ambiguous ? 1 : 0, result.timing.totalMs);
         if (groundTruth) {
             if (result.world_T_camera)
                 std::printf(" %.4f %.3f", Pose::translationDistance(*result.world_T_camera, *groundTruth),
@@ -89,7 +105,19 @@ void runTrack(const TrackOptions& options, int& exitCode) {
             notes += (k == 0 ? " (dropped, disagreeing with the others: " : ",") +
                      std::to_string(result.rejectedTags[k]) + (k + 1 == result.rejectedTags.size() ? ")" : "");
         std::printf(" %s%s\n", result.reason[0] != '\0' ? result.reason : "-", notes.c_str());
+        ++totalFrames;
         trackedFrames += result.state == tracking::TrackingState::Tracking ? 1 : 0;
+        heldFrames += result.state == tracking::TrackingState::Held ? 1 : 0;
+        lostFrames += result.state == tracking::TrackingState::Lost ? 1 : 0;
+        // Refused by maxWorldCornerStdPx (Held, or Lost before any pose): the uncertainty is the refused one's.
+        poorlyDeterminedFrames += !result.measured_world_T_camera && std::isfinite(result.uncertainty.worldCornerStdPx) &&
+                                          result.uncertainty.worldCornerStdPx > settings.maxWorldCornerStdPx
+                                      ? 1
+                                      : 0;
+    };
+    const auto printSummary = [&] {
+        std::printf("# frames %d tracking %d held %d lost %d; measurements refused as poorly determined %d\n",
+                    totalFrames, trackedFrames, heldFrames, lostFrames, poorlyDeterminedFrames);
     };
 
     // One folder or .oni: a recording (intrinsics, timestamps and ground truth from the source).
@@ -102,6 +130,7 @@ void runTrack(const TrackOptions& options, int& exitCode) {
             tracker.trackInto(frame, result);
             printResult(frame.index, frame.groundTruth_world_T_camera);
         }
+        printSummary();
         exitCode = trackedFrames > 0 ? 0 : 1;
         return;
     }
@@ -127,6 +156,7 @@ void runTrack(const TrackOptions& options, int& exitCode) {
                                result);
         printResult(static_cast<std::int64_t>(i), std::nullopt);
     }
+    printSummary();
     exitCode = trackedFrames > 0 ? 0 : 1;
 }
 
@@ -140,7 +170,13 @@ void addTrackCommand(CLI::App& app, int& exitCode) {
     command->add_option("--family", options->family, "Tag family for --tag-id")->capture_default_str();
     command->add_option("--intrinsics", options->intrinsics, "fx fy cx cy in pixels (no distortion)")->expected(4);
     command->add_option("--decimate", options->decimate, "quad_decimate (1 for small tags)")->capture_default_str();
+    command->add_option("--upsample", options->upsample,
+                        "Detect on the image enlarged by this factor (1-4; 2 finds small tags, ~3.6x the time)")
+        ->capture_default_str();
     command->add_option("--threads", options->threads, "Detector threads")->capture_default_str();
+    command->add_option("--max-corner-std", options->maxCornerStd,
+                        "Hold frames whose pose places the world's tag corners worse than this std, pixels (> 0; inf = off)")
+        ->capture_default_str();
     command->add_option("--fps", options->fps, "Frame rate the images were taken at")->capture_default_str();
     command->add_flag("--no-filter", options->noFilter, "Report unfiltered poses");
     command->add_option("images", options->images, "Images in order, or one recording folder / .oni file")->required();

@@ -28,6 +28,7 @@ uniform int debugView;       // render::DebugView
 
 layout(location = 0) out vec4 outColour;
 layout(location = 1) out float outDepth;
+layout(location = 2) out vec4 outLinear; // exposureScale * radiance before clamp and encoding (NaN/inf kept)
 
 const float kPi = 3.14159265358979;
 
@@ -52,6 +53,7 @@ void main() {
     if (position.w == 0.0) {
         outColour = vec4(0.0);
         outDepth = 0.0;
+        outLinear = vec4(0.0);
         return;
     }
     const vec3 n = normalize(texelFetch(gNormal, pixel, 0).xyz);
@@ -85,5 +87,9 @@ void main() {
     if (debugView == 3) display = n * 0.5 + 0.5;
     if (debugView == 4) display = srgbEncode(albedo);
     outColour = vec4(display, 1.0);
+    vec3 linear = exposureScale * radiance;
+    if (debugView == 3) linear = pow(display, vec3(2.2)); // debug colours: approximately their display value
+    if (debugView == 4) linear = albedo;
+    outLinear = vec4(linear, 1.0);
     outDepth = (camera_T_world * vec4(position.xyz, 1.0)).z;
 }

@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -75,6 +76,66 @@ void Compositor::compositeInto(const cv::Mat& camera, const cv::Mat& virtualRgba
             for (int c = 0; c < 3; ++c) {
                 const float virtualValue = float(rgba[u][2 - c]); // RGBA -> BGR
                 dst[u][c] = cv::saturate_cast<std::uint8_t>(float(dst[u][c]) * (1.0f - a) + virtualValue * a);
+            }
+        }
+    }
+}
+
+namespace {
+float srgbEncode(float linear) noexcept {
+    return linear <= 0.0031308f ? 12.92f * linear : 1.055f * std::pow(linear, 1.0f / 2.4f) - 0.055f;
+}
+float srgbDecode(float encoded) noexcept {
+    return encoded <= 0.04045f ? encoded / 12.92f : std::pow((encoded + 0.055f) / 1.055f, 2.4f);
+}
+} // namespace
+
+void Compositor::compositeLinearInto(const cv::Mat& camera, const cv::Mat& virtualLinear, const cv::Mat& virtualRgba,
+                                     const cv::Mat& virtualDepth, const cv::Mat& realDepth, cv::Mat& out) {
+    const cv::Size size(intrinsics_.width, intrinsics_.height);
+    LIGHTSKIN_ASSERT(camera.type() == CV_8UC3 && camera.size() == size, "lightskin::render::Compositor::compositeLinearInto(): camera image must be CV_8UC3 of the intrinsics' size");
+    LIGHTSKIN_ASSERT(virtualLinear.type() == CV_32FC4 && virtualLinear.size() == size, "lightskin::render::Compositor::compositeLinearInto(): virtual linear colour must be CV_32FC4");
+    LIGHTSKIN_ASSERT(virtualRgba.type() == CV_8UC4 && virtualRgba.size() == size, "lightskin::render::Compositor::compositeLinearInto(): virtual colour must be CV_8UC4");
+    LIGHTSKIN_ASSERT(virtualDepth.type() == CV_32FC1 && virtualDepth.size() == size, "lightskin::render::Compositor::compositeLinearInto(): virtual depth must be CV_32FC1");
+    LIGHTSKIN_ASSERT(realDepth.empty() || (realDepth.type() == CV_32FC1 && realDepth.size() == size),
+                     "lightskin::render::Compositor::compositeLinearInto(): real depth must be empty or CV_32FC1 of the same size");
+    static const std::array<float, 256> decoded = [] {
+        std::array<float, 256> table{};
+        for (std::size_t i = 0; i < table.size(); ++i) table[i] = srgbDecode(float(i) / 255.0f);
+        return table;
+    }();
+    const cv::Mat* linear = &virtualLinear;
+    const cv::Mat* colour = &virtualRgba;
+    const cv::Mat* depth = &virtualDepth;
+    if (!mapX_.empty()) {
+        cv::remap(virtualLinear, warpedLinear_, mapX_, mapY_, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+        cv::remap(virtualRgba, warpedColour_, mapX_, mapY_, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+        cv::remap(virtualDepth, warpedDepth_, mapX_, mapY_, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+        linear = &warpedLinear_;
+        colour = &warpedColour_;
+        depth = &warpedDepth_;
+    }
+    out.create(size, CV_32FC3);
+    for (int v = 0; v < size.height; ++v) {
+        const auto* cam = camera.ptr<cv::Vec3b>(v);
+        const auto* lin = linear->ptr<cv::Vec4f>(v);
+        const auto* rgba = colour->ptr<cv::Vec4b>(v);
+        const auto* zv = depth->ptr<float>(v);
+        const float* zr = realDepth.empty() ? nullptr : realDepth.ptr<float>(v);
+        auto* dst = out.ptr<cv::Vec3f>(v);
+        for (int u = 0; u < size.width; ++u) {
+            const float a = rgba[u][3] == 0 ? 0.0f
+                                            : float(rgba[u][3]) / 255.0f * (zr != nullptr ? visibility(zv[u], zr[u], settings_) : 1.0f);
+            for (int c = 0; c < 3; ++c) {
+                const float virtualValue = lin[u][2 - c]; // RGBA -> BGR
+                if (a <= 0.0f) {
+                    dst[u][c] = decoded[cam[u][c]];
+                } else if (a >= 1.0f || !std::isfinite(virtualValue)) {
+                    dst[u][c] = virtualValue;
+                } else {
+                    const float encoded = float(cam[u][c]) / 255.0f * (1.0f - a) + srgbEncode(std::clamp(virtualValue, 0.0f, 1.0f)) * a;
+                    dst[u][c] = srgbDecode(encoded);
+                }
             }
         }
     }

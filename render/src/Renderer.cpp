@@ -106,9 +106,11 @@ std::unique_ptr<Renderer> Renderer::create(const CameraIntrinsics& intrinsics, c
     r->outputDepth_ = gl::Texture::create2D(GL_R32F, w, h);
     r->outputFramebuffer_ = gl::Framebuffer::create();
     r->outputFramebuffer_.attach(GL_COLOR_ATTACHMENT0, r->outputColour_);
+    r->outputLinear_ = gl::Texture::create2D(GL_RGBA32F, w, h);
     r->outputFramebuffer_.attach(GL_COLOR_ATTACHMENT1, r->outputDepth_);
-    const GLenum outputTargets[] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
-    glNamedFramebufferDrawBuffers(r->outputFramebuffer_.id(), 2, outputTargets);
+    r->outputFramebuffer_.attach(GL_COLOR_ATTACHMENT2, r->outputLinear_);
+    const GLenum outputTargets[] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2};
+    glNamedFramebufferDrawBuffers(r->outputFramebuffer_.id(), 3, outputTargets);
     r->outputFramebuffer_.checkComplete("renderer output");
 
     const int s = options.shadowMapSize;
@@ -300,6 +302,9 @@ void Renderer::shade(const ShadeOptions& options) {
 
     const GLuint textures[] = {worldPosition_.id(), worldNormal_.id(), diffuseAlbedo_.id(), specular_.id(), indirect_.id(), shadowCubes_.id()};
     glBindTextures(0, 6, textures);
+    const GLenum outputTargets[] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1,
+                                    GLenum(options.linearOutput ? GL_COLOR_ATTACHMENT2 : GL_NONE)};
+    glNamedFramebufferDrawBuffers(outputFramebuffer_.id(), 3, outputTargets);
     glBindFramebuffer(GL_FRAMEBUFFER, outputFramebuffer_.id());
     glViewport(0, 0, intrinsics_.width, intrinsics_.height);
     glDisable(GL_DEPTH_TEST);
@@ -318,6 +323,8 @@ void Renderer::readOutputsInto(cv::Mat& colourRgba, cv::Mat& depthMetres) const 
 }
 
 void Renderer::readIndirectInto(cv::Mat& out) const { gl::readTextureRgba32fInto(indirect_, out); }
+
+void Renderer::readLinearOutputInto(cv::Mat& out) const { gl::readTextureRgba32fInto(outputLinear_, out); }
 
 void Renderer::lastStageTimes(std::vector<gl::StageTime>& out) { timer_.collect(out); }
 

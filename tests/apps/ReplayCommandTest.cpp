@@ -1,5 +1,6 @@
 // End-to-end tests of `lightskin replay` (the built program, run as a user would).
 #include <lightskin/capture/Recording.h>
+#include <lightskin/eval/ColourSpace.h>
 
 #include "TestPaths.h"
 
@@ -10,6 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sys/wait.h>
@@ -220,4 +222,61 @@ TEST(ReplayCommand, LightSkinTechniqueAddsIndirectLightToTheComparison) {
     EXPECT_GT(cv::countNonZero(brighter.reshape(1)), 20);
     const cv::Rect corner(2, 40, 6, 6);
     EXPECT_EQ(cv::norm(compare(corner), compare(corner + cv::Point(kWidth, 0)), cv::NORM_INF), 0.0);
+}
+
+// --linear-out: one linear image per frame (OpenEXR, float) for the composite and for the indirect
+// light. sRGB-encoding the linear composite gives the 8-bit PNG within 1 code value (the 8-bit
+// compositor rounds the virtual colour before blending); the linear image is not merely the PNG
+// decoded (its virtual pixels lie between the 256 sRGB levels); no NaN/inf counted in the report.
+TEST(ReplayCommand, LinearOutWritesFloatImagesMatchingThePngs) {
+    ASSERT_TRUE(cv::haveImageWriter(".exr")) << "this test expects Debian's OpenCV with OpenEXR";
+    const fs::path scratch = test::scratchDir("replay_linear");
+    const fs::path recording = writeRecording(scratch / "recording");
+    const std::string scene = R"({"version": 1,
+      "objects": [{"mesh": "cube.obj", "transform": {"translation": [-0.05, 0, -0.3], "rotationDegrees": [0, -45, 0], "scale": 0.2},
+                   "material": {"diffuseAlbedo": 0.8}}],
+      "lights": [{"type": "point", "position": [0.3, 0.2, 1.0], "power": 5}],
+      "gi": {"technique": "lightskin", "sparsePoints": 64, "valStride": 2}})";
+    const fs::path scenePath = writeScene(scratch, scene);
+    const fs::path out = scratch / "out";
+    constexpr int kReplayed = 3;
+    const RunResult r = runLightskin("replay " + recording.string() + " --scene " + scenePath.string() + " --out " + out.string() +
+                                         " --max-frames " + std::to_string(kReplayed) + " --linear-out --no-video",
+                                     scratch);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(countFiles(out / "linear", ".exr"), std::size_t(kReplayed));
+    EXPECT_EQ(countFiles(out / "linear-indirect", ".exr"), std::size_t(kReplayed));
+    const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
+    EXPECT_EQ(report["linearNanPixels"], 0);
+    EXPECT_EQ(report["linearInfPixels"], 0);
+    ASSERT_EQ(report["frames"].size(), std::size_t(kReplayed));
+    for (const auto& frame : report["frames"]) {
+        EXPECT_EQ(frame["linearNanPixels"], 0);
+        EXPECT_EQ(frame["linearInfPixels"], 0);
+        const cv::Mat png = cv::imread((out / frame["image"].get<std::string>()).string(), cv::IMREAD_COLOR);
+        const cv::Mat linear = cv::imread((out / frame["linearImage"].get<std::string>()).string(), cv::IMREAD_UNCHANGED);
+        ASSERT_EQ(linear.type(), CV_32FC3);
+        ASSERT_EQ(linear.size(), png.size());
+        cv::Mat encoded;
+        eval::linearToSrgb8Into(linear, encoded);
+        const double maxCodeDifference = cv::norm(encoded, png, cv::NORM_INF);
+        EXPECT_LE(maxCodeDifference, 1.0) << frame.dump();
+        // Off the 8-bit grid: decoding the PNG would put every value on one of 256 levels.
+        cv::Mat decoded;
+        eval::srgb8ToLinearInto(png, decoded);
+        cv::Mat offGrid;
+        cv::compare(cv::abs(linear - decoded), 1e-6, offGrid, cv::CMP_GT);
+        const int offGridValues = cv::countNonZero(offGrid.reshape(1));
+        EXPECT_GT(offGridValues, 20) << "the linear image looks like the decoded PNG";
+        // The indirect light: non-negative, positive on the cube, zero on the camera pixels (corner).
+        const cv::Mat indirect = cv::imread((out / frame["linearIndirectImage"].get<std::string>()).string(), cv::IMREAD_UNCHANGED);
+        ASSERT_EQ(indirect.type(), CV_32FC3);
+        double lowest = 0.0, highest = 0.0;
+        cv::minMaxLoc(indirect.reshape(1), &lowest, &highest);
+        EXPECT_GE(lowest, 0.0);
+        EXPECT_GT(highest, 1e-3);
+        EXPECT_EQ(cv::norm(indirect(cv::Rect(2, 40, 6, 6)), cv::NORM_INF), 0.0);
+        std::printf("frame %d: max code difference %.0f, %d values off the 8-bit grid, indirect max %.4f\n",
+                    frame["index"].get<int>(), maxCodeDifference, offGridValues, highest);
+    }
 }

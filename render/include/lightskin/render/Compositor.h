@@ -43,13 +43,23 @@ public:
     void compositeInto(const cv::Mat& cameraBgr, const cv::Mat& virtualRgba, const cv::Mat& virtualDepth,
                        const cv::Mat& realDepthMetres, cv::Mat& out);
 
+    /// The same composite in linear light, CV_32FC3 BGR (reallocated only when the size changes),
+    /// from Renderer::readLinearOutputInto's `virtualLinear` (CV_32FC4 RGBA) and the 8-bit outputs
+    /// (coverage, depth) as above: where a == 0 the camera pixel decoded from sRGB; where a == 1 the
+    /// virtual linear value unchanged (> 1, NaN and inf kept); in between (the soft band) the 8-bit
+    /// blend recomputed in float, sRGB-decoded: camera * (1 - a) + encode(clamp(virtual, 0, 1)) * a,
+    /// with a non-finite virtual value passed through. sRGB-encoding and rounding this image
+    /// gives compositeInto()'s output within 1 code value (its 8-bit rounding of the virtual colour).
+    void compositeLinearInto(const cv::Mat& cameraBgr, const cv::Mat& virtualLinear, const cv::Mat& virtualRgba,
+                             const cv::Mat& virtualDepth, const cv::Mat& realDepthMetres, cv::Mat& out);
+
     const CompositeSettings& settings() const noexcept { return settings_; }
 
 private:
     CameraIntrinsics intrinsics_;
     CompositeSettings settings_;
     cv::Mat mapX_, mapY_; ///< distorted pixel -> undistorted render pixel (empty without distortion)
-    cv::Mat warpedColour_, warpedDepth_;
+    cv::Mat warpedColour_, warpedDepth_, warpedLinear_;
 };
 
 /// Two equally sized BGR images side by side with a caption on each (the paper's figure 4:

@@ -11,7 +11,11 @@
 // - colour: RGBA8, rgb = sRGB-encoded tone-mapped radiance, a = 255 where virtual content covers
 //   the pixel, 0 elsewhere (rgb = 0 there);
 // - depth: R32F, the virtual surface's camera-frame z in metres (along the optical axis, like the
-//   sensor's depth), 0 where nothing is covered.
+//   sensor's depth), 0 where nothing is covered;
+// - linear (written only by shade() with ShadeOptions::linearOutput): RGBA32F,
+//   rgb = 2^exposureStops * L before the clamp and the sRGB encoding (values > 1
+//   and NaN/inf are kept: what the colour output would show as clamped), a = 1 covered, 0 not
+//   (rgb = 0 there). Normals view: pow(display, 2.2); albedo view: the albedo.
 // Tone mapping: displayed = sRGB_encode(clamp(2^exposureStops * L, 0, 1)), L linear radiance in
 // W/(sr m^2) (the lights' power in watts; the VALs' flux unit for the indirect part).
 
@@ -44,6 +48,9 @@ struct ShadeOptions {
     bool includeIndirect = true;
     float exposureStops = 0.0f;
     DebugView view = DebugView::Final;
+    /// Also write the linear output (readLinearOutputInto); off, its float target is not written
+    /// (llvmpipe: the extra RGBA32F store costs about as much as the rest of shade()).
+    bool linearOutput = false;
 };
 
 struct RendererOptions {
@@ -87,6 +94,9 @@ public:
 
     /// Reads the indirect target (CV_32FC4 linear RGBA, top row first): debug views.
     void readIndirectInto(cv::Mat& out) const;
+    /// Reads the linear output of the last shade() with linearOutput (CV_32FC4, see "linear" above,
+    /// top row first; stale or undefined after a shade() without it).
+    void readLinearOutputInto(cv::Mat& out) const;
 
     /// GPU times of the last renderGBuffer()/shade() pair ("gbuffer", "shade").
     void lastStageTimes(std::vector<gl::StageTime>& out);
@@ -111,7 +121,7 @@ private:
     gl::Texture shadowCubes_; ///< R32F cube map array, 6 layers per light: distance to the light, metres
     gl::Renderbuffer shadowDepth_;
     gl::Framebuffer shadowFramebuffer_;
-    gl::Texture outputColour_, outputDepth_;
+    gl::Texture outputColour_, outputDepth_, outputLinear_;
     gl::Framebuffer outputFramebuffer_;
     gl::VertexArray emptyVertexArray_;
     gl::Texture whiteTexture_;
