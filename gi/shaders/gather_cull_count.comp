@@ -2,7 +2,8 @@
 #include "gather_cull.glsl"
 // Stable VAL culling, pass 1 of 3 (gather_cull.glsl): each work group of CULL_GROUP_SIZE VALs
 // writes every VAL's slot among its group's kept VALs (CULL_DROPPED if culled) and its kept count.
-// Inclusive Hillis-Steele scan in shared memory (8 steps for 256).
+// Two-level scan in shared memory with three barriers: 16 threads each scan a run of 16 flags,
+// one thread scans the 16 run totals.
 layout(local_size_x = 256) in;
 layout(std430, binding = 0) readonly buffer Source { VirtualAreaLight source[]; };
 layout(std430, binding = 1) writeonly buffer Slots { uint slot[]; };
@@ -11,7 +12,8 @@ uniform uint uCount;
 uniform uint uGroupFirst; // dispatches of at most 65535 work groups
 uniform vec4 uReceiverSphere; // centre xyz, radius w (world metres)
 uniform float uInfluenceCutoff;
-shared uint scan[CULL_GROUP_SIZE];
+shared uint scan[CULL_GROUP_SIZE]; // keep flags, then exclusive prefix within each run of 16
+shared uint runOffset[16];         // run totals, then exclusive prefix over the runs
 
 void main() {
     const uint t = gl_LocalInvocationID.x;
@@ -20,12 +22,25 @@ void main() {
     const bool keep = i < uCount && cullKeeps(source[i], uReceiverSphere, uInfluenceCutoff);
     scan[t] = keep ? 1u : 0u;
     barrier();
-    for (uint d = 1u; d < CULL_GROUP_SIZE; d <<= 1u) {
-        const uint before = t >= d ? scan[t - d] : 0u;
-        barrier();
-        scan[t] += before;
-        barrier();
+    if (t < 16u) {
+        uint sum = 0u;
+        for (uint k = 16u * t; k < 16u * t + 16u; ++k) {
+            const uint f = scan[k];
+            scan[k] = sum;
+            sum += f;
+        }
+        runOffset[t] = sum;
     }
-    if (i < uCount) slot[i] = keep ? scan[t] - 1u : CULL_DROPPED;
-    if (t == CULL_GROUP_SIZE - 1u) groupCount[group] = scan[t];
+    barrier();
+    if (t == 0u) {
+        uint sum = 0u;
+        for (uint r = 0u; r < 16u; ++r) {
+            const uint c = runOffset[r];
+            runOffset[r] = sum;
+            sum += c;
+        }
+        groupCount[group] = sum;
+    }
+    barrier();
+    if (i < uCount) slot[i] = keep ? runOffset[t / 16u] + scan[t] : CULL_DROPPED;
 }

@@ -3,7 +3,8 @@
 // Stable VAL culling, pass 2 of 3 (gather_cull.glsl): one work group replaces the uGroups
 // work-group kept counts by their exclusive prefix sums (each group's first destination index)
 // and writes the total kept count. Each thread scans a contiguous run of ceil(uGroups / 256)
-// counts: 256 iterations at 16.7M VALs, far below llvmpipe's ~65k loop iterations up to 2^32 VALs.
+// counts: at most 256 loop iterations up to 16.7M VALs (llvmpipe ends a loop after ~65k; that
+// would take more than 4e9 VALs).
 layout(local_size_x = 256) in;
 layout(std430, binding = 2) buffer GroupCounts { uint groupCount[]; }; // in: counts, out: offsets
 layout(std430, binding = 3) writeonly buffer Kept { uint kept; };
