@@ -97,7 +97,8 @@ struct LightSkinIllumination::Impl {
     // Programs: gather variants indexed [glossy][occlusion], occlusion variants [glossy].
     GatherProgram gather[2][2];
     gl::Program gatherCompute[2][2];
-    gl::Program renormalise, occlusion[2], interpolate, shade, cull, valSums;
+    gl::Program renormalise, occlusion[2], interpolate, shade, valSums;
+    gl::Program cullCount, cullScan, cullScatter, cullAppend; // adaptive VAL culling (gather_cull.glsl)
     gl::Buffer valSumsBuffer; // 2 vec4: (sum l, sum r^2), (sum l^2, count) over all valid VALs
     gl::VertexArray emptyVertexArray;
     gl::GpuStageTimer timer;
@@ -116,7 +117,11 @@ struct LightSkinIllumination::Impl {
     gl::Framebuffer gatherFramebuffer, vplFramebuffer, occlusionFramebuffer, shadeFramebuffer;
     gl::Buffer vertexInputs, vertexVpls;
     detail::ValChunkBuffer vals;
-    gl::Buffer cullSource, cullCounter;
+    // Adaptive VAL culling: per-VAL slots and per-work-group counts (stable compaction), the kept
+    // count; sized for cullCapacity VALs with the VAL buffer.
+    gl::Buffer cullSlots, cullGroups, cullCounter;
+    std::uint32_t cullCapacity = 0;
+    std::uint32_t gatheredCount = 0; // VALs in `vals` at the last full computation
     std::vector<glm::vec4> scratchPositions, scratchNormals;
     LightSkinChoice choice;
     std::string lastReason;
@@ -163,7 +168,10 @@ struct LightSkinIllumination::Impl {
                 detail::variantDefines(settings.kCache, g != 0, true));
         interpolate = library.buildProgram({{GL_COMPUTE_SHADER, "gather_interpolate.comp"}});
         shade = library.buildProgram({{GL_VERTEX_SHADER, "gather_shade.vert"}, {GL_FRAGMENT_SHADER, "gather_shade.frag"}});
-        cull = library.buildProgram({{GL_COMPUTE_SHADER, "gather_cull.comp"}});
+        cullCount = library.buildProgram({{GL_COMPUTE_SHADER, "gather_cull_count.comp"}});
+        cullScan = library.buildProgram({{GL_COMPUTE_SHADER, "gather_cull_scan.comp"}});
+        cullScatter = library.buildProgram({{GL_COMPUTE_SHADER, "gather_cull_scatter.comp"}});
+        cullAppend = library.buildProgram({{GL_COMPUTE_SHADER, "gather_cull_append.comp"}});
         valSums = library.buildProgram({{GL_COMPUTE_SHADER, "gather_val_sums.comp"}});
         staticScatter = library.buildProgram({{GL_COMPUTE_SHADER, "gather_static_scatter.comp"}});
         staticBound = library.buildProgram({{GL_COMPUTE_SHADER, "gather_static_bound.comp"}});
@@ -446,6 +454,65 @@ struct LightSkinIllumination::Impl {
                             scratchNormals.data());
     }
 
+    // ---- adaptive VAL culling ---------------------------------------------------------------
+    static constexpr std::uint32_t kCullGroup = 256; // CULL_GROUP_SIZE of gather_cull.glsl
+    static constexpr std::uint32_t kMaxGroupsPerDispatch = 65535; // GL 4.5 minimum of GL_MAX_COMPUTE_WORK_GROUP_COUNT
+
+    void reserveCull(std::uint32_t capacity) {
+        cullCapacity = std::max(capacity, 1u);
+        const std::uint32_t groups = (cullCapacity + kCullGroup - 1) / kCullGroup;
+        cullSlots = gl::Buffer::create(GLsizeiptr(cullCapacity) * GLsizeiptr(sizeof(std::uint32_t)), nullptr, 0);
+        cullGroups = gl::Buffer::create(GLsizeiptr(groups) * GLsizeiptr(sizeof(std::uint32_t)), nullptr, 0);
+    }
+
+    /// Copies the `count` VALs of `source` that can reach a receiver into `vals`, in their input
+    /// order (stable: count, scan, scatter; gather_cull.glsl) or, with !settings.stableCull, in
+    /// atomic-append order; leaves the kept count in cullCounter. Needs cullCapacity, vals.capacity() >= count.
+    void cullVals(std::uint32_t source, std::uint32_t count) {
+        const glm::vec4 sphere = receiverSphere();
+        const GLsizeiptr sourceBytes = GLsizeiptr(count) * detail::kValBytes;
+        const std::uint32_t groups = (count + kCullGroup - 1) / kCullGroup;
+        glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 0, source, 0, sourceBytes);
+        if (!settings.stableCull) {
+            const std::uint32_t zero = 0;
+            glNamedBufferSubData(cullCounter.id(), 0, sizeof zero, &zero);
+            cullAppend.use();
+            glUniform1ui(cullAppend.uniformLocation("uCount"), count);
+            glUniform4fv(cullAppend.uniformLocation("uReceiverSphere"), 1, glm::value_ptr(sphere));
+            glUniform1f(cullAppend.uniformLocation("uInfluenceCutoff"), settings.valInfluenceCutoff);
+            glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, cullCounter.id());
+            glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, vals.buffer().id());
+            for (std::uint32_t first = 0; first < groups; first += kMaxGroupsPerDispatch) {
+                glUniform1ui(cullAppend.uniformLocation("uGroupFirst"), first);
+                glDispatchCompute(std::min(groups - first, kMaxGroupsPerDispatch), 1, 1);
+            }
+            return;
+        }
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, cullSlots.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, cullGroups.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, cullCounter.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, vals.buffer().id());
+        cullCount.use();
+        glUniform1ui(cullCount.uniformLocation("uCount"), count);
+        glUniform4fv(cullCount.uniformLocation("uReceiverSphere"), 1, glm::value_ptr(sphere));
+        glUniform1f(cullCount.uniformLocation("uInfluenceCutoff"), settings.valInfluenceCutoff);
+        for (std::uint32_t first = 0; first < groups; first += kMaxGroupsPerDispatch) {
+            glUniform1ui(cullCount.uniformLocation("uGroupFirst"), first);
+            glDispatchCompute(std::min(groups - first, kMaxGroupsPerDispatch), 1, 1);
+        }
+        glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+        cullScan.use();
+        glUniform1ui(cullScan.uniformLocation("uGroups"), groups);
+        glDispatchCompute(1, 1, 1);
+        glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+        cullScatter.use();
+        glUniform1ui(cullScatter.uniformLocation("uCount"), count);
+        for (std::uint32_t first = 0; first < groups; first += kMaxGroupsPerDispatch) {
+            glUniform1ui(cullScatter.uniformLocation("uGroupFirst"), first);
+            glDispatchCompute(std::min(groups - first, kMaxGroupsPerDispatch), 1, 1);
+        }
+    }
+
     glm::vec4 receiverSphere() const {
         glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
         for (std::size_t i = 0; i < pointCount; ++i) {
@@ -473,6 +540,7 @@ std::unique_ptr<LightSkinIllumination> LightSkinIllumination::create(const Light
     impl.timer = gl::GpuStageTimer::create(8);
     impl.vals.reserve(settings.valCapacity, settings.kCache);
     impl.cullCounter = gl::Buffer::create(sizeof(std::uint32_t), nullptr, GL_DYNAMIC_STORAGE_BIT);
+    impl.reserveCull(settings.valCapacity);
     impl.valSumsBuffer = gl::Buffer::create(2 * sizeof(glm::vec4), nullptr, GL_DYNAMIC_STORAGE_BIT);
     impl.staticCheck = gl::Buffer::create(sizeof(StaticCheck), nullptr, GL_DYNAMIC_STORAGE_BIT);
     return technique;
@@ -698,17 +766,8 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     if (count > 0) {
         if (s.adaptive) {
             if (impl.vals.capacity() < count) impl.vals.reserve(count, s.kCache);
-            const std::uint32_t zero = 0;
-            glNamedBufferSubData(impl.cullCounter.id(), 0, sizeof zero, &zero);
-            impl.cull.use();
-            glUniform1ui(impl.cull.uniformLocation("uCount"), count);
-            glUniform4fv(impl.cull.uniformLocation("uReceiverSphere"), 1, glm::value_ptr(impl.receiverSphere()));
-            glUniform1f(impl.cull.uniformLocation("uInfluenceCutoff"), s.valInfluenceCutoff);
-            glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 0, lights.buffer, 0, GLsizeiptr(count) * detail::kValBytes);
-            glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, impl.vals.buffer().id());
-            glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, impl.cullCounter.id());
-            glDispatchCompute((count + 63) / 64, 1, 1);
-            glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT | GL_UNIFORM_BARRIER_BIT);
+            if (impl.cullCapacity < count) impl.reserveCull(count);
+            impl.cullVals(lights.buffer, count);
             glGetNamedBufferSubData(impl.cullCounter.id(), 0, sizeof count, &count);
             if (count < lights.count)
                 choice.reason += std::to_string(lights.count - count) + " of " + std::to_string(lights.count) +
@@ -718,6 +777,7 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
         }
     }
     choice.valsGathered = count;
+    impl.gatheredCount = count;
     impl.timer.end();
     if (s.adaptive) impl.logChoice(choice.reason);
 
@@ -893,6 +953,12 @@ void LightSkinIllumination::readVertexVpls(std::vector<glm::vec4>& out) const {
     out.resize(std::size_t(impl_->vertexCount) * 4);
     if (!out.empty())
         glGetNamedBufferSubData(impl_->vertexVpls.id(), 0, GLsizeiptr(out.size() * sizeof(glm::vec4)), out.data());
+}
+
+void LightSkinIllumination::readGatheredVals(std::vector<VirtualAreaLight>& out) const {
+    out.resize(impl_->gatheredCount);
+    if (!out.empty())
+        glGetNamedBufferSubData(impl_->vals.buffer().id(), 0, GLsizeiptr(out.size() * sizeof(VirtualAreaLight)), out.data());
 }
 
 } // namespace lightskin::gi

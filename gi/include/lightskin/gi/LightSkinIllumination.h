@@ -32,8 +32,9 @@
 //   * Exact mode (staticTolerance = 0): the VAL set counts as unchanged only when the producer
 //     says so: same buffer, count and nonzero ValSetView::generation (ValGenerator keeps the
 //     generation when depth, colour, pose, intrinsics and settings are bit-identical). No read-back,
-//     no GPU work; the image is bit-identical to that of the full computation it reuses (two full
-//     computations may differ in the last bits: the adaptive cull appends VALs atomically).
+//     no GPU work; the image is bit-identical to that of the full computation it reuses (and to
+//     that of any other full computation with the same inputs: the adaptive cull keeps the
+//     VALs' input order).
 //   * Tolerance mode (staticTolerance = tau > 0, diffuse channel only; with the glossy channel on
 //     only exact reuse applies), change test Bound (the default; keyed VALs): a GPU pass pairs
 //     every VAL with the one of the same key at the last full computation and sums a bound B_j on
@@ -98,6 +99,11 @@ struct LightSkinSettings {
     /// W/m^2: with `adaptive`, VALs whose irradiance upper bound over the receivers' bounding
     /// sphere is below this are dropped (0: only exact culling).
     float valInfluenceCutoff = 0.0f;
+    /// With `adaptive`: the kept VALs keep their input order (stream compaction: count, scan,
+    /// scatter), so the gather sums and the image are bitwise reproducible. false: the former
+    /// atomic append (order, and the results at rounding level ~1e-6, change from run to run);
+    /// for measurement (docs/BENCHMARKS.md).
+    bool stableCull = true;
     /// Metres: a re-rasterised fragment farther than this (plus 1e-4 of its distance to the
     /// camera) from the G-buffer position is a hidden surface and is discarded.
     float shadingPositionTolerance = 1e-4f;
@@ -166,6 +172,9 @@ public:
     void readSparseVpls(std::vector<glm::vec4>& out) const;   ///< 4 vec4 per point (before occlusion)
     void readOcclusion(std::vector<glm::vec4>& out) const;    ///< 1 vec4 per point: x = o_d, y = o_s (unclamped sums)
     void readVertexVpls(std::vector<glm::vec4>& out) const;   ///< 4 vec4 per vertex
+    /// The VALs the last full computation gathered (with `adaptive`: those kept by the cull), in
+    /// gather order (with `stableCull`: their input order).
+    void readGatheredVals(std::vector<VirtualAreaLight>& out) const;
 
 private:
     LightSkinIllumination();
