@@ -11,6 +11,7 @@
 // for bit against the full computation it reuses.
 #include "GatherTestScenes.h"
 #include "GlTestEnvironment.h"
+#include "GpuRig.h"
 
 #include <lightskin/core/Pose.h>
 #include <lightskin/gi/LightSkinIllumination.h>
@@ -34,48 +35,8 @@
 namespace lightskin::test {
 namespace {
 
-/// Meshes, G-buffer, target and one technique; frames are rendered with explicit inputs.
-struct Rig {
-    std::vector<TriangleMesh> meshes;
-    std::vector<std::size_t> sparseCounts;
-    std::vector<gi::UploadedMesh> gpu;
-    std::vector<gi::MeshInstance> instances;
-    glm::vec3 eye{1.6f, -1.8f, 1.5f};
-    glm::vec3 target{0.0f, 0.0f, 0.3f};
-    int width = 64, height = 64;
-    gi::SimpleGBuffer gbuffer;
-    gl::Texture output;
-
-    void add(TriangleMesh mesh, const glm::mat4& world_T_model, const Material& material, std::size_t sparseCount) {
-        meshes.push_back(std::move(mesh));
-        sparseCounts.push_back(sparseCount);
-        gi::MeshInstance instance;
-        instance.meshId = std::uint32_t(instances.size());
-        instance.world_T_model = world_T_model;
-        instance.material = material;
-        instances.push_back(instance);
-    }
-    void upload() {
-        for (std::size_t i = 0; i < meshes.size(); ++i) {
-            gpu.push_back(gi::UploadedMesh::create(meshes[i]));
-            instances[i].mesh = &meshes[i];
-            instances[i].gpu = gpu[i].view();
-        }
-        gbuffer = gi::SimpleGBuffer::create(width, height);
-        output = gl::Texture::create2D(GL_RGBA32F, width, height);
-    }
-    gi::ViewParameters view() const {
-        const glm::mat4 projection = glm::perspective(0.8f, float(width) / float(height), 0.01f, 100.0f);
-        return {projection * glm::lookAt(eye, target, glm::vec3(0, 0, 1)), eye};
-    }
-    std::unique_ptr<gi::LightSkinIllumination> technique(const gi::LightSkinSettings& settings) const {
-        auto t = gi::LightSkinIllumination::create(settings, [this](const gi::MeshInstance& instance) {
-            return gi::sparsePointsFromVertices(*instance.mesh, sparseCounts[instance.meshId]);
-        });
-        t->prepare(instances);
-        return t;
-    }
-};
+/// Frames are rendered with explicit inputs (see render() below).
+using Rig = GpuRig;
 
 struct Frame {
     std::vector<glm::vec4> image, gather, vertex;

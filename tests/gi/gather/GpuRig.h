@@ -1,0 +1,70 @@
+#pragma once
+// A small GPU scene for the LightSkin GL tests: meshes with their sparse-point counts, a
+// SimpleGBuffer, an RGBA32F output texture and a camera looking at `target` from `eye` (world
+// metres, z up). Build with add() ... upload(), then make techniques with technique(). Needs a
+// current GL context (the GlTest fixture); the rig owns every GL object it creates.
+#include <lightskin/core/Material.h>
+#include <lightskin/core/TriangleMesh.h>
+#include <lightskin/gi/LightSkinIllumination.h>
+#include <lightskin/gi/SimpleGBuffer.h>
+#include <lightskin/gi/VertexSparsePoints.h>
+#include <lightskin/gl/Objects.h>
+
+#include <glm/ext/matrix_clip_space.hpp>
+#include <glm/ext/matrix_transform.hpp>
+#include <glm/mat4x4.hpp>
+#include <glm/vec3.hpp>
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace lightskin::test {
+
+struct GpuRig {
+    std::vector<TriangleMesh> meshes;
+    std::vector<std::size_t> sparseCounts;
+    std::vector<gi::UploadedMesh> gpu;
+    std::vector<gi::MeshInstance> instances;
+    glm::vec3 eye{1.6f, -1.8f, 1.5f};
+    glm::vec3 target{0.0f, 0.0f, 0.3f};
+    int width = 64, height = 64;
+    gi::SimpleGBuffer gbuffer;
+    gl::Texture output;
+
+    void add(TriangleMesh mesh, const glm::mat4& world_T_model, const Material& material, std::size_t sparseCount) {
+        meshes.push_back(std::move(mesh));
+        sparseCounts.push_back(sparseCount);
+        gi::MeshInstance instance;
+        instance.meshId = std::uint32_t(instances.size());
+        instance.world_T_model = world_T_model;
+        instance.material = material;
+        instances.push_back(instance);
+    }
+    /// Uploads the meshes and creates the G-buffer and output at width x height.
+    void upload() {
+        gpu.clear();
+        for (std::size_t i = 0; i < meshes.size(); ++i) {
+            gpu.push_back(gi::UploadedMesh::create(meshes[i]));
+            instances[i].mesh = &meshes[i];
+            instances[i].gpu = gpu[i].view();
+        }
+        gbuffer = gi::SimpleGBuffer::create(width, height);
+        output = gl::Texture::create2D(GL_RGBA32F, width, height);
+    }
+    gi::ViewParameters view() const {
+        const glm::mat4 projection = glm::perspective(0.8f, float(width) / float(height), 0.01f, 100.0f);
+        return {projection * glm::lookAt(eye, target, glm::vec3(0, 0, 1)), eye};
+    }
+    /// A prepared technique whose sparse points are the first sparseCounts[i] vertices of mesh i.
+    std::unique_ptr<gi::LightSkinIllumination> technique(const gi::LightSkinSettings& settings) const {
+        auto t = gi::LightSkinIllumination::create(settings, [this](const gi::MeshInstance& instance) {
+            return gi::sparsePointsFromVertices(*instance.mesh, sparseCounts[instance.meshId]);
+        });
+        t->prepare(instances);
+        return t;
+    }
+};
+
+} // namespace lightskin::test
