@@ -8,18 +8,16 @@
 // box; every point of the box lies behind the plane of the face with normal (1, 0, -1)/sqrt2
 // (checked below from the scene numbers), so no box VAL can reach that face (the form factor's
 // receiver cosine is <= 0), and the cube, being convex, cannot light itself.
+#include "GlTestEnvironment.h"
 #include "ReplayPipeline.h"
 #include "TestPaths.h"
-
-#include "GlTestEnvironment.h"
 
 #include <lightskin/core/Error.h>
 #include <lightskin/render/Scene.h>
 
+#include <epoxy/gl.h>
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
-
-#include <epoxy/gl.h>
 
 #include <cmath>
 #include <string>
@@ -40,8 +38,8 @@ std::string sceneText(const std::string& technique, bool bounce, const std::stri
       ],
       "lights": [{"type": "point", "position": [-0.05, -0.35, 1.2], "power": 20}],
       "gi": {"technique": ")") +
-           technique + R"(", "sparsePoints": 1024, "glossy": false, "occlusion": false, "virtualBounce": )" + (bounce ? "true" : "false") +
-           extraGi + R"(}})";
+           technique + R"(", "sparsePoints": 1024, "glossy": false, "occlusion": false, "virtualBounce": )" +
+           (bounce ? "true" : "false") + extraGi + R"(}})";
 }
 
 render::Scene parse(const std::string& text) {
@@ -73,7 +71,8 @@ FrameRun runFrame(const std::string& technique, bool bounce) {
     capture::FrameSourceInfo info;
     info.kind = "test";
     info.uri = "bounce-test";
-    info.colourIntrinsics = CameraIntrinsics{.width = kWidth, .height = kHeight, .fx = 300.0, .fy = 300.0, .cx = 160.0, .cy = 120.0};
+    info.colourIntrinsics =
+        CameraIntrinsics{.width = kWidth, .height = kHeight, .fx = 300.0, .fy = 300.0, .cx = 160.0, .cy = 120.0};
     info.depthIntrinsics = info.colourIntrinsics;
     apps::PipelineOptions options;
     options.poseMode = apps::PoseMode::Fixed;
@@ -95,7 +94,8 @@ FrameRun runFrame(const std::string& technique, bool bounce) {
     const float s = std::sqrt(0.5f);
     for (int v = 0; v < indirect.rows; ++v)
         for (int u = 0; u < indirect.cols; ++u) {
-            const cv::Vec4f p = position.at<cv::Vec4f>(v, u), n = normal.at<cv::Vec4f>(v, u), c = indirect.at<cv::Vec4f>(v, u);
+            const cv::Vec4f p = position.at<cv::Vec4f>(v, u), n = normal.at<cv::Vec4f>(v, u),
+                            c = indirect.at<cv::Vec4f>(v, u);
             if (p[3] < 0.5f || p[0] < -0.14f) continue; // not covered, or the box (x <= -0.15)
             const double luminance = 0.2126 * double(c[0]) + 0.7152 * double(c[1]) + 0.0722 * double(c[2]);
             ++run.faces.cubePixels;
@@ -167,7 +167,8 @@ TEST_F(VirtualBounce, OnLightsTheFaceTowardTheLitBoxOnly) {
     const double relative = std::abs(lightSkin.faces.total - brute.faces.total) / brute.faces.total;
     std::printf("RSM VALs %lld; cube pixels toward %d, away %d\n", static_cast<long long>(lightSkin.out.rsmValCount),
                 lightSkin.faces.towardPixels, lightSkin.faces.awayPixels);
-    std::printf("cube indirect sum: lightskin %.6g, brute force %.6g, relative difference %.4f; toward/away mean (lightskin) %.4g / %.4g\n",
+    std::printf("cube indirect sum: lightskin %.6g, brute force %.6g, relative difference %.4f; toward/away mean "
+                "(lightskin) %.4g / %.4g\n",
                 lightSkin.faces.total, brute.faces.total, relative, towardMean, awayMean);
     EXPECT_LT(relative, 0.02);
 }
