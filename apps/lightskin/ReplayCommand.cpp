@@ -245,6 +245,8 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
             rf.trackingReason = output.tracking.reason != nullptr ? output.tracking.reason : "";
             rf.world_T_camera = output.world_T_camera;
             rf.valCount = output.valCount;
+            rf.rsmValCount = output.rsmValCount;
+            rf.valsDropped = output.valsDropped;
             rf.cpuTimes = output.cpuTimes;
             rf.gpuTimes = output.gpuTimes;
             rf.totalMs = output.totalMs;

@@ -7,6 +7,7 @@
 #include <lightskin/gi/BruteForceIllumination.h>
 #include <lightskin/gi/LightSkinIllumination.h>
 #include <lightskin/gi/ValGenerator.h>
+#include <lightskin/gi/ValSetMerger.h>
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/render/NullIndirectIllumination.h>
 #include <lightskin/tracking/TagWorld.h>
@@ -20,6 +21,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numbers>
 #include <span>
 
 namespace lightskin::apps {
@@ -107,6 +109,21 @@ std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettin
         return gi::BruteForceIllumination::create(s);
     }
     return std::make_unique<render::NullIndirectIllumination>();
+}
+
+std::vector<gi::VirtualLight> virtualLightsFromScene(const render::Scene& scene) {
+    std::vector<gi::VirtualLight> lights;
+    lights.reserve(scene.lights.size());
+    for (const render::SceneLight& l : scene.lights) {
+        gi::VirtualLight v;
+        v.type = l.type == render::LightType::Spot ? gi::VirtualLight::Type::Spot : gi::VirtualLight::Type::Point;
+        v.position = l.position;
+        v.direction = l.direction;
+        v.spotHalfAngle = std::min(1.5f, glm::radians(l.coneAngleDegrees + 0.5f * l.coneFalloffDegrees));
+        v.intensity = l.power / float(4.0 * std::numbers::pi);
+        lights.push_back(v);
+    }
+    return lights;
 }
 
 void parseView(const std::string& text, render::DebugView& view, Overlay& overlay) {
@@ -246,6 +263,12 @@ struct FramePipeline::State {
     std::optional<tracking::PoseTracker> tracker;
     std::optional<gi::ValGenerator> vals;
     bool valsUsable = false;
+    // gi.virtualBounce with lights: RSM VALs merged after the depth VALs (all sized at creation).
+    std::vector<gi::VirtualLight> virtualLights;
+    std::optional<gi::ReflectiveShadowMap> rsm;
+    std::optional<gi::ValSetMerger> merger;
+    gl::GpuStageTimer rsmTimer;
+    std::vector<gl::StageTime> rsmTimes;
     render::Compositor compositor;
     capture::BilateralDepthFilter depthFilter; // KinectFusion defaults (capture/DepthFilter.h)
     cv::Mat depthMetres, virtualColour, virtualDepth, virtualLinear, srgbToLinearTable;
@@ -286,6 +309,20 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
     } else {
         log::warning(source.uri + ": depth is not registered to colour; no VALs and no occlusion by real geometry");
     }
+    if (scene.gi.virtualBounce && scene.lights.empty()) log::info("gi.virtualBounce: the scene has no lights, nothing to bounce");
+    if (scene.gi.virtualBounce && !scene.lights.empty()) {
+        s.virtualLights = virtualLightsFromScene(scene);
+        gi::RsmSettings rsm;
+        rsm.resolution = scene.gi.rsmResolution;
+        rsm.maxLights = int(s.virtualLights.size());
+        s.rsm = gi::ReflectiveShadowMap::create(rsm);
+        // Depth VALs first, then every RSM texel of every light face: nothing can be dropped.
+        const std::uint32_t depthCapacity = s.vals ? s.vals->capacity() : 0u;
+        s.merger = gi::ValSetMerger::create(depthCapacity + s.rsm->capacity());
+        s.rsmTimer = gl::GpuStageTimer::create(1);
+        log::info("gi.virtualBounce: " + std::to_string(s.virtualLights.size()) + " light(s), RSM " + std::to_string(rsm.resolution) + "^2 per face, " +
+                  std::to_string(s.merger->capacity()) + " VALs merged at most");
+    }
     p->setGiSettings(scene.gi);
     gl::DebugOutput::throwIfErrors("pipeline creation");
     return p;
@@ -312,6 +349,8 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     std::size_t used = 0;
     out.frameIndex = frame.index;
     out.valCount = 0;
+    out.rsmValCount = -1;
+    out.valsDropped = -1;
     out.meanRelativeErrorVsBruteForce = -1.0;
     out.vplSegments = -1;
     out.vplNonFinite = -1;
@@ -368,6 +407,24 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
         out.valCount = valSet.count;
     }
     addTime(out.cpuTimes, used, "vals", msSince(t));
+
+    // VALs from the virtual lights (one bounce between virtual objects), after the depth VALs.
+    bool rsmTimed = false;
+    if (runGi && gi_.virtualBounce && s.rsm) {
+        t = Clock::now();
+        s.rsmTimer.beginFrame();
+        s.rsmTimer.begin("rsm");
+        const gi::ValSetView sets[2] = {valSet, s.rsm->generate(s.virtualLights, renderer_->instances())};
+        valSet = s.merger->merge(sets);
+        s.rsmTimer.end();
+        rsmTimed = true;
+        out.rsmValCount = sets[1].count;
+        out.valsDropped = s.merger->lastDropped();
+        if (out.valsDropped > 0)
+            log::warning("frame " + std::to_string(frame.index) + ": " + std::to_string(out.valsDropped) + " of " +
+                         std::to_string(sets[0].count + sets[1].count) + " VALs dropped (merged set full)");
+        addTime(out.cpuTimes, used, "rsm", msSince(t));
+    }
 
     // G-buffer and indirect light.
     t = Clock::now();
@@ -460,6 +517,10 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     out.cpuTimes.resize(used);
 
     r.lastStageTimes(out.gpuTimes);
+    if (rsmTimed) {
+        s.rsmTimer.collect(s.rsmTimes);
+        out.gpuTimes.insert(out.gpuTimes.end(), s.rsmTimes.begin(), s.rsmTimes.end());
+    }
     if (runGi) {
         s.technique->lastStageTimes(s.scratchTimes);
         out.gpuTimes.insert(out.gpuTimes.end(), s.scratchTimes.begin(), s.scratchTimes.end());

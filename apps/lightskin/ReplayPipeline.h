@@ -1,13 +1,15 @@
 #pragma once
 // The per-frame pipeline shared by `lightskin replay` and `lightskin live`:
 //   depth (metres, filtered) -> pose (ground truth | AprilTag tracking | fixed) -> VALs from depth
-//   -> G-buffer -> GI technique (gi::IndirectIllumination) -> direct + indirect, tone mapped
+//   [+ VALs from reflective shadow maps of the virtual meshes per scene light (gi.virtualBounce),
+//   merged after the depth VALs] -> G-buffer -> GI technique (gi::IndirectIllumination) -> direct + indirect, tone mapped
 //   -> composite over the colour image (with GI, and without GI for the figure-4 comparison).
 // Everything is sized on the first frame and reused; needs a current GL 4.5 context.
 
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/RgbdFrame.h>
 #include <lightskin/gi/IndirectIllumination.h>
+#include <lightskin/gi/ReflectiveShadowMap.h>
 #include <lightskin/gl/GpuTimer.h>
 #include <lightskin/render/Compositor.h>
 #include <lightskin/render/Renderer.h>
@@ -30,6 +32,12 @@ PoseMode parsePoseMode(const std::string& text);
 /// build does not have fall back to "none" with a warning (the pipeline runs without GI).
 /// LightSkin takes the sparse points the renderer prepared (Renderer::setScene with sparse points).
 std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettings& settings, const render::Renderer& renderer);
+
+/// The scene's lights as RSM lights: intensity I = power / (4 pi) W/sr (as the renderer's direct
+/// light, for points and spots alike); a spot's uniform RSM cone has the half angle
+/// coneAngleDegrees + coneFalloffDegrees / 2 (the middle of the renderer's smooth falloff, which
+/// keeps the spot's power to first order in the falloff width), clamped to 1.5 rad (86 degrees).
+std::vector<gi::VirtualLight> virtualLightsFromScene(const render::Scene& scene);
 
 /// Debug overlays drawn over the with-GI composite (beyond the renderer's DebugView):
 /// Vals: every VAL as a dot at its position, coloured by its flux (normalised to the frame's
@@ -84,7 +92,9 @@ struct FrameOutput {
     cv::Mat linearIndirect;
     tracking::TrackingResult tracking;
     std::optional<Pose> world_T_camera;
-    std::uint32_t valCount = 0;
+    std::uint32_t valCount = 0;     ///< VALs from depth
+    std::int64_t rsmValCount = -1;  ///< gi.virtualBounce: VALs from the virtual lights' RSMs, else -1
+    std::int64_t valsDropped = -1;  ///< gi.virtualBounce: VALs beyond the merged set's capacity (logged; 0 normally), else -1
     double meanRelativeErrorVsBruteForce = -1.0; ///< error view only: mean |a-b| / mean |b| over covered pixels
     std::int64_t vplSegments = -1;  ///< vpl view only: vertex VPLs drawn (in front of the camera), else -1
     std::int64_t vplNonFinite = -1; ///< vpl view only: vertices (of all) whose l'''_d or L'''_d is not finite, else -1

@@ -100,6 +100,8 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
         if (!f.trackingReason.empty()) j["trackingReason"] = f.trackingReason;
         j["world_T_camera"] = f.world_T_camera ? poseJson(*f.world_T_camera) : nlohmann::json(nullptr);
         j["vals"] = f.valCount;
+        if (f.rsmValCount >= 0) j["rsmVals"] = f.rsmValCount;
+        if (f.valsDropped >= 0) j["valsDropped"] = f.valsDropped;
         j["totalMs"] = f.totalMs;
         if (f.errorVsBruteForce >= 0.0) j["meanRelativeErrorVsBruteForce"] = f.errorVsBruteForce;
         if (f.vplSegments >= 0) j["vplSegments"] = f.vplSegments;
@@ -156,6 +158,16 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
     if (adaptiveFrames > 0)
         md += "| static-content reuse (adaptive) | " + std::to_string(reusedFrames) + " of " + std::to_string(adaptiveFrames) +
               " frames reused the VPLs |\n";
+    std::int64_t bounceFrames = 0, rsmVals = 0, dropped = 0;
+    for (const ReportFrame& f : frames)
+        if (f.rsmValCount >= 0) {
+            ++bounceFrames;
+            rsmVals += f.rsmValCount;
+            dropped += std::max<std::int64_t>(0, f.valsDropped);
+        }
+    if (bounceFrames > 0)
+        md += "| virtual bounce (RSM) | " + fixed(double(rsmVals) / double(bounceFrames), 0) + " RSM VALs per frame (mean of " +
+              std::to_string(bounceFrames) + " frames), " + std::to_string(dropped) + " VALs dropped in all" + (dropped > 0 ? " (merged set full!)" : "") + " |\n";
     md += "\n";
 
     md += "## Mean stage times\n\n| stage | kind | ms |\n|---|---|---|\n";
@@ -174,10 +186,10 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
     if (shown == 0) md += "No images were written (see `--frames`).\n\n";
 
     md += "## Per frame: tracking, pose track (world_T_camera translation, metres) and stage times (ms)\n\n";
-    md += "| frame | tracking | x | y | z | VALs |";
+    md += std::string("| frame | tracking | x | y | z | VALs |") + (bounceFrames > 0 ? " RSM VALs |" : "");
     for (const auto& name : cpuStages) md += " " + name + " |";
     for (const auto& name : gpuStages) md += " GPU " + name + " |";
-    md += " total |\n|---|---|---|---|---|---|";
+    md += std::string(" total |\n|---|---|---|---|---|---|") + (bounceFrames > 0 ? "---|" : "");
     for (std::size_t i = 0; i < cpuStages.size() + gpuStages.size() + 1; ++i) md += "---|";
     md += "\n";
     for (const ReportFrame& f : frames) {
@@ -189,6 +201,7 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
             md += "- | - | - | ";
         }
         md += std::to_string(f.valCount) + " |";
+        if (bounceFrames > 0) md += " " + (f.rsmValCount >= 0 ? std::to_string(f.rsmValCount) : std::string("-")) + " |";
         for (const auto& name : cpuStages) {
             double v = NAN;
             for (const auto& st : f.cpuTimes) if (st.name == name) v = st.milliseconds;

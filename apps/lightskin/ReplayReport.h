@@ -1,5 +1,5 @@
 #pragma once
-// The replay report: report.json (every frame's pose, tracking state, VAL count and stage times)
+// The replay report: report.json (every frame's pose, tracking state, VAL counts and stage times)
 // and report.md (summary, side-by-side images, per-stage timings per frame, pose track).
 
 #include "ReplayPipeline.h"
@@ -15,7 +15,9 @@ struct ReportFrame {
     std::string trackingState;
     std::string trackingReason;
     std::optional<Pose> world_T_camera;
-    std::uint32_t valCount = 0;
+    std::uint32_t valCount = 0;      ///< VALs from depth
+    std::int64_t rsmValCount = -1;   ///< gi.virtualBounce: VALs from the virtual lights' RSMs, else < 0
+    std::int64_t valsDropped = -1;   ///< gi.virtualBounce: VALs that did not fit the merged set, else < 0
     std::vector<gl::StageTime> cpuTimes, gpuTimes;
     double totalMs = 0.0;
     std::int64_t vplSegments = -1;  ///< --view vpl: vertex VPLs drawn, else < 0

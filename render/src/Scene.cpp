@@ -185,7 +185,8 @@ SceneLight readLight(const Reader& r, const json& value, const std::string& p) {
 
 GiSettings readGi(const Reader& r, const json& value, const std::string& p) {
     r.object(value, p);
-    r.allowOnly(value, p, {"technique", "sparsePoints", "valStride", "kCache", "diffuse", "glossy", "occlusion"});
+    r.allowOnly(value, p, {"technique", "sparsePoints", "valStride", "kCache", "diffuse", "glossy", "occlusion", "virtualBounce",
+                            "rsmResolution"});
     GiSettings g;
     if (value.contains("technique")) {
         g.technique = r.string(value["technique"], p + "/technique");
@@ -201,6 +202,8 @@ GiSettings readGi(const Reader& r, const json& value, const std::string& p) {
     if (value.contains("diffuse")) g.diffuse = r.boolean(value["diffuse"], p + "/diffuse");
     if (value.contains("glossy")) g.glossy = r.boolean(value["glossy"], p + "/glossy");
     if (value.contains("occlusion")) g.occlusion = r.boolean(value["occlusion"], p + "/occlusion");
+    if (value.contains("virtualBounce")) g.virtualBounce = r.boolean(value["virtualBounce"], p + "/virtualBounce");
+    if (value.contains("rsmResolution")) g.rsmResolution = r.integer(value["rsmResolution"], p + "/rsmResolution", 8, 256);
     return g;
 }
 

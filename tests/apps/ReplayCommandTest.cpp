@@ -211,6 +211,8 @@ TEST(ReplayCommand, LightSkinTechniqueAddsIndirectLightToTheComparison) {
     EXPECT_EQ(report["framesRead"], 2);
     EXPECT_EQ(report["technique"], "lightskin");
     EXPECT_GT(report["frames"][0]["vals"].get<int>(), 100);
+    EXPECT_FALSE(report["frames"][0].contains("rsmVals")); // gi.virtualBounce is off by default
+    EXPECT_FALSE(report["frames"][0]["cpuMs"].contains("rsm"));
     const cv::Mat compare = cv::imread((out / "compare" / "000000.png").string(), cv::IMREAD_COLOR);
     ASSERT_EQ(compare.size(), cv::Size(2 * kWidth, kHeight));
     const cv::Rect belowCaptions(0, 18, kWidth, kHeight - 18);
@@ -279,4 +281,34 @@ TEST(ReplayCommand, LinearOutWritesFloatImagesMatchingThePngs) {
         std::printf("frame %d: max code difference %.0f, %d values off the 8-bit grid, indirect max %.4f\n",
                     frame["index"].get<int>(), maxCodeDifference, offGridValues, highest);
     }
+}
+
+TEST(ReplayCommand, VirtualBounceReportsRsmValsAndTime) {
+    const fs::path scratch = test::scratchDir("replay_bounce");
+    const fs::path recording = writeRecording(scratch / "recording");
+    const std::string scene = R"({"version": 1,
+      "objects": [{"mesh": "cube.obj", "transform": {"translation": [-0.1, 0, -0.3], "scale": 0.15}, "material": {"diffuseAlbedo": 0.9}},
+                  {"mesh": "cube.obj", "transform": {"translation": [0.12, 0, -0.3], "scale": 0.1}, "material": {"diffuseAlbedo": 0.5}}],
+      "lights": [{"type": "point", "position": [0.0, 0.3, 0.0], "power": 5}],
+      "gi": {"technique": "lightskin", "sparsePoints": 64, "valStride": 2, "virtualBounce": true, "rsmResolution": 32}})";
+    const fs::path scenePath = writeScene(scratch, scene);
+    const fs::path out = scratch / "out";
+    const RunResult r = runLightskin("replay " + recording.string() + " --scene " + scenePath.string() + " --out " + out.string() +
+                                         " --max-frames 2 --no-video --no-compare",
+                                     scratch);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
+    ASSERT_EQ(report["frames"].size(), 2u);
+    for (const auto& frame : report["frames"]) {
+        // Both cubes seen from the light cover some of its 6 x 32^2 texels; nothing is dropped.
+        EXPECT_GT(frame["rsmVals"].get<int>(), 10) << frame.dump();
+        EXPECT_LT(frame["rsmVals"].get<int>(), 6 * 32 * 32);
+        EXPECT_EQ(frame["valsDropped"].get<int>(), 0);
+        EXPECT_GT(frame["vals"].get<int>(), 100); // depth VALs still counted on their own
+        EXPECT_GT(frame["cpuMs"]["rsm"].get<double>(), 0.0);
+        EXPECT_GE(frame["gpuMs"]["rsm"].get<double>(), 0.0);
+    }
+    const std::string md = test::readText(out / "report.md");
+    EXPECT_NE(md.find("| virtual bounce (RSM) |"), std::string::npos);
+    EXPECT_NE(md.find(" RSM VALs |"), std::string::npos);
 }

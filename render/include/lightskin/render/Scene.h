@@ -56,6 +56,11 @@ struct GiSettings {
     bool diffuse = true;
     bool glossy = true;
     bool occlusion = true;
+    /// One bounce between virtual objects: per frame, a reflective shadow map of the virtual
+    /// meshes per scene light gives VALs (gi::ReflectiveShadowMap) that are merged after the
+    /// depth VALs. Off by default: opt-in, so existing scenes keep their images and frame times.
+    bool virtualBounce = false;
+    int rsmResolution = 64;              ///< RSM texels per side per light face (spot: 1 face, point: 6)
 };
 
 struct CompositeSettings {
