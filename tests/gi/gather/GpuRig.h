@@ -29,6 +29,7 @@ struct GpuRig {
     std::vector<gi::MeshInstance> instances;
     glm::vec3 eye{1.6f, -1.8f, 1.5f};
     glm::vec3 target{0.0f, 0.0f, 0.3f};
+    float sceneScale = 1.0f; ///< scales the near and far planes (0.01 and 100 m at 1)
     int width = 64, height = 64;
     gi::SimpleGBuffer gbuffer;
     gl::Texture output;
@@ -54,14 +55,19 @@ struct GpuRig {
         output = gl::Texture::create2D(GL_RGBA32F, width, height);
     }
     gi::ViewParameters view() const {
-        const glm::mat4 projection = glm::perspective(0.8f, float(width) / float(height), 0.01f, 100.0f);
+        const glm::mat4 projection =
+            glm::perspective(0.8f, float(width) / float(height), 0.01f * sceneScale, 100.0f * sceneScale);
         return {projection * glm::lookAt(eye, target, glm::vec3(0, 0, 1)), eye};
     }
-    /// A prepared technique whose sparse points are the first sparseCounts[i] vertices of mesh i.
-    std::unique_ptr<gi::LightSkinIllumination> technique(const gi::LightSkinSettings& settings) const {
-        auto t = gi::LightSkinIllumination::create(settings, [this](const gi::MeshInstance& instance) {
+    /// Sparse points of mesh i: its first sparseCounts[i] vertices. Valid while the rig lives.
+    gi::SparsePointProvider provider() const {
+        return [this](const gi::MeshInstance& instance) {
             return gi::sparsePointsFromVertices(*instance.mesh, sparseCounts[instance.meshId]);
-        });
+        };
+    }
+    /// A prepared technique with provider()'s sparse points.
+    std::unique_ptr<gi::LightSkinIllumination> technique(const gi::LightSkinSettings& settings) const {
+        auto t = gi::LightSkinIllumination::create(settings, provider());
         t->prepare(instances);
         return t;
     }

@@ -9,6 +9,7 @@
 // where it is near the horizon) => 2e-3. Pixels add the G-buffer position's float error => 3e-3.
 #include "GatherTestScenes.h"
 #include "GlTestEnvironment.h"
+#include "GpuRig.h"
 
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/BruteForceIllumination.h>
@@ -42,42 +43,13 @@ struct PaperSetup {
     bool occlusion;
 };
 
-struct Scene {
-    std::vector<TriangleMesh> meshes;
-    std::vector<std::size_t> sparseCounts;
-    std::vector<gi::UploadedMesh> gpu;
-    std::vector<gi::MeshInstance> instances;
+/// The shared rig (its own G-buffer and output are not used here: each run makes its own) with
+/// the VALs of the scene and a view from above the origin.
+struct Scene : GpuRig {
     std::vector<gi::VirtualAreaLight> vals;
-    glm::vec3 eye{2.0f, -2.0f, 2.0f};
-    glm::vec3 target{0.0f};
-    float sceneScale = 1.0f;
-    int width = 64, height = 64;
-
-    void add(TriangleMesh mesh, const glm::mat4& world_T_model, const Material& material, std::size_t sparseCount) {
-        meshes.push_back(std::move(mesh));
-        sparseCounts.push_back(sparseCount);
-        gi::MeshInstance instance;
-        instance.meshId = std::uint32_t(instances.size());
-        instance.world_T_model = world_T_model;
-        instance.material = material;
-        instances.push_back(instance);
-    }
-    void upload() {
-        gpu.clear();
-        for (std::size_t i = 0; i < meshes.size(); ++i) {
-            gpu.push_back(gi::UploadedMesh::create(meshes[i]));
-            instances[i].mesh = &meshes[i];
-            instances[i].gpu = gpu[i].view();
-        }
-    }
-    gi::ViewParameters view() const {
-        const glm::mat4 projection = glm::perspective(0.8f, float(width) / float(height), 0.01f * sceneScale, 100.0f * sceneScale);
-        return {projection * glm::lookAt(eye, target, glm::vec3(0, 0, 1)), eye};
-    }
-    gi::SparsePointProvider provider() const {
-        return [this](const gi::MeshInstance& instance) {
-            return gi::sparsePointsFromVertices(*instance.mesh, sparseCounts[instance.meshId]);
-        };
+    Scene() {
+        eye = {2.0f, -2.0f, 2.0f};
+        target = glm::vec3(0.0f);
     }
 };
 
