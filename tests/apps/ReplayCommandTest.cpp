@@ -1,11 +1,10 @@
 // End-to-end tests of `lightskin replay` (the built program, run as a user would).
+#include "TestPaths.h"
+
 #include <lightskin/capture/Recording.h>
 #include <lightskin/eval/ColourSpace.h>
 
-#include "TestPaths.h"
-
 #include <gtest/gtest.h>
-
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -39,10 +38,12 @@ fs::path writeRecording(const fs::path& folder) {
         frame.depth.colRange(0, kWidth / 3).setTo(800);
         frame.colour.create(kHeight, kWidth, CV_8UC3);
         for (int v = 0; v < kHeight; ++v)
-            for (int u = 0; u < kWidth; ++u) frame.colour.at<cv::Vec3b>(v, u) = cv::Vec3b(std::uint8_t(u * 3), std::uint8_t(v * 4), 120);
+            for (int u = 0; u < kWidth; ++u)
+                frame.colour.at<cv::Vec3b>(v, u) = cv::Vec3b(std::uint8_t(u * 3), std::uint8_t(v * 4), 120);
         frame.colourTimestampSeconds = frame.depthTimestampSeconds = i / 30.0;
         // Camera 1 m in front of the world origin looking at it: world z towards the camera.
-        frame.groundTruth_world_T_camera = Pose(glm::angleAxis(glm::pi<double>(), glm::dvec3(1, 0, 0)), {0.01 * i, 0.0, 1.0});
+        frame.groundTruth_world_T_camera =
+            Pose(glm::angleAxis(glm::pi<double>(), glm::dvec3(1, 0, 0)), {0.01 * i, 0.0, 1.0});
         writer.write(frame);
     }
     writer.finish();
@@ -71,7 +72,8 @@ struct RunResult {
 
 RunResult runLightskin(const std::string& arguments, const fs::path& scratch) {
     const fs::path out = scratch / "stdout.txt", err = scratch / "stderr.txt";
-    const std::string command = std::string(LIGHTSKIN_PROGRAM) + " " + arguments + " > " + out.string() + " 2> " + err.string();
+    const std::string command =
+        std::string(LIGHTSKIN_PROGRAM) + " " + arguments + " > " + out.string() + " 2> " + err.string();
     RunResult r;
     r.exitCode = test::runShell(command);
     r.out = test::readText(out);
@@ -86,14 +88,36 @@ std::size_t countFiles(const fs::path& folder, const std::string& extension) {
     return n;
 }
 
+/// `lightskin replay` of a fresh test recording (scratch/recording) with the scene `sceneJson`,
+/// outputs in scratch/out, `options` appended to the command line.
+struct ReplayRun {
+    fs::path recording, out;
+    RunResult result;
+};
+
+ReplayRun replayTestRecording(const fs::path& scratch, const std::string& sceneJson, const std::string& options = "") {
+    ReplayRun run;
+    run.recording = writeRecording(scratch / "recording");
+    run.out = scratch / "out";
+    const fs::path scene = writeScene(scratch, sceneJson);
+    run.result = runLightskin("replay " + run.recording.string() + " --scene " + scene.string() + " --out " +
+                                  run.out.string() + options,
+                              scratch);
+    return run;
+}
+
+// A 0.2 m cube 0.3 m in front of the camera, turned 45 degrees toward the wall beside it, with LightSkin GI.
+const std::string kGiScene = R"({"version": 1,
+      "objects": [{"mesh": "cube.obj", "transform": {"translation": [-0.05, 0, -0.3], "rotationDegrees": [0, -45, 0], "scale": 0.2},
+                   "material": {"diffuseAlbedo": 0.8}}],
+      "lights": [{"type": "point", "position": [0.3, 0.2, 1.0], "power": 5}],
+      "gi": {"technique": "lightskin", "sparsePoints": 64, "valStride": 2}})";
+
 } // namespace
 
 TEST(ReplayCommand, WritesEveryFrameAVideoWithTheFrameCountAndAReport) {
     const fs::path scratch = test::scratchDir("replay_all");
-    const fs::path recording = writeRecording(scratch / "recording");
-    const fs::path scene = writeScene(scratch, kScene);
-    const fs::path out = scratch / "out";
-    const RunResult r = runLightskin("replay " + recording.string() + " --scene " + scene.string() + " --out " + out.string(), scratch);
+    const auto [recording, out, r] = replayTestRecording(scratch, kScene);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_EQ(countFiles(out / "frames", ".png"), std::size_t(kFrames));
 
@@ -131,12 +155,7 @@ TEST(ReplayCommand, WritesEveryFrameAVideoWithTheFrameCountAndAReport) {
 
 TEST(ReplayCommand, FrameListChoosesThePngsButEveryFrameIsRead) {
     const fs::path scratch = test::scratchDir("replay_list");
-    const fs::path recording = writeRecording(scratch / "recording");
-    const fs::path scene = writeScene(scratch, kScene);
-    const fs::path out = scratch / "out";
-    const RunResult r = runLightskin("replay " + recording.string() + " --scene " + scene.string() + " --out " + out.string() +
-                                         " --frames 1,3-4 --no-video --pose fixed",
-                                     scratch);
+    const auto [recording, out, r] = replayTestRecording(scratch, kScene, " --frames 1,3-4 --no-video --pose fixed");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_EQ(countFiles(out / "frames", ".png"), 3u);
     EXPECT_TRUE(fs::exists(out / "frames" / "000003.png"));
@@ -148,12 +167,7 @@ TEST(ReplayCommand, FrameListChoosesThePngsButEveryFrameIsRead) {
 
 TEST(ReplayCommand, AviFallbackHasTheFrameCount) {
     const fs::path scratch = test::scratchDir("replay_avi");
-    const fs::path recording = writeRecording(scratch / "recording");
-    const fs::path scene = writeScene(scratch, kScene);
-    const fs::path out = scratch / "out";
-    const RunResult r = runLightskin("replay " + recording.string() + " --scene " + scene.string() + " --out " + out.string() +
-                                         " --video-format avi --frames 0",
-                                     scratch);
+    const auto [recording, out, r] = replayTestRecording(scratch, kScene, " --video-format avi --frames 0");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
     EXPECT_EQ(report["video"], "replay.avi");
@@ -169,7 +183,9 @@ TEST(ReplayCommand, BadSceneAndMissingMeshGiveClearErrorsAndFail) {
     std::string bad = kScene;
     bad.replace(bad.find("\"diffuseAlbedo\": [0.9, 0.2, 0.1]"), 32, "\"specularExponent\": 0.5");
     const fs::path scene = writeScene(scratch, bad);
-    RunResult r = runLightskin("replay " + recording.string() + " --scene " + scene.string() + " --out " + (scratch / "out").string(), scratch);
+    RunResult r = runLightskin("replay " + recording.string() + " --scene " + scene.string() + " --out " +
+                                   (scratch / "out").string(),
+                               scratch);
     EXPECT_NE(r.exitCode, 0);
     EXPECT_NE(r.err.find("/objects/0/material/specularExponent: expected a number >= 1"), std::string::npos) << r.err;
 
@@ -177,7 +193,9 @@ TEST(ReplayCommand, BadSceneAndMissingMeshGiveClearErrorsAndFail) {
     missing.replace(missing.find("cube.obj"), 8, "gone.obj");
     fs::create_directories(scratch / "missing");
     const fs::path missingScene = writeScene(scratch / "missing", missing);
-    r = runLightskin("replay " + recording.string() + " --scene " + missingScene.string() + " --out " + (scratch / "out2").string(), scratch);
+    r = runLightskin("replay " + recording.string() + " --scene " + missingScene.string() + " --out " +
+                         (scratch / "out2").string(),
+                     scratch);
     EXPECT_NE(r.exitCode, 0);
     EXPECT_NE(r.err.find("/objects/0/mesh: mesh file"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("gone.obj' does not exist"), std::string::npos) << r.err;
@@ -195,17 +213,7 @@ TEST(ReplayCommand, BadSceneAndMissingMeshGiveClearErrorsAndFail) {
 // face tilted toward the wall beside it can receive their light: the cube is turned 45 degrees.
 TEST(ReplayCommand, LightSkinTechniqueAddsIndirectLightToTheComparison) {
     const fs::path scratch = test::scratchDir("replay_gi");
-    const fs::path recording = writeRecording(scratch / "recording");
-    const std::string scene = R"({"version": 1,
-      "objects": [{"mesh": "cube.obj", "transform": {"translation": [-0.05, 0, -0.3], "rotationDegrees": [0, -45, 0], "scale": 0.2},
-                   "material": {"diffuseAlbedo": 0.8}}],
-      "lights": [{"type": "point", "position": [0.3, 0.2, 1.0], "power": 5}],
-      "gi": {"technique": "lightskin", "sparsePoints": 64, "valStride": 2}})";
-    const fs::path scenePath = writeScene(scratch, scene);
-    const fs::path out = scratch / "out";
-    const RunResult r = runLightskin("replay " + recording.string() + " --scene " + scenePath.string() + " --out " + out.string() +
-                                         " --frames 0 --max-frames 2",
-                                     scratch);
+    const auto [recording, out, r] = replayTestRecording(scratch, kGiScene, " --frames 0 --max-frames 2");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
     EXPECT_EQ(report["framesRead"], 2);
@@ -233,18 +241,9 @@ TEST(ReplayCommand, LightSkinTechniqueAddsIndirectLightToTheComparison) {
 TEST(ReplayCommand, LinearOutWritesFloatImagesMatchingThePngs) {
     ASSERT_TRUE(cv::haveImageWriter(".exr")) << "this test expects Debian's OpenCV with OpenEXR";
     const fs::path scratch = test::scratchDir("replay_linear");
-    const fs::path recording = writeRecording(scratch / "recording");
-    const std::string scene = R"({"version": 1,
-      "objects": [{"mesh": "cube.obj", "transform": {"translation": [-0.05, 0, -0.3], "rotationDegrees": [0, -45, 0], "scale": 0.2},
-                   "material": {"diffuseAlbedo": 0.8}}],
-      "lights": [{"type": "point", "position": [0.3, 0.2, 1.0], "power": 5}],
-      "gi": {"technique": "lightskin", "sparsePoints": 64, "valStride": 2}})";
-    const fs::path scenePath = writeScene(scratch, scene);
-    const fs::path out = scratch / "out";
     constexpr int kReplayed = 3;
-    const RunResult r = runLightskin("replay " + recording.string() + " --scene " + scenePath.string() + " --out " + out.string() +
-                                         " --max-frames " + std::to_string(kReplayed) + " --linear-out --no-video",
-                                     scratch);
+    const auto [recording, out, r] = replayTestRecording(
+        scratch, kGiScene, " --max-frames " + std::to_string(kReplayed) + " --linear-out --no-video");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_EQ(countFiles(out / "linear", ".exr"), std::size_t(kReplayed));
     EXPECT_EQ(countFiles(out / "linear-indirect", ".exr"), std::size_t(kReplayed));
@@ -256,7 +255,8 @@ TEST(ReplayCommand, LinearOutWritesFloatImagesMatchingThePngs) {
         EXPECT_EQ(frame["linearNanPixels"], 0);
         EXPECT_EQ(frame["linearInfPixels"], 0);
         const cv::Mat png = cv::imread((out / frame["image"].get<std::string>()).string(), cv::IMREAD_COLOR);
-        const cv::Mat linear = cv::imread((out / frame["linearImage"].get<std::string>()).string(), cv::IMREAD_UNCHANGED);
+        const cv::Mat linear =
+            cv::imread((out / frame["linearImage"].get<std::string>()).string(), cv::IMREAD_UNCHANGED);
         ASSERT_EQ(linear.type(), CV_32FC3);
         ASSERT_EQ(linear.size(), png.size());
         cv::Mat encoded;
@@ -271,7 +271,8 @@ TEST(ReplayCommand, LinearOutWritesFloatImagesMatchingThePngs) {
         const int offGridValues = cv::countNonZero(offGrid.reshape(1));
         EXPECT_GT(offGridValues, 20) << "the linear image looks like the decoded PNG";
         // The indirect light: non-negative, positive on the cube, zero on the camera pixels (corner).
-        const cv::Mat indirect = cv::imread((out / frame["linearIndirectImage"].get<std::string>()).string(), cv::IMREAD_UNCHANGED);
+        const cv::Mat indirect =
+            cv::imread((out / frame["linearIndirectImage"].get<std::string>()).string(), cv::IMREAD_UNCHANGED);
         ASSERT_EQ(indirect.type(), CV_32FC3);
         double lowest = 0.0, highest = 0.0;
         cv::minMaxLoc(indirect.reshape(1), &lowest, &highest);
@@ -285,17 +286,12 @@ TEST(ReplayCommand, LinearOutWritesFloatImagesMatchingThePngs) {
 
 TEST(ReplayCommand, VirtualBounceReportsRsmValsAndTime) {
     const fs::path scratch = test::scratchDir("replay_bounce");
-    const fs::path recording = writeRecording(scratch / "recording");
     const std::string scene = R"({"version": 1,
       "objects": [{"mesh": "cube.obj", "transform": {"translation": [-0.1, 0, -0.3], "scale": 0.15}, "material": {"diffuseAlbedo": 0.9}},
                   {"mesh": "cube.obj", "transform": {"translation": [0.12, 0, -0.3], "scale": 0.1}, "material": {"diffuseAlbedo": 0.5}}],
       "lights": [{"type": "point", "position": [0.0, 0.3, 0.0], "power": 5}],
       "gi": {"technique": "lightskin", "sparsePoints": 64, "valStride": 2, "virtualBounce": true, "rsmResolution": 32}})";
-    const fs::path scenePath = writeScene(scratch, scene);
-    const fs::path out = scratch / "out";
-    const RunResult r = runLightskin("replay " + recording.string() + " --scene " + scenePath.string() + " --out " + out.string() +
-                                         " --max-frames 2 --no-video --no-compare",
-                                     scratch);
+    const auto [recording, out, r] = replayTestRecording(scratch, scene, " --max-frames 2 --no-video --no-compare");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
     ASSERT_EQ(report["frames"].size(), 2u);

@@ -270,13 +270,24 @@ std::vector<gi::VirtualAreaLight> jittered(const std::vector<gi::VirtualAreaLigh
     return out;
 }
 
-TEST_F(LightSkinStaticGLTest, ToleranceModeStaysWithinItsBoundWhileTheStageTimeDrops) {
+/// The tolerance-mode scene: one diffuse sphere (1500 sparse points) lit by a wall emitter beside it.
+Rig diffuseSphereRig() {
     Rig rig;
     Material diffuse;
     rig.add(makeSphere(0.3f, 24, 48), glm::translate(glm::mat4(1.0f), {0.0f, 0.0f, 0.3f}), diffuse, 1500);
     rig.eye = {1.5f, -1.5f, 1.0f};
     rig.upload();
-    const auto base = squareEmitter({0.0f, -1.2f, 0.6f}, {0.0f, 1.0f, -0.2f}, 1.6f, 48, {1.0f, 0.9f, 0.8f});
+    return rig;
+}
+
+/// The wall emitter of diffuseSphereRig(): 48 x 48 discs on a 1.6 m square.
+std::vector<gi::VirtualAreaLight> wallEmitter() {
+    return squareEmitter({0.0f, -1.2f, 0.6f}, {0.0f, 1.0f, -0.2f}, 1.6f, 48, {1.0f, 0.9f, 0.8f});
+}
+
+TEST_F(LightSkinStaticGLTest, ToleranceModeStaysWithinItsBoundWhileTheStageTimeDrops) {
+    Rig rig = diffuseSphereRig();
+    const auto base = wallEmitter();
     std::vector<std::uint32_t> keys(base.size());
     for (std::uint32_t i = 0; i < keys.size(); ++i) keys[i] = std::uint32_t(keys.size()) - 1 - i; // any stable naming
     const gl::Buffer keyBuffer = gl::Buffer::create(GLsizeiptr(keys.size() * sizeof(std::uint32_t)), keys.data(), 0);
@@ -338,12 +349,8 @@ TEST_F(LightSkinStaticGLTest, ToleranceModeStaysWithinItsBoundWhileTheStageTimeD
 }
 
 TEST_F(LightSkinStaticGLTest, ProbeModeHoldsTheToleranceAtTheProbesWithoutKeys) {
-    Rig rig;
-    Material diffuse;
-    rig.add(makeSphere(0.3f, 24, 48), glm::translate(glm::mat4(1.0f), {0.0f, 0.0f, 0.3f}), diffuse, 1500);
-    rig.eye = {1.5f, -1.5f, 1.0f};
-    rig.upload();
-    const auto base = squareEmitter({0.0f, -1.2f, 0.6f}, {0.0f, 1.0f, -0.2f}, 1.6f, 48, {1.0f, 0.9f, 0.8f});
+    Rig rig = diffuseSphereRig();
+    const auto base = wallEmitter();
     const auto set = [&](const gl::Buffer& b, std::uint64_t generation) {
         return gi::ValSetView{b.id(), std::uint32_t(base.size()), generation}; // no keys
     };
