@@ -7,7 +7,7 @@
 // --headless runs the same loop without a window (EGL), for tests and machines without a display.
 #include "Commands.h"
 #include "LiveWindowDisplay.h"
-#include "ReplayPipeline.h"
+#include <lightskin/mr/FramePipeline.h>
 
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/capture/Recording.h>
@@ -46,7 +46,7 @@ struct LiveArgs {
     std::int64_t maxFrames = -1, snapshotAfter = -1;
 };
 
-std::string statusLine(double fps, const FrameOutput& out, const FramePipeline& pipeline, const PipelineOptions& options) {
+std::string statusLine(double fps, const mr::FrameOutput& out, const mr::FramePipeline& pipeline, const mr::PipelineOptions& options) {
     std::string line;
     char text[64];
     std::snprintf(text, sizeof text, "%.1f fps |", fps);
@@ -98,12 +98,12 @@ int runLive(const LiveArgs& args) {
     } else {
         window = gl::createWindowContext(info.colourIntrinsics.width, info.colourIntrinsics.height, "lightskin live");
     }
-    PipelineOptions options;
-    options.poseMode = args.pose.empty() ? (info.hasGroundTruth ? PoseMode::GroundTruth : PoseMode::Tracking) : parsePoseMode(args.pose);
+    mr::PipelineOptions options;
+    options.poseMode = args.pose.empty() ? (info.hasGroundTruth ? mr::PoseMode::GroundTruth : mr::PoseMode::Tracking) : mr::parsePoseMode(args.pose);
     options.compare = false;
-    auto pipeline = FramePipeline::create(scene, info, options);
+    auto pipeline = mr::FramePipeline::create(scene, info, options);
     std::printf("live: %s (%s), scene %s, pose %s, GI %s\n", info.uri.c_str(), info.kind.c_str(), args.scene.c_str(),
-                toString(options.poseMode), pipeline->techniqueName().c_str());
+                mr::toString(options.poseMode), pipeline->techniqueName().c_str());
     if (window) std::printf("keys: G GI, L glossy, O occlusion, V debug view, C side by side, P snapshot, Q/Esc quit\n");
 
     std::optional<capture::RecordingWriter> recorder;
@@ -122,7 +122,7 @@ int runLive(const LiveArgs& args) {
     int snapshots = 0;
     if (window) {
         window->setKeyHandler([&](int key) {
-            PipelineOptions& o = pipeline->options();
+            mr::PipelineOptions& o = pipeline->options();
             render::GiSettings gi = pipeline->giSettings();
             switch (key) {
             case 'G': o.giEnabled = !o.giEnabled; break;
@@ -130,11 +130,11 @@ int runLive(const LiveArgs& args) {
             case 'O': gi.occlusion = !gi.occlusion; pipeline->setGiSettings(gi); break;
             case 'V':
                 // final, direct, indirect, normals, albedo, then the overlays vals, sparse, error, vpl.
-                if (o.overlay != Overlay::None) {
-                    o.overlay = Overlay((int(o.overlay) + 1) % kOverlayCount);
+                if (o.overlay != mr::Overlay::None) {
+                    o.overlay = mr::Overlay((int(o.overlay) + 1) % mr::kOverlayCount);
                 } else if (o.view == render::DebugView::Albedo) {
                     o.view = render::DebugView::Final;
-                    o.overlay = Overlay::Vals;
+                    o.overlay = mr::Overlay::Vals;
                 } else {
                     o.view = render::DebugView(int(o.view) + 1);
                 }
@@ -152,7 +152,7 @@ int runLive(const LiveArgs& args) {
     const auto previous = std::signal(SIGINT, onLiveInterrupt);
     WindowDisplay display;
     RgbdFrame frame;
-    FrameOutput out;
+    mr::FrameOutput out;
     cv::Mat shown;
     std::int64_t count = 0;
     double fps = 0.0;

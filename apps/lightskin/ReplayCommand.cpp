@@ -5,7 +5,7 @@
 // and keeps everything written so far (video finalised, report marked "interrupted"; exit 130).
 #include "Commands.h"
 #include "LiveWindowDisplay.h"
-#include "ReplayPipeline.h"
+#include <lightskin/mr/FramePipeline.h>
 #include "ReplayReport.h"
 
 #include <lightskin/capture/FrameSource.h>
@@ -175,12 +175,12 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     const render::Scene scene = render::loadScene(scenePath);
     const std::set<std::int64_t> chosen = parseFrameList(args.frames);
     render::DebugView view = render::DebugView::Final;
-    Overlay overlay = Overlay::None;
-    parseView(args.view, view, overlay);
+    mr::Overlay overlay = mr::Overlay::None;
+    mr::parseView(args.view, view, overlay);
 
     auto source = capture::openFrameSource(args.recording, {});
     const capture::FrameSourceInfo& info = source->info();
-    PoseMode poseMode = args.pose.empty() ? (info.hasGroundTruth ? PoseMode::GroundTruth : PoseMode::Tracking) : parsePoseMode(args.pose);
+    mr::PoseMode poseMode = args.pose.empty() ? (info.hasGroundTruth ? mr::PoseMode::GroundTruth : mr::PoseMode::Tracking) : mr::parsePoseMode(args.pose);
 
     std::unique_ptr<gl::Context> context;
     std::unique_ptr<gl::WindowContext> window;
@@ -194,7 +194,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
 
     const std::filesystem::path out(args.out);
     std::filesystem::create_directories(out / "frames");
-    PipelineOptions options;
+    mr::PipelineOptions options;
     options.poseMode = poseMode;
     options.view = view;
     options.overlay = overlay;
@@ -206,7 +206,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     if (args.staticTest != "probes" && args.staticTest != "bound")
         throw Error("--static-test", std::nullopt, "expected probes or bound, got '" + args.staticTest + "'");
     options.staticProbes = args.staticTest == "probes";
-    auto pipeline = FramePipeline::create(scene, info, options);
+    auto pipeline = mr::FramePipeline::create(scene, info, options);
     // Without a GI technique both halves of the comparison would be the same image.
     const bool compare = options.compare && pipeline->techniqueName() != "none";
     pipeline->options().compare = compare;
@@ -221,7 +221,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     summary.scene = scenePath.string();
     summary.renderer = rendererName;
     summary.technique = pipeline->techniqueName() + (scene.gi.technique != pipeline->techniqueName() ? " (scene asked for " + scene.gi.technique + ", not available)" : "");
-    summary.poseMode = toString(poseMode);
+    summary.poseMode = mr::toString(poseMode);
     summary.command = commandLine;
     summary.framesInSource = source->frameCount();
     std::int64_t total = summary.framesInSource.value_or(-1);
@@ -232,7 +232,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     std::vector<ReportFrame> frames;
     Progress progress(total >= 0 ? std::optional<std::int64_t>(total) : std::nullopt);
     RgbdFrame frame;
-    FrameOutput output;
+    mr::FrameOutput output;
     cv::Mat sideBySide;
     std::int64_t read = 0;
     try {

@@ -2,7 +2,7 @@
 // The replay report: report.json (every frame's pose, tracking state, VAL counts and stage times)
 // and report.md (summary, side-by-side images, per-stage timings per frame, pose track).
 
-#include "ReplayPipeline.h"
+#include <lightskin/mr/FramePipeline.h>
 
 #include <filesystem>
 #include <string>
@@ -25,7 +25,7 @@ struct ReportFrame {
     double errorVsBruteForce = -1.0; ///< --view error: mean relative error of the technique's indirect light, else < 0
     int giReused = -1;               ///< --adaptive: 1 = static content, VPLs reused; 0 = recomputed; else < 0
     float giChangeMeasure = -1.0f;   ///< --adaptive with a tolerance: LightSkinChoice::staticChangeBound, else < 0
-    std::int64_t linearNanPixels = 0; ///< pixels of the linear composite with a NaN channel (FrameOutput)
+    std::int64_t linearNanPixels = 0; ///< pixels of the linear composite with a NaN channel (mr::FrameOutput)
     std::int64_t linearInfPixels = 0; ///< ... with an infinite channel (and no NaN)
     std::string linearImage;          ///< --linear-out: linear composite written for this frame, or empty
     std::string linearIndirectImage;  ///< --linear-out: linear indirect-only image, or empty

@@ -9,7 +9,7 @@
 // (checked below from the scene numbers), so no box VAL can reach that face (the form factor's
 // receiver cosine is <= 0), and the cube, being convex, cannot light itself.
 #include "GlTestEnvironment.h"
-#include "ReplayPipeline.h"
+#include <lightskin/mr/FramePipeline.h>
 #include "TestPaths.h"
 
 #include <lightskin/core/Error.h>
@@ -60,7 +60,7 @@ struct FaceSums {
 };
 
 struct FrameRun {
-    apps::FrameOutput out;
+    mr::FrameOutput out;
     FaceSums faces;
 };
 
@@ -74,10 +74,10 @@ FrameRun runFrame(const std::string& technique, bool bounce) {
     info.colourIntrinsics =
         CameraIntrinsics{.width = kWidth, .height = kHeight, .fx = 300.0, .fy = 300.0, .cx = 160.0, .cy = 120.0};
     info.depthIntrinsics = info.colourIntrinsics;
-    apps::PipelineOptions options;
-    options.poseMode = apps::PoseMode::Fixed;
+    mr::PipelineOptions options;
+    options.poseMode = mr::PoseMode::Fixed;
     options.compare = false;
-    auto pipeline = apps::FramePipeline::create(scene, info, options);
+    auto pipeline = mr::FramePipeline::create(scene, info, options);
 
     RgbdFrame frame;
     frame.colour = cv::Mat(kHeight, kWidth, CV_8UC3, cv::Scalar::all(0));
@@ -209,7 +209,7 @@ TEST(VirtualBounceSettings, SceneLightsBecomeRsmLightsWithTheRenderersIntensity)
         {"type": "point", "position": [1, 2, 3], "power": [4, 8, 12]},
         {"type": "spot", "position": [0, 0, 0], "direction": [0, 0, 2], "power": 1, "coneAngleDegrees": 20, "coneFalloffDegrees": 10},
         {"type": "spot", "position": [0, 0, 0], "direction": [0, 1, 0], "coneAngleDegrees": 89, "coneFalloffDegrees": 45}]})");
-    const auto lights = apps::virtualLightsFromScene(scene);
+    const auto lights = mr::virtualLightsFromScene(scene);
     ASSERT_EQ(lights.size(), 3u);
     const double fourPi = 4.0 * 3.14159265358979;
     EXPECT_EQ(lights[0].type, gi::VirtualLight::Type::Point);

@@ -1,4 +1,4 @@
-#include "ReplayPipeline.h"
+#include <lightskin/mr/FramePipeline.h>
 
 #include <lightskin/capture/DepthFilter.h>
 #include <lightskin/core/Error.h>
@@ -24,7 +24,7 @@
 #include <numbers>
 #include <span>
 
-namespace lightskin::apps {
+namespace lightskin::mr {
 
 namespace {
 
@@ -97,7 +97,7 @@ std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettin
         s.occlusion = settings.occlusion;
         const gi::SparsePointProvider provider = [&renderer](const gi::MeshInstance& instance) {
             const gi::SparsePointSet* points = renderer.sparsePoints(instance.meshId);
-            LIGHTSKIN_ASSERT(points != nullptr, "lightskin::apps::createTechnique(): the renderer prepared no sparse points");
+            LIGHTSKIN_ASSERT(points != nullptr, "lightskin::mr::createTechnique(): the renderer prepared no sparse points");
             return *points;
         };
         return gi::LightSkinIllumination::create(s, provider);
@@ -528,4 +528,4 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     out.totalMs = msSince(frameStart);
 }
 
-} // namespace lightskin::apps
+} // namespace lightskin::mr

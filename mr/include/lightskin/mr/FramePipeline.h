@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-namespace lightskin::apps {
+namespace lightskin::mr {
 
 enum class PoseMode { GroundTruth, Tracking, Fixed };
 const char* toString(PoseMode mode) noexcept;
@@ -131,4 +131,4 @@ private:
     render::GiSettings gi_;
 };
 
-} // namespace lightskin::apps
+} // namespace lightskin::mr
