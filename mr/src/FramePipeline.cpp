@@ -276,6 +276,9 @@ struct FramePipeline::State {
     cv::Mat indirectTechnique, indirectReference, errorMap;
     std::vector<glm::vec4> vertexVpls; // vpl view only
     std::vector<gl::StageTime> scratchTimes;
+    cv::Mat coverage; // alpha of virtualColour (coveredPixels)
+    int valStride = 0;          // the ValGenerator's stride
+    int preparedSparsePoints = 0; // per object, as the renderer prepared them; 0 = none
 };
 
 FramePipeline::~FramePipeline() = default;
@@ -293,6 +296,7 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
     if (!colour.isValid()) throw Error(source.uri, std::nullopt, "the source has no valid colour intrinsics");
     p->renderer_ = render::Renderer::create(colour);
     p->renderer_->setScene(scene, scene.gi.technique == "lightskin");
+    s.preparedSparsePoints = scene.gi.technique == "lightskin" ? scene.gi.sparsePoints : 0;
     s.compositor = render::Compositor::create(colour, scene.compositing);
     if (options.poseMode == PoseMode::Tracking) s.tracker = trackerFromScene(scene);
 
@@ -300,12 +304,7 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
     s.valsUsable = source.registration == DepthRegistration::RegisteredToColour &&
                    source.depthIntrinsics.width == colour.width && source.depthIntrinsics.height == colour.height;
     if (s.valsUsable) {
-        gi::ValGeneratorSettings settings;
-        settings.stride = scene.gi.valStride;
-        // The camera's exposure: a linear pixel value p is radiance p / 2^exposureStops.
-        settings.exposure = std::exp2(-scene.exposureStops);
-        settings.skipUnchangedInput = options.adaptive; // keeps the VAL generation for a paused recording
-        s.vals = gi::ValGenerator::create(colour.width, colour.height, settings);
+        p->createValGenerator(scene.gi.valStride);
     } else {
         log::warning(source.uri + ": depth is not registered to colour; no VALs and no occlusion by real geometry");
     }
@@ -328,7 +327,32 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
     return p;
 }
 
+void FramePipeline::createValGenerator(int stride) {
+    State& s = *state_;
+    const CameraIntrinsics& colour = s.source.colourIntrinsics;
+    gi::ValGeneratorSettings settings;
+    settings.stride = stride;
+    // The camera's exposure: a linear pixel value p is radiance p / 2^exposureStops.
+    settings.exposure = std::exp2(-s.scene->exposureStops);
+    settings.skipUnchangedInput = options_.adaptive; // keeps the VAL generation for a paused recording
+    s.vals = gi::ValGenerator::create(colour.width, colour.height, settings);
+    s.valStride = stride;
+    if (s.merger) s.merger = gi::ValSetMerger::create(s.vals->capacity() + s.rsm->capacity());
+}
+
 void FramePipeline::setGiSettings(const render::GiSettings& settings) {
+    State& st = *state_;
+    // A new VAL stride needs a generator of that size; new sparse points need the meshes prepared
+    // again (Renderer::setScene: the sparse points may refine the meshes). Both are rare (the frame
+    // budget switches with hysteresis), not per frame.
+    if (st.vals && settings.valStride != st.valStride) createValGenerator(settings.valStride);
+    if (settings.technique == "lightskin" && settings.sparsePoints != st.preparedSparsePoints) {
+        render::Scene scene = *st.scene;
+        scene.gi.sparsePoints = settings.sparsePoints;
+        renderer_->setScene(scene, true);
+        st.preparedSparsePoints = settings.sparsePoints;
+        st.bruteForce.reset(); // prepared for the old instances
+    }
     gi_ = settings;
     state_->technique = createTechnique(settings, *renderer_);
     if (auto* lightSkin = dynamic_cast<gi::LightSkinIllumination*>(state_->technique.get()); lightSkin && options_.adaptive) {
@@ -358,6 +382,7 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     out.giChangeMeasure = -1.0f;
     out.linearNanPixels = 0;
     out.linearInfPixels = 0;
+    out.coveredPixels = 0;
     if (!out.linearIndirect.empty()) out.linearIndirect.setTo(cv::Scalar::all(0)); // keeps the buffer, no stale light
 
     // Depth in metres (CV_32FC1, 0 = missing), registered to colour.
@@ -447,6 +472,8 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
                                .linearOutput = options_.linearComposite};
     r.shade(shade);
     r.readOutputsInto(s.virtualColour, s.virtualDepth);
+    cv::extractChannel(s.virtualColour, s.coverage, 3);
+    out.coveredPixels = cv::countNonZero(s.coverage);
     s.compositor.compositeInto(frame.colour, s.virtualColour, s.virtualDepth, realDepth, out.withGi);
     if (options_.linearComposite) {
         r.readLinearOutputInto(s.virtualLinear);

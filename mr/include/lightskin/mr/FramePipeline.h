@@ -93,6 +93,7 @@ struct FrameOutput {
     tracking::TrackingResult tracking;
     std::optional<Pose> world_T_camera;
     std::uint32_t valCount = 0;     ///< VALs from depth
+    std::int64_t coveredPixels = 0; ///< pixels the virtual content covers (before occlusion by real depth)
     std::int64_t rsmValCount = -1;  ///< gi.virtualBounce: VALs from the virtual lights' RSMs, else -1
     std::int64_t valsDropped = -1;  ///< gi.virtualBounce: VALs beyond the merged set's capacity (logged; 0 normally), else -1
     double meanRelativeErrorVsBruteForce = -1.0; ///< error view only: mean |a-b| / mean |b| over covered pixels
@@ -116,7 +117,9 @@ public:
     void process(const RgbdFrame& frame, FrameOutput& out);
 
     PipelineOptions& options() noexcept { return options_; }
-    /// Rebuilds the GI technique with changed settings (live toggles of glossy/occlusion).
+    /// Rebuilds the GI technique with changed settings (live toggles of glossy/occlusion; the frame
+    /// budget's choices). A changed valStride recreates the VAL generator; changed sparsePoints
+    /// (LightSkin) prepare the meshes again (Renderer::setScene): both cost a one-off stall.
     void setGiSettings(const render::GiSettings& settings);
     const render::GiSettings& giSettings() const noexcept { return gi_; }
     std::string techniqueName() const;
@@ -124,6 +127,7 @@ public:
 
 private:
     FramePipeline() = default;
+    void createValGenerator(int stride);
     struct State;
     std::unique_ptr<State> state_;
     std::unique_ptr<render::Renderer> renderer_;

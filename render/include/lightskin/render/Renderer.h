@@ -92,6 +92,11 @@ public:
     /// Reads the outputs: colour CV_8UC4 (RGBA, sRGB), depth CV_32FC1 (metres), top row first.
     void readOutputsInto(cv::Mat& colourRgba, cv::Mat& depthMetres) const;
 
+    /// The output textures of the last shade() (see "Outputs" above; GL convention, row 0 = bottom):
+    /// for drawing them into a host's framebuffer without a read-back. Owned by the renderer.
+    std::uint32_t outputColourTexture() const noexcept { return outputColour_.id(); }
+    std::uint32_t outputDepthTexture() const noexcept { return outputDepth_.id(); }
+
     /// Reads the indirect target (CV_32FC4 linear RGBA, top row first): debug views.
     void readIndirectInto(cv::Mat& out) const;
     /// Reads the linear output of the last shade() with linearOutput (CV_32FC4, see "linear" above,

@@ -61,6 +61,9 @@ struct GiSettings {
     /// depth VALs. Off by default: opt-in, so existing scenes keep their images and frame times.
     bool virtualBounce = false;
     int rsmResolution = 64;              ///< RSM texels per side per light face (spot: 1 face, point: 6)
+    /// Frame-time budget in milliseconds ("budgetMs"; 0 = none): a mr::Session then picks technique,
+    /// sparse points, VAL stride and channels per frame to meet it (mr/FrameBudget.h).
+    double budgetMs = 0.0;
 };
 
 struct CompositeSettings {

@@ -1,0 +1,66 @@
+#pragma once
+// Saves the OpenGL state that lightskin's GL code can change and restores it when the guard goes
+// out of scope, so that a host engine that owns the context finds its state as it left it.
+//
+// Covered (what lightskin's gi/render/mr code touches, plus the usual neighbours): draw and read
+// framebuffer, program, vertex array, the generic buffer bindings (array, pixel pack/unpack, SSBO,
+// UBO, atomic counter, copy, indirect), indexed SSBO/UBO/atomic-counter bindings 0..kIndexedBindings-1
+// with their ranges, texture bindings of every common target and the sampler on units
+// 0..kTextureUnits-1 plus the active unit, image units 0..kImageUnits-1, viewport, scissor box,
+// the enables (blend, depth test, cull face, scissor, stencil, polygon offset, sRGB framebuffer,
+// rasterizer discard, program point size), depth mask and function, blend functions, equations and
+// colour, colour mask, clear colour and depth, cull face and front face, polygon mode, and pixel
+// pack/unpack alignment, row length, skips.
+// Not covered: uniform values of host programs (lightskin never touches a host program), the
+// host's framebuffer attachments and draw buffers (lightskin only draws into them), and object
+// contents (lightskin only writes its own objects and the host target it is given).
+//
+// Needs a current GL 4.5 context for its whole life; not copyable. Costs ~150 glGet calls per
+// save (no allocation).
+
+#include <epoxy/gl.h>
+
+#include <array>
+
+namespace lightskin::gl {
+
+class StateGuard {
+public:
+    static constexpr int kTextureUnits = 16;
+    static constexpr int kIndexedBindings = 8;
+    static constexpr int kImageUnits = 8;
+    static constexpr int kTextureTargets = 8;
+
+    StateGuard();
+    ~StateGuard();
+    StateGuard(const StateGuard&) = delete;
+    StateGuard& operator=(const StateGuard&) = delete;
+
+private:
+    struct IndexedBuffer {
+        GLint name = 0;
+        GLint64 start = 0, size = 0;
+    };
+    struct ImageUnit {
+        GLint name = 0, level = 0, layered = 0, layer = 0, access = 0, format = 0;
+    };
+    GLint drawFramebuffer_ = 0, readFramebuffer_ = 0, program_ = 0, vertexArray_ = 0;
+    std::array<GLint, 9> genericBuffers_{};
+    std::array<std::array<IndexedBuffer, kIndexedBindings>, 3> indexed_{};
+    GLint activeTexture_ = 0;
+    std::array<std::array<GLint, kTextureTargets>, kTextureUnits> textures_{};
+    std::array<GLint, kTextureUnits> samplers_{};
+    std::array<ImageUnit, kImageUnits> images_{};
+    std::array<GLint, 4> viewport_{}, scissorBox_{};
+    std::array<GLboolean, 9> enables_{};
+    GLboolean depthMask_ = GL_TRUE;
+    std::array<GLboolean, 4> colourMask_{};
+    GLint depthFunc_ = 0, blendSrcRgb_ = 0, blendDstRgb_ = 0, blendSrcAlpha_ = 0, blendDstAlpha_ = 0;
+    GLint blendEquationRgb_ = 0, blendEquationAlpha_ = 0, cullFaceMode_ = 0, frontFace_ = 0;
+    std::array<GLint, 2> polygonMode_{};
+    std::array<GLfloat, 4> blendColour_{}, clearColour_{};
+    GLfloat clearDepth_ = 1.0f;
+    std::array<GLint, 8> pixelStore_{};
+};
+
+} // namespace lightskin::gl

@@ -1,0 +1,309 @@
+// The C ABI over mr::Session. Every entry point catches everything: no exception crosses into C.
+// Versioned structs: inputs are copied into a default-initialised struct up to the caller's
+// struct_size; outputs are filled completely here and copied out up to the caller's struct_size.
+#include <lightskin.h>
+
+#include <lightskin/capture/FrameSource.h>
+#include <lightskin/core/Error.h>
+#include <lightskin/mr/Session.h>
+
+#include <glm/gtc/type_ptr.hpp>
+
+#include <algorithm>
+#include <cstring>
+#include <exception>
+#include <new>
+#include <string>
+
+struct lsk_session {
+    std::unique_ptr<lightskin::mr::Session> session;
+};
+
+namespace {
+
+namespace mr = lightskin::mr;
+
+thread_local std::string lastError;
+
+lsk_status fail(lsk_status status, std::string message) {
+    lastError = std::move(message);
+    return status;
+}
+
+/// Runs `body` with every exception turned into a status and lsk_last_error() text.
+template <typename Body>
+lsk_status guarded(const char* function, Body&& body) noexcept {
+    try {
+        lastError.clear();
+        return body();
+    } catch (const lightskin::Error& error) {
+        return fail(LSK_ERROR_INPUT, std::string(function) + ": " + error.what());
+    } catch (const std::bad_alloc&) {
+        return fail(LSK_ERROR_OUT_OF_MEMORY, std::string(function) + ": out of memory");
+    } catch (const std::exception& error) {
+        return fail(LSK_ERROR_INTERNAL, std::string(function) + ": " + error.what());
+    } catch (...) {
+        return fail(LSK_ERROR_INTERNAL, std::string(function) + ": unknown exception");
+    }
+}
+
+/// Copies the caller's struct into `out` (already default-initialised) up to its struct_size.
+/// False when the pointer is null or the size does not even cover struct_size.
+template <typename T>
+bool readVersioned(const T* in, T& out) {
+    if (in == nullptr || in->struct_size < sizeof(std::uint32_t)) return false;
+    std::memcpy(&out, in, std::min<std::size_t>(in->struct_size, sizeof(T)));
+    out.struct_size = std::uint32_t(sizeof(T));
+    return true;
+}
+
+template <typename T>
+void writeVersioned(const T& full, T* out) {
+    const std::uint32_t size = out->struct_size;
+    std::memcpy(out, &full, std::min<std::size_t>(size, sizeof(T)));
+    out->struct_size = size;
+}
+
+lightskin::CameraIntrinsics intrinsicsOf(const lsk_camera& c) {
+    lightskin::CameraIntrinsics k;
+    k.width = c.width;
+    k.height = c.height;
+    k.fx = c.fx;
+    k.fy = c.fy;
+    k.cx = c.cx;
+    k.cy = c.cy;
+    return k;
+}
+
+lsk_status sessionOptions(const lsk_session_options* in, mr::SessionOptions& out) {
+    lsk_session_options o;
+    lsk_session_options_init(&o);
+    if (in != nullptr && !readVersioned(in, o)) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_options: struct_size not set");
+    switch (o.pose_mode) {
+    case LSK_POSE_HOST: out.pipeline.poseMode = mr::PoseMode::GroundTruth; break;
+    case LSK_POSE_TRACKING: out.pipeline.poseMode = mr::PoseMode::Tracking; break;
+    case LSK_POSE_FIXED: out.pipeline.poseMode = mr::PoseMode::Fixed; break;
+    default: return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_options.pose_mode: " + std::to_string(o.pose_mode) + " is not an lsk_pose_mode");
+    }
+    out.pipeline.giEnabled = o.gi_enabled != 0;
+    if (!(o.budget_ms >= 0.0)) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_options.budget_ms: must be >= 0 (0 = the scene's)");
+    out.budgetMs = o.budget_ms;
+    return LSK_OK;
+}
+
+lsk_status sceneInput(const lsk_scene* in, mr::SceneInput& out) {
+    lsk_scene s;
+    lsk_scene_init(&s);
+    if (!readVersioned(in, s)) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_scene: null or struct_size not set");
+    if (s.json != nullptr) out = mr::SceneInput::fromJson(s.json, s.base_folder != nullptr ? s.base_folder : ".");
+    else if (s.path != nullptr) out = mr::SceneInput::fromFile(s.path);
+    else return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_scene: neither path nor json is set");
+    return LSK_OK;
+}
+
+} // namespace
+
+extern "C" {
+
+const char* lsk_version(void) { return "0.1.0"; }
+
+const char* lsk_last_error(void) { return lastError.c_str(); }
+
+void lsk_session_options_init(lsk_session_options* o) {
+    if (o == nullptr) return;
+    *o = lsk_session_options{};
+    o->struct_size = sizeof(lsk_session_options);
+    o->pose_mode = LSK_POSE_HOST;
+    o->gi_enabled = 1;
+    o->budget_ms = 0.0;
+}
+
+void lsk_scene_init(lsk_scene* s) {
+    if (s == nullptr) return;
+    *s = lsk_scene{};
+    s->struct_size = sizeof(lsk_scene);
+}
+
+void lsk_frame_init(lsk_frame* f) {
+    if (f == nullptr) return;
+    *f = lsk_frame{};
+    f->struct_size = sizeof(lsk_frame);
+    f->depth_scale_metres = 0.001;
+    f->timestamp_seconds = std::numeric_limits<double>::quiet_NaN();
+    for (int i = 0; i < 4; ++i) f->world_T_camera[5 * i] = 1.0;
+}
+
+void lsk_frame_report_init(lsk_frame_report* r) {
+    if (r == nullptr) return;
+    *r = lsk_frame_report{};
+    r->struct_size = sizeof(lsk_frame_report);
+    r->frame_index = -1;
+}
+
+void lsk_render_target_init(lsk_render_target* t) {
+    if (t == nullptr) return;
+    *t = lsk_render_target{};
+    t->struct_size = sizeof(lsk_render_target);
+    t->content = LSK_CONTENT_VIRTUAL_ONLY;
+    t->near_metres = 0.05;
+    t->far_metres = 20.0;
+}
+
+lsk_status lsk_session_create(const lsk_session_options* options, const lsk_scene* scene, const lsk_camera* camera, lsk_session** out) {
+    return guarded("lsk_session_create", [&]() -> lsk_status {
+        if (out == nullptr || camera == nullptr) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_create: camera and out must not be null");
+        *out = nullptr;
+        mr::SessionOptions o;
+        mr::SceneInput s;
+        if (lsk_status status = sessionOptions(options, o); status != LSK_OK) return status;
+        if (lsk_status status = sceneInput(scene, s); status != LSK_OK) return status;
+        auto handle = std::make_unique<lsk_session>();
+        handle->session = mr::Session::create(o, s, intrinsicsOf(*camera));
+        *out = handle.release();
+        return LSK_OK;
+    });
+}
+
+lsk_status lsk_session_create_from_source(const lsk_session_options* options, const lsk_scene* scene, const char* sourceUri,
+                                          lsk_session** out) {
+    return guarded("lsk_session_create_from_source", [&]() -> lsk_status {
+        if (out == nullptr || sourceUri == nullptr)
+            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_create_from_source: source_uri and out must not be null");
+        *out = nullptr;
+        mr::SessionOptions o;
+        mr::SceneInput s;
+        if (lsk_status status = sessionOptions(options, o); status != LSK_OK) return status;
+        if (lsk_status status = sceneInput(scene, s); status != LSK_OK) return status;
+        auto handle = std::make_unique<lsk_session>();
+        handle->session = mr::Session::create(o, s, lightskin::capture::openFrameSource(sourceUri, {}));
+        *out = handle.release();
+        return LSK_OK;
+    });
+}
+
+void lsk_session_destroy(lsk_session* session) {
+    (void)guarded("lsk_session_destroy", [&]() -> lsk_status {
+        delete session;
+        return LSK_OK;
+    });
+}
+
+lsk_status lsk_session_process_next(lsk_session* session) {
+    return guarded("lsk_session_process_next", [&]() -> lsk_status {
+        if (session == nullptr) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_process_next: session is null");
+        return session->session->processNext() ? LSK_OK : LSK_END_OF_STREAM;
+    });
+}
+
+lsk_status lsk_session_submit(lsk_session* session, const lsk_frame* frame) {
+    return guarded("lsk_session_submit", [&]() -> lsk_status {
+        lsk_frame f;
+        lsk_frame_init(&f);
+        if (session == nullptr || !readVersioned(frame, f))
+            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_submit: session or frame is null, or frame->struct_size not set");
+        mr::HostFrame h;
+        h.rgb = f.rgb;
+        h.rgbRowBytes = f.rgb_row_bytes;
+        h.depth = f.depth;
+        h.depthRowBytes = f.depth_row_bytes;
+        h.depthScaleMetres = f.depth_scale_metres;
+        h.intrinsics = intrinsicsOf(f.camera);
+        h.timestampSeconds = f.timestamp_seconds;
+        if (f.has_pose) h.world_T_camera = lightskin::Pose::fromMatrix(glm::make_mat4(f.world_T_camera));
+        session->session->submit(h);
+        return LSK_OK;
+    });
+}
+
+lsk_status lsk_session_report(const lsk_session* session, lsk_frame_report* report) {
+    return guarded("lsk_session_report", [&]() -> lsk_status {
+        if (session == nullptr || report == nullptr || report->struct_size < sizeof(std::uint32_t))
+            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_report: session or report is null, or report->struct_size not set");
+        const mr::FrameReport& r = session->session->report();
+        const mr::FrameOutput& o = session->session->output();
+        lsk_frame_report full;
+        lsk_frame_report_init(&full);
+        full.frame_index = r.frameIndex;
+        full.timestamp_seconds = r.timestampSeconds;
+        full.tracking_state = int32_t(r.trackingState);
+        full.has_pose = r.world_T_camera ? 1 : 0;
+        if (r.world_T_camera) {
+            const glm::dmat4 m = r.world_T_camera->matrix();
+            std::memcpy(full.world_T_camera, glm::value_ptr(m), sizeof full.world_T_camera);
+        }
+        full.val_count = r.valCount;
+        full.covered_pixels = r.coveredPixels;
+        full.total_ms = r.totalMs;
+        full.stage_count = std::uint32_t(std::min<std::size_t>(o.cpuTimes.size(), LSK_MAX_STAGES));
+        for (std::uint32_t i = 0; i < full.stage_count; ++i) {
+            std::strncpy(full.stages[i].name, o.cpuTimes[i].name.c_str(), sizeof full.stages[i].name - 1);
+            full.stages[i].cpu_ms = o.cpuTimes[i].milliseconds;
+        }
+        full.technique = r.settings.technique == mr::Technique::LightSkin ? LSK_TECHNIQUE_LIGHTSKIN : LSK_TECHNIQUE_BRUTE_FORCE;
+        full.sparse_points = r.settings.sparsePoints;
+        full.val_stride = r.settings.valStride;
+        full.glossy = r.settings.glossy ? 1 : 0;
+        full.occlusion = r.settings.occlusion ? 1 : 0;
+        full.budget_active = r.budgetActive ? 1 : 0;
+        full.budget_ms = r.budgetMs;
+        full.predicted_ms = r.predictedMs;
+        full.expected_error = r.expectedError;
+        writeVersioned(full, report);
+        return LSK_OK;
+    });
+}
+
+lsk_status lsk_session_render(lsk_session* session, const lsk_render_target* target) {
+    return guarded("lsk_session_render", [&]() -> lsk_status {
+        lsk_render_target t;
+        lsk_render_target_init(&t);
+        if (session == nullptr || !readVersioned(target, t))
+            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_render: session or target is null, or target->struct_size not set");
+        if (t.content != LSK_CONTENT_VIRTUAL_ONLY && t.content != LSK_CONTENT_COMPOSITE)
+            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_render_target.content: " + std::to_string(t.content) + " is not an lsk_content");
+        mr::RenderTarget r;
+        r.framebuffer = t.framebuffer;
+        r.texture = t.texture;
+        r.x = t.x;
+        r.y = t.y;
+        r.width = t.width;
+        r.height = t.height;
+        r.content = t.content == LSK_CONTENT_COMPOSITE ? mr::RenderContent::CompositeOverCamera : mr::RenderContent::VirtualOnly;
+        r.depthTest = t.depth_test != 0;
+        r.nearMetres = t.near_metres;
+        r.farMetres = t.far_metres;
+        session->session->render(r);
+        return LSK_OK;
+    });
+}
+
+lsk_status lsk_session_projection(const lsk_session* session, double nearMetres, double farMetres, float out[16]) {
+    return guarded("lsk_session_projection", [&]() -> lsk_status {
+        if (session == nullptr || out == nullptr) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_projection: null argument");
+        if (!(nearMetres > 0.0 && farMetres > nearMetres))
+            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_projection: needs 0 < near_metres < far_metres");
+        const glm::mat4 m = session->session->projection(nearMetres, farMetres);
+        std::memcpy(out, glm::value_ptr(m), 16 * sizeof(float));
+        return LSK_OK;
+    });
+}
+
+lsk_status lsk_session_view(const lsk_session* session, float out[16]) {
+    return guarded("lsk_session_view", [&]() -> lsk_status {
+        if (session == nullptr || out == nullptr) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_view: null argument");
+        const glm::mat4 m = session->session->viewMatrix();
+        std::memcpy(out, glm::value_ptr(m), 16 * sizeof(float));
+        return LSK_OK;
+    });
+}
+
+lsk_status lsk_session_set_budget(lsk_session* session, double budgetMs) {
+    return guarded("lsk_session_set_budget", [&]() -> lsk_status {
+        if (session == nullptr) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_set_budget: session is null");
+        if (!(budgetMs > 0.0)) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_set_budget: budget_ms must be > 0");
+        session->session->setBudgetMs(budgetMs);
+        return LSK_OK;
+    });
+}
+
+} // extern "C"

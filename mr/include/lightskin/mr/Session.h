@@ -1,0 +1,176 @@
+#pragma once
+// The pipeline as an engine embeds it: a Session owns a scene, a FramePipeline and (optionally) a
+// frame budget, takes frames from a capture::FrameSource or from the host's memory, and draws the
+// result into the host's framebuffer or texture.
+//
+//   auto session = mr::Session::create({}, mr::SceneInput::file("scene.json"), camera);  // GL current
+//   session->submit(hostFrame);                   // RGB + depth + pose of the host, host memory
+//   session->render({.framebuffer = myFbo});      // lit virtual objects over the host's image
+//
+// GL: every call that takes a GL context (create, submit/process/processNext, render, destruction)
+// needs the same GL 4.5 core context current on the calling thread; the host owns it. The session
+// leaves the GL state as it found it (gl::StateGuard lists what that covers). Threading: a session
+// is used by one thread at a time (the one whose context is current); sessions are independent.
+// Errors: lightskin::Error naming the file, frame or key and the cause; after an error in a frame
+// the session stays usable (the next frame starts from scratch).
+
+#include <lightskin/capture/FrameSource.h>
+#include <lightskin/mr/FrameBudget.h>
+#include <lightskin/mr/FramePipeline.h>
+
+#include <glm/mat4x4.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+
+namespace lightskin::mr {
+
+/// The scene: a scene file (docs/SCENE_FORMAT.md), or the same JSON as text with the folder that
+/// relative mesh paths are resolved against.
+struct SceneInput {
+    std::filesystem::path file;        ///< used when `json` is empty
+    std::string json;                  ///< in-memory scene text
+    std::filesystem::path baseFolder;  ///< for `json`: where relative paths point
+    static SceneInput fromFile(std::filesystem::path path) { return {std::move(path), {}, {}}; }
+    static SceneInput fromJson(std::string text, std::filesystem::path base) { return {{}, std::move(text), std::move(base)}; }
+};
+
+/// A frame in host memory. Read only during submit(); the session keeps no pointer to it.
+struct HostFrame {
+    const std::uint8_t* rgb = nullptr; ///< width x height x 3 bytes, R G B order, sRGB-encoded, top row first
+    std::size_t rgbRowBytes = 0;       ///< 0 = width * 3
+    /// Optional: width x height depth values along the optical axis (z, not ray length) in units of
+    /// depthScaleMetres, 0 = missing, registered to the colour image (same size and intrinsics).
+    /// Without depth there are no VALs (no GI) and no occlusion by real geometry.
+    const std::uint16_t* depth = nullptr;
+    std::size_t depthRowBytes = 0; ///< 0 = width * 2
+    double depthScaleMetres = 0.001;
+    CameraIntrinsics intrinsics;   ///< must equal the session's camera
+    double timestampSeconds = std::numeric_limits<double>::quiet_NaN();
+    /// The host's pose of the colour camera in the scene's world (OpenCV camera frame: x right,
+    /// y down, z forward; metres). Used with PoseMode::GroundTruth ("the host tracks"); without
+    /// it such a frame has no pose and passes through unchanged.
+    std::optional<Pose> world_T_camera;
+};
+
+enum class RenderContent : std::uint8_t {
+    /// The lit virtual objects only (sRGB-encoded colour, alpha 1), drawn over what the target holds;
+    /// uncovered pixels are left untouched.
+    VirtualOnly,
+    /// The composite (camera image + virtual objects, occluded by real depth) over the whole viewport.
+    CompositeOverCamera,
+};
+
+/// Where render() draws. The image is drawn upright (camera row 0 at the top of the viewport).
+struct RenderTarget {
+    std::uint32_t framebuffer = 0; ///< GL framebuffer to draw into (0 = the default framebuffer) ...
+    std::uint32_t texture = 0;     ///< ... or, when non-zero, level 0 of this colour-renderable GL_TEXTURE_2D
+    int x = 0, y = 0;              ///< viewport origin in target pixels (GL: from the bottom left)
+    int width = 0, height = 0;     ///< viewport size; 0 = the camera's size
+    RenderContent content = RenderContent::VirtualOnly;
+    /// VirtualOnly into a framebuffer with a depth buffer: test against and write its depth, with
+    /// the virtual depth projected by projection(nearMetres, farMetres): a host that draws with
+    /// that projection and viewMatrix() gets its geometry and the virtual objects mutually occluded.
+    bool depthTest = false;
+    double nearMetres = 0.05, farMetres = 20.0;
+};
+
+/// What a frame did (valid until the next frame).
+struct FrameReport {
+    std::int64_t frameIndex = -1;
+    double timestampSeconds = std::numeric_limits<double>::quiet_NaN();
+    tracking::TrackingState trackingState = tracking::TrackingState::Lost;
+    std::optional<Pose> world_T_camera;
+    std::uint32_t valCount = 0;
+    std::int64_t coveredPixels = 0;
+    double totalMs = 0.0;              ///< wall clock of the whole frame
+    QualitySettings settings;          ///< the GI settings this frame ran with
+    bool budgetActive = false;
+    double budgetMs = 0.0;             ///< 0 without a budget
+    double predictedMs = 0.0;          ///< the budget's prediction for this frame (before it ran)
+    double expectedError = 0.0;        ///< the budget's error model for `settings`
+};
+
+struct SessionOptions {
+    /// Pose mode, views, GI toggle, ... (compare is off: embedding hosts draw one image).
+    PipelineOptions pipeline = [] {
+        PipelineOptions o;
+        o.compare = false;
+        return o;
+    }();
+    /// Frame budget in ms (> 0 overrides the scene's gi.budgetMs; 0 = the scene's, if any).
+    double budgetMs = 0.0;
+    BudgetOptions budget; ///< its budgetMs is ignored (see above)
+    /// Tests and calibration: the costs the budget observes per frame instead of the wall clock
+    /// (default: G-buffer + GI stage and the rest of FrameOutput::cpuTimes).
+    std::function<StageCosts(const QualitySettings&, const FrameStats&, const FrameOutput&)> costMeter;
+};
+
+class Session {
+public:
+    /// Host-fed session for frames of `camera` (submit()). Throws lightskin::Error on a bad scene
+    /// (naming the file or key) or invalid intrinsics.
+    static std::unique_ptr<Session> create(const SessionOptions& options, const SceneInput& scene, const CameraIntrinsics& camera);
+    /// Source-fed session (processNext()); takes the source.
+    static std::unique_ptr<Session> create(const SessionOptions& options, const SceneInput& scene,
+                                           std::unique_ptr<capture::FrameSource> source);
+    ~Session();
+    Session(const Session&) = delete;
+    Session& operator=(const Session&) = delete;
+
+    /// Source-fed: runs the next frame of the source; false at its end. Throws on bad input.
+    bool processNext();
+    /// Host-fed: runs one frame from host memory. Throws lightskin::Error (naming the frame) when
+    /// pointers are missing or the intrinsics differ from the session's camera.
+    void submit(const HostFrame& frame);
+    /// Runs one frame (either kind of session; the frame's intrinsics must be the session's).
+    void process(const RgbdFrame& frame);
+
+    /// Draws the last frame into the host's target (see RenderTarget). Throws lightskin::Error on a
+    /// bad target (incomplete framebuffer, VirtualOnly with the pipeline's compare on, ...).
+    void render(const RenderTarget& target);
+
+    const FrameReport& report() const noexcept { return report_; }
+    /// The last frame's images (withGi: BGR composite) and all per-stage timings.
+    const FrameOutput& output() const noexcept { return output_; }
+
+    const CameraIntrinsics& camera() const noexcept { return camera_; }
+    /// GL clip_T_camera for this camera (render::clipFromCamera: OpenCV camera frame in, column-major).
+    glm::mat4 projection(double nearMetres, double farMetres) const;
+    /// camera_T_world of the last frame's pose (OpenCV camera frame), identity without a pose.
+    glm::mat4 viewMatrix() const;
+
+    FramePipeline& pipeline() noexcept { return *pipeline_; }
+    const render::Scene& scene() const noexcept { return *scene_; }
+    /// Sets the frame budget (ms > 0; throws lightskin::Error otherwise), starting budget mode
+    /// if the session had none (not with the technique "none"). Takes effect from the next frame.
+    void setBudgetMs(double budgetMs);
+    /// The frame budget, or nullptr without one.
+    FrameBudget* budget() noexcept { return budget_ ? &*budget_ : nullptr; }
+    capture::FrameSource* source() noexcept { return source_.get(); }
+
+private:
+    Session() = default;
+    static std::unique_ptr<Session> createWith(const SessionOptions& options, const SceneInput& scene,
+                                               const capture::FrameSourceInfo& info);
+    struct Gl;
+    std::unique_ptr<render::Scene> scene_;
+    std::unique_ptr<capture::FrameSource> source_;
+    std::unique_ptr<FramePipeline> pipeline_;
+    std::unique_ptr<Gl> gl_;
+    std::optional<FrameBudget> budget_;
+    SessionOptions options_;
+    CameraIntrinsics camera_;
+    QualitySettings applied_;
+    std::optional<FrameStats> lastStats_;
+    RgbdFrame frame_;
+    FrameOutput output_;
+    FrameReport report_;
+};
+
+} // namespace lightskin::mr
