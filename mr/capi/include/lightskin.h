@@ -171,6 +171,8 @@ LSK_API lsk_status lsk_session_submit(lsk_session* session, const lsk_frame* fra
 LSK_API lsk_status lsk_session_report(const lsk_session* session, lsk_frame_report* report);
 LSK_API lsk_status lsk_session_render(lsk_session* session, const lsk_render_target* target);
 
+/* The session's colour camera (a source-fed session: the source's). No GL. */
+LSK_API lsk_status lsk_session_camera(const lsk_session* session, lsk_camera* out);
 /* The session camera's GL projection (OpenCV camera frame in) and the last frame's camera_T_world,
  * both column-major: clip = projection * view * world point (for a host drawing its own geometry). */
 LSK_API lsk_status lsk_session_projection(const lsk_session* session, double near_metres, double far_metres, float out[16]);

@@ -288,6 +288,15 @@ lsk_status lsk_session_projection(const lsk_session* session, double nearMetres,
     });
 }
 
+lsk_status lsk_session_camera(const lsk_session* session, lsk_camera* out) {
+    return guarded("lsk_session_camera", [&]() -> lsk_status {
+        if (session == nullptr || out == nullptr) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_camera: null argument");
+        const lightskin::CameraIntrinsics& k = session->session->camera();
+        *out = lsk_camera{k.width, k.height, k.fx, k.fy, k.cx, k.cy};
+        return LSK_OK;
+    });
+}
+
 lsk_status lsk_session_view(const lsk_session* session, float out[16]) {
     return guarded("lsk_session_view", [&]() -> lsk_status {
         if (session == nullptr || out == nullptr) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_view: null argument");

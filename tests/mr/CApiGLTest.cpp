@@ -1,0 +1,141 @@
+// The C ABI (liblightskin.so through lightskin.h) in process: versions, argument and input errors
+// with thread-local messages, versioned structs (an older, shorter struct is not written past its
+// size), and a host-submitted frame whose pose comes back in the report.
+#include "GlTestEnvironment.h"
+#include "TestPaths.h"
+
+#include <lightskin/capture/FrameSource.h>
+
+#include <lightskin.h>
+
+#include <glm/gtc/type_ptr.hpp>
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include <cstddef>
+#include <cstring>
+#include <string>
+#include <thread>
+
+namespace {
+
+std::filesystem::path sourceDir() { return lightskin::test::sourceDir(); }
+
+lsk_scene orbitScene(const std::string& path) {
+    lsk_scene scene;
+    lsk_scene_init(&scene);
+    scene.path = path.c_str();
+    return scene;
+}
+
+class CApiGLTest : public lightskin::test::GlTest {};
+
+TEST_F(CApiGLTest, VersionMatchesTheHeader) {
+    EXPECT_EQ(std::string(lsk_version()),
+              std::to_string(LSK_VERSION_MAJOR) + "." + std::to_string(LSK_VERSION_MINOR) + "." + std::to_string(LSK_VERSION_PATCH));
+}
+
+TEST_F(CApiGLTest, BadArgumentsAndInputAreErrorCodesWithMessages) {
+    lsk_session* session = reinterpret_cast<lsk_session*>(0x1);
+    const std::string scenePath = (sourceDir() / "recordings/scenes/orbit.json").string();
+    lsk_scene scene = orbitScene(scenePath);
+    EXPECT_EQ(lsk_session_create_from_source(nullptr, &scene, nullptr, &session), LSK_ERROR_INVALID_ARGUMENT);
+    EXPECT_NE(std::string(lsk_last_error()), "");
+    // A struct whose size was never set is refused, not read.
+    lsk_scene unset{};
+    EXPECT_EQ(lsk_session_create_from_source(nullptr, &unset, "x", &session), LSK_ERROR_INVALID_ARGUMENT);
+    EXPECT_NE(std::string(lsk_last_error()).find("struct_size"), std::string::npos) << lsk_last_error();
+    // A missing scene file: an input error naming the file; no session.
+    const std::string missing = "/nonexistent/scene-for-capi.json";
+    lsk_scene bad = orbitScene(missing);
+    EXPECT_EQ(lsk_session_create_from_source(nullptr, &bad, (sourceDir() / "recordings/synth-orbit").c_str(), &session), LSK_ERROR_INPUT);
+    EXPECT_EQ(session, nullptr);
+    EXPECT_NE(std::string(lsk_last_error()).find(missing), std::string::npos) << lsk_last_error();
+    lsk_session_options options;
+    lsk_session_options_init(&options);
+    options.pose_mode = 7;
+    EXPECT_EQ(lsk_session_create_from_source(&options, &scene, "x", &session), LSK_ERROR_INVALID_ARGUMENT);
+    EXPECT_NE(std::string(lsk_last_error()).find("pose_mode"), std::string::npos) << lsk_last_error();
+    lsk_session_destroy(nullptr); // ignored
+}
+
+TEST_F(CApiGLTest, LastErrorIsPerThread) {
+    EXPECT_EQ(lsk_session_process_next(nullptr), LSK_ERROR_INVALID_ARGUMENT);
+    const std::string mine = lsk_last_error();
+    ASSERT_NE(mine, "");
+    std::string other = "unset";
+    std::thread([&other] { other = lsk_last_error(); }).join();
+    EXPECT_EQ(other, "") << "another thread saw this thread's error";
+    EXPECT_EQ(std::string(lsk_last_error()), mine);
+    EXPECT_EQ(lsk_session_set_budget(nullptr, 1.0), LSK_ERROR_INVALID_ARGUMENT);
+    EXPECT_NE(std::string(lsk_last_error()), mine) << "a new error replaces the old one";
+}
+
+TEST_F(CApiGLTest, HostFrameRoundTripAndVersionedReport) {
+    auto source = lightskin::capture::openFrameSource(sourceDir() / "recordings/synth-orbit", {});
+    lightskin::RgbdFrame frame;
+    ASSERT_TRUE(source->next(frame));
+    ASSERT_TRUE(frame.groundTruth_world_T_camera.has_value());
+    const lightskin::CameraIntrinsics& k = frame.colourIntrinsics;
+    const lsk_camera camera{k.width, k.height, k.fx, k.fy, k.cx, k.cy};
+    const std::string scenePath = (sourceDir() / "recordings/scenes/orbit.json").string();
+    const lsk_scene scene = orbitScene(scenePath);
+    lsk_session* session = nullptr;
+    ASSERT_EQ(lsk_session_create(nullptr, &scene, &camera, &session), LSK_OK) << lsk_last_error();
+    ASSERT_NE(session, nullptr);
+
+    cv::Mat rgb;
+    cv::cvtColor(frame.colour, rgb, cv::COLOR_BGR2RGB);
+    lsk_frame f;
+    lsk_frame_init(&f);
+    f.rgb = rgb.data;
+    f.depth = frame.depth.ptr<std::uint16_t>();
+    f.depth_scale_metres = frame.depthScaleMetres;
+    f.camera = camera;
+    f.timestamp_seconds = 3.25;
+    f.has_pose = 1;
+    const glm::dmat4 pose = frame.groundTruth_world_T_camera->matrix();
+    std::memcpy(f.world_T_camera, glm::value_ptr(pose), sizeof f.world_T_camera);
+    ASSERT_EQ(lsk_session_submit(session, &f), LSK_OK) << lsk_last_error();
+
+    lsk_frame_report report;
+    lsk_frame_report_init(&report);
+    ASSERT_EQ(lsk_session_report(session, &report), LSK_OK);
+    EXPECT_EQ(report.frame_index, 0);
+    EXPECT_EQ(report.timestamp_seconds, 3.25);
+    EXPECT_EQ(report.tracking_state, LSK_TRACKING);
+    ASSERT_EQ(report.has_pose, 1);
+    for (int i = 0; i < 16; ++i) EXPECT_NEAR(report.world_T_camera[i], f.world_T_camera[i], 1e-12) << i;
+    EXPECT_GT(report.val_count, 0u);
+    EXPECT_GT(report.covered_pixels, 0);
+    ASSERT_GE(report.stage_count, 4u);
+    EXPECT_STREQ(report.stages[0].name, "depth filter");
+    EXPECT_EQ(report.technique, LSK_TECHNIQUE_LIGHTSKIN);
+
+    // An older host's report ends before the stage list: nothing past its size is written.
+    constexpr std::size_t kOldSize = offsetof(lsk_frame_report, stage_count);
+    unsigned char buffer[sizeof(lsk_frame_report)];
+    std::memset(buffer, 0xAB, sizeof buffer);
+    lsk_frame_report old;
+    std::memset(&old, 0, sizeof old);
+    old.struct_size = kOldSize;
+    std::memcpy(buffer, &old, sizeof old.struct_size);
+    ASSERT_EQ(lsk_session_report(session, reinterpret_cast<lsk_frame_report*>(buffer)), LSK_OK);
+    for (std::size_t i = kOldSize; i < sizeof buffer; ++i) ASSERT_EQ(buffer[i], 0xAB) << "byte " << i << " written";
+    lsk_frame_report shortened;
+    std::memcpy(&shortened, buffer, kOldSize);
+    EXPECT_EQ(shortened.struct_size, kOldSize);
+    EXPECT_EQ(shortened.val_count, report.val_count);
+
+    // Wrong camera: an input error naming the intrinsics.
+    f.camera.fx += 1.0;
+    EXPECT_EQ(lsk_session_submit(session, &f), LSK_ERROR_INPUT);
+    EXPECT_NE(std::string(lsk_last_error()).find("intrinsics"), std::string::npos) << lsk_last_error();
+    lsk_render_target target;
+    lsk_render_target_init(&target);
+    target.content = 9;
+    EXPECT_EQ(lsk_session_render(session, &target), LSK_ERROR_INVALID_ARGUMENT);
+    lsk_session_destroy(session);
+}
+
+} // namespace
