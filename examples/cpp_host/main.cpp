@@ -30,7 +30,7 @@ struct HostWindow { // what an engine's platform layer would own
     EGLSurface surface = EGL_NO_SURFACE;
     EGLContext context = EGL_NO_CONTEXT;
     HostWindow(int w, int h) {
-        display = eglGetPlatformDisplay(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
+        display = eglGetPlatformDisplayEXT(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
         if (display == EGL_NO_DISPLAY || !eglInitialize(display, nullptr, nullptr)) throw std::runtime_error("no EGL display");
         const EGLint configAttributes[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_SURFACE_TYPE, EGL_PBUFFER_BIT,
                                            EGL_RED_SIZE, 8, EGL_GREEN_SIZE, 8, EGL_BLUE_SIZE, 8, EGL_DEPTH_SIZE, 24, EGL_NONE};
@@ -161,6 +161,8 @@ int run(int argc, char** argv) {
         // lightskin adds the lit virtual objects (depth-tested) and the composite beside them.
         session->render({.framebuffer = 0, .depthTest = true, .nearMetres = kNear, .farMetres = kFar});
         session->render({.framebuffer = 0, .x = w, .content = mr::RenderContent::CompositeOverCamera});
+        const float transparent[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+        glClearTexImage(coverage, 0, GL_RGBA, GL_FLOAT, transparent); // VirtualOnly leaves uncovered pixels as they are
         session->render({.texture = coverage});
 
         const cv::Mat left = readBack(0, 0, w, h), right = readBack(w, 0, w, h);
