@@ -7,7 +7,7 @@
 // --headless runs the same loop without a window (EGL), for tests and machines without a display.
 #include "Commands.h"
 #include "LiveWindowDisplay.h"
-#include <lightskin/mr/FramePipeline.h>
+#include <lightskin/mr/Session.h>
 
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/capture/Recording.h>
@@ -83,7 +83,6 @@ void writePng(const std::filesystem::path& path, const cv::Mat& image) {
 
 int runLive(const LiveArgs& args) {
     if (args.scene.empty()) throw Error("--scene", std::nullopt, "live needs a scene file (docs/SCENE_FORMAT.md)");
-    const render::Scene scene = render::loadScene(args.scene);
     const std::string uri = args.device == "freenect" ? "freenect://0" : args.device;
     capture::FrameSourceOptions sourceOptions;
     sourceOptions.pacing = args.fast ? capture::Pacing::AsFastAsPossible : capture::Pacing::Realtime;
@@ -101,7 +100,11 @@ int runLive(const LiveArgs& args) {
     mr::PipelineOptions options;
     options.poseMode = args.pose.empty() ? (info.hasGroundTruth ? mr::PoseMode::GroundTruth : mr::PoseMode::Tracking) : mr::parsePoseMode(args.pose);
     options.compare = false;
-    auto pipeline = mr::FramePipeline::create(scene, info, options);
+    mr::SessionOptions sessionOptions;
+    sessionOptions.pipeline = options;
+    // The session runs the frames this command reads (it also records them).
+    auto session = mr::Session::create(sessionOptions, mr::SceneInput::fromFile(args.scene), info);
+    mr::FramePipeline* pipeline = &session->pipeline();
     std::printf("live: %s (%s), scene %s, pose %s, GI %s\n", info.uri.c_str(), info.kind.c_str(), args.scene.c_str(),
                 mr::toString(options.poseMode), pipeline->techniqueName().c_str());
     if (window) std::printf("keys: G GI, L glossy, O occlusion, V debug view, C side by side, P snapshot, Q/Esc quit\n");
@@ -152,7 +155,6 @@ int runLive(const LiveArgs& args) {
     const auto previous = std::signal(SIGINT, onLiveInterrupt);
     WindowDisplay display;
     RgbdFrame frame;
-    mr::FrameOutput out;
     cv::Mat shown;
     std::int64_t count = 0;
     double fps = 0.0;
@@ -161,7 +163,8 @@ int runLive(const LiveArgs& args) {
         while (!quit && !liveInterrupt && (args.maxFrames < 0 || count < args.maxFrames) && source->next(frame)) {
             ++count;
             if (recorder) recorder->write(frame);
-            pipeline->process(frame, out);
+            session->process(frame);
+            const mr::FrameOutput& out = session->output();
             if (pipeline->options().compare) render::sideBySideInto(out.withGi, "with GI", out.withoutGi, "without GI", shown);
             else out.withGi.copyTo(shown);
             const auto now = std::chrono::steady_clock::now();

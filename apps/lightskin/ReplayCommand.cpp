@@ -5,7 +5,7 @@
 // and keeps everything written so far (video finalised, report marked "interrupted"; exit 130).
 #include "Commands.h"
 #include "LiveWindowDisplay.h"
-#include <lightskin/mr/FramePipeline.h>
+#include <lightskin/mr/Session.h>
 #include "ReplayReport.h"
 
 #include <lightskin/capture/FrameSource.h>
@@ -46,6 +46,7 @@ struct ReplayArgs {
     bool window = false, noVideo = false, sideBySideVideo = false, noCompare = false;
     bool adaptive = false, linearOut = false;
     float staticTolerance = 0.0f;
+    double budgetMs = 0.0; ///< --budget-ms (0: the scene's gi.budgetMs, if any)
     std::string staticTest = "probes";
     std::int64_t maxFrames = -1;
 };
@@ -172,14 +173,13 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
         if (!std::filesystem::exists(scenePath))
             throw Error(args.recording, std::nullopt, "no --scene given and the recording has no scene.json");
     }
-    const render::Scene scene = render::loadScene(scenePath);
     const std::set<std::int64_t> chosen = parseFrameList(args.frames);
     render::DebugView view = render::DebugView::Final;
     mr::Overlay overlay = mr::Overlay::None;
     mr::parseView(args.view, view, overlay);
 
-    auto source = capture::openFrameSource(args.recording, {});
-    const capture::FrameSourceInfo& info = source->info();
+    auto opened = capture::openFrameSource(args.recording, {});
+    const capture::FrameSourceInfo info = opened->info();
     mr::PoseMode poseMode = args.pose.empty() ? (info.hasGroundTruth ? mr::PoseMode::GroundTruth : mr::PoseMode::Tracking) : mr::parsePoseMode(args.pose);
 
     std::unique_ptr<gl::Context> context;
@@ -193,7 +193,6 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     const std::string rendererName = window ? window->describe() : context->describe();
 
     const std::filesystem::path out(args.out);
-    std::filesystem::create_directories(out / "frames");
     mr::PipelineOptions options;
     options.poseMode = poseMode;
     options.view = view;
@@ -206,7 +205,15 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     if (args.staticTest != "probes" && args.staticTest != "bound")
         throw Error("--static-test", std::nullopt, "expected probes or bound, got '" + args.staticTest + "'");
     options.staticProbes = args.staticTest == "probes";
-    auto pipeline = mr::FramePipeline::create(scene, info, options);
+    if (args.budgetMs < 0.0) throw Error("--budget-ms", std::nullopt, "expected a positive number of milliseconds, got " + std::to_string(args.budgetMs));
+    mr::SessionOptions sessionOptions;
+    sessionOptions.pipeline = options;
+    sessionOptions.budgetMs = args.budgetMs;
+    auto session = mr::Session::create(sessionOptions, mr::SceneInput::fromFile(scenePath), std::move(opened));
+    capture::FrameSource* source = session->source();
+    const render::Scene& scene = session->scene();
+    mr::FramePipeline* pipeline = &session->pipeline();
+    std::filesystem::create_directories(out / "frames"); // after the scene loaded: no outputs for a bad scene
     // Without a GI technique both halves of the comparison would be the same image.
     const bool compare = options.compare && pipeline->techniqueName() != "none";
     pipeline->options().compare = compare;
@@ -231,16 +238,19 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     const auto previous = std::signal(SIGINT, onReplayInterrupt);
     std::vector<ReportFrame> frames;
     Progress progress(total >= 0 ? std::optional<std::int64_t>(total) : std::nullopt);
-    RgbdFrame frame;
-    mr::FrameOutput output;
     cv::Mat sideBySide;
     std::int64_t read = 0;
     try {
-        while (!interruptRequested && (args.maxFrames < 0 || read < args.maxFrames) && source->next(frame)) {
+        while (!interruptRequested && (args.maxFrames < 0 || read < args.maxFrames) && session->processNext()) {
             ++read;
-            pipeline->process(frame, output);
+            const mr::FrameOutput& output = session->output();
+            const mr::FrameReport& report = session->report();
             ReportFrame rf;
-            rf.index = frame.index;
+            rf.index = report.frameIndex;
+            if (report.budgetActive) {
+                rf.giSettings = mr::describe(report.settings);
+                rf.predictedMs = report.predictedMs;
+            }
             rf.trackingState = tracking::toString(output.tracking.state);
             rf.trackingReason = output.tracking.reason != nullptr ? output.tracking.reason : "";
             rf.world_T_camera = output.world_T_camera;
@@ -258,10 +268,10 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
             rf.linearNanPixels = output.linearNanPixels;
             rf.linearInfPixels = output.linearInfPixels;
             if (compare) render::sideBySideInto(output.withGi, "with GI (" + pipeline->techniqueName() + ")", output.withoutGi, "without GI", sideBySide);
-            const bool write = chosen.empty() || chosen.count(frame.index) > 0;
+            const bool write = chosen.empty() || chosen.count(report.frameIndex) > 0;
             if (write) {
                 char name[32];
-                std::snprintf(name, sizeof name, "%06lld.png", static_cast<long long>(frame.index));
+                std::snprintf(name, sizeof name, "%06lld.png", static_cast<long long>(report.frameIndex));
                 rf.image = std::string("frames/") + name;
                 writePng(out / rf.image, output.withGi);
                 if (compare) {
@@ -328,6 +338,9 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
     command->add_flag("--linear-out", args->linearOut,
                       "Also write each written frame's linear-light composite (linear/) and indirect-only light (linear-indirect/) "
                       "as 32-bit float OpenEXR (NaN, inf and values > 1 kept; 16-bit PNG clamped to [0,1] if this OpenCV has no EXR)");
+    command->add_option("--budget-ms", args->budgetMs,
+                        "Frame-time budget in ms (overrides the scene's gi.budgetMs): per frame pick technique, sparse points, VAL "
+                        "stride and channels that meet it (docs/PLUGIN.md); report.json lists the choice per frame");
     command->add_flag("--adaptive", args->adaptive,
                       "LightSkin's adaptive mode: turn off what cannot change the image and reuse the VPLs for static content");
     command->add_option("--static-tolerance", args->staticTolerance,

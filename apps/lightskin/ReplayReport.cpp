@@ -108,6 +108,8 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
         if (f.vplNonFinite >= 0) j["vplNonFinite"] = f.vplNonFinite;
         if (f.giReused >= 0) j["giReused"] = f.giReused == 1;
         if (f.giChangeMeasure >= 0.0f) j["giChangeMeasure"] = f.giChangeMeasure;
+        if (!f.giSettings.empty()) j["giSettings"] = f.giSettings;
+        if (f.predictedMs >= 0.0) j["budgetPredictedMs"] = f.predictedMs;
         for (const auto& st : f.cpuTimes) j["cpuMs"][st.name] = st.milliseconds;
         for (const auto& st : f.gpuTimes) {
             const bool seen = j.contains("gpuMs") && j["gpuMs"].contains(st.name);

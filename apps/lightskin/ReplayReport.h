@@ -31,6 +31,8 @@ struct ReportFrame {
     std::string linearIndirectImage;  ///< --linear-out: linear indirect-only image, or empty
     std::string image;        ///< PNG written for this frame (relative to the output folder), or empty
     std::string compareImage; ///< side-by-side PNG, or empty
+    std::string giSettings;   ///< --budget-ms: the settings the frame budget chose (mr::describe), else empty
+    double predictedMs = -1.0; ///< --budget-ms: the budget's prediction for the frame, else < 0
 };
 
 struct ReportSummary {

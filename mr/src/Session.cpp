@@ -110,6 +110,10 @@ std::unique_ptr<Session> Session::create(const SessionOptions& options, const Sc
     return createWith(options, scene, info);
 }
 
+std::unique_ptr<Session> Session::create(const SessionOptions& options, const SceneInput& scene, const capture::FrameSourceInfo& info) {
+    return createWith(options, scene, info);
+}
+
 std::unique_ptr<Session> Session::create(const SessionOptions& options, const SceneInput& scene,
                                          std::unique_ptr<capture::FrameSource> source) {
     LIGHTSKIN_ASSERT(source != nullptr, "lightskin::mr::Session::create(): no source");

@@ -119,6 +119,8 @@ public:
     /// Source-fed session (processNext()); takes the source.
     static std::unique_ptr<Session> create(const SessionOptions& options, const SceneInput& scene,
                                            std::unique_ptr<capture::FrameSource> source);
+    /// Session for frames the caller reads from a source it keeps (process()), e.g. to record them too.
+    static std::unique_ptr<Session> create(const SessionOptions& options, const SceneInput& scene, const capture::FrameSourceInfo& info);
     ~Session();
     Session(const Session&) = delete;
     Session& operator=(const Session&) = delete;
