@@ -308,3 +308,30 @@ TEST(ReplayCommand, VirtualBounceReportsRsmValsAndTime) {
     EXPECT_NE(md.find("| virtual bounce (RSM) |"), std::string::npos);
     EXPECT_NE(md.find(" RSM VALs |"), std::string::npos);
 }
+
+TEST(ReplayCommand, BudgetReportsTheChosenSettingsPerFrame) {
+    const fs::path scratch = test::scratchDir("replay_budget");
+    // 1 ms cannot be met by anything: after the first frame (the scene's settings) the budget runs
+    // the cheapest configuration; every frame reports what it ran. The cube is one convex, diffuse
+    // object: glossy and occlusion can never be chosen.
+    const auto [recording, out, r] = replayTestRecording(scratch, kGiScene, " --frames 0 --max-frames 3 --no-video --budget-ms 1");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
+    ASSERT_EQ(report["frames"].size(), 3u);
+    for (const auto& frame : report["frames"]) {
+        ASSERT_TRUE(frame.contains("giSettings")) << frame.dump();
+        const std::string settings = frame["giSettings"];
+        EXPECT_EQ(settings.find("glossy"), std::string::npos) << settings;
+        EXPECT_EQ(settings.find("occlusion"), std::string::npos) << settings;
+        EXPECT_TRUE(frame.contains("budgetPredictedMs"));
+    }
+    // Without a budget: no such fields.
+    const fs::path plain = test::scratchDir("replay_budget_off");
+    const auto [recording2, out2, r2] = replayTestRecording(plain, kGiScene, " --frames 0 --max-frames 1 --no-video");
+    ASSERT_EQ(r2.exitCode, 0) << r2.err;
+    EXPECT_FALSE(nlohmann::json::parse(test::readText(out2 / "report.json"))["frames"][0].contains("giSettings"));
+    // A negative budget is an error naming the option.
+    const auto [recording3, out3, r3] = replayTestRecording(test::scratchDir("replay_budget_bad"), kGiScene, " --budget-ms -5");
+    EXPECT_NE(r3.exitCode, 0);
+    EXPECT_NE(r3.err.find("--budget-ms"), std::string::npos) << r3.err;
+}
