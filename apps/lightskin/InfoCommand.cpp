@@ -7,6 +7,9 @@
 #include <lightskin/capture/Recording.h>
 #include <lightskin/core/Error.h>
 
+#include <glm/gtc/quaternion.hpp>
+
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -15,6 +18,16 @@
 namespace lightskin::apps {
 
 namespace {
+
+/// "t = (x, y, z) m, rotation a deg about (x, y, z)": the extrinsic as a reader checks it.
+void printExtrinsic(const char* label, const Pose& colour_T_depth) {
+    const glm::dvec3& t = colour_T_depth.translation();
+    const glm::dquat q = colour_T_depth.rotation();
+    const double angle = 2.0 * std::acos(std::min(1.0, std::abs(q.w)));
+    const glm::dvec3 axis = angle > 1e-12 ? glm::normalize(glm::dvec3(q.x, q.y, q.z)) : glm::dvec3(0.0, 0.0, 1.0);
+    std::printf("%s t = (%.4f, %.4f, %.4f) m, rotation %.3f deg about (%.3f, %.3f, %.3f)\n", label, t.x, t.y, t.z,
+                angle * 180.0 / 3.14159265358979323846, axis.x, axis.y, axis.z);
+}
 
 void addInfoCommand(CLI::App& app, int& exitCode) {
     auto* command = app.add_subcommand("info", "Print what a recording (or .oni / TUM folder) holds");
@@ -31,8 +44,9 @@ void addInfoCommand(CLI::App& app, int& exitCode) {
             std::printf("depth:         %s (16-bit PNG, %.6g m per unit)\n", s.info.depthIntrinsics.describe().c_str(),
                         s.info.depthScaleMetres);
             std::printf("registration:  %s\n", toString(s.info.registration));
-            const auto& t = s.info.colour_T_depth.translation();
-            std::printf("colour_T_depth translation: %.4f %.4f %.4f m\n", t.x, t.y, t.z);
+            printExtrinsic("colour_T_depth:", s.info.colour_T_depth);
+            if (s.info.registration == DepthRegistration::Unregistered)
+                std::printf("               (replay and live register the depth in software with it)\n");
             std::printf("frames:        %lld (%lld with colour, %lld with depth, %lld with ground-truth pose)\n",
                         static_cast<long long>(s.frameCount), static_cast<long long>(s.framesWithColour),
                         static_cast<long long>(s.framesWithDepth), static_cast<long long>(s.framesWithGroundTruth));
@@ -50,7 +64,17 @@ void addInfoCommand(CLI::App& app, int& exitCode) {
             std::printf("colour:        %s\n", info.colourIntrinsics.describe().c_str());
             std::printf("depth:         %s (%.6g m per unit)\n", info.depthIntrinsics.describe().c_str(),
                         info.depthScaleMetres);
-            std::printf("registration:  %s\n", toString(info.registration));
+            if (info.softwareRegistration) {
+                const capture::RegistrationCalibration& c = *info.softwareRegistration;
+                std::printf("registration:  %s in software (the source's depth is unregistered)\n",
+                            toString(info.registration));
+                std::printf("depth camera:  %s\n", c.depth.describe().c_str());
+                printExtrinsic("colour_T_depth:", c.colour_T_depth);
+            } else {
+                std::printf("registration:  %s\n", toString(info.registration));
+                printExtrinsic("colour_T_depth:", info.colour_T_depth);
+            }
+            if (!info.calibrationSource.empty()) std::printf("calibration:   %s\n", info.calibrationSource.c_str());
             if (const auto count = source->frameCount())
                 std::printf("frames:        %lld\n", static_cast<long long>(*count));
             else

@@ -31,7 +31,7 @@ struct RecordArguments {
     std::string source, out;
     std::int64_t maxFrames = -1;
     std::size_t queue = 30;
-    bool jpeg = false, realtime = false, toFakenect = false;
+    bool jpeg = false, realtime = false, toFakenect = false, registerDepth = false;
 };
 
 void addRecordCommand(CLI::App& app, int& exitCode) {
@@ -48,11 +48,15 @@ void addRecordCommand(CLI::App& app, int& exitCode) {
         ->check(CLI::Range(1, 10000));
     command->add_flag("--jpeg", args->jpeg, "Store colour as JPEG (lossy, smaller) instead of PNG");
     command->add_flag("--realtime", args->realtime, "Replay recorded sources at their recorded speed");
+    command->add_flag("--register-depth", args->registerDepth,
+                      "Write depth registered to colour (software registration where the device did not register); "
+                      "default: the source's depth as delivered, with its colour_T_depth in the header");
     command->add_flag("--to-fakenect", args->toFakenect,
                       "Write a fakenect dump (640x480) instead of a lightskin recording");
     command->callback([args, &exitCode] {
         capture::FrameSourceOptions options;
         options.pacing = args->realtime ? capture::Pacing::Realtime : capture::Pacing::AsFastAsPossible;
+        options.softwareRegistration = args->registerDepth;
         auto source = capture::openFrameSource(args->source, options);
         if (args->toFakenect) {
             const auto frames = capture::writeFakenectDump(*source, args->out, args->maxFrames);

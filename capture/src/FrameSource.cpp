@@ -44,6 +44,8 @@ bool FrameSource::next(RgbdFrame& out) {
                 }
             }
         }
+        // Software registration: readNext() fills the raw buffer, registerInto() the handed-out one.
+        if (registrar_) out.depth = rawDepth_;
         if (!readNext(out)) {
             // Loop: start again at frame 0, once per call (an empty source must not spin).
             if (options_.loop && canSeek() && !restarted && frameCount().value_or(0) > 0) {
@@ -70,11 +72,38 @@ bool FrameSource::next(RgbdFrame& out) {
             }
         }
     }
+    if (registrar_ && !out.depth.empty()) {
+        rawDepth_ = out.depth;
+        const auto& raw = *info_.softwareRegistration;
+        if (rawDepth_.type() != CV_16UC1 || rawDepth_.cols != raw.depth.width || rawDepth_.rows != raw.depth.height)
+            throw Error(info_.uri, out.index,
+                        "depth frame " + std::to_string(rawDepth_.cols) + "x" + std::to_string(rawDepth_.rows) +
+                            " does not match the depth camera's calibration (" + raw.depth.describe() + ")");
+        registrar_->registerInto(rawDepth_, out.depthScaleMetres, registeredDepth_);
+        out.depth = registeredDepth_;
+    }
     ++delivered_;
     return true;
 }
 
-std::unique_ptr<FrameSource> openFrameSource(const std::string& uriOrPath, const FrameSourceOptions& options) {
+void FrameSource::enableSoftwareRegistration() {
+    if (!options_.softwareRegistration || info_.registration != DepthRegistration::Unregistered) return;
+    if (!info_.colourIntrinsics.isValid()) return; // no colour camera to register into
+    RegistrationCalibration calibration;
+    calibration.depth = info_.depthIntrinsics;
+    calibration.colour = info_.colourIntrinsics;
+    calibration.colour_T_depth = info_.colour_T_depth;
+    calibration.source = info_.uri + (info_.calibrationSource.empty() ? "" : " (" + info_.calibrationSource + ")");
+    registrar_ = DepthRegistrar::create(calibration);
+    info_.softwareRegistration = calibration;
+    info_.registration = DepthRegistration::RegisteredToColour;
+    info_.depthIntrinsics = info_.colourIntrinsics;
+    info_.colour_T_depth = Pose();
+}
+
+namespace {
+
+std::unique_ptr<FrameSource> openUnregistered(const std::string& uriOrPath, const FrameSourceOptions& options) {
     if (uriOrPath.rfind("openni2://", 0) == 0) return detail::openOpenNI2Source(uriOrPath.substr(10), false, options);
     if (uriOrPath.rfind("freenect://", 0) == 0) {
         const std::string rest = uriOrPath.substr(11);
@@ -108,6 +137,14 @@ std::unique_ptr<FrameSource> openFrameSource(const std::string& uriOrPath, const
     throw Error(uriOrPath, std::nullopt,
                 "unknown source: expected a recording folder, a TUM folder, a .oni file, "
                 "openni2://[uri] or freenect://<index>");
+}
+
+} // namespace
+
+std::unique_ptr<FrameSource> openFrameSource(const std::string& uriOrPath, const FrameSourceOptions& options) {
+    std::unique_ptr<FrameSource> source = openUnregistered(uriOrPath, options);
+    source->enableSoftwareRegistration();
+    return source;
 }
 
 void FrameSource::stampFrame(RgbdFrame& out, std::int64_t index) const {

@@ -124,12 +124,16 @@ public:
         info_.colourIntrinsics = options_.intrinsics.value_or(CameraIntrinsics::kinectV1Default());
         const bool registered = options_.registerDepth && !rawDisparity_;
         info_.registration = registered ? DepthRegistration::RegisteredToColour : DepthRegistration::Unregistered;
-        // Unregistered: the IR camera; ROS openni_camera's default depth focal length 575.8 px.
-        // colour_T_depth stays identity: the ~2.5 cm IR-RGB baseline is not calibrated here.
+        // Unregistered: the IR camera (ROS openni_camera's default depth focal length 575.8 px) and
+        // the published Kinect v1 baseline (Registration.h): libfreenect's per-device registration
+        // tables are not a pinhole model, so software registration uses these defaults.
         info_.depthIntrinsics =
-            registered
-                ? info_.colourIntrinsics
-                : options_.intrinsics.value_or(CameraIntrinsics{kWidth, kHeight, 575.8157, 575.8157, 319.5, 239.5, {}});
+            registered ? info_.colourIntrinsics : options_.intrinsics.value_or(kinectV1DefaultDepthIntrinsics());
+        if (!registered) info_.colour_T_depth = kinectV1DefaultColour_T_depth();
+        info_.calibrationSource = registered
+                                      ? "registered by libfreenect"
+                                      : "Kinect v1 defaults: depth f 575.8 (ROS openni_camera), colour 525 (ROS), "
+                                        "colour_T_depth 2.5 cm baseline (NYU Depth V2 toolbox)";
         start_ = std::chrono::steady_clock::now();
     }
 

@@ -22,8 +22,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include <cmath>
 #include <chrono>
+#include <cmath>
 #include <mutex>
 #include <thread>
 
@@ -150,6 +150,8 @@ public:
                         "depth pixel format " + std::to_string(int(depthMode.getPixelFormat())) +
                             " is not metric (1 mm or 100 um)");
         const int depthWidth = depthMode.getResolutionX(), depthHeight = depthMode.getResolutionY();
+        depthWidth_ = depthWidth;
+        depthHeight_ = depthHeight;
         if (depthWidth <= 0 || depthHeight <= 0 || depthWidth > 16384 || depthHeight > 16384)
             throw Error(uri, std::nullopt,
                         "absurd depth resolution " + std::to_string(depthWidth) + "x" + std::to_string(depthHeight));
@@ -182,6 +184,16 @@ public:
         info_.registration = registered_ ? DepthRegistration::RegisteredToColour : DepthRegistration::Unregistered;
         if (registered_) info_.depthIntrinsics = info_.colourIntrinsics;
         if (options_.intrinsics) info_.colourIntrinsics = info_.depthIntrinsics = *options_.intrinsics;
+        // OpenNI2 reports no depth-to-colour extrinsic. Unregistered PrimeSense/Kinect v1 depth:
+        // the published Kinect v1 baseline (Registration.h) for software registration.
+        if (!registered_) info_.colour_T_depth = kinectV1DefaultColour_T_depth();
+        info_.calibrationSource =
+            std::string(options_.intrinsics ? "intrinsics given by the caller" : "depth: the stream's field of view") +
+            (colour_.isValid() && !options_.intrinsics && !(colour_.getHorizontalFieldOfView() > 0.0f)
+                 ? "; colour: Kinect v1 default 525/525/319.5/239.5 (ROS)"
+                 : "") +
+            (registered_ ? "; registered by the device"
+                         : "; colour_T_depth: Kinect v1 default, 2.5 cm baseline (NYU Depth V2 toolbox)");
         if (registered_ && colour_.isValid() &&
             (info_.colourIntrinsics.width != depthWidth || info_.colourIntrinsics.height != depthHeight))
             throw Error(uri, std::nullopt, "registered depth and colour have different sizes");
@@ -288,7 +300,7 @@ private:
 
     void takeDepth(const openni::VideoFrameRef& frame, RgbdFrame& out) {
         const int w = frame.getWidth(), h = frame.getHeight();
-        if (w != info_.depthIntrinsics.width || h != info_.depthIntrinsics.height || frame.getDataSize() < w * h * 2 ||
+        if (w != depthWidth_ || h != depthHeight_ || frame.getDataSize() < w * h * 2 ||
             frame.getStrideInBytes() < w * 2)
             throw Error(info_.uri, next_,
                         "depth frame size " + std::to_string(w) + "x" + std::to_string(h) +
@@ -346,6 +358,7 @@ private:
     bool file_ = false, registered_ = false, flipDepth_ = false, flipColour_ = false;
     bool haveDepth_ = false, haveColour_ = false;
     int depthFrames_ = 0, colourFrames_ = 0;
+    int depthWidth_ = 0, depthHeight_ = 0; // the stream's own size (info_ may describe registered frames)
     int lastDepthIndex_ = -1, lastColourIndex_ = -1;
     std::int64_t next_ = 0, gaps_ = 0, unpaired_ = 0;
 };

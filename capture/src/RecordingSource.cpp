@@ -80,6 +80,7 @@ std::unique_ptr<FrameSource> openRecordingSource(const std::filesystem::path& fo
     info.depthScaleMetres = header.depthScaleMetres;
     info.registration = header.registration;
     info.colour_T_depth = header.colour_T_depth;
+    info.calibrationSource = "recording header";
     for (const auto& entry : index.entries)
         if (entry.world_T_camera) info.hasGroundTruth = true;
     return std::make_unique<RecordingSource>(std::move(info), options, folder, std::move(header), std::move(index));

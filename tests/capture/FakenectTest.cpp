@@ -47,11 +47,16 @@ TEST(FakenectTest, LiveCodePathReplaysARecording) {
     EXPECT_EQ(capture::writeFakenectDump(*recording, scratch / "dump"), 4);
 
     ASSERT_EQ(setenv("FAKENECT_PATH", (scratch / "dump").c_str(), 1), 0);
-    auto live = capture::openFrameSource("freenect://0");
+    capture::FrameSourceOptions raw;
+    raw.softwareRegistration = false; // compares the delivered pixels with the written ones
+    auto live = capture::openFrameSource("freenect://0", raw);
     EXPECT_EQ(live->info().kind, "freenect");
     EXPECT_TRUE(live->info().live);
-    // Debian's fakenect offers only raw 11-bit disparity: the source converts it (unregistered).
+    // Debian's fakenect offers only raw 11-bit disparity: the source converts it (unregistered),
+    // with the Kinect v1 default extrinsic for software registration (here switched off).
     EXPECT_EQ(live->info().registration, DepthRegistration::Unregistered);
+    EXPECT_NEAR(live->info().colour_T_depth.translation().x, 0.025, 0.001);
+    EXPECT_FALSE(live->info().softwareRegistration.has_value());
     EXPECT_FALSE(live->frameCount().has_value());
     RgbdFrame frame;
     std::size_t received = 0;

@@ -22,6 +22,13 @@ namespace {
 
 std::string oniPath() { return std::filesystem::absolute(dataPath("oni-kinect-v1/3dj_test.oni")).string(); }
 
+/// The file's own (unregistered) depth, as the tests of the OpenNI2 reader itself need it.
+capture::FrameSourceOptions unregistered() {
+    capture::FrameSourceOptions options;
+    options.softwareRegistration = false;
+    return options;
+}
+
 /// The first depth frame as OpenNI2 itself delivers it (mirrored), read without lightskin.
 cv::Mat rawFirstDepthFrame() {
     EXPECT_EQ(openni::OpenNI::initialize(), openni::STATUS_OK);
@@ -49,7 +56,7 @@ TEST(OniSourceTest, DeliversEveryFrameInOrderThenEnds) {
     // Any working directory: OpenNI2 must find its drivers by itself.
     const auto previous = std::filesystem::current_path();
     std::filesystem::current_path("/");
-    auto source = capture::openFrameSource(oniPath());
+    auto source = capture::openFrameSource(oniPath(), unregistered());
     std::filesystem::current_path(previous);
 
     EXPECT_EQ(source->info().kind, "oni");
@@ -91,7 +98,7 @@ TEST(OniSourceTest, DeliversEveryFrameInOrderThenEnds) {
 
 TEST(OniSourceTest, MirroredFileIsFlippedBackAndSeekWorks) {
     const cv::Mat raw = rawFirstDepthFrame();
-    auto source = capture::openFrameSource(oniPath());
+    auto source = capture::openFrameSource(oniPath(), unregistered());
     RgbdFrame first, frame;
     ASSERT_TRUE(source->next(first));
     cv::Mat flipped;
@@ -112,7 +119,7 @@ TEST(OniSourceTest, MirroredFileIsFlippedBackAndSeekWorks) {
 
 TEST(OniSourceTest, RecordingTheFileAndReplayingItIsBitExact) {
     const auto folder = scratchDir("oni_roundtrip") / "rec";
-    auto oni = capture::openFrameSource(oniPath());
+    auto oni = capture::openFrameSource(oniPath(), unregistered());
     {
         const auto& info = oni->info();
         capture::RecordingInfo recording{info.deviceName,
@@ -130,8 +137,11 @@ TEST(OniSourceTest, RecordingTheFileAndReplayingItIsBitExact) {
         EXPECT_EQ(stats.written, 12);
         EXPECT_EQ(stats.dropped, 0);
     }
-    auto replay = capture::openFrameSource(folder.string());
+    auto replay = capture::openFrameSource(folder.string(), unregistered());
     EXPECT_EQ(replay->info().registration, DepthRegistration::Unregistered);
+    // The recording keeps the extrinsic the registration needs (the Kinect v1 default here).
+    EXPECT_EQ(replay->info().colour_T_depth.translation(), oni->info().colour_T_depth.translation());
+    EXPECT_NEAR(replay->info().colour_T_depth.translation().x, 0.0250319, 1e-9);
     oni->seek(0);
     RgbdFrame original, copy;
     int frames = 0;
@@ -144,6 +154,47 @@ TEST(OniSourceTest, RecordingTheFileAndReplayingItIsBitExact) {
     }
     EXPECT_EQ(frames, 12);
     EXPECT_FALSE(replay->next(copy));
+}
+
+// By default the unregistered .oni depth is registered in software, with the stream's depth
+// intrinsics and the Kinect v1 default extrinsic, and a recording of the raw file (header with the
+// extrinsic) registers to the same pixels: what replay and live see.
+TEST(OniSourceTest, UnregisteredDepthIsRegisteredInSoftwareByDefault) {
+    auto registered = capture::openFrameSource(oniPath());
+    const auto& info = registered->info();
+    EXPECT_EQ(info.registration, DepthRegistration::RegisteredToColour);
+    ASSERT_TRUE(info.softwareRegistration.has_value());
+    EXPECT_NEAR(info.softwareRegistration->depth.fx, 320.0 / std::tan(1.014469 / 2.0), 0.01);
+    EXPECT_NEAR(info.softwareRegistration->colour_T_depth.translation().x, 0.0250319, 1e-9);
+    EXPECT_EQ(info.depthIntrinsics.fx, info.colourIntrinsics.fx);
+    EXPECT_FALSE(info.calibrationSource.empty());
+
+    auto raw = capture::openFrameSource(oniPath(), unregistered());
+    const capture::DepthRegistrar registrar = capture::DepthRegistrar::create(*info.softwareRegistration);
+    RgbdFrame a, b;
+    cv::Mat expected;
+    int frames = 0;
+    const void* buffer = nullptr;
+    while (registered->next(a)) {
+        ASSERT_TRUE(raw->next(b));
+        EXPECT_EQ(a.registration, DepthRegistration::RegisteredToColour);
+        EXPECT_NO_THROW(a.validate("oni registered"));
+        registrar.registerInto(b.depth, b.depthScaleMetres, expected);
+        EXPECT_EQ(cv::norm(a.depth, expected, cv::NORM_INF), 0.0) << "frame " << frames;
+        // Not the raw image: the 2.5 cm baseline moves the content by 525 * 0.025 / z > 3 px below 4 m.
+        EXPECT_GT(cv::norm(a.depth, b.depth, cv::NORM_L1), 0.0);
+        // Holes stay holes and most of the image has depth (the raw frames have > 50%, test above;
+        // the colour camera's wider field of view (f 525 vs 575.8) leaves a margin of about
+        // 1 - (525/575.8)^2 = 17% unseen by the depth camera).
+        EXPECT_GT(cv::countNonZero(a.depth), 640 * 480 * 4 / 10);
+        // Registered in place frame after frame: the same buffer (no per-frame allocation).
+        if (buffer != nullptr) {
+            EXPECT_EQ(static_cast<const void*>(a.depth.data), buffer);
+        }
+        buffer = a.depth.data;
+        ++frames;
+    }
+    EXPECT_EQ(frames, 12);
 }
 
 TEST(OniSourceTest, HeaderOnlyOrTruncatedFilesAreErrors) {

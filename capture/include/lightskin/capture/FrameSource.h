@@ -12,6 +12,7 @@
 // lightskin::Error naming the file or URI, the frame index and the cause.
 // Threading: a FrameSource is used from one thread at a time.
 
+#include <lightskin/capture/Registration.h>
 #include <lightskin/core/CameraIntrinsics.h>
 #include <lightskin/core/Pose.h>
 #include <lightskin/core/RgbdFrame.h>
@@ -51,6 +52,11 @@ struct FrameSourceOptions {
 
     /// Live devices: ask for depth registered to colour (hardware registration). Default on.
     bool registerDepth = true;
+    /// Depth that is still not registered to colour after opening (files, fakenect, raw disparity,
+    /// devices that cannot register) is registered in software (Registration.h) with the source's
+    /// calibration before next() hands it out: frames are then RegisteredToColour. Default on;
+    /// `lightskin record` turns it off unless asked (recordings keep the raw depth and the extrinsic).
+    bool softwareRegistration = true;
     /// Live devices: a next() that sees no frame for this long throws (device gone).
     std::chrono::milliseconds liveTimeout{3000};
     /// .oni playback: a waitForAnyStream timeout this long means end of file.
@@ -67,7 +73,14 @@ struct FrameSourceInfo {
     CameraIntrinsics depthIntrinsics;
     double depthScaleMetres = 0.001;
     DepthRegistration registration = DepthRegistration::RegisteredToColour;
-    Pose colour_T_depth;         ///< identity when registered
+    Pose colour_T_depth; ///< identity when registered
+    /// Where the intrinsics and colour_T_depth come from ("device", "recording header", "Kinect v1
+    /// defaults (NYU Depth V2)", ...); empty when the source does not say.
+    std::string calibrationSource;
+    /// Set when this source registers depth in software (FrameSourceOptions::softwareRegistration):
+    /// the depth camera's own intrinsics and the extrinsic used. registration, depthIntrinsics and
+    /// colour_T_depth above then describe the delivered (registered) frames.
+    std::optional<RegistrationCalibration> softwareRegistration;
     bool hasGroundTruth = false; ///< frames carry groundTruth_world_T_camera (where the source has it)
 };
 
@@ -125,6 +138,15 @@ private:
     double paceFirstTimestamp_ = 0.0;
     std::chrono::steady_clock::time_point paceStart_;
     RgbdFrame skipScratch_;
+    // Software registration (enableSoftwareRegistration): the raw depth buffer readNext() fills
+    // and the registered one handed out, both reused frame to frame.
+    std::optional<DepthRegistrar> registrar_;
+    cv::Mat rawDepth_, registeredDepth_;
+
+    /// Switches this source to software registration when its depth is unregistered and it has
+    /// colour; updates info(). Called once by openFrameSource().
+    void enableSoftwareRegistration();
+    friend std::unique_ptr<FrameSource> openFrameSource(const std::string&, const FrameSourceOptions&);
 };
 
 /// Opens a source, detecting its kind from `uriOrPath`:
