@@ -69,7 +69,8 @@ cv::Mat readLinearPng16(const std::filesystem::path& path, std::string& renderer
     return linear;
 }
 
-void writeDiffImage(const cv::Mat& actual, const cv::Mat& golden, double linearPeak, const std::filesystem::path& path) {
+void writeDiffImage(const cv::Mat& actual, const cv::Mat& golden, double linearPeak,
+                    const std::filesystem::path& path) {
     cv::Mat diff = cv::abs(actual - golden);
     diff.convertTo(diff, CV_8U, 255.0 * 8.0 / linearPeak); // amplified 8x for visibility
     if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
@@ -137,7 +138,8 @@ GoldenResult compareWithGolden(const cv::Mat& linearImage, const std::filesystem
     result.error = compareCandidate(candidate, golden);
     result.rendererMismatch = result.goldenRenderer != inputs.renderer;
     const ImageError& e = result.error;
-    result.passed = !result.rendererMismatch && e.relativeMeanAbsoluteError <= thresholds.maxRelativeMeanAbsoluteError &&
+    result.passed = !result.rendererMismatch &&
+                    e.relativeMeanAbsoluteError <= thresholds.maxRelativeMeanAbsoluteError &&
                     (!thresholds.maxRelativeMse || e.relativeMse <= *thresholds.maxRelativeMse) &&
                     (!thresholds.maxMeanAbsoluteError || e.meanAbsoluteError <= *thresholds.maxMeanAbsoluteError) &&
                     (!thresholds.maxAbsoluteError || e.maxAbsoluteError <= *thresholds.maxAbsoluteError) &&

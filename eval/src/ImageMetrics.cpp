@@ -12,9 +12,9 @@ namespace lightskin::eval {
 
 std::string ImageError::describe() const {
     char text[256];
-    std::snprintf(text, sizeof text, "relMAE %.4f, relMSE %.3g, MAE %.3g, max %.3g, SSIM %.4f, PSNR %.2f dB over %zu px",
-                  relativeMeanAbsoluteError, relativeMse, meanAbsoluteError, maxAbsoluteError, ssim, psnr,
-                  pixelsCompared);
+    std::snprintf(
+        text, sizeof text, "relMAE %.4f, relMSE %.3g, MAE %.3g, max %.3g, SSIM %.4f, PSNR %.2f dB over %zu px",
+        relativeMeanAbsoluteError, relativeMse, meanAbsoluteError, maxAbsoluteError, ssim, psnr, pixelsCompared);
     return text;
 }
 
@@ -68,8 +68,10 @@ ImageError compareImages(const cv::Mat& image, const cv::Mat& reference, const I
             }
         }
     }
-    if (sumSignal > 0.0) error.relativeMeanAbsoluteError = sumAbsolute / sumSignal;
-    else if (sumAbsolute > 0.0) error.relativeMeanAbsoluteError = std::numeric_limits<double>::infinity();
+    if (sumSignal > 0.0)
+        error.relativeMeanAbsoluteError = sumAbsolute / sumSignal;
+    else if (sumAbsolute > 0.0)
+        error.relativeMeanAbsoluteError = std::numeric_limits<double>::infinity();
     const double samples = double(error.pixelsCompared) * channels;
     if (samples > 0) {
         error.relativeMse = sumRelative / samples;

@@ -29,7 +29,8 @@ eval::GoldenThresholds strict() {
 
 TEST(GoldenImageTest, MissingGoldenIsReportedAndActualIsWritten) {
     const auto folder = scratchDir("golden_missing");
-    const auto result = eval::compareWithGolden(gradient(), folder / "goldens", "frame", {}, folder / "out", {"test", {}, {}});
+    const auto result =
+        eval::compareWithGolden(gradient(), folder / "goldens", "frame", {}, folder / "out", {"test", {}, {}});
     EXPECT_TRUE(result.goldenMissing);
     EXPECT_FALSE(result.passed);
     EXPECT_TRUE(std::filesystem::exists(result.actualPath));
@@ -39,14 +40,16 @@ TEST(GoldenImageTest, PassesOnItsOwnOutputAndFailsWithDiffOnAChange) {
     const auto folder = scratchDir("golden_compare");
     eval::writeLinearPng16(folder / "goldens" / "frame.png", gradient(), "test renderer");
 
-    const auto same = eval::compareWithGolden(gradient(), folder / "goldens", "frame", strict(), folder / "out", {"test renderer", {}, {}});
+    const auto same = eval::compareWithGolden(gradient(), folder / "goldens", "frame", strict(), folder / "out",
+                                              {"test renderer", {}, {}});
     EXPECT_TRUE(same.passed) << same.describe();
     EXPECT_FALSE(same.rendererMismatch);
     EXPECT_EQ(same.goldenRenderer, "test renderer");
 
     cv::Mat changed = gradient();
     changed(cv::Rect(4, 4, 8, 8)).setTo(cv::Scalar(1.0, 1.0, 1.0));
-    const auto different = eval::compareWithGolden(changed, folder / "goldens", "frame", strict(), folder / "out", {"test renderer", {}, {}});
+    const auto different = eval::compareWithGolden(changed, folder / "goldens", "frame", strict(), folder / "out",
+                                                   {"test renderer", {}, {}});
     EXPECT_FALSE(different.passed);
     EXPECT_GT(different.error.maxAbsoluteError, 0.5);
     EXPECT_GT(different.error.relativeMeanAbsoluteError, 0.01);
@@ -59,8 +62,8 @@ TEST(GoldenImageTest, PassesOnItsOwnOutputAndFailsWithDiffOnAChange) {
 TEST(GoldenImageTest, RendererMismatchWithTheSidecarFails) {
     const auto folder = scratchDir("golden_renderer");
     eval::writeLinearPng16(folder / "goldens" / "frame.png", gradient(), "llvmpipe | Mesa 22.3.6");
-    const auto result =
-        eval::compareWithGolden(gradient(), folder / "goldens", "frame", strict(), folder / "out", {"llvmpipe | Mesa 23.1.0", {}, {}});
+    const auto result = eval::compareWithGolden(gradient(), folder / "goldens", "frame", strict(), folder / "out",
+                                                {"llvmpipe | Mesa 23.1.0", {}, {}});
     EXPECT_TRUE(result.rendererMismatch);
     EXPECT_FALSE(result.passed);
     EXPECT_EQ(result.error.relativeMeanAbsoluteError, 0.0) << "the images themselves are equal";
@@ -85,7 +88,8 @@ TEST(GoldenImageTest, CoverageAndBaselineMakeTheErrorRelativeToTheSignal) {
     t.maxRelativeMeanAbsoluteError = 0.05;
     for (const double k : {0.9, 1.1}) {
         const cv::Mat changed = base + k * signal;
-        const auto result = eval::compareWithGolden(changed, folder / "goldens", "frame", t, folder / "out", {"r", coverage, base});
+        const auto result =
+            eval::compareWithGolden(changed, folder / "goldens", "frame", t, folder / "out", {"r", coverage, base});
         // 16-bit quantisation of three images: a few 1e-5 on values of 0.6-0.8, relative to 0.2.
         EXPECT_NEAR(result.error.relativeMeanAbsoluteError, 0.1, 1e-3);
         EXPECT_EQ(result.error.pixelsCompared, 120u);
@@ -97,11 +101,13 @@ TEST(GoldenImageTest, CoverageAndBaselineMakeTheErrorRelativeToTheSignal) {
         EXPECT_EQ(again.relativeMeanAbsoluteError, result.error.relativeMeanAbsoluteError);
         EXPECT_EQ(again.pixelsCompared, result.error.pixelsCompared);
         // Without the baseline the same change is diluted by the base: 0.1 * 0.2 / 0.8 over the signal.
-        const auto diluted = eval::compareWithGolden(changed, folder / "goldens", "frame", t, folder / "out2", {"r", coverage, {}});
+        const auto diluted =
+            eval::compareWithGolden(changed, folder / "goldens", "frame", t, folder / "out2", {"r", coverage, {}});
         EXPECT_LT(diluted.error.relativeMeanAbsoluteError, 0.05);
         EXPECT_TRUE(diluted.passed) << "why the baseline is needed";
     }
-    const auto same = eval::compareWithGolden(base + signal, folder / "goldens", "frame", t, folder / "out", {"r", coverage, base});
+    const auto same =
+        eval::compareWithGolden(base + signal, folder / "goldens", "frame", t, folder / "out", {"r", coverage, base});
     EXPECT_TRUE(same.passed) << same.describe();
     EXPECT_THROW(eval::readGoldenCandidate(folder / "out" / "nothing.actual.png"), Error);
 }

@@ -188,7 +188,8 @@ cv::Mat coverage(const cv::Mat& mask, const cv::Rect& roi, const fs::path& golde
     cv::Mat channels[3], nonZero;
     cv::split(image, channels);
     nonZero = cv::max(cv::max(channels[0], channels[1]), channels[2]) > 0.0f;
-    cv::erode(nonZero, nonZero, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * kMaskMarginPx + 1, 2 * kMaskMarginPx + 1)));
+    cv::erode(nonZero, nonZero,
+              cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * kMaskMarginPx + 1, 2 * kMaskMarginPx + 1)));
     return covered | nonZero;
 }
 
@@ -310,8 +311,8 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
             const cv::Mat sideBySide = readLinear(scratch / "final" / "compare" / frameFile(index));
             withoutGi = keepAround(sideBySide(cv::Rect(linear.cols, 0, linear.cols, linear.rows)).clone(), mask, c.roi);
         }
-        const eval::GoldenResult result =
-            eval::compareWithGolden(actual, goldens, name, c.composite, scratch / "golden", {renderer, covered, withoutGi});
+        const eval::GoldenResult result = eval::compareWithGolden(actual, goldens, name, c.composite,
+                                                                  scratch / "golden", {renderer, covered, withoutGi});
         EXPECT_TRUE(result.passed) << result.describe();
         std::printf("%s: %s\n", name.c_str(), result.describe().c_str());
         // The thresholds must catch a uniform 10 % change of the indirect light (and GI switched
@@ -320,9 +321,10 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
             for (const double factor : kIndirectScalesThatMustFail) {
                 const cv::Mat scaled = scaleIndirect(actual, withoutGi, factor);
                 const eval::GoldenResult changed = eval::compareWithGolden(
-                    scaled, goldens, name, c.composite, scratch / ("indirect_x" + std::to_string(factor)), {renderer, covered, withoutGi});
-                EXPECT_FALSE(changed.passed) << "thresholds too loose to see the indirect light scaled by " << factor << ": "
-                                             << changed.describe();
+                    scaled, goldens, name, c.composite, scratch / ("indirect_x" + std::to_string(factor)),
+                    {renderer, covered, withoutGi});
+                EXPECT_FALSE(changed.passed) << "thresholds too loose to see the indirect light scaled by " << factor
+                                             << ": " << changed.describe();
                 std::printf("%s, indirect x %.1f: %s\n", name.c_str(), factor, changed.error.describe().c_str());
             }
         }
@@ -362,14 +364,15 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
         const eval::GoldenResult result =
             eval::compareWithGolden(actual, goldens, name, c.indirect, scratch / "golden", {renderer, covered, {}});
         EXPECT_TRUE(result.passed) << result.describe();
-        std::printf("%s: %s; mean %.4f, saturated %.4f over %d virtual pixels\n", name.c_str(), result.describe().c_str(),
-                    mean, saturatedFraction, cv::countNonZero(mask));
+        std::printf("%s: %s; mean %.4f, saturated %.4f over %d virtual pixels\n", name.c_str(),
+                    result.describe().c_str(), mean, saturatedFraction, cv::countNonZero(mask));
         if (c.valsExpected && !result.goldenMissing) {
             for (const double factor : kIndirectScalesThatMustFail) {
-                const eval::GoldenResult changed = eval::compareWithGolden(
-                    actual * factor, goldens, name, c.indirect, scratch / ("indirect_x" + std::to_string(factor)), {renderer, covered, {}});
-                EXPECT_FALSE(changed.passed) << "thresholds too loose to see the indirect light scaled by " << factor << ": "
-                                             << changed.describe();
+                const eval::GoldenResult changed =
+                    eval::compareWithGolden(actual * factor, goldens, name, c.indirect,
+                                            scratch / ("indirect_x" + std::to_string(factor)), {renderer, covered, {}});
+                EXPECT_FALSE(changed.passed) << "thresholds too loose to see the indirect light scaled by " << factor
+                                             << ": " << changed.describe();
                 std::printf("%s x %.1f: %s\n", name.c_str(), factor, changed.error.describe().c_str());
             }
         }

@@ -48,8 +48,8 @@ struct GoldenResult {
     bool goldenMissing = false;
     bool rendererMismatch = false; ///< the golden's sidecar names another renderer (fails)
     ImageError error;
-    std::string goldenRenderer; ///< renderer recorded with the golden
-    std::string renderer;       ///< this run's renderer
+    std::string goldenRenderer;                             ///< renderer recorded with the golden
+    std::string renderer;                                   ///< this run's renderer
     std::filesystem::path actualPath, goldenPath, diffPath; ///< written on failure (or when missing: actual only)
     std::string describe() const;
 };
