@@ -15,11 +15,22 @@ std::filesystem::path sidecarOf(const std::filesystem::path& png) {
     sidecar.replace_extension(".json");
     return sidecar;
 }
+
+/// NAME.actual.png -> NAME.actual<suffix>: the files written beside an actual image.
+std::filesystem::path withSuffix(const std::filesystem::path& actualPng, const char* suffix) {
+    std::filesystem::path path = actualPng;
+    path.replace_extension(suffix);
+    return path;
+}
 } // namespace
 
 std::string GoldenResult::describe() const {
     if (goldenMissing) return "golden missing: " + goldenPath.string() + " (actual written to " + actualPath.string() + ")";
     std::string text = (passed ? "passed: " : "FAILED: ") + error.describe();
+    if (rendererMismatch)
+        text += "\n  RENDERER MISMATCH: the golden was made by '" + goldenRenderer + "', this run is '" + renderer +
+                "' (llvmpipe output is reproducible only for one Mesa/LLVM version): review the diff and the metrics, "
+                "then promote with scripts/promote_goldens.sh ... --accept (docs/TESTING.md)";
     if (!passed)
         text += "\n  actual: " + actualPath.string() + "\n  golden: " + goldenPath.string() + " (renderer: " +
                 goldenRenderer + ")\n  diff:   " + diffPath.string();
@@ -58,35 +69,84 @@ cv::Mat readLinearPng16(const std::filesystem::path& path, std::string& renderer
     return linear;
 }
 
+void writeDiffImage(const cv::Mat& actual, const cv::Mat& golden, double linearPeak,
+                    const std::filesystem::path& path) {
+    cv::Mat diff = cv::abs(actual - golden);
+    diff.convertTo(diff, CV_8U, 255.0 * 8.0 / linearPeak); // amplified 8x for visibility
+    if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
+    if (!cv::imwrite(path.string(), diff)) throw Error(path.string(), std::nullopt, "could not write the diff image");
+}
+
+GoldenCandidate readGoldenCandidate(const std::filesystem::path& actualPng) {
+    GoldenCandidate candidate;
+    candidate.image = readLinearPng16(actualPng, candidate.renderer, candidate.linearPeak);
+    const std::filesystem::path coverage = withSuffix(actualPng, ".coverage.png");
+    if (std::filesystem::exists(coverage)) {
+        candidate.coverage = cv::imread(coverage.string(), cv::IMREAD_UNCHANGED);
+        if (candidate.coverage.type() != CV_8UC1 || candidate.coverage.size() != candidate.image.size())
+            throw Error(coverage.string(), std::nullopt, "the coverage must be an 8-bit grey PNG of the image's size");
+    }
+    const std::filesystem::path baseline = withSuffix(actualPng, ".baseline.png");
+    if (std::filesystem::exists(baseline)) {
+        std::string ignoredRenderer;
+        double peak = 1.0;
+        candidate.baseline = readLinearPng16(baseline, ignoredRenderer, peak);
+        if (candidate.baseline.size() != candidate.image.size() || candidate.baseline.type() != candidate.image.type())
+            throw Error(baseline.string(), std::nullopt, "the baseline must have the image's size and channels");
+    }
+    return candidate;
+}
+
+ImageError compareCandidate(const GoldenCandidate& candidate, const cv::Mat& golden) {
+    ImageErrorOptions options{candidate.linearPeak, candidate.coverage, {}};
+    if (!candidate.baseline.empty()) options.signal = golden - candidate.baseline;
+    return compareImages(candidate.image, golden, options);
+}
+
 GoldenResult compareWithGolden(const cv::Mat& linearImage, const std::filesystem::path& goldenFolder,
                                const std::string& name, const GoldenThresholds& thresholds,
-                               const std::filesystem::path& outputFolder, const std::string& renderer,
-                               double linearPeak) {
+                               const std::filesystem::path& outputFolder, const GoldenInputs& inputs) {
     GoldenResult result;
+    result.renderer = inputs.renderer;
     result.goldenPath = goldenFolder / (name + ".png");
     result.actualPath = outputFolder / (name + ".actual.png");
-    writeLinearPng16(result.actualPath, linearImage, renderer, linearPeak);
+    writeLinearPng16(result.actualPath, linearImage, inputs.renderer, inputs.linearPeak);
+    // Coverage and baseline beside the actual image (or stale ones removed), so that the promotion
+    // script computes the same metrics from the files alone.
+    const std::filesystem::path coveragePath = withSuffix(result.actualPath, ".coverage.png");
+    const std::filesystem::path baselinePath = withSuffix(result.actualPath, ".baseline.png");
+    std::filesystem::remove(coveragePath);
+    std::filesystem::remove(baselinePath);
+    std::filesystem::remove(withSuffix(result.actualPath, ".baseline.json"));
+    if (!inputs.coverage.empty()) {
+        if (inputs.coverage.type() != CV_8UC1 || inputs.coverage.size() != linearImage.size())
+            throw Error(coveragePath.string(), std::nullopt, "the coverage must be CV_8UC1 of the image's size");
+        if (!cv::imwrite(coveragePath.string(), inputs.coverage))
+            throw Error(coveragePath.string(), std::nullopt, "could not write the coverage");
+    }
+    if (!inputs.baseline.empty()) writeLinearPng16(baselinePath, inputs.baseline, inputs.renderer, inputs.linearPeak);
     if (!std::filesystem::exists(result.goldenPath)) {
         result.goldenMissing = true;
         return result;
     }
     double goldenPeak = 1.0;
     const cv::Mat golden = readLinearPng16(result.goldenPath, result.goldenRenderer, goldenPeak);
-    // Compare the actual image after the same 16-bit quantisation the golden went through.
-    std::string ignoredRenderer;
-    double ignoredPeak = 1.0;
-    const cv::Mat actual = readLinearPng16(result.actualPath, ignoredRenderer, ignoredPeak);
-    if (golden.size() != actual.size() || golden.type() != actual.type())
+    // Compare the actual image (and baseline) after the same 16-bit quantisation the golden went through.
+    const GoldenCandidate candidate = readGoldenCandidate(result.actualPath);
+    if (golden.size() != candidate.image.size() || golden.type() != candidate.image.type())
         throw Error(result.goldenPath.string(), std::nullopt, "golden size/type differs from the actual image");
-    result.error = compareImages(actual, golden, ImageErrorOptions{linearPeak, {}});
-    result.passed = result.error.relativeMse <= thresholds.maxRelativeMse &&
-                    result.error.meanAbsoluteError <= thresholds.maxMeanAbsoluteError &&
-                    result.error.maxAbsoluteError <= thresholds.maxAbsoluteError && result.error.ssim >= thresholds.minSsim;
+    result.error = compareCandidate(candidate, golden);
+    result.rendererMismatch = result.goldenRenderer != inputs.renderer;
+    const ImageError& e = result.error;
+    result.passed = !result.rendererMismatch &&
+                    e.relativeMeanAbsoluteError <= thresholds.maxRelativeMeanAbsoluteError &&
+                    (!thresholds.maxRelativeMse || e.relativeMse <= *thresholds.maxRelativeMse) &&
+                    (!thresholds.maxMeanAbsoluteError || e.meanAbsoluteError <= *thresholds.maxMeanAbsoluteError) &&
+                    (!thresholds.maxAbsoluteError || e.maxAbsoluteError <= *thresholds.maxAbsoluteError) &&
+                    (!thresholds.minSsim || e.ssim >= *thresholds.minSsim);
     if (!result.passed) {
         result.diffPath = outputFolder / (name + ".diff.png");
-        cv::Mat diff = cv::abs(actual - golden);
-        diff.convertTo(diff, CV_8U, 255.0 * 8.0 / linearPeak); // amplified 8x for visibility
-        cv::imwrite(result.diffPath.string(), diff);
+        writeDiffImage(candidate.image, golden, inputs.linearPeak, result.diffPath);
         std::filesystem::copy_file(result.goldenPath, outputFolder / (name + ".golden.png"),
                                    std::filesystem::copy_options::overwrite_existing);
     }

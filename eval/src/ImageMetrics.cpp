@@ -12,8 +12,9 @@ namespace lightskin::eval {
 
 std::string ImageError::describe() const {
     char text[256];
-    std::snprintf(text, sizeof text, "relMSE %.3g, MAE %.3g, max %.3g, SSIM %.4f, PSNR %.2f dB over %zu px",
-                  relativeMse, meanAbsoluteError, maxAbsoluteError, ssim, psnr, pixelsCompared);
+    std::snprintf(
+        text, sizeof text, "relMAE %.4f, relMSE %.3g, MAE %.3g, max %.3g, SSIM %.4f, PSNR %.2f dB over %zu px",
+        relativeMeanAbsoluteError, relativeMse, meanAbsoluteError, maxAbsoluteError, ssim, psnr, pixelsCompared);
     return text;
 }
 
@@ -39,13 +40,19 @@ ImageError compareImages(const cv::Mat& image, const cv::Mat& reference, const I
     const bool masked = !options.mask.empty();
     if (masked && (options.mask.size() != image.size() || options.mask.type() != CV_8UC1))
         throw Error("compareImages", std::nullopt, "the mask must be CV_8UC1 of the image's size");
+    const bool hasSignal = !options.signal.empty();
+    if (hasSignal && (options.signal.size() != image.size() || options.signal.type() != image.type()))
+        throw Error("compareImages", std::nullopt, "the signal must have the image's size and type");
+    if (hasSignal && countNonFinite(options.signal) != 0)
+        throw Error("compareImages", std::nullopt, "the signal has NaN or inf values");
 
     ImageError error;
-    double sumSquared = 0.0, sumRelative = 0.0, sumAbsolute = 0.0;
+    double sumSquared = 0.0, sumRelative = 0.0, sumAbsolute = 0.0, sumSignal = 0.0;
     const int channels = image.channels();
     for (int row = 0; row < image.rows; ++row) {
         const float* x = image.ptr<float>(row);
         const float* r = reference.ptr<float>(row);
+        const float* signal = hasSignal ? options.signal.ptr<float>(row) : r;
         const std::uint8_t* m = masked ? options.mask.ptr<std::uint8_t>(row) : nullptr;
         for (int col = 0; col < image.cols; ++col) {
             if (m && m[col] == 0) continue;
@@ -56,10 +63,15 @@ ImageError compareImages(const cv::Mat& image, const cv::Mat& reference, const I
                 sumSquared += d * d;
                 sumRelative += d * d / (rv * rv + 0.01);
                 sumAbsolute += std::abs(d);
+                sumSignal += std::abs(double(signal[col * channels + c]));
                 error.maxAbsoluteError = std::max(error.maxAbsoluteError, std::abs(d));
             }
         }
     }
+    if (sumSignal > 0.0)
+        error.relativeMeanAbsoluteError = sumAbsolute / sumSignal;
+    else if (sumAbsolute > 0.0)
+        error.relativeMeanAbsoluteError = std::numeric_limits<double>::infinity();
     const double samples = double(error.pixelsCompared) * channels;
     if (samples > 0) {
         error.relativeMse = sumRelative / samples;

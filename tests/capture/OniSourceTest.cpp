@@ -73,7 +73,6 @@ TEST(OniSourceTest, DeliversEveryFrameInOrderThenEnds) {
     RgbdFrame frame;
     double lastDepthTime = -1.0;
     int frames = 0;
-    const auto start = std::chrono::steady_clock::now();
     while (source->next(frame)) {
         EXPECT_EQ(frame.index, frames);
         EXPECT_EQ(frame.depth.type(), CV_16UC1);
@@ -88,11 +87,11 @@ TEST(OniSourceTest, DeliversEveryFrameInOrderThenEnds) {
         lastDepthTime = frame.depthTimestampSeconds;
         ++frames;
     }
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     EXPECT_EQ(frames, 12);
     EXPECT_EQ(source->framesDelivered(), 12);
     EXPECT_EQ(source->framesDropped(), 0);
-    EXPECT_LT(seconds, 3.0) << "as fast as possible, end detected without waiting per frame";
+    // How fast the player delivers (as fast as possible, the end detected without waiting a frame
+    // period) is a benchmark, not a test: docs/BENCHMARKS.md "Capture: reading the .oni".
     EXPECT_FALSE(source->next(frame)) << "repeat is off";
 }
 

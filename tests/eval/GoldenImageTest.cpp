@@ -1,9 +1,12 @@
 #include "TestPaths.h"
 
+#include <lightskin/core/Error.h>
 #include <lightskin/eval/GoldenImage.h>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
+
+#include <cmath>
 
 namespace lightskin::test {
 namespace {
@@ -15,9 +18,19 @@ cv::Mat gradient() {
     return image;
 }
 
+// Exact match within 16-bit quantisation: one step is 1.5e-5 of the peak, so the relative MAE of
+// an image against its own encoding is < 1e-4 of a signal whose mean is >= 0.25 / 3.
+eval::GoldenThresholds strict() {
+    eval::GoldenThresholds t;
+    t.maxRelativeMeanAbsoluteError = 1e-4;
+    t.maxAbsoluteError = 1e-3;
+    return t;
+}
+
 TEST(GoldenImageTest, MissingGoldenIsReportedAndActualIsWritten) {
     const auto folder = scratchDir("golden_missing");
-    const auto result = eval::compareWithGolden(gradient(), folder / "goldens", "frame", {}, folder / "out", "test");
+    const auto result =
+        eval::compareWithGolden(gradient(), folder / "goldens", "frame", {}, folder / "out", {"test", {}, {}});
     EXPECT_TRUE(result.goldenMissing);
     EXPECT_FALSE(result.passed);
     EXPECT_TRUE(std::filesystem::exists(result.actualPath));
@@ -25,20 +38,78 @@ TEST(GoldenImageTest, MissingGoldenIsReportedAndActualIsWritten) {
 
 TEST(GoldenImageTest, PassesOnItsOwnOutputAndFailsWithDiffOnAChange) {
     const auto folder = scratchDir("golden_compare");
-    const eval::GoldenThresholds strict{1e-8, 1e-4, 1e-3, 0.999};
     eval::writeLinearPng16(folder / "goldens" / "frame.png", gradient(), "test renderer");
 
-    const auto same = eval::compareWithGolden(gradient(), folder / "goldens", "frame", strict, folder / "out", "test");
+    const auto same = eval::compareWithGolden(gradient(), folder / "goldens", "frame", strict(), folder / "out",
+                                              {"test renderer", {}, {}});
     EXPECT_TRUE(same.passed) << same.describe();
+    EXPECT_FALSE(same.rendererMismatch);
     EXPECT_EQ(same.goldenRenderer, "test renderer");
 
     cv::Mat changed = gradient();
     changed(cv::Rect(4, 4, 8, 8)).setTo(cv::Scalar(1.0, 1.0, 1.0));
-    const auto different = eval::compareWithGolden(changed, folder / "goldens", "frame", strict, folder / "out", "test");
+    const auto different = eval::compareWithGolden(changed, folder / "goldens", "frame", strict(), folder / "out",
+                                                   {"test renderer", {}, {}});
     EXPECT_FALSE(different.passed);
     EXPECT_GT(different.error.maxAbsoluteError, 0.5);
+    EXPECT_GT(different.error.relativeMeanAbsoluteError, 0.01);
     EXPECT_TRUE(std::filesystem::exists(different.diffPath));
     EXPECT_NE(different.describe().find(different.diffPath.string()), std::string::npos);
+}
+
+// The renderer recorded beside a golden is compared, not only printed: an identical image from
+// another renderer fails, and the message names both renderers.
+TEST(GoldenImageTest, RendererMismatchWithTheSidecarFails) {
+    const auto folder = scratchDir("golden_renderer");
+    eval::writeLinearPng16(folder / "goldens" / "frame.png", gradient(), "llvmpipe | Mesa 22.3.6");
+    const auto result = eval::compareWithGolden(gradient(), folder / "goldens", "frame", strict(), folder / "out",
+                                                {"llvmpipe | Mesa 23.1.0", {}, {}});
+    EXPECT_TRUE(result.rendererMismatch);
+    EXPECT_FALSE(result.passed);
+    EXPECT_EQ(result.error.relativeMeanAbsoluteError, 0.0) << "the images themselves are equal";
+    const std::string text = result.describe();
+    EXPECT_NE(text.find("RENDERER MISMATCH"), std::string::npos) << text;
+    EXPECT_NE(text.find("Mesa 22.3.6"), std::string::npos) << text;
+    EXPECT_NE(text.find("Mesa 23.1.0"), std::string::npos) << text;
+}
+
+// Only covered pixels count, and with a baseline the error is relative to what the golden adds to
+// it: a 10 % change of a signal covering 6 % of the image, on top of a base 3x brighter, reads 0.1.
+// The files written beside the actual image reproduce the same numbers (what promotion shows).
+TEST(GoldenImageTest, CoverageAndBaselineMakeTheErrorRelativeToTheSignal) {
+    const auto folder = scratchDir("golden_coverage");
+    const cv::Mat base(24, 32, CV_32FC3, cv::Scalar::all(0.6));
+    cv::Mat signal = cv::Mat::zeros(24, 32, CV_32FC3);
+    signal(cv::Rect(8, 8, 8, 6)).setTo(cv::Scalar::all(0.2));
+    cv::Mat coverage = cv::Mat::zeros(24, 32, CV_8UC1);
+    coverage(cv::Rect(6, 6, 12, 10)).setTo(255); // the content, a little wider than its signal
+    eval::writeLinearPng16(folder / "goldens" / "frame.png", base + signal, "r");
+    eval::GoldenThresholds t;
+    t.maxRelativeMeanAbsoluteError = 0.05;
+    for (const double k : {0.9, 1.1}) {
+        const cv::Mat changed = base + k * signal;
+        const auto result =
+            eval::compareWithGolden(changed, folder / "goldens", "frame", t, folder / "out", {"r", coverage, base});
+        // 16-bit quantisation of three images: a few 1e-5 on values of 0.6-0.8, relative to 0.2.
+        EXPECT_NEAR(result.error.relativeMeanAbsoluteError, 0.1, 1e-3);
+        EXPECT_EQ(result.error.pixelsCompared, 120u);
+        EXPECT_FALSE(result.passed);
+        std::string renderer;
+        double peak = 0.0;
+        const cv::Mat golden = eval::readLinearPng16(folder / "goldens" / "frame.png", renderer, peak);
+        const eval::ImageError again = eval::compareCandidate(eval::readGoldenCandidate(result.actualPath), golden);
+        EXPECT_EQ(again.relativeMeanAbsoluteError, result.error.relativeMeanAbsoluteError);
+        EXPECT_EQ(again.pixelsCompared, result.error.pixelsCompared);
+        // Without the baseline the same change is diluted by the base: 0.1 * 0.2 / 0.8 over the signal.
+        const auto diluted =
+            eval::compareWithGolden(changed, folder / "goldens", "frame", t, folder / "out2", {"r", coverage, {}});
+        EXPECT_LT(diluted.error.relativeMeanAbsoluteError, 0.05);
+        EXPECT_TRUE(diluted.passed) << "why the baseline is needed";
+    }
+    const auto same =
+        eval::compareWithGolden(base + signal, folder / "goldens", "frame", t, folder / "out", {"r", coverage, base});
+    EXPECT_TRUE(same.passed) << same.describe();
+    EXPECT_THROW(eval::readGoldenCandidate(folder / "out" / "nothing.actual.png"), Error);
 }
 
 TEST(GoldenImageTest, SixteenBitEncodingRoundTripsWithinQuantisation) {

@@ -62,7 +62,7 @@ TEST(ImageMetricsTest, SsimDropsWithStructuralDamageAndMaskRestrictsPixels) {
     damaged(cv::Rect(0, 0, 32, 64)).setTo(0.0);
     cv::Mat mask(64, 64, CV_8UC1, cv::Scalar(0));
     mask(cv::Rect(32, 0, 32, 64)).setTo(255);
-    const eval::ImageError maskedError = eval::compareImages(damaged, reference, {1.0, mask});
+    const eval::ImageError maskedError = eval::compareImages(damaged, reference, {1.0, mask, {}});
     EXPECT_EQ(maskedError.maxAbsoluteError, 0.0);
     EXPECT_EQ(maskedError.pixelsCompared, 32u * 64u);
 }
@@ -75,6 +75,38 @@ TEST(ImageMetricsTest, RejectsMismatchedAndNonFiniteImages) {
     EXPECT_EQ(eval::countNonFinite(nan), 1u);
     EXPECT_THROW((void)eval::compareImages(nan, a), Error);
     EXPECT_THROW((void)eval::compareImages(a, nan), Error);
+}
+
+// Relative MAE is what golden thresholds are derived from: a uniform change of the signal by a
+// factor k must read |k - 1| exactly, whatever the zeros around it and whatever else the reference
+// holds (the signal option: e.g. the indirect light inside a composite).
+TEST(ImageMetricsTest, RelativeMaeReadsAUniformChangeOfTheSignalExactly) {
+    cv::Mat reference = cv::Mat::zeros(40, 40, CV_32FC3);
+    cv::Mat content = reference(cv::Rect(10, 10, 8, 8)); // 4 % of the image carries signal
+    cv::randu(content, 0.05, 0.5);
+    cv::Mat mask = cv::Mat::zeros(40, 40, CV_8UC1);
+    mask(cv::Rect(10, 10, 8, 8)).setTo(255);
+    for (const double k : {0.9, 1.1}) {
+        const cv::Mat scaled = reference * k;
+        EXPECT_NEAR(eval::compareImages(scaled, reference).relativeMeanAbsoluteError, std::abs(k - 1.0), 1e-6);
+        const eval::ImageError masked = eval::compareImages(scaled, reference, {1.0, mask, {}});
+        EXPECT_NEAR(masked.relativeMeanAbsoluteError, std::abs(k - 1.0), 1e-6);
+        EXPECT_EQ(masked.pixelsCompared, 64u);
+        // Over the mask the MAE is 25x the whole image's (the zeros no longer dilute it).
+        EXPECT_NEAR(masked.meanAbsoluteError / eval::compareImages(scaled, reference).meanAbsoluteError, 25.0, 1e-3);
+    }
+    // A composite = base + signal; the signal alone changed by 10 %: 0.1 relative to the signal.
+    cv::Mat base(40, 40, CV_32FC3, cv::Scalar(0.3, 0.4, 0.5));
+    const cv::Mat composite = base + reference, changed = base + 0.9 * reference;
+    const cv::Mat signal = composite - base;
+    EXPECT_NEAR(eval::compareImages(changed, composite, {1.0, mask, signal}).relativeMeanAbsoluteError, 0.1, 1e-5);
+    // Against the whole composite the same change reads far less: why the signal option exists.
+    EXPECT_LT(eval::compareImages(changed, composite, {1.0, mask, {}}).relativeMeanAbsoluteError, 0.05);
+    // No signal: 0 when equal, +inf when not.
+    const cv::Mat zeros = cv::Mat::zeros(4, 4, CV_32FC3), small = cv::Mat(4, 4, CV_32FC3, cv::Scalar::all(1e-3));
+    EXPECT_EQ(eval::compareImages(zeros, zeros).relativeMeanAbsoluteError, 0.0);
+    EXPECT_TRUE(std::isinf(eval::compareImages(small, zeros).relativeMeanAbsoluteError));
+    EXPECT_THROW(eval::compareImages(zeros, zeros, {1.0, {}, cv::Mat::zeros(3, 4, CV_32FC3)}), Error);
 }
 
 } // namespace

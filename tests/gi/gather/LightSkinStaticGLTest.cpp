@@ -3,8 +3,9 @@
 // set, a moved instance or (with the glossy channel) a moved camera recompute and agree with a
 // fresh technique; a moved camera without the glossy channel may reuse (the diffuse gather is
 // view-independent); the tolerance mode keeps every sparse point's gathered irradiance within its
-// stated bound of a full recomputation while the GPU stage time drops; the empty VAL set; the
-// ValGenerator's generation (skipUnchangedInput).
+// stated bound of a full recomputation; the empty VAL set; the ValGenerator's generation
+// (skipUnchangedInput). What reuse saves in time is a benchmark, not a test (timings flake on a
+// shared machine): `lightskin bench-static`, docs/BENCHMARKS.md "Adaptive mode: static content".
 //
 // "Equal to a fresh technique" is bit for bit: the adaptive cull keeps the VALs' input order
 // (gather_cull.glsl), so two full computations sum in the same order. Reuse itself is checked bit
@@ -42,7 +43,6 @@ struct Frame {
     std::vector<glm::vec4> image, gather, vertex;
     std::vector<gl::StageTime> times;
     gi::LightSkinChoice choice;
-    double gpuMilliseconds = 0.0; ///< sum of the stage timers
 };
 
 Frame render(Rig& rig, gi::LightSkinIllumination& technique, const gi::ValSetView& vals) {
@@ -55,7 +55,6 @@ Frame render(Rig& rig, gi::LightSkinIllumination& technique, const gi::ValSetVie
     technique.readGatherSums(f.gather);
     technique.readVertexVpls(f.vertex);
     technique.lastStageTimes(f.times);
-    for (const gl::StageTime& t : f.times) f.gpuMilliseconds += t.milliseconds;
     f.choice = technique.lastChoice();
     return f;
 }
@@ -72,28 +71,13 @@ double relativeDifference(const std::vector<glm::vec4>& a, const std::vector<glm
     return largest > 0.0 ? worst / largest : worst;
 }
 
-/// GPU times (ms) of a full frame and of the reused frame after it: total and gather stage.
-struct PairTimes {
-    double full = 0.0, reused = 0.0, fullGather = 0.0, reusedGather = 0.0;
-};
-
-double stageMilliseconds(const Frame& f, const char* name);
-
-/// Timing on a shared 2-core machine: one descheduled llvmpipe thread can double a frame, so the
-/// best of three full -> reused pairs (each with a fresh technique) decides.
+/// A fresh technique computes its first frame in full and reuses on the second: the tolerance
+/// decision does not depend on the technique's history.
 template <class RunPair>
-PairTimes bestOfThree(RunPair runPair) {
-    PairTimes best{1e30, 1e30, 1e30, 1e30};
-    for (int i = 0; i < 3; ++i) {
-        const auto [full, reused] = runPair();
-        EXPECT_FALSE(full.choice.reused);
-        EXPECT_TRUE(reused.choice.reused);
-        best.full = std::min(best.full, full.gpuMilliseconds);
-        best.reused = std::min(best.reused, reused.gpuMilliseconds);
-        best.fullGather = std::min(best.fullGather, stageMilliseconds(full, "gather"));
-        best.reusedGather = std::min(best.reusedGather, stageMilliseconds(reused, "gather"));
-    }
-    return best;
+void expectFreshPairReuses(RunPair runPair) {
+    const auto [full, reused] = runPair();
+    EXPECT_FALSE(full.choice.reused);
+    EXPECT_TRUE(reused.choice.reused) << reused.choice.reason;
 }
 
 bool bitIdentical(const std::vector<glm::vec4>& a, const std::vector<glm::vec4>& b) {
@@ -138,13 +122,6 @@ gi::LightSkinSettings adaptive() {
     return s;
 }
 
-double stageMilliseconds(const Frame& f, const char* name) {
-    for (const gl::StageTime& t : f.times)
-        if (t.name == name) return t.milliseconds;
-    ADD_FAILURE() << "no stage " << name;
-    return 0.0;
-}
-
 using LightSkinStaticGLTest = GlTest;
 
 TEST_F(LightSkinStaticGLTest, IdenticalInputsSkipTheStagesAndGiveTheSameImageBitForBit) {
@@ -162,10 +139,9 @@ TEST_F(LightSkinStaticGLTest, IdenticalInputsSkipTheStagesAndGiveTheSameImageBit
     EXPECT_EQ(reused.choice.valsGathered, full.choice.valsGathered);
     EXPECT_TRUE(bitIdentical(reused.image, full.image));
     EXPECT_TRUE(bitIdentical(reused.vertex, full.vertex));
-    // the same stages are reported; the skipped ones are (nearly) free
+    // the same stages are reported (their times: `lightskin bench-static`)
     ASSERT_EQ(reused.times.size(), full.times.size());
-    EXPECT_LT(stageMilliseconds(reused, "gather"), 0.1 * stageMilliseconds(full, "gather") + 0.05);
-    EXPECT_LT(reused.gpuMilliseconds, full.gpuMilliseconds);
+    for (std::size_t i = 0; i < full.times.size(); ++i) EXPECT_EQ(reused.times[i].name, full.times[i].name);
 
     // a full recomputation by a fresh technique
     auto fresh = rig.technique(adaptive());
@@ -285,7 +261,7 @@ std::vector<gi::VirtualAreaLight> wallEmitter() {
     return squareEmitter({0.0f, -1.2f, 0.6f}, {0.0f, 1.0f, -0.2f}, 1.6f, 48, {1.0f, 0.9f, 0.8f});
 }
 
-TEST_F(LightSkinStaticGLTest, ToleranceModeStaysWithinItsBoundWhileTheStageTimeDrops) {
+TEST_F(LightSkinStaticGLTest, ToleranceModeStaysWithinItsBound) {
     Rig rig = diffuseSphereRig();
     const auto base = wallEmitter();
     std::vector<std::uint32_t> keys(base.size());
@@ -309,14 +285,12 @@ TEST_F(LightSkinStaticGLTest, ToleranceModeStaysWithinItsBoundWhileTheStageTimeD
     ASSERT_TRUE(reused.choice.reused) << "bound " << reused.choice.staticChangeBound;
     EXPECT_GT(reused.choice.staticChangeBound, 0.0f);
     EXPECT_LE(reused.choice.staticChangeBound, tolerance);
-    const PairTimes times = bestOfThree([&] {
+    expectFreshPairReuses([&] {
         auto fresh = rig.technique(settings);
         Frame a = render(rig, *fresh, keyed(first, 1));
         Frame b = render(rig, *fresh, keyed(second, 2));
         return std::pair{std::move(a), std::move(b)};
     });
-    EXPECT_LT(times.reusedGather, 0.1 * times.fullGather + 0.05);
-    EXPECT_LT(times.reused, 0.5 * times.full) << "reused " << times.reused << " ms, full " << times.full << " ms";
 
     // against a full recomputation of the second frame: every sparse point's L'_d (slot 0 of 5)
     // within the stated bound, staticChangeBound * max L'_d (+ 1e-5 float rounding of the gather)
@@ -368,13 +342,12 @@ TEST_F(LightSkinStaticGLTest, ProbeModeHoldsTheToleranceAtTheProbesWithoutKeys) 
     const Frame reused = render(rig, *technique, set(second, 2));
     ASSERT_TRUE(reused.choice.reused) << "probe change " << reused.choice.staticChangeBound;
     EXPECT_LE(reused.choice.staticChangeBound, tolerance);
-    const PairTimes times = bestOfThree([&] {
+    expectFreshPairReuses([&] {
         auto fresh = rig.technique(settings);
         Frame a = render(rig, *fresh, set(first, 1));
         Frame b = render(rig, *fresh, set(second, 2));
         return std::pair{std::move(a), std::move(b)};
     });
-    EXPECT_LT(times.reused, 0.5 * times.full) << "reused " << times.reused << " ms, full " << times.full << " ms";
 
     // the probe measure is the true change at the probes (a fresh computation there), and the
     // tolerance holds there; elsewhere it is measured

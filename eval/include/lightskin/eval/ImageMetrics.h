@@ -10,6 +10,12 @@
 namespace lightskin::eval {
 
 struct ImageError {
+    /// sum |x - r| / sum |s| over the compared pixels and channels, where s is
+    /// ImageErrorOptions::signal (the part of the reference a comparison must resolve, e.g. the
+    /// indirect light inside a composite) or, without one, the reference itself. A uniform change
+    /// of the signal by a factor k gives exactly |k - 1|. 0 when both sums are 0; +inf when only
+    /// the signal's is.
+    double relativeMeanAbsoluteError = 0.0;
     /// mean over pixels and channels of (x - r)^2 / (r^2 + 0.01): relative MSE, the 0.01 keeps dark
     /// pixels from dominating (as in the denoising literature).
     double relativeMse = 0.0;
@@ -31,6 +37,9 @@ struct ImageErrorOptions {
     double ssimPeak = 1.0;
     /// Optional CV_8UC1 mask: only pixels where mask != 0 count (SSIM still uses the whole image).
     cv::Mat mask;
+    /// Optional image of the reference's size and type: the signal relativeMeanAbsoluteError is
+    /// relative to (empty: the reference). May have any sign (e.g. a difference of two images).
+    cv::Mat signal;
 };
 
 /// Throws lightskin::Error when sizes or types differ, or when either image has NaN/inf.
