@@ -34,7 +34,8 @@ math=gi/shaders/lightskin_math.glsl
 # name | equation | file | exact text | replacement (literal strings, each must occur exactly once)
 mutations=(
   "w without r^2|eq. 3/4|$math|const real w = t.r2 * t.g;|const real w = t.g;"
-  "c_k dropped|eq. 5|$math|s.glossy = valid ? mw * (ck * lobe)|s.glossy = valid ? mw * (lobe)"
+  "c_k = c, (k + 1) dropped|eq. 5|$math|s.glossy = valid ? mw * (ck * lobe)|s.glossy = valid ? mw * (ck / (k + 1.0) * lobe)"
+  "GPU c_k = c k|eq. 5 (GPU only)|gi/shaders/gather_sparse.frag|const float ck = uC * (k + 1.0);|const float ck = uC * k;"
   "mirror without the factor 2|eq. 5|$math|const rvec3 mirror = 2.0 * dot(n, toLight) * n - toLight;|const rvec3 mirror = dot(n, toLight) * n - toLight;"
   "cos^(k+1) in the gather|eq. 5|$math|ls_cosPow(ls_cosGamma(n, t.toLight, toEye), k)|ls_cosPow(ls_cosGamma(n, t.toLight, toEye), k + 1.0)"
   "W_d without cos(theta_i)|eq. 7|$math|s.weightD = valid ? epsL + w * t.cosI : 0.0;|s.weightD = valid ? epsL + w : 0.0;"
@@ -42,7 +43,7 @@ mutations=(
   "rbar^2 not divided by W|eq. 7|$math|v.r2 = max(sumR2 * invW, 0.0);\n    v.position = x + mean;\n    const rvec3 variance|v.r2 = max(sumR2, 0.0);\n    v.position = x + mean;\n    const rvec3 variance"
   "L''_d multiplied by cos|eq. 11|$math|v.radiance = sumL * (max(d2 + v.r2, kTinyLength2) / max(cosT, kMinRenormCos));|v.radiance = sumL * (max(d2 + v.r2, kTinyLength2) * max(cosT, kMinRenormCos));"
   "L''_s without rbar^2 in D|eq. 11|$math|v.radiance = sumL * (max(d2 + v.r2, kTinyLength2) / max(lobe, kMinRenormCos));|v.radiance = sumL * (max(d2, kTinyLength2) / max(lobe, kMinRenormCos));"
-  "eq. 10 diffuse without cos(theta)|eq. 10|$math|return v.radiance * (cosT / max(d2 + v.r2, kTinyLength2));|return v.radiance * (1.0 / max(d2 + v.r2, kTinyLength2));"
+  "eq. 10 diffuse D without rbar^2|eq. 10|$math|return v.radiance * (cosT / max(d2 + v.r2, kTinyLength2));|return v.radiance * (cosT / max(d2, kTinyLength2));"
   "distance term squared|eq. 12|$math|max(1.0 - dist[j] / dMax, 0.0)|max(1.0 - dist[j] * dist[j] / (dMax * dMax), 0.0)"
   "normal term dropped|eq. 12|$math|r.w[j] = unique[j] ? distanceTerm * clamp(cosN[j], 0.0, 1.0) : 0.0;|r.w[j] = unique[j] ? distanceTerm : 0.0;"
   "weights not normalised (1/W_v)|eq. 13|$math|for (int j = 0; j < kNeighbours; ++j) r.w[j] = r.w[j] / total;|for (int j = 0; j < kNeighbours; ++j) r.w[j] = r.w[j] / (total + 1.0);"
