@@ -50,7 +50,7 @@ mutations=(
   "occluder centre t/b swapped|eq. 14|$math|const rvec2 centre = rvec2(dot(u, t), dot(u, b));|const rvec2 centre = rvec2(dot(u, b), dot(u, t));"
   "occluder quad side = area|eq. 14|$math|const real side = sqrt(area);|const real side = area;"
   "occluder area without cos(theta_i)|eq. 14|$math|* r2 / max(r2 + d2, kTinyLength2) * cosI; // pi F_disk, eq. 3|* r2 / max(r2 + d2, kTinyLength2); // pi F_disk, eq. 3"
-  "S_o area without cos(theta_i)|eq. 14|$math|o.area = kPi * cosI * r2 / max(r2 + d2, kTinyLength2);|o.area = kPi * r2 / max(r2 + d2, kTinyLength2);"
+  "S_o area with cos(theta_i) twice|eq. 14|$math|o.area = kPi * cosI * r2 / max(r2 + d2, kTinyLength2);|o.area = kPi * cosI * cosI * r2 / max(r2 + d2, kTinyLength2);"
   "S_o radius = variance, not sigma|3.3|$math|v.sphereRadius = sqrt(max(max(variance.x, variance.y), variance.z));|v.sphereRadius = max(max(variance.x, variance.y), variance.z);"
   "GPU interpolation: normals not transformed|eq. 12 (GPU only)|gi/shaders/gather_interpolate.comp|const vec3 nv = normalize(uNormalFromModel * vin.normal.xyz);|const vec3 nv = normalize(vin.normal.xyz);"
 )

@@ -483,7 +483,12 @@ Scene sphereOverFloor() {
     sphereMaterial.diffuseAlbedo = {0.8f, 0.7f, 0.6f};
     sphereMaterial.specularAlbedo = {0.3f, 0.3f, 0.3f};
     sphereMaterial.specularExponent = 20.0f;
-    scene.add(makeSphere(0.3f, 12, 24), glm::translate(glm::mat4(1.0f), {0.0f, 0.0f, 0.45f}), sphereMaterial, 120);
+    // rotated about its centre (same surface): model and world normals differ, so a missing
+    // normal transform in any stage shows
+    scene.add(
+        makeSphere(0.3f, 12, 24),
+        glm::rotate(glm::translate(glm::mat4(1.0f), {0.0f, 0.0f, 0.45f}), 0.7f, glm::normalize(glm::vec3(1, 2, 3))),
+        sphereMaterial, 120);
     Material floorMaterial;
     floorMaterial.diffuseAlbedo = {0.5f, 0.5f, 0.5f};
     floorMaterial.specularAlbedo = {0.2f, 0.1f, 0.0f};
