@@ -20,7 +20,24 @@ checkout="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 root="$checkout/build-mutate/src"
 build="$root/build"
 mkdir -p "$root"
-tar -C "$checkout" --exclude='./build*' --exclude='./.git' --exclude='./out' -cf - . | tar -C "$root" -xf -
+# Sync the copy: write only files whose bytes differ (fresh mtime), so that ninja rebuilds exactly
+# what changed since the last run (restoring old mtimes, as tar would, can hide a change).
+python3 - "$checkout" "$root" <<'EOF_SYNC'
+import os, shutil, sys
+src, dst = sys.argv[1], sys.argv[2]
+for folder, dirs, files in os.walk(src):
+    rel = os.path.relpath(folder, src)
+    if rel == '.':
+        dirs[:] = [d for d in dirs if not (d.startswith('build') or d in ('.git', 'out'))]
+    os.makedirs(os.path.join(dst, rel), exist_ok=True)
+    for name in files:
+        a, b = os.path.join(folder, name), os.path.join(dst, rel, name)
+        if os.path.islink(a):
+            continue
+        if not os.path.exists(b) or open(a, 'rb').read() != open(b, 'rb').read():
+            shutil.copyfile(a, b)
+            shutil.copymode(a, b)
+EOF_SYNC
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
 tests=(gi_paper_reference_test gi_gather_reference_test gi_gather_gl_test gi_truth_gl_test)
 declare -A binary=(
