@@ -4,13 +4,13 @@
 #include <embree3/rtcore.h>
 #include <glm/geometric.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
 #include <string>
 #include <thread>
 #include <vector>
-#include <algorithm>
 
 namespace lightskin::gi {
 
@@ -32,7 +32,8 @@ namespace {
 void throwIfEmbreeError(RTCDevice device, const char* what) {
     const RTCError error = rtcGetDeviceError(device);
     if (error != RTC_ERROR_NONE)
-        throw Error("embree", std::nullopt, std::string(what) + " failed (RTCError " + std::to_string(int(error)) + ")");
+        throw Error("embree", std::nullopt,
+                    std::string(what) + " failed (RTCError " + std::to_string(int(error)) + ")");
 }
 
 // Orthonormal tangents of a unit normal (Duff et al. 2017, branchless).
@@ -61,10 +62,10 @@ RayTracedGroundTruth RayTracedGroundTruth::create(std::span<const GroundTruthMes
         const TriangleMesh& mesh = *meshes[m].mesh;
         mesh.validate("ground-truth mesh " + std::to_string(m));
         RTCGeometry geometry = rtcNewGeometry(impl.device, RTC_GEOMETRY_TYPE_TRIANGLE);
-        auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                                     3 * sizeof(float), mesh.vertexCount()));
-        auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                                       3 * sizeof(unsigned), mesh.triangleCount()));
+        auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
+            geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.vertexCount()));
+        auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+            geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), mesh.triangleCount()));
         throwIfEmbreeError(impl.device, "creating geometry buffers");
         for (std::size_t v = 0; v < mesh.vertexCount(); ++v) {
             const glm::dvec3 p = glm::dvec3(meshes[m].world_T_model * glm::dvec4(glm::dvec3(mesh.positions[v]), 1.0));
@@ -103,12 +104,16 @@ bool RayTracedGroundTruth::occluded(const glm::dvec3& from, const glm::dvec3& to
     return ray.tfar == -std::numeric_limits<float>::infinity();
 }
 
-void RayTracedGroundTruth::compute(std::span<const VirtualAreaLight> vals, std::span<const GroundTruthReceiver> receivers,
-                                   std::span<GroundTruthResult> out, const GroundTruthSettings& settings) const {
+void RayTracedGroundTruth::compute(std::span<const VirtualAreaLight> vals,
+                                   std::span<const GroundTruthReceiver> receivers, std::span<GroundTruthResult> out,
+                                   const GroundTruthSettings& settings) const {
     LIGHTSKIN_ASSERT(impl_, "RayTracedGroundTruth used before create()");
     LIGHTSKIN_ASSERT(out.size() == receivers.size(), "one result per receiver");
-    if (settings.discRings < 1 || settings.discSectors < 1 || !(settings.rayEpsilon > 0.0 && settings.rayEpsilon < 0.5))
-        throw Error("GroundTruthSettings", std::nullopt, "need rings, sectors >= 1 and 0 < rayEpsilon < 0.5");
+    if (settings.discRings < 1 || settings.discSectors < 1 ||
+        !(settings.rayEpsilon > 0.0 && settings.rayEpsilon < 0.5) ||
+        !(settings.glossyC >= 0.0 && std::isfinite(settings.glossyC)))
+        throw Error("GroundTruthSettings", std::nullopt,
+                    "need rings, sectors >= 1, 0 < rayEpsilon < 0.5 and a finite glossyC >= 0");
     const bool centreMode = settings.discRings == 1 && settings.discSectors == 1;
     const int cells = settings.discRings * settings.discSectors;
     const double pi = std::numbers::pi;
@@ -132,17 +137,20 @@ void RayTracedGroundTruth::compute(std::span<const VirtualAreaLight> vals, std::
                 const glm::dvec3 nl = glm::normalize(glm::dvec3(val.normal));
                 const glm::dvec3 emitted = glm::dvec3(val.flux) / (pi * area); // L_e
                 const double radius2 = area / pi;
-                // Adds one quadrature point y with weight `weight` (cos/d^2 * dA or the centre form factor).
-                const auto add = [&](const glm::dvec3& y, double geometric, const glm::dvec3& towardLight) {
+                // Adds one quadrature point y: `geometric` = cos(theta_j) / d^2 * dA (or the centre's
+                // disc form factor without cos(theta_i)), cosI = cos(theta_i) > 0.
+                const auto add = [&](const glm::dvec3& y, double geometric, double cosI,
+                                     const glm::dvec3& towardLight) {
                     if (!(geometric > 0.0)) return;
-                    const glm::dvec3 e = emitted * geometric;
-                    unoccluded += e;
+                    const glm::dvec3 incident = emitted * geometric; // L_e cos(theta_j) dA / d^2 ("M_j w_j")
+                    unoccluded += incident * cosI;
                     if (settings.visibility && occluded(x, y, settings.rayEpsilon)) return;
-                    irradiance += e;
+                    irradiance += incident * cosI;
                     if (glossy) {
                         const glm::dvec3 mirror = 2.0 * glm::dot(towardLight, nx) * nx - towardLight;
                         const double cosGamma = std::max(0.0, glm::dot(mirror, view));
-                        glossyRadiance += fs * e * ((k + 2.0) / (2.0 * pi) * std::pow(cosGamma, k));
+                        glossyRadiance +=
+                            fs * incident * (settings.glossyC * (k + 1.0) * std::pow(cosGamma, k)); // eq. 5
                     }
                 };
                 if (centreMode) {
@@ -152,7 +160,7 @@ void RayTracedGroundTruth::compute(std::span<const VirtualAreaLight> vals, std::
                     const glm::dvec3 w = toLight / std::sqrt(d2);
                     const double cosI = glm::dot(nx, w), cosJ = -glm::dot(nl, w);
                     if (cosI <= 0.0 || cosJ <= 0.0) continue;
-                    add(centre, pi * radius2 * cosJ * cosI / (radius2 + d2), w); // pi * F_disk (eq. 3)
+                    add(centre, pi * radius2 * cosJ / (radius2 + d2), cosI, w); // pi * F_disk / cos(theta_i) (eq. 3)
                     continue;
                 }
                 glm::dvec3 t, b;
@@ -170,7 +178,7 @@ void RayTracedGroundTruth::compute(std::span<const VirtualAreaLight> vals, std::
                         const glm::dvec3 w = toLight / std::sqrt(d2);
                         const double cosI = glm::dot(nx, w), cosJ = -glm::dot(nl, w);
                         if (cosI <= 0.0 || cosJ <= 0.0) continue;
-                        add(y, cosJ * cosI / d2 * cellArea, w);
+                        add(y, cosJ / d2 * cellArea, cosI, w);
                     }
                 }
             }

@@ -7,6 +7,7 @@
 #include <lightskin/core/TriangleMesh.h>
 #include <lightskin/gi/LightSkinIllumination.h>
 #include <lightskin/gi/SimpleGBuffer.h>
+#include <lightskin/gi/SparsePointSampler.h>
 #include <lightskin/gi/VertexSparsePoints.h>
 #include <lightskin/gl/Objects.h>
 
@@ -18,6 +19,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace lightskin::test {
@@ -31,6 +33,10 @@ struct GpuRig {
     glm::vec3 target{0.0f, 0.0f, 0.3f};
     float sceneScale = 1.0f; ///< scales the near and far planes (0.01 and 100 m at 1)
     int width = 64, height = 64;
+    /// true: sparse points from the production farthest-point sampler (gi::sampleSparsePoints,
+    /// seed 1); false: the test helper's vertex subset (gi::sparsePointsFromVertices), which puts
+    /// points exactly on chosen vertices (some analytic tests rely on that).
+    bool productionSampler = false;
     gi::SimpleGBuffer gbuffer;
     gl::Texture output;
 
@@ -59,11 +65,16 @@ struct GpuRig {
             glm::perspective(0.8f, float(width) / float(height), 0.01f * sceneScale, 100.0f * sceneScale);
         return {projection * glm::lookAt(eye, target, glm::vec3(0, 0, 1)), eye};
     }
-    /// Sparse points of mesh i: its first sparseCounts[i] vertices. Valid while the rig lives.
+    /// The sparseCounts[i] sparse points of mesh i (see productionSampler).
+    gi::SparsePointSet sparsePoints(std::size_t i) const {
+        if (!productionSampler) return gi::sparsePointsFromVertices(meshes[i], sparseCounts[i]);
+        gi::SparsePointSettings settings;
+        settings.pointCount = int(sparseCounts[i]);
+        return gi::sampleSparsePoints(meshes[i], settings, "test mesh " + std::to_string(i));
+    }
+    /// sparsePoints() of each instance's mesh. Valid while the rig lives.
     gi::SparsePointProvider provider() const {
-        return [this](const gi::MeshInstance& instance) {
-            return gi::sparsePointsFromVertices(*instance.mesh, sparseCounts[instance.meshId]);
-        };
+        return [this](const gi::MeshInstance& instance) { return sparsePoints(instance.meshId); };
     }
     /// A prepared technique with provider()'s sparse points.
     std::unique_ptr<gi::LightSkinIllumination> technique(const gi::LightSkinSettings& settings) const {

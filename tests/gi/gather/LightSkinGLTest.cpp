@@ -1,6 +1,8 @@
-// The GPU techniques against the double reference (same formulas, lightskin_math.glsl), stage by
-// stage, for the paper's three setups; numerical extremes; invariances (K_cache, sparse-point
-// count, VAL resolution); the empty VAL set; the adaptive mode.
+// The GPU techniques stage by stage against two double references for the paper's three setups:
+// gi::reference (compiled from the shaders' own lightskin_math.glsl: catches GPU plumbing errors)
+// and PaperReference (written separately from the paper: catches formula errors, which the
+// shared source would cancel); numerical extremes; invariances (K_cache, sparse-point count, VAL
+// resolution); the empty VAL set; the adaptive mode.
 //
 // Float tolerances (justified): the gather sums ~1e3 terms in float (relative rounding ~1e-6
 // per term, sums of positive terms) => 2e-4 relative with a floor of 1e-4 of the largest value
@@ -10,6 +12,7 @@
 #include "GatherTestScenes.h"
 #include "GlTestEnvironment.h"
 #include "GpuRig.h"
+#include "PaperReference.h"
 
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/BruteForceIllumination.h>
@@ -103,7 +106,8 @@ GpuRun runBruteForce(Scene& scene, bool glossy) {
     gbuffer.render(scene.instances, view.clip_T_world);
     gl::Texture target = gl::Texture::create2D(GL_RGBA32F, scene.width, scene.height);
     const gl::Buffer vals = uploadVals(scene.vals);
-    technique->render({vals.id(), std::uint32_t(scene.vals.size())}, scene.instances, gbuffer.view(), view, target.id());
+    technique->render({vals.id(), std::uint32_t(scene.vals.size())}, scene.instances, gbuffer.view(), view,
+                      target.id());
     GpuRun run;
     run.image = readTexels(target);
     run.gbufferPosition = readTexels(gbuffer.position());
@@ -120,20 +124,22 @@ struct ReferenceRun {
     std::vector<dvec3> vertexPositions, vertexNormals;
     std::vector<std::array<std::uint32_t, 3>> triangles; // global vertex indices
     std::vector<const gi::MeshInstance*> triangleInstance;
+    std::vector<std::array<std::uint32_t, 8>> neighbours; // global sparse-point indices per vertex
+    bool independent = false;                             // from PaperReference (pixels shaded with paper::shade too)
 };
 
 ReferenceRun runReference(const Scene& scene, const PaperSetup& setup) {
     ReferenceRun r;
     ref::GatherParameters parameters;
     parameters.glossy = setup.glossy;
-    std::vector<std::array<std::uint32_t, 8>> neighbours;
+    std::vector<std::array<std::uint32_t, 8>>& neighbours = r.neighbours;
     for (std::size_t m = 0; m < scene.meshes.size(); ++m) {
         const TriangleMesh& mesh = scene.meshes[m];
-        const gi::SparsePointSet set = gi::sparsePointsFromVertices(mesh, scene.sparseCounts[m]);
+        const gi::SparsePointSet set = scene.sparsePoints(m);
         const auto offset = std::uint32_t(r.receivers.size());
         const auto vertexOffset = std::uint32_t(r.vertexPositions.size());
-        const auto receivers = ref::receiversFromSparsePoints(set, scene.instances[m].world_T_model,
-                                                              std::max(1.0, double(scene.instances[m].material.specularExponent)));
+        const auto receivers = ref::receiversFromSparsePoints(
+            set, scene.instances[m].world_T_model, std::max(1.0, double(scene.instances[m].material.specularExponent)));
         r.receivers.insert(r.receivers.end(), receivers.begin(), receivers.end());
         const glm::dmat4 transform(scene.instances[m].world_T_model);
         const glm::dmat3 normalMatrix = glm::transpose(glm::inverse(glm::dmat3(transform)));
@@ -161,6 +167,99 @@ ReferenceRun runReference(const Scene& scene, const PaperSetup& setup) {
     }
     ref::interpolateVerticesInto(r.vertexPositions, r.vertexNormals, neighbours, r.receivers, r.occluded, r.vertex);
     return r;
+}
+
+/// The same run from PaperReference (independent formulas), in gi::reference's sum layout so
+/// that compareStages() checks the GPU against it: offsets (l' - x) W, r^2 sums rbar^2 W,
+/// moments (sigma^2 + (l' - x)^2) W per axis (diffuse) and summed (glossy).
+ReferenceRun runIndependent(const Scene& scene, const PaperSetup& setup, const ReferenceRun& shared) {
+    ReferenceRun r = shared;
+    r.independent = true;
+    std::vector<paper::Point> points;
+    for (const ref::Receiver& x : r.receivers) points.push_back({x.position, x.normal, x.exponent, x.occluderRadius});
+    paper::Options options;
+    options.glossy = setup.glossy;
+    const paper::Run run = paper::run(scene.vals, points, dvec3(scene.eye), options, setup.occlusion);
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        const dvec3 x = points[i].position;
+        const paper::Averaged& d = run.gathers[i].diffuse;
+        const paper::Averaged& g = run.gathers[i].glossy;
+        ref::GatherSums& s = r.sums[i];
+        const dvec3 offD = d.weight > 0.0 ? d.position - x : dvec3(0.0);
+        const dvec3 offS = g.weight > 0.0 ? g.position - x : dvec3(0.0);
+        s.irradiance = d.sum;
+        s.weightD = d.weight;
+        s.offsetD = offD * d.weight;
+        s.r2D = d.meanR2 * d.weight;
+        s.momentD = (d.variance + offD * offD) * d.weight;
+        s.glossy = g.sum;
+        s.weightS = g.weight;
+        s.offsetS = offS * g.weight;
+        s.r2S = g.meanR2 * g.weight;
+        s.momentS = (g.variance.x + g.variance.y + g.variance.z + glm::dot(offS, offS)) * g.weight;
+        const auto toVpl = [](const paper::Light& l) { return ref::Vpl{l.radiance, l.r2, l.position, l.sphereRadius}; };
+        r.vpls[i] = {toVpl(run.lights[i].diffuse), toVpl(run.lights[i].glossy)};
+        r.occluded[i] = {toVpl(run.occluded[i].diffuse), toVpl(run.occluded[i].glossy)};
+        r.occlusion[i] = run.occlusion[i];
+    }
+    for (std::size_t v = 0; v < r.vertexPositions.size(); ++v) {
+        const paper::LightPair p =
+            paper::interpolate(r.vertexPositions[v], r.vertexNormals[v], r.neighbours[v], points, run.occluded);
+        r.vertex[v].diffuse = {p.diffuse.radiance, p.diffuse.r2, p.diffuse.position, 0.0};
+        r.vertex[v].glossy = {p.glossy.radiance, p.glossy.r2, p.glossy.position, 0.0};
+    }
+    return r;
+}
+
+/// Occlusion is discontinuous where S_o degenerates to a point (one VAL dominates a channel): guard
+/// G7 gives o = 0 for a radius of exactly 0, while any radius > 0 inside an occluder's quad gives
+/// o = 1. The GPU computes the radius from float moment sums (asserted to 1e-3 of the largest
+/// radius, compareStages), so below that it cannot tell 0 from a tiny radius. At those points
+/// (channel by channel) the reference adopts the GPU's o and recomputes the occluded VPLs and the
+/// vertices, so later stages are still compared; returns how many (point, channel) pairs.
+std::size_t adoptUnresolvedOcclusion(ReferenceRun& r, const GpuRun& gpu) {
+    double largestD = 0.0, largestS = 0.0;
+    for (const ref::VplPair& v : r.vpls) {
+        largestD = std::max(largestD, v.diffuse.sphereRadius);
+        largestS = std::max(largestS, v.glossy.sphereRadius);
+    }
+    std::size_t adopted = 0;
+    for (std::size_t i = 0; i < r.vpls.size(); ++i) {
+        const glm::dvec2 o = glm::clamp(glm::dvec2(gpu.occlusion[i]), 0.0, 1.0);
+        if (r.vpls[i].diffuse.sphereRadius <= 1e-3 * largestD && o.x != r.occlusion[i].x) {
+            r.occlusion[i].x = o.x;
+            ++adopted;
+        }
+        if (r.vpls[i].glossy.sphereRadius <= 1e-3 * largestS && o.y != r.occlusion[i].y) {
+            r.occlusion[i].y = o.y;
+            ++adopted;
+        }
+        r.occluded[i] = r.vpls[i];
+        r.occluded[i].diffuse.radiance *= 1.0 - r.occlusion[i].x;
+        r.occluded[i].glossy.radiance *= 1.0 - r.occlusion[i].y;
+    }
+    if (adopted == 0) return 0;
+    if (!r.independent) {
+        ref::interpolateVerticesInto(r.vertexPositions, r.vertexNormals, r.neighbours, r.receivers, r.occluded,
+                                     r.vertex);
+        return adopted;
+    }
+    std::vector<paper::Point> points;
+    std::vector<paper::LightPair> lights;
+    for (std::size_t i = 0; i < r.receivers.size(); ++i) {
+        const ref::Receiver& x = r.receivers[i];
+        points.push_back({x.position, x.normal, x.exponent, x.occluderRadius});
+        const ref::VplPair& v = r.occluded[i];
+        lights.push_back({{v.diffuse.radiance, v.diffuse.position, v.diffuse.r2, v.diffuse.sphereRadius},
+                          {v.glossy.radiance, v.glossy.position, v.glossy.r2, v.glossy.sphereRadius}});
+    }
+    for (std::size_t v = 0; v < r.vertexPositions.size(); ++v) {
+        const paper::LightPair p =
+            paper::interpolate(r.vertexPositions[v], r.vertexNormals[v], r.neighbours[v], points, lights);
+        r.vertex[v].diffuse = {p.diffuse.radiance, p.diffuse.r2, p.diffuse.position, 0.0};
+        r.vertex[v].glossy = {p.glossy.radiance, p.glossy.r2, p.glossy.position, 0.0};
+    }
+    return adopted;
 }
 
 /// Per-pixel reference: the triangle under the G-buffer position, barycentric interpolation of
@@ -195,9 +294,16 @@ std::optional<dvec3> referencePixel(const ReferenceRun& r, const dvec3& p, const
             v.glossy.position += w[k] * s.glossy.position;
         }
         const Material& material = r.triangleInstance[t]->material;
-        const ref::Surface surface{p, n, dvec3(material.diffuseAlbedo), glossy ? dvec3(material.specularAlbedo) : dvec3(0.0),
+        const ref::Surface surface{p, n, dvec3(material.diffuseAlbedo),
+                                   glossy ? dvec3(material.specularAlbedo) : dvec3(0.0),
                                    double(material.specularExponent)};
-        result = ref::shade(v, surface, eye);
+        if (r.independent) {
+            const paper::LightPair l{{v.diffuse.radiance, v.diffuse.position, v.diffuse.r2, 0.0},
+                                     {v.glossy.radiance, v.glossy.position, v.glossy.r2, 0.0}};
+            result = paper::shade(l, p, n, eye, surface.diffuseAlbedo, surface.specular, surface.exponent);
+        } else {
+            result = ref::shade(v, surface, eye);
+        }
     }
     return result;
 }
@@ -206,7 +312,10 @@ std::optional<dvec3> referencePixel(const ReferenceRun& r, const dvec3& p, const
 class Comparison {
 public:
     Comparison(const char* what, double rel, double floorFraction, double absolute = 0.0)
-        : what_(what), rel_(rel), floor_(floorFraction), absolute_(absolute) {}
+        : what_(what)
+        , rel_(rel)
+        , floor_(floorFraction)
+        , absolute_(absolute) {}
     void add(double gpu, double reference) { pairs_.emplace_back(gpu, reference); }
     void check() const {
         double largest = 0.0;
@@ -218,7 +327,8 @@ public:
             const double tolerance = rel_ * std::abs(r) + floor_ * largest + absolute_ + 1e-30;
             worst = std::max(worst, std::abs(g - r) / tolerance);
             if (std::abs(g - r) > tolerance) {
-                if (bad < 4 && std::getenv("LIGHTSKIN_TEST_VERBOSE")) std::printf("%s: gpu %.9g ref %.9g\n", what_, g, r);
+                if (bad < 4 && std::getenv("LIGHTSKIN_TEST_VERBOSE"))
+                    std::printf("%s: gpu %.9g ref %.9g\n", what_, g, r);
                 ++bad;
             }
         }
@@ -244,70 +354,94 @@ void compareStages(const GpuRun& gpu, const ReferenceRun& r, const PaperSetup& s
     // positions carry the float rounding of world coordinates (6e-8 of the scene's extent)
     const double positionFloor = 1e-6 * sceneExtent;
     const double glossyRel = 2e-4 + 2.4e-7 * maxExponent;
-    Comparison irradiance("L'_d", 2e-4, 1e-4), glossy("L'_s", glossyRel, 1e-4), weights("W", glossyRel, 1e-4),
-        offsets("sum (l - x) w", glossyRel, 1e-4), moments("moments", 2e-4, 1e-4);
+    // One comparator per quantity and channel: the floor is a fraction of that quantity's own
+    // largest value (pooling W with sum r^2 w, ~1e3 times smaller, made the floor ~10 % of the
+    // latter).
+    Comparison irradiance("L'_d", 2e-4, 1e-4), glossy("L'_s", glossyRel, 1e-4), weightD("W_d", 2e-4, 1e-4),
+        weightS("W_s", glossyRel, 1e-4), r2D("sum r^2 w_d", 2e-4, 1e-4), r2S("sum r^2 w_s", glossyRel, 1e-4),
+        offsetD("sum (l - x) w_d", 2e-4, 1e-4), offsetS("sum (l - x) w_s", glossyRel, 1e-4),
+        momentD("sum (l - x)^2 w_d", 2e-4, 1e-4), momentS("sum |l - x|^2 w_s", glossyRel, 1e-4);
     for (std::size_t i = 0; i < n; ++i) {
         const ref::GatherSums& s = r.sums[i];
         const glm::vec4* g = &gpu.gather[5 * i];
         for (int c = 0; c < 3; ++c) {
             irradiance.add(g[0][c], s.irradiance[c]);
-            offsets.add(g[1][c], s.offsetD[c]);
+            offsetD.add(g[1][c], s.offsetD[c]);
             glossy.add(g[2][c], s.glossy[c]);
-            offsets.add(g[3][c], s.offsetS[c]);
-            if (setup.occlusion) moments.add(g[4][c], s.momentD[c]);
+            offsetS.add(g[3][c], s.offsetS[c]);
+            if (setup.occlusion) momentD.add(g[4][c], s.momentD[c]);
         }
-        weights.add(g[1].w, s.weightD);
-        weights.add(g[3].w, s.weightS);
-        weights.add(g[0].w, s.r2D);
-        weights.add(g[2].w, s.r2S);
-        if (setup.occlusion) moments.add(g[4].w, s.momentS);
+        weightD.add(g[1].w, s.weightD);
+        weightS.add(g[3].w, s.weightS);
+        r2D.add(g[0].w, s.r2D);
+        r2S.add(g[2].w, s.r2S);
+        if (setup.occlusion && setup.glossy) momentS.add(g[4].w, s.momentS);
     }
-    irradiance.check();
-    glossy.check();
-    weights.check();
-    offsets.check();
-    moments.check();
+    for (const Comparison* c : {&irradiance, &weightD, &r2D, &offsetD}) c->check();
+    if (setup.glossy)
+        for (const Comparison* c : {&glossy, &weightS, &r2S, &offsetS}) c->check();
+    if (setup.occlusion) momentD.check();
+    if (setup.occlusion && setup.glossy) momentS.check();
 
-    Comparison vplRadiance("L''", 2e-3 + 2.4e-7 * maxExponent, 1e-4), vplPosition("l'", 0.0, 1e-4, positionFloor), sphere("S_o radius", 2e-3, 1e-3);
+    // rbar^2 is a ratio of two gathered sums (2 x 2e-4); the S_o radius is the square root of a
+    // difference of moments (cancellation: 1e-3 of the largest radius as floor).
+    const double vplRel = 2e-3 + 2.4e-7 * maxExponent;
+    Comparison radianceD("L''_d", 2e-3, 1e-4), radianceS("L''_s", vplRel, 1e-4), meanR2D("rbar^2_d", 4e-4, 1e-4),
+        meanR2S("rbar^2_s", 2.0 * glossyRel, 1e-4), positionD("l'_d", 0.0, 1e-4, positionFloor),
+        positionS("l'_s", 0.0, 1e-4, positionFloor), sphereD("S_o radius (diffuse)", 2e-3, 1e-3),
+        sphereS("S_o radius (glossy)", 2e-3, 1e-3);
     for (std::size_t i = 0; i < n; ++i) {
         const glm::vec4* v = &gpu.vpls[4 * i];
         for (int c = 0; c < 3; ++c) {
-            vplRadiance.add(v[0][c], r.vpls[i].diffuse.radiance[c]);
-            vplRadiance.add(v[2][c], r.vpls[i].glossy.radiance[c]);
-            vplPosition.add(v[1][c], r.vpls[i].diffuse.position[c]);
-            if (setup.glossy) vplPosition.add(v[3][c], r.vpls[i].glossy.position[c]);
+            radianceD.add(v[0][c], r.vpls[i].diffuse.radiance[c]);
+            radianceS.add(v[2][c], r.vpls[i].glossy.radiance[c]);
+            positionD.add(v[1][c], r.vpls[i].diffuse.position[c]);
+            positionS.add(v[3][c], r.vpls[i].glossy.position[c]);
         }
-        if (setup.occlusion) {
-            sphere.add(v[1].w, r.vpls[i].diffuse.sphereRadius);
-            if (setup.glossy) sphere.add(v[3].w, r.vpls[i].glossy.sphereRadius);
-        }
+        meanR2D.add(v[0].w, r.vpls[i].diffuse.r2);
+        meanR2S.add(v[2].w, r.vpls[i].glossy.r2);
+        sphereD.add(v[1].w, r.vpls[i].diffuse.sphereRadius);
+        sphereS.add(v[3].w, r.vpls[i].glossy.sphereRadius);
     }
-    vplRadiance.check();
-    vplPosition.check();
-    sphere.check();
+    for (const Comparison* c : {&radianceD, &meanR2D, &positionD}) c->check();
+    if (setup.glossy)
+        for (const Comparison* c : {&radianceS, &meanR2S, &positionS}) c->check();
+    if (setup.occlusion) sphereD.check();
+    if (setup.occlusion && setup.glossy) sphereS.check();
 
     if (setup.occlusion) {
-        Comparison occlusion("o", 0.0, 0.0);
-        std::size_t bad = 0;
+        // o sums overlap terms computed from the stage above (l', S_o radius within 2e-3
+        // relative): each term moves by <= its own value times that, so 2e-3 absolute on o in [0, 1]
+        Comparison occlusionD("o_d", 0.0, 0.0, 2e-3), occlusionS("o_s", 0.0, 0.0, 2e-3);
         for (std::size_t i = 0; i < n; ++i) {
-            const double od = std::clamp(double(gpu.occlusion[i].x), 0.0, 1.0);
-            if (std::abs(od - r.occlusion[i].x) > 2e-3) ++bad;
+            occlusionD.add(std::clamp(double(gpu.occlusion[i].x), 0.0, 1.0), r.occlusion[i].x);
+            if (setup.glossy) occlusionS.add(std::clamp(double(gpu.occlusion[i].y), 0.0, 1.0), r.occlusion[i].y);
         }
-        EXPECT_EQ(bad, 0u) << "occlusion amounts differ by more than 2e-3 (absolute, o in [0, 1])";
+        occlusionD.check();
+        if (setup.glossy) occlusionS.check();
     }
 
-    Comparison vertex("vertex VPL radiance", 3e-3 + 2.4e-7 * maxExponent, 1e-4), vertexPosition("vertex VPL position", 0.0, 1e-4, positionFloor);
+    // eq. 13 averages the VPLs above with normalised weights: the same relative bounds, plus the
+    // float weights (8 terms, ~1e-6) => 3e-3
+    Comparison vertexD("vertex L'''_d", 3e-3, 1e-4), vertexS("vertex L'''_s", 3e-3 + 2.4e-7 * maxExponent, 1e-4),
+        vertexR2D("vertex rbar^2_d", 1e-3, 1e-4), vertexR2S("vertex rbar^2_s", 1e-3 + 2.0 * glossyRel, 1e-4),
+        vertexPositionD("vertex l'''_d", 0.0, 1e-4, positionFloor),
+        vertexPositionS("vertex l'''_s", 0.0, 1e-4, positionFloor);
     ASSERT_EQ(gpu.vertex.size(), 4 * r.vertex.size());
     for (std::size_t v = 0; v < r.vertex.size(); ++v) {
         const glm::vec4* g = &gpu.vertex[4 * v];
         for (int c = 0; c < 3; ++c) {
-            vertex.add(g[0][c], r.vertex[v].diffuse.radiance[c]);
-            vertex.add(g[2][c], r.vertex[v].glossy.radiance[c]);
-            vertexPosition.add(g[1][c], r.vertex[v].diffuse.position[c]);
+            vertexD.add(g[0][c], r.vertex[v].diffuse.radiance[c]);
+            vertexS.add(g[2][c], r.vertex[v].glossy.radiance[c]);
+            vertexPositionD.add(g[1][c], r.vertex[v].diffuse.position[c]);
+            vertexPositionS.add(g[3][c], r.vertex[v].glossy.position[c]);
         }
+        vertexR2D.add(g[0].w, r.vertex[v].diffuse.r2);
+        vertexR2S.add(g[2].w, r.vertex[v].glossy.r2);
     }
-    vertex.check();
-    vertexPosition.check();
+    for (const Comparison* c : {&vertexD, &vertexR2D, &vertexPositionD}) c->check();
+    if (setup.glossy)
+        for (const Comparison* c : {&vertexS, &vertexR2S, &vertexPositionS}) c->check();
 }
 
 void comparePixels(const GpuRun& gpu, const ReferenceRun& r, const Scene& scene, bool glossy, double rel) {
@@ -318,8 +452,8 @@ void comparePixels(const GpuRun& gpu, const ReferenceRun& r, const Scene& scene,
             EXPECT_EQ(gpu.image[i], glm::vec4(0.0f)) << "uncovered pixels must be 0";
             continue;
         }
-        const auto expected = referencePixel(r, dvec3(gpu.gbufferPosition[i]), glm::normalize(dvec3(gpu.gbufferNormal[i])),
-                                             dvec3(scene.eye), glossy);
+        const auto expected = referencePixel(r, dvec3(gpu.gbufferPosition[i]),
+                                             glm::normalize(dvec3(gpu.gbufferNormal[i])), dvec3(scene.eye), glossy);
         if (!expected) continue;
         ++covered;
         for (int c = 0; c < 3; ++c) {
@@ -337,7 +471,12 @@ Scene sphereOverFloor() {
     sphereMaterial.diffuseAlbedo = {0.8f, 0.7f, 0.6f};
     sphereMaterial.specularAlbedo = {0.3f, 0.3f, 0.3f};
     sphereMaterial.specularExponent = 20.0f;
-    scene.add(makeSphere(0.3f, 12, 24), glm::translate(glm::mat4(1.0f), {0.0f, 0.0f, 0.45f}), sphereMaterial, 120);
+    // rotated about its centre (same surface): model and world normals differ, so a missing
+    // normal transform in any stage shows
+    scene.add(
+        makeSphere(0.3f, 12, 24),
+        glm::rotate(glm::translate(glm::mat4(1.0f), {0.0f, 0.0f, 0.45f}), 0.7f, glm::normalize(glm::vec3(1, 2, 3))),
+        sphereMaterial, 120);
     Material floorMaterial;
     floorMaterial.diffuseAlbedo = {0.5f, 0.5f, 0.5f};
     floorMaterial.specularAlbedo = {0.2f, 0.1f, 0.0f};
@@ -353,20 +492,40 @@ Scene sphereOverFloor() {
 
 class LightSkinSetupGLTest : public GlTest, public ::testing::WithParamInterface<PaperSetup> {};
 
-TEST_P(LightSkinSetupGLTest, EveryStageMatchesTheDoubleReference) {
+TEST_P(LightSkinSetupGLTest, EveryStageMatchesBothDoubleReferences) {
     const PaperSetup setup = GetParam();
     Scene scene = sphereOverFloor();
+    scene.productionSampler = true;
     gi::LightSkinSettings settings;
     settings.glossy = setup.glossy;
     settings.occlusion = setup.occlusion;
     const GpuRun gpu = runLightSkin(scene, settings);
-    const ReferenceRun r = runReference(scene, setup);
-    compareStages(gpu, r, setup);
-    comparePixels(gpu, r, scene, setup.glossy, 3e-3);
+    ReferenceRun shared = runReference(scene, setup);
+    ReferenceRun independent = runIndependent(scene, setup, shared);
+    for (ReferenceRun* r : {&shared, &independent}) {
+        // a scene where many points had a point-like S_o would not test occlusion: at most 2 %
+        const std::size_t adopted = setup.occlusion ? adoptUnresolvedOcclusion(*r, gpu) : 0;
+        EXPECT_LE(adopted, r->receivers.size() / 50) << "points with an unresolved, point-like S_o";
+        SCOPED_TRACE(r->independent ? "against PaperReference (independent formulas)"
+                                    : "against gi::reference (the shaders' own math in double)");
+        compareStages(gpu, *r, setup);
+        comparePixels(gpu, *r, scene, setup.glossy, 3e-3);
+    }
+    // the stages compared must carry signal: light in every channel the setup has, occlusion
+    double maxIrradiance = 0.0, maxGlossy = 0.0, maxOcclusionD = 0.0, maxOcclusionS = 0.0;
+    for (std::size_t i = 0; i < independent.receivers.size(); ++i) {
+        maxIrradiance = std::max(maxIrradiance, independent.sums[i].irradiance.x);
+        maxGlossy = std::max(maxGlossy, independent.sums[i].glossy.x);
+        maxOcclusionD = std::max(maxOcclusionD, independent.occlusion[i].x);
+        maxOcclusionS = std::max(maxOcclusionS, independent.occlusion[i].y);
+    }
+    EXPECT_GT(maxIrradiance, 0.1);
+    if (setup.glossy) {
+        EXPECT_GT(maxGlossy, 0.01);
+    }
     if (setup.occlusion) {
-        double maxOcclusion = 0.0;
-        for (const auto& o : r.occlusion) maxOcclusion = std::max(maxOcclusion, o.x);
-        EXPECT_GT(maxOcclusion, 0.05) << "the scene must exercise occlusion (floor under the sphere)";
+        EXPECT_GT(maxOcclusionD, 0.05) << "the scene must exercise occlusion (floor under the sphere)";
+        EXPECT_GT(maxOcclusionS, 0.05) << "and glossy occlusion";
     }
 }
 
@@ -439,7 +598,8 @@ TEST_F(LightSkinAnalyticGLTest, CoaxialDiscAndLargeUniformPlaneOnTheGpu) {
         gi::SimpleGBuffer gbuffer = gi::SimpleGBuffer::create(8, 8);
         gl::Texture target = gl::Texture::create2D(GL_RGBA32F, 8, 8);
         const gl::Buffer buffer = uploadVals(scene.vals);
-        technique->render({buffer.id(), std::uint32_t(vals.size())}, scene.instances, gbuffer.view(), scene.view(), target.id());
+        technique->render({buffer.id(), std::uint32_t(vals.size())}, scene.instances, gbuffer.view(), scene.view(),
+                          target.id());
         std::vector<glm::vec4> sums;
         technique->readGatherSums(sums);
         const auto& points = technique->sparsePoints()[0].points;
@@ -481,13 +641,16 @@ std::vector<gi::VirtualAreaLight> valsPlane(float s) {
     return squareEmitter({0.2f * s, 0.0f, 0.6f * s}, {0.1f, 0.2f, -1.0f}, s, 12, {1.0f, 0.5f, 0.25f});
 }
 std::vector<gi::VirtualAreaLight> valsGrazing(float) {
-    return {disc({0.8f, 0.0f, 1e-3f}, {-1, 0, 0}, 1e-2f, {1, 1, 1}), disc({-0.8f, 0.0f, -1e-3f}, {1, 0, 0}, 1e-2f, {1, 1, 1}),
+    return {disc({0.8f, 0.0f, 1e-3f}, {-1, 0, 0}, 1e-2f, {1, 1, 1}),
+            disc({-0.8f, 0.0f, -1e-3f}, {1, 0, 0}, 1e-2f, {1, 1, 1}),
             disc({0.0f, 0.8f, 0.0f}, {0, -1, 0.001f}, 1e-2f, {1, 1, 1})};
 }
 std::vector<gi::VirtualAreaLight> valsBackFacing(float) {
     return squareEmitter({0, 0, 0.5f}, {0, 0, 1}, 1.0f, 8, {1, 1, 1});
 }
-std::vector<gi::VirtualAreaLight> valsSingle(float) { return {disc({0.1f, 0.2f, 0.7f}, {0, -0.2f, -1}, 1e-2f, {1, 2, 3})}; }
+std::vector<gi::VirtualAreaLight> valsSingle(float) {
+    return {disc({0.1f, 0.2f, 0.7f}, {0, -0.2f, -1}, 1e-2f, {1, 2, 3})};
+}
 std::vector<gi::VirtualAreaLight> valsNone(float) { return {}; }
 std::vector<gi::VirtualAreaLight> valsOnePoint(float) {
     return std::vector<gi::VirtualAreaLight>(1000, disc({0.2f, 0, 0.5f}, {0, 0, -1}, 1e-3f, {1, 1, 1}));
@@ -531,6 +694,16 @@ TEST_P(LightSkinExtremeGLTest, FiniteNonNegativeBoundedAndAgreesWithTheReference
         }
     compareStages(gpu, r, setup);
     comparePixels(gpu, r, scene, true, 5e-3);
+    // Guard G1 regularises direction cosines with 1e-12 r^2 added to d^2: a relative change of
+    // 0.5e-12 (r / d)^2, 1.6e-4 for the VAL 1e-6 m from the point (r = 0.018 m), x k = 20 in
+    // cos^k: 3e-3, beyond the float tolerance. The guard is a documented deviation exercised only
+    // there; PaperReference has none, so that case is compared with gi::reference alone.
+    if (std::string(c.name) != "micron_apart") {
+        SCOPED_TRACE("against PaperReference (independent formulas)");
+        const ReferenceRun independent = runIndependent(scene, setup, r);
+        compareStages(gpu, independent, setup);
+        comparePixels(gpu, independent, scene, true, 5e-3);
+    }
     if (scene.vals.empty() || std::string(c.name) == "below_horizon" || std::string(c.name) == "back_facing") {
         for (const glm::vec4& p : gpu.image) EXPECT_EQ(p, glm::vec4(0.0f)) << "no light must give exactly 0";
     }
@@ -538,12 +711,14 @@ TEST_P(LightSkinExtremeGLTest, FiniteNonNegativeBoundedAndAgreesWithTheReference
 
 INSTANTIATE_TEST_SUITE_P(
     Extremes, LightSkinExtremeGLTest,
-    ::testing::Values(GpuExtreme{"coincident", 1.0f, 20.0f, valsCoincident}, GpuExtreme{"micron_apart", 1.0f, 20.0f, valsMicron},
-                      GpuExtreme{"scale_1e-3", 1e-3f, 20.0f, valsPlane}, GpuExtreme{"scale_1e3", 1e3f, 20.0f, valsPlane},
-                      GpuExtreme{"grazing", 1.0f, 20.0f, valsGrazing}, GpuExtreme{"back_facing", 1.0f, 20.0f, valsBackFacing},
-                      GpuExtreme{"k_1", 1.0f, 1.0f, valsPlane}, GpuExtreme{"k_100", 1.0f, 100.0f, valsPlane},
-                      GpuExtreme{"k_1e4", 1.0f, 1e4f, valsPlane}, GpuExtreme{"single_val", 1.0f, 20.0f, valsSingle},
-                      GpuExtreme{"no_val", 1.0f, 20.0f, valsNone}, GpuExtreme{"all_at_one_point", 1.0f, 20.0f, valsOnePoint},
+    ::testing::Values(GpuExtreme{"coincident", 1.0f, 20.0f, valsCoincident},
+                      GpuExtreme{"micron_apart", 1.0f, 20.0f, valsMicron},
+                      GpuExtreme{"scale_1e-3", 1e-3f, 20.0f, valsPlane},
+                      GpuExtreme{"scale_1e3", 1e3f, 20.0f, valsPlane}, GpuExtreme{"grazing", 1.0f, 20.0f, valsGrazing},
+                      GpuExtreme{"back_facing", 1.0f, 20.0f, valsBackFacing}, GpuExtreme{"k_1", 1.0f, 1.0f, valsPlane},
+                      GpuExtreme{"k_100", 1.0f, 100.0f, valsPlane}, GpuExtreme{"k_1e4", 1.0f, 1e4f, valsPlane},
+                      GpuExtreme{"single_val", 1.0f, 20.0f, valsSingle}, GpuExtreme{"no_val", 1.0f, 20.0f, valsNone},
+                      GpuExtreme{"all_at_one_point", 1.0f, 20.0f, valsOnePoint},
                       GpuExtreme{"below_horizon", 1.0f, 20.0f, valsBelow}),
     [](const auto& param_info) {
         std::string name = param_info.param.name;
@@ -576,7 +751,8 @@ double relativeDifference(const std::vector<glm::vec4>& a, const std::vector<glm
     for (std::size_t i = std::size_t(slot); i < b.size(); i += std::size_t(stride))
         for (int c = 0; c < 3; ++c) {
             const double diff = std::abs(double(a[i][c]) - double(b[i][c]));
-            if (diff > 0.0) worst = std::max(worst, diff / std::max(double(std::abs(b[i][c])), floorFraction * largest));
+            if (diff > 0.0)
+                worst = std::max(worst, diff / std::max(double(std::abs(b[i][c])), floorFraction * largest));
         }
     return worst;
 }
@@ -597,6 +773,33 @@ void expectSameStages(const GpuRun& a, const GpuRun& b, double limit, const std:
     EXPECT_LE(relativeImageDifference(a, b), limit) << what << ", pixels";
 }
 
+/// Invariance tests compare two runs, which two all-zero (or all-dark) runs would pass. This
+/// requires the image to carry at least half of the light of the double brute force (eq. 2,
+/// same VALs, no occlusion) summed over every 5th covered pixel. Derivation of the 1/2: on these
+/// scenes LightSkin's interpolation error is a few percent
+/// (BruteForceGLTest.LightSkinIsCloseToBruteForceOnASmoothScene: 3 %), and occlusion can only
+/// remove light the geometry blocks, < 30 % of the total here (the floor under the sphere: the
+/// truth measures 12 % on a similar scene, LightSkinTruthGLTest); 0.5 leaves a factor > 1.4.
+void expectNonTrivial(const GpuRun& run, const Scene& scene, bool glossy, const std::string& what) {
+    ref::GatherParameters parameters;
+    parameters.glossy = glossy;
+    double image = 0.0, brute = 0.0;
+    std::size_t covered = 0;
+    for (std::size_t i = 0; i < run.image.size(); ++i) {
+        if (run.gbufferPosition[i].w == 0.0f || covered++ % 5 != 0) continue;
+        // which instance: in the two-mesh scenes the second is the floor, the plane z = 0
+        const bool floor = scene.instances.size() > 1 && std::abs(run.gbufferPosition[i].z) < 1e-4f;
+        const Material& m = scene.instances[floor ? 1 : 0].material;
+        const ref::Surface s{dvec3(run.gbufferPosition[i]), glm::normalize(dvec3(run.gbufferNormal[i])),
+                             dvec3(m.diffuseAlbedo), dvec3(m.specularAlbedo), double(m.specularExponent)};
+        const dvec3 expected = ref::bruteForce(scene.vals, s, dvec3(scene.eye), parameters);
+        image += double(run.image[i].x + run.image[i].y + run.image[i].z);
+        brute += expected.x + expected.y + expected.z;
+    }
+    ASSERT_GT(brute, 0.0) << what << ": the scene must be lit";
+    EXPECT_GT(image, 0.5 * brute) << what << ": the technique must deliver the light";
+}
+
 TEST_F(LightSkinInvarianceGLTest, KCacheChangesResultsByAtMost1e5Relative) {
     // K_cache only changes how the VALs are split into gather passes. With additive blending of
     // per-pass sums that changed the float summation order: the sums moved by up to 2e-6 (L'_d)
@@ -613,6 +816,7 @@ TEST_F(LightSkinInvarianceGLTest, KCacheChangesResultsByAtMost1e5Relative) {
         settings.occlusion = glossy;
         settings.kCache = 128;
         const GpuRun base = runLightSkin(scene, settings);
+        expectNonTrivial(base, scene, glossy, "K_cache 128");
         for (int k : {16, 48, 1024}) {
             settings.kCache = k;
             expectSameStages(runLightSkin(scene, settings), base, 1e-5,
@@ -627,6 +831,7 @@ TEST_F(LightSkinInvarianceGLTest, ComputeGatherMatchesTheFragmentGather) {
     Scene scene = sphereOverFloor();
     gi::LightSkinSettings settings;
     const GpuRun fragment = runLightSkin(scene, settings);
+    expectNonTrivial(fragment, scene, true, "fragment gather");
     settings.computeGather = true;
     for (int perDispatch : {256, 100}) { // several dispatches over the ~1000 VALs (100: rounded to 64)
         settings.computeValsPerDispatch = perDispatch;
@@ -640,6 +845,7 @@ TEST_F(LightSkinInvarianceGLTest, DoublingSparsePointsChangesTheMeanByAtMostFive
     Material material;
     material.specularAlbedo = {0.2f, 0.2f, 0.2f};
     scene.add(makeSphere(0.4f, 24, 48), glm::mat4(1.0f), material, 150);
+    scene.productionSampler = true; // progressive: the 300-point set contains the 150-point set
     scene.vals = squareEmitter({0.0f, -0.5f, 1.5f}, {0.1f, 0.3f, -1.0f}, 2.0f, 24, {1.0f, 1.0f, 1.0f});
     gi::LightSkinSettings settings;
     const GpuRun a = runLightSkin(scene, settings);
@@ -650,7 +856,7 @@ TEST_F(LightSkinInvarianceGLTest, DoublingSparsePointsChangesTheMeanByAtMostFive
         meanA += double(a.image[i].x);
         meanB += double(b.image[i].x);
     }
-    ASSERT_GT(meanA, 0.0);
+    expectNonTrivial(a, scene, true, "150 sparse points");
     EXPECT_NEAR(meanB / meanA, 1.0, 0.05);
 }
 
@@ -662,12 +868,12 @@ TEST_F(LightSkinInvarianceGLTest, HalvingOrDoublingValResolutionChangesTotalLigh
     auto total = [&](int resolution) {
         scene.vals = squareEmitter({0.0f, -0.5f, 1.2f}, {0.1f, 0.3f, -1.0f}, 1.5f, resolution, {1.0f, 1.0f, 1.0f});
         const GpuRun run = runLightSkin(scene, settings);
+        expectNonTrivial(run, scene, true, "VAL resolution " + std::to_string(resolution));
         double sum = 0.0;
         for (const glm::vec4& p : run.image) sum += double(p.x);
         return sum;
     };
     const double base = total(32);
-    ASSERT_GT(base, 0.0);
     EXPECT_NEAR(total(16) / base, 1.0, 0.02);
     EXPECT_NEAR(total(64) / base, 1.0, 0.02);
 }
@@ -686,6 +892,7 @@ TEST_F(LightSkinInvarianceGLTest, AdaptiveModeDropsUnneededWorkWithinTolerance) 
     scene.vals.insert(scene.vals.end(), away.begin(), away.end());
     gi::LightSkinSettings settings; // glossy + occlusion requested
     const GpuRun full = runLightSkin(scene, settings);
+    expectNonTrivial(full, scene, true, "full");
     settings.adaptive = true;
     gi::LightSkinChoice choice;
     const GpuRun adaptive = runLightSkin(scene, settings, &choice);

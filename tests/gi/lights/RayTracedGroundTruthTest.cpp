@@ -55,7 +55,9 @@ TEST(RayTracedGroundTruthTest, UnoccludedDiscsSumToTheAnalyticDiscFormFactors) {
         disc({0, 0, 3.0f}, {0, 0, -1}, 2.0f, {4.0f, 0.0f, 1.0f}),
     };
     glm::dvec3 expected(0.0);
-    for (const auto& val : vals) expected += glm::dvec3(val.flux) / double(val.area) * coaxial(double(val.area) / std::numbers::pi, double(val.position.z));
+    for (const auto& val : vals)
+        expected += glm::dvec3(val.flux) / double(val.area) *
+                    coaxial(double(val.area) / std::numbers::pi, double(val.position.z));
     GroundTruthReceiver receiver;
     receiver.material.diffuseAlbedo = glm::vec3(0.5f);
     GroundTruthSettings stratified;
@@ -72,7 +74,8 @@ TEST(RayTracedGroundTruthTest, UnoccludedDiscsSumToTheAnalyticDiscFormFactors) {
     GroundTruthSettings centre;
     centre.discRings = centre.discSectors = 1;
     const GroundTruthResult exact = evaluate(empty, vals, receiver, centre);
-    for (int c = 0; c < 3; ++c) EXPECT_NEAR(exact.irradiance[c], expected[c], 1e-12 * (1 + expected[c])); // eq. 3 is exact coaxially
+    for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(exact.irradiance[c], expected[c], 1e-12 * (1 + expected[c])); // eq. 3 is exact coaxially
 }
 
 // Blocker halfway: an opaque square of half side s at h/2 hides the central square of half side 2s
@@ -114,12 +117,23 @@ TEST(RayTracedGroundTruthTest, HorizonAndBackFacingDiscsAddNothing) {
     // Below the horizon.
     const gi::VirtualAreaLight below = disc({0, 0, -1}, {0, 0, 1}, 0.1f, glm::vec3(1.0f));
     EXPECT_EQ(evaluate(empty, std::span(&below, 1), receiver, settings).unoccludedIrradiance, glm::dvec3(0.0));
-    // Straddling the horizon (a vertical disc centred in the receiver's plane): half of it counts;
-    // the stratified sum is finite, positive and below the full disc's form factor.
+    // Straddling the horizon (a vertical disc of radius r centred at distance 1 in the receiver's
+    // plane): only its upper half counts. In closed form, with y = (1, rho cos phi, rho sin phi),
+    // cos(theta_j) = 1/d, cos(theta_i) = z/d, d^2 = 1 + rho^2:
+    //   E = L_e int_0^r int_0^pi rho sin(phi) / (1 + rho^2)^2 rho dphi drho = L_e (atan r - r / (1 + r^2)),
+    // below the full coaxial disc's M r^2 / (r^2 + 1). Quadrature error: the integrand is smooth and
+    // vanishes (linearly in z) at the horizon, so the ~2 x 64 cells of 64 x 128 cut by it err by
+    // ~(128 / 8192) x (1 / 64) = 2.4e-4 relative, plus the midpoint rule's O(1/cells): 2e-3.
     const gi::VirtualAreaLight straddling = disc({1, 0, 0}, {-1, 0, 0}, 0.2f, glm::vec3(0.2f));
-    const GroundTruthResult half = evaluate(empty, std::span(&straddling, 1), receiver, settings);
-    EXPECT_GT(half.irradiance.x, 0.0);
-    EXPECT_TRUE(std::isfinite(half.irradiance.x));
+    GroundTruthSettings fine;
+    fine.discRings = 64;
+    fine.discSectors = 128;
+    const GroundTruthResult half = evaluate(empty, std::span(&straddling, 1), receiver, fine);
+    const double r2 = double(straddling.area) / std::numbers::pi, r = std::sqrt(r2);
+    const double emitted = double(straddling.flux.x) / (std::numbers::pi * double(straddling.area)); // L_e
+    const double exact = emitted * (std::atan(r) - r / (1.0 + r2));
+    EXPECT_NEAR(half.irradiance.x / exact, 1.0, 2e-3);
+    EXPECT_LT(half.irradiance.x, std::numbers::pi * emitted * r2 / (r2 + 1.0)) << "below the full disc's form factor";
     // Invalid VALs are skipped, not propagated.
     gi::VirtualAreaLight broken = disc({0, 0, 1}, {0, 0, -1}, 0.1f, glm::vec3(1.0f));
     broken.flux.x = std::numeric_limits<float>::quiet_NaN();
@@ -160,7 +174,8 @@ TEST(RayTracedGroundTruthTest, ThreadsGiveTheSameResultsAsOne) {
     const gi::GroundTruthMesh meshes[] = {{&blocker, glm::dmat4(1.0)}};
     const gi::RayTracedGroundTruth truth = gi::RayTracedGroundTruth::create(meshes);
     std::vector<gi::VirtualAreaLight> vals;
-    for (int i = 0; i < 20; ++i) vals.push_back(disc({0.05f * float(i - 10), 0.0f, 1.0f}, {0, 0.2f, -1}, 0.01f, glm::vec3(0.01f)));
+    for (int i = 0; i < 20; ++i)
+        vals.push_back(disc({0.05f * float(i - 10), 0.0f, 1.0f}, {0, 0.2f, -1}, 0.01f, glm::vec3(0.01f)));
     std::vector<GroundTruthReceiver> receivers(37);
     for (std::size_t i = 0; i < receivers.size(); ++i) receivers[i].position = {0.02 * double(i) - 0.37, 0.01, 0.0};
     std::vector<GroundTruthResult> one(receivers.size()), many(receivers.size());
@@ -177,9 +192,10 @@ TEST(RayTracedGroundTruthTest, ThreadsGiveTheSameResultsAsOne) {
     EXPECT_GT(shadowed, 10);
 }
 
-TEST(RayTracedGroundTruthTest, GlossyLobeIsNormalisedPhong) {
-    // A small disc straight above, viewer along the mirror direction: cos(gamma) = 1, so the glossy
-    // radiance is f_s (k + 2) / (2 pi) E for a point-like disc.
+TEST(RayTracedGroundTruthTest, GlossyLobeIsTheCoresEquationFive) {
+    // eq. 5 as in lightskin_math.glsl: L_s = f_s c (k + 1) cos^k(gamma) M w (no cos(theta_i)). A
+    // small disc straight above (cos(theta_i) = 1, so M w = E) and the viewer on the mirror
+    // direction: cos(gamma) = 1 and L_s = f_s (k + 1) / (2 pi) E.
     const gi::RayTracedGroundTruth empty = gi::RayTracedGroundTruth::create({});
     // Area 1e-6 m^2: the disc spans 2.8e-4 rad, so cos^50 varies by < 1e-4 over it.
     const gi::VirtualAreaLight val = disc({0, 0, 2}, {0, 0, -1}, 1e-6f, glm::vec3(1e-6f));
@@ -187,12 +203,26 @@ TEST(RayTracedGroundTruthTest, GlossyLobeIsNormalisedPhong) {
     receiver.material.diffuseAlbedo = glm::vec3(0.0f);
     receiver.material.specularAlbedo = glm::vec3(0.3f);
     receiver.material.specularExponent = 50.0f;
+    const double c = 1.0 / (2 * std::numbers::pi);
     const GroundTruthResult result = evaluate(empty, std::span(&val, 1), receiver, {});
-    EXPECT_NEAR(result.radiance.x / (0.3 * 52.0 / (2 * std::numbers::pi) * result.irradiance.x), 1.0, 1e-4);
+    ASSERT_GT(result.irradiance.x, 0.0);
+    EXPECT_NEAR(result.radiance.x / (0.3 * c * 51.0 * result.irradiance.x), 1.0, 1e-4);
     receiver.toViewer = glm::normalize(glm::dvec3(1, 0, 1)); // 45 degrees off the mirror direction
     const GroundTruthResult off = evaluate(empty, std::span(&val, 1), receiver, {});
-    EXPECT_NEAR(off.radiance.x / (0.3 * 52.0 / (2 * std::numbers::pi) * std::pow(std::cos(std::numbers::pi / 4), 50.0) * off.irradiance.x),
+    EXPECT_NEAR(off.radiance.x / (0.3 * c * 51.0 * std::pow(std::cos(std::numbers::pi / 4), 50.0) * off.irradiance.x),
                 1.0, 1e-3);
+    // No cos(theta_i): a disc 60 degrees off the normal, viewer on its mirror direction, gives
+    // f_s c (k + 1) E / cos(60) (the normalised Phong lobe of before would give E x cos(60) x ...).
+    const double theta = std::numbers::pi / 3;
+    const gi::VirtualAreaLight tilted =
+        disc({float(2 * std::sin(theta)), 0, float(2 * std::cos(theta))},
+             {float(-std::sin(theta)), 0, float(-std::cos(theta))}, 1e-6f, glm::vec3(1e-6f));
+    receiver.toViewer = glm::dvec3(-std::sin(theta), 0.0, std::cos(theta));
+    GroundTruthSettings glossyC;
+    glossyC.glossyC = 0.25;
+    const GroundTruthResult slanted = evaluate(empty, std::span(&tilted, 1), receiver, glossyC);
+    ASSERT_GT(slanted.irradiance.x, 0.0);
+    EXPECT_NEAR(slanted.radiance.x / (0.3 * 0.25 * 51.0 * slanted.irradiance.x / std::cos(theta)), 1.0, 1e-3);
 }
 
 } // namespace

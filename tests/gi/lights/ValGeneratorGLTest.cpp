@@ -31,7 +31,9 @@ CameraIntrinsics smallCamera(int width = 160, int height = 120) {
     return K;
 }
 
-cv::Mat uniformColour(int width, int height, cv::Vec3b bgr) { return cv::Mat(height, width, CV_8UC3, cv::Scalar(bgr[0], bgr[1], bgr[2])); }
+cv::Mat uniformColour(int width, int height, cv::Vec3b bgr) {
+    return cv::Mat(height, width, CV_8UC3, cv::Scalar(bgr[0], bgr[1], bgr[2]));
+}
 
 double angleDegrees(glm::dvec3 a, glm::dvec3 b) {
     return std::acos(std::clamp(glm::dot(glm::normalize(a), glm::normalize(b)), -1.0, 1.0)) * 180.0 / std::numbers::pi;
@@ -76,8 +78,10 @@ TEST_F(ValGeneratorGLTest, FrontoParallelPlaneAreasSumToThePatchArea) {
         // Expected blocks: centre c = i*s + s/2 with the (2R+1) window inside the image.
         const int R = settings.normalWindowRadius;
         int columns = 0, rows = 0;
-        for (int i = 0; i < K.width / stride; ++i) columns += (i * stride + stride / 2 - R >= 0 && i * stride + stride / 2 + R < K.width);
-        for (int j = 0; j < K.height / stride; ++j) rows += (j * stride + stride / 2 - R >= 0 && j * stride + stride / 2 + R < K.height);
+        for (int i = 0; i < K.width / stride; ++i)
+            columns += (i * stride + stride / 2 - R >= 0 && i * stride + stride / 2 + R < K.width);
+        for (int j = 0; j < K.height / stride; ++j)
+            rows += (j * stride + stride / 2 - R >= 0 && j * stride + stride / 2 + R < K.height);
         ASSERT_EQ(run.vals.size(), std::size_t(columns * rows)) << "stride " << stride;
         double total = 0.0;
         for (const auto& val : run.vals) {
@@ -98,7 +102,8 @@ TEST_F(ValGeneratorGLTest, TiltedPlaneAreasSumToTheTrueSurfaceArea) {
     const CameraIntrinsics K = smallCamera();
     for (double tiltDegrees : {30.0, 60.0, 75.0}) {
         const double tilt = tiltDegrees * std::numbers::pi / 180.0;
-        const PlaneSurface plane{glm::normalize(glm::dvec3(std::sin(tilt), 0.0, -std::cos(tilt))), -1.5 * std::cos(tilt)};
+        const PlaneSurface plane{glm::normalize(glm::dvec3(std::sin(tilt), 0.0, -std::cos(tilt))),
+                                 -1.5 * std::cos(tilt)};
         cv::Mat depth, normals;
         renderDepth(K, depth, normals, plane);
         for (int stride : {1, 4}) {
@@ -121,7 +126,10 @@ TEST_F(ValGeneratorGLTest, TiltedPlaneAreasSumToTheTrueSurfaceArea) {
             // Pixel block edges: block i spans [i*s - 0.5, i*s + s - 0.5] around pixel centres.
             const double u0 = uMin - stride / 2 - 0.5, u1 = uMax - stride / 2 + stride - 0.5;
             const double v0 = vMin - stride / 2 - 0.5, v1 = vMax - stride / 2 + stride - 0.5;
-            const auto corner = [&](double u, double v) { const glm::dvec3 r = pixelRay(K, u, v); return r * *plane.hit(r); };
+            const auto corner = [&](double u, double v) {
+                const glm::dvec3 r = pixelRay(K, u, v);
+                return r * *plane.hit(r);
+            };
             const glm::dvec3 a = corner(u0, v0), b = corner(u1, v0), c = corner(u1, v1), d = corner(u0, v1);
             const double quadArea = 0.5 * glm::length(glm::cross(c - a, d - b));
             // Tolerance: each VAL is the first-order (midpoint) area of its block; the midpoint rule's
@@ -215,13 +223,21 @@ TEST_F(ValGeneratorGLTest, AgreesWithTheCpuReferenceOnSyntheticDepth) {
         const double angle = angleDegrees(glm::dvec3(g.normal), r.normal);
         angleSum += angle;
         EXPECT_LT(glm::length(glm::dvec3(g.position) - r.position), 1e-5);
-        if (angle < 0.5) { // same normal: area and flux agree to float precision (+ 8-bit sRGB decode)
-            EXPECT_NEAR(double(g.area) / r.area, 1.0, 2e-2);
-            for (int c = 0; c < 3; ++c)
-                if (r.flux[c] > 1e-3 * r.area) {
-                    EXPECT_NEAR(double(g.flux[c]) / r.flux[c], 1.0, 3e-2);
-                }
-        }
+        // a = footprint cos(alpha) / max(cos(theta), minCosine): the two normal estimators differ
+        // by `angle`, so the areas differ by the ratio of their cos(theta) (up to tan(theta) x angle,
+        // 2.4 % at 70 degrees and 0.5 degrees). Divided out, the rest is float rounding of the
+        // footprint (~10 operations, 1e-6) and of the cosines near the clamp: 1e-4.
+        const glm::dvec3 ray = glm::normalize(glm::dvec3(g.position) - pose.translation());
+        const double cosG = std::max(-glm::dot(glm::dvec3(g.normal), ray), double(settings.minCosine));
+        const double cosR = std::max(-glm::dot(r.normal, ray), double(settings.minCosine));
+        EXPECT_NEAR(double(g.area) / r.area * (cosG / cosR), 1.0, 1e-4);
+        // flux = pi exposure colour area: per unit area the two differ only in decoding the same
+        // 8-bit sRGB byte (GL sRGB texture vs the exact formula; Mesa decodes through a float
+        // table, exact to float: 1e-6) and float rounding of the product: 1e-5
+        for (int c = 0; c < 3; ++c)
+            if (r.flux[c] > 1e-3 * r.area) {
+                EXPECT_NEAR(double(g.flux[c]) / double(g.area) / (r.flux[c] / r.area), 1.0, 1e-5);
+            }
     }
     ASSERT_GT(both, int(reference.size() * 8 / 10));
     EXPECT_LE(angleSum / both, 3.0);
@@ -249,7 +265,8 @@ TEST_F(ValGeneratorGLTest, MissingDepthMakesNoValAndNoNonFiniteOutput) {
     std::size_t expected = 0;
     for (int v = R; v < K.height - R; ++v)
         for (int u = R; u < K.width - R; ++u)
-            expected += !(sees(u, v, holeU, holeV) || sees(u, v, zeroU, zeroV) || sees(u, v, 130, 100) || sees(u, v, 10, 10));
+            expected +=
+                !(sees(u, v, holeU, holeV) || sees(u, v, zeroU, zeroV) || sees(u, v, 130, 100) || sees(u, v, 10, 10));
     EXPECT_EQ(run.vals.size(), expected);
     for (std::size_t k = 0; k < run.vals.size(); ++k) {
         expectFinite(run.vals[k]);

@@ -16,9 +16,14 @@
 //  * centre (rings = sectors = 1): the paper's disc form factor, L_e pi r^2 cos(theta_j) cos(theta_i)
 //    / (r^2 + d^2) (eq. 3; exact for a coaxial facing disc), times the visibility of the disc centre
 //    only: binary, so a half-hidden disc counts fully visible or fully hidden.
-// Outgoing radiance toward the viewer: the diffuse part rho_d / pi * E plus a normalised Phong lobe
-// f_s (k + 2) / (2 pi) cos^k(gamma) cos(theta_i) per sample (gamma between the mirror direction of
-// the incident light and the view direction).
+// Outgoing radiance toward the viewer: the diffuse part rho_d / pi * E plus the glossy term of
+// the LightSkin core, eq. 5 of the paper: f_s c (k + 1) cos^k(gamma) per unit of incident
+// L_e cos(theta_j) dA / d^2 (no cos(theta_i) factor; samples below the receiver's horizon add
+// nothing), gamma between the mirror direction of the incident light and the view direction, c =
+// GroundTruthSettings::glossyC (LightSkinSettings::cParameter, default 1 / (2 pi)). The same model as
+// the technique's (lightskin_math.glsl), so LightSkin against this truth measures the sparse
+// interpolation and occlusion approximations, not a difference of reflectance models. (Before
+// issue 20 this was a normalised Phong lobe f_s (k + 2) / (2 pi) cos^k(gamma) cos(theta_i).)
 //
 // Shadow rays run from x toward the sample y over t in [eps, 1 - eps] * |y - x| (eps = rayEpsilon,
 // relative, so the test scales with the scene from millimetres to kilometres); surfaces nearer
@@ -37,24 +42,25 @@
 namespace lightskin::gi {
 
 struct GroundTruthSettings {
-    int discRings = 8;     ///< >= 1
-    int discSectors = 16;  ///< >= 1; 1 x 1 = centre mode (see above)
+    int discRings = 8;    ///< >= 1
+    int discSectors = 16; ///< >= 1; 1 x 1 = centre mode (see above)
     double rayEpsilon = 1e-4;
-    bool visibility = true; ///< false: no shadow rays (the unoccluded integral)
-    int threads = 0;        ///< receivers are split over this many threads; 0 = hardware concurrency
+    bool visibility = true;               ///< false: no shadow rays (the unoccluded integral)
+    int threads = 0;                      ///< receivers are split over this many threads; 0 = hardware concurrency
+    double glossyC = 0.15915494309189535; ///< c of eq. 5's c_k = c (k + 1), 1/sr (1 / (2 pi))
 };
 
 struct GroundTruthReceiver {
-    glm::dvec3 position{0.0};       ///< world, metres
-    glm::dvec3 normal{0.0, 0.0, 1.0}; ///< unit, world
+    glm::dvec3 position{0.0};           ///< world, metres
+    glm::dvec3 normal{0.0, 0.0, 1.0};   ///< unit, world
     glm::dvec3 toViewer{0.0, 0.0, 1.0}; ///< unit, world: direction of the outgoing radiance
     Material material;
 };
 
 struct GroundTruthResult {
-    glm::dvec3 irradiance{0.0};  ///< E, W/m^2 (VAL flux units per m^2), with visibility
+    glm::dvec3 irradiance{0.0};           ///< E, W/m^2 (VAL flux units per m^2), with visibility
     glm::dvec3 unoccludedIrradiance{0.0}; ///< the same integral with V = 1
-    glm::dvec3 radiance{0.0};    ///< outgoing toward toViewer: diffuse + glossy, with visibility
+    glm::dvec3 radiance{0.0};             ///< outgoing toward toViewer: diffuse + glossy, with visibility
 };
 
 /// The occluding geometry: triangle meshes placed in the world (model space * world_T_model).
