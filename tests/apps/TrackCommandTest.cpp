@@ -111,29 +111,29 @@ TEST(TrackCommand, UpsampleTracksMoreOrbitFramesAndCornerStdExplainsTheHeldOnes)
     ASSERT_EQ(a.lines.size(), 40u);
     ASSERT_EQ(b.lines.size(), 40u);
     const int trackedNative = count(a, "tracking"), trackedEnlarged = count(b, "tracking");
-    // Measured (Debian 12, apriltag 3.3, --decimate 1): 18 of 40 tracking at native size (the wall
-    // tag alone at 17-21 px gives poses the corner-std check refuses), 34 with --upsample 2 (the
-    // board tags decode at the orbit's far end). The bounds leave room for detector changes but not
-    // for --upsample being ignored: 32 is tracking_replay_test's floor for the same settings, and
-    // the native run must stay at least 10 frames below it.
-    EXPECT_LE(trackedNative, 24) << native.out;
-    EXPECT_GE(trackedEnlarged, 32) << enlarged.out;
-    EXPECT_GE(trackedEnlarged, trackedNative + 10) << native.out << enlarged.out;
+    // The option must reach the detector: upsampled, more frames track (the board tags decode at the
+    // orbit's far end). Which frames track is tested against what the detector decodes in
+    // tracking_replay_test (SynthReplayTest); here only the order, no counts fitted to a run.
+    // Measured (Debian 12, apriltag 3.3, --decimate 1): 12 of 40 at native size, 34 upsampled.
+    EXPECT_GT(trackedNative, 0) << native.out;
+    EXPECT_GT(trackedEnlarged, trackedNative) << native.out << enlarged.out;
     // The summary line counts what the lines say.
     EXPECT_NE(b.summary.find("tracking " + std::to_string(trackedEnlarged) + " "), std::string::npos) << b.summary;
 
-    // Every tracking frame's world-corner std is finite and within the default limit (6 px); every
+    // Every tracking frame's world-corner std is finite and within the default limit
+    // (TrackerSettings::maxWorldCornerStdPx, 3.4 px, derived from the pose-error budget); every
     // frame held for "poorly determined" printed the refused measurement's std, above the limit.
+    constexpr double kDefaultMaxCornerStdPx = 3.4;
     int poorlyDetermined = 0;
     for (const TrackOutput* output : {&a, &b})
         for (const TrackLine& line : output->lines) {
             if (line.state == "tracking") {
                 EXPECT_TRUE(std::isfinite(line.worldCornerStdPx)) << line.reason;
-                EXPECT_LE(line.worldCornerStdPx, 6.0) << line.reason;
+                EXPECT_LE(line.worldCornerStdPx, kDefaultMaxCornerStdPx) << line.reason;
             }
             if (line.reason.find("poorly determined") != std::string::npos) {
                 ++poorlyDetermined;
-                EXPECT_GT(line.worldCornerStdPx, 6.0) << line.reason;
+                EXPECT_GT(line.worldCornerStdPx, kDefaultMaxCornerStdPx) << line.reason;
                 EXPECT_TRUE(std::isfinite(line.worldCornerStdPx)) << line.reason;
             }
         }

@@ -19,11 +19,14 @@
 // checks that all virtual content lies inside the region. Regenerate: docs/TESTING.md.
 #include "TestPaths.h"
 
+#include <lightskin/capture/FrameSource.h>
 #include <lightskin/eval/ColourSpace.h>
 #include <lightskin/eval/GoldenImage.h>
+#include <lightskin/tracking/TagDetector.h>
+#include <lightskin/tracking/TagWorld.h>
 
+#include <glm/geometric.hpp>
 #include <gtest/gtest.h>
-
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -34,6 +37,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -450,13 +454,32 @@ INSTANTIATE_TEST_SUITE_P(Recordings, ReplayRegression, ::testing::ValuesIn(cases
                          [](const ::testing::TestParamInfo<ReplayCase>& param) { return param.param.name; });
 
 // AprilTag tracking through the whole pipeline: the tracked pose against the recordings' exact
-// ground truth. Bounds are the measured errors (Mesa 22.3.6 llvmpipe, quadDecimate 1) with ~1.5x
-// headroom; the tracker's own accuracy is tested in tests/tracking, these catch a broken pose path
-// (wrong frame, inverted pose, detector settings not reaching the tracker, lost tracking).
+// ground truth, and the tracking state of every frame against what the detector decodes in it
+// (the scene's own detector settings, run here on the recording's frames). The tracker's accuracy
+// is tested in tests/tracking; these catch a broken pose path (wrong frame, inverted pose, detector
+// settings not reaching the tracker, a tracker that claims to track without a tag).
+//
+// Bounds from the pose-error budget (docs/TESTING.md "Pose-error budget": content displaced by at
+// most 1.5 degrees of view angle at 2 sigma; TrackerSettings::maxWorldCornerStdPx is derived from
+// it), asserted at 3 sigma (1.5x): rotation error <= 2.25 degrees, camera position error across the
+// true viewing direction <= 1.5 z tan(1.5 deg), z = the distance to the nearest world tag (the
+// content stands by the tags). Along the view an error only rescales the image about its centre,
+// which the budget does not bound (printed, not asserted). replay's poses are filtered (One-Euro):
+// its lag is part of the error and must fit the same budget.
+constexpr double kBudgetDegrees = 1.5;
+constexpr double kSigmasOverBudgetSigmas = 1.5; // 3 sigma asserted / 2 sigma budgeted
+constexpr int kMaxHeldFrames = 10;              // TrackerSettings::maxHeldFrames (default; the scenes keep it)
+
 struct TrackedFrame {
     std::string state;
-    double translationError = -1.0, rotationErrorDegrees = -1.0; // < 0: no pose
+    double rotationErrorDegrees = -1.0, acrossErrorMetres = -1.0, alongErrorMetres = 0.0; // < 0: no pose
+    double acrossBoundMetres = 0.0;
 };
+
+glm::dvec3 rotate(const double q[4], const glm::dvec3& v) { // q = x y z w
+    const glm::dvec3 u(q[0], q[1], q[2]);
+    return v + 2.0 * glm::cross(u, glm::cross(u, v) + q[3] * v);
+}
 
 std::vector<TrackedFrame> replayTracked(const std::string& recording, const std::string& scene, std::int64_t frames, const std::string& tag) {
     const fs::path root = sourceDir(), scratch = scratchDir("replay_tracking_" + tag);
@@ -470,74 +493,122 @@ std::vector<TrackedFrame> replayTracked(const std::string& recording, const std:
     const nlohmann::json report = nlohmann::json::parse(test::readText(scratch / "out" / "report.json"));
     std::int64_t recorded = 0;
     const std::vector<TruthPose> truth = recordingTruth(root / recording, recorded);
+    const tracking::TagWorld world = tracking::TagWorld::load(root / recording / "synth" / "tag-world.json");
+    const double tangent = std::tan(kBudgetDegrees * 3.14159265358979323846 / 180.0);
     std::vector<TrackedFrame> out;
     for (const auto& f : report["frames"]) {
         const std::size_t i = f["index"].get<std::size_t>();
         TrackedFrame t;
         t.state = f["tracking"].get<std::string>();
         if (f["world_T_camera"].is_object() && i < truth.size()) {
-            t.translationError = translationError(f["world_T_camera"], truth[i]);
             t.rotationErrorDegrees = rotationErrorDegrees(f["world_T_camera"], truth[i]);
+            const glm::dvec3 trueCentre(truth[i].t[0], truth[i].t[1], truth[i].t[2]);
+            glm::dvec3 d;
+            for (glm::length_t k = 0; k < 3; ++k)
+                d[k] = f["world_T_camera"]["translation"][std::size_t(k)].get<double>() - trueCentre[k];
+            const glm::dvec3 view = rotate(truth[i].q, glm::dvec3(0.0, 0.0, 1.0));
+            t.alongErrorMetres = glm::dot(d, view);
+            t.acrossErrorMetres = glm::length(d - t.alongErrorMetres * view);
+            double nearest = std::numeric_limits<double>::infinity();
+            for (const tracking::WorldTag& worldTag : world.tags())
+                nearest = std::min(nearest, glm::length(worldTag.world_T_tag.translation() - trueCentre));
+            t.acrossBoundMetres = kSigmasOverBudgetSigmas * nearest * tangent;
         }
-        std::printf("%s frame %zu: %s, pose error %.3f m, %.2f deg\n", tag.c_str(), i, t.state.c_str(), t.translationError,
-                    t.rotationErrorDegrees);
+        std::printf("%s frame %zu: %s, pose error %.2f deg, %.3f m across (bound %.3f), %.3f m along the view\n",
+                    tag.c_str(), i, t.state.c_str(), t.rotationErrorDegrees, t.acrossErrorMetres, t.acrossBoundMetres,
+                    t.alongErrorMetres);
         out.push_back(t);
     }
     return out;
 }
 
-// All 40 frames of synth-orbit with the scene's tracking settings (quadDecimate 1, upsample 2).
-// Each frame either tracks within 0.08 m and 2 degrees of the truth, or honestly does not (held:
-// the tracker refuses the far wall tag alone, whose pose cannot place the table's board - see
-// tests/tracking/SynthReplayTest.cpp). Measured: 34 frames tracked, filtered pose 0.010-0.066 m,
-// 0.23-1.31 degrees (the larger rotations are the One-Euro filter's lag in the first frames of
-// the orbit, the largest position error is frame 25 where only one board tag and the wall tag are
-// decoded); frames 14, 16-18, 22 and 24 held. Before (native-size detection, every frame accepted):
-// up to 0.66 m / 11 degrees at frame 22.
-TEST(ReplayTracking, SynthOrbitTrackedPoseFollowsGroundTruth) {
-    const auto frames = replayTracked("recordings/synth-orbit", "recordings/scenes/orbit.json", 40, "synth_orbit");
-    ASSERT_EQ(frames.size(), 40u);
-    int tracking = 0;
-    for (std::size_t i = 0; i < frames.size(); ++i) {
-        const TrackedFrame& f = frames[i];
-        if (f.state == "tracking") {
-            ++tracking;
-            EXPECT_GE(f.translationError, 0.0) << "frame " << i;
-            EXPECT_LT(f.translationError, 0.08) << "frame " << i;
-            EXPECT_LT(f.rotationErrorDegrees, 2.0) << "frame " << i;
-        } else {
-            EXPECT_TRUE(f.state == "held" || f.state == "lost") << "frame " << i << ": " << f.state;
-        }
+/// Per frame of the recording: does the scene's detector decode a tag of the world other than `excludedId` (-1: any)?
+std::vector<bool> decodedFrames(const std::string& recording, const std::string& scene, int excludedId) {
+    const fs::path root = sourceDir();
+    const nlohmann::json sceneJson = nlohmann::json::parse(test::readText(root / scene));
+    tracking::DetectorSettings settings =
+        tracking::detectorSettingsFromJson(sceneJson.at("tracking").at("detector").dump(), scene);
+    tracking::TagDetector detector = tracking::TagDetector::create(settings);
+    auto source = capture::openFrameSource((root / recording).string());
+    RgbdFrame frame;
+    std::vector<tracking::TagDetection> found;
+    std::vector<bool> decoded;
+    while (source->next(frame)) {
+        detector.detectInto(frame.colour, found);
+        decoded.push_back(std::any_of(found.begin(), found.end(),
+                                      [excludedId](const tracking::TagDetection& d) { return d.id != excludedId; }));
     }
-    EXPECT_GE(tracking, 32); // measured 34 of 40
+    return decoded;
 }
 
-// synth-pan, all 40 frames: the tag board leaves the view in frames 13-27 and comes back. Measured:
-// frames 0-12 and 28-39 tracked to 0.005-0.014 m, 0.04-3.2 deg; 13-22 held (the last pose, so the
-// rotation error grows to 58 deg as the camera turns away), 23-27 lost, re-acquired at frame 28.
+/// The state the tracker must report: tracking where a usable tag is decoded, then held for
+/// kMaxHeldFrames frames without one, then lost.
+std::vector<std::string> expectedStates(const std::vector<bool>& decoded) {
+    std::vector<std::string> states;
+    int without = 0;
+    for (const bool d : decoded) {
+        without = d ? 0 : without + 1;
+        states.push_back(without == 0 ? "tracking" : without <= kMaxHeldFrames ? "held" : "lost");
+    }
+    return states;
+}
+
+/// Checks a tracking frame against the budget; returns false (without failing) when only its
+/// rotation exceeds it, so that the caller can compare such frames with its known findings.
+bool expectWithinBudget(const TrackedFrame& f, std::size_t i) {
+    EXPECT_GE(f.acrossErrorMetres, 0.0) << "frame " << i << ": tracking without a pose";
+    EXPECT_LE(f.acrossErrorMetres, f.acrossBoundMetres) << "frame " << i;
+    return f.rotationErrorDegrees <= kSigmasOverBudgetSigmas * kBudgetDegrees;
+}
+
+// All 40 frames of synth-orbit with orbit.json's tracking settings (quadDecimate 1, upsample 2).
+// The wall tag (id 10) alone cannot place the table's board (its poses exceed maxWorldCornerStdPx,
+// tests/tracking/SynthReplayTest.cpp): a frame tracks exactly when a board tag is decoded.
+// Measured: board decoded in 34 frames; tracked 0.23-1.31 degrees (the larger ones the One-Euro
+// filter's lag in the first frames), up to 0.066 m (frame 25, mostly along the view); frames 14,
+// 16-18, 22 and 24 held. Before (native-size detection, every frame accepted): up to 0.66 m /
+// 11 degrees at frame 22.
+TEST(ReplayTracking, SynthOrbitTrackedPoseFollowsGroundTruth) {
+    const auto expected = expectedStates(decodedFrames("recordings/synth-orbit", "recordings/scenes/orbit.json", 10));
+    const auto frames = replayTracked("recordings/synth-orbit", "recordings/scenes/orbit.json", 40, "synth_orbit");
+    ASSERT_EQ(frames.size(), 40u);
+    ASSERT_EQ(expected.size(), 40u);
+    std::vector<std::size_t> overRotationBudget;
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+        EXPECT_EQ(frames[i].state, expected[i]) << "frame " << i;
+        if (frames[i].state == "tracking" && !expectWithinBudget(frames[i], i)) overRotationBudget.push_back(i);
+    }
+    EXPECT_EQ(overRotationBudget, std::vector<std::size_t>{}) << "tracked frames beyond 2.25 degrees";
+    EXPECT_GT(std::count(expected.begin(), expected.end(), "tracking"), 0) << "the recording must exercise tracking";
+}
+
+// synth-pan, all 40 frames: the tag board leaves the view and comes back. A frame tracks exactly
+// when a tag is decoded (pan.json: quadDecimate 1); held for kMaxHeldFrames frames after the last
+// one, then lost without a pose. Measured: tags decoded in frames 0-12 and 28-39 (tracked to
+// <= 0.005 m across the view, 0.04-3.16 deg; the old bounds 0.025 m / 5 deg were fitted to that
+// run); held 13-22, lost 23-27.
 TEST(ReplayTracking, SynthPanLosesTheTagAndReacquiresIt) {
+    const auto expected = expectedStates(decodedFrames("recordings/synth-pan", "recordings/scenes/pan.json", -1));
     const auto frames = replayTracked("recordings/synth-pan", "recordings/scenes/pan.json", 40, "synth_pan");
     ASSERT_EQ(frames.size(), 40u);
-    int notTracking = 0, lost = 0;
+    ASSERT_EQ(expected.size(), 40u);
+    std::vector<std::size_t> overRotationBudget;
     for (std::size_t i = 0; i < frames.size(); ++i) {
-        const TrackedFrame& f = frames[i];
-        const bool tagInView = i <= 12 || i >= 28;
-        if (tagInView) {
-            EXPECT_EQ(f.state, "tracking") << "frame " << i;
-            EXPECT_GE(f.translationError, 0.0) << "frame " << i;
-            EXPECT_LT(f.translationError, 0.025) << "frame " << i;
-            EXPECT_LT(f.rotationErrorDegrees, 5.0) << "frame " << i;
-        } else {
-            notTracking += f.state != "tracking" ? 1 : 0;
-            lost += f.state == "lost" ? 1 : 0;
-            if (f.state == "lost") {
-                EXPECT_LT(f.translationError, 0.0) << "a lost frame has no pose, frame " << i;
-            }
+        EXPECT_EQ(frames[i].state, expected[i]) << "frame " << i;
+        if (frames[i].state == "tracking" && !expectWithinBudget(frames[i], i)) overRotationBudget.push_back(i);
+        if (frames[i].state == "lost") {
+            EXPECT_LT(frames[i].acrossErrorMetres, 0.0) << "a lost frame has no pose, frame " << i;
         }
     }
-    // Without the tag the tracker must not claim to track; it holds for a while, then gives up.
-    EXPECT_EQ(notTracking, 15);
-    EXPECT_GE(lost, 1);
+    // FINDING (issue 20, reported to the lead, not re-fitted): the filtered pose breaks the rotation
+    // budget in frame 29 (3.16 degrees > 2.25), the second frame after re-acquisition while the
+    // camera pans: the One-Euro filter restarted at frame 28 and lags (the unfiltered measurement is
+    // within 0.74 degrees in every frame, tests/tracking/SynthReplayTest.cpp). Listed exactly, so
+    // that any other frame beyond the budget fails, and so does a fix (then empty the list).
+    EXPECT_EQ(overRotationBudget, std::vector<std::size_t>{29}) << "tracked frames beyond 2.25 degrees";
+    // The recording must exercise every state, or the expectations above prove little.
+    for (const char* state : {"tracking", "held", "lost"})
+        EXPECT_GT(std::count(expected.begin(), expected.end(), state), 0) << state;
 }
 
 } // namespace
