@@ -21,9 +21,11 @@ constexpr std::array<std::array<GLenum, 2>, 9> kGenericBuffers = {{
 
 // Indexed binding points: target, name query, start query, size query.
 constexpr std::array<std::array<GLenum, 4>, 3> kIndexed = {{
-    {GL_SHADER_STORAGE_BUFFER, GL_SHADER_STORAGE_BUFFER_BINDING, GL_SHADER_STORAGE_BUFFER_START, GL_SHADER_STORAGE_BUFFER_SIZE},
+    {GL_SHADER_STORAGE_BUFFER, GL_SHADER_STORAGE_BUFFER_BINDING, GL_SHADER_STORAGE_BUFFER_START,
+     GL_SHADER_STORAGE_BUFFER_SIZE},
     {GL_UNIFORM_BUFFER, GL_UNIFORM_BUFFER_BINDING, GL_UNIFORM_BUFFER_START, GL_UNIFORM_BUFFER_SIZE},
-    {GL_ATOMIC_COUNTER_BUFFER, GL_ATOMIC_COUNTER_BUFFER_BINDING, GL_ATOMIC_COUNTER_BUFFER_START, GL_ATOMIC_COUNTER_BUFFER_SIZE},
+    {GL_ATOMIC_COUNTER_BUFFER, GL_ATOMIC_COUNTER_BUFFER_BINDING, GL_ATOMIC_COUNTER_BUFFER_START,
+     GL_ATOMIC_COUNTER_BUFFER_SIZE},
 }};
 
 constexpr std::array<std::array<GLenum, 2>, StateGuard::kTextureTargets> kTargetQueries = {{
@@ -37,9 +39,15 @@ constexpr std::array<std::array<GLenum, 2>, StateGuard::kTextureTargets> kTarget
     {GL_TEXTURE_BINDING_BUFFER, GL_TEXTURE_BUFFER},
 }};
 
-constexpr std::array<GLenum, 9> kEnables = {GL_BLEND,          GL_DEPTH_TEST,         GL_CULL_FACE,
-                                            GL_SCISSOR_TEST,   GL_STENCIL_TEST,       GL_POLYGON_OFFSET_FILL,
-                                            GL_FRAMEBUFFER_SRGB, GL_RASTERIZER_DISCARD, GL_PROGRAM_POINT_SIZE};
+constexpr std::array<GLenum, 9> kEnables = {GL_BLEND,
+                                            GL_DEPTH_TEST,
+                                            GL_CULL_FACE,
+                                            GL_SCISSOR_TEST,
+                                            GL_STENCIL_TEST,
+                                            GL_POLYGON_OFFSET_FILL,
+                                            GL_FRAMEBUFFER_SRGB,
+                                            GL_RASTERIZER_DISCARD,
+                                            GL_PROGRAM_POINT_SIZE};
 
 constexpr std::array<GLenum, 8> kPixelStore = {GL_PACK_ALIGNMENT,   GL_PACK_ROW_LENGTH,   GL_PACK_SKIP_ROWS,
                                                GL_PACK_SKIP_PIXELS, GL_UNPACK_ALIGNMENT,  GL_UNPACK_ROW_LENGTH,
@@ -116,7 +124,8 @@ StateGuard::~StateGuard() {
             else
                 glBindBufferBase(kIndexed[t][0], GLuint(i), asName(b.name));
         }
-    for (std::size_t i = 0; i < kGenericBuffers.size(); ++i) glBindBuffer(kGenericBuffers[i][1], asName(genericBuffers_[i]));
+    for (std::size_t i = 0; i < kGenericBuffers.size(); ++i)
+        glBindBuffer(kGenericBuffers[i][1], asName(genericBuffers_[i]));
     for (int u = 0; u < kTextureUnits; ++u) {
         glActiveTexture(GLenum(GL_TEXTURE0 + u));
         for (std::size_t t = 0; t < kTargetQueries.size(); ++t)
