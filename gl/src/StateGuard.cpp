@@ -1,5 +1,6 @@
 #include <lightskin/gl/StateGuard.h>
 
+#include <algorithm>
 #include <cstddef>
 
 namespace lightskin::gl {
@@ -64,8 +65,16 @@ StateGuard::StateGuard() {
     glGetIntegerv(GL_CURRENT_PROGRAM, &program_);
     glGetIntegerv(GL_VERTEX_ARRAY_BINDING, &vertexArray_);
     for (std::size_t i = 0; i < kGenericBuffers.size(); ++i) glGetIntegerv(kGenericBuffers[i][0], &genericBuffers_[i]);
+    // GL 4.5 guarantees 8 SSBO and 36 UBO binding points but only 1 atomic-counter one: ask.
+    constexpr std::array<GLenum, 3> kMaxima = {GL_MAX_SHADER_STORAGE_BUFFER_BINDINGS, GL_MAX_UNIFORM_BUFFER_BINDINGS,
+                                               GL_MAX_ATOMIC_COUNTER_BUFFER_BINDINGS};
+    for (std::size_t t = 0; t < kIndexed.size(); ++t) {
+        GLint maximum = 0;
+        glGetIntegerv(kMaxima[t], &maximum);
+        indexedCount_[t] = std::min(kIndexedBindings, int(maximum));
+    }
     for (std::size_t t = 0; t < kIndexed.size(); ++t)
-        for (std::size_t i = 0; i < kIndexedBindings; ++i) {
+        for (std::size_t i = 0; i < std::size_t(indexedCount_[t]); ++i) {
             IndexedBuffer& b = indexed_[t][i];
             glGetIntegeri_v(kIndexed[t][1], GLuint(i), &b.name);
             glGetInteger64i_v(kIndexed[t][2], GLuint(i), &b.start);
@@ -117,7 +126,7 @@ StateGuard::~StateGuard() {
     glBindVertexArray(asName(vertexArray_));
     // Indexed bindings first: glBindBufferBase/Range also set the generic binding point.
     for (std::size_t t = 0; t < kIndexed.size(); ++t)
-        for (std::size_t i = 0; i < kIndexedBindings; ++i) {
+        for (std::size_t i = 0; i < std::size_t(indexedCount_[t]); ++i) {
             const IndexedBuffer& b = indexed_[t][i];
             if (b.name != 0 && b.size > 0)
                 glBindBufferRange(kIndexed[t][0], GLuint(i), asName(b.name), GLintptr(b.start), GLsizeiptr(b.size));
