@@ -52,7 +52,8 @@ int runBenchEmbed(const EmbedOptions& o) {
     auto context = gl::createHeadlessContext();
     std::printf("bench-embed: %s, %s on %s\n", o.recording.c_str(), o.scene.c_str(), context->describe().c_str());
     {
-        auto session = mr::Session::create({}, mr::SceneInput::fromFile(o.scene), capture::openFrameSource(o.recording, {}));
+        auto session =
+            mr::Session::create({}, mr::SceneInput::fromFile(o.scene), capture::openFrameSource(o.recording, {}));
         const CameraIntrinsics& k = session->camera();
         const gl::Texture colour = gl::Texture::create2D(GL_RGBA8, k.width, k.height);
         const gl::Renderbuffer depth = gl::Renderbuffer::create(GL_DEPTH_COMPONENT32F, k.width, k.height);
@@ -66,22 +67,28 @@ int runBenchEmbed(const EmbedOptions& o) {
             frame.push_back(timedMs([&] { more = session->processNext(); }));
             if (!more) break;
             virtualOnly.push_back(timedMs([&] { session->render({.framebuffer = host.id(), .depthTest = true}); }));
-            composite.push_back(timedMs([&] { session->render({.framebuffer = host.id(), .content = mr::RenderContent::CompositeOverCamera}); }));
+            composite.push_back(timedMs([&] {
+                session->render({.framebuffer = host.id(), .content = mr::RenderContent::CompositeOverCamera});
+            }));
             guard.push_back(timedMs([] {
-                for (int i = 0; i < 100; ++i) const gl::StateGuard g;
-            }) / 100.0);
+                                for (int i = 0; i < 100; ++i) const gl::StateGuard g;
+                            }) /
+                            100.0);
         }
-        std::printf("\n| %dx%d, %zu frames, median ms | frame (process) | render virtual-only + depth | render composite | StateGuard save+restore |\n|---|---|---|---|---|\n",
+        std::printf("\n| %dx%d, %zu frames, median ms | frame (process) | render virtual-only + depth | render "
+                    "composite | StateGuard save+restore |\n|---|---|---|---|---|\n",
                     k.width, k.height, frame.size());
-        std::printf("| %s | %.1f | %.2f | %.2f | %.3f |\n", mr::describe(session->report().settings).c_str(), median(frame),
-                    median(virtualOnly), median(composite), median(guard));
+        std::printf("| %s | %.1f | %.2f | %.2f | %.3f |\n", mr::describe(session->report().settings).c_str(),
+                    median(frame), median(virtualOnly), median(composite), median(guard));
     }
-    std::printf("\n| budget ms | settings after warm-up (frames %d..%d) | median frame ms | frames over budget |\n|---|---|---|---|\n", o.warmUp,
-                o.frames - 1);
+    std::printf("\n| budget ms | settings after warm-up (frames %d..%d) | median frame ms | frames over budget "
+                "|\n|---|---|---|---|\n",
+                o.warmUp, o.frames - 1);
     for (double budget : o.budgets) {
         mr::SessionOptions options;
         options.budgetMs = budget;
-        auto session = mr::Session::create(options, mr::SceneInput::fromFile(o.scene), capture::openFrameSource(o.recording, {}));
+        auto session =
+            mr::Session::create(options, mr::SceneInput::fromFile(o.scene), capture::openFrameSource(o.recording, {}));
         std::vector<double> times;
         std::map<std::string, int> chosen;
         int over = 0;
@@ -92,14 +99,17 @@ int runBenchEmbed(const EmbedOptions& o) {
             ++chosen[mr::describe(session->report().settings)];
         }
         std::string settings;
-        for (const auto& [name, count] : chosen) settings += (settings.empty() ? "" : "; ") + name + " (" + std::to_string(count) + ")";
+        for (const auto& [name, count] : chosen)
+            settings += (settings.empty() ? "" : "; ") + name + " (" + std::to_string(count) + ")";
         std::printf("| %.0f | %s | %.1f | %d of %zu |\n", budget, settings.c_str(), median(times), over, times.size());
     }
     return 0;
 }
 
 void addBenchEmbedCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand("bench-embed", "Benchmark: session overheads for embedding hosts (render, GL state guard) and the frame budget's choices");
+    auto* command = app.add_subcommand(
+        "bench-embed",
+        "Benchmark: session overheads for embedding hosts (render, GL state guard) and the frame budget's choices");
     auto o = std::make_shared<EmbedOptions>();
     command->add_option("--recording", o->recording, "Recording (default recordings/synth-orbit)");
     command->add_option("--scene", o->scene, "Scene file (default recordings/scenes/orbit.json)");
@@ -107,7 +117,8 @@ void addBenchEmbedCommand(CLI::App& app, int& exitCode) {
     command->add_option("--warm-up", o->warmUp, "Budget runs: frames before the statistics (default 4)");
     command->add_option("--budgets", o->budgets, "Budgets in ms, one run each (default 400 150 60)");
     command->callback([o, &exitCode] {
-        if (o->frames < 1 || o->warmUp < 0 || o->warmUp >= o->frames) throw Error("--frames/--warm-up", std::nullopt, "need frames >= 1 and 0 <= warm-up < frames");
+        if (o->frames < 1 || o->warmUp < 0 || o->warmUp >= o->frames)
+            throw Error("--frames/--warm-up", std::nullopt, "need frames >= 1 and 0 <= warm-up < frames");
         exitCode = runBenchEmbed(*o);
     });
 }

@@ -7,7 +7,6 @@
 // --headless runs the same loop without a window (EGL), for tests and machines without a display.
 #include "Commands.h"
 #include "LiveWindowDisplay.h"
-#include <lightskin/mr/Session.h>
 
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/capture/Recording.h>
@@ -16,6 +15,7 @@
 #include <lightskin/gl/Context.h>
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/gl/Objects.h>
+#include <lightskin/mr/Session.h>
 #include <lightskin/render/Scene.h>
 
 #include <opencv2/imgcodecs.hpp>

@@ -5,7 +5,6 @@
 // and keeps everything written so far (video finalised, report marked "interrupted"; exit 130).
 #include "Commands.h"
 #include "LiveWindowDisplay.h"
-#include <lightskin/mr/Session.h>
 #include "ReplayReport.h"
 
 #include <lightskin/capture/FrameSource.h>
@@ -14,6 +13,7 @@
 #include <lightskin/eval/GoldenImage.h>
 #include <lightskin/gl/Context.h>
 #include <lightskin/gl/DebugOutput.h>
+#include <lightskin/mr/Session.h>
 #include <lightskin/render/Scene.h>
 
 #include <opencv2/imgcodecs.hpp>
@@ -205,7 +205,9 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     if (args.staticTest != "probes" && args.staticTest != "bound")
         throw Error("--static-test", std::nullopt, "expected probes or bound, got '" + args.staticTest + "'");
     options.staticProbes = args.staticTest == "probes";
-    if (args.budgetMs < 0.0) throw Error("--budget-ms", std::nullopt, "expected a positive number of milliseconds, got " + std::to_string(args.budgetMs));
+    if (args.budgetMs < 0.0)
+        throw Error("--budget-ms", std::nullopt,
+                    "expected a positive number of milliseconds, got " + std::to_string(args.budgetMs));
     mr::SessionOptions sessionOptions;
     sessionOptions.pipeline = options;
     sessionOptions.budgetMs = args.budgetMs;
@@ -338,9 +340,10 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
     command->add_flag("--linear-out", args->linearOut,
                       "Also write each written frame's linear-light composite (linear/) and indirect-only light (linear-indirect/) "
                       "as 32-bit float OpenEXR (NaN, inf and values > 1 kept; 16-bit PNG clamped to [0,1] if this OpenCV has no EXR)");
-    command->add_option("--budget-ms", args->budgetMs,
-                        "Frame-time budget in ms (overrides the scene's gi.budgetMs): per frame pick technique, sparse points, VAL "
-                        "stride and channels that meet it (docs/PLUGIN.md); report.json lists the choice per frame");
+    command->add_option(
+        "--budget-ms", args->budgetMs,
+        "Frame-time budget in ms (overrides the scene's gi.budgetMs): per frame pick technique, sparse points, VAL "
+        "stride and channels that meet it (docs/PLUGIN.md); report.json lists the choice per frame");
     command->add_flag("--adaptive", args->adaptive,
                       "LightSkin's adaptive mode: turn off what cannot change the image and reuse the VPLs for static content");
     command->add_option("--static-tolerance", args->staticTolerance,

@@ -11,7 +11,8 @@ spdlog::logger& logger() {
     // Not registered in spdlog's global registry: an embedding host may use spdlog itself (or load
     // liblightskin.so beside another copy of lightskin), and a second "lightskin" would throw there.
     static const std::shared_ptr<spdlog::logger> instance = [] {
-        auto created = std::make_shared<spdlog::logger>("lightskin", std::make_shared<spdlog::sinks::stderr_color_sink_mt>());
+        auto created =
+            std::make_shared<spdlog::logger>("lightskin", std::make_shared<spdlog::sinks::stderr_color_sink_mt>());
         created->set_pattern("[%H:%M:%S.%e] [%^%l%$] %v");
         return created;
     }();

@@ -4,11 +4,10 @@
  * the virtual content covers (as the frame report counts them), the host's framebuffer binding
  * and viewport are as the host left them, and bad input is an error code with a message.
  *   c_host <recording folder> <scene file> [frames]                   prints "c_host ok" */
-#include <lightskin.h>
-
 #include <epoxy/egl.h>
 #include <epoxy/gl.h>
 
+#include <lightskin.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -22,12 +21,15 @@ static int fail(const char* what) {
 static int createContext(void) {
     EGLDisplay display = eglGetPlatformDisplayEXT(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, NULL);
     if (display == EGL_NO_DISPLAY || !eglInitialize(display, NULL, NULL)) return 0;
-    const EGLint configAttributes[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_SURFACE_TYPE, EGL_PBUFFER_BIT, EGL_NONE};
+    const EGLint configAttributes[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_SURFACE_TYPE, EGL_PBUFFER_BIT,
+                                       EGL_NONE};
     EGLConfig config;
     EGLint count = 0;
-    if (!eglBindAPI(EGL_OPENGL_API) || !eglChooseConfig(display, configAttributes, &config, 1, &count) || count < 1) return 0;
-    const EGLint contextAttributes[] = {EGL_CONTEXT_MAJOR_VERSION, 4, EGL_CONTEXT_MINOR_VERSION, 5,
-                                        EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
+    if (!eglBindAPI(EGL_OPENGL_API) || !eglChooseConfig(display, configAttributes, &config, 1, &count) || count < 1)
+        return 0;
+    const EGLint contextAttributes[] = {
+        EGL_CONTEXT_MAJOR_VERSION,           4,       EGL_CONTEXT_MINOR_VERSION, 5, EGL_CONTEXT_OPENGL_PROFILE_MASK,
+        EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
     EGLContext context = eglCreateContext(display, config, EGL_NO_CONTEXT, contextAttributes);
     return context != EGL_NO_CONTEXT && eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context);
 }
@@ -53,12 +55,13 @@ int main(int argc, char** argv) {
     lsk_session* session = NULL;
 
     /* Bad input: an error code and a message naming the cause, no crash. */
-    if (lsk_session_create_from_source(&options, &scene, "/nonexistent/recording", &session) != LSK_ERROR_INPUT || session != NULL ||
-        strlen(lsk_last_error()) == 0)
+    if (lsk_session_create_from_source(&options, &scene, "/nonexistent/recording", &session) != LSK_ERROR_INPUT ||
+        session != NULL || strlen(lsk_last_error()) == 0)
         return fail("a missing recording was not reported as LSK_ERROR_INPUT");
     printf("expected error: %s\n", lsk_last_error());
 
-    if (lsk_session_create_from_source(&options, &scene, argv[1], &session) != LSK_OK) return fail("lsk_session_create_from_source");
+    if (lsk_session_create_from_source(&options, &scene, argv[1], &session) != LSK_OK)
+        return fail("lsk_session_create_from_source");
     lsk_camera camera;
     if (lsk_session_camera(session, &camera) != LSK_OK) return fail("lsk_session_camera");
 
@@ -71,7 +74,8 @@ int main(int argc, char** argv) {
     glCreateFramebuffers(1, &framebuffer);
     glNamedFramebufferTexture(framebuffer, GL_COLOR_ATTACHMENT0, colour, 0);
     glNamedFramebufferRenderbuffer(framebuffer, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth);
-    if (glCheckNamedFramebufferStatus(framebuffer, GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) return fail("host framebuffer incomplete");
+    if (glCheckNamedFramebufferStatus(framebuffer, GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+        return fail("host framebuffer incomplete");
     unsigned char* pixels = malloc((size_t)camera.width * (size_t)camera.height * 4);
     if (pixels == NULL) return fail("out of memory");
 
@@ -107,12 +111,14 @@ int main(int argc, char** argv) {
         glReadPixels(0, 0, camera.width, camera.height, GL_RGBA, GL_UNSIGNED_BYTE, pixels);
         long changed = 0;
         for (long i = 0; i < (long)camera.width * camera.height; ++i) changed += pixels[4 * i + 3] != 0;
-        printf("frame %lld: tracking %d, %u VALs, %lld covered pixels, %ld pixels drawn, %s sparse=%d stride=%d, %.1f ms\n",
-               (long long)report.frame_index, report.tracking_state, report.val_count, (long long)report.covered_pixels, changed,
-               report.technique == LSK_TECHNIQUE_LIGHTSKIN ? "lightskin" : "brute-force", report.sparse_points, report.val_stride,
-               report.total_ms);
+        printf("frame %lld: tracking %d, %u VALs, %lld covered pixels, %ld pixels drawn, %s sparse=%d stride=%d, %.1f "
+               "ms\n",
+               (long long)report.frame_index, report.tracking_state, report.val_count, (long long)report.covered_pixels,
+               changed, report.technique == LSK_TECHNIQUE_LIGHTSKIN ? "lightskin" : "brute-force", report.sparse_points,
+               report.val_stride, report.total_ms);
         /* Non-trivial: something was drawn, not everything, and exactly where the content is. */
-        if (changed == 0 || changed != report.covered_pixels || changed == (long)camera.width * camera.height) status = 1;
+        if (changed == 0 || changed != report.covered_pixels || changed == (long)camera.width * camera.height)
+            status = 1;
         if (report.val_count == 0 || report.has_pose != 1) status = 1;
     }
     free(pixels);

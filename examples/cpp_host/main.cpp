@@ -31,19 +31,33 @@ struct HostWindow { // what an engine's platform layer would own
     EGLContext context = EGL_NO_CONTEXT;
     HostWindow(int w, int h) {
         display = eglGetPlatformDisplayEXT(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
-        if (display == EGL_NO_DISPLAY || !eglInitialize(display, nullptr, nullptr)) throw std::runtime_error("no EGL display");
-        const EGLint configAttributes[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_SURFACE_TYPE, EGL_PBUFFER_BIT,
-                                           EGL_RED_SIZE, 8, EGL_GREEN_SIZE, 8, EGL_BLUE_SIZE, 8, EGL_DEPTH_SIZE, 24, EGL_NONE};
+        if (display == EGL_NO_DISPLAY || !eglInitialize(display, nullptr, nullptr))
+            throw std::runtime_error("no EGL display");
+        const EGLint configAttributes[] = {EGL_RENDERABLE_TYPE,
+                                           EGL_OPENGL_BIT,
+                                           EGL_SURFACE_TYPE,
+                                           EGL_PBUFFER_BIT,
+                                           EGL_RED_SIZE,
+                                           8,
+                                           EGL_GREEN_SIZE,
+                                           8,
+                                           EGL_BLUE_SIZE,
+                                           8,
+                                           EGL_DEPTH_SIZE,
+                                           24,
+                                           EGL_NONE};
         EGLConfig config;
         EGLint count = 0;
         if (!eglBindAPI(EGL_OPENGL_API) || !eglChooseConfig(display, configAttributes, &config, 1, &count) || count < 1)
             throw std::runtime_error("no EGL config with depth");
         const EGLint surfaceAttributes[] = {EGL_WIDTH, w, EGL_HEIGHT, h, EGL_NONE};
         surface = eglCreatePbufferSurface(display, config, surfaceAttributes);
-        const EGLint contextAttributes[] = {EGL_CONTEXT_MAJOR_VERSION, 4, EGL_CONTEXT_MINOR_VERSION, 5,
-                                            EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
+        const EGLint contextAttributes[] = {
+            EGL_CONTEXT_MAJOR_VERSION,           4,       EGL_CONTEXT_MINOR_VERSION, 5, EGL_CONTEXT_OPENGL_PROFILE_MASK,
+            EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
         context = eglCreateContext(display, config, EGL_NO_CONTEXT, contextAttributes);
-        if (surface == EGL_NO_SURFACE || context == EGL_NO_CONTEXT || !eglMakeCurrent(display, surface, surface, context))
+        if (surface == EGL_NO_SURFACE || context == EGL_NO_CONTEXT ||
+            !eglMakeCurrent(display, surface, surface, context))
             throw std::runtime_error("no OpenGL 4.5 core context on a pbuffer");
     }
     ~HostWindow() {
@@ -188,11 +202,13 @@ int run(int argc, char** argv) {
         cv::cvtColor(right, composite, cv::COLOR_RGBA2BGR);
         const double compositeError = cv::norm(composite, session->output().withGi, cv::NORM_INF);
         const mr::FrameReport& r = session->report();
-        std::printf("frame %lld: %u VALs, %lld covered, %d covered right of the panel: %d shown, %d hidden; %d panel pixels "
-                    "overdrawn; composite max error %.0f; %s, %.0f ms\n",
-                    static_cast<long long>(r.frameIndex), r.valCount, static_cast<long long>(r.coveredPixels), coveredOutside,
-                    shown, hidden, throughPanel, compositeError, mr::describe(r.settings).c_str(), r.totalMs);
-        if (throughPanel != 0 || hidden != 0 || coveredOutside == 0 || compositeError != 0.0 || r.valCount == 0) ++failures;
+        std::printf(
+            "frame %lld: %u VALs, %lld covered, %d covered right of the panel: %d shown, %d hidden; %d panel pixels "
+            "overdrawn; composite max error %.0f; %s, %.0f ms\n",
+            static_cast<long long>(r.frameIndex), r.valCount, static_cast<long long>(r.coveredPixels), coveredOutside,
+            shown, hidden, throughPanel, compositeError, mr::describe(r.settings).c_str(), r.totalMs);
+        if (throughPanel != 0 || hidden != 0 || coveredOutside == 0 || compositeError != 0.0 || r.valCount == 0)
+            ++failures;
     }
     glDeleteTextures(1, &coverage);
     session.reset(); // before the context goes

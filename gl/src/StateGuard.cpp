@@ -1,5 +1,6 @@
 #include <lightskin/gl/StateGuard.h>
 
+#include <algorithm>
 #include <cstddef>
 
 namespace lightskin::gl {
@@ -21,9 +22,11 @@ constexpr std::array<std::array<GLenum, 2>, 9> kGenericBuffers = {{
 
 // Indexed binding points: target, name query, start query, size query.
 constexpr std::array<std::array<GLenum, 4>, 3> kIndexed = {{
-    {GL_SHADER_STORAGE_BUFFER, GL_SHADER_STORAGE_BUFFER_BINDING, GL_SHADER_STORAGE_BUFFER_START, GL_SHADER_STORAGE_BUFFER_SIZE},
+    {GL_SHADER_STORAGE_BUFFER, GL_SHADER_STORAGE_BUFFER_BINDING, GL_SHADER_STORAGE_BUFFER_START,
+     GL_SHADER_STORAGE_BUFFER_SIZE},
     {GL_UNIFORM_BUFFER, GL_UNIFORM_BUFFER_BINDING, GL_UNIFORM_BUFFER_START, GL_UNIFORM_BUFFER_SIZE},
-    {GL_ATOMIC_COUNTER_BUFFER, GL_ATOMIC_COUNTER_BUFFER_BINDING, GL_ATOMIC_COUNTER_BUFFER_START, GL_ATOMIC_COUNTER_BUFFER_SIZE},
+    {GL_ATOMIC_COUNTER_BUFFER, GL_ATOMIC_COUNTER_BUFFER_BINDING, GL_ATOMIC_COUNTER_BUFFER_START,
+     GL_ATOMIC_COUNTER_BUFFER_SIZE},
 }};
 
 constexpr std::array<std::array<GLenum, 2>, StateGuard::kTextureTargets> kTargetQueries = {{
@@ -37,9 +40,15 @@ constexpr std::array<std::array<GLenum, 2>, StateGuard::kTextureTargets> kTarget
     {GL_TEXTURE_BINDING_BUFFER, GL_TEXTURE_BUFFER},
 }};
 
-constexpr std::array<GLenum, 9> kEnables = {GL_BLEND,          GL_DEPTH_TEST,         GL_CULL_FACE,
-                                            GL_SCISSOR_TEST,   GL_STENCIL_TEST,       GL_POLYGON_OFFSET_FILL,
-                                            GL_FRAMEBUFFER_SRGB, GL_RASTERIZER_DISCARD, GL_PROGRAM_POINT_SIZE};
+constexpr std::array<GLenum, 9> kEnables = {GL_BLEND,
+                                            GL_DEPTH_TEST,
+                                            GL_CULL_FACE,
+                                            GL_SCISSOR_TEST,
+                                            GL_STENCIL_TEST,
+                                            GL_POLYGON_OFFSET_FILL,
+                                            GL_FRAMEBUFFER_SRGB,
+                                            GL_RASTERIZER_DISCARD,
+                                            GL_PROGRAM_POINT_SIZE};
 
 constexpr std::array<GLenum, 8> kPixelStore = {GL_PACK_ALIGNMENT,   GL_PACK_ROW_LENGTH,   GL_PACK_SKIP_ROWS,
                                                GL_PACK_SKIP_PIXELS, GL_UNPACK_ALIGNMENT,  GL_UNPACK_ROW_LENGTH,
@@ -56,8 +65,16 @@ StateGuard::StateGuard() {
     glGetIntegerv(GL_CURRENT_PROGRAM, &program_);
     glGetIntegerv(GL_VERTEX_ARRAY_BINDING, &vertexArray_);
     for (std::size_t i = 0; i < kGenericBuffers.size(); ++i) glGetIntegerv(kGenericBuffers[i][0], &genericBuffers_[i]);
+    // GL 4.5 guarantees 8 SSBO and 36 UBO binding points but only 1 atomic-counter one: ask.
+    constexpr std::array<GLenum, 3> kMaxima = {GL_MAX_SHADER_STORAGE_BUFFER_BINDINGS, GL_MAX_UNIFORM_BUFFER_BINDINGS,
+                                               GL_MAX_ATOMIC_COUNTER_BUFFER_BINDINGS};
+    for (std::size_t t = 0; t < kIndexed.size(); ++t) {
+        GLint maximum = 0;
+        glGetIntegerv(kMaxima[t], &maximum);
+        indexedCount_[t] = std::min(kIndexedBindings, int(maximum));
+    }
     for (std::size_t t = 0; t < kIndexed.size(); ++t)
-        for (std::size_t i = 0; i < kIndexedBindings; ++i) {
+        for (std::size_t i = 0; i < std::size_t(indexedCount_[t]); ++i) {
             IndexedBuffer& b = indexed_[t][i];
             glGetIntegeri_v(kIndexed[t][1], GLuint(i), &b.name);
             glGetInteger64i_v(kIndexed[t][2], GLuint(i), &b.start);
@@ -109,14 +126,15 @@ StateGuard::~StateGuard() {
     glBindVertexArray(asName(vertexArray_));
     // Indexed bindings first: glBindBufferBase/Range also set the generic binding point.
     for (std::size_t t = 0; t < kIndexed.size(); ++t)
-        for (std::size_t i = 0; i < kIndexedBindings; ++i) {
+        for (std::size_t i = 0; i < std::size_t(indexedCount_[t]); ++i) {
             const IndexedBuffer& b = indexed_[t][i];
             if (b.name != 0 && b.size > 0)
                 glBindBufferRange(kIndexed[t][0], GLuint(i), asName(b.name), GLintptr(b.start), GLsizeiptr(b.size));
             else
                 glBindBufferBase(kIndexed[t][0], GLuint(i), asName(b.name));
         }
-    for (std::size_t i = 0; i < kGenericBuffers.size(); ++i) glBindBuffer(kGenericBuffers[i][1], asName(genericBuffers_[i]));
+    for (std::size_t i = 0; i < kGenericBuffers.size(); ++i)
+        glBindBuffer(kGenericBuffers[i][1], asName(genericBuffers_[i]));
     for (int u = 0; u < kTextureUnits; ++u) {
         glActiveTexture(GLenum(GL_TEXTURE0 + u));
         for (std::size_t t = 0; t < kTargetQueries.size(); ++t)

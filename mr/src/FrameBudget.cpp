@@ -1,7 +1,6 @@
-#include <lightskin/mr/FrameBudget.h>
-
 #include <lightskin/core/Error.h>
 #include <lightskin/core/TriangleMesh.h>
+#include <lightskin/mr/FrameBudget.h>
 
 #include <glm/geometric.hpp>
 
@@ -66,21 +65,27 @@ SceneNeeds sceneNeeds(std::span<const gi::MeshInstance> instances) {
     needs.objects = std::max<int>(1, int(instances.size()));
     needs.glossy = false;
     for (const gi::MeshInstance& i : instances)
-        needs.glossy = needs.glossy || std::max({i.material.specularAlbedo.x, i.material.specularAlbedo.y, i.material.specularAlbedo.z}) > 0.0f;
+        needs.glossy = needs.glossy || std::max({i.material.specularAlbedo.x, i.material.specularAlbedo.y,
+                                                 i.material.specularAlbedo.z}) > 0.0f;
     needs.occlusion = instances.size() > 1 || (instances.size() == 1 && !isConvex(*instances[0].mesh));
     return needs;
 }
 
 FrameBudget::FrameBudget(const BudgetOptions& options, const SceneNeeds& needs, const QualitySettings& initial)
-    : options_(options), needs_(needs) {
+    : options_(options)
+    , needs_(needs) {
     if (!(options.budgetMs > 0.0) || !std::isfinite(options.budgetMs))
-        throw Error("frame budget", std::nullopt, "the budget must be a positive number of milliseconds, got " + std::to_string(options.budgetMs));
+        throw Error("frame budget", std::nullopt,
+                    "the budget must be a positive number of milliseconds, got " + std::to_string(options.budgetMs));
     if (options.sparsePointChoices.empty() || options.valStrideChoices.empty())
         throw Error("frame budget", std::nullopt, "the sparse-point and VAL-stride choices must not be empty");
     for (int s : options.sparsePointChoices)
-        if (s < 16 || s > 65536) throw Error("frame budget", std::nullopt, "sparse points per object must be in [16, 65536], got " + std::to_string(s));
+        if (s < 16 || s > 65536)
+            throw Error("frame budget", std::nullopt,
+                        "sparse points per object must be in [16, 65536], got " + std::to_string(s));
     for (int s : options.valStrideChoices)
-        if (s < 1 || s > 64) throw Error("frame budget", std::nullopt, "VAL strides must be in [1, 64], got " + std::to_string(s));
+        if (s < 1 || s > 64)
+            throw Error("frame budget", std::nullopt, "VAL strides must be in [1, 64], got " + std::to_string(s));
     // Channels the scene needs may be dropped (when allowed); channels it cannot use never run.
     std::vector<bool> glossyChoices{needs.glossy}, occlusionChoices{needs.occlusion};
     if (options.allowDroppingChannels && needs.glossy) glossyChoices.push_back(false);
@@ -90,7 +95,8 @@ FrameBudget::FrameBudget(const BudgetOptions& options, const SceneNeeds& needs, 
             for (int sparse : options.sparsePointChoices)
                 for (bool occlusion : occlusionChoices)
                     candidates_.push_back({Technique::LightSkin, sparse, stride, glossy, occlusion});
-            if (options.allowBruteForce) candidates_.push_back({Technique::BruteForce, initial.sparsePoints, stride, glossy, false});
+            if (options.allowBruteForce)
+                candidates_.push_back({Technique::BruteForce, initial.sparsePoints, stride, glossy, false});
         }
     msPerUnit_.assign(candidates_.size(), -1.0);
     measuredError_.assign(candidates_.size(), -1.0);
@@ -104,8 +110,8 @@ FrameBudget::FrameBudget(const BudgetOptions& options, const SceneNeeds& needs, 
 std::size_t FrameBudget::indexOf(const QualitySettings& settings) const {
     for (std::size_t i = 0; i < candidates_.size(); ++i) {
         const QualitySettings& c = candidates_[i];
-        const bool same = c.technique == settings.technique && c.valStride == settings.valStride && c.glossy == settings.glossy &&
-                          c.occlusion == settings.occlusion &&
+        const bool same = c.technique == settings.technique && c.valStride == settings.valStride &&
+                          c.glossy == settings.glossy && c.occlusion == settings.occlusion &&
                           (c.technique == Technique::BruteForce || c.sparsePoints == settings.sparsePoints);
         if (same) return i;
     }
@@ -114,7 +120,8 @@ std::size_t FrameBudget::indexOf(const QualitySettings& settings) const {
 
 void FrameBudget::setBudgetMs(double budgetMs) {
     if (!(budgetMs > 0.0) || !std::isfinite(budgetMs))
-        throw Error("frame budget", std::nullopt, "the budget must be a positive number of milliseconds, got " + std::to_string(budgetMs));
+        throw Error("frame budget", std::nullopt,
+                    "the budget must be a positive number of milliseconds, got " + std::to_string(budgetMs));
     options_.budgetMs = budgetMs;
 }
 
@@ -123,7 +130,8 @@ double FrameBudget::modelUnits(const QualitySettings& c, const FrameStats& stats
     const double vals = stats.vals * (s0 * s0) / (s * s);
     const double pixels = stats.coveredPixels;
     const CostPrior& k = options_.cost;
-    if (c.technique == Technique::BruteForce) return pixels * vals * (1.0 + (c.glossy ? k.bruteForceGlossyFactor : 0.0));
+    if (c.technique == Technique::BruteForce)
+        return pixels * vals * (1.0 + (c.glossy ? k.bruteForceGlossyFactor : 0.0));
     const double points = double(c.sparsePoints) * needs_.objects;
     return points * vals * (1.0 + (c.glossy ? k.lightSkinGlossyFactor : 0.0)) +
            (c.occlusion ? k.occlusionPerPointPair * points * points : 0.0) + k.lightSkinPerPixel * pixels;
@@ -163,13 +171,15 @@ void FrameBudget::observe(const QualitySettings& ran, const FrameStats& stats, c
     const double perUnit = costs.giMs / units;
     msPerUnit_[i] = msPerUnit_[i] < 0.0 ? perUnit : msPerUnit_[i] + options_.smoothing * (perUnit - msPerUnit_[i]);
     const int t = ran.technique == Technique::LightSkin ? 0 : 1;
-    techniqueRatio_[t] = msPerUnit_[i] / (t == 0 ? options_.cost.lightSkinMsPerInteraction : options_.cost.bruteForceMsPerInteraction);
+    techniqueRatio_[t] =
+        msPerUnit_[i] / (t == 0 ? options_.cost.lightSkinMsPerInteraction : options_.cost.bruteForceMsPerInteraction);
 }
 
 const QualitySettings& FrameBudget::choose(const FrameStats& stats) {
     const double budget = options_.budgetMs;
     std::size_t best = candidates_.size(), cheapest = 0;
-    double bestError = std::numeric_limits<double>::infinity(), bestMs = 0.0, cheapestMs = std::numeric_limits<double>::infinity();
+    double bestError = std::numeric_limits<double>::infinity(), bestMs = 0.0,
+           cheapestMs = std::numeric_limits<double>::infinity();
     for (std::size_t i = 0; i < candidates_.size(); ++i) {
         const double ms = predictMs(candidates_[i], stats);
         if (ms < cheapestMs) {

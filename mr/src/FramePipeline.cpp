@@ -276,8 +276,8 @@ struct FramePipeline::State {
     cv::Mat indirectTechnique, indirectReference, errorMap;
     std::vector<glm::vec4> vertexVpls; // vpl view only
     std::vector<gl::StageTime> scratchTimes;
-    cv::Mat coverage; // alpha of virtualColour (coveredPixels)
-    int valStride = 0;          // the ValGenerator's stride
+    cv::Mat coverage;             // alpha of virtualColour (coveredPixels)
+    int valStride = 0;            // the ValGenerator's stride
     int preparedSparsePoints = 0; // per object, as the renderer prepared them; 0 = none
 };
 

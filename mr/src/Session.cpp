@@ -1,10 +1,9 @@
-#include <lightskin/mr/Session.h>
-
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/gl/ShaderLibrary.h>
 #include <lightskin/gl/StateGuard.h>
+#include <lightskin/mr/Session.h>
 #include <lightskin/render/CameraProjection.h>
 
 #include <opencv2/imgproc.hpp>
@@ -66,8 +65,9 @@ std::unique_ptr<Session> Session::createWith(const SessionOptions& options, cons
     std::unique_ptr<Session> s(new Session());
     s->options_ = options;
     s->camera_ = info.colourIntrinsics;
-    s->scene_ = std::make_unique<render::Scene>(input.json.empty() ? render::loadScene(input.file)
-                                                                   : render::parseScene(input.json, input.baseFolder, "in-memory scene"));
+    s->scene_ = std::make_unique<render::Scene>(
+        input.json.empty() ? render::loadScene(input.file)
+                           : render::parseScene(input.json, input.baseFolder, "in-memory scene"));
     const double budgetMs = options.budgetMs > 0.0 ? options.budgetMs : s->scene_->gi.budgetMs;
     if (budgetMs > 0.0 && s->scene_->gi.technique == "none") {
         log::warning("frame budget: the scene's technique is \"none\"; no budget applies");
@@ -98,7 +98,8 @@ std::unique_ptr<Session> Session::createWith(const SessionOptions& options, cons
     return s;
 }
 
-std::unique_ptr<Session> Session::create(const SessionOptions& options, const SceneInput& scene, const CameraIntrinsics& camera) {
+std::unique_ptr<Session> Session::create(const SessionOptions& options, const SceneInput& scene,
+                                         const CameraIntrinsics& camera) {
     if (!camera.isValid()) throw Error("session", std::nullopt, "invalid camera intrinsics " + describeCamera(camera));
     capture::FrameSourceInfo info;
     info.kind = "host";
@@ -110,7 +111,8 @@ std::unique_ptr<Session> Session::create(const SessionOptions& options, const Sc
     return createWith(options, scene, info);
 }
 
-std::unique_ptr<Session> Session::create(const SessionOptions& options, const SceneInput& scene, const capture::FrameSourceInfo& info) {
+std::unique_ptr<Session> Session::create(const SessionOptions& options, const SceneInput& scene,
+                                         const capture::FrameSourceInfo& info) {
     return createWith(options, scene, info);
 }
 
@@ -123,7 +125,8 @@ std::unique_ptr<Session> Session::create(const SessionOptions& options, const Sc
 }
 
 bool Session::processNext() {
-    if (!source_) throw Error("session", std::nullopt, "processNext() needs a source-fed session (this one takes submit())");
+    if (!source_)
+        throw Error("session", std::nullopt, "processNext() needs a source-fed session (this one takes submit())");
     if (!source_->next(frame_)) return false;
     process(frame_);
     return true;
@@ -133,9 +136,12 @@ void Session::submit(const HostFrame& host) {
     const std::int64_t index = report_.frameIndex + 1;
     if (host.rgb == nullptr) throw Error("submitted frame", index, "no colour image (rgb is null)");
     if (!sameCamera(host.intrinsics, camera_))
-        throw Error("submitted frame", index, "intrinsics " + describeCamera(host.intrinsics) + " differ from the session's camera " + describeCamera(camera_));
+        throw Error("submitted frame", index,
+                    "intrinsics " + describeCamera(host.intrinsics) + " differ from the session's camera " +
+                        describeCamera(camera_));
     if (host.depth != nullptr && !(host.depthScaleMetres > 0.0 && std::isfinite(host.depthScaleMetres)))
-        throw Error("submitted frame", index, "depthScaleMetres must be a positive number, got " + std::to_string(host.depthScaleMetres));
+        throw Error("submitted frame", index,
+                    "depthScaleMetres must be a positive number, got " + std::to_string(host.depthScaleMetres));
     const int w = camera_.width, h = camera_.height;
     const std::size_t rgbStep = host.rgbRowBytes != 0 ? host.rgbRowBytes : std::size_t(w) * 3;
     const std::size_t depthStep = host.depthRowBytes != 0 ? host.depthRowBytes : std::size_t(w) * 2;
@@ -144,7 +150,8 @@ void Session::submit(const HostFrame& host) {
     // Headers over the host's memory (read only: cvtColor reads, the pipeline reads depth).
     const cv::Mat rgb(h, w, CV_8UC3, const_cast<std::uint8_t*>(host.rgb), rgbStep);
     cv::cvtColor(rgb, frame_.colour, cv::COLOR_RGB2BGR); // into the session's buffer (allocated once)
-    frame_.depth = host.depth != nullptr ? cv::Mat(h, w, CV_16UC1, const_cast<std::uint16_t*>(host.depth), depthStep) : cv::Mat();
+    frame_.depth =
+        host.depth != nullptr ? cv::Mat(h, w, CV_16UC1, const_cast<std::uint16_t*>(host.depth), depthStep) : cv::Mat();
     frame_.index = index;
     frame_.depthScaleMetres = host.depthScaleMetres;
     frame_.colourTimestampSeconds = frame_.depthTimestampSeconds = host.timestampSeconds;
@@ -158,14 +165,17 @@ void Session::submit(const HostFrame& host) {
 
 void Session::process(const RgbdFrame& frame) {
     if (!sameCamera(frame.colourIntrinsics, camera_))
-        throw Error("frame", frame.index, "colour intrinsics " + describeCamera(frame.colourIntrinsics) + " differ from the session's camera " + describeCamera(camera_));
+        throw Error("frame", frame.index,
+                    "colour intrinsics " + describeCamera(frame.colourIntrinsics) +
+                        " differ from the session's camera " + describeCamera(camera_));
     const gl::StateGuard guard;
     double predictedMs = 0.0;
     if (budget_ && lastStats_) {
         const QualitySettings next = budget_->choose(*lastStats_);
         predictedMs = budget_->predictMs(next, *lastStats_);
         if (!(next == applied_)) {
-            log::info("frame budget " + std::to_string(budget_->budgetMs()) + " ms: frame " + std::to_string(frame.index) + " switches to " + describe(next));
+            log::info("frame budget " + std::to_string(budget_->budgetMs()) + " ms: frame " +
+                      std::to_string(frame.index) + " switches to " + describe(next));
             pipeline_->setGiSettings(applyTo(next, pipeline_->giSettings()));
             applied_ = next;
         }
@@ -202,7 +212,8 @@ void Session::process(const RgbdFrame& frame) {
 
 void Session::render(const RenderTarget& target) {
     if (target.content == RenderContent::VirtualOnly && pipeline_->options().compare)
-        throw Error("render target", std::nullopt, "VirtualOnly needs the pipeline's compare off (its last shade is the no-GI image)");
+        throw Error("render target", std::nullopt,
+                    "VirtualOnly needs the pipeline's compare off (its last shade is the no-GI image)");
     if (!(target.nearMetres > 0.0 && target.farMetres > target.nearMetres))
         throw Error("render target", std::nullopt, "needs 0 < nearMetres < farMetres");
     if (target.width < 0 || target.height < 0) throw Error("render target", std::nullopt, "negative viewport size");
@@ -210,11 +221,14 @@ void Session::render(const RenderTarget& target) {
     Gl& g = *gl_;
     GLuint framebuffer = target.framebuffer;
     if (target.texture != 0) {
-        if (!glIsTexture(target.texture)) throw Error("render target", std::nullopt, "texture " + std::to_string(target.texture) + " is not a texture");
+        if (!glIsTexture(target.texture))
+            throw Error("render target", std::nullopt,
+                        "texture " + std::to_string(target.texture) + " is not a texture");
         glNamedFramebufferTexture(g.textureTarget.id(), GL_COLOR_ATTACHMENT0, target.texture, 0);
         g.textureTarget.checkComplete("render target texture " + std::to_string(target.texture));
         framebuffer = g.textureTarget.id();
-    } else if (framebuffer != 0 && glCheckNamedFramebufferStatus(framebuffer, GL_DRAW_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+    } else if (framebuffer != 0 &&
+               glCheckNamedFramebufferStatus(framebuffer, GL_DRAW_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
         throw Error("render target", std::nullopt, "framebuffer " + std::to_string(framebuffer) + " is not complete");
     }
     const bool depth = target.depthTest && target.content == RenderContent::VirtualOnly && target.texture == 0;
@@ -224,11 +238,13 @@ void Session::render(const RenderTarget& target) {
         if (composite.empty()) throw Error("render target", std::nullopt, "no frame has been processed yet");
         glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
         glPixelStorei(GL_UNPACK_ROW_LENGTH, int(composite.step / 3));
-        glTextureSubImage2D(g.composite.id(), 0, 0, 0, composite.cols, composite.rows, GL_BGR, GL_UNSIGNED_BYTE, composite.data);
+        glTextureSubImage2D(g.composite.id(), 0, 0, 0, composite.cols, composite.rows, GL_BGR, GL_UNSIGNED_BYTE,
+                            composite.data);
         image = g.composite.id();
     }
     glBindFramebuffer(GL_DRAW_FRAMEBUFFER, framebuffer);
-    glViewport(target.x, target.y, target.width > 0 ? target.width : camera_.width, target.height > 0 ? target.height : camera_.height);
+    glViewport(target.x, target.y, target.width > 0 ? target.width : camera_.width,
+               target.height > 0 ? target.height : camera_.height);
     glDisable(GL_BLEND);
     glDisable(GL_CULL_FACE);
     glDisable(GL_SCISSOR_TEST);

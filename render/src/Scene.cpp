@@ -185,8 +185,9 @@ SceneLight readLight(const Reader& r, const json& value, const std::string& p) {
 
 GiSettings readGi(const Reader& r, const json& value, const std::string& p) {
     r.object(value, p);
-    r.allowOnly(value, p, {"technique", "sparsePoints", "valStride", "kCache", "diffuse", "glossy", "occlusion", "virtualBounce",
-                            "rsmResolution", "budgetMs"});
+    r.allowOnly(value, p,
+                {"technique", "sparsePoints", "valStride", "kCache", "diffuse", "glossy", "occlusion", "virtualBounce",
+                 "rsmResolution", "budgetMs"});
     GiSettings g;
     if (value.contains("technique")) {
         g.technique = r.string(value["technique"], p + "/technique");
@@ -204,7 +205,9 @@ GiSettings readGi(const Reader& r, const json& value, const std::string& p) {
     if (value.contains("occlusion")) g.occlusion = r.boolean(value["occlusion"], p + "/occlusion");
     if (value.contains("virtualBounce")) g.virtualBounce = r.boolean(value["virtualBounce"], p + "/virtualBounce");
     if (value.contains("rsmResolution")) g.rsmResolution = r.integer(value["rsmResolution"], p + "/rsmResolution", 8, 256);
-    if (value.contains("budgetMs")) g.budgetMs = double(r.number(value["budgetMs"], p + "/budgetMs", 0.001f, 1.0e6f, "in [0.001, 1e6] (milliseconds)"));
+    if (value.contains("budgetMs"))
+        g.budgetMs =
+            double(r.number(value["budgetMs"], p + "/budgetMs", 0.001f, 1.0e6f, "in [0.001, 1e6] (milliseconds)"));
     return g;
 }
 

@@ -314,7 +314,8 @@ TEST(ReplayCommand, BudgetReportsTheChosenSettingsPerFrame) {
     // 1 ms cannot be met by anything: after the first frame (the scene's settings) the budget runs
     // the cheapest configuration; every frame reports what it ran. The cube is one convex, diffuse
     // object: glossy and occlusion can never be chosen.
-    const auto [recording, out, r] = replayTestRecording(scratch, kGiScene, " --frames 0 --max-frames 3 --no-video --budget-ms 1");
+    const auto [recording, out, r] =
+        replayTestRecording(scratch, kGiScene, " --frames 0 --max-frames 3 --no-video --budget-ms 1");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
     ASSERT_EQ(report["frames"].size(), 3u);
@@ -331,7 +332,8 @@ TEST(ReplayCommand, BudgetReportsTheChosenSettingsPerFrame) {
     ASSERT_EQ(r2.exitCode, 0) << r2.err;
     EXPECT_FALSE(nlohmann::json::parse(test::readText(out2 / "report.json"))["frames"][0].contains("giSettings"));
     // A negative budget is an error naming the option.
-    const auto [recording3, out3, r3] = replayTestRecording(test::scratchDir("replay_budget_bad"), kGiScene, " --budget-ms -5");
+    const auto [recording3, out3, r3] =
+        replayTestRecording(test::scratchDir("replay_budget_bad"), kGiScene, " --budget-ms -5");
     EXPECT_NE(r3.exitCode, 0);
     EXPECT_NE(r3.err.find("--budget-ms"), std::string::npos) << r3.err;
 }

@@ -6,14 +6,13 @@
 
 #include <lightskin/capture/FrameSource.h>
 
-#include <lightskin.h>
-
 #include <glm/gtc/type_ptr.hpp>
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
 #include <cstddef>
 #include <cstring>
+#include <lightskin.h>
 #include <string>
 #include <thread>
 
@@ -31,8 +30,8 @@ lsk_scene orbitScene(const std::string& path) {
 class CApiGLTest : public lightskin::test::GlTest {};
 
 TEST_F(CApiGLTest, VersionMatchesTheHeader) {
-    EXPECT_EQ(std::string(lsk_version()),
-              std::to_string(LSK_VERSION_MAJOR) + "." + std::to_string(LSK_VERSION_MINOR) + "." + std::to_string(LSK_VERSION_PATCH));
+    EXPECT_EQ(std::string(lsk_version()), std::to_string(LSK_VERSION_MAJOR) + "." + std::to_string(LSK_VERSION_MINOR) +
+                                              "." + std::to_string(LSK_VERSION_PATCH));
 }
 
 TEST_F(CApiGLTest, BadArgumentsAndInputAreErrorCodesWithMessages) {
@@ -48,7 +47,8 @@ TEST_F(CApiGLTest, BadArgumentsAndInputAreErrorCodesWithMessages) {
     // A missing scene file: an input error naming the file; no session.
     const std::string missing = "/nonexistent/scene-for-capi.json";
     lsk_scene bad = orbitScene(missing);
-    EXPECT_EQ(lsk_session_create_from_source(nullptr, &bad, (sourceDir() / "recordings/synth-orbit").c_str(), &session), LSK_ERROR_INPUT);
+    EXPECT_EQ(lsk_session_create_from_source(nullptr, &bad, (sourceDir() / "recordings/synth-orbit").c_str(), &session),
+              LSK_ERROR_INPUT);
     EXPECT_EQ(session, nullptr);
     EXPECT_NE(std::string(lsk_last_error()).find(missing), std::string::npos) << lsk_last_error();
     lsk_session_options options;

@@ -33,7 +33,8 @@ TEST(FrameBudgetTest, FirstMeasurementOfAConfigurationReplacesThePrior) {
     const StageCosts measured = truth(budget, ran, kStats);
     budget.observe(ran, kStats, measured);
     // Exact up to rounding: measured / units * units + other.
-    EXPECT_NEAR(budget.predictMs(ran, kStats), measured.giMs + measured.otherMs, 1e-9 * (measured.giMs + measured.otherMs));
+    EXPECT_NEAR(budget.predictMs(ran, kStats), measured.giMs + measured.otherMs,
+                1e-9 * (measured.giMs + measured.otherMs));
     // Another LightSkin configuration: the prior scaled by the measured ratio (so within the overhead).
     QualitySettings other = ran;
     other.sparsePoints = 256;
@@ -117,7 +118,8 @@ TEST(FrameBudgetTest, ChannelsTheSceneCannotUseAreNeverChosen) {
         EXPECT_FALSE(q.occlusion) << describe(q);
     }
     // And the error model does not charge for them.
-    EXPECT_EQ(budget.expectedError({Technique::LightSkin, 1024, 4, false, false}), budget.expectedError({Technique::LightSkin, 1024, 4, true, true}));
+    EXPECT_EQ(budget.expectedError({Technique::LightSkin, 1024, 4, false, false}),
+              budget.expectedError({Technique::LightSkin, 1024, 4, true, true}));
 }
 
 TEST(FrameBudgetTest, MeasuredErrorsReplaceThePrior) {
@@ -144,9 +146,11 @@ TEST(FrameBudgetTest, RejectsBadBudgets) {
 
 TriangleMesh cube() {
     TriangleMesh m;
-    for (int i = 0; i < 8; ++i) m.positions.push_back(glm::vec3(float(i & 1), float((i >> 1) & 1), float((i >> 2) & 1)));
+    for (int i = 0; i < 8; ++i)
+        m.positions.push_back(glm::vec3(float(i & 1), float((i >> 1) & 1), float((i >> 2) & 1)));
     // 12 triangles, counter-clockwise seen from outside.
-    m.indices = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5};
+    m.indices = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4,
+                 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5};
     m.normals.assign(8, glm::vec3(0, 0, 1));
     return m;
 }

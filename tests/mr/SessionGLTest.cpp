@@ -34,7 +34,8 @@ mr::SceneInput orbitScene(int sparsePoints = 256) {
     return mr::SceneInput::fromJson(text, test::sourceDir() / "recordings" / "scenes");
 }
 
-std::unique_ptr<mr::Session> sourceSession(const mr::SessionOptions& options = {}, mr::SceneInput scene = orbitScene()) {
+std::unique_ptr<mr::Session> sourceSession(const mr::SessionOptions& options = {},
+                                           mr::SceneInput scene = orbitScene()) {
     return mr::Session::create(options, scene, capture::openFrameSource(recording(), {}));
 }
 
@@ -79,9 +80,13 @@ StateRecord recordState() {
     r["colour mask"] = {b[0], b[1], b[2], b[3]};
     GLfloat f[4] = {};
     glGetFloatv(GL_COLOR_CLEAR_VALUE, f);
-    r["clear colour x1000"] = {std::lround(f[0] * 1000), std::lround(f[1] * 1000), std::lround(f[2] * 1000), std::lround(f[3] * 1000)};
-    const std::pair<const char*, GLenum> enables[] = {{"blend", GL_BLEND}, {"depth test", GL_DEPTH_TEST}, {"cull face", GL_CULL_FACE},
-                                                      {"scissor test", GL_SCISSOR_TEST}, {"stencil test", GL_STENCIL_TEST},
+    r["clear colour x1000"] = {std::lround(f[0] * 1000), std::lround(f[1] * 1000), std::lround(f[2] * 1000),
+                               std::lround(f[3] * 1000)};
+    const std::pair<const char*, GLenum> enables[] = {{"blend", GL_BLEND},
+                                                      {"depth test", GL_DEPTH_TEST},
+                                                      {"cull face", GL_CULL_FACE},
+                                                      {"scissor test", GL_SCISSOR_TEST},
+                                                      {"stencil test", GL_STENCIL_TEST},
                                                       {"framebuffer srgb", GL_FRAMEBUFFER_SRGB}};
     for (const auto& [name, e] : enables) r[name] = {glIsEnabled(e)};
     for (GLuint i = 0; i < 8; ++i) {
@@ -297,16 +302,19 @@ TEST_F(SessionGLTest, RendersUprightExactlyWhereTheVirtualContentIs) {
 }
 
 /// Two runs of one frame are not bit-identical: the VAL generator appends VALs with an atomic
-/// counter, so their order (and the float summation order of the gather) changes from run to run,
-/// a relative change ~1e-6 that flips a composite value sitting on a rounding boundary by one code
-/// value. Allowed: at most 1 code value, in at most 0.1 % of the covered pixels (a swapped channel
-/// order, a lost stride or a wrong depth scale change thousands of pixels by far more).
+/// counter, so their order (and the float summation order of the gather) changes from run to run.
+/// Float sums over N ~ 4000 VALs change by ~sqrt(N) * 6e-8 ~ 4e-6 relative, i.e. <= 1e-3 code
+/// values at 255: a value flips by one code only when it lies within that of a rounding boundary,
+/// probability ~2e-3 per channel value, ~7 expected over the ~1200 covered pixels x 3 channels.
+/// Allowed: at most 1 code value, in at most 1 % of the covered pixels' channel values (5x the
+/// expectation and more; a swapped channel order, a lost stride or a wrong depth scale change
+/// thousands of values by far more).
 void expectSameUpToRunToRun(const cv::Mat& a, const cv::Mat& b, std::int64_t coveredPixels) {
     ASSERT_EQ(a.size(), b.size());
     EXPECT_LE(cv::norm(a, b, cv::NORM_INF), 1.0);
     cv::Mat difference;
     cv::absdiff(a, b, difference);
-    EXPECT_LE(cv::countNonZero(difference.reshape(1)), std::max<std::int64_t>(1, coveredPixels / 1000));
+    EXPECT_LE(cv::countNonZero(difference.reshape(1)), std::max<std::int64_t>(1, 3 * coveredPixels / 100));
 }
 
 TEST_F(SessionGLTest, HostFramesGiveTheSameImageAsTheSource) {
@@ -338,7 +346,8 @@ TEST_F(SessionGLTest, HostFramesGiveTheSameImageAsTheSource) {
     EXPECT_EQ(session->report().trackingState, tracking::TrackingState::Tracking);
     EXPECT_EQ(session->report().valCount, reference->report().valCount);
     EXPECT_GT(session->report().valCount, 0u);
-    EXPECT_EQ(cv::norm(session->output().withGi, reference->output().withGi, cv::NORM_INF), 0.0);
+    expectSameUpToRunToRun(session->output().withGi, reference->output().withGi, reference->report().coveredPixels);
+
     // Bad input names the frame and the cause; the session stays usable.
     mr::HostFrame wrong = host;
     wrong.intrinsics.fx += 1.0;
@@ -377,7 +386,8 @@ struct InjectedCosts {
         const double vals = s.vals * double(s.valStride * s.valStride) / double(c.valStride * c.valStride);
         if (c.technique == mr::Technique::BruteForce) return s.coveredPixels * vals * (c.glossy ? 1.5 : 1.0);
         const double points = double(c.sparsePoints) * objects;
-        return points * vals * (c.glossy ? 1.5 : 1.0) + (c.occlusion ? 1.8 * points * points : 0.0) + 2.6 * s.coveredPixels;
+        return points * vals * (c.glossy ? 1.5 : 1.0) + (c.occlusion ? 1.8 * points * points : 0.0) +
+               2.6 * s.coveredPixels;
     }
     static double giMs(const mr::QualitySettings& c, const mr::FrameStats& s) {
         return 2.0 + (c.technique == mr::Technique::LightSkin ? 3.0e-5 : 0.4 * 8.2e-6) * units(c, s, 2);
@@ -412,7 +422,8 @@ TEST_F(SessionGLTest, FrameBudgetIsMetOnASteadyRecordingAfterWarmUp) {
         stats.push_back({double(r.valCount), r.settings.valStride, double(r.coveredPixels)});
         ran.push_back(r.settings);
         // Reported per frame: what the pipeline ran.
-        EXPECT_EQ(applyTo(r.settings, session->pipeline().giSettings()).technique, session->pipeline().giSettings().technique);
+        EXPECT_EQ(applyTo(r.settings, session->pipeline().giSettings()).technique,
+                  session->pipeline().giSettings().technique);
         EXPECT_EQ(r.settings.valStride, session->pipeline().giSettings().valStride);
     }
     // Tolerance: the budget predicts a frame from the previous frame's counts and its measured cost

@@ -47,11 +47,11 @@ extern "C" {
 
 typedef enum lsk_status {
     LSK_OK = 0,
-    LSK_END_OF_STREAM = 1,            /* lsk_session_process_next(): the source has no more frames */
-    LSK_ERROR_INVALID_ARGUMENT = -1,  /* a null pointer, a struct_size too small, a value out of range */
-    LSK_ERROR_INPUT = -2,             /* bad scene, recording, frame or render target (see lsk_last_error) */
+    LSK_END_OF_STREAM = 1,           /* lsk_session_process_next(): the source has no more frames */
+    LSK_ERROR_INVALID_ARGUMENT = -1, /* a null pointer, a struct_size too small, a value out of range */
+    LSK_ERROR_INPUT = -2,            /* bad scene, recording, frame or render target (see lsk_last_error) */
     LSK_ERROR_OUT_OF_MEMORY = -3,
-    LSK_ERROR_INTERNAL = -4           /* a bug in lightskin: please report lsk_last_error() */
+    LSK_ERROR_INTERNAL = -4 /* a bug in lightskin: please report lsk_last_error() */
 } lsk_status;
 
 typedef enum lsk_pose_mode {
@@ -114,17 +114,17 @@ typedef struct lsk_frame_report {
     uint32_t struct_size;
     int64_t frame_index;
     double timestamp_seconds;
-    int32_t tracking_state;     /* lsk_tracking_state */
+    int32_t tracking_state; /* lsk_tracking_state */
     int32_t has_pose;
-    double world_T_camera[16];  /* column-major (valid when has_pose) */
-    uint32_t val_count;         /* virtual area lights made from depth */
-    int64_t covered_pixels;     /* pixels covered by virtual content */
-    double total_ms;            /* wall clock of the frame */
+    double world_T_camera[16]; /* column-major (valid when has_pose) */
+    uint32_t val_count;        /* virtual area lights made from depth */
+    int64_t covered_pixels;    /* pixels covered by virtual content */
+    double total_ms;           /* wall clock of the frame */
     uint32_t stage_count;
     lsk_stage_time stages[LSK_MAX_STAGES];
     /* The GI settings this frame ran with (chosen by the budget when one is active). */
-    int32_t technique;          /* lsk_technique */
-    int32_t sparse_points;      /* per object (LightSkin) */
+    int32_t technique;     /* lsk_technique */
+    int32_t sparse_points; /* per object (LightSkin) */
     int32_t val_stride;
     int32_t glossy, occlusion;
     int32_t budget_active;
@@ -133,12 +133,12 @@ typedef struct lsk_frame_report {
 
 typedef struct lsk_render_target {
     uint32_t struct_size;
-    uint32_t framebuffer;   /* GL framebuffer name (0 = default framebuffer) ... */
-    uint32_t texture;       /* ... or, when non-zero, a colour-renderable GL_TEXTURE_2D (level 0) */
-    int32_t x, y;           /* viewport origin (GL: bottom left) */
-    int32_t width, height;  /* viewport size; 0 = the camera's size */
-    int32_t content;        /* lsk_content; default LSK_CONTENT_VIRTUAL_ONLY */
-    int32_t depth_test;     /* virtual only, framebuffer with depth: test/write depth with lsk_session_projection() */
+    uint32_t framebuffer;  /* GL framebuffer name (0 = default framebuffer) ... */
+    uint32_t texture;      /* ... or, when non-zero, a colour-renderable GL_TEXTURE_2D (level 0) */
+    int32_t x, y;          /* viewport origin (GL: bottom left) */
+    int32_t width, height; /* viewport size; 0 = the camera's size */
+    int32_t content;       /* lsk_content; default LSK_CONTENT_VIRTUAL_ONLY */
+    int32_t depth_test;    /* virtual only, framebuffer with depth: test/write depth with lsk_session_projection() */
     double near_metres, far_metres; /* of that projection; defaults 0.05, 20 */
 } lsk_render_target;
 
@@ -156,8 +156,8 @@ LSK_API void lsk_frame_report_init(lsk_frame_report* report);
 LSK_API void lsk_render_target_init(lsk_render_target* target);
 
 /* A session fed by the host (lsk_session_submit) for frames of `camera`. */
-LSK_API lsk_status lsk_session_create(const lsk_session_options* options, const lsk_scene* scene, const lsk_camera* camera,
-                                      lsk_session** out);
+LSK_API lsk_status lsk_session_create(const lsk_session_options* options, const lsk_scene* scene,
+                                      const lsk_camera* camera, lsk_session** out);
 /* A session fed by a recording or device (lsk_session_process_next): a lightskin recording folder,
  * a TUM RGB-D folder, an .oni file, "openni2://", "freenect://". */
 LSK_API lsk_status lsk_session_create_from_source(const lsk_session_options* options, const lsk_scene* scene,
@@ -175,7 +175,8 @@ LSK_API lsk_status lsk_session_render(lsk_session* session, const lsk_render_tar
 LSK_API lsk_status lsk_session_camera(const lsk_session* session, lsk_camera* out);
 /* The session camera's GL projection (OpenCV camera frame in) and the last frame's camera_T_world,
  * both column-major: clip = projection * view * world point (for a host drawing its own geometry). */
-LSK_API lsk_status lsk_session_projection(const lsk_session* session, double near_metres, double far_metres, float out[16]);
+LSK_API lsk_status lsk_session_projection(const lsk_session* session, double near_metres, double far_metres,
+                                          float out[16]);
 LSK_API lsk_status lsk_session_view(const lsk_session* session, float out[16]);
 /* Sets the frame budget in ms (> 0); starts budget mode if the session had none. Needs no GL. */
 LSK_API lsk_status lsk_session_set_budget(lsk_session* session, double budget_ms);

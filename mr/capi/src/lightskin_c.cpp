@@ -1,8 +1,6 @@
 // The C ABI over mr::Session. Every entry point catches everything: no exception crosses into C.
 // Versioned structs: inputs are copied into a default-initialised struct up to the caller's
 // struct_size; outputs are filled completely here and copied out up to the caller's struct_size.
-#include <lightskin.h>
-
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/mr/Session.h>
@@ -12,6 +10,7 @@
 #include <algorithm>
 #include <cstring>
 #include <exception>
+#include <lightskin.h>
 #include <new>
 #include <string>
 
@@ -78,15 +77,25 @@ lightskin::CameraIntrinsics intrinsicsOf(const lsk_camera& c) {
 lsk_status sessionOptions(const lsk_session_options* in, mr::SessionOptions& out) {
     lsk_session_options o;
     lsk_session_options_init(&o);
-    if (in != nullptr && !readVersioned(in, o)) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_options: struct_size not set");
+    if (in != nullptr && !readVersioned(in, o))
+        return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_options: struct_size not set");
     switch (o.pose_mode) {
-    case LSK_POSE_HOST: out.pipeline.poseMode = mr::PoseMode::GroundTruth; break;
-    case LSK_POSE_TRACKING: out.pipeline.poseMode = mr::PoseMode::Tracking; break;
-    case LSK_POSE_FIXED: out.pipeline.poseMode = mr::PoseMode::Fixed; break;
-    default: return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_options.pose_mode: " + std::to_string(o.pose_mode) + " is not an lsk_pose_mode");
+    case LSK_POSE_HOST:
+        out.pipeline.poseMode = mr::PoseMode::GroundTruth;
+        break;
+    case LSK_POSE_TRACKING:
+        out.pipeline.poseMode = mr::PoseMode::Tracking;
+        break;
+    case LSK_POSE_FIXED:
+        out.pipeline.poseMode = mr::PoseMode::Fixed;
+        break;
+    default:
+        return fail(LSK_ERROR_INVALID_ARGUMENT,
+                    "lsk_session_options.pose_mode: " + std::to_string(o.pose_mode) + " is not an lsk_pose_mode");
     }
     out.pipeline.giEnabled = o.gi_enabled != 0;
-    if (!(o.budget_ms >= 0.0)) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_options.budget_ms: must be >= 0 (0 = the scene's)");
+    if (!(o.budget_ms >= 0.0))
+        return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_options.budget_ms: must be >= 0 (0 = the scene's)");
     out.budgetMs = o.budget_ms;
     return LSK_OK;
 }
@@ -95,9 +104,12 @@ lsk_status sceneInput(const lsk_scene* in, mr::SceneInput& out) {
     lsk_scene s;
     lsk_scene_init(&s);
     if (!readVersioned(in, s)) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_scene: null or struct_size not set");
-    if (s.json != nullptr) out = mr::SceneInput::fromJson(s.json, s.base_folder != nullptr ? s.base_folder : ".");
-    else if (s.path != nullptr) out = mr::SceneInput::fromFile(s.path);
-    else return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_scene: neither path nor json is set");
+    if (s.json != nullptr)
+        out = mr::SceneInput::fromJson(s.json, s.base_folder != nullptr ? s.base_folder : ".");
+    else if (s.path != nullptr)
+        out = mr::SceneInput::fromFile(s.path);
+    else
+        return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_scene: neither path nor json is set");
     return LSK_OK;
 }
 
@@ -149,9 +161,11 @@ void lsk_render_target_init(lsk_render_target* t) {
     t->far_metres = 20.0;
 }
 
-lsk_status lsk_session_create(const lsk_session_options* options, const lsk_scene* scene, const lsk_camera* camera, lsk_session** out) {
+lsk_status lsk_session_create(const lsk_session_options* options, const lsk_scene* scene, const lsk_camera* camera,
+                              lsk_session** out) {
     return guarded("lsk_session_create", [&]() -> lsk_status {
-        if (out == nullptr || camera == nullptr) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_create: camera and out must not be null");
+        if (out == nullptr || camera == nullptr)
+            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_create: camera and out must not be null");
         *out = nullptr;
         mr::SessionOptions o;
         mr::SceneInput s;
@@ -164,11 +178,12 @@ lsk_status lsk_session_create(const lsk_session_options* options, const lsk_scen
     });
 }
 
-lsk_status lsk_session_create_from_source(const lsk_session_options* options, const lsk_scene* scene, const char* sourceUri,
-                                          lsk_session** out) {
+lsk_status lsk_session_create_from_source(const lsk_session_options* options, const lsk_scene* scene,
+                                          const char* sourceUri, lsk_session** out) {
     return guarded("lsk_session_create_from_source", [&]() -> lsk_status {
         if (out == nullptr || sourceUri == nullptr)
-            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_create_from_source: source_uri and out must not be null");
+            return fail(LSK_ERROR_INVALID_ARGUMENT,
+                        "lsk_session_create_from_source: source_uri and out must not be null");
         *out = nullptr;
         mr::SessionOptions o;
         mr::SceneInput s;
@@ -200,7 +215,8 @@ lsk_status lsk_session_submit(lsk_session* session, const lsk_frame* frame) {
         lsk_frame f;
         lsk_frame_init(&f);
         if (session == nullptr || !readVersioned(frame, f))
-            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_submit: session or frame is null, or frame->struct_size not set");
+            return fail(LSK_ERROR_INVALID_ARGUMENT,
+                        "lsk_session_submit: session or frame is null, or frame->struct_size not set");
         mr::HostFrame h;
         h.rgb = f.rgb;
         h.rgbRowBytes = f.rgb_row_bytes;
@@ -218,7 +234,8 @@ lsk_status lsk_session_submit(lsk_session* session, const lsk_frame* frame) {
 lsk_status lsk_session_report(const lsk_session* session, lsk_frame_report* report) {
     return guarded("lsk_session_report", [&]() -> lsk_status {
         if (session == nullptr || report == nullptr || report->struct_size < sizeof(std::uint32_t))
-            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_report: session or report is null, or report->struct_size not set");
+            return fail(LSK_ERROR_INVALID_ARGUMENT,
+                        "lsk_session_report: session or report is null, or report->struct_size not set");
         const mr::FrameReport& r = session->session->report();
         const mr::FrameOutput& o = session->session->output();
         lsk_frame_report full;
@@ -239,7 +256,8 @@ lsk_status lsk_session_report(const lsk_session* session, lsk_frame_report* repo
             std::strncpy(full.stages[i].name, o.cpuTimes[i].name.c_str(), sizeof full.stages[i].name - 1);
             full.stages[i].cpu_ms = o.cpuTimes[i].milliseconds;
         }
-        full.technique = r.settings.technique == mr::Technique::LightSkin ? LSK_TECHNIQUE_LIGHTSKIN : LSK_TECHNIQUE_BRUTE_FORCE;
+        full.technique =
+            r.settings.technique == mr::Technique::LightSkin ? LSK_TECHNIQUE_LIGHTSKIN : LSK_TECHNIQUE_BRUTE_FORCE;
         full.sparse_points = r.settings.sparsePoints;
         full.val_stride = r.settings.valStride;
         full.glossy = r.settings.glossy ? 1 : 0;
@@ -258,9 +276,11 @@ lsk_status lsk_session_render(lsk_session* session, const lsk_render_target* tar
         lsk_render_target t;
         lsk_render_target_init(&t);
         if (session == nullptr || !readVersioned(target, t))
-            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_render: session or target is null, or target->struct_size not set");
+            return fail(LSK_ERROR_INVALID_ARGUMENT,
+                        "lsk_session_render: session or target is null, or target->struct_size not set");
         if (t.content != LSK_CONTENT_VIRTUAL_ONLY && t.content != LSK_CONTENT_COMPOSITE)
-            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_render_target.content: " + std::to_string(t.content) + " is not an lsk_content");
+            return fail(LSK_ERROR_INVALID_ARGUMENT,
+                        "lsk_render_target.content: " + std::to_string(t.content) + " is not an lsk_content");
         mr::RenderTarget r;
         r.framebuffer = t.framebuffer;
         r.texture = t.texture;
@@ -268,7 +288,8 @@ lsk_status lsk_session_render(lsk_session* session, const lsk_render_target* tar
         r.y = t.y;
         r.width = t.width;
         r.height = t.height;
-        r.content = t.content == LSK_CONTENT_COMPOSITE ? mr::RenderContent::CompositeOverCamera : mr::RenderContent::VirtualOnly;
+        r.content = t.content == LSK_CONTENT_COMPOSITE ? mr::RenderContent::CompositeOverCamera
+                                                       : mr::RenderContent::VirtualOnly;
         r.depthTest = t.depth_test != 0;
         r.nearMetres = t.near_metres;
         r.farMetres = t.far_metres;
@@ -279,7 +300,8 @@ lsk_status lsk_session_render(lsk_session* session, const lsk_render_target* tar
 
 lsk_status lsk_session_projection(const lsk_session* session, double nearMetres, double farMetres, float out[16]) {
     return guarded("lsk_session_projection", [&]() -> lsk_status {
-        if (session == nullptr || out == nullptr) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_projection: null argument");
+        if (session == nullptr || out == nullptr)
+            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_projection: null argument");
         if (!(nearMetres > 0.0 && farMetres > nearMetres))
             return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_projection: needs 0 < near_metres < far_metres");
         const glm::mat4 m = session->session->projection(nearMetres, farMetres);
@@ -290,7 +312,8 @@ lsk_status lsk_session_projection(const lsk_session* session, double nearMetres,
 
 lsk_status lsk_session_camera(const lsk_session* session, lsk_camera* out) {
     return guarded("lsk_session_camera", [&]() -> lsk_status {
-        if (session == nullptr || out == nullptr) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_camera: null argument");
+        if (session == nullptr || out == nullptr)
+            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_camera: null argument");
         const lightskin::CameraIntrinsics& k = session->session->camera();
         *out = lsk_camera{k.width, k.height, k.fx, k.fy, k.cx, k.cy};
         return LSK_OK;
@@ -299,7 +322,8 @@ lsk_status lsk_session_camera(const lsk_session* session, lsk_camera* out) {
 
 lsk_status lsk_session_view(const lsk_session* session, float out[16]) {
     return guarded("lsk_session_view", [&]() -> lsk_status {
-        if (session == nullptr || out == nullptr) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_view: null argument");
+        if (session == nullptr || out == nullptr)
+            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_view: null argument");
         const glm::mat4 m = session->session->viewMatrix();
         std::memcpy(out, glm::value_ptr(m), 16 * sizeof(float));
         return LSK_OK;

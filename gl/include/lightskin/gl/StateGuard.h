@@ -5,6 +5,7 @@
 // Covered (what lightskin's gi/render/mr code touches, plus the usual neighbours): draw and read
 // framebuffer, program, vertex array, the generic buffer bindings (array, pixel pack/unpack, SSBO,
 // UBO, atomic counter, copy, indirect), indexed SSBO/UBO/atomic-counter bindings 0..kIndexedBindings-1
+// (as far as the context has them)
 // with their ranges, texture bindings of every common target and the sampler on units
 // 0..kTextureUnits-1 plus the active unit, image units 0..kImageUnits-1, viewport, scissor box,
 // the enables (blend, depth test, cull face, scissor, stencil, polygon offset, sRGB framebuffer,
@@ -47,6 +48,7 @@ private:
     GLint drawFramebuffer_ = 0, readFramebuffer_ = 0, program_ = 0, vertexArray_ = 0;
     std::array<GLint, 9> genericBuffers_{};
     std::array<std::array<IndexedBuffer, kIndexedBindings>, 3> indexed_{};
+    std::array<int, 3> indexedCount_{}; ///< min(kIndexedBindings, the context's maximum) per kind
     GLint activeTexture_ = 0;
     std::array<std::array<GLint, kTextureTargets>, kTextureUnits> textures_{};
     std::array<GLint, kTextureUnits> samplers_{};

@@ -85,7 +85,7 @@ struct CostPrior {
     double lightSkinGlossyFactor = 0.5;
     /// In interactions: 48 ms for 2048^2 pairs (1.1) .. 1657 ms for 8192^2 (2.5) at 1e-5 ms; the middle.
     double occlusionPerPointPair = 1.8;
-    double lightSkinPerPixel = 2.6;            ///< in interactions: shading 54 ms for 2.07 Mpx at 1e-5 ms
+    double lightSkinPerPixel = 2.6;             ///< in interactions: shading 54 ms for 2.07 Mpx at 1e-5 ms
     double bruteForceMsPerInteraction = 8.2e-6; ///< 49.8 s for 332512 px x 18341 VALs (+ glossy)
     double bruteForceGlossyFactor = 0.5;
 };
@@ -139,8 +139,8 @@ private:
     BudgetOptions options_;
     SceneNeeds needs_;
     std::vector<QualitySettings> candidates_;
-    std::vector<double> msPerUnit_;     ///< measured, per candidate; < 0 = not measured
-    std::vector<double> measuredError_; ///< < 0 = prior
+    std::vector<double> msPerUnit_;         ///< measured, per candidate; < 0 = not measured
+    std::vector<double> measuredError_;     ///< < 0 = prior
     double techniqueRatio_[2] = {1.0, 1.0}; ///< last measured / prior, per technique
     double otherMs_ = 0.0;
     std::size_t current_ = 0;

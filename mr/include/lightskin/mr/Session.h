@@ -33,11 +33,13 @@ namespace lightskin::mr {
 /// The scene: a scene file (docs/SCENE_FORMAT.md), or the same JSON as text with the folder that
 /// relative mesh paths are resolved against.
 struct SceneInput {
-    std::filesystem::path file;        ///< used when `json` is empty
-    std::string json;                  ///< in-memory scene text
-    std::filesystem::path baseFolder;  ///< for `json`: where relative paths point
+    std::filesystem::path file;       ///< used when `json` is empty
+    std::string json;                 ///< in-memory scene text
+    std::filesystem::path baseFolder; ///< for `json`: where relative paths point
     static SceneInput fromFile(std::filesystem::path path) { return {std::move(path), {}, {}}; }
-    static SceneInput fromJson(std::string text, std::filesystem::path base) { return {{}, std::move(text), std::move(base)}; }
+    static SceneInput fromJson(std::string text, std::filesystem::path base) {
+        return {{}, std::move(text), std::move(base)};
+    }
 };
 
 /// A frame in host memory. Read only during submit(); the session keeps no pointer to it.
@@ -50,7 +52,7 @@ struct HostFrame {
     const std::uint16_t* depth = nullptr;
     std::size_t depthRowBytes = 0; ///< 0 = width * 2
     double depthScaleMetres = 0.001;
-    CameraIntrinsics intrinsics;   ///< must equal the session's camera
+    CameraIntrinsics intrinsics; ///< must equal the session's camera
     double timestampSeconds = std::numeric_limits<double>::quiet_NaN();
     /// The host's pose of the colour camera in the scene's world (OpenCV camera frame: x right,
     /// y down, z forward; metres). Used with PoseMode::GroundTruth ("the host tracks"); without
@@ -88,12 +90,12 @@ struct FrameReport {
     std::optional<Pose> world_T_camera;
     std::uint32_t valCount = 0;
     std::int64_t coveredPixels = 0;
-    double totalMs = 0.0;              ///< wall clock of the whole frame
-    QualitySettings settings;          ///< the GI settings this frame ran with
+    double totalMs = 0.0;     ///< wall clock of the whole frame
+    QualitySettings settings; ///< the GI settings this frame ran with
     bool budgetActive = false;
-    double budgetMs = 0.0;             ///< 0 without a budget
-    double predictedMs = 0.0;          ///< the budget's prediction for this frame (before it ran)
-    double expectedError = 0.0;        ///< the budget's error model for `settings`
+    double budgetMs = 0.0;      ///< 0 without a budget
+    double predictedMs = 0.0;   ///< the budget's prediction for this frame (before it ran)
+    double expectedError = 0.0; ///< the budget's error model for `settings`
 };
 
 struct SessionOptions {
@@ -115,12 +117,14 @@ class Session {
 public:
     /// Host-fed session for frames of `camera` (submit()). Throws lightskin::Error on a bad scene
     /// (naming the file or key) or invalid intrinsics.
-    static std::unique_ptr<Session> create(const SessionOptions& options, const SceneInput& scene, const CameraIntrinsics& camera);
+    static std::unique_ptr<Session> create(const SessionOptions& options, const SceneInput& scene,
+                                           const CameraIntrinsics& camera);
     /// Source-fed session (processNext()); takes the source.
     static std::unique_ptr<Session> create(const SessionOptions& options, const SceneInput& scene,
                                            std::unique_ptr<capture::FrameSource> source);
     /// Session for frames the caller reads from a source it keeps (process()), e.g. to record them too.
-    static std::unique_ptr<Session> create(const SessionOptions& options, const SceneInput& scene, const capture::FrameSourceInfo& info);
+    static std::unique_ptr<Session> create(const SessionOptions& options, const SceneInput& scene,
+                                           const capture::FrameSourceInfo& info);
     ~Session();
     Session(const Session&) = delete;
     Session& operator=(const Session&) = delete;
