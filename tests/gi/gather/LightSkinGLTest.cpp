@@ -627,6 +627,61 @@ TEST_F(LightSkinAnalyticGLTest, CoaxialDiscAndLargeUniformPlaneOnTheGpu) {
     EXPECT_NEAR(centreIrradiance(million) / m, exact, 2e-4);
 }
 
+/// A flat disc fan: vertex 0 at the centre, `ring` vertices at `radius`, all normals `normal`
+/// (z = +1 or -1). sparsePointsFromVertices(mesh, 1) puts its one point at the centre with
+/// occluder radius `radius` (the farthest vertex of its Voronoi region).
+TriangleMesh discFan(float radius, float normalZ, int ring = 16) {
+    TriangleMesh mesh;
+    mesh.positions.emplace_back(0.0f);
+    for (int i = 0; i < ring; ++i) {
+        const float phi = 2.0f * std::numbers::pi_v<float> * float(i) / float(ring);
+        mesh.positions.emplace_back(radius * std::cos(phi), radius * std::sin(phi), 0.0f);
+    }
+    mesh.normals.assign(mesh.positions.size(), glm::vec3(0.0f, 0.0f, normalZ));
+    for (int i = 0; i < ring; ++i) {
+        const auto a = std::uint32_t(1 + i), b = std::uint32_t(1 + (i + 1) % ring);
+        if (normalZ > 0.0f)
+            mesh.indices.insert(mesh.indices.end(), {0u, a, b});
+        else
+            mesh.indices.insert(mesh.indices.end(), {0u, b, a});
+    }
+    return mesh;
+}
+
+// eq. 14 / section 3.3 through the GPU with a closed form (as PaperReference's unit test): a
+// sparse point at the origin facing up, two equal VALs at (+-a, 0, D) facing down (so l' = (0, 0,
+// D), the diffuse S_o radius is sigma_x = a and the glossy one sqrt(a^2 / 3); the eye is on the
+// symmetry plane x = 0, so both VALs weigh the same in both channels) and one occluder disc of
+// radius r at height d facing down. Both project to concentric circles on the unit circle
+// (Nusselt), so o = F_occ / F_S with F = r^2 / (r^2 + d^2) (eq. 3, cos = 1) while F_occ < F_S.
+// Float: each o is ~20 float operations from exact inputs (~1e-6); 1e-4 absolute.
+TEST_F(LightSkinAnalyticGLTest, OneCoaxialOccluderDiscHidesTheAnalyticFractionOnTheGpu) {
+    const float a = 0.4f, height = 2.0f, r = 0.04f, d = 0.5f;
+    Scene scene;
+    Material material;
+    material.specularAlbedo = glm::vec3(0.3f);
+    material.specularExponent = 2.0f;
+    scene.add(discFan(0.01f, 1.0f), glm::mat4(1.0f), material, 1);
+    scene.add(discFan(r, -1.0f), glm::translate(glm::mat4(1.0f), {0.0f, 0.0f, d}), material, 1);
+    scene.vals = {disc({a, 0, height}, {0, 0, -1}, 0.01f, {0.1f, 0.1f, 0.1f}),
+                  disc({-a, 0, height}, {0, 0, -1}, 0.01f, {0.1f, 0.1f, 0.1f})};
+    scene.eye = {0.0f, 1.0f, 5.0f};
+    scene.target = {0.0f, 0.0f, 0.0f};
+    const GpuRun run = runLightSkin(scene, {});
+    ASSERT_FALSE(run.occlusion.empty());
+    const auto f = [](double radius, double distance) {
+        return radius * radius / (radius * radius + distance * distance);
+    };
+    const double ad = double(a), hd = double(height);
+    const double expectedD = f(double(r), double(d)) / f(ad, hd);
+    const double expectedS = f(double(r), double(d)) / f(ad / std::sqrt(3.0), hd);
+    ASSERT_LT(expectedS, 1.0) << "the occluder must hide only part of both targets";
+    EXPECT_NEAR(double(run.vpls[1].w), ad, 1e-4) << "diffuse S_o radius";
+    EXPECT_NEAR(double(run.vpls[3].w), ad / std::sqrt(3.0), 1e-4) << "glossy S_o radius";
+    EXPECT_NEAR(double(run.occlusion[0].x), expectedD, 1e-4);
+    EXPECT_NEAR(double(run.occlusion[0].y), expectedS, 1e-4);
+}
+
 // ---- numerical extremes on the GPU -------------------------------------------------------
 struct GpuExtreme {
     const char* name;
