@@ -44,6 +44,7 @@ struct LiveArgs {
     std::string device = "freenect://0", scene, pose, snapshot, snapshotDir = ".", record;
     bool headless = false, loop = false, fast = false;
     std::int64_t maxFrames = -1, snapshotAfter = -1;
+    double budgetMs = 0.0; ///< --budget-ms (0: the scene's gi.budgetMs, if any)
 };
 
 std::string statusLine(double fps, const mr::FrameOutput& out, const mr::FramePipeline& pipeline, const mr::PipelineOptions& options) {
@@ -102,6 +103,8 @@ int runLive(const LiveArgs& args) {
     options.compare = false;
     mr::SessionOptions sessionOptions;
     sessionOptions.pipeline = options;
+    if (args.budgetMs < 0.0) throw Error("--budget-ms", std::nullopt, "expected a positive number of milliseconds, got " + std::to_string(args.budgetMs));
+    sessionOptions.budgetMs = args.budgetMs;
     // The session runs the frames this command reads (it also records them).
     auto session = mr::Session::create(sessionOptions, mr::SceneInput::fromFile(args.scene), info);
     mr::FramePipeline* pipeline = &session->pipeline();
@@ -214,6 +217,7 @@ void addLiveCommand(CLI::App& app, int& exitCode) {
     command->add_option("--snapshot-after", args->snapshotAfter, "Write a snapshot of what is shown after this many frames");
     command->add_option("--snapshot", args->snapshot, "Path of that snapshot (default <snapshot-dir>/snapshot-0.png)");
     command->add_option("--snapshot-dir", args->snapshotDir, "Folder for snapshots (key P)");
+    command->add_option("--budget-ms", args->budgetMs, "Frame-time budget in ms: the session picks the GI settings per frame (docs/PLUGIN.md)");
     command->add_option("--record", args->record, "Also record the input frames into this new recording folder");
     command->callback([args, &exitCode] { exitCode = runLive(*args); });
 }

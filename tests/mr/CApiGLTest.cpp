@@ -15,6 +15,7 @@
 #include <lightskin.h>
 #include <string>
 #include <thread>
+#include <vector>
 
 namespace {
 
@@ -111,6 +112,18 @@ TEST_F(CApiGLTest, HostFrameRoundTripAndVersionedReport) {
     ASSERT_GE(report.stage_count, 4u);
     EXPECT_STREQ(report.stages[0].name, "depth filter");
     EXPECT_EQ(report.technique, LSK_TECHNIQUE_LIGHTSKIN);
+
+    // The composite in host memory: the camera image bit for bit wherever no virtual content is
+    // (render/Compositor.h: a == 0 copies the camera pixel), something else where it is.
+    std::vector<std::uint8_t> composite(std::size_t(k.width) * std::size_t(k.height) * 3);
+    ASSERT_EQ(lsk_session_read_composite(session, composite.data(), 0), LSK_OK) << lsk_last_error();
+    const cv::Mat compositeRgb(k.height, k.width, CV_8UC3, composite.data());
+    cv::Mat difference, changed;
+    cv::absdiff(compositeRgb, rgb, difference);
+    cv::cvtColor(difference, changed, cv::COLOR_RGB2GRAY);
+    const int changedPixels = cv::countNonZero(changed);
+    EXPECT_GT(changedPixels, 0);
+    EXPECT_LE(changedPixels, report.covered_pixels);
 
     // An older host's report ends before the stage list: nothing past its size is written.
     constexpr std::size_t kOldSize = offsetof(lsk_frame_report, stage_count);

@@ -171,6 +171,10 @@ LSK_API lsk_status lsk_session_submit(lsk_session* session, const lsk_frame* fra
 LSK_API lsk_status lsk_session_report(const lsk_session* session, lsk_frame_report* report);
 LSK_API lsk_status lsk_session_render(lsk_session* session, const lsk_render_target* target);
 
+/* Copies the last frame's composite (camera image + lit virtual objects, occluded by real depth) into
+ * host memory: width*height*3 bytes, R,G,B, sRGB-encoded, top row first; row_bytes 0 = width*3.
+ * For hosts that display a CPU image. No GL. LSK_ERROR_INPUT before the first frame. */
+LSK_API lsk_status lsk_session_read_composite(const lsk_session* session, uint8_t* rgb, size_t row_bytes);
 /* The session's colour camera (a source-fed session: the source's). No GL. */
 LSK_API lsk_status lsk_session_camera(const lsk_session* session, lsk_camera* out);
 /* The session camera's GL projection (OpenCV camera frame in) and the last frame's camera_T_world,

@@ -6,6 +6,7 @@
 #include <lightskin/mr/Session.h>
 
 #include <glm/gtc/type_ptr.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cstring>
@@ -306,6 +307,20 @@ lsk_status lsk_session_projection(const lsk_session* session, double nearMetres,
             return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_projection: needs 0 < near_metres < far_metres");
         const glm::mat4 m = session->session->projection(nearMetres, farMetres);
         std::memcpy(out, glm::value_ptr(m), 16 * sizeof(float));
+        return LSK_OK;
+    });
+}
+
+lsk_status lsk_session_read_composite(const lsk_session* session, uint8_t* rgb, size_t rowBytes) {
+    return guarded("lsk_session_read_composite", [&]() -> lsk_status {
+        if (session == nullptr || rgb == nullptr) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_read_composite: null argument");
+        const cv::Mat& composite = session->session->output().withGi;
+        if (composite.empty()) return fail(LSK_ERROR_INPUT, "lsk_session_read_composite: no frame has been processed yet");
+        const std::size_t step = rowBytes != 0 ? rowBytes : std::size_t(composite.cols) * 3;
+        if (step < std::size_t(composite.cols) * 3)
+            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_read_composite: row_bytes smaller than a row (width * 3)");
+        cv::Mat out(composite.rows, composite.cols, CV_8UC3, rgb, step); // a header: cvtColor writes in place
+        cv::cvtColor(composite, out, cv::COLOR_BGR2RGB);
         return LSK_OK;
     });
 }
