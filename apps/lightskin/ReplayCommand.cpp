@@ -47,6 +47,7 @@ struct ReplayArgs {
     bool adaptive = false, linearOut = false;
     float staticTolerance = 0.0f;
     std::string staticTest = "probes";
+    std::string backend; ///< overrides the scene's gi.backend when set
     std::int64_t maxFrames = -1;
 };
 
@@ -172,7 +173,16 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
         if (!std::filesystem::exists(scenePath))
             throw Error(args.recording, std::nullopt, "no --scene given and the recording has no scene.json");
     }
-    const render::Scene scene = render::loadScene(scenePath);
+    render::Scene scene = render::loadScene(scenePath);
+    if (!args.backend.empty()) {
+        if (args.backend != "gl" && args.backend != "cpu")
+            throw Error("--backend", std::nullopt, "expected gl or cpu, got '" + args.backend + "'");
+        if (args.backend == "cpu" && scene.gi.technique != "lightskin")
+            throw Error("--backend", std::nullopt,
+                        "the CPU backend exists for technique lightskin only (" + scenePath.string() +
+                            " has gi.technique \"" + scene.gi.technique + "\")");
+        scene.gi.backend = args.backend;
+    }
     const std::set<std::int64_t> chosen = parseFrameList(args.frames);
     render::DebugView view = render::DebugView::Final;
     mr::Overlay overlay = mr::Overlay::None;
@@ -220,7 +230,10 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     summary.recording = args.recording;
     summary.scene = scenePath.string();
     summary.renderer = rendererName;
-    summary.technique = pipeline->techniqueName() + (scene.gi.technique != pipeline->techniqueName() ? " (scene asked for " + scene.gi.technique + ", not available)" : "");
+    const std::string asked =
+        scene.gi.technique + (scene.gi.technique == "lightskin" && scene.gi.backend == "cpu" ? "-cpu" : "");
+    summary.technique = pipeline->techniqueName() +
+                        (asked != pipeline->techniqueName() ? " (scene asked for " + asked + ", not available)" : "");
     summary.poseMode = mr::toString(poseMode);
     summary.command = commandLine;
     summary.framesInSource = source->frameCount();
@@ -328,6 +341,9 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
     command->add_flag("--linear-out", args->linearOut,
                       "Also write each written frame's linear-light composite (linear/) and indirect-only light (linear-indirect/) "
                       "as 32-bit float OpenEXR (NaN, inf and values > 1 kept; 16-bit PNG clamped to [0,1] if this OpenCV has no EXR)");
+    command->add_option(
+        "--backend", args->backend,
+        "LightSkin's stages 0-4 on gl (default: the scene's gi.backend) or cpu (SIMD + threads; shading stays on GL)");
     command->add_flag("--adaptive", args->adaptive,
                       "LightSkin's adaptive mode: turn off what cannot change the image and reuse the VPLs for static content");
     command->add_option("--static-tolerance", args->staticTolerance,

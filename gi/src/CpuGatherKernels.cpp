@@ -272,5 +272,25 @@ void occlusion(const OcclusionReceivers& receivers, std::size_t receiverBegin, s
 
 std::string simdTargetName() { return HWY_DYNAMIC_DISPATCH(TargetNameImpl)(); }
 
+std::vector<std::string> simdTargetNames() {
+    std::vector<std::string> names;
+    for (const std::int64_t target : hwy::SupportedAndGeneratedTargets()) names.emplace_back(hwy::TargetName(target));
+    return names;
+}
+
+bool restrictSimdTarget(const std::string& name) {
+    if (name.empty()) {
+        hwy::SetSupportedTargetsForTest(0);
+        return true;
+    }
+    hwy::SetSupportedTargetsForTest(0);
+    for (const std::int64_t target : hwy::SupportedAndGeneratedTargets())
+        if (name == hwy::TargetName(target)) {
+            hwy::SetSupportedTargetsForTest(target);
+            return true;
+        }
+    return false;
+}
+
 } // namespace lightskin::gi::cpu
 #endif

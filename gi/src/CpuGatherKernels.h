@@ -81,5 +81,9 @@ void occlusion(const OcclusionReceivers& receivers, std::size_t receiverBegin, s
 
 /// Name of the instruction set the dispatch chose (e.g. "AVX3", "AVX2", "SSE4").
 std::string simdTargetName();
+/// Instruction sets compiled in and supported by this CPU, best first.
+std::vector<std::string> simdTargetNames();
+/// Limits the dispatch to one of simdTargetNames() ("" = all again); false for an unknown name.
+bool restrictSimdTarget(const std::string& name);
 
 } // namespace lightskin::gi::cpu

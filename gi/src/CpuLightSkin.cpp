@@ -18,6 +18,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <omp.h>
 
 namespace lightskin::gi {
@@ -29,6 +30,12 @@ using Clock = std::chrono::steady_clock;
 
 double millisecondsSince(Clock::time_point start) {
     return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+double processCpuMs() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
 }
 
 std::size_t padReceivers(std::size_t n) {
@@ -224,7 +231,9 @@ struct CpuLightSkin::Impl {
     /// Stage 2 (eq. 8-11) and the occlusion targets of stage 3, per point.
     void renormalise(const glm::dvec3& eye) {
         const std::int64_t n = std::int64_t(pointCount);
-#pragma omp parallel for num_threads(threadCount()) schedule(static)
+        // ~0.1 us per point: threads pay off only for many points (a fork/join costs ~10 us idle,
+        // a scheduler time slice when the cores are oversubscribed)
+#pragma omp parallel for num_threads(threadCount()) schedule(static) if (n > 8192)
         for (std::int64_t ii = 0; ii < n; ++ii) {
             const std::size_t i = std::size_t(ii);
             const PointSums p = pointSums(i);
@@ -327,6 +336,11 @@ CpuLightSkin::CpuLightSkin()
 CpuLightSkin::~CpuLightSkin() = default;
 
 std::string cpuSimdTarget() { return cpu::simdTargetName(); }
+std::vector<std::string> cpuSimdTargets() { return cpu::simdTargetNames(); }
+void setCpuSimdTarget(const std::string& name) {
+    if (!cpu::restrictSimdTarget(name))
+        throw Error("SIMD target", std::nullopt, "'" + name + "' is not one this build and CPU support");
+}
 
 std::unique_ptr<CpuLightSkin> CpuLightSkin::create(const CpuLightSkinSettings& settings, SparsePointProvider provider) {
     LIGHTSKIN_ASSERT(bool(provider), "lightskin::gi::CpuLightSkin::create(): a sparse point provider is required");
@@ -429,6 +443,7 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
     impl.chooseChannels(instances);
     const glm::dvec3 eye(cameraPositionWorld);
 
+    const double cpuStart = processCpuMs();
     auto start = Clock::now();
     impl.buildValArrays(lights);
     impl.placePoints(instances, eye);
@@ -436,14 +451,17 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
     impl.readbackMs = 0.0;
 
     start = Clock::now();
+    double cpu = processCpuMs();
     impl.gather();
     stats.gatherMs = millisecondsSince(start);
+    stats.gatherCpuMs = processCpuMs() - cpu;
 
     start = Clock::now();
     impl.renormalise(eye);
     stats.normalisationMs = millisecondsSince(start);
 
     start = Clock::now();
+    cpu = processCpuMs();
     if (impl.occlusion)
         impl.occlude();
     else {
@@ -451,10 +469,12 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
         std::fill(impl.occlusionS.begin(), impl.occlusionS.end(), 0.0f);
     }
     stats.occlusionMs = millisecondsSince(start);
+    stats.occlusionCpuMs = processCpuMs() - cpu;
 
     start = Clock::now();
     impl.interpolate(instances);
     stats.interpolationMs = millisecondsSince(start);
+    stats.stagesCpuMs = processCpuMs() - cpuStart;
 
     stats.vals = impl.vals.count;
     stats.points = impl.pointCount;

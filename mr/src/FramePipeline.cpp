@@ -1,22 +1,21 @@
-#include <lightskin/mr/FramePipeline.h>
-
 #include <lightskin/capture/DepthFilter.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
 #include <lightskin/eval/ColourSpace.h>
 #include <lightskin/gi/BruteForceIllumination.h>
+#include <lightskin/gi/CpuLightSkin.h>
 #include <lightskin/gi/LightSkinIllumination.h>
 #include <lightskin/gi/ValGenerator.h>
 #include <lightskin/gi/ValSetMerger.h>
 #include <lightskin/gl/DebugOutput.h>
+#include <lightskin/mr/FramePipeline.h>
 #include <lightskin/render/NullIndirectIllumination.h>
 #include <lightskin/tracking/TagWorld.h>
 
-#include <nlohmann/json.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <glm/common.hpp>
 #include <glm/exponential.hpp>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -100,6 +99,11 @@ std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettin
             LIGHTSKIN_ASSERT(points != nullptr, "lightskin::mr::createTechnique(): the renderer prepared no sparse points");
             return *points;
         };
+        if (settings.backend == "cpu") {
+            gi::CpuLightSkinSettings cpu;
+            cpu.lightSkin = s;
+            return gi::CpuLightSkin::create(cpu, provider);
+        }
         return gi::LightSkinIllumination::create(s, provider);
     }
     if (settings.technique == "brute-force") {
@@ -337,6 +341,11 @@ void FramePipeline::setGiSettings(const render::GiSettings& settings) {
         s.staticTolerance = options_.staticTolerance;
         s.staticChangeTest = options_.staticProbes ? gi::StaticChangeTest::Probes : gi::StaticChangeTest::Bound;
         lightSkin->setSettings(s);
+    }
+    if (auto* cpu = dynamic_cast<gi::CpuLightSkin*>(state_->technique.get()); cpu && options_.adaptive) {
+        gi::CpuLightSkinSettings s = cpu->settings();
+        s.lightSkin.adaptive = true; // channel choices only: the CPU backend has no static-content reuse
+        cpu->setSettings(s);
     }
     state_->technique->prepare(renderer_->instances());
 }

@@ -57,6 +57,9 @@ struct CpuLightSkinStats {
     bool glossy = false, occlusion = false;
     double uploadMs = 0.0, gatherMs = 0.0, normalisationMs = 0.0, occlusionMs = 0.0, interpolationMs = 0.0;
     double shadingMs = 0.0; ///< CPU time to issue the GL shading pass (its GPU time: lastStageTimes())
+    /// Process CPU time (all threads) of the gather, the occlusion stage and stages 0-4 of
+    /// computeVpls(): under load from other processes wall time overstates the work, CPU time does not.
+    double gatherCpuMs = 0.0, occlusionCpuMs = 0.0, stagesCpuMs = 0.0;
     std::string simdTarget; ///< the instruction set the runtime dispatch chose, e.g. "AVX3"
 };
 
@@ -99,5 +102,10 @@ private:
 
 /// The instruction set Highway's runtime dispatch selects on this CPU (e.g. "AVX3", "AVX2").
 std::string cpuSimdTarget();
+/// The instruction sets this build has kernels for and this CPU supports, best first.
+std::vector<std::string> cpuSimdTargets();
+/// For benchmarks: makes the dispatch use only `name` (one of cpuSimdTargets(); "" = the best
+/// again). Process-wide, between frames. Throws lightskin::Error for a name not in the list.
+void setCpuSimdTarget(const std::string& name);
 
 } // namespace lightskin::gi
