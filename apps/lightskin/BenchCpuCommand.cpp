@@ -2,7 +2,8 @@
 // run, on bench-gather's scene (a sphere over a floor, 2/3 of the sparse points on the sphere, lit
 // by a depth-camera-like VAL map): per setup (diffuse; + glossy; + occlusion) the stage times of
 // both backends, the CPU gather's and occlusion's interactions per second and their share of the
-// machine's FMA peak (--peak, GFLOP/s as measured by build/bench/lightskin_bench_peak), per
+// FMA peak (measured in the run, per CPU-second, at the same instruction set; and --peak, the
+// all-core GFLOP/s of build/bench/lightskin_bench_peak, for the wall-clock rates), per
 // thread count and SIMD instruction set, and the CPU image's difference from the GL image.
 // A benchmark, not a test: results go to docs/BENCHMARKS.md with the command line.
 //
@@ -50,7 +51,6 @@ struct CpuBenchOptions {
     std::vector<std::string> targets; ///< SIMD targets to compare ("" = the dispatched one only)
     int repeat = 5;
     double peakGflops = 0.0;
-    int cores = 2; ///< cores the peak was measured on (per-core peak = peak / cores)
     bool gl = true;
 };
 
@@ -194,6 +194,9 @@ void runCpuBench(const CpuBenchOptions& options) {
                         gi::CpuLightSkinSettings cpuSettings;
                         cpuSettings.lightSkin = settings;
                         cpuSettings.threads = threads;
+                        // the FMA peak per CPU-second now, at this instruction set: the yardstick of
+                        // the rates below under the same load (other jobs share the cores)
+                        const double peakNow = gi::cpuFmaPeakGflops(100.0);
                         auto cpu = gi::CpuLightSkin::create(cpuSettings, provider);
                         cpu->prepare(instances);
                         const Timing t =
@@ -205,11 +208,11 @@ void runCpuBench(const CpuBenchOptions& options) {
                         const double interactions = double(stats.points) * double(stats.vals);
                         const double perCpuSecond = interactions / (minimum(t.gatherCpu) * 1e-3);
                         const double perSecond = interactions / (minimum(t.stages.at("gather")) * 1e-3);
-                        const double corePeak = options.peakGflops / double(std::max(options.cores, 1));
+                        const double corePeak = peakNow;
                         std::printf("      gather %.3g interactions per CPU-s (%.1f GFLOP per CPU-s", perCpuSecond,
                                     perCpuSecond * setup.gatherFlops * 1e-9);
                         if (corePeak > 0.0)
-                            std::printf(", %.1f %% of one core's %.0f",
+                            std::printf(", %.1f %% of the in-run FMA peak %.0f GFLOP per CPU-s",
                                         100.0 * perCpuSecond * setup.gatherFlops * 1e-9 / corePeak, corePeak);
                         std::printf("), %.3g per wall-s (%.1f GFLOP/s", perSecond,
                                     perSecond * setup.gatherFlops * 1e-9);
@@ -224,7 +227,7 @@ void runCpuBench(const CpuBenchOptions& options) {
                             std::printf("      occlusion %.3g interactions per CPU-s (%.1f GFLOP per CPU-s", occCpu,
                                         occCpu * setup.occlusionFlops * 1e-9);
                             if (corePeak > 0.0)
-                                std::printf(", %.1f %% of one core's peak",
+                                std::printf(", %.1f %% of the in-run peak",
                                             100.0 * occCpu * setup.occlusionFlops * 1e-9 / corePeak);
                             std::printf(")\n");
                         }

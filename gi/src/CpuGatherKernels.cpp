@@ -89,20 +89,27 @@ HWY_NOINLINE void GatherGroup(const ValArrays& vals, std::uint32_t valBegin, std
             if constexpr (kGlossy) {
                 // eq. 5: cos(gamma) = mirror . e = 2 (n.l)(n.e) - l.e; cos^k with guard G3
                 const V cosGamma = hn::MulSub(hn::Add(ndl, ndl), nde, Dot(tx, ty, tz, ex, ey, ez));
-                const V e = hn::Mul(k, hn::Log(d, hn::Min(hn::Max(cosGamma, tinyCos), one)));
-                const auto lit = hn::And(hn::And(hn::Gt(cosGamma, zero), hn::Gt(cosI, zero)), hn::Ge(e, minLogPow));
-                const V lobe = hn::IfThenElseZero(lit, hn::Exp(d, hn::Max(e, minLogPow)));
-                const V gLobe = hn::Mul(g, hn::Mul(ck, lobe));
-                gR = hn::MulAdd(hn::Set(d, vals.fr[j]), gLobe, gR);
-                gG = hn::MulAdd(hn::Set(d, vals.fg[j]), gLobe, gG);
-                gB = hn::MulAdd(hn::Set(d, vals.fb[j]), gLobe, gB);
-                const V wS = hn::Mul(w, lobe);
-                r2S = hn::MulAdd(r2, wS, r2S);
-                oSx = hn::MulAdd(ox, wS, oSx);
-                oSy = hn::MulAdd(oy, wS, oSy);
-                oSz = hn::MulAdd(oz, wS, oSz);
-                wSs = hn::Add(wSs, wS);
-                if constexpr (kMoments) mS = hn::MulAdd(d2, wS, mS);
+                const auto facing = hn::And(hn::Gt(cosGamma, zero), hn::Gt(cosI, zero));
+                // A lane with lobe 0 adds exactly 0 to every glossy sum (finite terms times 0; a
+                // sum is never -0), so skipping a VAL that no lane's lobe sees leaves the sums
+                // bit-identical and saves the log and exp. Log's subnormal path is not needed:
+                // its argument is >= kTinyCos = 1e-30, a normal float.
+                if (!hn::AllFalse(d, facing)) {
+                    const V e = hn::Mul(k, hn::impl::Log<D, V, false>(d, hn::Min(hn::Max(cosGamma, tinyCos), one)));
+                    const auto lit = hn::And(facing, hn::Ge(e, minLogPow));
+                    const V lobe = hn::IfThenElseZero(lit, hn::Exp(d, hn::Max(e, minLogPow)));
+                    const V gLobe = hn::Mul(g, hn::Mul(ck, lobe));
+                    gR = hn::MulAdd(hn::Set(d, vals.fr[j]), gLobe, gR);
+                    gG = hn::MulAdd(hn::Set(d, vals.fg[j]), gLobe, gG);
+                    gB = hn::MulAdd(hn::Set(d, vals.fb[j]), gLobe, gB);
+                    const V wS = hn::Mul(w, lobe);
+                    r2S = hn::MulAdd(r2, wS, r2S);
+                    oSx = hn::MulAdd(ox, wS, oSx);
+                    oSy = hn::MulAdd(oy, wS, oSy);
+                    oSz = hn::MulAdd(oz, wS, oSz);
+                    wSs = hn::Add(wSs, wS);
+                    if constexpr (kMoments) mS = hn::MulAdd(d2, wS, mS);
+                }
             }
             if constexpr (kMoments) {
                 mx = hn::MulAdd(hn::Mul(ox, ox), wD, mx);
@@ -224,6 +231,25 @@ void OcclusionImpl(const OcclusionReceivers& receivers, std::size_t receiverBegi
 
 const char* TargetNameImpl() { return hwy::TargetName(HWY_TARGET); }
 
+// 12 independent FMA chains (enough to cover FMA latency x throughput on current x86 cores),
+// as bench/PeakFlopsBenchmark.cpp, at the dispatched vector width. Returns the flops done.
+double FmaChainsImpl(std::uint64_t steps, float* sink) {
+    const D d;
+    const V m = hn::Set(d, 0.999999f), c = hn::Set(d, 1e-7f);
+    V a0 = hn::Set(d, 1.0f), a1 = hn::Set(d, 1.1f), a2 = hn::Set(d, 1.2f), a3 = hn::Set(d, 1.3f);
+    V a4 = hn::Set(d, 1.4f), a5 = hn::Set(d, 1.5f), a6 = hn::Set(d, 1.6f), a7 = hn::Set(d, 1.7f);
+    V a8 = hn::Set(d, 1.8f), a9 = hn::Set(d, 1.9f), a10 = hn::Set(d, 2.0f), a11 = hn::Set(d, 2.1f);
+    for (std::uint64_t i = 0; i < steps; ++i) {
+        a0 = hn::MulAdd(a0, m, c), a1 = hn::MulAdd(a1, m, c), a2 = hn::MulAdd(a2, m, c), a3 = hn::MulAdd(a3, m, c);
+        a4 = hn::MulAdd(a4, m, c), a5 = hn::MulAdd(a5, m, c), a6 = hn::MulAdd(a6, m, c), a7 = hn::MulAdd(a7, m, c);
+        a8 = hn::MulAdd(a8, m, c), a9 = hn::MulAdd(a9, m, c), a10 = hn::MulAdd(a10, m, c), a11 = hn::MulAdd(a11, m, c);
+    }
+    const V sum = hn::Add(hn::Add(hn::Add(hn::Add(a0, a1), hn::Add(a2, a3)), hn::Add(hn::Add(a4, a5), hn::Add(a6, a7))),
+                          hn::Add(hn::Add(a8, a9), hn::Add(a10, a11)));
+    *sink = hn::GetLane(sum); // keeps the chains alive
+    return 2.0 * 12.0 * double(hn::Lanes(d)) * double(steps);
+}
+
 } // namespace HWY_NAMESPACE
 } // namespace lightskin::gi::cpu
 HWY_AFTER_NAMESPACE();
@@ -234,6 +260,7 @@ namespace lightskin::gi::cpu {
 HWY_EXPORT(GatherImpl);
 HWY_EXPORT(OcclusionImpl);
 HWY_EXPORT(TargetNameImpl);
+HWY_EXPORT(FmaChainsImpl);
 
 void ValArrays::reserve(std::size_t capacity) {
     for (auto* v : {&px, &py, &pz, &nx, &ny, &nz, &r2, &cr2, &fr, &fg, &fb}) v->resize(capacity);
@@ -271,6 +298,8 @@ void occlusion(const OcclusionReceivers& receivers, std::size_t receiverBegin, s
 }
 
 std::string simdTargetName() { return HWY_DYNAMIC_DISPATCH(TargetNameImpl)(); }
+
+double fmaChains(std::uint64_t steps, float* sink) { return HWY_DYNAMIC_DISPATCH(FmaChainsImpl)(steps, sink); }
 
 std::vector<std::string> simdTargetNames() {
     std::vector<std::string> names;

@@ -337,6 +337,14 @@ CpuLightSkin::~CpuLightSkin() = default;
 
 std::string cpuSimdTarget() { return cpu::simdTargetName(); }
 std::vector<std::string> cpuSimdTargets() { return cpu::simdTargetNames(); }
+double cpuFmaPeakGflops(double milliseconds) {
+    float sink = 0.0f;
+    double flops = 0.0;
+    const double start = processCpuMs();
+    double elapsed = 0.0;
+    while ((elapsed = processCpuMs() - start) < milliseconds) flops += cpu::fmaChains(100000, &sink);
+    return std::isfinite(sink) ? flops / (elapsed * 1e6) : 0.0;
+}
 void setCpuSimdTarget(const std::string& name) {
     if (!cpu::restrictSimdTarget(name))
         throw Error("SIMD target", std::nullopt, "'" + name + "' is not one this build and CPU support");

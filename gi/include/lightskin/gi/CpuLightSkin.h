@@ -102,6 +102,10 @@ private:
 
 /// The instruction set Highway's runtime dispatch selects on this CPU (e.g. "AVX3", "AVX2").
 std::string cpuSimdTarget();
+/// For benchmarks: this thread's FMA rate at the dispatched instruction set, GFLOP per CPU-second
+/// (12 independent FMA chains, 2 flops per FMA lane, as bench/PeakFlopsBenchmark.cpp), measured
+/// over about `milliseconds` of CPU time. Under load from other processes CPU time stays fair.
+double cpuFmaPeakGflops(double milliseconds = 50.0);
 /// The instruction sets this build has kernels for and this CPU supports, best first.
 std::vector<std::string> cpuSimdTargets();
 /// For benchmarks: makes the dispatch use only `name` (one of cpuSimdTargets(); "" = the best
