@@ -523,6 +523,18 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
         s.compositor.compositeInto(frame.colour, s.virtualColour, s.virtualDepth, realDepth, out.withoutGi);
     }
     addTime(out.cpuTimes, used, "shade+composite", msSince(t));
+    if (runGi && dynamic_cast<const gi::CpuLightSkin*>(s.technique.get())) {
+        // the CPU backend's stages 0-4 are CPU wall times (inside "gbuffer+gi"); its shading is GL
+        static constexpr std::pair<const char*, const char*> kCpuStages[] = {{"upload", "gi upload"},
+                                                                             {"gather", "gi gather"},
+                                                                             {"normalisation", "gi normalisation"},
+                                                                             {"occlusion", "gi occlusion"},
+                                                                             {"interpolation", "gi interpolation"}};
+        s.technique->lastStageTimes(s.scratchTimes);
+        for (const auto& [stage, label] : kCpuStages)
+            for (const gl::StageTime& st : s.scratchTimes)
+                if (st.name == stage) addTime(out.cpuTimes, used, label, st.milliseconds);
+    }
     out.cpuTimes.resize(used);
 
     r.lastStageTimes(out.gpuTimes);
@@ -532,7 +544,9 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     }
     if (runGi) {
         s.technique->lastStageTimes(s.scratchTimes);
-        out.gpuTimes.insert(out.gpuTimes.end(), s.scratchTimes.begin(), s.scratchTimes.end());
+        for (const gl::StageTime& st : s.scratchTimes)
+            if (!dynamic_cast<const gi::CpuLightSkin*>(s.technique.get()) || st.name == "shading")
+                out.gpuTimes.push_back(st);
     }
     out.totalMs = msSince(frameStart);
 }
