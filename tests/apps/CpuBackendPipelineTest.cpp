@@ -1,7 +1,7 @@
-// gi.backend "cpu" in the per-frame pipeline (issue 18): the bundled recording synth-orbit with
-// its scene (recordings/scenes/orbit.json: bunny and cube, ~3.7k depth VALs, glossy + occlusion)
-// through mr::FramePipeline with the GL and the CPU LightSkin backend; the indirect light of the
-// two must agree per pixel.
+// gi.backend "cpu" in the per-frame pipeline (issue 18): the bundled synthetic recordings with
+// their scenes (synth-orbit: bunny and cube, ~3.7k depth VALs, glossy + occlusion; synth-pan;
+// synth-clean-channels) through mr::FramePipeline with the GL and the CPU LightSkin backend; the
+// indirect light of the two must agree per pixel, frame by frame.
 //
 // Tolerance: each backend is within 3e-3 relative + 1e-3 of the image's maximum of the double
 // reference per pixel (tests/gi/gather/: the GL path in LightSkinGLTest, the CPU backend in
@@ -25,10 +25,16 @@ using namespace lightskin;
 
 namespace {
 
-std::vector<cv::Mat> indirectFrames(const std::string& backend, int frames) {
-    render::Scene scene = render::loadScene(test::sourceDir() / "recordings" / "scenes" / "orbit.json");
+struct Recording {
+    const char* name;      ///< test name
+    const char* folder;    ///< under recordings/
+    const char* sceneFile; ///< under recordings/scenes/
+};
+
+std::vector<cv::Mat> indirectFrames(const Recording& recording, const std::string& backend, int frames) {
+    render::Scene scene = render::loadScene(test::sourceDir() / "recordings" / "scenes" / recording.sceneFile);
     scene.gi.backend = backend;
-    auto source = capture::openFrameSource((test::sourceDir() / "recordings" / "synth-orbit").string(), {});
+    auto source = capture::openFrameSource((test::sourceDir() / "recordings" / recording.folder).string(), {});
     mr::PipelineOptions options;
     options.poseMode = mr::PoseMode::GroundTruth;
     options.compare = false;
@@ -40,18 +46,18 @@ std::vector<cv::Mat> indirectFrames(const std::string& backend, int frames) {
     mr::FrameOutput output;
     for (int i = 0; i < frames && source->next(frame); ++i) {
         pipeline->process(frame, output);
-        EXPECT_GT(output.valCount, 1000u) << "the scene must be lit by the depth VALs";
+        EXPECT_GT(output.valCount, 500u) << "the scene must be lit by the depth VALs";
         out.push_back(output.linearIndirect.clone());
     }
     return out;
 }
 
-class CpuBackendPipeline : public test::GlTest {};
+class CpuBackendPipeline : public test::GlTest, public ::testing::WithParamInterface<Recording> {};
 
-TEST_F(CpuBackendPipeline, IndirectLightMatchesTheGlBackendOnTheBundledRecording) {
+TEST_P(CpuBackendPipeline, IndirectLightMatchesTheGlBackend) {
     constexpr int kFrames = 2;
-    const std::vector<cv::Mat> gl = indirectFrames("gl", kFrames);
-    const std::vector<cv::Mat> cpu = indirectFrames("cpu", kFrames);
+    const std::vector<cv::Mat> gl = indirectFrames(GetParam(), "gl", kFrames);
+    const std::vector<cv::Mat> cpu = indirectFrames(GetParam(), "cpu", kFrames);
     ASSERT_EQ(gl.size(), std::size_t(kFrames));
     ASSERT_EQ(cpu.size(), gl.size());
     for (std::size_t f = 0; f < gl.size(); ++f) {
@@ -65,7 +71,7 @@ TEST_F(CpuBackendPipeline, IndirectLightMatchesTheGlBackendOnTheBundledRecording
         for (int v = 0; v < gl[f].rows; ++v)
             for (int u = 0; u < gl[f].cols; ++u) {
                 const cv::Vec3f a = gl[f].at<cv::Vec3f>(v, u), b = cpu[f].at<cv::Vec3f>(v, u);
-                if (a[1] > 0.0f) ++lit;
+                if (a[0] > 0.0f || a[1] > 0.0f || a[2] > 0.0f) ++lit;
                 for (int c = 0; c < 3; ++c) {
                     const double tolerance = 6e-3 * std::abs(double(a[c])) + 2e-3 * largest;
                     const double error = std::abs(double(b[c]) - double(a[c]));
@@ -73,9 +79,16 @@ TEST_F(CpuBackendPipeline, IndirectLightMatchesTheGlBackendOnTheBundledRecording
                     if (error > tolerance) ++bad;
                 }
             }
-        EXPECT_GT(lit, std::size_t(1000)) << "frame " << f << ": too few lit pixels to compare";
+        EXPECT_GT(lit, std::size_t(200)) << "frame " << f << ": too few lit pixels to compare";
         EXPECT_EQ(bad, 0u) << "frame " << f << ": worst error / tolerance " << worst;
     }
 }
+
+INSTANTIATE_TEST_SUITE_P(BundledRecordings, CpuBackendPipeline,
+                         ::testing::Values(Recording{"synth_orbit", "synth-orbit", "orbit.json"},
+                                           Recording{"synth_pan", "synth-pan", "pan.json"},
+                                           Recording{"synth_clean_channels", "synth-clean-channels",
+                                                     "clean_channels.json"}),
+                         [](const auto& param_info) { return std::string(param_info.param.name); });
 
 } // namespace
