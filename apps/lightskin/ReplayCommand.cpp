@@ -351,8 +351,12 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
     command->add_option("--static-test", args->staticTest, "With --static-tolerance: probes (default; re-gather every 16th sparse point) or bound (guaranteed, keyed)");
     command->callback([args, &exitCode, command] {
         std::string line = "lightskin replay";
-        for (const auto& [name, value] : std::vector<std::pair<std::string, std::string>>{
-                 {"", args->recording}, {"--scene", args->scene}, {"--out", args->out}, {"--frames", args->frames}, {"--pose", args->pose}})
+        for (const auto& [name, value] : std::vector<std::pair<std::string, std::string>>{{"", args->recording},
+                                                                                          {"--scene", args->scene},
+                                                                                          {"--out", args->out},
+                                                                                          {"--frames", args->frames},
+                                                                                          {"--pose", args->pose},
+                                                                                          {"--backend", args->backend}})
             if (!value.empty()) line += (name.empty() ? " " : " " + name + " ") + value;
         (void)command;
         exitCode = runReplay(*args, line);

@@ -214,7 +214,9 @@ struct VplViewResult {
 /// The vpl view: per-vertex interpolated diffuse VPLs (layout: LightSkinIllumination.cpp, 4 vec4 per
 /// vertex: (L'''_d, rbar^2), (l'''_d world, 0), glossy...). Debug view only: the GPU->CPU readback
 /// of the per-vertex buffer stalls the pipeline every frame; no other view does this.
-VplViewResult drawVertexVpls(cv::Mat& image, const gi::LightSkinIllumination& technique, std::span<const gi::MeshInstance> instances,
+/// Technique: gi::LightSkinIllumination or gi::CpuLightSkin (the same readback and layout).
+template <class Technique>
+VplViewResult drawVertexVpls(cv::Mat& image, const Technique& technique, std::span<const gi::MeshInstance> instances,
                              const CameraIntrinsics& k, const Pose& world_T_camera, std::vector<glm::vec4>& vpls) {
     VplViewResult result;
     technique.readVertexVpls(vpls);
@@ -480,6 +482,11 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     if (options_.overlay == Overlay::VertexVpls && runGi) {
         if (const auto* lightSkin = dynamic_cast<const gi::LightSkinIllumination*>(s.technique.get())) {
             const VplViewResult vpl = drawVertexVpls(out.withGi, *lightSkin, r.instances(), frame.colourIntrinsics, world_T_camera, s.vertexVpls);
+            out.vplSegments = vpl.drawn;
+            out.vplNonFinite = vpl.nonFinite;
+        } else if (const auto* cpu = dynamic_cast<const gi::CpuLightSkin*>(s.technique.get())) {
+            const VplViewResult vpl =
+                drawVertexVpls(out.withGi, *cpu, r.instances(), frame.colourIntrinsics, world_T_camera, s.vertexVpls);
             out.vplSegments = vpl.drawn;
             out.vplNonFinite = vpl.nonFinite;
         }
