@@ -143,6 +143,29 @@ TEST_P(CpuLightSkinSetupGLTest, MatchesTheGlPath) {
     compareBackends(cpu, gl, setup, maxExponent(scene), 3e-3);
 }
 
+// The runtime dispatch: every instruction set this CPU supports (AVX-512, AVX2, SSE4, ... down to
+// scalar) meets the same reference tolerances, so machines without AVX-512 get correct results.
+TEST_P(CpuLightSkinSetupGLTest, EveryInstructionSetMatchesTheDoubleReference) {
+    const PaperSetup setup = GetParam();
+    Scene scene = sphereOverFloor();
+    gi::LightSkinSettings settings;
+    settings.glossy = setup.glossy;
+    settings.occlusion = setup.occlusion;
+    const ReferenceRun r = runReference(scene, setup);
+    const std::vector<std::string> targets = gi::cpuSimdTargets();
+    ASSERT_FALSE(targets.empty());
+    for (const std::string& target : targets) {
+        SCOPED_TRACE("instruction set " + target);
+        gi::setCpuSimdTarget(target);
+        EXPECT_EQ(gi::cpuSimdTarget(), target);
+        const GpuRun cpu = runCpu(scene, settings);
+        compareStages(cpu, r, setup);
+    }
+    gi::setCpuSimdTarget("");
+    EXPECT_EQ(gi::cpuSimdTarget(), targets.front());
+    EXPECT_THROW(gi::setCpuSimdTarget("NO_SUCH_TARGET"), Error);
+}
+
 INSTANTIATE_TEST_SUITE_P(PaperSetups, CpuLightSkinSetupGLTest,
                          ::testing::Values(PaperSetup{"diffuse", false, false}, PaperSetup{"glossy", true, false},
                                            PaperSetup{"occlusion", true, true}),
