@@ -43,7 +43,8 @@ std::size_t padReceivers(std::size_t n) {
 }
 
 /// VALs per gather tile: 2048 x 44 bytes of SoA = 90 KB, resident in L2 while a thread runs all
-/// its receiver groups over it (L1 holds the running sums and a block of 16 VALs).
+/// its receiver groups over it (with the groups' running sums, 80 bytes per receiver); a block of
+/// 16 VALs (704 bytes) and one group's sums sit in L1.
 constexpr std::uint32_t kValTile = 2048;
 static_assert(kValTile % cpu::kSumBlock == 0);
 
