@@ -27,6 +27,9 @@ target_link_libraries(lightskin_pcl INTERFACE ${PCL_COMMON_LIBRARIES} ${PCL_SEAR
 
 find_package(embree 3 REQUIRED)
 find_package(assimp REQUIRED)
+# CPU backend of the GI core (gi::CpuLightSkin): portable SIMD with runtime dispatch, threads.
+find_package(hwy REQUIRED)
+find_package(OpenMP REQUIRED COMPONENTS CXX)
 
 if(LIGHTSKIN_BUILD_TESTS)
   find_package(GTest REQUIRED)

@@ -215,4 +215,47 @@ glm::mat4 viewClip(int width, int height, int t, int n) {
     return projection * glm::lookAt(viewEye(t, n), viewTarget(), glm::vec3(0, 0, 1));
 }
 
+TriangleMesh grid(float size, int cells) {
+    TriangleMesh mesh;
+    for (int i = 0; i <= cells; ++i)
+        for (int j = 0; j <= cells; ++j) {
+            mesh.positions.emplace_back(size * (float(j) / float(cells) - 0.5f),
+                                        size * (float(i) / float(cells) - 0.5f), 0.0f);
+            mesh.normals.emplace_back(0.0f, 0.0f, 1.0f);
+        }
+    for (int i = 0; i < cells; ++i)
+        for (int j = 0; j < cells; ++j) {
+            const auto a = std::uint32_t(i * (cells + 1) + j), b = a + std::uint32_t(cells + 1);
+            mesh.indices.insert(mesh.indices.end(), {a, a + 1, b + 1, a, b + 1, b});
+        }
+    return mesh;
+}
+
+/// A width x height VAL map: half on a wall (x = -1.2, facing +x), half on the ceiling.
+std::vector<gi::VirtualAreaLight> valMap(int width, int height) {
+    std::vector<gi::VirtualAreaLight> vals;
+    vals.reserve(std::size_t(width) * std::size_t(height));
+    const float pi = std::numbers::pi_v<float>;
+    for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) {
+            const float u = (float(x) + 0.5f) / float(width), v = (float(y) + 0.5f) / float(height);
+            gi::VirtualAreaLight l;
+            const glm::vec3 colour(0.6f + 0.4f * std::sin(7.0f * u), 0.5f + 0.3f * std::cos(5.0f * v), 0.4f + 0.2f * u);
+            if (y < height / 2) {
+                const float vv = v * 2.0f;
+                l.position = {-1.2f, 2.4f * (u - 0.5f), 1.6f * vv};
+                l.normal = {1.0f, 0.0f, 0.0f};
+                l.area = (2.4f / float(width)) * (1.6f / float(height / 2));
+            } else {
+                const float vv = (v - 0.5f) * 2.0f;
+                l.position = {2.4f * (u - 0.5f), 2.4f * (vv - 0.5f), 1.8f};
+                l.normal = {0.0f, 0.0f, -1.0f};
+                l.area = (2.4f / float(width)) * (2.4f / float(height - height / 2));
+            }
+            l.flux = pi * 0.5f * colour * l.area;
+            vals.push_back(l);
+        }
+    return vals;
+}
+
 } // namespace lightskin::apps::bench

@@ -12,6 +12,7 @@
 #include <lightskin/core/Material.h>
 #include <lightskin/core/Pose.h>
 #include <lightskin/core/TriangleMesh.h>
+#include <lightskin/gi/VirtualAreaLight.h>
 
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
@@ -71,5 +72,12 @@ Material bunnyMaterial();
 glm::vec3 viewEye(int t = 0, int n = 1);
 glm::vec3 viewTarget();
 glm::mat4 viewClip(int width, int height, int t = 0, int n = 1);
+
+// ---- the GI gather benchmarks' scene (bench-gather, bench-cpu) ----
+/// A square of side `size` (metres) in the plane z = 0, normal +z, cells x cells quads.
+TriangleMesh grid(float size, int cells);
+/// A width x height VAL map like a depth camera's: half on a wall (x = -1.2, facing +x), half on
+/// the ceiling (z = 1.8, facing down), radiance 0.5 x a smooth colour pattern.
+std::vector<gi::VirtualAreaLight> valMap(int width, int height);
 
 } // namespace lightskin::apps::bench

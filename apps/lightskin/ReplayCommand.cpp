@@ -48,6 +48,7 @@ struct ReplayArgs {
     float staticTolerance = 0.0f;
     double budgetMs = 0.0; ///< --budget-ms (0: the scene's gi.budgetMs, if any)
     std::string staticTest = "probes";
+    std::string backend; ///< overrides the scene's gi.backend when set
     std::int64_t maxFrames = -1;
 };
 
@@ -215,6 +216,17 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     capture::FrameSource* source = session->source();
     const render::Scene& scene = session->scene();
     mr::FramePipeline* pipeline = &session->pipeline();
+    if (!args.backend.empty()) {
+        if (args.backend != "gl" && args.backend != "cpu")
+            throw Error("--backend", std::nullopt, "expected gl or cpu, got '" + args.backend + "'");
+        if (args.backend == "cpu" && scene.gi.technique != "lightskin")
+            throw Error("--backend", std::nullopt,
+                        "the CPU backend exists for technique lightskin only (" + scenePath.string() +
+                            " has gi.technique \"" + scene.gi.technique + "\")");
+        render::GiSettings gi = pipeline->giSettings();
+        gi.backend = args.backend;
+        pipeline->setGiSettings(gi);
+    }
     std::filesystem::create_directories(out / "frames"); // after the scene loaded: no outputs for a bad scene
     // Without a GI technique both halves of the comparison would be the same image.
     const bool compare = options.compare && pipeline->techniqueName() != "none";
@@ -229,7 +241,10 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     summary.recording = args.recording;
     summary.scene = scenePath.string();
     summary.renderer = rendererName;
-    summary.technique = pipeline->techniqueName() + (scene.gi.technique != pipeline->techniqueName() ? " (scene asked for " + scene.gi.technique + ", not available)" : "");
+    const std::string asked =
+        scene.gi.technique + (scene.gi.technique == "lightskin" && pipeline->giSettings().backend == "cpu" ? "-cpu" : "");
+    summary.technique = pipeline->techniqueName() +
+                        (asked != pipeline->techniqueName() ? " (scene asked for " + asked + ", not available)" : "");
     summary.poseMode = mr::toString(poseMode);
     summary.command = commandLine;
     summary.framesInSource = source->frameCount();
@@ -344,6 +359,9 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
         "--budget-ms", args->budgetMs,
         "Frame-time budget in ms (overrides the scene's gi.budgetMs): per frame pick technique, sparse points, VAL "
         "stride and channels that meet it (docs/PLUGIN.md); report.json lists the choice per frame");
+    command->add_option(
+        "--backend", args->backend,
+        "LightSkin's stages 0-4 on gl (default: the scene's gi.backend) or cpu (SIMD + threads; shading stays on GL)");
     command->add_flag("--adaptive", args->adaptive,
                       "LightSkin's adaptive mode: turn off what cannot change the image and reuse the VPLs for static content");
     command->add_option("--static-tolerance", args->staticTolerance,
@@ -351,8 +369,12 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
     command->add_option("--static-test", args->staticTest, "With --static-tolerance: probes (default; re-gather every 16th sparse point) or bound (guaranteed, keyed)");
     command->callback([args, &exitCode, command] {
         std::string line = "lightskin replay";
-        for (const auto& [name, value] : std::vector<std::pair<std::string, std::string>>{
-                 {"", args->recording}, {"--scene", args->scene}, {"--out", args->out}, {"--frames", args->frames}, {"--pose", args->pose}})
+        for (const auto& [name, value] : std::vector<std::pair<std::string, std::string>>{{"", args->recording},
+                                                                                          {"--scene", args->scene},
+                                                                                          {"--out", args->out},
+                                                                                          {"--frames", args->frames},
+                                                                                          {"--pose", args->pose},
+                                                                                          {"--backend", args->backend}})
             if (!value.empty()) line += (name.empty() ? " " : " " + name + " ") + value;
         (void)command;
         exitCode = runReplay(*args, line);

@@ -3,6 +3,9 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
 
+#include <glm/geometric.hpp>
+#include <glm/gtc/type_ptr.hpp>
+
 #include <algorithm>
 
 namespace lightskin::gi::detail {
@@ -61,6 +64,47 @@ std::vector<std::string> variantDefines(int kCache, bool glossy, bool occlusion)
     if (glossy) defines.emplace_back("GLOSSY");
     if (occlusion) defines.emplace_back("OCCLUSION");
     return defines;
+}
+
+bool convexForOcclusion(const SparsePointSet& set) {
+    const auto& points = set.points;
+    float extent = 0.0f;
+    for (const SparsePoint& p : points) extent = std::max(extent, glm::length(p.position - points.front().position));
+    const float tolerance = 1e-5f * extent;
+    for (const SparsePoint& a : points)
+        for (const SparsePoint& b : points)
+            if (glm::dot(a.normal, b.position - a.position) > tolerance) return false;
+    return true;
+}
+
+void shadeVertexVpls(const gl::Program& shade, std::uint32_t vertexVpls, std::span<const std::uint32_t> vertexOffsets,
+                     std::span<const MeshInstance> instances, const GBufferView& gbuffer, const ViewParameters& view,
+                     float positionTolerance, bool glossy, std::uint32_t targetTexture,
+                     const gl::Framebuffer& framebuffer) {
+    const float zeros[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+    glNamedFramebufferTexture(framebuffer.id(), GL_COLOR_ATTACHMENT0, targetTexture, 0);
+    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer.id());
+    glClearNamedFramebufferfv(framebuffer.id(), GL_COLOR, 0, zeros);
+    glViewport(0, 0, gbuffer.width, gbuffer.height);
+    shade.use();
+    glUniformMatrix4fv(shade.uniformLocation("uClipFromWorld"), 1, GL_FALSE, glm::value_ptr(view.clip_T_world));
+    glUniform3fv(shade.uniformLocation("uEye"), 1, glm::value_ptr(view.cameraPositionWorld));
+    glUniform1f(shade.uniformLocation("uPositionTolerance"), positionTolerance);
+    glUniform1i(shade.uniformLocation("uGlossy"), glossy ? 1 : 0);
+    glBindTextureUnit(0, gbuffer.worldPosition);
+    glBindTextureUnit(1, gbuffer.worldNormal);
+    glBindTextureUnit(2, gbuffer.diffuseAlbedo);
+    glBindTextureUnit(3, gbuffer.specular);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, vertexVpls);
+    for (std::size_t m = 0; m < instances.size(); ++m) {
+        glUniformMatrix4fv(shade.uniformLocation("uWorldFromModel"), 1, GL_FALSE,
+                           glm::value_ptr(instances[m].world_T_model));
+        glUniform1ui(shade.uniformLocation("uFirstVertex"), vertexOffsets[m]);
+        glBindVertexArray(instances[m].gpu.vertexArray);
+        glDrawElements(GL_TRIANGLES, GLsizei(instances[m].gpu.indexCount), GL_UNSIGNED_INT, nullptr);
+    }
+    glBindVertexArray(0);
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
 }
 
 } // namespace lightskin::gi::detail

@@ -74,19 +74,6 @@ struct InstanceKey {
     float specularExponent = 1.0f;
 };
 
-/// Convex with respect to the occluder model: no sparse point sees another above its horizon,
-/// so the occlusion pass would add exactly zero.
-bool convexForOcclusion(const SparsePointSet& set) {
-    const auto& points = set.points;
-    float extent = 0.0f;
-    for (const SparsePoint& p : points) extent = std::max(extent, glm::length(p.position - points.front().position));
-    const float tolerance = 1e-5f * extent;
-    for (const SparsePoint& a : points)
-        for (const SparsePoint& b : points)
-            if (glm::dot(a.normal, b.position - a.position) > tolerance) return false;
-    return true;
-}
-
 } // namespace
 
 struct LightSkinIllumination::Impl {
@@ -381,30 +368,8 @@ struct LightSkinIllumination::Impl {
     /// 5. Per-pixel shading (every frame, also when the VPLs are reused).
     void shadePixels(std::span<const MeshInstance> instances, const GBufferView& gbuffer, const ViewParameters& view,
                      std::uint32_t targetTexture) {
-        const float zeros[4] = {0.0f, 0.0f, 0.0f, 0.0f};
-        glNamedFramebufferTexture(shadeFramebuffer.id(), GL_COLOR_ATTACHMENT0, targetTexture, 0);
-        glBindFramebuffer(GL_FRAMEBUFFER, shadeFramebuffer.id());
-        glClearNamedFramebufferfv(shadeFramebuffer.id(), GL_COLOR, 0, zeros);
-        glViewport(0, 0, gbuffer.width, gbuffer.height);
-        shade.use();
-        glUniformMatrix4fv(shade.uniformLocation("uClipFromWorld"), 1, GL_FALSE, glm::value_ptr(view.clip_T_world));
-        glUniform3fv(shade.uniformLocation("uEye"), 1, glm::value_ptr(view.cameraPositionWorld));
-        glUniform1f(shade.uniformLocation("uPositionTolerance"), settings.shadingPositionTolerance);
-        glUniform1i(shade.uniformLocation("uGlossy"), choice.glossy ? 1 : 0);
-        glBindTextureUnit(0, gbuffer.worldPosition);
-        glBindTextureUnit(1, gbuffer.worldNormal);
-        glBindTextureUnit(2, gbuffer.diffuseAlbedo);
-        glBindTextureUnit(3, gbuffer.specular);
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, vertexVpls.id());
-        for (std::size_t m = 0; m < instances.size(); ++m) {
-            glUniformMatrix4fv(shade.uniformLocation("uWorldFromModel"), 1, GL_FALSE,
-                               glm::value_ptr(instances[m].world_T_model));
-            glUniform1ui(shade.uniformLocation("uFirstVertex"), vertexOffsets[m]);
-            glBindVertexArray(instances[m].gpu.vertexArray);
-            glDrawElements(GL_TRIANGLES, GLsizei(instances[m].gpu.indexCount), GL_UNSIGNED_INT, nullptr);
-        }
-        glBindVertexArray(0);
-        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        detail::shadeVertexVpls(shade, vertexVpls.id(), vertexOffsets, instances, gbuffer, view,
+                                settings.shadingPositionTolerance, choice.glossy, targetTexture, shadeFramebuffer);
     }
 
     /// Logs the adaptive choice when it changes (reuse toggles alone only at debug level in the
@@ -593,7 +558,7 @@ void LightSkinIllumination::prepare(std::span<const MeshInstance> instances) {
         impl.vertexOffsets.push_back(impl.vertexCount);
         impl.pointCount += std::uint32_t(set.points.size());
         impl.vertexCount += std::uint32_t(instance.mesh->vertexCount());
-        impl.convex.push_back(convexForOcclusion(set));
+        impl.convex.push_back(detail::convexForOcclusion(set));
         impl.lastInstances.emplace_back();
         impl.sparse.push_back(std::move(set));
     }

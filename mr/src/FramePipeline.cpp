@@ -1,22 +1,21 @@
-#include <lightskin/mr/FramePipeline.h>
-
 #include <lightskin/capture/DepthFilter.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
 #include <lightskin/eval/ColourSpace.h>
 #include <lightskin/gi/BruteForceIllumination.h>
+#include <lightskin/gi/CpuLightSkin.h>
 #include <lightskin/gi/LightSkinIllumination.h>
 #include <lightskin/gi/ValGenerator.h>
 #include <lightskin/gi/ValSetMerger.h>
 #include <lightskin/gl/DebugOutput.h>
+#include <lightskin/mr/FramePipeline.h>
 #include <lightskin/render/NullIndirectIllumination.h>
 #include <lightskin/tracking/TagWorld.h>
 
-#include <nlohmann/json.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <glm/common.hpp>
 #include <glm/exponential.hpp>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -100,6 +99,11 @@ std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettin
             LIGHTSKIN_ASSERT(points != nullptr, "lightskin::mr::createTechnique(): the renderer prepared no sparse points");
             return *points;
         };
+        if (settings.backend == "cpu") {
+            gi::CpuLightSkinSettings cpu;
+            cpu.lightSkin = s;
+            return gi::CpuLightSkin::create(cpu, provider);
+        }
         return gi::LightSkinIllumination::create(s, provider);
     }
     if (settings.technique == "brute-force") {
@@ -210,7 +214,9 @@ struct VplViewResult {
 /// The vpl view: per-vertex interpolated diffuse VPLs (layout: LightSkinIllumination.cpp, 4 vec4 per
 /// vertex: (L'''_d, rbar^2), (l'''_d world, 0), glossy...). Debug view only: the GPU->CPU readback
 /// of the per-vertex buffer stalls the pipeline every frame; no other view does this.
-VplViewResult drawVertexVpls(cv::Mat& image, const gi::LightSkinIllumination& technique, std::span<const gi::MeshInstance> instances,
+/// Technique: gi::LightSkinIllumination or gi::CpuLightSkin (the same readback and layout).
+template <class Technique>
+VplViewResult drawVertexVpls(cv::Mat& image, const Technique& technique, std::span<const gi::MeshInstance> instances,
                              const CameraIntrinsics& k, const Pose& world_T_camera, std::vector<glm::vec4>& vpls) {
     VplViewResult result;
     technique.readVertexVpls(vpls);
@@ -362,6 +368,11 @@ void FramePipeline::setGiSettings(const render::GiSettings& settings) {
         s.staticChangeTest = options_.staticProbes ? gi::StaticChangeTest::Probes : gi::StaticChangeTest::Bound;
         lightSkin->setSettings(s);
     }
+    if (auto* cpu = dynamic_cast<gi::CpuLightSkin*>(state_->technique.get()); cpu && options_.adaptive) {
+        gi::CpuLightSkinSettings s = cpu->settings();
+        s.lightSkin.adaptive = true; // channel choices only: the CPU backend has no static-content reuse
+        cpu->setSettings(s);
+    }
     state_->technique->prepare(renderer_->instances());
 }
 
@@ -500,6 +511,11 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
             const VplViewResult vpl = drawVertexVpls(out.withGi, *lightSkin, r.instances(), frame.colourIntrinsics, world_T_camera, s.vertexVpls);
             out.vplSegments = vpl.drawn;
             out.vplNonFinite = vpl.nonFinite;
+        } else if (const auto* cpu = dynamic_cast<const gi::CpuLightSkin*>(s.technique.get())) {
+            const VplViewResult vpl =
+                drawVertexVpls(out.withGi, *cpu, r.instances(), frame.colourIntrinsics, world_T_camera, s.vertexVpls);
+            out.vplSegments = vpl.drawn;
+            out.vplNonFinite = vpl.nonFinite;
         }
     }
     if (options_.overlay == Overlay::ErrorVsBruteForce && runGi) {
@@ -541,6 +557,18 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
         s.compositor.compositeInto(frame.colour, s.virtualColour, s.virtualDepth, realDepth, out.withoutGi);
     }
     addTime(out.cpuTimes, used, "shade+composite", msSince(t));
+    if (runGi && dynamic_cast<const gi::CpuLightSkin*>(s.technique.get())) {
+        // the CPU backend's stages 0-4 are CPU wall times (inside "gbuffer+gi"); its shading is GL
+        static constexpr std::pair<const char*, const char*> kCpuStages[] = {{"upload", "gi upload"},
+                                                                             {"gather", "gi gather"},
+                                                                             {"normalisation", "gi normalisation"},
+                                                                             {"occlusion", "gi occlusion"},
+                                                                             {"interpolation", "gi interpolation"}};
+        s.technique->lastStageTimes(s.scratchTimes);
+        for (const auto& [stage, label] : kCpuStages)
+            for (const gl::StageTime& st : s.scratchTimes)
+                if (st.name == stage) addTime(out.cpuTimes, used, label, st.milliseconds);
+    }
     out.cpuTimes.resize(used);
 
     r.lastStageTimes(out.gpuTimes);
@@ -550,7 +578,9 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     }
     if (runGi) {
         s.technique->lastStageTimes(s.scratchTimes);
-        out.gpuTimes.insert(out.gpuTimes.end(), s.scratchTimes.begin(), s.scratchTimes.end());
+        for (const gl::StageTime& st : s.scratchTimes)
+            if (!dynamic_cast<const gi::CpuLightSkin*>(s.technique.get()) || st.name == "shading")
+                out.gpuTimes.push_back(st);
     }
     out.totalMs = msSince(frameStart);
 }

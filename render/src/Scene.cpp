@@ -186,13 +186,20 @@ SceneLight readLight(const Reader& r, const json& value, const std::string& p) {
 GiSettings readGi(const Reader& r, const json& value, const std::string& p) {
     r.object(value, p);
     r.allowOnly(value, p,
-                {"technique", "sparsePoints", "valStride", "kCache", "diffuse", "glossy", "occlusion", "virtualBounce",
-                 "rsmResolution", "budgetMs"});
+                {"technique", "backend", "sparsePoints", "valStride", "kCache", "diffuse", "glossy", "occlusion",
+                 "virtualBounce", "rsmResolution", "budgetMs"});
     GiSettings g;
     if (value.contains("technique")) {
         g.technique = r.string(value["technique"], p + "/technique");
         if (g.technique != "lightskin" && g.technique != "brute-force" && g.technique != "none")
             r.fail(p + "/technique", "\"lightskin\", \"brute-force\" or \"none\"", &value["technique"]);
+    }
+    if (value.contains("backend")) {
+        g.backend = r.string(value["backend"], p + "/backend");
+        if (g.backend != "gl" && g.backend != "cpu") r.fail(p + "/backend", "\"gl\" or \"cpu\"", &value["backend"]);
+        if (g.backend == "cpu" && g.technique != "lightskin")
+            r.fail(p + "/backend", "\"gl\" (the CPU backend exists for technique \"lightskin\" only)",
+                   &value["backend"]);
     }
     if (value.contains("sparsePoints")) g.sparsePoints = r.integer(value["sparsePoints"], p + "/sparsePoints", 16, 65536);
     if (value.contains("valStride")) g.valStride = r.integer(value["valStride"], p + "/valStride", 1, 64);

@@ -78,6 +78,13 @@ TEST(Scene, TransformComposesTranslationRotationScale) {
     EXPECT_EQ(glm::vec3(q), glm::vec3(5, 6, 7)); // row-major in the file
 }
 
+TEST(Scene, GiBackendDefaultsToGlAndAcceptsCpu) {
+    EXPECT_EQ(parseScene(R"({"version": 1})", meshDir(), "t").gi.backend, "gl");
+    const Scene cpu = parseScene(R"({"version": 1, "gi": {"backend": "cpu"}})", meshDir(), "t");
+    EXPECT_EQ(cpu.gi.backend, "cpu");
+    EXPECT_EQ(cpu.gi.technique, "lightskin");
+}
+
 TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
     const std::string head = R"({"version": 1, )";
     struct Case {
@@ -93,10 +100,16 @@ TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
         {head + R"("objects": [{"mesh": "box_no_normals.obj", "materail": {}}]})", "/objects/0/materail: unknown key"},
         {head + R"("objects": [{"mesh": "box_no_normals.obj", "material": {"diffuseAlbedo": [1, 2, 0]}}]})",
          "/objects/0/material/diffuseAlbedo/1: expected a number in [0, 1]"},
-        {head + R"("lights": [{"type": "area", "position": [0, 0, 1]}]})", "/lights/0/type: expected \"point\" or \"spot\""},
+        {head + R"("lights": [{"type": "area", "position": [0, 0, 1]}]})",
+         "/lights/0/type: expected \"point\" or \"spot\""},
         {head + R"("lights": [{"type": "spot", "position": [0, 0, 1]}]})", "/lights/0/direction: expected a direction"},
-        {head + R"("lights": [{"type": "point", "position": [0, 0]}]})", "/lights/0/position: expected an array of 3 numbers"},
-        {head + R"("gi": {"technique": "magic"}})", "/gi/technique: expected \"lightskin\", \"brute-force\" or \"none\""},
+        {head + R"("lights": [{"type": "point", "position": [0, 0]}]})",
+         "/lights/0/position: expected an array of 3 numbers"},
+        {head + R"("gi": {"technique": "magic"}})",
+         "/gi/technique: expected \"lightskin\", \"brute-force\" or \"none\""},
+        {head + R"("gi": {"backend": "gpu"}})", "/gi/backend: expected \"gl\" or \"cpu\", got \"gpu\""},
+        {head + R"("gi": {"technique": "brute-force", "backend": "cpu"}})",
+         "/gi/backend: expected \"gl\" (the CPU backend exists for technique \"lightskin\" only)"},
         {head + R"("gi": {"kCache": 0}})", "/gi/kCache: expected an integer in [16, 4096]"},
         {head + R"("gi": {"kCache": 100}})", "/gi/kCache: expected a multiple of 16"},
         {head + R"("exposureStops": "bright"})", "/exposureStops: expected a number"},

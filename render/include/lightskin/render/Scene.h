@@ -50,6 +50,9 @@ struct SceneLight {
 
 struct GiSettings {
     std::string technique = "lightskin"; ///< "lightskin", "brute-force" or "none"
+    /// Where LightSkin's stages 0-4 run: "gl" (gi::LightSkinIllumination) or "cpu"
+    /// (gi::CpuLightSkin: SIMD + threads on the CPU; shading stays on GL). Only for "lightskin".
+    std::string backend = "gl";
     int sparsePoints = 4096;             ///< sparse scene points per mesh (paper: 4k or 16k)
     int valStride = 4;                   ///< one VAL per valStride x valStride depth pixels
     int kCache = 128;                    ///< the paper's K_cache (VALs per cache block)

@@ -1,0 +1,115 @@
+#pragma once
+// LightSkin (Lensing & Broll, sections 3-4) with stages 0-4 on the CPU (issue 18): for machines
+// without a GPU, where OpenGL runs on Mesa's llvmpipe and the fragment-pass gather reaches a
+// small fraction of the cores' FMA peak. Per frame:
+//   0. upload: the VAL set is read back from its GL buffer (48 B per VAL) into structure-of-arrays
+//      form; invalid VALs (area <= 0 or NaN, which add exactly 0) are dropped;
+//   1. gather (eq. 3-5, 7): SIMD across sparse points (one lane per point, Google Highway with
+//      runtime dispatch to the best instruction set of the CPU), VALs in tiles that stay in L2,
+//      summed per lane in list order in fixed blocks of 16 VALs like the GL path
+//      (gather_sum_block.glsl);
+//   2. renormalisation (eq. 8-11), 4. interpolation (eq. 12-13) and the occlusion targets:
+//      O(points + vertices) work, evaluated with the double-precision instance of
+//      gi/shaders/lightskin_math.glsl itself (the formulas and guards, e.g. kMinRenormCos, exist once);
+//   3. occlusion (section 3.3, eq. 14): SIMD across sparse points over all occluder discs;
+//   5. per-pixel shading: the per-vertex VPLs are written to the GL buffer the GL path's shading
+//      pass reads (gather_shade.*), which runs unchanged on the GL context.
+// Threads (OpenMP) split the sparse points (gather, occlusion) and vertices (interpolation); a
+// point's sums never depend on which thread computes it, so every result is bit-for-bit
+// independent of the thread count.
+//
+// Units and frames as LightSkinIllumination (see lightskin_math.glsl): world metres, VAL flux W,
+// output radiance W/(sr m^2). The float gather differs from the double reference by summation
+// and approximation rounding only (bounds in tests/gi/gather/CpuLightSkinGLTest.cpp).
+//
+// Settings: of LightSkinSettings this backend uses glossy, occlusion, cParameter, epsilonL,
+// shadingPositionTolerance and adaptive (glossy off without f_s, occlusion off for one convex
+// object; both exact). The GL-specific knobs (kCache, computeGather, occluderChunk, ...) and the
+// static-content reuse are ignored. Per-frame code does not allocate once the VAL capacity has
+// grown to the largest set seen.
+
+#include <lightskin/gi/IndirectIllumination.h>
+#include <lightskin/gi/LightSkinIllumination.h>
+#include <lightskin/gi/SparsePointSampler.h>
+#include <lightskin/gi/SparsePointSet.h>
+
+#include <glm/vec4.hpp>
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace lightskin::gi {
+
+struct CpuLightSkinSettings {
+    LightSkinSettings lightSkin; ///< the technique's switches (see the file comment for which apply)
+    /// Worker threads for stages 1-4; 0 = all hardware threads (OpenMP's default). Speed only:
+    /// the results do not depend on it.
+    int threads = 0;
+};
+
+/// Wall-clock times of the CPU stages of the last render() and what they did (for benchmarks).
+struct CpuLightSkinStats {
+    std::uint32_t vals = 0;     ///< valid VALs gathered
+    std::uint32_t points = 0;   ///< sparse points
+    std::uint32_t vertices = 0; ///< vertices interpolated
+    bool glossy = false, occlusion = false;
+    double uploadMs = 0.0, gatherMs = 0.0, normalisationMs = 0.0, occlusionMs = 0.0, interpolationMs = 0.0;
+    double shadingMs = 0.0; ///< CPU time to issue the GL shading pass (its GPU time: lastStageTimes())
+    /// Process CPU time (all threads) of the gather, the occlusion stage and stages 0-4 of
+    /// computeVpls(): under load from other processes wall time overstates the work, CPU time does not.
+    double gatherCpuMs = 0.0, occlusionCpuMs = 0.0, stagesCpuMs = 0.0;
+    std::string simdTarget; ///< the instruction set the runtime dispatch chose, e.g. "AVX3"
+};
+
+class CpuLightSkin final : public IndirectIllumination {
+public:
+    /// Needs a current GL 4.5 context (the shading pass). Throws lightskin::Error on bad settings.
+    static std::unique_ptr<CpuLightSkin> create(const CpuLightSkinSettings& settings, SparsePointProvider provider);
+    ~CpuLightSkin() override;
+
+    std::string_view name() const override { return "lightskin-cpu"; }
+    void prepare(std::span<const MeshInstance> instances) override;
+    void render(const ValSetView& lights, std::span<const MeshInstance> instances, const GBufferView& gbuffer,
+                const ViewParameters& view, std::uint32_t targetTexture) override;
+    /// upload, gather, normalisation, occlusion, interpolation: CPU wall clock; shading: GL timer.
+    void lastStageTimes(std::vector<gl::StageTime>& out) const override;
+
+    const CpuLightSkinSettings& settings() const noexcept;
+    void setSettings(const CpuLightSkinSettings& settings);
+    const CpuLightSkinStats& lastStats() const noexcept;
+
+    /// Stages 1-4 on VALs already on the CPU (no GL call): what render() does after reading the
+    /// VALs back and before writing the vertex VPLs to the GL buffer. For benchmarks and tests;
+    /// needs prepare() (which needs a GL context for the buffers it creates).
+    void computeVpls(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
+                     const glm::vec3& cameraPositionWorld);
+
+    /// The same readbacks, in the same layouts, as LightSkinIllumination's (see its header; cheap
+    /// here: the data are on the CPU).
+    void readGatherSums(std::vector<glm::vec4>& out) const; ///< 5 vec4 per point, eps_l terms included
+    void readSparseVpls(std::vector<glm::vec4>& out) const; ///< 4 vec4 per point (before occlusion)
+    void readOcclusion(std::vector<glm::vec4>& out) const;  ///< 1 vec4 per point: x = o_d, y = o_s (unclamped)
+    void readVertexVpls(std::vector<glm::vec4>& out) const; ///< 4 vec4 per vertex
+    const std::vector<std::uint32_t>& vertexOffsets() const noexcept;
+
+private:
+    CpuLightSkin();
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+/// The instruction set Highway's runtime dispatch selects on this CPU (e.g. "AVX3", "AVX2").
+std::string cpuSimdTarget();
+/// For benchmarks: this thread's FMA rate at the dispatched instruction set, GFLOP per CPU-second
+/// (12 independent FMA chains, 2 flops per FMA lane, as bench/PeakFlopsBenchmark.cpp), measured
+/// over about `milliseconds` of CPU time. Under load from other processes CPU time stays fair.
+double cpuFmaPeakGflops(double milliseconds = 50.0);
+/// The instruction sets this build has kernels for and this CPU supports, best first.
+std::vector<std::string> cpuSimdTargets();
+/// For benchmarks: makes the dispatch use only `name` (one of cpuSimdTargets(); "" = the best
+/// again). Process-wide, between frames. Throws lightskin::Error for a name not in the list.
+void setCpuSimdTarget(const std::string& name);
+
+} // namespace lightskin::gi

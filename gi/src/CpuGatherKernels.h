@@ -1,0 +1,92 @@
+#pragma once
+// The SIMD kernels of CpuLightSkin (CpuGatherKernels.cpp, compiled once per instruction set by
+// Google Highway and dispatched at run time). Data in structure-of-arrays form: one lane per
+// receiver (sparse point), VALs / occluders broadcast one at a time, so each receiver's sums
+// run over the VALs in list order whatever the thread or vector width.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace lightskin::gi::cpu {
+
+/// Receivers (and occluders) are padded to a multiple of this (the widest vector, AVX-512 floats),
+/// so every instruction set processes whole vectors.
+inline constexpr std::size_t kReceiverPadding = 16;
+/// VALs per summation block (as gather_sum_block.glsl's kSumBlock): each block is summed from
+/// zero, then added to the running sum. VAL arrays are padded to a multiple of it with zero-area
+/// VALs, which add exactly +0 to every sum (finite terms times r^2 = 0 and flux = 0).
+inline constexpr std::uint32_t kSumBlock = 16;
+/// Sums per receiver, in the GL path's five-vec4 layout (LightSkinIllumination.cpp):
+/// 0-3 (L'_d, sum r^2 w_d), 4-7 (sum (l-x) w_d, W_d), 8-11 (L'_s, sum r^2 w_s),
+/// 12-15 (sum (l-x) w_s, W_s), 16-19 (sum (l-x)^2 w_d per axis, sum |l-x|^2 w_s); eps_l not included.
+inline constexpr std::size_t kGatherSums = 20;
+
+/// Valid VALs, SoA, padded to a multiple of kSumBlock.
+struct ValArrays {
+    std::vector<float> px, py, pz; ///< position, world metres
+    std::vector<float> nx, ny, nz; ///< unit normal
+    std::vector<float> r2;         ///< r^2 = area / pi, m^2
+    std::vector<float> cr2;        ///< kCoincident r^2 (guard G1)
+    std::vector<float> fr, fg, fb; ///< flux / pi (M w = (flux / pi) g, eq. 3-4)
+    std::uint32_t count = 0;       ///< valid VALs
+    std::uint32_t padded = 0;      ///< count rounded up to kSumBlock
+    void reserve(std::size_t capacity);
+};
+
+/// Gather receivers, SoA, padded to kReceiverPadding (padding: finite dummies, results ignored).
+struct ReceiverArrays {
+    std::vector<float> px, py, pz, nx, ny, nz;
+    std::vector<float> ex, ey, ez; ///< unit vector to the eye
+    std::vector<float> nde;        ///< n . toEye (eq. 5's mirror cosine: 2 (n.l)(n.e) - l.e)
+    std::vector<float> k, ck;      ///< Phong exponent and c (k + 1)
+    std::size_t padded = 0;
+    void resize(std::size_t paddedCount);
+};
+
+struct GatherParameters {
+    bool glossy = true;
+    bool moments = true; ///< the occlusion stage needs the second moments
+};
+
+/// Adds VALs [valBegin, valEnd) (multiples of kSumBlock) to the running sums of receivers
+/// [receiverBegin, receiverEnd) (multiples of kReceiverPadding). sums[s * stride + i] is sum s of
+/// receiver i; must hold the running sums of VALs [0, valBegin) (zero for valBegin = 0).
+void gather(const ValArrays& vals, std::uint32_t valBegin, std::uint32_t valEnd, const ReceiverArrays& receivers,
+            std::size_t receiverBegin, std::size_t receiverEnd, const GatherParameters& parameters, float* sums,
+            std::size_t stride);
+
+/// Per receiver, its two occlusion targets (section 3.3) and frame, SoA, padded.
+struct OcclusionReceivers {
+    std::vector<float> px, py, pz, nx, ny, nz, tx, ty, tz, bx, by, bz;
+    // diffuse (D) and glossy (S) target: centre (eq. 14), half side, 1/area (0 when area <=
+    // kTinyArea: guard G7), distance |c - x|, 1 / max(radius, 1e-30)
+    std::vector<float> dcx, dcy, dhalf, dinvArea, ddist, dinvRadius;
+    std::vector<float> scx, scy, shalf, sinvArea, sdist, sinvRadius;
+    std::size_t padded = 0;
+    void resize(std::size_t paddedCount);
+};
+
+/// Occluder discs (every sparse point), SoA; count exact (not padded).
+struct Occluders {
+    std::vector<float> px, py, pz, nx, ny, nz, r2; ///< r2 = radius^2
+    std::size_t count = 0;
+    void resize(std::size_t n);
+};
+
+/// outD[i], outS[i] = sum over all occluders of the hidden fractions of receiver i's targets
+/// (unclamped), for receivers [receiverBegin, receiverEnd) (multiples of kReceiverPadding).
+void occlusion(const OcclusionReceivers& receivers, std::size_t receiverBegin, std::size_t receiverEnd,
+               const Occluders& occluders, bool glossy, float* outD, float* outS);
+
+/// Name of the instruction set the dispatch chose (e.g. "AVX3", "AVX2", "SSE4").
+std::string simdTargetName();
+/// `steps` x 12 independent vector FMA chains at the dispatched width; returns the flops done
+/// (2 per FMA lane), writes a lane of the result to *sink.
+double fmaChains(std::uint64_t steps, float* sink);
+/// Instruction sets compiled in and supported by this CPU, best first.
+std::vector<std::string> simdTargetNames();
+/// Limits the dispatch to one of simdTargetNames() ("" = all again); false for an unknown name.
+bool restrictSimdTarget(const std::string& name);
+
+} // namespace lightskin::gi::cpu

@@ -1,0 +1,579 @@
+// CpuLightSkin: LightSkin stages 0-4 on the CPU (see the header), stage 5 on GL. The loops and
+// bookkeeping are here; the SIMD kernels in CpuGatherKernels.cpp; every per-point formula is the
+// double instance of lightskin_math.glsl (reference/LightSkinMath.h).
+#include "CpuGatherKernels.h"
+#include "GatherShaders.h"
+#include "reference/LightSkinMath.h"
+
+#include <lightskin/core/Error.h>
+#include <lightskin/core/Log.h>
+#include <lightskin/gi/CpuLightSkin.h>
+#include <lightskin/gl/ShaderLibrary.h>
+
+#include <glm/geometric.hpp>
+#include <glm/mat3x3.hpp>
+#include <glm/matrix.hpp>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <omp.h>
+
+namespace lightskin::gi {
+
+namespace {
+
+namespace m = refmath;
+using Clock = std::chrono::steady_clock;
+
+double millisecondsSince(Clock::time_point start) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+double processCpuMs() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
+}
+
+std::size_t padReceivers(std::size_t n) {
+    return (n + cpu::kReceiverPadding - 1) / cpu::kReceiverPadding * cpu::kReceiverPadding;
+}
+
+/// VALs per gather tile: 2048 x 44 bytes of SoA = 90 KB, resident in L2 while a thread runs all
+/// its receiver groups over it (with the groups' running sums, 80 bytes per receiver); a block of
+/// 16 VALs (704 bytes) and one group's sums sit in L1.
+constexpr std::uint32_t kValTile = 2048;
+static_assert(kValTile % cpu::kSumBlock == 0);
+
+/// Runs body(begin, end) on `threads` OpenMP threads over [0, count) split into contiguous,
+/// kReceiverPadding-aligned ranges. The split only decides who computes a receiver, never how.
+template <class Body>
+void parallelRanges(int threads, std::size_t count, const Body& body) {
+    const std::size_t groups = count / cpu::kReceiverPadding;
+#pragma omp parallel num_threads(threads)
+    {
+        const std::size_t t = std::size_t(omp_get_thread_num());
+        const std::size_t n = std::size_t(omp_get_num_threads());
+        const std::size_t begin = groups * t / n * cpu::kReceiverPadding;
+        const std::size_t end = groups * (t + 1) / n * cpu::kReceiverPadding;
+        if (begin < end) body(begin, end);
+    }
+}
+
+} // namespace
+
+struct CpuLightSkin::Impl {
+    CpuLightSkinSettings settings;
+    SparsePointProvider provider;
+    gl::ShaderLibrary library{embeddedShaders()};
+    gl::Program shade;
+    gl::Framebuffer shadeFramebuffer;
+    gl::GpuStageTimer timer;
+    std::vector<gl::StageTime> stageTimes;
+    CpuLightSkinStats stats;
+
+    // Prepared data.
+    std::vector<SparsePointSet> sparse;
+    std::vector<std::uint32_t> sparseOffsets, vertexOffsets;
+    std::vector<bool> convex;
+    std::uint32_t pointCount = 0, vertexCount = 0;
+    std::vector<glm::dvec3> modelVertexPositions, modelVertexNormals;     // per global vertex, model space
+    std::vector<std::array<std::uint32_t, kVertexNeighbours>> neighbours; // global sparse-point indices
+    gl::Buffer vertexVplBuffer;
+
+    // Per-frame data, sized in prepare() (VALs: grown when a frame brings more).
+    std::vector<VirtualAreaLight> staging;
+    cpu::ValArrays vals;
+    double valSums[8] = {}; // sum l (3), sum r^2, sum l^2 per axis (3), count: eps_l terms of eq. 7
+    std::vector<glm::dvec3> pointPosition, pointNormal; // world, per sparse point
+    std::vector<double> pointExponent, pointOccluderRadius;
+    cpu::ReceiverArrays receivers;
+    std::vector<float> sums; // kGatherSums x padded receivers
+    std::vector<m::Vpl> vplD, vplS;
+    cpu::OcclusionReceivers occlusionReceivers;
+    cpu::Occluders occluders;
+    std::vector<float> occlusionD, occlusionS;
+    std::vector<glm::vec4> vertexVpls; // 4 vec4 per vertex, gather_vertex_vpl.glsl's layout
+    bool glossy = true, occlusion = true;
+    double readbackMs = 0.0; // render(): the VAL read-back, counted in the upload stage
+
+    int threadCount() const { return settings.threads > 0 ? settings.threads : omp_get_max_threads(); }
+
+    void reserveVals(std::size_t count) {
+        const std::size_t padded = (count + cpu::kSumBlock - 1) / cpu::kSumBlock * cpu::kSumBlock;
+        if (vals.px.size() >= padded && staging.size() >= count) return;
+        const std::size_t capacity = std::max<std::size_t>(padded, settings.lightSkin.valCapacity);
+        if (!vals.px.empty()) log::info("lightskin-cpu: VAL arrays grow to " + std::to_string(capacity) + " lights");
+        staging.resize(capacity);
+        vals.reserve(capacity);
+    }
+
+    /// Stage 0: the valid VALs into SoA (input order kept), the eps_l sums, padding to kSumBlock.
+    void buildValArrays(std::span<const VirtualAreaLight> lights) {
+        reserveVals(lights.size());
+        std::uint32_t n = 0;
+        std::fill(std::begin(valSums), std::end(valSums), 0.0);
+        const float coincident = float(m::kCoincident);
+        const float invPi = float(1.0 / m::kPi);
+        for (const VirtualAreaLight& l : lights) {
+            if (!(l.area > 0.0f)) continue; // invalid: adds exactly 0 (ls_gatherSample)
+            vals.px[n] = l.position.x;
+            vals.py[n] = l.position.y;
+            vals.pz[n] = l.position.z;
+            vals.nx[n] = l.normal.x;
+            vals.ny[n] = l.normal.y;
+            vals.nz[n] = l.normal.z;
+            const float r2 = l.area * invPi;
+            vals.r2[n] = r2;
+            vals.cr2[n] = coincident * r2;
+            vals.fr[n] = l.flux.x * invPi;
+            vals.fg[n] = l.flux.y * invPi;
+            vals.fb[n] = l.flux.z * invPi;
+            const glm::dvec3 p(l.position);
+            valSums[0] += p.x;
+            valSums[1] += p.y;
+            valSums[2] += p.z;
+            valSums[3] += double(l.area) / m::kPi;
+            valSums[4] += p.x * p.x;
+            valSums[5] += p.y * p.y;
+            valSums[6] += p.z * p.z;
+            valSums[7] += 1.0;
+            ++n;
+        }
+        vals.count = n;
+        vals.padded = (n + cpu::kSumBlock - 1) / cpu::kSumBlock * cpu::kSumBlock;
+        for (std::uint32_t j = n; j < vals.padded; ++j) // zero-area, zero-flux VALs at the origin: add +0
+            for (auto* v :
+                 {&vals.px, &vals.py, &vals.pz, &vals.nx, &vals.ny, &vals.r2, &vals.cr2, &vals.fr, &vals.fg, &vals.fb})
+                (*v)[j] = 0.0f;
+        for (std::uint32_t j = n; j < vals.padded; ++j) vals.nz[j] = 1.0f;
+    }
+
+    /// World-space sparse points (double, as reference::receiversFromSparsePoints) and the gather's SoA.
+    void placePoints(std::span<const MeshInstance> instances, const glm::dvec3& eye) {
+        std::size_t at = 0;
+        const double c = double(settings.lightSkin.cParameter);
+        for (std::size_t mesh = 0; mesh < instances.size(); ++mesh) {
+            const glm::dmat4 transform(instances[mesh].world_T_model);
+            const glm::dmat3 linear(transform);
+            const glm::dmat3 normalMatrix = glm::transpose(glm::inverse(linear));
+            const double scale = std::cbrt(std::abs(glm::determinant(linear)));
+            const double k = std::max(double(instances[mesh].material.specularExponent), 1.0);
+            for (const SparsePoint& p : sparse[mesh].points) {
+                const glm::dvec3 x(transform * glm::dvec4(glm::dvec3(p.position), 1.0));
+                const glm::dvec3 n = glm::normalize(normalMatrix * glm::dvec3(p.normal));
+                const glm::dvec3 e = m::ls_toEye(x, eye);
+                pointPosition[at] = x;
+                pointNormal[at] = n;
+                pointExponent[at] = k;
+                pointOccluderRadius[at] = double(p.occluderRadius) * scale;
+                receivers.px[at] = float(x.x);
+                receivers.py[at] = float(x.y);
+                receivers.pz[at] = float(x.z);
+                receivers.nx[at] = float(n.x);
+                receivers.ny[at] = float(n.y);
+                receivers.nz[at] = float(n.z);
+                receivers.ex[at] = float(e.x);
+                receivers.ey[at] = float(e.y);
+                receivers.ez[at] = float(e.z);
+                receivers.nde[at] = float(glm::dot(n, e));
+                receivers.k[at] = float(k);
+                receivers.ck[at] = float(c * (k + 1.0));
+                ++at;
+            }
+        }
+    }
+
+    /// Stage 1: the running sums of every receiver over all VALs, tile by tile.
+    void gather() {
+        std::fill(sums.begin(), sums.end(), 0.0f);
+        const cpu::GatherParameters parameters{glossy, occlusion};
+        const std::size_t stride = receivers.padded;
+        parallelRanges(threadCount(), receivers.padded, [&](std::size_t begin, std::size_t end) {
+            for (std::uint32_t first = 0; first < vals.padded; first += kValTile)
+                cpu::gather(vals, first, std::min(first + kValTile, vals.padded), receivers, begin, end, parameters,
+                            sums.data(), stride);
+        });
+    }
+
+    double sum(std::size_t s, std::size_t i) const { return double(sums[s * receivers.padded + i]); }
+
+    /// eq. 7's sums of point i with the folded eps_l terms (as gather_renormalise.frag adds them).
+    struct PointSums {
+        glm::dvec3 L{0.0}, offset{0.0}, moment{0.0}, Ls{0.0}, offsetS{0.0};
+        double W = 0.0, r2 = 0.0, Ws = 0.0, r2s = 0.0, momentS = 0.0;
+    };
+    PointSums pointSums(std::size_t i) const {
+        const double eps = double(settings.lightSkin.epsilonL);
+        const glm::dvec3 x = pointPosition[i];
+        const double n = valSums[7];
+        const glm::dvec3 sumL(valSums[0], valSums[1], valSums[2]), sumL2(valSums[4], valSums[5], valSums[6]);
+        const glm::dvec3 epsOffset = eps * (sumL - n * x);
+        const glm::dvec3 epsMoment =
+            occlusion ? eps * glm::max(sumL2 - 2.0 * x * sumL + n * x * x, glm::dvec3(0.0)) : glm::dvec3(0.0);
+        const double glossyEps = glossy ? 1.0 : 0.0;
+        PointSums p;
+        p.L = {sum(0, i), sum(1, i), sum(2, i)};
+        p.r2 = sum(3, i) + eps * valSums[3];
+        p.offset = glm::dvec3(sum(4, i), sum(5, i), sum(6, i)) + epsOffset;
+        p.W = sum(7, i) + eps * n;
+        p.Ls = {sum(8, i), sum(9, i), sum(10, i)};
+        p.r2s = sum(11, i) + glossyEps * eps * valSums[3];
+        p.offsetS = glm::dvec3(sum(12, i), sum(13, i), sum(14, i)) + glossyEps * epsOffset;
+        p.Ws = sum(15, i) + glossyEps * eps * n;
+        p.moment = glm::dvec3(sum(16, i), sum(17, i), sum(18, i)) + epsMoment;
+        p.momentS = sum(19, i) + glossyEps * (epsMoment.x + epsMoment.y + epsMoment.z);
+        return p;
+    }
+
+    /// Stage 2 (eq. 8-11) and the occlusion targets of stage 3, per point.
+    void renormalise(const glm::dvec3& eye) {
+        const std::int64_t n = std::int64_t(pointCount);
+        // ~0.1 us per point: threads pay off only for many points (a fork/join costs ~10 us idle,
+        // a scheduler time slice when the cores are oversubscribed)
+#pragma omp parallel for num_threads(threadCount()) schedule(static) if (n > 8192)
+        for (std::int64_t ii = 0; ii < n; ++ii) {
+            const std::size_t i = std::size_t(ii);
+            const PointSums p = pointSums(i);
+            const glm::dvec3 x = pointPosition[i], nx = pointNormal[i];
+            vplD[i] = m::ls_renormaliseDiffuse(p.L, p.offset, p.W, p.r2, p.moment, x, nx);
+            vplS[i] = m::ls_renormaliseGlossy(p.Ls, p.offsetS, p.Ws, p.r2s, p.momentS, x, nx, m::ls_toEye(x, eye),
+                                              pointExponent[i]);
+        }
+    }
+
+    /// Stage 3 (section 3.3, eq. 14): targets per point (double), the occluder sums (SIMD).
+    void occlude() {
+        cpu::OcclusionReceivers& r = occlusionReceivers;
+        for (std::size_t i = 0; i < pointCount; ++i) {
+            const glm::dvec3 x = pointPosition[i], n = pointNormal[i];
+            const glm::dvec3 t = m::ls_tangent(n), b = m::ls_binormal(n);
+            const m::OcclusionTarget td = m::ls_occlusionTarget(x, n, t, b, vplD[i].position, vplD[i].sphereRadius);
+            const m::OcclusionTarget ts = m::ls_occlusionTarget(x, n, t, b, vplS[i].position, vplS[i].sphereRadius);
+            r.px[i] = float(x.x), r.py[i] = float(x.y), r.pz[i] = float(x.z);
+            r.nx[i] = float(n.x), r.ny[i] = float(n.y), r.nz[i] = float(n.z);
+            r.tx[i] = float(t.x), r.ty[i] = float(t.y), r.tz[i] = float(t.z);
+            r.bx[i] = float(b.x), r.by[i] = float(b.y), r.bz[i] = float(b.z);
+            const auto setTarget = [&](const m::OcclusionTarget& o, float& cx, float& cy, float& half, float& invArea,
+                                       float& dist, float& invRadius) {
+                cx = float(o.centre.x);
+                cy = float(o.centre.y);
+                half = float(0.5 * o.side);
+                invArea = o.area > m::kTinyArea ? float(1.0 / o.area) : 0.0f; // G7
+                dist = float(o.distance);
+                invRadius = float(1.0 / std::max(o.radius, 1.0e-30));
+            };
+            setTarget(td, r.dcx[i], r.dcy[i], r.dhalf[i], r.dinvArea[i], r.ddist[i], r.dinvRadius[i]);
+            setTarget(ts, r.scx[i], r.scy[i], r.shalf[i], r.sinvArea[i], r.sdist[i], r.sinvRadius[i]);
+            occluders.px[i] = float(x.x), occluders.py[i] = float(x.y), occluders.pz[i] = float(x.z);
+            occluders.nx[i] = float(n.x), occluders.ny[i] = float(n.y), occluders.nz[i] = float(n.z);
+            const float radius = float(pointOccluderRadius[i]);
+            occluders.r2[i] = radius * radius;
+        }
+        parallelRanges(threadCount(), r.padded, [&](std::size_t begin, std::size_t end) {
+            cpu::occlusion(r, begin, end, occluders, glossy, occlusionD.data(), occlusionS.data());
+        });
+    }
+
+    /// Stage 4 (eq. 12-13) per vertex, with the occlusion attenuation L'' (1 - o).
+    void interpolate(std::span<const MeshInstance> instances) {
+        for (std::size_t mesh = 0; mesh < instances.size(); ++mesh) {
+            const glm::dmat4 transform(instances[mesh].world_T_model);
+            const glm::dmat3 normalMatrix = glm::transpose(glm::inverse(glm::dmat3(transform)));
+            const std::int64_t first = std::int64_t(vertexOffsets[mesh]);
+            const std::int64_t end = first + std::int64_t(instances[mesh].mesh->vertexCount());
+#pragma omp parallel for num_threads(threadCount()) schedule(static)
+            for (std::int64_t vv = first; vv < end; ++vv) {
+                const std::size_t v = std::size_t(vv);
+                const glm::dvec3 p(transform * glm::dvec4(modelVertexPositions[v], 1.0));
+                const glm::dvec3 nv = glm::normalize(normalMatrix * modelVertexNormals[v]);
+                double dist[kVertexNeighbours], cosN[kVertexNeighbours];
+                bool unique[kVertexNeighbours];
+                const auto& list = neighbours[v];
+                for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
+                    dist[j] = glm::length(p - pointPosition[list[j]]);
+                    cosN[j] = glm::dot(nv, pointNormal[list[j]]);
+                    unique[j] = j == 0 || list[j] != list[j - 1];
+                }
+                const m::VertexWeights weights = m::ls_vertexWeights(dist, cosN, unique);
+                glm::dvec4 diffuse(0.0), diffusePosition(0.0), glossyRadiance(0.0), glossyPosition(0.0);
+                for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
+                    const double w = weights.w[j];
+                    if (w == 0.0) continue;
+                    const std::uint32_t s = list[j];
+                    const double keepD = occlusion ? 1.0 - std::clamp(double(occlusionD[s]), 0.0, 1.0) : 1.0;
+                    const double keepS = occlusion ? 1.0 - std::clamp(double(occlusionS[s]), 0.0, 1.0) : 1.0;
+                    diffuse += w * glm::dvec4(vplD[s].radiance * keepD, vplD[s].r2);
+                    diffusePosition += w * glm::dvec4(vplD[s].position, 0.0);
+                    glossyRadiance += w * glm::dvec4(vplS[s].radiance * keepS, vplS[s].r2);
+                    glossyPosition += w * glm::dvec4(vplS[s].position, 0.0);
+                }
+                glm::vec4* out = &vertexVpls[4 * v];
+                out[0] = glm::vec4(diffuse);
+                out[1] = glm::vec4(diffusePosition);
+                out[2] = glm::vec4(glossyRadiance);
+                out[3] = glm::vec4(glossyPosition);
+            }
+        }
+    }
+
+    void chooseChannels(std::span<const MeshInstance> instances) {
+        const LightSkinSettings& s = settings.lightSkin;
+        glossy = s.glossy;
+        occlusion = s.occlusion;
+        if (!s.adaptive) return;
+        if (glossy && std::none_of(instances.begin(), instances.end(),
+                                   [](const MeshInstance& i) { return i.material.hasSpecular(); }))
+            glossy = false;
+        if (occlusion && instances.size() == 1 && convex[0]) occlusion = false;
+    }
+};
+
+CpuLightSkin::CpuLightSkin()
+    : impl_(std::make_unique<Impl>()) {}
+CpuLightSkin::~CpuLightSkin() = default;
+
+std::string cpuSimdTarget() { return cpu::simdTargetName(); }
+std::vector<std::string> cpuSimdTargets() { return cpu::simdTargetNames(); }
+double cpuFmaPeakGflops(double milliseconds) {
+    float sink = 0.0f;
+    double flops = 0.0;
+    const double start = processCpuMs();
+    double elapsed = 0.0;
+    while ((elapsed = processCpuMs() - start) < milliseconds) flops += cpu::fmaChains(100000, &sink);
+    return std::isfinite(sink) ? flops / (elapsed * 1e6) : 0.0;
+}
+void setCpuSimdTarget(const std::string& name) {
+    if (!cpu::restrictSimdTarget(name))
+        throw Error("SIMD target", std::nullopt, "'" + name + "' is not one this build and CPU support");
+}
+
+std::unique_ptr<CpuLightSkin> CpuLightSkin::create(const CpuLightSkinSettings& settings, SparsePointProvider provider) {
+    LIGHTSKIN_ASSERT(bool(provider), "lightskin::gi::CpuLightSkin::create(): a sparse point provider is required");
+    if (settings.threads < 0)
+        throw Error("CpuLightSkinSettings.threads", std::nullopt,
+                    "must be >= 0 (0 = all hardware threads), got " + std::to_string(settings.threads));
+    std::unique_ptr<CpuLightSkin> technique(new CpuLightSkin());
+    Impl& impl = *technique->impl_;
+    impl.settings = settings;
+    impl.provider = std::move(provider);
+    impl.shade =
+        impl.library.buildProgram({{GL_VERTEX_SHADER, "gather_shade.vert"}, {GL_FRAGMENT_SHADER, "gather_shade.frag"}});
+    impl.shadeFramebuffer = gl::Framebuffer::create();
+    impl.timer = gl::GpuStageTimer::create(2);
+    impl.stats.simdTarget = cpu::simdTargetName();
+    impl.reserveVals(settings.lightSkin.valCapacity);
+    return technique;
+}
+
+const CpuLightSkinSettings& CpuLightSkin::settings() const noexcept { return impl_->settings; }
+void CpuLightSkin::setSettings(const CpuLightSkinSettings& settings) {
+    if (settings.threads < 0)
+        throw Error("CpuLightSkinSettings.threads", std::nullopt,
+                    "must be >= 0, got " + std::to_string(settings.threads));
+    impl_->settings = settings;
+}
+const CpuLightSkinStats& CpuLightSkin::lastStats() const noexcept { return impl_->stats; }
+const std::vector<std::uint32_t>& CpuLightSkin::vertexOffsets() const noexcept { return impl_->vertexOffsets; }
+
+void CpuLightSkin::prepare(std::span<const MeshInstance> instances) {
+    Impl& impl = *impl_;
+    impl.sparse.clear();
+    impl.sparseOffsets.clear();
+    impl.vertexOffsets.clear();
+    impl.convex.clear();
+    impl.modelVertexPositions.clear();
+    impl.modelVertexNormals.clear();
+    impl.neighbours.clear();
+    impl.pointCount = 0;
+    impl.vertexCount = 0;
+    for (const MeshInstance& instance : instances) {
+        LIGHTSKIN_ASSERT(instance.mesh != nullptr, "lightskin::gi::CpuLightSkin::prepare(): instance without mesh");
+        SparsePointSet set = impl.provider(instance);
+        const std::string source = "mesh " + std::to_string(instance.meshId);
+        if (set.points.empty()) throw Error(source, std::nullopt, "the sparse point provider returned no points");
+        if (set.vertexNeighbours.size() != instance.mesh->vertexCount())
+            throw Error(source, std::nullopt,
+                        "sparse point set has " + std::to_string(set.vertexNeighbours.size()) +
+                            " neighbour lists for " + std::to_string(instance.mesh->vertexCount()) + " vertices");
+        for (const auto& list : set.vertexNeighbours)
+            for (std::uint32_t index : list)
+                if (index >= set.points.size()) throw Error(source, std::nullopt, "neighbour index out of range");
+        impl.sparseOffsets.push_back(impl.pointCount);
+        impl.vertexOffsets.push_back(impl.vertexCount);
+        const TriangleMesh& mesh = *instance.mesh;
+        for (std::size_t v = 0; v < mesh.vertexCount(); ++v) {
+            impl.modelVertexPositions.emplace_back(mesh.positions[v]);
+            impl.modelVertexNormals.emplace_back(mesh.normals[v]);
+            auto list = set.vertexNeighbours[v];
+            for (auto& index : list) index += impl.pointCount;
+            impl.neighbours.push_back(list);
+        }
+        impl.pointCount += std::uint32_t(set.points.size());
+        impl.vertexCount += std::uint32_t(mesh.vertexCount());
+        impl.convex.push_back(detail::convexForOcclusion(set));
+        impl.sparse.push_back(std::move(set));
+    }
+    LIGHTSKIN_ASSERT(impl.pointCount > 0, "lightskin::gi::CpuLightSkin::prepare(): no instances");
+    const std::size_t padded = padReceivers(impl.pointCount);
+    impl.pointPosition.assign(impl.pointCount, glm::dvec3(0.0));
+    impl.pointNormal.assign(impl.pointCount, glm::dvec3(0.0, 0.0, 1.0));
+    impl.pointExponent.assign(impl.pointCount, 1.0);
+    impl.pointOccluderRadius.assign(impl.pointCount, 0.0);
+    impl.receivers.resize(padded);
+    impl.sums.assign(cpu::kGatherSums * padded, 0.0f);
+    impl.vplD.assign(impl.pointCount, m::Vpl{});
+    impl.vplS.assign(impl.pointCount, m::Vpl{});
+    impl.occlusionReceivers.resize(padded);
+    impl.occluders.resize(impl.pointCount);
+    impl.occlusionD.assign(padded, 0.0f);
+    impl.occlusionS.assign(padded, 0.0f);
+    impl.vertexVpls.assign(std::size_t(impl.vertexCount) * 4, glm::vec4(0.0f));
+    impl.vertexVplBuffer = gl::Buffer::create(GLsizeiptr(std::max<std::uint32_t>(impl.vertexCount, 1)) * 64, nullptr,
+                                              GL_DYNAMIC_STORAGE_BIT);
+    log::info("lightskin-cpu: prepared " + std::to_string(instances.size()) + " instance(s), " +
+              std::to_string(impl.pointCount) + " sparse points, " + std::to_string(impl.vertexCount) + " vertices, " +
+              impl.stats.simdTarget + ", " + std::to_string(impl.threadCount()) + " thread(s)");
+}
+
+void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
+                               const glm::vec3& cameraPositionWorld) {
+    Impl& impl = *impl_;
+    LIGHTSKIN_ASSERT(instances.size() == impl.sparse.size(),
+                     "lightskin::gi::CpuLightSkin::computeVpls(): instances differ from prepare()");
+    for (std::size_t i = 0; i < instances.size(); ++i)
+        LIGHTSKIN_ASSERT(instances[i].mesh != nullptr &&
+                             instances[i].mesh->vertexCount() == impl.sparse[i].vertexNeighbours.size(),
+                         "lightskin::gi::CpuLightSkin::computeVpls(): instance mesh differs from prepare()");
+    CpuLightSkinStats& stats = impl.stats;
+    impl.chooseChannels(instances);
+    const glm::dvec3 eye(cameraPositionWorld);
+
+    const double cpuStart = processCpuMs();
+    auto start = Clock::now();
+    impl.buildValArrays(lights);
+    impl.placePoints(instances, eye);
+    stats.uploadMs = impl.readbackMs + millisecondsSince(start);
+    impl.readbackMs = 0.0;
+
+    start = Clock::now();
+    double cpu = processCpuMs();
+    impl.gather();
+    stats.gatherMs = millisecondsSince(start);
+    stats.gatherCpuMs = processCpuMs() - cpu;
+
+    start = Clock::now();
+    impl.renormalise(eye);
+    stats.normalisationMs = millisecondsSince(start);
+
+    start = Clock::now();
+    cpu = processCpuMs();
+    if (impl.occlusion)
+        impl.occlude();
+    else {
+        std::fill(impl.occlusionD.begin(), impl.occlusionD.end(), 0.0f);
+        std::fill(impl.occlusionS.begin(), impl.occlusionS.end(), 0.0f);
+    }
+    stats.occlusionMs = millisecondsSince(start);
+    stats.occlusionCpuMs = processCpuMs() - cpu;
+
+    start = Clock::now();
+    impl.interpolate(instances);
+    stats.interpolationMs = millisecondsSince(start);
+    stats.stagesCpuMs = processCpuMs() - cpuStart;
+
+    stats.vals = impl.vals.count;
+    stats.points = impl.pointCount;
+    stats.vertices = impl.vertexCount;
+    stats.glossy = impl.glossy;
+    stats.occlusion = impl.occlusion;
+}
+
+void CpuLightSkin::render(const ValSetView& lights, std::span<const MeshInstance> instances, const GBufferView& gbuffer,
+                          const ViewParameters& view, std::uint32_t targetTexture) {
+    Impl& impl = *impl_;
+    const auto start = Clock::now();
+    impl.reserveVals(lights.count);
+    if (lights.count > 0)
+        glGetNamedBufferSubData(lights.buffer, 0, GLsizeiptr(lights.count) * GLsizeiptr(sizeof(VirtualAreaLight)),
+                                impl.staging.data());
+    impl.readbackMs = millisecondsSince(start);
+    computeVpls(std::span<const VirtualAreaLight>(impl.staging.data(), lights.count), instances,
+                view.cameraPositionWorld);
+
+    const auto uploadStart = Clock::now();
+    if (impl.vertexCount > 0)
+        glNamedBufferSubData(impl.vertexVplBuffer.id(), 0, GLsizeiptr(impl.vertexVpls.size() * sizeof(glm::vec4)),
+                             impl.vertexVpls.data());
+    impl.stats.interpolationMs += millisecondsSince(uploadStart);
+
+    const auto shadeStart = Clock::now();
+    glDisable(GL_DEPTH_TEST);
+    glDisable(GL_CULL_FACE);
+    glDisable(GL_SCISSOR_TEST);
+    glDisable(GL_BLEND);
+    impl.timer.beginFrame();
+    impl.timer.begin("shading");
+    detail::shadeVertexVpls(impl.shade, impl.vertexVplBuffer.id(), impl.vertexOffsets, instances, gbuffer, view,
+                            impl.settings.lightSkin.shadingPositionTolerance, impl.glossy, targetTexture,
+                            impl.shadeFramebuffer);
+    impl.timer.end();
+    impl.stats.shadingMs = millisecondsSince(shadeStart);
+    impl.timer.collect(impl.stageTimes);
+}
+
+void CpuLightSkin::lastStageTimes(std::vector<gl::StageTime>& out) const {
+    const CpuLightSkinStats& s = impl_->stats;
+    out.resize(5);
+    const std::pair<const char*, double> cpuStages[5] = {{"upload", s.uploadMs},
+                                                         {"gather", s.gatherMs},
+                                                         {"normalisation", s.normalisationMs},
+                                                         {"occlusion", s.occlusionMs},
+                                                         {"interpolation", s.interpolationMs}};
+    for (std::size_t i = 0; i < 5; ++i) {
+        out[i].name = cpuStages[i].first;
+        out[i].milliseconds = cpuStages[i].second;
+    }
+    for (const gl::StageTime& t : impl_->stageTimes) out.push_back(t);
+}
+
+void CpuLightSkin::readGatherSums(std::vector<glm::vec4>& out) const {
+    const Impl& impl = *impl_;
+    out.assign(std::size_t(impl.pointCount) * 5, glm::vec4(0.0f));
+    for (std::size_t i = 0; i < impl.pointCount; ++i) {
+        const Impl::PointSums p = impl.pointSums(i);
+        glm::vec4* g = &out[5 * i];
+        g[0] = glm::vec4(glm::dvec4(p.L, p.r2));
+        g[1] = glm::vec4(glm::dvec4(p.offset, p.W));
+        g[2] = glm::vec4(glm::dvec4(p.Ls, p.r2s));
+        g[3] = glm::vec4(glm::dvec4(p.offsetS, p.Ws));
+        g[4] = glm::vec4(glm::dvec4(p.moment, impl.glossy ? p.momentS : 0.0));
+    }
+}
+
+void CpuLightSkin::readSparseVpls(std::vector<glm::vec4>& out) const {
+    const Impl& impl = *impl_;
+    out.assign(std::size_t(impl.pointCount) * 4, glm::vec4(0.0f));
+    for (std::size_t i = 0; i < impl.pointCount; ++i) {
+        const m::Vpl& d = impl.vplD[i];
+        const m::Vpl& s = impl.vplS[i];
+        out[4 * i + 0] = glm::vec4(glm::dvec4(d.radiance, d.r2));
+        out[4 * i + 1] = glm::vec4(glm::dvec4(d.position, d.sphereRadius));
+        out[4 * i + 2] = glm::vec4(glm::dvec4(s.radiance, s.r2));
+        out[4 * i + 3] = glm::vec4(glm::dvec4(s.position, s.sphereRadius));
+    }
+}
+
+void CpuLightSkin::readOcclusion(std::vector<glm::vec4>& out) const {
+    const Impl& impl = *impl_;
+    out.assign(impl.pointCount, glm::vec4(0.0f));
+    for (std::size_t i = 0; i < impl.pointCount; ++i)
+        out[i] = glm::vec4(impl.occlusionD[i], impl.occlusionS[i], 0.0f, 0.0f);
+}
+
+void CpuLightSkin::readVertexVpls(std::vector<glm::vec4>& out) const { out = impl_->vertexVpls; }
+
+} // namespace lightskin::gi

@@ -1,0 +1,274 @@
+// gi::CpuLightSkin (issue 18) against the double reference and the GL path, stage by stage, on
+// the GL tests' scenes (the paper's three setups, the numerical extremes); bit-for-bit
+// independence of the thread count; the empty VAL set.
+//
+// Tolerances against the reference: those of LightSkinGLTest.cpp (derivation at its top), which
+// the CPU backend meets for the same reasons: its gather sums the same float terms in the same
+// fixed 16-VAL blocks (CpuGatherKernels.h); per term it adds the error of the reciprocal square
+// root after one Newton step (~1e-7 relative, below float's 6e-8 x a few operations already in
+// the budget) and of Highway's log/exp (a few ulp of cos^k, i.e. the 2.4e-7 k term of the glossy
+// budget). Renormalisation, occlusion targets and interpolation run in double from the float
+// sums, so they only propagate the gather's error (GL rounds them in float on top).
+// Against the GL path: both are within tolerance t of the same reference, so |cpu - gl| <= 2 t
+// (the tolerances below are the reference ones doubled).
+#include "GatherTestScenes.h"
+#include "GlTestEnvironment.h"
+#include "GpuRig.h"
+#include "LightSkinComparison.h"
+
+#include <lightskin/core/Error.h>
+#include <lightskin/gi/CpuLightSkin.h>
+#include <lightskin/gi/LightSkinIllumination.h>
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+namespace lightskin::test {
+namespace {
+
+GpuRun runCpu(Scene& scene, const gi::LightSkinSettings& settings, int threads = 0) {
+    scene.upload();
+    gi::CpuLightSkinSettings cpuSettings;
+    cpuSettings.lightSkin = settings;
+    cpuSettings.threads = threads;
+    auto technique = gi::CpuLightSkin::create(cpuSettings, scene.provider());
+    technique->prepare(scene.instances);
+    return renderAndRead(scene, *technique);
+}
+
+GpuRun runGl(Scene& scene, const gi::LightSkinSettings& settings) {
+    scene.upload();
+    auto technique = gi::LightSkinIllumination::create(settings, scene.provider());
+    technique->prepare(scene.instances);
+    return renderAndRead(scene, *technique);
+}
+
+double maxExponent(const Scene& scene) {
+    double k = 1.0;
+    for (const gi::MeshInstance& i : scene.instances) k = std::max(k, double(i.material.specularExponent));
+    return k;
+}
+
+/// CPU against GL with twice compareStages' / comparePixels' tolerances (see the file comment).
+void compareBackends(const GpuRun& cpu, const GpuRun& gl, const PaperSetup& setup, double exponent, double pixelRel) {
+    ASSERT_EQ(cpu.gather.size(), gl.gather.size());
+    ASSERT_EQ(cpu.vertex.size(), gl.vertex.size());
+    ASSERT_EQ(cpu.image.size(), gl.image.size());
+    const double glossyRel = 2.0 * (2e-4 + 2.4e-7 * exponent);
+    Comparison irradiance("CPU vs GL: L'_d", 4e-4, 2e-4), glossy("CPU vs GL: L'_s", glossyRel, 2e-4),
+        weights("CPU vs GL: W and sum r^2 w", glossyRel, 2e-4), offsets("CPU vs GL: sum (l - x) w", glossyRel, 2e-4),
+        moments("CPU vs GL: moments", 4e-4, 2e-4);
+    for (std::size_t i = 0; i < cpu.gather.size(); i += 5) {
+        const glm::vec4* c = &cpu.gather[i];
+        const glm::vec4* g = &gl.gather[i];
+        for (int ch = 0; ch < 3; ++ch) {
+            irradiance.add(c[0][ch], g[0][ch]);
+            offsets.add(c[1][ch], g[1][ch]);
+            glossy.add(c[2][ch], g[2][ch]);
+            offsets.add(c[3][ch], g[3][ch]);
+            if (setup.occlusion) moments.add(c[4][ch], g[4][ch]);
+        }
+        for (int slot : {0, 1, 2, 3}) weights.add(c[slot].w, g[slot].w);
+        if (setup.occlusion && setup.glossy) moments.add(c[4].w, g[4].w);
+    }
+    irradiance.check();
+    glossy.check();
+    weights.check();
+    offsets.check();
+    moments.check();
+    Comparison vplRadiance("CPU vs GL: L''", 2.0 * (2e-3 + 2.4e-7 * exponent), 2e-4);
+    for (std::size_t i = 0; i < cpu.vpls.size(); i += 4)
+        for (int ch = 0; ch < 3; ++ch) {
+            vplRadiance.add(cpu.vpls[i][ch], gl.vpls[i][ch]);
+            vplRadiance.add(cpu.vpls[i + 2][ch], gl.vpls[i + 2][ch]);
+        }
+    vplRadiance.check();
+    if (setup.occlusion) {
+        // each within 2e-3 (absolute, o clamped to [0, 1]) of the reference
+        double worst = 0.0;
+        for (std::size_t i = 0; i < cpu.occlusion.size(); ++i)
+            for (int ch = 0; ch < (setup.glossy ? 2 : 1); ++ch)
+                worst = std::max(worst, std::abs(std::clamp(double(cpu.occlusion[i][ch]), 0.0, 1.0) -
+                                                 std::clamp(double(gl.occlusion[i][ch]), 0.0, 1.0)));
+        EXPECT_LE(worst, 4e-3) << "CPU vs GL: occlusion amounts";
+    }
+    Comparison vertex("CPU vs GL: vertex VPL radiance", 2.0 * (3e-3 + 2.4e-7 * exponent), 2e-4);
+    for (std::size_t v = 0; v < cpu.vertex.size(); v += 4)
+        for (int ch = 0; ch < 3; ++ch) {
+            vertex.add(cpu.vertex[v][ch], gl.vertex[v][ch]);
+            vertex.add(cpu.vertex[v + 2][ch], gl.vertex[v + 2][ch]);
+        }
+    vertex.check();
+    // same G-buffer and shading pass: pixels differ only through the vertex VPLs
+    Comparison pixels("CPU vs GL: pixel radiance", 2.0 * pixelRel, 2e-3);
+    for (std::size_t i = 0; i < cpu.image.size(); ++i) {
+        if (gl.gbufferPosition[i].w == 0.0f) {
+            EXPECT_EQ(cpu.image[i], glm::vec4(0.0f)) << "uncovered pixels must be 0";
+            continue;
+        }
+        for (int ch = 0; ch < 3; ++ch) pixels.add(cpu.image[i][ch], gl.image[i][ch]);
+    }
+    pixels.check();
+}
+
+// ---- the paper's setups ---------------------------------------------------------------------
+class CpuLightSkinSetupGLTest : public GlTest, public ::testing::WithParamInterface<PaperSetup> {};
+
+TEST_P(CpuLightSkinSetupGLTest, EveryStageMatchesTheDoubleReference) {
+    const PaperSetup setup = GetParam();
+    Scene scene = sphereOverFloor();
+    gi::LightSkinSettings settings;
+    settings.glossy = setup.glossy;
+    settings.occlusion = setup.occlusion;
+    const GpuRun cpu = runCpu(scene, settings);
+    const ReferenceRun r = runReference(scene, setup);
+    compareStages(cpu, r, setup);
+    comparePixels(cpu, r, scene, setup.glossy, 3e-3);
+    if (setup.occlusion) {
+        double maxOcclusion = 0.0;
+        for (const auto& o : r.occlusion) maxOcclusion = std::max(maxOcclusion, o.x);
+        EXPECT_GT(maxOcclusion, 0.05) << "the scene must exercise occlusion (floor under the sphere)";
+    }
+}
+
+TEST_P(CpuLightSkinSetupGLTest, MatchesTheGlPath) {
+    const PaperSetup setup = GetParam();
+    Scene scene = sphereOverFloor();
+    gi::LightSkinSettings settings;
+    settings.glossy = setup.glossy;
+    settings.occlusion = setup.occlusion;
+    const GpuRun cpu = runCpu(scene, settings);
+    const GpuRun gl = runGl(scene, settings);
+    compareBackends(cpu, gl, setup, maxExponent(scene), 3e-3);
+}
+
+// The runtime dispatch: every instruction set this CPU supports (AVX-512, AVX2, SSE4, ... down to
+// scalar) meets the same reference tolerances, so machines without AVX-512 get correct results.
+TEST_P(CpuLightSkinSetupGLTest, EveryInstructionSetMatchesTheDoubleReference) {
+    const PaperSetup setup = GetParam();
+    Scene scene = sphereOverFloor();
+    gi::LightSkinSettings settings;
+    settings.glossy = setup.glossy;
+    settings.occlusion = setup.occlusion;
+    const ReferenceRun r = runReference(scene, setup);
+    const std::vector<std::string> targets = gi::cpuSimdTargets();
+    ASSERT_FALSE(targets.empty());
+    for (const std::string& target : targets) {
+        SCOPED_TRACE("instruction set " + target);
+        gi::setCpuSimdTarget(target);
+        EXPECT_EQ(gi::cpuSimdTarget(), target);
+        const GpuRun cpu = runCpu(scene, settings);
+        compareStages(cpu, r, setup);
+    }
+    gi::setCpuSimdTarget("");
+    EXPECT_EQ(gi::cpuSimdTarget(), targets.front());
+    EXPECT_THROW(gi::setCpuSimdTarget("NO_SUCH_TARGET"), Error);
+}
+
+INSTANTIATE_TEST_SUITE_P(PaperSetups, CpuLightSkinSetupGLTest,
+                         ::testing::Values(PaperSetup{"diffuse", false, false}, PaperSetup{"glossy", true, false},
+                                           PaperSetup{"occlusion", true, true}),
+                         [](const auto& param_info) { return std::string(param_info.param.name); });
+
+// ---- numerical extremes (the GL path's suite) --------------------------------------------------
+class CpuLightSkinExtremeGLTest : public GlTest, public ::testing::WithParamInterface<GpuExtreme> {};
+
+TEST_P(CpuLightSkinExtremeGLTest, FiniteNonNegativeBoundedAndAgreesWithTheReference) {
+    const GpuExtreme& c = GetParam();
+    Scene scene;
+    scene.sceneScale = c.scale;
+    Material material;
+    material.specularAlbedo = {0.5f, 0.5f, 0.5f};
+    material.specularExponent = c.exponent;
+    scene.add(makeGrid(2.0f * c.scale, 4), glm::mat4(1.0f), material, 25);
+    scene.vals = c.vals(c.scale);
+    scene.eye = glm::vec3(0.3f, -0.4f, 2.0f) * c.scale;
+    scene.target = glm::vec3(0.0f);
+    const PaperSetup setup{"glossy", true, false};
+    gi::LightSkinSettings settings;
+    settings.occlusion = false;
+    const GpuRun cpu = runCpu(scene, settings);
+    const ReferenceRun r = runReference(scene, setup);
+    double bound = 0.0; // sum of exitances bounds the irradiance
+    for (const auto& l : scene.vals) bound += double(std::max({l.flux.x, l.flux.y, l.flux.z})) / double(l.area);
+    for (std::size_t i = 0; i < r.receivers.size(); ++i)
+        for (int ch = 0; ch < 3; ++ch) {
+            const float e = cpu.gather[5 * i][ch];
+            ASSERT_TRUE(std::isfinite(e) && std::isfinite(cpu.gather[5 * i + 2][ch]));
+            EXPECT_GE(e, 0.0f);
+            EXPECT_GE(cpu.gather[5 * i + 2][ch], 0.0f);
+            EXPECT_LE(double(e), bound * 1.0001 + 1e-30);
+        }
+    for (const glm::vec4& p : cpu.image)
+        for (int ch = 0; ch < 3; ++ch) {
+            ASSERT_TRUE(std::isfinite(p[ch]));
+            EXPECT_GE(p[ch], 0.0f);
+        }
+    compareStages(cpu, r, setup);
+    comparePixels(cpu, r, scene, true, 5e-3);
+    if (scene.vals.empty() || std::string(c.name) == "below_horizon" || std::string(c.name) == "back_facing") {
+        for (const glm::vec4& p : cpu.image) EXPECT_EQ(p, glm::vec4(0.0f)) << "no light must give exactly 0";
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Extremes, CpuLightSkinExtremeGLTest, ::testing::ValuesIn(gpuExtremes()), extremeName);
+
+// ---- thread count, empty set, settings -------------------------------------------------------
+using CpuLightSkinGLTest = GlTest;
+
+template <class T>
+bool bitwiseEqual(const std::vector<T>& a, const std::vector<T>& b) {
+    return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
+}
+
+TEST_F(CpuLightSkinGLTest, ResultsAreBitwiseIndependentOfTheThreadCount) {
+    Scene scene = sphereOverFloor();
+    // more VALs than one gather tile (2048) and a count that is no multiple of 16: tiles and padding
+    const auto extra = randomVals(2601, {-1.5f, -1.5f, 1.0f}, {1.5f, 1.5f, 2.0f}, {0, 0, 0}, 0.002f, 5);
+    scene.vals.insert(scene.vals.end(), extra.begin(), extra.end());
+    gi::LightSkinSettings settings; // diffuse + glossy + occlusion
+    const GpuRun one = runCpu(scene, settings, 1);
+    // non-trivial: lit sparse points and pixels (an all-zero result would pass the equalities)
+    double maxIrradiance = 0.0;
+    for (std::size_t i = 0; i < one.gather.size(); i += 5)
+        maxIrradiance = std::max(maxIrradiance, double(one.gather[i].x));
+    EXPECT_GT(maxIrradiance, 0.1);
+    std::size_t lit = 0;
+    for (const glm::vec4& p : one.image) lit += p.x > 0.0f ? 1 : 0;
+    EXPECT_GT(lit, one.image.size() / 10);
+    for (int threads : {2, 3, 7}) {
+        const GpuRun other = runCpu(scene, settings, threads);
+        EXPECT_TRUE(bitwiseEqual(one.gather, other.gather)) << threads << " threads: gather sums";
+        EXPECT_TRUE(bitwiseEqual(one.vpls, other.vpls)) << threads << " threads: renormalised VPLs";
+        EXPECT_TRUE(bitwiseEqual(one.occlusion, other.occlusion)) << threads << " threads: occlusion";
+        EXPECT_TRUE(bitwiseEqual(one.vertex, other.vertex)) << threads << " threads: vertex VPLs";
+        EXPECT_TRUE(bitwiseEqual(one.image, other.image)) << threads << " threads: image";
+    }
+}
+
+TEST_F(CpuLightSkinGLTest, EmptyValSetGivesExactlyZeroAndStageTimesAreReported) {
+    Scene scene = sphereOverFloor();
+    scene.vals.clear();
+    const GpuRun run = runCpu(scene, {});
+    for (const glm::vec4& p : run.image) EXPECT_EQ(p, glm::vec4(0.0f));
+    std::vector<std::string> names;
+    for (const gl::StageTime& t : run.times) {
+        names.push_back(t.name);
+        EXPECT_GE(t.milliseconds, 0.0);
+    }
+    EXPECT_EQ(names,
+              (std::vector<std::string>{"upload", "gather", "normalisation", "occlusion", "interpolation", "shading"}));
+}
+
+TEST_F(CpuLightSkinGLTest, RejectsANegativeThreadCount) {
+    Scene scene = sphereOverFloor();
+    gi::CpuLightSkinSettings settings;
+    settings.threads = -1;
+    EXPECT_THROW(gi::CpuLightSkin::create(settings, scene.provider()), Error);
+}
+
+TEST_F(CpuLightSkinGLTest, ReportsTheDispatchedInstructionSet) { EXPECT_FALSE(gi::cpuSimdTarget().empty()); }
+
+} // namespace
+} // namespace lightskin::test
