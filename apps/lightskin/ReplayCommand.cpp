@@ -47,6 +47,7 @@ struct ReplayArgs {
     bool adaptive = false, linearOut = false;
     float staticTolerance = 0.0f;
     std::string staticTest = "probes";
+    std::string differential = "scene";
     std::int64_t maxFrames = -1;
 };
 
@@ -203,6 +204,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     options.staticTolerance = args.staticTolerance;
     options.linearComposite = true; // the report's NaN/inf counts
     options.linearIndirect = args.linearOut;
+    options.differential = args.differential != "off";
     if (args.staticTest != "probes" && args.staticTest != "bound")
         throw Error("--static-test", std::nullopt, "expected probes or bound, got '" + args.staticTest + "'");
     options.staticProbes = args.staticTest == "probes";
@@ -320,11 +322,19 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
     command->add_option("--frames", args->frames, "Frames to write as PNG: all (default) or a list like 0,5,10-20");
     command->add_option("--max-frames", args->maxFrames, "Stop after this many frames");
     command->add_option("--pose", args->pose, "ground-truth | tracking | fixed (default: ground truth when the recording has it, else tracking)");
-    command->add_option("--view", args->view, "Debug view: final | direct | indirect | normals | albedo | vals (VALs by flux) | sparse (sparse points) | error (vs brute force) | vpl (interpolated vertex VPLs)");
+    command->add_option("--view", args->view,
+                        "Debug view: final | direct | indirect | normals | albedo | vals (VALs by flux) | sparse "
+                        "(sparse points) | error (vs brute force) | vpl (interpolated vertex VPLs) | differential "
+                        "(change of the real light by the virtual objects)");
     command->add_flag("--no-video", args->noVideo, "Do not write a video");
     command->add_option("--video-format", args->videoFormat, "auto (MP4, falling back to MJPG AVI) | mp4 | avi");
     command->add_flag("--side-by-side-video", args->sideBySideVideo, "Video frames show with GI | without GI");
     command->add_flag("--no-compare", args->noCompare, "Do not render the without-GI comparison");
+    command
+        ->add_option("--differential", args->differential,
+                     "Differential rendering (virtual shadows and bounce on the real surfaces): scene (its "
+                     "compositing.differential, default) | off")
+        ->check(CLI::IsMember({"scene", "off"}));
     command->add_flag("--linear-out", args->linearOut,
                       "Also write each written frame's linear-light composite (linear/) and indirect-only light (linear-indirect/) "
                       "as 32-bit float OpenEXR (NaN, inf and values > 1 kept; 16-bit PNG clamped to [0,1] if this OpenCV has no EXR)");

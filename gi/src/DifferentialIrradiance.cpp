@@ -1,5 +1,3 @@
-#include "reference/LightSkinMath.h"
-
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/DifferentialIrradiance.h>
 
@@ -12,6 +10,7 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <string>
 
 namespace lightskin::gi {
@@ -52,11 +51,6 @@ double radicalInverse2(std::uint32_t bits) {
 
 glm::dvec3 toDouble(const glm::vec3& v) { return glm::dvec3(v); }
 
-/// Irradiance at (x, n) of one VAL disc (LightSkin eq. 3/4, the gather's own formula).
-glm::dvec3 valIrradiance(const glm::dvec3& x, const glm::dvec3& n, const VirtualAreaLight& v) {
-    return refmath::ls_irradiance(x, n, toDouble(v.position), toDouble(v.normal), double(v.area), toDouble(v.flux));
-}
-
 /// Direct irradiance I cone cos / d^2 of a light at (x, n), without visibility; 0 behind.
 glm::dvec3 lightIrradiance(const glm::dvec3& x, const glm::dvec3& n, const VirtualLight& light) {
     const glm::dvec3 offset = toDouble(light.position) - x;
@@ -72,6 +66,73 @@ glm::dvec3 lightIrradiance(const glm::dvec3& x, const glm::dvec3& n, const Virtu
 }
 
 bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+/// Discs (VALs or emitters) as structure-of-arrays floats for the vectorised gather below
+/// (this file is compiled with -O3 and relaxed float associativity, gi/CMakeLists.txt).
+struct DiscArrays {
+    std::vector<float> px, py, pz, nx, ny, nz, r2, fr, fg, fb;
+    void assign(std::span<const VirtualAreaLight> discs) {
+        for (auto* v : {&px, &py, &pz, &nx, &ny, &nz, &r2, &fr, &fg, &fb}) v->resize(discs.size()); // keeps capacity
+        for (std::size_t j = 0; j < discs.size(); ++j) {
+            const VirtualAreaLight& d = discs[j];
+            // An invalid disc (area <= 0 or non-finite data) adds exactly 0, as in ls_irradiance.
+            const bool valid =
+                d.area > 0.0f && std::isfinite(d.area) && finite(d.position) && finite(d.normal) && finite(d.flux);
+            px[j] = valid ? d.position.x : 0.0f;
+            py[j] = valid ? d.position.y : 0.0f;
+            pz[j] = valid ? d.position.z : 0.0f;
+            nx[j] = valid ? d.normal.x : 0.0f;
+            ny[j] = valid ? d.normal.y : 0.0f;
+            nz[j] = valid ? d.normal.z : 0.0f;
+            r2[j] = valid ? d.area / float(std::numbers::pi) : 0.0f;
+            fr[j] = valid ? d.flux.x : 0.0f;
+            fg[j] = valid ? d.flux.y : 0.0f;
+            fb[j] = valid ? d.flux.z : 0.0f;
+        }
+    }
+    std::size_t size() const noexcept { return px.size(); }
+};
+
+/// Sum over discs of E_j = flux_j w_j at (x, n), w_j = cos(theta_j) cos(theta_i) / (pi (r_j^2 + d_j^2))
+/// with the guards G1/G2 of gi/shaders/lightskin_math.glsl (ls_irradiance, in float); writes w_j.
+glm::dvec3 gatherDiscs(const DiscArrays& d, const glm::dvec3& xd, const glm::dvec3& nd, float* weights) {
+    const float x = float(xd.x), y = float(xd.y), z = float(xd.z), nx = float(nd.x), ny = float(nd.y), nz = float(nd.z);
+    const float invPi = float(1.0 / std::numbers::pi);
+    float sr = 0.0f, sg = 0.0f, sb = 0.0f;
+    const std::size_t count = d.size();
+    for (std::size_t j = 0; j < count; ++j) {
+        const float dx = d.px[j] - x, dy = d.py[j] - y, dz = d.pz[j] - z;
+        const float d2 = dx * dx + dy * dy + dz * dz;
+        const float inv = 1.0f / std::sqrt(std::max(d2 + 1.0e-12f * d.r2[j], 1.0e-36f)); // G1
+        const float cosI = std::max((nx * dx + ny * dy + nz * dz) * inv, 0.0f);
+        const float cosJ = std::max(-(d.nx[j] * dx + d.ny[j] * dy + d.nz[j] * dz) * inv, 0.0f);
+        const float w = cosJ / std::max(d.r2[j] + d2, 1.0e-36f) * cosI * invPi; // G2
+        weights[j] = w;
+        sr += d.fr[j] * w;
+        sg += d.fg[j] * w;
+        sb += d.fb[j] * w;
+    }
+    return {double(sr), double(sg), double(sb)};
+}
+
+/// candidates[j] = 1 where w_j > 0 and the segment from x to disc j passes within the sphere, else
+/// left as it was (callers clear it first).
+void markNearSphere(const DiscArrays& d, const glm::dvec3& xd, const glm::dvec3& centre, double radius,
+                    const float* weights, float* candidates) {
+    const float x = float(xd.x), y = float(xd.y), z = float(xd.z);
+    const float cx = float(centre.x) - x, cy = float(centre.y) - y, cz = float(centre.z) - z,
+                r2 = float(radius * radius);
+    const std::size_t count = d.size();
+    for (std::size_t j = 0; j < count; ++j) {
+        const float dx = d.px[j] - x, dy = d.py[j] - y, dz = d.pz[j] - z;
+        const float length2 = std::max(dx * dx + dy * dy + dz * dz, 1.0e-36f);
+        const float t = std::clamp((cx * dx + cy * dy + cz * dz) / length2, 0.0f, 1.0f);
+        const float qx = t * dx - cx, qy = t * dy - cy, qz = t * dz - cz;
+        const bool near = qx * qx + qy * qy + qz * qz <= r2 && weights[j] > 0.0f;
+        candidates[j] = near ? 1.0f : candidates[j];
+    }
+}
 
 } // namespace
 
@@ -97,6 +158,7 @@ struct DifferentialIrradiance::Impl {
     std::vector<glm::dvec3> emitterPosition, emitterNormal, emitterAlbedo;
     std::vector<double> emitterArea;
     std::vector<VirtualAreaLight> emitters;
+    DiscArrays valArrays, emitterArrays;
     std::vector<DifferentialReceiver> receivers;
     int gridWidth = 0, gridHeight = 0;
 
@@ -133,11 +195,12 @@ struct DifferentialIrradiance::Impl {
         return false;
     }
 
-    void updateEmitters(std::span<const VirtualAreaLight> vals, std::span<const DifferentialLightSource> lights,
-                        std::int64_t& rays);
-    void computeReceiver(const cv::Mat& depth, const CameraIntrinsics& k, const Pose& world_T_camera, int i, int j,
-                         std::span<const VirtualAreaLight> vals, std::span<const DifferentialLightSource> lights,
-                         DifferentialReceiver& r, std::int64_t& rays) const;
+    /// Emitter flux of this frame from valArrays (assigned first) and the lights.
+    void updateEmitters(std::span<const DifferentialLightSource> lights, std::int64_t& rays);
+    void computeReceiver(const cv::Mat& depth, const CameraIntrinsics& k, const Pose& world_T_camera,
+                         const Pose& camera_T_world, int i, int j, std::span<const VirtualAreaLight> vals,
+                         std::span<const DifferentialLightSource> lights, DifferentialReceiver& r,
+                         std::int64_t& rays) const;
     void interpolate(const cv::Mat& depth, DifferentialImages& out) const;
 };
 
@@ -233,8 +296,7 @@ DifferentialIrradiance DifferentialIrradiance::create(std::span<const MeshInstan
     return out;
 }
 
-void DifferentialIrradiance::Impl::updateEmitters(std::span<const VirtualAreaLight> vals,
-                                                  std::span<const DifferentialLightSource> lights, std::int64_t& rays) {
+void DifferentialIrradiance::Impl::updateEmitters(std::span<const DifferentialLightSource> lights, std::int64_t& rays) {
     std::atomic<std::int64_t> rayCount{0};
     cv::parallel_for_(cv::Range(0, int(emitters.size())), [&](const cv::Range& range) {
         std::int64_t localRays = 0;
@@ -248,7 +310,9 @@ void DifferentialIrradiance::Impl::updateEmitters(std::span<const VirtualAreaLig
                 ++localRays;
                 if (!occluded(x, toDouble(source.light.position))) irradiance += direct;
             }
-            for (const VirtualAreaLight& v : vals) irradiance += valIrradiance(x, n, v);
+            thread_local std::vector<float> weights;
+            weights.resize(valArrays.size());
+            irradiance += gatherDiscs(valArrays, x, n, weights.data());
             VirtualAreaLight& out = emitters[k];
             out.position = glm::vec3(x);
             out.normal = glm::vec3(n);
@@ -262,8 +326,34 @@ void DifferentialIrradiance::Impl::updateEmitters(std::span<const VirtualAreaLig
     rays += rayCount.load();
 }
 
+/// Real geometry between a receiver and a light, from the depth frame alone (a screen-space
+/// shadow ray): 48 samples along the segment (the first 2 cm skipped: the receiver's own surface);
+/// a sample that projects onto a valid depth pixel and lies behind it by more than
+/// max(2 cm, 3 % z) (the depth noise and the normal window's smoothing) but less than 0.5 m (real
+/// objects are assumed no thinner than the camera can tell apart: a table top and its body, not a
+/// sheet) is inside real matter, so the light does not reach the receiver.
+bool reallyOccluded(const cv::Mat& depth, const CameraIntrinsics& k, const Pose& camera_T_world, const glm::dvec3& from,
+                    const glm::dvec3& to) {
+    constexpr int kSamples = 48;
+    const double length = glm::length(to - from);
+    if (!(length > 0.02)) return false;
+    for (int step = 0; step < kSamples; ++step) {
+        const double t = 0.02 / length + (1.0 - 0.02 / length) * (double(step) + 0.5) / kSamples;
+        const glm::dvec3 c = camera_T_world.transformPoint(from + t * (to - from));
+        if (c.z <= 0.05) continue;
+        const double u = k.fx * c.x / c.z + k.cx, v = k.fy * c.y / c.z + k.cy;
+        const long pu = std::lround(u), pv = std::lround(v);
+        if (pu < 0 || pv < 0 || pu >= depth.cols || pv >= depth.rows) continue;
+        const double real = double(depth.at<float>(int(pv), int(pu)));
+        if (!(real > 0.0) || !std::isfinite(real)) continue;
+        const double behind = c.z - real;
+        if (behind > std::max(0.02, 0.03 * real) && behind < 0.5) return true;
+    }
+    return false;
+}
+
 void DifferentialIrradiance::Impl::computeReceiver(const cv::Mat& depth, const CameraIntrinsics& k,
-                                                   const Pose& world_T_camera, int i, int j,
+                                                   const Pose& world_T_camera, const Pose& camera_T_world, int i, int j,
                                                    std::span<const VirtualAreaLight> vals,
                                                    std::span<const DifferentialLightSource> lights,
                                                    DifferentialReceiver& r, std::int64_t& rays) const {
@@ -325,16 +415,22 @@ void DifferentialIrradiance::Impl::computeReceiver(const cv::Mat& depth, const C
     if (!r.inRegion) return;
 
     const glm::dvec3 &x = r.position, &nx = r.normal;
-    glm::dvec3 without(0.0), delta(0.0);
-    for (const VirtualAreaLight& v : vals) {
-        const glm::dvec3 e = valIrradiance(x, nx, v);
-        if (e == glm::dvec3(0.0)) continue;
-        without += e;
-        if (blocked(x, toDouble(v.position), rays)) delta -= e; // the indirect shadow
+    thread_local std::vector<float> weights, candidates;
+    weights.resize(std::max(valArrays.size(), emitterArrays.size()));
+    candidates.assign(valArrays.size(), 0.0f); // keeps capacity
+    glm::dvec3 without = gatherDiscs(valArrays, x, nx, weights.data()), delta(0.0);
+    for (const BoundingSphere& sphere : spheres)
+        markNearSphere(valArrays, x, sphere.centre, sphere.radius, weights.data(), candidates.data());
+    for (std::size_t v = 0; v < vals.size(); ++v) {
+        if (candidates[v] == 0.0f) continue;
+        ++rays;
+        if (occluded(x, glm::dvec3(valArrays.px[v], valArrays.py[v], valArrays.pz[v]))) // the indirect shadow
+            delta -= glm::dvec3(valArrays.fr[v], valArrays.fg[v], valArrays.fb[v]) * double(weights[v]);
     }
     for (const DifferentialLightSource& source : lights) {
         const glm::dvec3 e = lightIrradiance(x, nx, source.light);
         if (e == glm::dvec3(0.0)) continue;
+        if (reallyOccluded(depth, k, camera_T_world, x, toDouble(source.light.position))) continue; // in neither image
         const bool shadowed = blocked(x, toDouble(source.light.position), rays);
         if (source.inRoom) {
             without += e;
@@ -343,8 +439,7 @@ void DifferentialIrradiance::Impl::computeReceiver(const cv::Mat& depth, const C
             delta += e;
         }
     }
-    for (const VirtualAreaLight& emitter : emitters)
-        delta += valIrradiance(x, nx, emitter); // light the objects reflect
+    delta += gatherDiscs(emitterArrays, x, nx, weights.data()); // the light the objects reflect
     r.irradianceWithout = finite(without) ? without : glm::dvec3(0.0);
     r.deltaIrradiance = finite(delta) ? delta : glm::dvec3(0.0);
 }
@@ -417,14 +512,18 @@ void DifferentialIrradiance::compute(const cv::Mat& depthMetres, const CameraInt
     out.receiversGathered = 0;
     out.shadowRays = 0;
 
-    impl.updateEmitters(vals, lights, out.shadowRays);
+    impl.valArrays.assign(vals);
+    impl.updateEmitters(lights, out.shadowRays);
+    impl.emitterArrays.assign(impl.emitters);
+    const Pose camera_T_world = world_T_camera.inverse();
     std::atomic<std::int64_t> rays{0}, gathered{0};
     cv::parallel_for_(cv::Range(0, impl.gridHeight), [&](const cv::Range& range) {
         std::int64_t localRays = 0, localGathered = 0;
         for (int j = range.start; j < range.end; ++j)
             for (int i = 0; i < impl.gridWidth; ++i) {
                 DifferentialReceiver& r = impl.receivers[std::size_t(j) * std::size_t(impl.gridWidth) + std::size_t(i)];
-                impl.computeReceiver(depthMetres, intrinsics, world_T_camera, i, j, vals, lights, r, localRays);
+                impl.computeReceiver(depthMetres, intrinsics, world_T_camera, camera_T_world, i, j, vals, lights, r,
+                                     localRays);
                 if (r.inRegion) ++localGathered;
             }
         rays += localRays;

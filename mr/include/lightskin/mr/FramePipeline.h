@@ -49,13 +49,17 @@ std::vector<gi::VirtualLight> virtualLightsFromScene(const render::Scene& scene)
 /// L'''_d, after occlusion), at most kMaxVplSegments: a segment from the vertex a quarter of the
 /// way toward its VPL position plus a dot at the VPL position, coloured like the vals view
 /// (square root of L'''_d normalised to the brightest vertex VPL); segments are clipped at the
-/// camera's near plane (5 cm) and drawn without a depth test (hidden vertices too). This view reads the per-vertex VPL buffer back every frame.
-enum class Overlay { None, Vals, SparsePoints, ErrorVsBruteForce, VertexVpls };
-inline constexpr int kOverlayCount = 5;
+/// camera's near plane (5 cm) and drawn without a depth test (hidden vertices too). This view reads the per-vertex VPL
+/// buffer back every frame. Differential: the differential composite's change of the real light, dE / E_without
+/// (luminance), over the camera image at 35 %: blue where the virtual objects darken the real surface (full blue = -100
+/// %), red where they brighten it (full red = +50 %); real pixels outside the affected region stay dimmed grey (the
+/// view draws only when the differential runs).
+enum class Overlay { None, Vals, SparsePoints, ErrorVsBruteForce, VertexVpls, Differential };
+inline constexpr int kOverlayCount = 6;
 inline constexpr std::uint32_t kMaxVplSegments = 2000;
 
 /// Parses a view name: final, direct, indirect, normals, albedo (render::DebugView) or vals,
-/// sparse, error, vpl (overlays over the final image). Throws lightskin::Error otherwise.
+/// sparse, error, vpl, differential (overlays over the final image). Throws lightskin::Error otherwise.
 void parseView(const std::string& text, render::DebugView& view, Overlay& overlay);
 
 struct PipelineOptions {
@@ -75,6 +79,12 @@ struct PipelineOptions {
     bool linearComposite = false;
     /// Also fill FrameOutput::linearIndirect (replay --linear-out).
     bool linearIndirect = false;
+    /// Differential rendering (live toggle): the virtual objects' shadows and reflected light on
+    /// the real surfaces (gi::DifferentialIrradiance, render::applyDifferentialInto) in withGi and
+    /// linearWithGi (withoutGi stays the plain camera image: the figure-4 comparison). Runs only
+    /// when the scene's compositing.differential is on too and depth is registered to colour; it
+    /// needs the depth VALs, which it then generates even with GI off.
+    bool differential = true;
 };
 
 struct FrameOutput {
@@ -103,6 +113,8 @@ struct FrameOutput {
     double totalMs = 0.0;
     int giReused = -1;                ///< adaptive LightSkin: 1 = VPLs reused (static content), 0 = recomputed, else -1
     float giChangeMeasure = -1.0f;    ///< adaptive LightSkin: LightSkinChoice::staticChangeBound
+    std::int64_t differentialReceivers = -1; ///< differential ran: receivers gathered (in the affected region), else -1
+    std::int64_t differentialPixels = -1;    ///< differential ran: camera pixels in the affected region, else -1
 };
 
 class FramePipeline {
@@ -124,6 +136,10 @@ public:
 
 private:
     FramePipeline() = default;
+    /// The differential stage: receivers gathered from this frame's depth VALs, applied to the
+    /// camera image (State::cameraWithDifferential), which the composites then use.
+    void applyDifferential(const RgbdFrame& frame, const Pose& world_T_camera, const gi::ValSetView& depthVals,
+                           FrameOutput& out);
     struct State;
     std::unique_ptr<State> state_;
     std::unique_ptr<render::Renderer> renderer_;
