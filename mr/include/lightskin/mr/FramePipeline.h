@@ -85,12 +85,17 @@ struct PipelineOptions {
     /// when the scene's compositing.differential is on too and depth is registered to colour; it
     /// needs the depth VALs, which it then generates even with GI off.
     bool differential = true;
+    /// Also fill FrameOutput::withGiWithoutDifferential (replay: comparing with the objects-present truth).
+    bool differentialBaseline = false;
 };
 
 struct FrameOutput {
     std::int64_t frameIndex = 0;
     cv::Mat withGi;       ///< CV_8UC3 BGR composite (GI on, or direct only when GI is off)
     cv::Mat withoutGi;    ///< CV_8UC3 BGR composite without GI (when compare)
+    /// options.differentialBaseline: withGi composited over the plain camera image (no differential;
+    /// equal to withGi when the differential did not run), no overlays.
+    cv::Mat withGiWithoutDifferential;
     /// options.linearComposite: CV_32FC3 BGR linear-light composite of withGi (render::Compositor::compositeLinearInto:
     /// the view's 2^exposure * radiance before clamp and sRGB encoding, NaN/inf and values > 1 kept;
     /// camera pixels sRGB-decoded). Overlays (vals, sparse, error, vpl) are not drawn into it.
