@@ -22,8 +22,8 @@
 
 #include <array>
 #include <atomic>
-#include <cmath>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
@@ -54,8 +54,8 @@ struct ReplayArgs {
 };
 
 /// Error of two composites against the objects-present truth (synth/present, see ReplayReport.h).
-void presentErrorInto(const cv::Mat& truth, const cv::Mat& camera, const cv::Mat& withDifferential, const cv::Mat& withoutDifferential,
-                      ReportFrame& rf) {
+void presentErrorInto(const cv::Mat& truth, const cv::Mat& camera, const cv::Mat& withDifferential,
+                      const cv::Mat& withoutDifferential, ReportFrame& rf) {
     static const std::array<double, 256> decoded = [] {
         std::array<double, 256> table{};
         for (std::size_t i = 0; i < table.size(); ++i) {
@@ -70,10 +70,10 @@ void presentErrorInto(const cv::Mat& truth, const cv::Mat& camera, const cv::Mat
     } all, real;
     for (int v = 0; v < truth.rows; ++v)
         for (int u = 0; u < truth.cols; ++u) {
-            const cv::Vec3b t = truth.at<cv::Vec3b>(v, u), c = camera.at<cv::Vec3b>(v, u), a = withDifferential.at<cv::Vec3b>(v, u),
-                            b = withoutDifferential.at<cv::Vec3b>(v, u);
+            const cv::Vec3b t = truth.at<cv::Vec3b>(v, u), c = camera.at<cv::Vec3b>(v, u),
+                            a = withDifferential.at<cv::Vec3b>(v, u), b = withoutDifferential.at<cv::Vec3b>(v, u);
             if (t == c && b == c) continue; // neither the truth nor the virtual content changes this pixel
-            const bool covered = b != c;   // virtual content (without the differential, only it changes pixels)
+            const bool covered = b != c;    // virtual content (without the differential, only it changes pixels)
             for (Sums* sums : {&all, covered ? nullptr : &real}) {
                 if (sums == nullptr) continue;
                 ++sums->pixels;
@@ -315,15 +315,18 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
                 std::snprintf(truthName, sizeof truthName, "%06lld.png", static_cast<long long>(frame.index));
                 const std::filesystem::path truthPath = presentFolder / truthName;
                 const cv::Mat truth = cv::imread(truthPath.string(), cv::IMREAD_COLOR);
-                if (truth.empty()) throw Error(truthPath.string(), frame.index, "missing or unreadable objects-present image");
+                if (truth.empty())
+                    throw Error(truthPath.string(), frame.index, "missing or unreadable objects-present image");
                 if (truth.size() != frame.colour.size())
-                    throw Error(truthPath.string(), frame.index, "objects-present image is not the colour image's size");
+                    throw Error(truthPath.string(), frame.index,
+                                "objects-present image is not the colour image's size");
                 presentErrorInto(truth, frame.colour, output.withGi, output.withGiWithoutDifferential, rf);
                 if (chosen.empty() || chosen.count(frame.index) > 0) {
                     // truth | with differential | without (the side-by-side figure)
-                    render::sideBySideInto(truth, "objects really there", output.withGi, "with differential", presentPair);
-                    render::sideBySideInto(output.withGiWithoutDifferential, "without differential", output.withGiWithoutDifferential,
-                                           "", presentTriple);
+                    render::sideBySideInto(truth, "objects really there", output.withGi, "with differential",
+                                           presentPair);
+                    render::sideBySideInto(output.withGiWithoutDifferential, "without differential",
+                                           output.withGiWithoutDifferential, "", presentTriple);
                     cv::hconcat(presentPair, presentTriple.colRange(0, output.withGi.cols), presentFigure);
                     std::filesystem::create_directories(out / "present");
                     rf.presentImage = std::string("present/") + truthName;

@@ -118,7 +118,8 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
                                   {"withDifferential", {{"mae", e.maeWith}, {"rmse", e.rmseWith}}},
                                   {"withoutDifferential", {{"mae", e.maeWithout}, {"rmse", e.rmseWithout}}}};
         };
-        if (f.present.pixels >= 0) j["objectsPresentError"] = {{"affected", presentJson(f.present)}, {"real", presentJson(f.presentReal)}};
+        if (f.present.pixels >= 0)
+            j["objectsPresentError"] = {{"affected", presentJson(f.present)}, {"real", presentJson(f.presentReal)}};
         if (!f.presentImage.empty()) j["presentImage"] = f.presentImage;
         j["linearNanPixels"] = f.linearNanPixels;
         j["linearInfPixels"] = f.linearInfPixels;
@@ -191,9 +192,10 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
         if (presentFrames == 0) continue;
         const double k = double(presentFrames);
         md += std::string("| error vs objects really there (synth/present, linear, ") +
-              (realOnly ? "affected real pixels" : "all affected pixels") + ") | with differential: MAE " + fixed(maeWith / k, 5) +
-              ", RMSE " + fixed(rmseWith / k, 5) + "; without: MAE " + fixed(maeWithout / k, 5) + ", RMSE " + fixed(rmseWithout / k, 5) +
-              " (mean of " + std::to_string(presentFrames) + " frames, " + fixed(double(pixels) / k, 0) + " pixels per frame) |\n";
+              (realOnly ? "affected real pixels" : "all affected pixels") + ") | with differential: MAE " +
+              fixed(maeWith / k, 5) + ", RMSE " + fixed(rmseWith / k, 5) + "; without: MAE " +
+              fixed(maeWithout / k, 5) + ", RMSE " + fixed(rmseWithout / k, 5) + " (mean of " +
+              std::to_string(presentFrames) + " frames, " + fixed(double(pixels) / k, 0) + " pixels per frame) |\n";
     }
     md += "\n";
 

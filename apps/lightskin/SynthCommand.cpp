@@ -35,9 +35,10 @@ void addSynthCommand(CLI::App& app, int& exitCode) {
     command->add_option("--frames", arguments->maxFrames, "Write at most this many frames (default: the whole path)");
     command->add_flag("--no-noise", arguments->noNoise, "Exact depth: switch the depth noise model off");
     command->add_option("--noise-seed", arguments->noiseSeed, "Override the noise seed");
-    command->add_option("--objects-present", arguments->objectsPresent,
-                        "A lightskin scene file: also render every frame with its virtual objects really in the room into "
-                        "synth/present/ (the ground truth of the differential composite; docs/SYNTH.md)");
+    command->add_option(
+        "--objects-present", arguments->objectsPresent,
+        "A lightskin scene file: also render every frame with its virtual objects really in the room into "
+        "synth/present/ (the ground truth of the differential composite; docs/SYNTH.md)");
     command->add_option("--fakenect", arguments->fakenect,
                         "Also write the recording as a fakenect dump into this folder (needs 640x480; capture/Fakenect.h)");
     command->callback([arguments, &exitCode] {

@@ -514,8 +514,11 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     r.readOutputsInto(s.virtualColour, s.virtualDepth);
     s.compositor.compositeInto(*camera, s.virtualColour, s.virtualDepth, realDepth, out.withGi);
     if (options_.differentialBaseline) {
-        if (runDifferential) s.compositor.compositeInto(frame.colour, s.virtualColour, s.virtualDepth, realDepth, out.withGiWithoutDifferential);
-        else out.withGi.copyTo(out.withGiWithoutDifferential);
+        if (runDifferential)
+            s.compositor.compositeInto(frame.colour, s.virtualColour, s.virtualDepth, realDepth,
+                                       out.withGiWithoutDifferential);
+        else
+            out.withGi.copyTo(out.withGiWithoutDifferential);
     }
     if (options_.linearComposite) {
         r.readLinearOutputInto(s.virtualLinear);

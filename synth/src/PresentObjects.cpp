@@ -39,7 +39,8 @@ std::vector<LightSample> lightSamples(const SceneDescription& scene) {
         const int n = light.samples;
         for (int j = 0; j < n; ++j)
             for (int i = 0; i < n; ++i)
-                samples.push_back({world_T_light.transformPoint({((i + 0.5) / n - 0.5) * light.size.x, ((j + 0.5) / n - 0.5) * light.size.y, 0.0}),
+                samples.push_back({world_T_light.transformPoint({((i + 0.5) / n - 0.5) * light.size.x,
+                                                                 ((j + 0.5) / n - 0.5) * light.size.y, 0.0}),
                                    facing, power / (kPi * double(n * n)), false});
     }
     return samples;
@@ -91,7 +92,8 @@ bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.
 
 std::vector<PresentObject> loadPresentObjects(const std::filesystem::path& lightskinScene) {
     const render::Scene scene = render::loadScene(lightskinScene);
-    if (scene.objects.empty()) throw Error(lightskinScene.string(), std::nullopt, "the scene has no objects to place in the room");
+    if (scene.objects.empty())
+        throw Error(lightskinScene.string(), std::nullopt, "the scene has no objects to place in the room");
     std::vector<PresentObject> objects;
     for (const render::SceneObject& so : scene.objects) {
         const render::LoadedModel model = render::loadModel(so.mesh);
@@ -153,7 +155,8 @@ struct PresentObjects::Impl {
     /// Direct irradiance per light sample at (x, n) (origin moved 1e-4 m off the surface, as the
     /// renderer does): `withBoxes` with box visibility; `withObjects` also with the objects'.
     void direct(const glm::dvec3& position, const glm::dvec3& n, glm::dvec3& withBoxes, glm::dvec3& withObjects,
-                const glm::dvec3* toViewer = nullptr, const Material* material = nullptr, glm::dvec3* specular = nullptr) const {
+                const glm::dvec3* toViewer = nullptr, const Material* material = nullptr,
+                glm::dvec3* specular = nullptr) const {
         const glm::dvec3 origin = position + 1e-4 * n;
         for (const LightSample& s : lights) {
             const glm::dvec3 toLight = s.position - origin;
@@ -172,7 +175,8 @@ struct PresentObjects::Impl {
                 const glm::dvec3 mirror = 2.0 * cosReceiver * n - l;
                 const double cosGamma = std::max(0.0, glm::dot(mirror, *toViewer));
                 const double k = double(material->specularExponent);
-                *specular += glm::dvec3(material->specularAlbedo) * ((k + 2.0) / (2.0 * kPi) * std::pow(cosGamma, k)) * e;
+                *specular +=
+                    glm::dvec3(material->specularAlbedo) * ((k + 2.0) / (2.0 * kPi) * std::pow(cosGamma, k)) * e;
             }
         }
     }
@@ -194,8 +198,8 @@ PresentObjects::~PresentObjects() = default;
 PresentObjects::PresentObjects(PresentObjects&&) noexcept = default;
 PresentObjects& PresentObjects::operator=(PresentObjects&&) noexcept = default;
 
-PresentObjects PresentObjects::create(const SceneDescription& room, std::vector<PresentObject> objects, const TagBitmapSource& tags,
-                                      const PresentObjectsSettings& settings) {
+PresentObjects PresentObjects::create(const SceneDescription& room, std::vector<PresentObject> objects,
+                                      const TagBitmapSource& tags, const PresentObjectsSettings& settings) {
     const std::string source = room.sourcePath.string();
     if (settings.emittersPerObject < 1 || settings.roomCubeSize < 2 || settings.roomCubeSize > 256)
         throw Error(source, std::nullopt, "objects present: need emittersPerObject >= 1 and roomCubeSize in [2, 256]");
@@ -208,8 +212,8 @@ PresentObjects PresentObjects::create(const SceneDescription& room, std::vector<
     impl.lights = lightSamples(room);
     for (const BoxDescription& b : room.boxes) {
         const double yaw = b.yawDegrees * kPi / 180.0;
-        const glm::dmat3 rotation(glm::dvec3(std::cos(yaw), std::sin(yaw), 0.0), glm::dvec3(-std::sin(yaw), std::cos(yaw), 0.0),
-                                  glm::dvec3(0.0, 0.0, 1.0));
+        const glm::dmat3 rotation(glm::dvec3(std::cos(yaw), std::sin(yaw), 0.0),
+                                  glm::dvec3(-std::sin(yaw), std::cos(yaw), 0.0), glm::dvec3(0.0, 0.0, 1.0));
         impl.boxes.push_back({glm::transpose(rotation), b.center, b.size / 2.0});
     }
     impl.device = rtcNewDevice("threads=1");
@@ -220,11 +224,12 @@ PresentObjects PresentObjects::create(const SceneDescription& room, std::vector<
         const TriangleMesh& mesh = impl.objects[m].mesh;
         mesh.validate("objects present: " + impl.objects[m].name);
         RTCGeometry geometry = rtcNewGeometry(impl.device, RTC_GEOMETRY_TYPE_TRIANGLE);
-        auto* vertices = static_cast<float*>(
-            rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.vertexCount()));
-        auto* indices = static_cast<unsigned*>(
-            rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), mesh.triangleCount()));
-        if (vertices == nullptr || indices == nullptr) throw Error("embree", std::nullopt, "objects present: geometry buffers");
+        auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
+            geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.vertexCount()));
+        auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+            geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), mesh.triangleCount()));
+        if (vertices == nullptr || indices == nullptr)
+            throw Error("embree", std::nullopt, "objects present: geometry buffers");
         for (std::size_t v = 0; v < mesh.vertexCount(); ++v)
             for (int c = 0; c < 3; ++c) vertices[3 * v + std::size_t(c)] = mesh.positions[v][c];
         for (std::size_t i = 0; i < mesh.indices.size(); ++i) indices[i] = mesh.indices[i];
@@ -233,12 +238,14 @@ PresentObjects PresentObjects::create(const SceneDescription& room, std::vector<
         rtcReleaseGeometry(geometry);
     }
     rtcCommitScene(impl.scene);
-    if (rtcGetDeviceError(impl.device) != RTC_ERROR_NONE) throw Error("embree", std::nullopt, "objects present: building the scene failed");
+    if (rtcGetDeviceError(impl.device) != RTC_ERROR_NONE)
+        throw Error("embree", std::nullopt, "objects present: building the scene failed");
 
     // The room seen from each object's bounding-sphere centre: six 90-degree faces.
     SceneDescription cubeScene = room;
     const int n = settings.roomCubeSize;
-    cubeScene.intrinsics = CameraIntrinsics{.width = n, .height = n, .fx = n / 2.0, .fy = n / 2.0, .cx = (n - 1) / 2.0, .cy = (n - 1) / 2.0};
+    cubeScene.intrinsics = CameraIntrinsics{
+        .width = n, .height = n, .fx = n / 2.0, .fy = n / 2.0, .cx = (n - 1) / 2.0, .cy = (n - 1) / 2.0};
     cubeScene.supersampling = 1;
     SceneRenderer cubeRenderer = SceneRenderer::create(cubeScene, tags);
     RenderedView face;
@@ -253,13 +260,15 @@ PresentObjects PresentObjects::create(const SceneDescription& room, std::vector<
         for (const glm::dvec3& forward : axes) {
             const glm::dvec3 helper = std::abs(forward.z) > 0.5 ? glm::dvec3(0, 1, 0) : glm::dvec3(0, 0, 1);
             const glm::dvec3 right = glm::normalize(glm::cross(forward, helper)), down = glm::cross(forward, right);
-            const Pose world_T_camera = Pose::fromMatrix(glm::dmat4(glm::dvec4(right, 0), glm::dvec4(down, 0), glm::dvec4(forward, 0), glm::dvec4(centre, 1)));
+            const Pose world_T_camera = Pose::fromMatrix(
+                glm::dmat4(glm::dvec4(right, 0), glm::dvec4(down, 0), glm::dvec4(forward, 0), glm::dvec4(centre, 1)));
             cubeRenderer.renderInto(world_T_camera, face);
             for (int v = 0; v < n; ++v)
                 for (int u = 0; u < n; ++u) {
                     const double z = double(face.depthMetres.at<float>(v, u));
                     if (!(z > 0.0)) continue;
-                    const cv::Vec3f p = face.worldPosition.at<cv::Vec3f>(v, u), nn = face.worldNormal.at<cv::Vec3f>(v, u),
+                    const cv::Vec3f p = face.worldPosition.at<cv::Vec3f>(v, u),
+                                    nn = face.worldNormal.at<cv::Vec3f>(v, u),
                                     radiance = face.radiance.at<cv::Vec3f>(v, u);
                     const glm::dvec3 position(p[0], p[1], p[2]), normal(nn[0], nn[1], nn[2]);
                     const glm::dvec3 ray = glm::normalize(position - centre);
@@ -267,7 +276,8 @@ PresentObjects PresentObjects::create(const SceneDescription& room, std::vector<
                     const double cosAlpha = glm::dot(ray, forward), d2 = glm::dot(position - centre, position - centre);
                     const double omega = (2.0 / n) * (2.0 / n) * cosAlpha * cosAlpha * cosAlpha;
                     const double cosTheta = std::max(0.2, std::abs(glm::dot(normal, ray)));
-                    impl.roomDiscs.push_back({position, glm::dot(normal, ray) > 0.0 ? -normal : normal, omega * d2 / cosTheta,
+                    impl.roomDiscs.push_back({position, glm::dot(normal, ray) > 0.0 ? -normal : normal,
+                                              omega * d2 / cosTheta,
                                               glm::dvec3(radiance[2], radiance[1], radiance[0])});
                 }
         }
@@ -280,7 +290,8 @@ PresentObjects PresentObjects::create(const SceneDescription& room, std::vector<
         std::vector<double> cumulative(mesh.triangleCount());
         double total = 0.0;
         for (std::size_t t = 0; t < mesh.triangleCount(); ++t) {
-            const glm::dvec3 a(mesh.positions[mesh.indices[3 * t]]), b(mesh.positions[mesh.indices[3 * t + 1]]), c(mesh.positions[mesh.indices[3 * t + 2]]);
+            const glm::dvec3 a(mesh.positions[mesh.indices[3 * t]]), b(mesh.positions[mesh.indices[3 * t + 1]]),
+                c(mesh.positions[mesh.indices[3 * t + 2]]);
             total += 0.5 * glm::length(glm::cross(b - a, c - a));
             cumulative[t] = total;
         }
@@ -288,11 +299,14 @@ PresentObjects PresentObjects::create(const SceneDescription& room, std::vector<
         const int count = settings.emittersPerObject;
         for (int e = 0; e < count; ++e) {
             const double target = (e + 0.5) / count * total;
-            const std::size_t t = std::min(std::size_t(std::lower_bound(cumulative.begin(), cumulative.end(), target) - cumulative.begin()),
-                                           mesh.triangleCount() - 1);
+            const std::size_t t = std::min(
+                std::size_t(std::lower_bound(cumulative.begin(), cumulative.end(), target) - cumulative.begin()),
+                mesh.triangleCount() - 1);
             const double before = t == 0 ? 0.0 : cumulative[t - 1], area = cumulative[t] - before;
-            const double s = area > 0.0 ? std::clamp((target - before) / area, 0.0, 1.0) : 0.5, r = std::fmod(e * 0.6180339887498949, 1.0);
-            const glm::dvec3 a(mesh.positions[mesh.indices[3 * t]]), b(mesh.positions[mesh.indices[3 * t + 1]]), c(mesh.positions[mesh.indices[3 * t + 2]]);
+            const double s = area > 0.0 ? std::clamp((target - before) / area, 0.0, 1.0) : 0.5,
+                         r = std::fmod(e * 0.6180339887498949, 1.0);
+            const glm::dvec3 a(mesh.positions[mesh.indices[3 * t]]), b(mesh.positions[mesh.indices[3 * t + 1]]),
+                c(mesh.positions[mesh.indices[3 * t + 2]]);
             const double su = std::sqrt(s);
             const glm::dvec3 p = a * (1.0 - su) + b * (su * (1.0 - r)) + c * (su * r);
             const glm::dvec3 cross = glm::cross(b - a, c - a);
@@ -301,7 +315,8 @@ PresentObjects PresentObjects::create(const SceneDescription& room, std::vector<
             glm::dvec3 withBoxes(0.0), withObjects(0.0);
             impl.direct(p, normal, withBoxes, withObjects);
             const glm::dvec3 irradiance = withObjects + impl.roomBounce(p, normal);
-            impl.emitters.push_back({p, normal, total / count, glm::dvec3(object.material.diffuseAlbedo) * irradiance / kPi});
+            impl.emitters.push_back(
+                {p, normal, total / count, glm::dvec3(object.material.diffuseAlbedo) * irradiance / kPi});
         }
     }
     return out;
@@ -311,7 +326,8 @@ void PresentObjects::renderInto(const Pose& world_T_camera, const RenderedView& 
     LIGHTSKIN_ASSERT(impl_, "lightskin::synth::PresentObjects::renderInto(): used before create()");
     const Impl& impl = *impl_;
     const CameraIntrinsics& k = impl.room.intrinsics;
-    LIGHTSKIN_ASSERT(room.radiance.type() == CV_32FC3 && room.radiance.cols == k.width && room.radiance.rows == k.height,
+    LIGHTSKIN_ASSERT(room.radiance.type() == CV_32FC3 && room.radiance.cols == k.width &&
+                         room.radiance.rows == k.height,
                      "lightskin::synth::PresentObjects::renderInto(): the room view must be the scene's size");
     room.radiance.copyTo(out);
     const glm::dvec3 ambient(impl.room.ambientRadiance);
@@ -319,8 +335,10 @@ void PresentObjects::renderInto(const Pose& world_T_camera, const RenderedView& 
     cv::parallel_for_(cv::Range(0, k.height), [&](const cv::Range& rows) {
         for (int v = rows.start; v < rows.end; ++v)
             for (int u = 0; u < k.width; ++u) {
-                const glm::dvec3 direction = world_T_camera.transformDirection({(u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0});
-                const double roomZ = double(room.depthMetres.at<float>(v, u)); // the ray parameter (camera z = 1 per unit)
+                const glm::dvec3 direction =
+                    world_T_camera.transformDirection({(u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0});
+                const double roomZ =
+                    double(room.depthMetres.at<float>(v, u)); // the ray parameter (camera z = 1 per unit)
                 RTCIntersectContext context;
                 rtcInitIntersectContext(&context);
                 RTCRayHit hit{};
@@ -350,7 +368,8 @@ void PresentObjects::renderInto(const Pose& world_T_camera, const RenderedView& 
                     glm::dvec3 withBoxes(0.0), withObjects(0.0), specular(0.0);
                     impl.direct(y, n, withBoxes, withObjects, &toViewer, &object.material, &specular);
                     const glm::dvec3 rho(object.material.diffuseAlbedo);
-                    const glm::dvec3 radiance = rho / kPi * (withObjects + impl.roomBounce(y, n)) + rho * ambient + specular;
+                    const glm::dvec3 radiance =
+                        rho / kPi * (withObjects + impl.roomBounce(y, n)) + rho * ambient + specular;
                     if (finite(radiance)) pixel = cv::Vec3f(float(radiance.z), float(radiance.y), float(radiance.x));
                     continue;
                 }
@@ -365,7 +384,8 @@ void PresentObjects::renderInto(const Pose& world_T_camera, const RenderedView& 
                     const double base = withBoxes[c] + kPi * ambient[c];
                     if (!(base > 0.0)) continue;
                     const double radiance = double(pixel[2 - c]); // BGR
-                    const double present = radiance * (withObjects[c] + kPi * ambient[c]) / base + radiance / base * bounce[c];
+                    const double present =
+                        radiance * (withObjects[c] + kPi * ambient[c]) / base + radiance / base * bounce[c];
                     if (std::isfinite(present)) pixel[2 - c] = float(present);
                 }
             }

@@ -70,7 +70,9 @@ std::int64_t writeSynthRecording(const SceneDescription& scene, const std::strin
     if (!options.presentObjects.empty()) {
         present = PresentObjects::create(scene, loadPresentObjects(options.presentObjects), tags);
         std::filesystem::create_directories(folder / "synth" / "present", error);
-        if (error) throw Error((folder / "synth" / "present").string(), std::nullopt, "could not create the folder: " + error.message());
+        if (error)
+            throw Error((folder / "synth" / "present").string(), std::nullopt,
+                        "could not create the folder: " + error.message());
     }
 
     Json tagList = Json::array();
@@ -91,9 +93,11 @@ std::int64_t writeSynthRecording(const SceneDescription& scene, const std::strin
         {"depthNoise", scene.noise.enabled},
         {"tagFrame", "x right, y up, z out of the tag surface; corners top-left, top-right, bottom-right, bottom-left"},
         {"tags", tagList}};
-    if (present) groundTruth["present"] = {{"objects", options.presentObjects.filename().string()},
-                                           {"folder", "synth/present"},
-                                           {"model", "objects really in the room: exact light visibility, one bounce (synth/PresentObjects.h)"}};
+    if (present)
+        groundTruth["present"] = {
+            {"objects", options.presentObjects.filename().string()},
+            {"folder", "synth/present"},
+            {"model", "objects really in the room: exact light visibility, one bounce (synth/PresentObjects.h)"}};
     writeText(folder / "synth" / "ground-truth.json", groundTruth.dump(2) + "\n");
 
     // The same tags as a tracking world (tracking/TagWorld.h), so replay can track against the
@@ -127,11 +131,13 @@ std::int64_t writeSynthRecording(const SceneDescription& scene, const std::strin
             for (int v = 0; v < presentRadiance.rows; ++v)
                 for (int u = 0; u < presentRadiance.cols; ++u)
                     for (int c = 0; c < 3; ++c)
-                        presentColour.at<cv::Vec3b>(v, u)[c] = encodeSrgb(float(scene.exposure) * presentRadiance.at<cv::Vec3f>(v, u)[c]);
+                        presentColour.at<cv::Vec3b>(v, u)[c] =
+                            encodeSrgb(float(scene.exposure) * presentRadiance.at<cv::Vec3f>(v, u)[c]);
             char name[32];
             std::snprintf(name, sizeof name, "%06d.png", index);
             const std::filesystem::path path = folder / "synth" / "present" / name;
-            if (!cv::imwrite(path.string(), presentColour)) throw Error(path.string(), index, "could not write the present-objects image");
+            if (!cv::imwrite(path.string(), presentColour))
+                throw Error(path.string(), index, "could not write the present-objects image");
         }
         if (options.progress) options.progress(index + 1, total);
     }

@@ -42,7 +42,7 @@ struct PipelineRun {
     cv::Mat camera;
 };
 
-PipelineRun runFrame(bool sceneDifferential, bool optionDifferential) {
+PipelineRun runFrame(bool sceneDifferential, bool optionDifferential, mr::Overlay overlay = mr::Overlay::None) {
     const render::Scene scene = render::parseScene(sceneText(sceneDifferential),
                                                    test::sourceDir() / "recordings" / "scenes", "differential-test");
     capture::FrameSourceInfo info;
@@ -56,6 +56,7 @@ PipelineRun runFrame(bool sceneDifferential, bool optionDifferential) {
     options.compare = false;
     options.linearComposite = true;
     options.differential = optionDifferential;
+    options.overlay = overlay;
     auto pipeline = mr::FramePipeline::create(scene, info, options);
     RgbdFrame frame;
     frame.colour = cv::Mat(kHeight, kWidth, CV_8UC3, cv::Scalar::all(150));
@@ -146,6 +147,31 @@ TEST_F(DifferentialPipeline, OffRestoresTodaysImageBitForBit) {
             if (on.out.withGi.at<cv::Vec3b>(v, u) != on.camera.at<cv::Vec3b>(v, u)) ++changedByDifferential;
         }
     EXPECT_GT(changedByDifferential, 50) << "the differential must change the real pixels around the cube";
+}
+
+TEST_F(DifferentialPipeline, DebugViewShowsTheShadowBlueAndDimsTheRest) {
+    render::DebugView view = render::DebugView::Final;
+    mr::Overlay overlay = mr::Overlay::None;
+    mr::parseView("differential", view, overlay);
+    ASSERT_EQ(overlay, mr::Overlay::Differential);
+    const PipelineRun run = runFrame(true, true, overlay);
+    int umbra = 0;
+    for (int v = 0; v < kHeight; ++v)
+        for (int u = 0; u < kWidth; ++u) {
+            const cv::Vec3b shown = run.out.withGi.at<cv::Vec3b>(v, u), camera = run.camera.at<cv::Vec3b>(v, u);
+            const glm::dvec3 p = wallPoint(u, v);
+            if (!nearCubeInImage(u, v) && segmentHitsCube(p, kLight, -0.01)) {
+                // dE / E_without < -0.5 there (the umbra keeps less than half its light): blue > 127.
+                EXPECT_GT(shown[0], 127) << u << "," << v;
+                EXPECT_EQ(shown[2], cv::saturate_cast<std::uint8_t>(0.35 * camera[2])) << u << "," << v;
+                ++umbra;
+            }
+        }
+    EXPECT_GT(umbra, 20);
+    const std::uint8_t dimmed = cv::saturate_cast<std::uint8_t>(0.35 * 150.0); // OpenCV rounds half to even: 52
+    EXPECT_EQ(run.out.withGi.at<cv::Vec3b>(0, 0), cv::Vec3b(dimmed, dimmed, dimmed))
+        << "far pixels: the camera at 35 %";
+    EXPECT_GT(dimmed, 0);
 }
 
 } // namespace

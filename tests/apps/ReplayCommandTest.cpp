@@ -324,7 +324,8 @@ TEST(ReplayCommand, ObjectsPresentTruthIsCloserWithTheDifferential) {
       "path": {"segments": [{"type": "orbit", "frames": 2, "center": [2.0, 1.75, 0.75], "target": [2.0, 1.8, 0.8],
                              "radius": 1.2, "height": 1.5, "startDegrees": 250, "endDegrees": 260}]}})";
     const std::string objects = R"({"version": 1,
-      "objects": [{"name": "cube", "mesh": ")" + (test::sourceDir() / "recordings/scenes/meshes/cube.obj").string() + R"(",
+      "objects": [{"name": "cube", "mesh": ")" +
+                                (test::sourceDir() / "recordings/scenes/meshes/cube.obj").string() + R"(",
                    "transform": {"translation": [2.0, 1.8, 0.85], "scale": 0.2}, "material": {"diffuseAlbedo": 0.6}}],
       "lights": [{"type": "point", "position": [1.7, 1.6, 2.0], "power": 60}],
       "gi": {"technique": "lightskin", "sparsePoints": 256, "valStride": 4},
@@ -345,8 +346,10 @@ TEST(ReplayCommand, ObjectsPresentTruthIsCloserWithTheDifferential) {
     for (const auto& frame : report["frames"]) {
         const auto& real = frame["objectsPresentError"]["real"];
         EXPECT_GT(real["pixels"].get<int>(), 50) << frame.dump();
-        EXPECT_LT(real["withDifferential"]["mae"].get<double>(), real["withoutDifferential"]["mae"].get<double>()) << frame.dump();
-        EXPECT_LT(real["withDifferential"]["rmse"].get<double>(), real["withoutDifferential"]["rmse"].get<double>()) << frame.dump();
+        EXPECT_LT(real["withDifferential"]["mae"].get<double>(), real["withoutDifferential"]["mae"].get<double>())
+            << frame.dump();
+        EXPECT_LT(real["withDifferential"]["rmse"].get<double>(), real["withoutDifferential"]["rmse"].get<double>())
+            << frame.dump();
         EXPECT_TRUE(fs::exists(scratch / "out" / frame["presentImage"].get<std::string>()));
     }
     EXPECT_NE(test::readText(scratch / "out" / "report.md").find("| error vs objects really there"), std::string::npos);

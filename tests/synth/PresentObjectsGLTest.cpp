@@ -95,18 +95,21 @@ TEST_F(PresentObjectsGLTest, ABlackCubeShadowsTheFloorExactlyAndLeavesTheLitFloo
             if (x.z > 1e-3) continue; // the floor only (the walls are far outside the cube's shadow anyway)
             const glm::dvec3 eye = r.frame.frame.groundTruth_world_T_camera->translation();
             if (segmentHitsCube(eye, x, 0.005)) continue; // the camera sees the cube here (or its silhouette)
-            if (segmentHitsCube(x, kLight, -0.005)) { // 5 mm inside the shadow: no pixel-centre ambiguity
+            if (segmentHitsCube(x, kLight, -0.005)) {     // 5 mm inside the shadow: no pixel-centre ambiguity
                 EXPECT_EQ(after, cv::Vec3f(0, 0, 0)) << u << "," << v;
                 ++umbra;
             } else if (!segmentHitsCube(x, kLight, 0.005)) {
-                EXPECT_EQ(after, before) << u << "," << v << ": lit floor, the light ratio is exactly 1 and nothing bounces";
+                EXPECT_EQ(after, before) << u << "," << v
+                                         << ": lit floor, the light ratio is exactly 1 and nothing bounces";
                 ++lit;
             }
         }
     // The cube's own pixels: the camera ray meets the cube before the floor; black cube, no ambient.
     for (int v = 0; v < r.present.rows; ++v)
         for (int u = 0; u < r.present.cols; ++u)
-            if (r.present.at<cv::Vec3f>(v, u) == cv::Vec3f(0, 0, 0) && r.frame.exact.radiance.at<cv::Vec3f>(v, u)[1] > 0.0f) ++cube;
+            if (r.present.at<cv::Vec3f>(v, u) == cv::Vec3f(0, 0, 0) &&
+                r.frame.exact.radiance.at<cv::Vec3f>(v, u)[1] > 0.0f)
+                ++cube;
     EXPECT_GT(umbra, 30);
     EXPECT_GT(lit, 1000);
     EXPECT_GT(cube, umbra + 30) << "the cube itself covers pixels and is black";
@@ -130,7 +133,8 @@ TEST_F(PresentObjectsGLTest, AWhiteCubesTopShowsItsDirectLightAndBrightensTheFlo
             const glm::dvec3 y = eye + (kCentre.z + kHalf - eye.z) / d.z * d;
             if (std::abs(y.x - kCentre.x) < kHalf - 0.01 && std::abs(y.y - kCentre.y) < kHalf - 0.01) {
                 const glm::dvec3 toLight = kLight - y;
-                const double direct = 0.8 / std::numbers::pi * kIntensity * toLight.z / std::pow(glm::dot(toLight, toLight), 1.5);
+                const double direct =
+                    0.8 / std::numbers::pi * kIntensity * toLight.z / std::pow(glm::dot(toLight, toLight), 1.5);
                 const double shown = double(r.present.at<cv::Vec3f>(v, u)[1]);
                 EXPECT_GE(shown, direct * (1.0 - 1e-5)) << u << "," << v;
                 EXPECT_LE(shown, direct + 0.8 * roomMax) << u << "," << v;
@@ -139,7 +143,8 @@ TEST_F(PresentObjectsGLTest, AWhiteCubesTopShowsItsDirectLightAndBrightensTheFlo
             const cv::Vec3f p = r.frame.exact.worldPosition.at<cv::Vec3f>(v, u);
             const glm::dvec3 x(p[0], p[1], p[2]);
             const double distance = std::max(std::abs(x.x - kCentre.x), std::abs(x.y - kCentre.y));
-            if (x.z < 1e-3 && distance > kHalf + 0.02 && !segmentHitsCube(eye, x, 0.005) && distance < kHalf + 0.1 && !segmentHitsCube(x, kLight, 0.005) &&
+            if (x.z < 1e-3 && distance > kHalf + 0.02 && !segmentHitsCube(eye, x, 0.005) && distance < kHalf + 0.1 &&
+                !segmentHitsCube(x, kLight, 0.005) &&
                 r.present.at<cv::Vec3f>(v, u)[1] > r.frame.exact.radiance.at<cv::Vec3f>(v, u)[1])
                 ++brighter;
         }

@@ -62,8 +62,8 @@ public:
 
     /// Builds the occluders and renders the room's cube maps (current GL context needed). Throws
     /// lightskin::Error on bad settings, an empty object list or Embree errors.
-    static PresentObjects create(const SceneDescription& room, std::vector<PresentObject> objects, const TagBitmapSource& tags,
-                                 const PresentObjectsSettings& settings = {});
+    static PresentObjects create(const SceneDescription& room, std::vector<PresentObject> objects,
+                                 const TagBitmapSource& tags, const PresentObjectsSettings& settings = {});
 
     /// The view of the camera at world_T_camera (scene intrinsics) with the objects present, from
     /// the room's exact view: `out` CV_32FC3 BGR linear radiance (reallocated when the size changes).
