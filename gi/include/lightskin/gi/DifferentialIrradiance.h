@@ -23,8 +23,11 @@
 //  * E_l = I(omega) cos(theta) / d^2 of a scene light; "in room" lights model a light that is
 //    really there (the scene's copy of the room's light, as recordings/scenes/orbit.json): they
 //    are in the camera image already, so only their shadow by the virtual objects changes it;
-//    virtual-only lights add their (shadowed) light. Real geometry does not shadow either (the
-//    depth frame is one view; its occlusion is unknown).
+//    virtual-only lights add their (shadowed) light. A light that real geometry hides from x
+//    (a screen-space shadow ray through the depth frame: a sample of the segment 2 cm .. 0.5 m
+//    behind the seen surface) counts in neither E_with nor E_without: the objects cannot take
+//    away light that never arrived. Real geometry does not shadow the VALs (they are the surfaces
+//    the camera sees, mostly in front of the receivers).
 //
 // Region: a receiver is gathered when it lies within R_o of some object's bounding-sphere centre
 // or when its segment to a light crosses some object's bounding sphere (the direct shadow can
