@@ -129,7 +129,7 @@ void markNearSphere(const DiscArrays& d, const glm::dvec3& xd, const glm::dvec3&
         const float length2 = std::max(dx * dx + dy * dy + dz * dz, 1.0e-36f);
         const float t = std::clamp((cx * dx + cy * dy + cz * dz) / length2, 0.0f, 1.0f);
         const float qx = t * dx - cx, qy = t * dy - cy, qz = t * dz - cz;
-        const bool near = qx * qx + qy * qy + qz * qz <= r2 && weights[j] > 0.0f;
+        const bool near = (qx * qx + qy * qy + qz * qz <= r2) & (weights[j] > 0.0f); // no short-circuit: vectorises
         candidates[j] = near ? 1.0f : candidates[j];
     }
 }
