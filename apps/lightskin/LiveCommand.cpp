@@ -60,8 +60,10 @@ std::string statusLine(double fps, const mr::FrameOutput& out, const mr::FramePi
     line += options.giEnabled ? pipeline.techniqueName() : std::string("off");
     line += pipeline.giSettings().glossy ? " +glossy" : "";
     line += pipeline.giSettings().occlusion ? " +occl" : "";
+    line += options.differential && out.differentialReceivers >= 0 ? " | differential" : "";
     line += " | ";
-    const char* overlays[] = {"", " + vals", " + sparse points", " + error vs brute force", " + vertex VPLs"};
+    const char* overlays[] = {
+        "", " + vals", " + sparse points", " + error vs brute force", " + vertex VPLs", " + differential"};
     line += render::toString(options.view);
     line += overlays[int(options.overlay)];
     line += " | ";
@@ -110,7 +112,9 @@ int runLive(const LiveArgs& args) {
     mr::FramePipeline* pipeline = &session->pipeline();
     std::printf("live: %s (%s), scene %s, pose %s, GI %s\n", info.uri.c_str(), info.kind.c_str(), args.scene.c_str(),
                 mr::toString(options.poseMode), pipeline->techniqueName().c_str());
-    if (window) std::printf("keys: G GI, L glossy, O occlusion, V debug view, C side by side, P snapshot, Q/Esc quit\n");
+    if (window)
+        std::printf("keys: G GI, L glossy, O occlusion, D differential, V debug view, C side by side, P snapshot, "
+                    "Q/Esc quit\n");
 
     std::optional<capture::RecordingWriter> recorder;
     if (!args.record.empty()) {
@@ -135,7 +139,7 @@ int runLive(const LiveArgs& args) {
             case 'L': gi.glossy = !gi.glossy; pipeline->setGiSettings(gi); break;
             case 'O': gi.occlusion = !gi.occlusion; pipeline->setGiSettings(gi); break;
             case 'V':
-                // final, direct, indirect, normals, albedo, then the overlays vals, sparse, error, vpl.
+                // final, direct, indirect, normals, albedo, then the overlays vals, sparse, error, vpl, differential.
                 if (o.overlay != mr::Overlay::None) {
                     o.overlay = mr::Overlay((int(o.overlay) + 1) % mr::kOverlayCount);
                 } else if (o.view == render::DebugView::Albedo) {
@@ -146,6 +150,9 @@ int runLive(const LiveArgs& args) {
                 }
                 break;
             case 'C': o.compare = !o.compare; break;
+            case 'D':
+                o.differential = !o.differential;
+                break;
             case 'P': snapshotRequested = true; break;
             case 'Q':
             case kKeyEscape: quit = true; break;

@@ -20,8 +20,10 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include <array>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
@@ -49,8 +51,54 @@ struct ReplayArgs {
     double budgetMs = 0.0; ///< --budget-ms (0: the scene's gi.budgetMs, if any)
     std::string staticTest = "probes";
     std::string backend; ///< overrides the scene's gi.backend when set
+    std::string differential = "scene";
     std::int64_t maxFrames = -1;
 };
+
+/// Error of two composites against the objects-present truth (synth/present, see ReplayReport.h).
+void presentErrorInto(const cv::Mat& truth, const cv::Mat& camera, const cv::Mat& withDifferential,
+                      const cv::Mat& withoutDifferential, ReportFrame& rf) {
+    static const std::array<double, 256> decoded = [] {
+        std::array<double, 256> table{};
+        for (std::size_t i = 0; i < table.size(); ++i) {
+            const double c = double(i) / 255.0;
+            table[i] = c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
+        }
+        return table;
+    }();
+    struct Sums {
+        std::int64_t pixels = 0;
+        double absWith = 0.0, absWithout = 0.0, sqWith = 0.0, sqWithout = 0.0;
+    } all, real;
+    for (int v = 0; v < truth.rows; ++v)
+        for (int u = 0; u < truth.cols; ++u) {
+            const cv::Vec3b t = truth.at<cv::Vec3b>(v, u), c = camera.at<cv::Vec3b>(v, u),
+                            a = withDifferential.at<cv::Vec3b>(v, u), b = withoutDifferential.at<cv::Vec3b>(v, u);
+            if (t == c && b == c) continue; // neither the truth nor the virtual content changes this pixel
+            const bool covered = b != c;    // virtual content (without the differential, only it changes pixels)
+            for (Sums* sums : {&all, covered ? nullptr : &real}) {
+                if (sums == nullptr) continue;
+                ++sums->pixels;
+                for (int k = 0; k < 3; ++k) {
+                    const double ea = decoded[a[k]] - decoded[t[k]], eb = decoded[b[k]] - decoded[t[k]];
+                    sums->absWith += std::abs(ea);
+                    sums->absWithout += std::abs(eb);
+                    sums->sqWith += ea * ea;
+                    sums->sqWithout += eb * eb;
+                }
+            }
+        }
+    const auto finish = [](const Sums& s, ReportFrame::PresentError& e) {
+        e.pixels = s.pixels;
+        const double samples = std::max(1.0, 3.0 * double(s.pixels));
+        e.maeWith = s.absWith / samples;
+        e.maeWithout = s.absWithout / samples;
+        e.rmseWith = std::sqrt(s.sqWith / samples);
+        e.rmseWithout = std::sqrt(s.sqWithout / samples);
+    };
+    finish(all, rf.present);
+    finish(real, rf.presentReal);
+}
 
 /// "all" or a comma list of indices and ranges: "0,5,10-20". Empty set = all.
 std::set<std::int64_t> parseFrameList(const std::string& text) {
@@ -203,6 +251,11 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     options.staticTolerance = args.staticTolerance;
     options.linearComposite = true; // the report's NaN/inf counts
     options.linearIndirect = args.linearOut;
+    options.differential = args.differential != "off";
+    // A synthetic recording rendered with `lightskin synth --objects-present`: compare with that truth.
+    const std::filesystem::path presentFolder = std::filesystem::path(args.recording) / "synth" / "present";
+    const bool havePresent = std::filesystem::is_directory(presentFolder);
+    options.differentialBaseline = havePresent;
     if (args.staticTest != "probes" && args.staticTest != "bound")
         throw Error("--static-test", std::nullopt, "expected probes or bound, got '" + args.staticTest + "'");
     options.staticProbes = args.staticTest == "probes";
@@ -255,12 +308,13 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     const auto previous = std::signal(SIGINT, onReplayInterrupt);
     std::vector<ReportFrame> frames;
     Progress progress(total >= 0 ? std::optional<std::int64_t>(total) : std::nullopt);
-    cv::Mat sideBySide;
+    cv::Mat sideBySide, presentPair, presentTriple, presentFigure;
     std::int64_t read = 0;
     try {
         while (!interruptRequested && (args.maxFrames < 0 || read < args.maxFrames) && session->processNext()) {
             ++read;
             const mr::FrameOutput& output = session->output();
+            const RgbdFrame& frame = session->sourceFrame();
             const mr::FrameReport& report = session->report();
             ReportFrame rf;
             rf.index = report.frameIndex;
@@ -284,6 +338,29 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
             rf.giChangeMeasure = output.giChangeMeasure;
             rf.linearNanPixels = output.linearNanPixels;
             rf.linearInfPixels = output.linearInfPixels;
+            if (havePresent) {
+                char truthName[32];
+                std::snprintf(truthName, sizeof truthName, "%06lld.png", static_cast<long long>(frame.index));
+                const std::filesystem::path truthPath = presentFolder / truthName;
+                const cv::Mat truth = cv::imread(truthPath.string(), cv::IMREAD_COLOR);
+                if (truth.empty())
+                    throw Error(truthPath.string(), frame.index, "missing or unreadable objects-present image");
+                if (truth.size() != frame.colour.size())
+                    throw Error(truthPath.string(), frame.index,
+                                "objects-present image is not the colour image's size");
+                presentErrorInto(truth, frame.colour, output.withGi, output.withGiWithoutDifferential, rf);
+                if (chosen.empty() || chosen.count(frame.index) > 0) {
+                    // truth | with differential | without (the side-by-side figure)
+                    render::sideBySideInto(truth, "objects really there", output.withGi, "with differential",
+                                           presentPair);
+                    render::sideBySideInto(output.withGiWithoutDifferential, "without differential",
+                                           output.withGiWithoutDifferential, "", presentTriple);
+                    cv::hconcat(presentPair, presentTriple.colRange(0, output.withGi.cols), presentFigure);
+                    std::filesystem::create_directories(out / "present");
+                    rf.presentImage = std::string("present/") + truthName;
+                    writePng(out / rf.presentImage, presentFigure);
+                }
+            }
             if (compare) render::sideBySideInto(output.withGi, "with GI (" + pipeline->techniqueName() + ")", output.withoutGi, "without GI", sideBySide);
             const bool write = chosen.empty() || chosen.count(report.frameIndex) > 0;
             if (write) {
@@ -347,11 +424,19 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
     command->add_option("--frames", args->frames, "Frames to write as PNG: all (default) or a list like 0,5,10-20");
     command->add_option("--max-frames", args->maxFrames, "Stop after this many frames");
     command->add_option("--pose", args->pose, "ground-truth | tracking | fixed (default: ground truth when the recording has it, else tracking)");
-    command->add_option("--view", args->view, "Debug view: final | direct | indirect | normals | albedo | vals (VALs by flux) | sparse (sparse points) | error (vs brute force) | vpl (interpolated vertex VPLs)");
+    command->add_option("--view", args->view,
+                        "Debug view: final | direct | indirect | normals | albedo | vals (VALs by flux) | sparse "
+                        "(sparse points) | error (vs brute force) | vpl (interpolated vertex VPLs) | differential "
+                        "(change of the real light by the virtual objects)");
     command->add_flag("--no-video", args->noVideo, "Do not write a video");
     command->add_option("--video-format", args->videoFormat, "auto (MP4, falling back to MJPG AVI) | mp4 | avi");
     command->add_flag("--side-by-side-video", args->sideBySideVideo, "Video frames show with GI | without GI");
     command->add_flag("--no-compare", args->noCompare, "Do not render the without-GI comparison");
+    command
+        ->add_option("--differential", args->differential,
+                     "Differential rendering (virtual shadows and bounce on the real surfaces): scene (its "
+                     "compositing.differential, default) | off")
+        ->check(CLI::IsMember({"scene", "off"}));
     command->add_flag("--linear-out", args->linearOut,
                       "Also write each written frame's linear-light composite (linear/) and indirect-only light (linear-indirect/) "
                       "as 32-bit float OpenEXR (NaN, inf and values > 1 kept; 16-bit PNG clamped to [0,1] if this OpenCV has no EXR)");

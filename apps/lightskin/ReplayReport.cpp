@@ -115,6 +115,14 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
             const bool seen = j.contains("gpuMs") && j["gpuMs"].contains(st.name);
             j["gpuMs"][st.name] = (seen ? j["gpuMs"][st.name].get<double>() : 0.0) + st.milliseconds;
         }
+        const auto presentJson = [](const ReportFrame::PresentError& e) {
+            return nlohmann::json{{"pixels", e.pixels},
+                                  {"withDifferential", {{"mae", e.maeWith}, {"rmse", e.rmseWith}}},
+                                  {"withoutDifferential", {{"mae", e.maeWithout}, {"rmse", e.rmseWithout}}}};
+        };
+        if (f.present.pixels >= 0)
+            j["objectsPresentError"] = {{"affected", presentJson(f.present)}, {"real", presentJson(f.presentReal)}};
+        if (!f.presentImage.empty()) j["presentImage"] = f.presentImage;
         j["linearNanPixels"] = f.linearNanPixels;
         j["linearInfPixels"] = f.linearInfPixels;
         if (!f.linearImage.empty()) j["linearImage"] = f.linearImage;
@@ -170,6 +178,27 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
     if (bounceFrames > 0)
         md += "| virtual bounce (RSM) | " + fixed(double(rsmVals) / double(bounceFrames), 0) + " RSM VALs per frame (mean of " +
               std::to_string(bounceFrames) + " frames), " + std::to_string(dropped) + " VALs dropped in all" + (dropped > 0 ? " (merged set full!)" : "") + " |\n";
+    for (const bool realOnly : {false, true}) {
+        std::int64_t presentFrames = 0, pixels = 0;
+        double maeWith = 0.0, maeWithout = 0.0, rmseWith = 0.0, rmseWithout = 0.0;
+        for (const ReportFrame& f : frames) {
+            const ReportFrame::PresentError& e = realOnly ? f.presentReal : f.present;
+            if (e.pixels < 0) continue;
+            ++presentFrames;
+            pixels += e.pixels;
+            maeWith += e.maeWith;
+            maeWithout += e.maeWithout;
+            rmseWith += e.rmseWith;
+            rmseWithout += e.rmseWithout;
+        }
+        if (presentFrames == 0) continue;
+        const double k = double(presentFrames);
+        md += std::string("| error vs objects really there (synth/present, linear, ") +
+              (realOnly ? "affected real pixels" : "all affected pixels") + ") | with differential: MAE " +
+              fixed(maeWith / k, 5) + ", RMSE " + fixed(rmseWith / k, 5) + "; without: MAE " +
+              fixed(maeWithout / k, 5) + ", RMSE " + fixed(rmseWithout / k, 5) + " (mean of " +
+              std::to_string(presentFrames) + " frames, " + fixed(double(pixels) / k, 0) + " pixels per frame) |\n";
+    }
     md += "\n";
 
     md += "## Mean stage times\n\n| stage | kind | ms |\n|---|---|---|\n";

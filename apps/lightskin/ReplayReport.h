@@ -29,6 +29,18 @@ struct ReportFrame {
     std::int64_t linearInfPixels = 0; ///< ... with an infinite channel (and no NaN)
     std::string linearImage;          ///< --linear-out: linear composite written for this frame, or empty
     std::string linearIndirectImage;  ///< --linear-out: linear indirect-only image, or empty
+    /// Recordings with synth/present/ (the objects really in the room): the error of the composite
+    /// against it in linear light over the pixels the objects affect (the truth differs from the
+    /// camera image, or virtual content covers the pixel), with and without the differential.
+    /// `real`: the same over the affected pixels that no virtual content covers (where only the
+    /// differential can change the composite).
+    struct PresentError {
+        std::int64_t pixels = -1;
+        double maeWith = 0.0, maeWithout = 0.0;   ///< mean |composite - truth|, linear, over pixels and channels
+        double rmseWith = 0.0, rmseWithout = 0.0; ///< root mean square of the same
+    };
+    PresentError present, presentReal;
+    std::string presentImage; ///< truth | with differential | without, or empty
     std::string image;        ///< PNG written for this frame (relative to the output folder), or empty
     std::string compareImage; ///< side-by-side PNG, or empty
     std::string giSettings;   ///< --budget-ms: the settings the frame budget chose (mr::describe), else empty

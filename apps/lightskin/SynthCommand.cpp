@@ -24,6 +24,7 @@ struct SynthArguments {
     bool noNoise = false;
     std::optional<std::uint64_t> noiseSeed;
     std::string fakenect;
+    std::string objectsPresent;
 };
 
 void addSynthCommand(CLI::App& app, int& exitCode) {
@@ -34,6 +35,10 @@ void addSynthCommand(CLI::App& app, int& exitCode) {
     command->add_option("--frames", arguments->maxFrames, "Write at most this many frames (default: the whole path)");
     command->add_flag("--no-noise", arguments->noNoise, "Exact depth: switch the depth noise model off");
     command->add_option("--noise-seed", arguments->noiseSeed, "Override the noise seed");
+    command->add_option(
+        "--objects-present", arguments->objectsPresent,
+        "A lightskin scene file: also render every frame with its virtual objects really in the room into "
+        "synth/present/ (the ground truth of the differential composite; docs/SYNTH.md)");
     command->add_option("--fakenect", arguments->fakenect,
                         "Also write the recording as a fakenect dump into this folder (needs 640x480; capture/Fakenect.h)");
     command->callback([arguments, &exitCode] {
@@ -48,6 +53,7 @@ void addSynthCommand(CLI::App& app, int& exitCode) {
         auto context = gl::createHeadlessContext();
         synth::SynthRecordingOptions options;
         options.maxFrames = arguments->maxFrames;
+        options.presentObjects = arguments->objectsPresent;
         options.progress = [](int written, int total) {
             if (written == total || written % 10 == 0) std::fprintf(stderr, "\rframe %d/%d", written, total);
             if (written == total) std::fprintf(stderr, "\n");

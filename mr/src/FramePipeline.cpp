@@ -4,6 +4,7 @@
 #include <lightskin/eval/ColourSpace.h>
 #include <lightskin/gi/BruteForceIllumination.h>
 #include <lightskin/gi/CpuLightSkin.h>
+#include <lightskin/gi/DifferentialIrradiance.h>
 #include <lightskin/gi/LightSkinIllumination.h>
 #include <lightskin/gi/ValGenerator.h>
 #include <lightskin/gi/ValSetMerger.h>
@@ -137,6 +138,8 @@ void parseView(const std::string& text, render::DebugView& view, Overlay& overla
     else if (text == "sparse") overlay = Overlay::SparsePoints;
     else if (text == "error") overlay = Overlay::ErrorVsBruteForce;
     else if (text == "vpl") overlay = Overlay::VertexVpls;
+    else if (text == "differential")
+        overlay = Overlay::Differential;
     else {
         for (auto v : {render::DebugView::Final, render::DebugView::DirectOnly, render::DebugView::IndirectOnly,
                        render::DebugView::Normals, render::DebugView::Albedo})
@@ -144,8 +147,10 @@ void parseView(const std::string& text, render::DebugView& view, Overlay& overla
                 view = v;
                 return;
             }
-        throw Error("--view", std::nullopt,
-                    "expected final, direct, indirect, normals, albedo, vals, sparse, error or vpl, got '" + text + "'");
+        throw Error(
+            "--view", std::nullopt,
+            "expected final, direct, indirect, normals, albedo, vals, sparse, error, vpl or differential, got '" +
+                text + "'");
     }
 }
 
@@ -260,6 +265,33 @@ VplViewResult drawVertexVpls(cv::Mat& image, const Technique& technique, std::sp
     return result;
 }
 
+/// The differential view (Overlay::Differential): dE / E_without as blue (darker) / red (brighter)
+/// over the camera image at 35 %.
+void drawDifferential(cv::Mat& image, const cv::Mat& camera, const gi::DifferentialImages& d) {
+    camera.convertTo(image, -1, 0.35);
+    for (int v = 0; v < image.rows; ++v) {
+        const auto* affected = d.affected.ptr<std::uint8_t>(v);
+        const auto* delta = d.deltaIrradiance.ptr<cv::Vec3f>(v);
+        const auto* without = d.irradianceWithout.ptr<cv::Vec3f>(v);
+        auto* dst = image.ptr<cv::Vec3b>(v);
+        for (int u = 0; u < image.cols; ++u) {
+            if (affected[u] == 0) continue;
+            const auto luminance = [](const cv::Vec3f& bgr) {
+                return 0.0722f * bgr[0] + 0.7152f * bgr[1] + 0.2126f * bgr[2];
+            };
+            const float w = luminance(without[u]);
+            const float ratio = w > 0.0f ? luminance(delta[u]) / w : 0.0f;
+            const auto level = [](float x) {
+                return cv::saturate_cast<std::uint8_t>(255.0f * std::clamp(x, 0.0f, 1.0f));
+            };
+            if (ratio < 0.0f)
+                dst[u][0] = std::max(dst[u][0], level(-ratio));
+            else
+                dst[u][2] = std::max(dst[u][2], level(2.0f * ratio));
+        }
+    }
+}
+
 } // namespace
 
 struct FramePipeline::State {
@@ -285,6 +317,12 @@ struct FramePipeline::State {
     cv::Mat coverage;             // alpha of virtualColour (coveredPixels)
     int valStride = 0;            // the ValGenerator's stride
     int preparedSparsePoints = 0; // per object, as the renderer prepared them; 0 = none
+    // Differential rendering (compositing.differential): receivers on the real surface, created once.
+    std::optional<gi::DifferentialIrradiance> differential;
+    std::vector<gi::DifferentialLightSource> differentialLights;
+    std::vector<gi::VirtualAreaLight> depthValsOnCpu;
+    gi::DifferentialImages differentialImages;
+    cv::Mat cameraWithDifferential;
 };
 
 FramePipeline::~FramePipeline() = default;
@@ -327,6 +365,12 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
         s.rsmTimer = gl::GpuStageTimer::create(1);
         log::info("gi.virtualBounce: " + std::to_string(s.virtualLights.size()) + " light(s), RSM " + std::to_string(rsm.resolution) + "^2 per face, " +
                   std::to_string(s.merger->capacity()) + " VALs merged at most");
+    }
+    if (scene.compositing.differential && s.valsUsable && !scene.objects.empty()) {
+        s.differential = gi::DifferentialIrradiance::create(p->renderer_->instances());
+        const std::vector<gi::VirtualLight> lights = virtualLightsFromScene(scene);
+        for (std::size_t i = 0; i < lights.size(); ++i)
+            s.differentialLights.push_back({lights[i], scene.lights[i].inRoom});
     }
     p->setGiSettings(scene.gi);
     gl::DebugOutput::throwIfErrors("pipeline creation");
@@ -374,6 +418,17 @@ void FramePipeline::setGiSettings(const render::GiSettings& settings) {
         cpu->setSettings(s);
     }
     state_->technique->prepare(renderer_->instances());
+}
+
+void FramePipeline::applyDifferential(const RgbdFrame& frame, const Pose& world_T_camera,
+                                      const gi::ValSetView& depthVals, FrameOutput& out) {
+    State& s = *state_;
+    gi::downloadValsInto(depthVals, s.depthValsOnCpu);
+    s.differential->compute(s.depthMetres, frame.colourIntrinsics, world_T_camera, s.depthValsOnCpu,
+                            s.differentialLights, s.differentialImages);
+    render::applyDifferentialInto(frame.colour, s.differentialImages, s.scene->exposureStops, s.cameraWithDifferential);
+    out.differentialReceivers = s.differentialImages.receiversGathered;
+    out.differentialPixels = cv::countNonZero(s.differentialImages.affected);
 }
 
 std::string FramePipeline::techniqueName() const { return std::string(state_->technique->name()); }
@@ -438,11 +493,23 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     t = Clock::now();
     gi::ValSetView valSet;
     const bool runGi = options_.giEnabled && gi_.technique != "none";
-    if (haveDepth && runGi && s.vals) {
+    const bool runDifferential = options_.differential && s.differential && haveDepth && s.vals;
+    if (haveDepth && (runGi || runDifferential) && s.vals) {
         valSet = s.vals->generate(s.depthMetres, 1.0, frame.colour, frame.colourIntrinsics, world_T_camera);
         out.valCount = valSet.count;
     }
     addTime(out.cpuTimes, used, "vals", msSince(t));
+
+    // Differential rendering: the camera image with the virtual objects' shadows and bounce.
+    out.differentialReceivers = -1;
+    out.differentialPixels = -1;
+    const cv::Mat* camera = &frame.colour;
+    if (runDifferential) {
+        t = Clock::now();
+        applyDifferential(frame, world_T_camera, valSet, out);
+        camera = &s.cameraWithDifferential;
+        addTime(out.cpuTimes, used, "differential", msSince(t));
+    }
 
     // VALs from the virtual lights (one bounce between virtual objects), after the depth VALs.
     bool rsmTimed = false;
@@ -485,10 +552,18 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     r.readOutputsInto(s.virtualColour, s.virtualDepth);
     cv::extractChannel(s.virtualColour, s.coverage, 3);
     out.coveredPixels = cv::countNonZero(s.coverage);
-    s.compositor.compositeInto(frame.colour, s.virtualColour, s.virtualDepth, realDepth, out.withGi);
+    s.compositor.compositeInto(*camera, s.virtualColour, s.virtualDepth, realDepth, out.withGi);
+    if (options_.differentialBaseline) {
+        if (runDifferential)
+            s.compositor.compositeInto(frame.colour, s.virtualColour, s.virtualDepth, realDepth,
+                                       out.withGiWithoutDifferential);
+        else
+            out.withGi.copyTo(out.withGiWithoutDifferential);
+    }
     if (options_.linearComposite) {
         r.readLinearOutputInto(s.virtualLinear);
-        s.compositor.compositeLinearInto(frame.colour, s.virtualLinear, s.virtualColour, s.virtualDepth, realDepth, out.linearWithGi);
+        s.compositor.compositeLinearInto(*camera, s.virtualLinear, s.virtualColour, s.virtualDepth, realDepth,
+                                         out.linearWithGi);
     }
     for (int v = 0; v < (options_.linearComposite ? out.linearWithGi.rows : 0); ++v) {
         const auto* row = out.linearWithGi.ptr<cv::Vec3f>(v);
@@ -505,6 +580,8 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     }
     if (options_.overlay == Overlay::Vals && out.valCount > 0 && s.vals)
         drawVals(out.withGi, s.vals->downloadVals(), frame.colourIntrinsics, world_T_camera);
+    if (options_.overlay == Overlay::Differential && runDifferential)
+        drawDifferential(out.withGi, frame.colour, s.differentialImages);
     if (options_.overlay == Overlay::SparsePoints) drawSparsePoints(out.withGi, r, frame.colourIntrinsics, world_T_camera);
     if (options_.overlay == Overlay::VertexVpls && runGi) {
         if (const auto* lightSkin = dynamic_cast<const gi::LightSkinIllumination*>(s.technique.get())) {

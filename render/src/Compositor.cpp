@@ -141,6 +141,42 @@ void Compositor::compositeLinearInto(const cv::Mat& camera, const cv::Mat& virtu
     }
 }
 
+void applyDifferentialInto(const cv::Mat& camera, const gi::DifferentialImages& d, float exposureStops, cv::Mat& out) {
+    LIGHTSKIN_ASSERT(camera.type() == CV_8UC3,
+                     "lightskin::render::applyDifferentialInto(): camera image must be CV_8UC3");
+    LIGHTSKIN_ASSERT(d.deltaIrradiance.type() == CV_32FC3 && d.deltaIrradiance.size() == camera.size() &&
+                         d.irradianceWithout.type() == CV_32FC3 && d.irradianceWithout.size() == camera.size() &&
+                         d.affected.type() == CV_8UC1 && d.affected.size() == camera.size(),
+                     "lightskin::render::applyDifferentialInto(): differential images must be CV_32FC3/CV_8UC1 of the "
+                     "camera's size");
+    LIGHTSKIN_ASSERT(out.data != camera.data,
+                     "lightskin::render::applyDifferentialInto(): out must not alias the camera image");
+    static const std::array<float, 256> decoded = [] {
+        std::array<float, 256> table{};
+        for (std::size_t i = 0; i < table.size(); ++i) table[i] = srgbDecode(float(i) / 255.0f);
+        return table;
+    }();
+    const float gain = std::exp2(exposureStops), pi = 3.14159265358979f;
+    camera.copyTo(out);
+    for (int v = 0; v < camera.rows; ++v) {
+        const auto* affected = d.affected.ptr<std::uint8_t>(v);
+        const auto* delta = d.deltaIrradiance.ptr<cv::Vec3f>(v);
+        const auto* without = d.irradianceWithout.ptr<cv::Vec3f>(v);
+        auto* dst = out.ptr<cv::Vec3b>(v);
+        for (int u = 0; u < camera.cols; ++u) {
+            if (affected[u] == 0) continue;
+            for (int c = 0; c < 3; ++c) {
+                const float dE = delta[u][c], eWithout = without[u][c];
+                if (dE == 0.0f || !(eWithout > 0.0f) || !std::isfinite(dE) || !std::isfinite(eWithout)) continue;
+                const float p = decoded[dst[u][c]];
+                const float albedo = std::clamp(pi * (p / gain) / eWithout, 0.0f, 1.0f);
+                const float result = std::clamp(p + gain * albedo / pi * dE, 0.0f, 1.0f);
+                dst[u][c] = cv::saturate_cast<std::uint8_t>(srgbEncode(result) * 255.0f);
+            }
+        }
+    }
+}
+
 void sideBySideInto(const cv::Mat& left, const std::string& leftCaption, const cv::Mat& right, const std::string& rightCaption,
                     cv::Mat& out) {
     LIGHTSKIN_ASSERT(left.type() == CV_8UC3 && right.type() == left.type() && left.size() == right.size(),

@@ -157,7 +157,9 @@ SceneObject readObject(const Reader& r, const json& value, const std::string& p,
 
 SceneLight readLight(const Reader& r, const json& value, const std::string& p) {
     r.object(value, p);
-    r.allowOnly(value, p, {"type", "position", "direction", "power", "coneAngleDegrees", "coneFalloffDegrees", "shadows"});
+    r.allowOnly(
+        value, p,
+        {"type", "position", "direction", "power", "coneAngleDegrees", "coneFalloffDegrees", "shadows", "inRoom"});
     SceneLight l;
     const std::string type = value.contains("type") ? r.string(value["type"], p + "/type") : "";
     if (type == "point") l.type = LightType::Point;
@@ -180,6 +182,7 @@ SceneLight readLight(const Reader& r, const json& value, const std::string& p) {
             if (value.contains(key)) r.fail(p + "/" + key, "no such key on a point light (only spot lights have it)", nullptr);
     }
     if (value.contains("shadows")) l.castsShadows = r.boolean(value["shadows"], p + "/shadows");
+    if (value.contains("inRoom")) l.inRoom = r.boolean(value["inRoom"], p + "/inRoom");
     return l;
 }
 
@@ -263,11 +266,13 @@ Scene parseScene(std::string_view text, const std::filesystem::path& baseFolder,
     if (root.contains("compositing")) {
         const json& c = root["compositing"];
         r.object(c, "/compositing");
-        r.allowOnly(c, "/compositing", {"softBandSigmas", "minSoftBandMetres"});
+        r.allowOnly(c, "/compositing", {"softBandSigmas", "minSoftBandMetres", "differential"});
         if (c.contains("softBandSigmas"))
             scene.compositing.softBandSigmas = r.number(c["softBandSigmas"], "/compositing/softBandSigmas", 0.0f, 100.0f, "in [0, 100]");
         if (c.contains("minSoftBandMetres"))
             scene.compositing.minSoftBandMetres = r.number(c["minSoftBandMetres"], "/compositing/minSoftBandMetres", 0.0f, 1.0f, "in [0, 1] metres");
+        if (c.contains("differential"))
+            scene.compositing.differential = r.boolean(c["differential"], "/compositing/differential");
     }
     return scene;
 }

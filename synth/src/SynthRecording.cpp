@@ -66,6 +66,14 @@ std::int64_t writeSynthRecording(const SceneDescription& scene, const std::strin
     }
     if (error) throw Error((folder / "synth").string(), std::nullopt, "could not create the folder: " + error.message());
     writeText(folder / "synth" / "scene.json", sceneText);
+    std::optional<PresentObjects> present;
+    if (!options.presentObjects.empty()) {
+        present = PresentObjects::create(scene, loadPresentObjects(options.presentObjects), tags);
+        std::filesystem::create_directories(folder / "synth" / "present", error);
+        if (error)
+            throw Error((folder / "synth" / "present").string(), std::nullopt,
+                        "could not create the folder: " + error.message());
+    }
 
     Json tagList = Json::array();
     for (const TagDescription& tag : scene.tags) {
@@ -75,7 +83,7 @@ std::int64_t writeSynthRecording(const SceneDescription& scene, const std::strin
                            {"world_T_tag", poseJson(tag.placement.world_T_face())},
                            {"cornersWorld", corners}});
     }
-    const Json groundTruth = {
+    Json groundTruth = {
         {"format", "lightskin-synth-ground-truth"},
         {"version", 1},
         {"scene", scene.name},
@@ -85,6 +93,11 @@ std::int64_t writeSynthRecording(const SceneDescription& scene, const std::strin
         {"depthNoise", scene.noise.enabled},
         {"tagFrame", "x right, y up, z out of the tag surface; corners top-left, top-right, bottom-right, bottom-left"},
         {"tags", tagList}};
+    if (present)
+        groundTruth["present"] = {
+            {"objects", options.presentObjects.filename().string()},
+            {"folder", "synth/present"},
+            {"model", "objects really in the room: exact light visibility, one bounce (synth/PresentObjects.h)"}};
     writeText(folder / "synth" / "ground-truth.json", groundTruth.dump(2) + "\n");
 
     // The same tags as a tracking world (tracking/TagWorld.h), so replay can track against the
@@ -105,12 +118,27 @@ std::int64_t writeSynthRecording(const SceneDescription& scene, const std::strin
 
     const int total = options.maxFrames > 0 ? std::min(options.maxFrames, generator.frameCount()) : generator.frameCount();
     SynthFrame frame;
+    cv::Mat presentRadiance, presentColour;
     for (int index = 0; index < total; ++index) {
         generator.renderFrameInto(index, frame);
         writer.write(frame.frame);
         if (scene.writeNormals) writeChannel(folder, "normals", index, frame.exact.worldNormal);
         if (scene.writePositions) writeChannel(folder, "positions", index, frame.exact.worldPosition);
         if (scene.writeRadiance) writeChannel(folder, "radiance", index, frame.exact.radiance);
+        if (present) {
+            present->renderInto(*frame.frame.groundTruth_world_T_camera, frame.exact, presentRadiance);
+            presentColour.create(presentRadiance.size(), CV_8UC3);
+            for (int v = 0; v < presentRadiance.rows; ++v)
+                for (int u = 0; u < presentRadiance.cols; ++u)
+                    for (int c = 0; c < 3; ++c)
+                        presentColour.at<cv::Vec3b>(v, u)[c] =
+                            encodeSrgb(float(scene.exposure) * presentRadiance.at<cv::Vec3f>(v, u)[c]);
+            char name[32];
+            std::snprintf(name, sizeof name, "%06d.png", index);
+            const std::filesystem::path path = folder / "synth" / "present" / name;
+            if (!cv::imwrite(path.string(), presentColour))
+                throw Error(path.string(), index, "could not write the present-objects image");
+        }
         if (options.progress) options.progress(index + 1, total);
     }
     writer.finish();

@@ -1,8 +1,10 @@
 #include <lightskin/render/Compositor.h>
 
 #include <gtest/gtest.h>
-
 #include <opencv2/core.hpp>
+
+#include <cmath>
+#include <limits>
 
 using namespace lightskin;
 
@@ -82,4 +84,70 @@ TEST(Compositor, DistortionWarpsTheVirtualLayer) {
     compositor.compositeInto(camera, virtualColour, virtualDepth, cv::Mat(), out);
     EXPECT_EQ(out.at<cv::Vec3b>(vd, ud), cv::Vec3b(255, 255, 255)) << "expected at " << ud << "," << vd;
     EXPECT_GT(std::abs(ud - 100) + std::abs(vd - 80), 2); // the distortion really moves it here
+}
+
+namespace {
+float decode(std::uint8_t v) {
+    const float c = float(v) / 255.0f;
+    return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+}
+gi::DifferentialImages differentialImages(int w, int h) {
+    gi::DifferentialImages d;
+    d.deltaIrradiance = cv::Mat(h, w, CV_32FC3, cv::Scalar::all(0));
+    d.irradianceWithout = cv::Mat(h, w, CV_32FC3, cv::Scalar::all(0));
+    d.affected = cv::Mat(h, w, CV_8UC1, cv::Scalar(0));
+    return d;
+}
+} // namespace
+
+// Debevec's I + rho/pi dE with rho = pi L / E_without: the linear camera value scales by
+// E_with / E_without; checked against that closed form in linear light. 8-bit output: within half a
+// code value of the exact encoding, i.e. |decode(out) - expected| <= the decoded step at that value.
+TEST(Compositor, DifferentialScalesTheCameraLightByEWithOverEWithout) {
+    const cv::Mat camera = noiseImage(64, 48);
+    gi::DifferentialImages d = differentialImages(64, 48);
+    const float stops = 0.585f;
+    for (int v = 0; v < 48; ++v)
+        for (int u = 0; u < 32; ++u) { // left half affected: dE = -(u / 64) E_without, E_without = 2 + v / 10
+            const float without = 2.0f + float(v) / 10.0f;
+            d.irradianceWithout.at<cv::Vec3f>(v, u) = cv::Vec3f(without, without, without);
+            d.deltaIrradiance.at<cv::Vec3f>(v, u) = cv::Vec3f::all(-float(u) / 64.0f * without);
+            d.affected.at<std::uint8_t>(v, u) = 255;
+        }
+    cv::Mat out;
+    render::applyDifferentialInto(camera, d, stops, out);
+    const float gain = std::exp2(stops);
+    int checked = 0;
+    for (int v = 0; v < 48; ++v)
+        for (int u = 0; u < 64; ++u)
+            for (int c = 0; c < 3; ++c) {
+                const std::uint8_t in = camera.at<cv::Vec3b>(v, u)[c], result = out.at<cv::Vec3b>(v, u)[c];
+                if (u >= 32 || u == 0) {
+                    ASSERT_EQ(result, in) << "unaffected or dE = 0: bit for bit";
+                    continue;
+                }
+                const float p = decode(in), without = 2.0f + float(v) / 10.0f;
+                // rho = pi p / (gain E) is clamped to 1 where the pixel is brighter than its modelled light.
+                const float albedo = std::min(3.14159265f * p / gain / without, 1.0f);
+                const float expected = std::max(p + gain * albedo / 3.14159265f * (-float(u) / 64.0f * without), 0.0f);
+                const float step =
+                    decode(std::uint8_t(std::min(255, result + 1))) - decode(std::uint8_t(std::max(0, result - 1)));
+                ASSERT_NEAR(decode(result), expected, 0.5f * step + 1e-6f) << u << "," << v << "," << c;
+                ++checked;
+            }
+    EXPECT_GT(checked, 4000);
+}
+
+TEST(Compositor, DifferentialLeavesPixelsWithoutModelledLightOrWithNonFiniteInput) {
+    const cv::Mat camera = noiseImage(8, 4);
+    gi::DifferentialImages d = differentialImages(8, 4);
+    d.affected.setTo(255);
+    d.deltaIrradiance.setTo(cv::Scalar::all(-1.0));
+    d.irradianceWithout.at<cv::Vec3f>(0, 0) = cv::Vec3f(0, 0, 0);            // unknown albedo
+    d.irradianceWithout.at<cv::Vec3f>(0, 1) = cv::Vec3f::all(std::nanf("")); // not finite
+    d.deltaIrradiance.at<cv::Vec3f>(0, 2) = cv::Vec3f::all(std::numeric_limits<float>::infinity());
+    d.irradianceWithout.at<cv::Vec3f>(0, 2) = cv::Vec3f(1, 1, 1);
+    cv::Mat out;
+    render::applyDifferentialInto(camera, d, 0.0f, out);
+    for (int u = 0; u < 3; ++u) EXPECT_EQ(out.at<cv::Vec3b>(0, u), camera.at<cv::Vec3b>(0, u)) << u;
 }

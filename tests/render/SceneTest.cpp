@@ -113,6 +113,9 @@ TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
         {head + R"("gi": {"kCache": 0}})", "/gi/kCache: expected an integer in [16, 4096]"},
         {head + R"("gi": {"kCache": 100}})", "/gi/kCache: expected a multiple of 16"},
         {head + R"("exposureStops": "bright"})", "/exposureStops: expected a number"},
+        {head + R"("compositing": {"differential": "yes"}})", "/compositing/differential: expected true or false"},
+        {head + R"("lights": [{"type": "point", "position": [0, 0, 1], "inRoom": 1}]})",
+         "/lights/0/inRoom: expected true or false"},
         {R"({"objects": []})", "/version: expected 1"},
         {R"([1, 2])", "/: expected an object"},
         {R"({"version": 1, )", "not valid JSON"},
@@ -121,6 +124,19 @@ TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
         const std::string cause = causeOf(c.text);
         EXPECT_EQ(cause.rfind(c.expectedStart, 0), 0u) << "scene: " << c.text << "\ncause: " << cause;
     }
+}
+
+TEST(Scene, DifferentialIsOnByDefaultAndLightsAreInTheRoom) {
+    const Scene defaults =
+        parseScene(R"({"version": 1, "lights": [{"type": "point", "position": [0, 0, 1]}]})", ".", "test");
+    EXPECT_TRUE(defaults.compositing.differential);
+    ASSERT_EQ(defaults.lights.size(), 1u);
+    EXPECT_TRUE(defaults.lights[0].inRoom);
+    const Scene off = parseScene(
+        R"({"version": 1, "compositing": {"differential": false}, "lights": [{"type": "point", "position": [0, 0, 1], "inRoom": false}]})",
+        ".", "test");
+    EXPECT_FALSE(off.compositing.differential);
+    EXPECT_FALSE(off.lights[0].inRoom);
 }
 
 TEST(Scene, MissingFileIsAnError) {

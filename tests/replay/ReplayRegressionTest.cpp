@@ -242,8 +242,12 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
     for (const std::int64_t f : c.goldenFrames) frameList += (frameList.empty() ? "" : ",") + std::to_string(f);
     if (std::find(c.goldenFrames.begin(), c.goldenFrames.end(), c.indirectFrame) == c.goldenFrames.end())
         frameList += "," + std::to_string(c.indirectFrame);
-    const std::string common = (root / c.recording).string() + " --scene " + (root / c.scene).string() + " --pose " + c.pose +
-                               " --no-video --frames " + frameList + (c.maxFrames >= 0 ? " --max-frames " + std::to_string(c.maxFrames) : "");
+    const std::string common = (root / c.recording).string() + " --scene " + (root / c.scene).string() + " --pose " +
+                               c.pose + " --no-video --frames " + frameList +
+                               (c.maxFrames >= 0 ? " --max-frames " + std::to_string(c.maxFrames) : "") +
+                               // The goldens pin the virtual content's light; the differential's change of the real
+                               // pixels around it is pinned by tests/apps/DifferentialPipelineTest.cpp and gi/lights.
+                               " --differential off";
     // Three runs over the same frames: the final composite (with the without-GI comparison), the
     // indirect light alone, and the normals (for the virtual-content mask).
     for (const char* view : {"final", "indirect", "normals"}) {

@@ -49,13 +49,17 @@ std::vector<gi::VirtualLight> virtualLightsFromScene(const render::Scene& scene)
 /// L'''_d, after occlusion), at most kMaxVplSegments: a segment from the vertex a quarter of the
 /// way toward its VPL position plus a dot at the VPL position, coloured like the vals view
 /// (square root of L'''_d normalised to the brightest vertex VPL); segments are clipped at the
-/// camera's near plane (5 cm) and drawn without a depth test (hidden vertices too). This view reads the per-vertex VPL buffer back every frame.
-enum class Overlay { None, Vals, SparsePoints, ErrorVsBruteForce, VertexVpls };
-inline constexpr int kOverlayCount = 5;
+/// camera's near plane (5 cm) and drawn without a depth test (hidden vertices too). This view reads the per-vertex VPL
+/// buffer back every frame. Differential: the differential composite's change of the real light, dE / E_without
+/// (luminance), over the camera image at 35 %: blue where the virtual objects darken the real surface (full blue = -100
+/// %), red where they brighten it (full red = +50 %); real pixels outside the affected region stay dimmed grey (the
+/// view draws only when the differential runs).
+enum class Overlay { None, Vals, SparsePoints, ErrorVsBruteForce, VertexVpls, Differential };
+inline constexpr int kOverlayCount = 6;
 inline constexpr std::uint32_t kMaxVplSegments = 2000;
 
 /// Parses a view name: final, direct, indirect, normals, albedo (render::DebugView) or vals,
-/// sparse, error, vpl (overlays over the final image). Throws lightskin::Error otherwise.
+/// sparse, error, vpl, differential (overlays over the final image). Throws lightskin::Error otherwise.
 void parseView(const std::string& text, render::DebugView& view, Overlay& overlay);
 
 struct PipelineOptions {
@@ -75,12 +79,23 @@ struct PipelineOptions {
     bool linearComposite = false;
     /// Also fill FrameOutput::linearIndirect (replay --linear-out).
     bool linearIndirect = false;
+    /// Differential rendering (live toggle): the virtual objects' shadows and reflected light on
+    /// the real surfaces (gi::DifferentialIrradiance, render::applyDifferentialInto) in withGi and
+    /// linearWithGi (withoutGi stays the plain camera image: the figure-4 comparison). Runs only
+    /// when the scene's compositing.differential is on too and depth is registered to colour; it
+    /// needs the depth VALs, which it then generates even with GI off.
+    bool differential = true;
+    /// Also fill FrameOutput::withGiWithoutDifferential (replay: comparing with the objects-present truth).
+    bool differentialBaseline = false;
 };
 
 struct FrameOutput {
     std::int64_t frameIndex = 0;
     cv::Mat withGi;       ///< CV_8UC3 BGR composite (GI on, or direct only when GI is off)
     cv::Mat withoutGi;    ///< CV_8UC3 BGR composite without GI (when compare)
+    /// options.differentialBaseline: withGi composited over the plain camera image (no differential;
+    /// equal to withGi when the differential did not run), no overlays.
+    cv::Mat withGiWithoutDifferential;
     /// options.linearComposite: CV_32FC3 BGR linear-light composite of withGi (render::Compositor::compositeLinearInto:
     /// the view's 2^exposure * radiance before clamp and sRGB encoding, NaN/inf and values > 1 kept;
     /// camera pixels sRGB-decoded). Overlays (vals, sparse, error, vpl) are not drawn into it.
@@ -104,6 +119,8 @@ struct FrameOutput {
     double totalMs = 0.0;
     int giReused = -1;                ///< adaptive LightSkin: 1 = VPLs reused (static content), 0 = recomputed, else -1
     float giChangeMeasure = -1.0f;    ///< adaptive LightSkin: LightSkinChoice::staticChangeBound
+    std::int64_t differentialReceivers = -1; ///< differential ran: receivers gathered (in the affected region), else -1
+    std::int64_t differentialPixels = -1;    ///< differential ran: camera pixels in the affected region, else -1
 };
 
 class FramePipeline {
@@ -128,6 +145,10 @@ public:
 private:
     FramePipeline() = default;
     void createValGenerator(int stride);
+    /// The differential stage: receivers gathered from this frame's depth VALs, applied to the
+    /// camera image (State::cameraWithDifferential), which the composites then use.
+    void applyDifferential(const RgbdFrame& frame, const Pose& world_T_camera, const gi::ValSetView& depthVals,
+                           FrameOutput& out);
     struct State;
     std::unique_ptr<State> state_;
     std::unique_ptr<render::Renderer> renderer_;

@@ -144,6 +144,8 @@ public:
     const FrameReport& report() const noexcept { return report_; }
     /// The last frame's images (withGi: BGR composite) and all per-stage timings.
     const FrameOutput& output() const noexcept { return output_; }
+    /// Source-fed sessions: the frame processNext() read last (as the source delivered it).
+    const RgbdFrame& sourceFrame() const noexcept { return frame_; }
 
     const CameraIntrinsics& camera() const noexcept { return camera_; }
     /// GL clip_T_camera for this camera (render::clipFromCamera: OpenCV camera frame in, column-major).

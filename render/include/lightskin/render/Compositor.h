@@ -17,6 +17,7 @@
 // the input bit for bit.
 
 #include <lightskin/core/CameraIntrinsics.h>
+#include <lightskin/gi/DifferentialIrradiance.h>
 #include <lightskin/render/Scene.h>
 
 #include <opencv2/core/mat.hpp>
@@ -61,6 +62,22 @@ private:
     cv::Mat mapX_, mapY_; ///< distorted pixel -> undistorted render pixel (empty without distortion)
     cv::Mat warpedColour_, warpedDepth_, warpedLinear_;
 };
+
+/// Differential rendering on the camera image (Debevec 1998: I_final = I_camera + albedo * (E_with -
+/// E_without), as radiance: L_final = L_camera + rho / pi * dE). The real albedo is estimated per
+/// pixel and channel from the camera itself, assuming a Lambertian surface lit by E_without (the
+/// room's VALs plus the in-room lights, which is all the light the differential models):
+///   rho = clamp(pi * L_camera / E_without, 0, 1),  L_camera = p / 2^exposureStops,
+/// p the sRGB-decoded camera value; where E_without <= 0 the albedo is unknown and the pixel stays.
+/// Unclamped this is L_final = L_camera * E_with / E_without: the real surface darkens by exactly
+/// the fraction of its modelled light the objects block. The clamp keeps surfaces brighter than
+/// their modelled light (specular, light from outside the depth frame) from over-darkening.
+/// Only pixels with differential.affected != 0 and dE != 0 are rewritten (sRGB-encoded, rounded,
+/// clamped to [0, 1]); all others are copied bit for bit. `cameraBgr` CV_8UC3 sRGB; the
+/// differential images of its size; `out` CV_8UC3 (reallocated only when the size changes; must
+/// not alias the camera image).
+void applyDifferentialInto(const cv::Mat& cameraBgr, const gi::DifferentialImages& differential, float exposureStops,
+                           cv::Mat& out);
 
 /// Two equally sized BGR images side by side with a caption on each (the paper's figure 4:
 /// "with GI" / "without GI"). Writes into `out`.

@@ -46,6 +46,11 @@ struct SceneLight {
     float coneAngleDegrees = 30.0f;        ///< spot: half angle of full intensity ...
     float coneFalloffDegrees = 5.0f;       ///< ... then a smooth falloff to zero over this many degrees
     bool castsShadows = true;
+    /// The light is really in the room (the scene's copy of a room light): its light is in the
+    /// camera image already, so the differential composite only darkens the real surfaces by the
+    /// virtual objects' shadow. false: a purely virtual light, whose (shadowed) light the
+    /// differential adds to the real surfaces too.
+    bool inRoom = true;
 };
 
 struct GiSettings {
@@ -74,6 +79,9 @@ struct CompositeSettings {
     /// (see render/Compositor.h); and its lower bound in metres.
     float softBandSigmas = 3.0f;
     float minSoftBandMetres = 0.005f;
+    /// Differential rendering (gi/DifferentialIrradiance.h, render::applyDifferentialInto): the
+    /// virtual objects' shadows and reflected light on the real surfaces around them.
+    bool differential = true;
 };
 
 struct Scene {

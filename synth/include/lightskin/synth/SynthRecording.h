@@ -12,9 +12,14 @@
 //   <folder>/synth/normals/000000.tiff     optional, per frame: CV_32FC3 float TIFF (deflate,
 //   <folder>/synth/positions/000000.tiff   lossless), exact world normals / world positions (x,y,z
 //   <folder>/synth/radiance/000000.tiff    in channels 0,1,2), linear radiance (B,G,R) before exposure
+//   <folder>/synth/present/000000.png      optional (SynthRecordingOptions::presentObjects): the frame
+//                                          with a lightskin scene's virtual objects really in the room
+//                                          (PresentObjects.h), encoded like colour/; the ground truth
+//                                          of a differential composite (`lightskin replay` compares)
 //
 // Needs a current OpenGL 4.5 core context.
 
+#include <lightskin/synth/PresentObjects.h>
 #include <lightskin/synth/SceneDescription.h>
 #include <lightskin/synth/SceneRenderer.h>
 
@@ -29,6 +34,8 @@ struct SynthRecordingOptions {
     int maxFrames = 0;
     /// Called after each frame with (frames written, total).
     std::function<void(int, int)> progress;
+    /// A lightskin scene file: also write synth/present/ with its objects really in the room.
+    std::filesystem::path presentObjects;
 };
 
 /// Renders every frame of `scene` and writes it to `folder`, which must not exist or be empty.
