@@ -19,7 +19,8 @@ const std::string kCubeScene = R"({"version": 1,
  "objects": [{"mesh": "cube.obj", "transform": {"translation": [0, 0, 1.2], "rotationDegrees": [20, 30, 0], "scale": 0.3},
               "material": {"diffuseAlbedo": [0.8, 0.3, 0.2]}}],
  "lights": [{"type": "point", "position": [0.5, -0.5, 0.0], "power": 40}],
- "gi": {"technique": "lightskin", "sparsePoints": 64}})";
+ "gi": {"technique": "lightskin", "sparsePoints": 64},
+ "compositing": {"differential": false}})"; // placement only: the differential changes real pixels too
 const std::string kEmptyScene = R"({"version": 1, "gi": {"technique": "none"}})";
 
 fs::path writeScene(const fs::path& folder, const std::string& name, const std::string& text) {
