@@ -1,4 +1,5 @@
-// gi::CpuLightSkin (issue 18) against the double reference and the GL path, stage by stage, on
+// gi::CpuLightSkin (issue 18) against both double references (gi::reference and the independent
+// PaperReference, LightSkinComparison.h) and the GL path, stage by stage, on
 // the GL tests' scenes (the paper's three setups, the numerical extremes); bit-for-bit
 // independence of the thread count; the empty VAL set.
 //
@@ -121,15 +122,7 @@ TEST_P(CpuLightSkinSetupGLTest, EveryStageMatchesTheDoubleReference) {
     gi::LightSkinSettings settings;
     settings.glossy = setup.glossy;
     settings.occlusion = setup.occlusion;
-    const GpuRun cpu = runCpu(scene, settings);
-    const ReferenceRun r = runReference(scene, setup);
-    compareStages(cpu, r, setup);
-    comparePixels(cpu, r, scene, setup.glossy, 3e-3);
-    if (setup.occlusion) {
-        double maxOcclusion = 0.0;
-        for (const auto& o : r.occlusion) maxOcclusion = std::max(maxOcclusion, o.x);
-        EXPECT_GT(maxOcclusion, 0.05) << "the scene must exercise occlusion (floor under the sphere)";
-    }
+    checkSetup(setup, scene, runCpu(scene, settings));
 }
 
 TEST_P(CpuLightSkinSetupGLTest, MatchesTheGlPath) {
@@ -159,7 +152,12 @@ TEST_P(CpuLightSkinSetupGLTest, EveryInstructionSetMatchesTheDoubleReference) {
         gi::setCpuSimdTarget(target);
         EXPECT_EQ(gi::cpuSimdTarget(), target);
         const GpuRun cpu = runCpu(scene, settings);
-        compareStages(cpu, r, setup);
+        ReferenceRun adopted = r;
+        if (setup.occlusion) {
+            EXPECT_LE(adoptUnresolvedOcclusion(adopted, cpu), adopted.receivers.size() / 50)
+                << "points with an unresolved, point-like S_o";
+        }
+        compareStages(cpu, adopted, setup);
     }
     gi::setCpuSimdTarget("");
     EXPECT_EQ(gi::cpuSimdTarget(), targets.front());
@@ -176,40 +174,10 @@ class CpuLightSkinExtremeGLTest : public GlTest, public ::testing::WithParamInte
 
 TEST_P(CpuLightSkinExtremeGLTest, FiniteNonNegativeBoundedAndAgreesWithTheReference) {
     const GpuExtreme& c = GetParam();
-    Scene scene;
-    scene.sceneScale = c.scale;
-    Material material;
-    material.specularAlbedo = {0.5f, 0.5f, 0.5f};
-    material.specularExponent = c.exponent;
-    scene.add(makeGrid(2.0f * c.scale, 4), glm::mat4(1.0f), material, 25);
-    scene.vals = c.vals(c.scale);
-    scene.eye = glm::vec3(0.3f, -0.4f, 2.0f) * c.scale;
-    scene.target = glm::vec3(0.0f);
-    const PaperSetup setup{"glossy", true, false};
+    Scene scene = extremeScene(c);
     gi::LightSkinSettings settings;
     settings.occlusion = false;
-    const GpuRun cpu = runCpu(scene, settings);
-    const ReferenceRun r = runReference(scene, setup);
-    double bound = 0.0; // sum of exitances bounds the irradiance
-    for (const auto& l : scene.vals) bound += double(std::max({l.flux.x, l.flux.y, l.flux.z})) / double(l.area);
-    for (std::size_t i = 0; i < r.receivers.size(); ++i)
-        for (int ch = 0; ch < 3; ++ch) {
-            const float e = cpu.gather[5 * i][ch];
-            ASSERT_TRUE(std::isfinite(e) && std::isfinite(cpu.gather[5 * i + 2][ch]));
-            EXPECT_GE(e, 0.0f);
-            EXPECT_GE(cpu.gather[5 * i + 2][ch], 0.0f);
-            EXPECT_LE(double(e), bound * 1.0001 + 1e-30);
-        }
-    for (const glm::vec4& p : cpu.image)
-        for (int ch = 0; ch < 3; ++ch) {
-            ASSERT_TRUE(std::isfinite(p[ch]));
-            EXPECT_GE(p[ch], 0.0f);
-        }
-    compareStages(cpu, r, setup);
-    comparePixels(cpu, r, scene, true, 5e-3);
-    if (scene.vals.empty() || std::string(c.name) == "below_horizon" || std::string(c.name) == "back_facing") {
-        for (const glm::vec4& p : cpu.image) EXPECT_EQ(p, glm::vec4(0.0f)) << "no light must give exactly 0";
-    }
+    checkExtreme(c, scene, runCpu(scene, settings));
 }
 
 INSTANTIATE_TEST_SUITE_P(Extremes, CpuLightSkinExtremeGLTest, ::testing::ValuesIn(gpuExtremes()), extremeName);

@@ -1,14 +1,17 @@
 #pragma once
-// Shared by the LightSkin GL and CPU backend tests: the scenes (paper setups, numerical extremes),
-// the double-reference pipeline on them, and the stage-by-stage comparisons with their derived
-// float tolerances (see the comment at the top of LightSkinGLTest.cpp for their derivation).
+// Shared by the LightSkin GL and CPU backend tests (LightSkinGLTest.cpp, CpuLightSkinGLTest.cpp):
+// the scenes (paper setups, numerical extremes), the two double references on them (gi::reference
+// and the independent PaperReference), and the stage-by-stage comparisons with their derived float
+// tolerances (see the comment at the top of LightSkinGLTest.cpp for their derivation).
 #include "GatherTestScenes.h"
 #include "GpuRig.h"
+#include "PaperReference.h"
 
 #include <lightskin/gi/LightSkinReference.h>
 #include <lightskin/gi/SimpleGBuffer.h>
 #include <lightskin/gl/Objects.h>
 
+#include <glm/ext/matrix_transform.hpp>
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
 #include <gtest/gtest.h>
@@ -53,7 +56,6 @@ inline std::vector<glm::vec4> readTexels(const gl::Texture& texture) {
 struct GpuRun {
     std::vector<glm::vec4> image, gbufferPosition, gbufferNormal, gather, vpls, occlusion, vertex;
     std::vector<gl::StageTime> times;
-    double milliseconds = 0.0;
 };
 
 inline gl::Buffer uploadVals(const std::vector<gi::VirtualAreaLight>& vals) {
@@ -83,6 +85,7 @@ GpuRun renderAndRead(const Scene& scene, Technique& technique) {
     return run;
 }
 
+// The reference pipeline on the same scene.
 struct ReferenceRun {
     std::vector<ref::Receiver> receivers;
     std::vector<ref::GatherSums> sums;
@@ -91,16 +94,18 @@ struct ReferenceRun {
     std::vector<dvec3> vertexPositions, vertexNormals;
     std::vector<std::array<std::uint32_t, 3>> triangles; // global vertex indices
     std::vector<const gi::MeshInstance*> triangleInstance;
+    std::vector<std::array<std::uint32_t, 8>> neighbours; // global sparse-point indices per vertex
+    bool independent = false;                             // from PaperReference (pixels shaded with paper::shade too)
 };
 
 inline ReferenceRun runReference(const Scene& scene, const PaperSetup& setup) {
     ReferenceRun r;
     ref::GatherParameters parameters;
     parameters.glossy = setup.glossy;
-    std::vector<std::array<std::uint32_t, 8>> neighbours;
+    std::vector<std::array<std::uint32_t, 8>>& neighbours = r.neighbours;
     for (std::size_t m = 0; m < scene.meshes.size(); ++m) {
         const TriangleMesh& mesh = scene.meshes[m];
-        const gi::SparsePointSet set = gi::sparsePointsFromVertices(mesh, scene.sparseCounts[m]);
+        const gi::SparsePointSet set = scene.sparsePoints(m);
         const auto offset = std::uint32_t(r.receivers.size());
         const auto vertexOffset = std::uint32_t(r.vertexPositions.size());
         const auto receivers = ref::receiversFromSparsePoints(
@@ -132,6 +137,99 @@ inline ReferenceRun runReference(const Scene& scene, const PaperSetup& setup) {
     }
     ref::interpolateVerticesInto(r.vertexPositions, r.vertexNormals, neighbours, r.receivers, r.occluded, r.vertex);
     return r;
+}
+
+/// The same run from PaperReference (independent formulas), in gi::reference's sum layout so
+/// that compareStages() checks the GPU against it: offsets (l' - x) W, r^2 sums rbar^2 W,
+/// moments (sigma^2 + (l' - x)^2) W per axis (diffuse) and summed (glossy).
+inline ReferenceRun runIndependent(const Scene& scene, const PaperSetup& setup, const ReferenceRun& shared) {
+    ReferenceRun r = shared;
+    r.independent = true;
+    std::vector<paper::Point> points;
+    for (const ref::Receiver& x : r.receivers) points.push_back({x.position, x.normal, x.exponent, x.occluderRadius});
+    paper::Options options;
+    options.glossy = setup.glossy;
+    const paper::Run run = paper::run(scene.vals, points, dvec3(scene.eye), options, setup.occlusion);
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        const dvec3 x = points[i].position;
+        const paper::Averaged& d = run.gathers[i].diffuse;
+        const paper::Averaged& g = run.gathers[i].glossy;
+        ref::GatherSums& s = r.sums[i];
+        const dvec3 offD = d.weight > 0.0 ? d.position - x : dvec3(0.0);
+        const dvec3 offS = g.weight > 0.0 ? g.position - x : dvec3(0.0);
+        s.irradiance = d.sum;
+        s.weightD = d.weight;
+        s.offsetD = offD * d.weight;
+        s.r2D = d.meanR2 * d.weight;
+        s.momentD = (d.variance + offD * offD) * d.weight;
+        s.glossy = g.sum;
+        s.weightS = g.weight;
+        s.offsetS = offS * g.weight;
+        s.r2S = g.meanR2 * g.weight;
+        s.momentS = (g.variance.x + g.variance.y + g.variance.z + glm::dot(offS, offS)) * g.weight;
+        const auto toVpl = [](const paper::Light& l) { return ref::Vpl{l.radiance, l.r2, l.position, l.sphereRadius}; };
+        r.vpls[i] = {toVpl(run.lights[i].diffuse), toVpl(run.lights[i].glossy)};
+        r.occluded[i] = {toVpl(run.occluded[i].diffuse), toVpl(run.occluded[i].glossy)};
+        r.occlusion[i] = run.occlusion[i];
+    }
+    for (std::size_t v = 0; v < r.vertexPositions.size(); ++v) {
+        const paper::LightPair p =
+            paper::interpolate(r.vertexPositions[v], r.vertexNormals[v], r.neighbours[v], points, run.occluded);
+        r.vertex[v].diffuse = {p.diffuse.radiance, p.diffuse.r2, p.diffuse.position, 0.0};
+        r.vertex[v].glossy = {p.glossy.radiance, p.glossy.r2, p.glossy.position, 0.0};
+    }
+    return r;
+}
+
+/// Occlusion is discontinuous where S_o degenerates to a point (one VAL dominates a channel): guard
+/// G7 gives o = 0 for a radius of exactly 0, while any radius > 0 inside an occluder's quad gives
+/// o = 1. The GPU computes the radius from float moment sums (asserted to 1e-3 of the largest
+/// radius, compareStages), so below that it cannot tell 0 from a tiny radius. At those points
+/// (channel by channel) the reference adopts the GPU's o and recomputes the occluded VPLs and the
+/// vertices, so later stages are still compared; returns how many (point, channel) pairs.
+inline std::size_t adoptUnresolvedOcclusion(ReferenceRun& r, const GpuRun& gpu) {
+    double largestD = 0.0, largestS = 0.0;
+    for (const ref::VplPair& v : r.vpls) {
+        largestD = std::max(largestD, v.diffuse.sphereRadius);
+        largestS = std::max(largestS, v.glossy.sphereRadius);
+    }
+    std::size_t adopted = 0;
+    for (std::size_t i = 0; i < r.vpls.size(); ++i) {
+        const glm::dvec2 o = glm::clamp(glm::dvec2(gpu.occlusion[i]), 0.0, 1.0);
+        if (r.vpls[i].diffuse.sphereRadius <= 1e-3 * largestD && o.x != r.occlusion[i].x) {
+            r.occlusion[i].x = o.x;
+            ++adopted;
+        }
+        if (r.vpls[i].glossy.sphereRadius <= 1e-3 * largestS && o.y != r.occlusion[i].y) {
+            r.occlusion[i].y = o.y;
+            ++adopted;
+        }
+        r.occluded[i] = r.vpls[i];
+        r.occluded[i].diffuse.radiance *= 1.0 - r.occlusion[i].x;
+        r.occluded[i].glossy.radiance *= 1.0 - r.occlusion[i].y;
+    }
+    if (adopted == 0) return 0;
+    if (!r.independent) {
+        ref::interpolateVerticesInto(r.vertexPositions, r.vertexNormals, r.neighbours, r.receivers, r.occluded,
+                                     r.vertex);
+        return adopted;
+    }
+    std::vector<paper::Point> points;
+    std::vector<paper::LightPair> lights;
+    for (std::size_t i = 0; i < r.receivers.size(); ++i) {
+        const ref::Receiver& x = r.receivers[i];
+        points.push_back({x.position, x.normal, x.exponent, x.occluderRadius});
+        const ref::VplPair& v = r.occluded[i];
+        lights.push_back({{v.diffuse.radiance, v.diffuse.position, v.diffuse.r2, v.diffuse.sphereRadius},
+                          {v.glossy.radiance, v.glossy.position, v.glossy.r2, v.glossy.sphereRadius}});
+    }
+    for (std::size_t v = 0; v < r.vertexPositions.size(); ++v) {
+        const paper::LightPair p =
+            paper::interpolate(r.vertexPositions[v], r.vertexNormals[v], r.neighbours[v], points, lights);
+        r.vertex[v].diffuse = {p.diffuse.radiance, p.diffuse.r2, p.diffuse.position, 0.0};
+        r.vertex[v].glossy = {p.glossy.radiance, p.glossy.r2, p.glossy.position, 0.0};
+    }
+    return adopted;
 }
 
 /// Per-pixel reference: the triangle under the G-buffer position, barycentric interpolation of
@@ -169,7 +267,13 @@ inline std::optional<dvec3> referencePixel(const ReferenceRun& r, const dvec3& p
         const ref::Surface surface{p, n, dvec3(material.diffuseAlbedo),
                                    glossy ? dvec3(material.specularAlbedo) : dvec3(0.0),
                                    double(material.specularExponent)};
-        result = ref::shade(v, surface, eye);
+        if (r.independent) {
+            const paper::LightPair l{{v.diffuse.radiance, v.diffuse.position, v.diffuse.r2, 0.0},
+                                     {v.glossy.radiance, v.glossy.position, v.glossy.r2, 0.0}};
+            result = paper::shade(l, p, n, eye, surface.diffuseAlbedo, surface.specular, surface.exponent);
+        } else {
+            result = ref::shade(v, surface, eye);
+        }
     }
     return result;
 }
@@ -220,72 +324,94 @@ inline void compareStages(const GpuRun& gpu, const ReferenceRun& r, const PaperS
     // positions carry the float rounding of world coordinates (6e-8 of the scene's extent)
     const double positionFloor = 1e-6 * sceneExtent;
     const double glossyRel = 2e-4 + 2.4e-7 * maxExponent;
-    Comparison irradiance("L'_d", 2e-4, 1e-4), glossy("L'_s", glossyRel, 1e-4), weights("W", glossyRel, 1e-4),
-        offsets("sum (l - x) w", glossyRel, 1e-4), moments("moments", 2e-4, 1e-4);
+    // One comparator per quantity and channel: the floor is a fraction of that quantity's own
+    // largest value (pooling W with sum r^2 w, ~1e3 times smaller, made the floor ~10 % of the
+    // latter).
+    Comparison irradiance("L'_d", 2e-4, 1e-4), glossy("L'_s", glossyRel, 1e-4), weightD("W_d", 2e-4, 1e-4),
+        weightS("W_s", glossyRel, 1e-4), r2D("sum r^2 w_d", 2e-4, 1e-4), r2S("sum r^2 w_s", glossyRel, 1e-4),
+        offsetD("sum (l - x) w_d", 2e-4, 1e-4), offsetS("sum (l - x) w_s", glossyRel, 1e-4),
+        momentD("sum (l - x)^2 w_d", 2e-4, 1e-4), momentS("sum |l - x|^2 w_s", glossyRel, 1e-4);
     for (std::size_t i = 0; i < n; ++i) {
         const ref::GatherSums& s = r.sums[i];
         const glm::vec4* g = &gpu.gather[5 * i];
         for (int c = 0; c < 3; ++c) {
             irradiance.add(g[0][c], s.irradiance[c]);
-            offsets.add(g[1][c], s.offsetD[c]);
+            offsetD.add(g[1][c], s.offsetD[c]);
             glossy.add(g[2][c], s.glossy[c]);
-            offsets.add(g[3][c], s.offsetS[c]);
-            if (setup.occlusion) moments.add(g[4][c], s.momentD[c]);
+            offsetS.add(g[3][c], s.offsetS[c]);
+            if (setup.occlusion) momentD.add(g[4][c], s.momentD[c]);
         }
-        weights.add(g[1].w, s.weightD);
-        weights.add(g[3].w, s.weightS);
-        weights.add(g[0].w, s.r2D);
-        weights.add(g[2].w, s.r2S);
-        if (setup.occlusion) moments.add(g[4].w, s.momentS);
+        weightD.add(g[1].w, s.weightD);
+        weightS.add(g[3].w, s.weightS);
+        r2D.add(g[0].w, s.r2D);
+        r2S.add(g[2].w, s.r2S);
+        if (setup.occlusion && setup.glossy) momentS.add(g[4].w, s.momentS);
     }
-    irradiance.check();
-    glossy.check();
-    weights.check();
-    offsets.check();
-    moments.check();
+    for (const Comparison* c : {&irradiance, &weightD, &r2D, &offsetD}) c->check();
+    if (setup.glossy)
+        for (const Comparison* c : {&glossy, &weightS, &r2S, &offsetS}) c->check();
+    if (setup.occlusion) momentD.check();
+    if (setup.occlusion && setup.glossy) momentS.check();
 
-    Comparison vplRadiance("L''", 2e-3 + 2.4e-7 * maxExponent, 1e-4), vplPosition("l'", 0.0, 1e-4, positionFloor),
-        sphere("S_o radius", 2e-3, 1e-3);
+    // rbar^2 is a ratio of two gathered sums (2 x 2e-4); the S_o radius is the square root of a
+    // difference of moments (cancellation: 1e-3 of the largest radius as floor).
+    const double vplRel = 2e-3 + 2.4e-7 * maxExponent;
+    Comparison radianceD("L''_d", 2e-3, 1e-4), radianceS("L''_s", vplRel, 1e-4), meanR2D("rbar^2_d", 4e-4, 1e-4),
+        meanR2S("rbar^2_s", 2.0 * glossyRel, 1e-4), positionD("l'_d", 0.0, 1e-4, positionFloor),
+        positionS("l'_s", 0.0, 1e-4, positionFloor), sphereD("S_o radius (diffuse)", 2e-3, 1e-3),
+        sphereS("S_o radius (glossy)", 2e-3, 1e-3);
     for (std::size_t i = 0; i < n; ++i) {
         const glm::vec4* v = &gpu.vpls[4 * i];
         for (int c = 0; c < 3; ++c) {
-            vplRadiance.add(v[0][c], r.vpls[i].diffuse.radiance[c]);
-            vplRadiance.add(v[2][c], r.vpls[i].glossy.radiance[c]);
-            vplPosition.add(v[1][c], r.vpls[i].diffuse.position[c]);
-            if (setup.glossy) vplPosition.add(v[3][c], r.vpls[i].glossy.position[c]);
+            radianceD.add(v[0][c], r.vpls[i].diffuse.radiance[c]);
+            radianceS.add(v[2][c], r.vpls[i].glossy.radiance[c]);
+            positionD.add(v[1][c], r.vpls[i].diffuse.position[c]);
+            positionS.add(v[3][c], r.vpls[i].glossy.position[c]);
         }
-        if (setup.occlusion) {
-            sphere.add(v[1].w, r.vpls[i].diffuse.sphereRadius);
-            if (setup.glossy) sphere.add(v[3].w, r.vpls[i].glossy.sphereRadius);
-        }
+        meanR2D.add(v[0].w, r.vpls[i].diffuse.r2);
+        meanR2S.add(v[2].w, r.vpls[i].glossy.r2);
+        sphereD.add(v[1].w, r.vpls[i].diffuse.sphereRadius);
+        sphereS.add(v[3].w, r.vpls[i].glossy.sphereRadius);
     }
-    vplRadiance.check();
-    vplPosition.check();
-    sphere.check();
+    for (const Comparison* c : {&radianceD, &meanR2D, &positionD}) c->check();
+    if (setup.glossy)
+        for (const Comparison* c : {&radianceS, &meanR2S, &positionS}) c->check();
+    if (setup.occlusion) sphereD.check();
+    if (setup.occlusion && setup.glossy) sphereS.check();
 
     if (setup.occlusion) {
-        Comparison occlusion("o", 0.0, 0.0);
-        std::size_t bad = 0;
+        // o sums overlap terms computed from the stage above (l', S_o radius within 2e-3
+        // relative): each term moves by <= its own value times that, so 2e-3 absolute on o in [0, 1]
+        Comparison occlusionD("o_d", 0.0, 0.0, 2e-3), occlusionS("o_s", 0.0, 0.0, 2e-3);
         for (std::size_t i = 0; i < n; ++i) {
-            const double od = std::clamp(double(gpu.occlusion[i].x), 0.0, 1.0);
-            if (std::abs(od - r.occlusion[i].x) > 2e-3) ++bad;
+            occlusionD.add(std::clamp(double(gpu.occlusion[i].x), 0.0, 1.0), r.occlusion[i].x);
+            if (setup.glossy) occlusionS.add(std::clamp(double(gpu.occlusion[i].y), 0.0, 1.0), r.occlusion[i].y);
         }
-        EXPECT_EQ(bad, 0u) << "occlusion amounts differ by more than 2e-3 (absolute, o in [0, 1])";
+        occlusionD.check();
+        if (setup.glossy) occlusionS.check();
     }
 
-    Comparison vertex("vertex VPL radiance", 3e-3 + 2.4e-7 * maxExponent, 1e-4),
-        vertexPosition("vertex VPL position", 0.0, 1e-4, positionFloor);
+    // eq. 13 averages the VPLs above with normalised weights: the same relative bounds, plus the
+    // float weights (8 terms, ~1e-6) => 3e-3
+    Comparison vertexD("vertex L'''_d", 3e-3, 1e-4), vertexS("vertex L'''_s", 3e-3 + 2.4e-7 * maxExponent, 1e-4),
+        vertexR2D("vertex rbar^2_d", 1e-3, 1e-4), vertexR2S("vertex rbar^2_s", 1e-3 + 2.0 * glossyRel, 1e-4),
+        vertexPositionD("vertex l'''_d", 0.0, 1e-4, positionFloor),
+        vertexPositionS("vertex l'''_s", 0.0, 1e-4, positionFloor);
     ASSERT_EQ(gpu.vertex.size(), 4 * r.vertex.size());
     for (std::size_t v = 0; v < r.vertex.size(); ++v) {
         const glm::vec4* g = &gpu.vertex[4 * v];
         for (int c = 0; c < 3; ++c) {
-            vertex.add(g[0][c], r.vertex[v].diffuse.radiance[c]);
-            vertex.add(g[2][c], r.vertex[v].glossy.radiance[c]);
-            vertexPosition.add(g[1][c], r.vertex[v].diffuse.position[c]);
+            vertexD.add(g[0][c], r.vertex[v].diffuse.radiance[c]);
+            vertexS.add(g[2][c], r.vertex[v].glossy.radiance[c]);
+            vertexPositionD.add(g[1][c], r.vertex[v].diffuse.position[c]);
+            vertexPositionS.add(g[3][c], r.vertex[v].glossy.position[c]);
         }
+        vertexR2D.add(g[0].w, r.vertex[v].diffuse.r2);
+        vertexR2S.add(g[2].w, r.vertex[v].glossy.r2);
     }
-    vertex.check();
-    vertexPosition.check();
+    for (const Comparison* c : {&vertexD, &vertexR2D, &vertexPositionD}) c->check();
+    if (setup.glossy)
+        for (const Comparison* c : {&vertexS, &vertexR2S, &vertexPositionS}) c->check();
 }
 
 inline void comparePixels(const GpuRun& gpu, const ReferenceRun& r, const Scene& scene, bool glossy, double rel) {
@@ -315,7 +441,12 @@ inline Scene sphereOverFloor() {
     sphereMaterial.diffuseAlbedo = {0.8f, 0.7f, 0.6f};
     sphereMaterial.specularAlbedo = {0.3f, 0.3f, 0.3f};
     sphereMaterial.specularExponent = 20.0f;
-    scene.add(makeSphere(0.3f, 12, 24), glm::translate(glm::mat4(1.0f), {0.0f, 0.0f, 0.45f}), sphereMaterial, 120);
+    // rotated about its centre (same surface): model and world normals differ, so a missing
+    // normal transform in any stage shows
+    scene.add(
+        makeSphere(0.3f, 12, 24),
+        glm::rotate(glm::translate(glm::mat4(1.0f), {0.0f, 0.0f, 0.45f}), 0.7f, glm::normalize(glm::vec3(1, 2, 3))),
+        sphereMaterial, 120);
     Material floorMaterial;
     floorMaterial.diffuseAlbedo = {0.5f, 0.5f, 0.5f};
     floorMaterial.specularAlbedo = {0.2f, 0.1f, 0.0f};
@@ -327,6 +458,39 @@ inline Scene sphereOverFloor() {
     scene.eye = {1.6f, -1.8f, 1.5f};
     scene.target = {0.0f, 0.0f, 0.3f};
     return scene;
+}
+
+/// A backend's run of `setup` on `scene`, every stage and pixel against both double references
+/// (points with an unresolved, point-like S_o adopt the run's o: adoptUnresolvedOcclusion), and
+/// signal in every stage compared (light in each channel of the setup, occlusion).
+inline void checkSetup(const PaperSetup& setup, const Scene& scene, const GpuRun& gpu) {
+    ReferenceRun shared = runReference(scene, setup);
+    ReferenceRun independent = runIndependent(scene, setup, shared);
+    for (ReferenceRun* r : {&shared, &independent}) {
+        // a scene where many points had a point-like S_o would not test occlusion: at most 2 %
+        const std::size_t adopted = setup.occlusion ? adoptUnresolvedOcclusion(*r, gpu) : 0;
+        EXPECT_LE(adopted, r->receivers.size() / 50) << "points with an unresolved, point-like S_o";
+        SCOPED_TRACE(r->independent ? "against PaperReference (independent formulas)"
+                                    : "against gi::reference (the shaders' own math in double)");
+        compareStages(gpu, *r, setup);
+        comparePixels(gpu, *r, scene, setup.glossy, 3e-3);
+    }
+    // the stages compared must carry signal: light in every channel the setup has, occlusion
+    double maxIrradiance = 0.0, maxGlossy = 0.0, maxOcclusionD = 0.0, maxOcclusionS = 0.0;
+    for (std::size_t i = 0; i < independent.receivers.size(); ++i) {
+        maxIrradiance = std::max(maxIrradiance, independent.sums[i].irradiance.x);
+        maxGlossy = std::max(maxGlossy, independent.sums[i].glossy.x);
+        maxOcclusionD = std::max(maxOcclusionD, independent.occlusion[i].x);
+        maxOcclusionS = std::max(maxOcclusionS, independent.occlusion[i].y);
+    }
+    EXPECT_GT(maxIrradiance, 0.1);
+    if (setup.glossy) {
+        EXPECT_GT(maxGlossy, 0.01);
+    }
+    if (setup.occlusion) {
+        EXPECT_GT(maxOcclusionD, 0.05) << "the scene must exercise occlusion (floor under the sphere)";
+        EXPECT_GT(maxOcclusionS, 0.05) << "and glossy occlusion";
+    }
 }
 
 struct GpuExtreme {
@@ -364,6 +528,58 @@ inline std::vector<gi::VirtualAreaLight> valsBelow(float) {
     return randomVals(500, {-1, -1, -2}, {1, 1, -0.01f}, {0, 0, 0}, 1e-2f, 3);
 }
 
+/// The scene of the numerical extremes suite: a 4 x 4 grid at the case's scale, glossy with the
+/// case's exponent, under the case's VALs (backends run it in the glossy setup without occlusion).
+inline Scene extremeScene(const GpuExtreme& c) {
+    Scene scene;
+    scene.sceneScale = c.scale;
+    Material material;
+    material.specularAlbedo = {0.5f, 0.5f, 0.5f};
+    material.specularExponent = c.exponent;
+    scene.add(makeGrid(2.0f * c.scale, 4), glm::mat4(1.0f), material, 25);
+    scene.vals = c.vals(c.scale);
+    scene.eye = glm::vec3(0.3f, -0.4f, 2.0f) * c.scale;
+    scene.target = glm::vec3(0.0f);
+    return scene;
+}
+
+/// A backend's run of extremeScene(c) (glossy, no occlusion): finite, non-negative, bounded by the
+/// sum of exitances, every stage and pixel within tolerance of both references, exactly 0 unlit.
+inline void checkExtreme(const GpuExtreme& c, const Scene& scene, const GpuRun& gpu) {
+    const PaperSetup setup{"glossy", true, false};
+    const ReferenceRun r = runReference(scene, setup);
+    double bound = 0.0; // sum of exitances bounds the irradiance
+    for (const auto& l : scene.vals) bound += double(std::max({l.flux.x, l.flux.y, l.flux.z})) / double(l.area);
+    for (std::size_t i = 0; i < r.receivers.size(); ++i)
+        for (int ch = 0; ch < 3; ++ch) {
+            const float e = gpu.gather[5 * i][ch];
+            ASSERT_TRUE(std::isfinite(e) && std::isfinite(gpu.gather[5 * i + 2][ch]));
+            EXPECT_GE(e, 0.0f);
+            EXPECT_GE(gpu.gather[5 * i + 2][ch], 0.0f);
+            EXPECT_LE(double(e), bound * 1.0001 + 1e-30);
+        }
+    for (const glm::vec4& p : gpu.image)
+        for (int ch = 0; ch < 3; ++ch) {
+            ASSERT_TRUE(std::isfinite(p[ch]));
+            EXPECT_GE(p[ch], 0.0f);
+        }
+    compareStages(gpu, r, setup);
+    comparePixels(gpu, r, scene, true, 5e-3);
+    // Guard G1 regularises direction cosines with 1e-12 r^2 added to d^2: a relative change of
+    // 0.5e-12 (r / d)^2, 1.6e-4 for the VAL 1e-6 m from the point (r = 0.018 m), x k = 20 in
+    // cos^k: 3e-3, beyond the float tolerance. The guard is a documented deviation exercised only
+    // there; PaperReference has none, so that case is compared with gi::reference alone.
+    if (std::string(c.name) != "micron_apart") {
+        SCOPED_TRACE("against PaperReference (independent formulas)");
+        const ReferenceRun independent = runIndependent(scene, setup, r);
+        compareStages(gpu, independent, setup);
+        comparePixels(gpu, independent, scene, true, 5e-3);
+    }
+    if (scene.vals.empty() || std::string(c.name) == "below_horizon" || std::string(c.name) == "back_facing") {
+        for (const glm::vec4& p : gpu.image) EXPECT_EQ(p, glm::vec4(0.0f)) << "no light must give exactly 0";
+    }
+}
+
 /// The numerical extremes both backends must survive (finite, non-negative, bounded, matching the reference).
 inline std::vector<GpuExtreme> gpuExtremes() {
     return {GpuExtreme{"coincident", 1.0f, 20.0f, valsCoincident},
@@ -387,49 +603,6 @@ inline std::string extremeName(const ::testing::TestParamInfo<GpuExtreme>& info)
     for (char& ch : name)
         if (ch == '-') ch = 'm';
     return name;
-}
-
-inline double relativeImageDifference(const GpuRun& a, const GpuRun& b) {
-    double largest = 0.0, worst = 0.0;
-    for (const glm::vec4& p : b.image) largest = std::max({largest, double(p.x), double(p.y), double(p.z)});
-    for (std::size_t i = 0; i < a.image.size(); ++i)
-        for (int c = 0; c < 3; ++c) {
-            const double diff = std::abs(double(a.image[i][c]) - double(b.image[i][c]));
-            worst = std::max(worst, diff / std::max(double(std::abs(b.image[i][c])), 1e-2 * largest));
-        }
-    return worst;
-}
-
-/// Worst |a - b| / max(|b|, floorFraction * max|b|) over the slot's xyz (signed sums such as
-/// the position offsets need the floor: their components cancel).
-inline double relativeDifference(const std::vector<glm::vec4>& a, const std::vector<glm::vec4>& b, int stride, int slot,
-                                 double floorFraction = 0.0) {
-    double largest = 0.0, worst = 0.0;
-    for (std::size_t i = std::size_t(slot); i < b.size(); i += std::size_t(stride))
-        for (int c = 0; c < 3; ++c) largest = std::max(largest, double(std::abs(b[i][c])));
-    for (std::size_t i = std::size_t(slot); i < b.size(); i += std::size_t(stride))
-        for (int c = 0; c < 3; ++c) {
-            const double diff = std::abs(double(a[i][c]) - double(b[i][c]));
-            if (diff > 0.0)
-                worst = std::max(worst, diff / std::max(double(std::abs(b[i][c])), floorFraction * largest));
-        }
-    return worst;
-}
-
-/// Every stage of `a` against `b` (relative, per value; signed sums and positions with a floor of
-/// 1e-2 of the stage's largest value, as relativeImageDifference has for pixels) must stay
-/// within `limit`.
-inline void expectSameStages(const GpuRun& a, const GpuRun& b, double limit, const std::string& what) {
-    for (int slot : {0, 2})
-        EXPECT_LE(relativeDifference(a.gather, b.gather, 5, slot), limit) << what << ", sums " << slot;
-    for (int slot : {1, 3, 4})
-        EXPECT_LE(relativeDifference(a.gather, b.gather, 5, slot, 1e-2), limit) << what << ", sums " << slot;
-    for (int slot = 0; slot < 4; ++slot)
-        EXPECT_LE(relativeDifference(a.vpls, b.vpls, 4, slot, 1e-2), limit) << what << ", renormalised VPLs " << slot;
-    EXPECT_LE(relativeDifference(a.occlusion, b.occlusion, 1, 0, 1e-2), limit) << what << ", occlusion";
-    for (int slot = 0; slot < 4; ++slot)
-        EXPECT_LE(relativeDifference(a.vertex, b.vertex, 4, slot, 1e-2), limit) << what << ", vertex VPLs " << slot;
-    EXPECT_LE(relativeImageDifference(a, b), limit) << what << ", pixels";
 }
 
 } // namespace lightskin::test
