@@ -1366,8 +1366,9 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
                         "Metres: a tracked vertex counts as seen when the G-buffer position at its pixel is this close");
     command->add_option("--temporal-sparse", o->temporalSparse, "Sparse points per model in the temporal sequences");
     command->add_flag("--no-temporal", [o](std::int64_t) { o->temporal = false; }, "Skip the temporal sequences");
-    command->add_option("--export-blender", o->exportBlender,
-                        "Only write the default view (diffuse) for scripts/blender_reference.sh into this folder");
+    command->add_option(
+        "--export-blender", o->exportBlender,
+        "Only write the default view (diffuse + glossy) for scripts/blender_reference.sh into this folder");
     command->add_flag("--check", o->check, "Fail (exit 3) unless error falls as sparse points and VALs grow");
     command->add_option("--tolerance", o->tolerance, "Noise allowed in the monotonicity check (relative)");
     command->add_flag("--table1", o->table1,
