@@ -489,7 +489,8 @@ def main():
             for p in range(width * height)]
     truth, truth_diffuse = load("truth.f32"), load("truth_diffuse.f32")
     truth_glossy = [a - b for a, b in zip(truth, truth_diffuse)]
-    result = {"samples_per_seed": samples, "seeds": [0, 1], "pixels": sum(mask), "vals": len(scene_data["vals"]),
+    result = {"command": "scripts/blender_reference.sh BUILD DIR %d (Blender %s)" % (samples, bpy.app.version_string),
+              "samples_per_seed": samples, "seeds": [0, 1], "pixels": sum(mask), "vals": len(scene_data["vals"]),
               "glossy_c": glossy_c}
     # Self-check: the passes must add up to the combined image (else the split below means nothing).
     split = metrics([a + b for a, b in zip(mean["diffuse"], mean["glossy"])], mean["combined"], mask)
