@@ -1,7 +1,10 @@
 #!/bin/sh
-# Blender Cycles reference for `lightskin bench` (issue 8; documented in docs/BENCHMARKS.md, not in CI).
-# Needs Debian's `blender` (apt-get install blender; 3.4.1, CPU only).
+# Blender Cycles reference for `lightskin bench` (issues 8 and 20; documented in docs/BENCHMARKS.md).
+# An offline reference tool, not a build or CI dependency (so not in scripts/debian-packages.txt):
+# needs Debian's `blender` (3.4.1, CPU only, no OSL) and, for the glossy model bound, python3-numpy:
+#   apt-get install -y blender python3-numpy
 # Usage: scripts/blender_reference.sh [BUILD_DIR] [OUT_DIR] [SAMPLES] [extra lightskin bench options...]
+# SAMPLES per seed; Cycles renders seeds 0 and 1 (their difference states its noise).
 # Run from the source folder (the bench finds tests/data/stanford-bunny there).
 set -eu
 build=${1:-build}

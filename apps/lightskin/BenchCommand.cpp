@@ -805,17 +805,17 @@ void writeRaw(const cv::Mat& glImage, const std::string& path) {
 }
 
 /// Writes the default view of the scene (VAL discs with their radiance, the two meshes in world
-/// space with diffuse albedo only, the camera) as scene.json, and our images of it as raw float32 RGB
-/// (top-down rows): LightSkin (diffuse + occlusion), brute force (diffuse), ground truth (diffuse, with
-/// visibility, every covered pixel), plus the coverage mask.
+/// space with their materials: diffuse albedo, f_s, Phong k, and eq. 5's c; the camera) as
+/// scene.json, and our images of it as raw float32 RGB (top-down rows): LightSkin (diffuse + glossy +
+/// occlusion), brute force (diffuse + glossy), ground truth (diffuse + glossy, with visibility, every
+/// covered pixel), plus the coverage mask.
 void exportBlender(World& world, const Options& options) {
     const std::string dir = options.exportBlender;
     std::filesystem::create_directories(dir);
     Config c = options.defaults;
-    c.channels = 1;
+    c.channels = 3; // diffuse + glossy + occlusion (also set explicitly below)
     const int width = c.width, height = c.height;
     auto inst = world.instances(c.sphereTriangles);
-    for (auto& m : inst) m.material.specularAlbedo = glm::vec3(0.0f); // Cycles has no Phong lobe: diffuse scene
     const glm::mat4 clip = viewClip(width, height);
     const ViewImages view = world.renderView(inst, width, height, clip);
     world.vals(c.stride);
@@ -828,6 +828,8 @@ void exportBlender(World& world, const Options& options) {
     j["eye"] = {eye.x, eye.y, eye.z};
     j["target"] = {target.x, target.y, target.z};
     j["val_stride"] = c.stride;
+    const float glossyC = gi::LightSkinSettings{}.cParameter; // the same c for all three images
+    j["glossy_c"] = glossyC;
     for (const auto& v : vals) {
         const glm::vec3 radiance = v.flux / (std::numbers::pi_v<float> * v.area);
         j["vals"].push_back({v.position.x, v.position.y, v.position.z, v.normal.x, v.normal.y, v.normal.z, v.area, radiance.x,
@@ -843,6 +845,9 @@ void exportBlender(World& world, const Options& options) {
         }
         mesh["indices"] = m.mesh->indices;
         mesh["albedo"] = {m.material.diffuseAlbedo.x, m.material.diffuseAlbedo.y, m.material.diffuseAlbedo.z};
+        mesh["specular_albedo"] = {m.material.specularAlbedo.x, m.material.specularAlbedo.y,
+                                   m.material.specularAlbedo.z};
+        mesh["specular_exponent"] = m.material.specularExponent;
         j["meshes"].push_back(mesh);
     }
     std::ofstream(dir + "/scene.json") << j.dump() << "\n";
@@ -851,14 +856,16 @@ void exportBlender(World& world, const Options& options) {
     auto& tex = world.target(width, height);
     const gi::ValSetView set = world.vals(c.stride);
     gi::LightSkinSettings s = settingsFor(c, set.count);
-    s.glossy = false;
+    s.glossy = true;
+    s.cParameter = glossyC;
     s.occlusion = true;
     auto technique = gi::LightSkinIllumination::create(s, world.provider(c.sparse));
     technique->prepare(inst);
     technique->render(set, inst, g.view(), {clip, eye}, tex.id());
     writeRaw(readRgb(tex.id(), width, height), dir + "/lightskin.f32");
     gi::BruteForceSettings bs;
-    bs.glossy = false;
+    bs.glossy = true;
+    bs.cParameter = glossyC;
     bs.valCapacity = std::max(1u, set.count);
     auto brute = gi::BruteForceIllumination::create(bs);
     brute->prepare(inst);
@@ -875,31 +882,41 @@ void exportBlender(World& world, const Options& options) {
         for (int x = 0; x < width; ++x) {
             const cv::Vec4f p = view.position.at<cv::Vec4f>(y, x);
             if (p[3] == 0.0f) continue;
-            const cv::Vec4f n = view.normal.at<cv::Vec4f>(y, x), a = view.albedo.at<cv::Vec4f>(y, x);
+            const cv::Vec4f n = view.normal.at<cv::Vec4f>(y, x), a = view.albedo.at<cv::Vec4f>(y, x),
+                            sp = view.specular.at<cv::Vec4f>(y, x);
             gi::GroundTruthReceiver r;
             r.position = glm::dvec3(p[0], p[1], p[2]);
             r.normal = glm::normalize(glm::dvec3(n[0], n[1], n[2]));
             r.toViewer = glm::normalize(glm::dvec3(eye) - r.position);
             r.material.diffuseAlbedo = glm::vec3(a[0], a[1], a[2]);
+            r.material.specularAlbedo = glm::vec3(sp[0], sp[1], sp[2]);
+            r.material.specularExponent = std::max(1.0f, sp[3]);
             receivers.push_back(r);
             where.push_back(y * width + x);
         }
     std::vector<gi::GroundTruthResult> results(receivers.size());
     gi::GroundTruthSettings gs;
     gs.discRings = gs.discSectors = 1;
+    gs.glossyC = double(glossyC);
     rt.compute(vals, receivers, results, gs);
-    cv::Mat truthImage(height, width, CV_32FC3, cv::Scalar::all(0));
+    // truth_diffuse.f32 (rho_d / pi E) lets the script check the diffuse and glossy terms separately
+    // against Cycles' DiffDir and GlossDir passes.
+    cv::Mat truthImage(height, width, CV_32FC3, cv::Scalar::all(0)), truthDiffuse = truthImage.clone();
     for (std::size_t k = 0; k < receivers.size(); ++k) {
         const glm::dvec3 d = results[k].radiance;
+        const glm::dvec3 e = glm::dvec3(receivers[k].material.diffuseAlbedo) / std::numbers::pi * results[k].irradiance;
         truthImage.at<cv::Vec3f>(where[k] / width, where[k] % width) = cv::Vec3f(float(d.x), float(d.y), float(d.z));
+        truthDiffuse.at<cv::Vec3f>(where[k] / width, where[k] % width) = cv::Vec3f(float(e.x), float(e.y), float(e.z));
     }
     writeRaw(truthImage, dir + "/truth.f32");
+    writeRaw(truthDiffuse, dir + "/truth_diffuse.f32");
     cv::Mat mask;
     view.mask.convertTo(mask, CV_32F, 1.0 / 255.0);
     cv::Mat mask3;
     cv::merge(std::vector<cv::Mat>{mask, mask, mask}, mask3);
     writeRaw(mask3, dir + "/mask.f32");
-    std::printf("wrote %s/scene.json (%zu VALs, 2 meshes) and lightskin/brute/truth/mask .f32 images (%dx%d RGB float32)\n",
+    std::printf("wrote %s/scene.json (%zu VALs, 2 meshes) and lightskin/brute/truth/truth_diffuse/mask .f32 images "
+                "(%dx%d RGB float32)\n",
                 dir.c_str(), vals.size(), width, height);
 }
 
@@ -1349,8 +1366,9 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
                         "Metres: a tracked vertex counts as seen when the G-buffer position at its pixel is this close");
     command->add_option("--temporal-sparse", o->temporalSparse, "Sparse points per model in the temporal sequences");
     command->add_flag("--no-temporal", [o](std::int64_t) { o->temporal = false; }, "Skip the temporal sequences");
-    command->add_option("--export-blender", o->exportBlender,
-                        "Only write the default view (diffuse) for scripts/blender_reference.sh into this folder");
+    command->add_option(
+        "--export-blender", o->exportBlender,
+        "Only write the default view (diffuse + glossy) for scripts/blender_reference.sh into this folder");
     command->add_flag("--check", o->check, "Fail (exit 3) unless error falls as sparse points and VALs grow");
     command->add_option("--tolerance", o->tolerance, "Noise allowed in the monotonicity check (relative)");
     command->add_flag("--table1", o->table1,
