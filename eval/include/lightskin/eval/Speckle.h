@@ -1,0 +1,45 @@
+#pragma once
+// Speckle of an indirect-light image (issue 12): how many pixels of the virtual content stand out
+// from their neighbourhood, the "grey patches, dark streaks and isolated black pixels" a noisy VAL
+// set or an unstable gather produce, while a smooth indirect image has none.
+//
+// Definition (all on linear luminance Y = 0.2126 R + 0.7152 G + 0.0722 B of a CV_32FC3 BGR image):
+//  * Interior: covered pixels whose whole 5x5 neighbourhood is covered (the coverage mask eroded by
+//    2 px), so object borders, where the median mixes in background, never count.
+//  * m = the median of Y over the 5x5 neighbourhood (the pixel included).
+//  * Speckle pixel: |Y - m| > 0.5 max(m, floor), floor = 0.01 x the mean Y of the interior. The floor
+//    keeps pixels in true shadow (m ~ 0), where any rounding is "more than 50 %", from counting.
+//  * Speckle fraction = speckle pixels / interior pixels.
+//  * Black pixel (subset): Y < 0.1 m in a lit neighbourhood (m >= 0.1 x mean Y): a hole in the light.
+//  * Blown pixel (subset): Y > 10 max(m, floor): a spike. Non-finite Y counts as blown and speckle.
+// A median (not a mean) of 25 samples tolerates up to 12 outliers, so a speckle pixel is one that
+// differs from the bulk of its neighbourhood, and an isolated outlier in a smooth image is found
+// exactly once. A smooth image (|grad Y| * 2 px < 0.5 m everywhere) has speckle 0.
+
+#include <opencv2/core/mat.hpp>
+
+#include <cstddef>
+#include <string>
+
+namespace lightskin::eval {
+
+struct SpeckleStats {
+    std::size_t interiorPixels = 0; ///< covered pixels with a fully covered 5x5 neighbourhood
+    std::size_t specklePixels = 0;
+    std::size_t blackPixels = 0; ///< subset of specklePixels (see above)
+    std::size_t blownPixels = 0; ///< subset of specklePixels, incl. non-finite
+    double meanLuminance = 0.0;  ///< mean Y over the interior (finite pixels), linear units
+    double speckleFraction() const noexcept {
+        return interiorPixels ? double(specklePixels) / double(interiorPixels) : 0.0;
+    }
+    std::string describe() const;
+};
+
+/// Measures `linearBgr` (CV_32FC3, linear, any scale) inside `coverage` (CV_8UC1 of the same size,
+/// != 0 = virtual content). Throws lightskin::Error on other types or sizes.
+SpeckleStats measureSpeckle(const cv::Mat& linearBgr, const cv::Mat& coverage);
+
+/// Luminance Y of a CV_32FC3 BGR linear image into a CV_32FC1 image (sized by the call).
+void luminanceInto(const cv::Mat& linearBgr, cv::Mat& luminance);
+
+} // namespace lightskin::eval
