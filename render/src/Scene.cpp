@@ -186,7 +186,7 @@ SceneLight readLight(const Reader& r, const json& value, const std::string& p) {
 GiSettings readGi(const Reader& r, const json& value, const std::string& p) {
     r.object(value, p);
     r.allowOnly(value, p, {"technique", "sparsePoints", "valStride", "kCache", "diffuse", "glossy", "occlusion", "virtualBounce",
-                            "rsmResolution"});
+                            "rsmResolution", "robustRealDepth"});
     GiSettings g;
     if (value.contains("technique")) {
         g.technique = r.string(value["technique"], p + "/technique");
@@ -204,6 +204,7 @@ GiSettings readGi(const Reader& r, const json& value, const std::string& p) {
     if (value.contains("occlusion")) g.occlusion = r.boolean(value["occlusion"], p + "/occlusion");
     if (value.contains("virtualBounce")) g.virtualBounce = r.boolean(value["virtualBounce"], p + "/virtualBounce");
     if (value.contains("rsmResolution")) g.rsmResolution = r.integer(value["rsmResolution"], p + "/rsmResolution", 8, 256);
+    if (value.contains("robustRealDepth")) g.robustRealDepth = r.boolean(value["robustRealDepth"], p + "/robustRealDepth");
     return g;
 }
 

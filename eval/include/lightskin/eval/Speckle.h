@@ -36,8 +36,22 @@ struct SpeckleStats {
 };
 
 /// Measures `linearBgr` (CV_32FC3, linear, any scale) inside `coverage` (CV_8UC1 of the same size,
-/// != 0 = virtual content). Throws lightskin::Error on other types or sizes.
-SpeckleStats measureSpeckle(const cv::Mat& linearBgr, const cv::Mat& coverage);
+/// != 0 = virtual content). `map` (optional): CV_8UC1, 0 outside the interior, 64 interior, 255
+/// speckle (for looking at where it is). `smooth` (optional, CV_8UC1, e.g. smoothSurfaceMaskInto()):
+/// the interior is further restricted to pixels where it is != 0. Throws lightskin::Error on other
+/// types or sizes.
+SpeckleStats measureSpeckle(const cv::Mat& linearBgr, const cv::Mat& coverage, cv::Mat* map = nullptr,
+                            const cv::Mat& smooth = cv::Mat());
+
+/// The part of `coverage` where the true indirect light can be expected to be smooth at the 5x5
+/// scale of the measure: covered pixels whose 5x5 neighbourhood is one continuous surface patch:
+/// every neighbour covered, its normal within `maxNormalAngleDegrees` of the centre's and its depth
+/// within `maxRelativeDepthStep` x the centre's depth. Across creases and occlusion edges inside an
+/// object (an ear in front of the head) irradiance legitimately jumps by more than 50 %, so those
+/// pixels say nothing about speckle. `normals`: CV_32FC3 unit normals; `depth`: CV_32FC1 metres;
+/// `mask` (sized by the call): CV_8UC1 255 = smooth. Throws lightskin::Error on bad types or sizes.
+void smoothSurfaceMaskInto(const cv::Mat& coverage, const cv::Mat& normals, const cv::Mat& depth,
+                           double maxNormalAngleDegrees, double maxRelativeDepthStep, cv::Mat& mask);
 
 /// Luminance Y of a CV_32FC3 BGR linear image into a CV_32FC1 image (sized by the call).
 void luminanceInto(const cv::Mat& linearBgr, cv::Mat& luminance);

@@ -61,6 +61,9 @@ struct GiSettings {
     /// depth VALs. Off by default: opt-in, so existing scenes keep their images and frame times.
     bool virtualBounce = false;
     int rsmResolution = 64;              ///< RSM texels per side per light face (spot: 1 face, point: 6)
+    /// The light model for real depth (issue 12; docs/BENCHMARKS.md "Indirect light on real depth"):
+    /// on by default; false = the model before it, for measurement (`lightskin bench-realdepth`).
+    bool robustRealDepth = true;
 };
 
 struct CompositeSettings {
