@@ -123,5 +123,36 @@ TEST(SpeckleTest, NonFiniteIsBlownAndBadInputThrows) {
     EXPECT_THROW(eval::measureSpeckle(cv::Mat(4, 4, CV_32FC3), cv::Mat(5, 4, CV_8UC1)), Error);
 }
 
+TEST(SpeckleTest, SmoothSurfaceMaskDropsCreasesAndDepthSteps) {
+    // Left half faces +z, right half is turned by 40 degrees (a crease at u = 32); a depth step of
+    // 10 % along v = 32. Pixels whose 5x5 window crosses either are not smooth; the others are.
+    cv::Mat coverage(kSize, kSize, CV_8UC1, cv::Scalar(255)), normals(kSize, kSize, CV_32FC3),
+        depth(kSize, kSize, CV_32FC1);
+    const float a = float(40.0 * 3.14159265358979 / 180.0);
+    for (int v = 0; v < kSize; ++v)
+        for (int u = 0; u < kSize; ++u) {
+            normals.at<cv::Vec3f>(v, u) = u < 32 ? cv::Vec3f(0, 0, 1) : cv::Vec3f(std::sin(a), 0, std::cos(a));
+            depth.at<float>(v, u) = v < 32 ? 1.0f : 1.1f;
+        }
+    cv::Mat mask;
+    eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, mask);
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 10), 255);
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 29), 255); // window u = 27..31: one side of the crease
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 30), 0);   // window reaches u = 32
+    EXPECT_EQ(mask.at<std::uint8_t>(29, 10), 255);
+    EXPECT_EQ(mask.at<std::uint8_t>(30, 10), 0); // window reaches the depth step
+    EXPECT_EQ(mask.at<std::uint8_t>(1, 10), 0);  // image border: no full window
+    // With a 45-degree tolerance the crease is smooth.
+    eval::smoothSurfaceMaskInto(coverage, normals, depth, 45.0, 0.02, mask);
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 30), 255);
+    // measureSpeckle restricted to the mask: an outlier outside it is not counted.
+    cv::Mat image(kSize, kSize, CV_32FC3, cv::Scalar::all(1.0));
+    image.at<cv::Vec3f>(30, 10) = cv::Vec3f::all(0.0f);
+    image.at<cv::Vec3f>(10, 10) = cv::Vec3f::all(0.0f);
+    eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, mask);
+    EXPECT_EQ(eval::measureSpeckle(image, coverage, nullptr, mask).specklePixels, 1u);
+    EXPECT_EQ(eval::measureSpeckle(image, coverage).specklePixels, 2u);
+}
+
 } // namespace
 } // namespace lightskin::test
