@@ -213,6 +213,7 @@ struct BenchOptions {
     std::string models = "old,robust";
     std::vector<double> sinks{0.0, 0.01};
     int maxFrames = 5;
+    bool maps = false;
 };
 
 /// Samples the indirect light at the tracked world points (NaN where hidden or off-screen).
@@ -290,7 +291,7 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
     r.sink = sink;
     RgbdFrame frame;
     mr::FrameOutput out;
-    cv::Mat smooth;
+    cv::Mat smooth, mapLs, mapBf;
     const std::filesystem::path imageFolder = std::filesystem::path(options.out) / "images";
     std::filesystem::create_directories(imageFolder);
     while (r.frames < options.maxFrames && source->next(frame)) {
@@ -302,8 +303,9 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
         // kSmoothAngle, depth within 2 %; eval::smoothSurfaceMaskInto).
         eval::smoothSurfaceMaskInto(out.coverage, out.virtualNormals, out.virtualDepthMetres, kSmoothAngleDegrees, 0.02,
                                     smooth);
-        const eval::SpeckleStats ls = eval::measureSpeckle(out.linearIndirect, out.coverage, nullptr, smooth);
-        const eval::SpeckleStats bf = eval::measureSpeckle(out.linearIndirectReference, out.coverage, nullptr, smooth);
+        const bool maps = options.maps && r.frames == 0;
+        const eval::SpeckleStats ls = eval::measureSpeckle(out.linearIndirect, out.coverage, maps ? &mapLs : nullptr, smooth);
+        const eval::SpeckleStats bf = eval::measureSpeckle(out.linearIndirectReference, out.coverage, maps ? &mapBf : nullptr, smooth);
         accumulate(r.lightSkin.speckle, ls);
         accumulate(r.brute.speckle, bf);
         r.lightSkin.totalLight += coveredLuminance(out.linearIndirect, out.coverage);
@@ -314,6 +316,11 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
             writeIndirectPng(imageFolder / (std::string(name) + "lightskin.png"), out.linearIndirect, bf.meanLuminance);
             writeIndirectPng(imageFolder / (std::string(name) + "bruteforce.png"), out.linearIndirectReference,
                              bf.meanLuminance);
+            if (maps) { // 0 outside, 64 measured, 255 speckle; LightSkin left, brute force right
+                cv::Mat both;
+                cv::hconcat(mapLs, mapBf, both);
+                cv::imwrite((imageFolder / (std::string(name) + "speckle_map.png")).string(), both);
+            }
         }
         if (c.movingCamera) {
             sampleTracked(points, frame.colourIntrinsics, *out.world_T_camera, out.coverage, out.virtualDepthMetres,
@@ -432,6 +439,7 @@ void addBenchRealDepthCommand(CLI::App& app, int& exitCode) {
     command->add_option("--sink", options->sinks,
                         "Depths the objects are sunk into the surface, metres (default 0 0.01)");
     command->add_option("--max-frames", options->maxFrames, "Frames per recording (default 5)");
+    command->add_flag("--maps", options->maps, "Also write the speckle maps of each recording's first frame");
     command->callback([options, &exitCode] {
         runBench(*options);
         exitCode = 0;

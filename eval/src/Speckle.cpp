@@ -84,7 +84,7 @@ SpeckleStats measureSpeckle(const cv::Mat& linearBgr, const cv::Mat& coverage, c
                 }
             }
     s.meanLuminance = finiteCount ? sum / double(finiteCount) : 0.0;
-    const double floor = 0.01 * s.meanLuminance, litLevel = 0.1 * s.meanLuminance;
+    const double floor = 0.1 * s.meanLuminance, litLevel = 0.1 * s.meanLuminance;
     if (map) {
         map->create(y.size(), CV_8UC1);
         map->setTo(cv::Scalar(0));

@@ -101,12 +101,14 @@ TEST(SpeckleTest, DenseNoiseIsMostlySpeckle) {
 }
 
 TEST(SpeckleTest, DarkRegionsBelowTheFloorDoNotCount) {
-    // Left half lit (1.0), right half in shadow at 1e-4 with one pixel at 5e-4 (5x its median, but
-    // below 1 % of the mean 0.5): not speckle. The shadow edge itself moves the median by whole
+    // Left half lit (1.0), right half in shadow at 1e-4 with one pixel at 5e-4 and one at 0.02 (5x
+    // and 200x their median, but within 0.5 x the floor 0.1 x mean 0.5 = 0.025 of it): not speckle;
+    // 0.03 would be. The shadow edge itself moves the median by whole
     // steps only, so it adds nothing either.
     cv::Mat image(kSize, kSize, CV_32FC3, cv::Scalar::all(1.0));
     image(cv::Rect(kSize / 2, 0, kSize / 2, kSize)).setTo(cv::Scalar::all(1e-4));
     image.at<cv::Vec3f>(30, 50) = cv::Vec3f::all(5e-4f);
+    image.at<cv::Vec3f>(40, 50) = cv::Vec3f::all(0.02f);
     const eval::SpeckleStats s = eval::measureSpeckle(image, cv::Mat(kSize, kSize, CV_8UC1, cv::Scalar(1)));
     EXPECT_EQ(s.specklePixels, 0u);
 }
