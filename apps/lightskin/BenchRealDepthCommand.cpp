@@ -214,6 +214,7 @@ struct BenchOptions {
     std::vector<double> sinks{0.0, 0.01};
     int maxFrames = 5;
     bool maps = false;
+    std::string recordings; ///< comma-separated case names; empty = all
 };
 
 /// Samples the indirect light at the tracked world points (NaN where hidden or off-screen).
@@ -304,8 +305,10 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
         eval::smoothSurfaceMaskInto(out.coverage, out.virtualNormals, out.virtualDepthMetres, kSmoothAngleDegrees, 0.02,
                                     smooth);
         const bool maps = options.maps && r.frames == 0;
-        const eval::SpeckleStats ls = eval::measureSpeckle(out.linearIndirect, out.coverage, maps ? &mapLs : nullptr, smooth);
-        const eval::SpeckleStats bf = eval::measureSpeckle(out.linearIndirectReference, out.coverage, maps ? &mapBf : nullptr, smooth);
+        const eval::SpeckleStats ls =
+            eval::measureSpeckle(out.linearIndirect, out.coverage, maps ? &mapLs : nullptr, smooth);
+        const eval::SpeckleStats bf =
+            eval::measureSpeckle(out.linearIndirectReference, out.coverage, maps ? &mapBf : nullptr, smooth);
         accumulate(r.lightSkin.speckle, ls);
         accumulate(r.brute.speckle, bf);
         r.lightSkin.totalLight += coveredLuminance(out.linearIndirect, out.coverage);
@@ -383,7 +386,10 @@ void runBench(const BenchOptions& options) {
             throw Error("--models", std::nullopt, "unknown light model '" + m + "' (old, robust)");
     }
     std::vector<CaseResult> results;
-    for (const RealCase& c : realCases())
+    for (const RealCase& c : realCases()) {
+        if (!options.recordings.empty() &&
+            ("," + options.recordings + ",").find("," + c.name + ",") == std::string::npos)
+            continue;
         for (double sink : options.sinks)
             for (const LightModel& m : models) {
                 results.push_back(runCase(c, m, sink, options));
@@ -393,6 +399,7 @@ void runBench(const BenchOptions& options) {
                             r.brute.speckle.describe().c_str());
                 std::fflush(stdout);
             }
+    }
     std::ostringstream md;
     md << "| recording | sink | light model | frames | VALs/frame | speckle LightSkin | speckle brute force | black / "
           "blown (LS) | "
@@ -439,6 +446,8 @@ void addBenchRealDepthCommand(CLI::App& app, int& exitCode) {
     command->add_option("--sink", options->sinks,
                         "Depths the objects are sunk into the surface, metres (default 0 0.01)");
     command->add_option("--max-frames", options->maxFrames, "Frames per recording (default 5)");
+    command->add_option("--recordings", options->recordings,
+                        "Comma-separated recordings (tum-fr2-desk, icl-nuim, pcl-kinect-tiff; default all)");
     command->add_flag("--maps", options->maps, "Also write the speckle maps of each recording's first frame");
     command->callback([options, &exitCode] {
         runBench(*options);
