@@ -43,6 +43,10 @@ public:
     /// view, as the G-buffer) and `camera_T_world` (for depths along the optical axis), then sets
     /// area = 0 in `vals` for every culled VAL (see above). `vals.keys` must be the depth pixel index
     /// (v * width + u) of each VAL. Returns nothing (no read-back); culledCount() reads the count.
+    /// The set is changed in place: a producer that hands out the same buffer again without
+    /// regenerating it (ValGeneratorSettings::skipUnchangedInput) keeps this cull, which stays right
+    /// while the virtual content has not moved (scene objects are fixed in the pipeline); culling a
+    /// culled set again changes nothing.
     /// GL state changed: framebuffer binding 0, program, SSBO bindings 0-2, texture unit 0, viewport.
     void apply(const ValSetView& vals, std::span<const MeshInstance> instances, const glm::mat4& clip_T_world,
                const glm::mat4& camera_T_world);
