@@ -100,6 +100,7 @@ TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
         {head + R"("gi": {"kCache": 0}})", "/gi/kCache: expected an integer in [16, 4096]"},
         {head + R"("gi": {"kCache": 100}})", "/gi/kCache: expected a multiple of 16"},
         {head + R"("exposureStops": "bright"})", "/exposureStops: expected a number"},
+        {head + R"("gi": {"robustRealDepth": 1}})", "/gi/robustRealDepth: expected true or false"},
         {R"({"objects": []})", "/version: expected 1"},
         {R"([1, 2])", "/: expected an object"},
         {R"({"version": 1, )", "not valid JSON"},
@@ -108,6 +109,11 @@ TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
         const std::string cause = causeOf(c.text);
         EXPECT_EQ(cause.rfind(c.expectedStart, 0), 0u) << "scene: " << c.text << "\ncause: " << cause;
     }
+}
+
+TEST(Scene, RobustRealDepthIsTheDefaultAndCanBeTurnedOff) {
+    EXPECT_TRUE(parseScene(R"({"version": 1})", meshDir(), "t").gi.robustRealDepth);
+    EXPECT_FALSE(parseScene(R"({"version": 1, "gi": {"robustRealDepth": false}})", meshDir(), "t").gi.robustRealDepth);
 }
 
 TEST(Scene, MissingFileIsAnError) {
