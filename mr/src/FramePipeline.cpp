@@ -410,12 +410,14 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     gi::ValSetView valSet;
     const bool runGi = options_.giEnabled && gi_.technique != "none";
     render::Renderer& r = *renderer_;
+    bool gbufferReady = false;
     if (haveDepth && runGi && s.vals) {
         valSet = s.vals->generate(s.depthMetres, 1.0, frame.colour, frame.colourIntrinsics, world_T_camera);
         out.valCount = valSet.count;
         if (gi_.robustRealDepth && s.occupancy) {
             // The VALs whose space the virtual content occupies (gi/ValOccupancyCull.h); needs the view.
             r.renderGBuffer(world_T_camera);
+            gbufferReady = true;
             s.occupancy->apply(valSet, r.instances(), r.viewParameters().clip_T_world, world_T_camera.inverse().matrixFloat());
         }
     }
@@ -441,7 +443,7 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
 
     // G-buffer and indirect light.
     t = Clock::now();
-    if (!(runGi && gi_.robustRealDepth && s.occupancy && out.valCount > 0)) r.renderGBuffer(world_T_camera);
+    if (!gbufferReady) r.renderGBuffer(world_T_camera);
     if (runGi) {
         s.technique->render(valSet, r.instances(), r.gbuffer(), r.viewParameters(), r.indirectTarget());
         if (const auto* lightSkin = dynamic_cast<const gi::LightSkinIllumination*>(s.technique.get());
