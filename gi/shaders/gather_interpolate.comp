@@ -51,10 +51,15 @@ void main() {
     result.diffusePosition = vec4(0.0);
     result.glossy = vec4(0.0);
     result.glossyPosition = vec4(0.0);
+    float minDD = 3.0e38, minDS = 3.0e38; // G8
     for (int j = 0; j < kNeighbours; ++j) {
         const float w = weights.w[j];
         if (w == 0.0) continue;
         const ivec2 texel = gather_pointTexel(int(index[j]));
+        const vec3 x = texelFetch(uPointPosition, texel, 0).xyz;
+        const vec3 od = texelFetch(uPositionD, texel, 0).xyz - x, os = texelFetch(uPositionS, texel, 0).xyz - x;
+        minDD = min(minDD, dot(od, od) + texelFetch(uDiffuse, texel, 0).w);
+        minDS = min(minDS, dot(os, os) + texelFetch(uGlossy, texel, 0).w);
         vec2 keep = vec2(1.0);
         if (uApplyOcclusion != 0) keep = vec2(1.0) - clamp(texelFetch(uOcclusion, texel, 0).xy, 0.0, 1.0);
         const vec4 d = texelFetch(uDiffuse, texel, 0);
@@ -64,5 +69,7 @@ void main() {
         result.glossy += w * vec4(g.rgb * keep.y, g.w);
         result.glossyPosition += w * vec4(texelFetch(uPositionS, texel, 0).xyz, 0.0);
     }
+    result.diffuse.w = ls_vertexR2Floor(result.diffuse.w, p, result.diffusePosition.xyz, minDD);
+    result.glossy.w = ls_vertexR2Floor(result.glossy.w, p, result.glossyPosition.xyz, minDS);
     vertexVpls[v] = result;
 }

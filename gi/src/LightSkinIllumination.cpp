@@ -153,7 +153,9 @@ struct LightSkinIllumination::Impl {
             occlusion[g] = library.buildProgram(
                 {{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "gather_occlusion.frag"}},
                 detail::variantDefines(settings.kCache, g != 0, true));
-        interpolate = library.buildProgram({{GL_COMPUTE_SHADER, "gather_interpolate.comp"}});
+        interpolate = library.buildProgram({{GL_COMPUTE_SHADER, "gather_interpolate.comp"}},
+                                           settings.vertexDistanceFloor ? std::vector<std::string>{}
+                                                                        : std::vector<std::string>{"LS_VERTEX_DISTANCE_FLOOR 0"});
         shade = library.buildProgram({{GL_VERTEX_SHADER, "gather_shade.vert"}, {GL_FRAGMENT_SHADER, "gather_shade.frag"}});
         cullCount = library.buildProgram({{GL_COMPUTE_SHADER, "gather_cull_count.comp"}});
         cullScan = library.buildProgram({{GL_COMPUTE_SHADER, "gather_cull_scan.comp"}});

@@ -7,12 +7,14 @@
 #include <lightskin/gi/DifferentialIrradiance.h>
 #include <lightskin/gi/LightSkinIllumination.h>
 #include <lightskin/gi/ValGenerator.h>
+#include <lightskin/gi/ValOccupancyCull.h>
 #include <lightskin/gi/ValSetMerger.h>
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/mr/FramePipeline.h>
 #include <lightskin/render/NullIndirectIllumination.h>
 #include <lightskin/tracking/TagWorld.h>
 
+#include <epoxy/gl.h>
 #include <glm/common.hpp>
 #include <glm/exponential.hpp>
 #include <nlohmann/json.hpp>
@@ -95,6 +97,7 @@ std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettin
         s.kCache = settings.kCache;
         s.glossy = settings.glossy;
         s.occlusion = settings.occlusion;
+        s.vertexDistanceFloor = settings.robustRealDepth;
         const gi::SparsePointProvider provider = [&renderer](const gi::MeshInstance& instance) {
             const gi::SparsePointSet* points = renderer.sparsePoints(instance.meshId);
             LIGHTSKIN_ASSERT(points != nullptr, "lightskin::mr::createTechnique(): the renderer prepared no sparse points");
@@ -300,6 +303,7 @@ struct FramePipeline::State {
     std::unique_ptr<gi::IndirectIllumination> technique;
     std::optional<tracking::PoseTracker> tracker;
     std::optional<gi::ValGenerator> vals;
+    std::optional<gi::ValOccupancyCull> occupancy; // gi.robustRealDepth
     bool valsUsable = false;
     // gi.virtualBounce with lights: RSM VALs merged after the depth VALs (all sized at creation).
     std::vector<gi::VirtualLight> virtualLights;
@@ -311,7 +315,7 @@ struct FramePipeline::State {
     capture::BilateralDepthFilter depthFilter; // KinectFusion defaults (capture/DepthFilter.h)
     cv::Mat depthMetres, virtualColour, virtualDepth, virtualLinear, srgbToLinearTable;
     std::unique_ptr<gi::IndirectIllumination> bruteForce; // error view only
-    cv::Mat indirectTechnique, indirectReference, errorMap;
+    cv::Mat indirectTechnique, indirectReference, errorMap, normalsRgba;
     std::vector<glm::vec4> vertexVpls; // vpl view only
     std::vector<gl::StageTime> scratchTimes;
     cv::Mat coverage;             // alpha of virtualColour (coveredPixels)
@@ -349,6 +353,7 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
                    source.depthIntrinsics.width == colour.width && source.depthIntrinsics.height == colour.height;
     if (s.valsUsable) {
         p->createValGenerator(scene.gi.valStride);
+        s.occupancy = gi::ValOccupancyCull::create(colour.width, colour.height);
     } else {
         log::warning(source.uri + ": depth is not registered to colour; no VALs and no occlusion by real geometry");
     }
@@ -450,6 +455,8 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     out.linearInfPixels = 0;
     out.coveredPixels = 0;
     if (!out.linearIndirect.empty()) out.linearIndirect.setTo(cv::Scalar::all(0)); // keeps the buffer, no stale light
+    if (!out.linearIndirectReference.empty()) out.linearIndirectReference.setTo(cv::Scalar::all(0));
+    if (!out.coverage.empty()) out.coverage.setTo(cv::Scalar::all(0));
 
     // Depth in metres (CV_32FC1, 0 = missing), registered to colour.
     auto t = Clock::now();
@@ -494,9 +501,17 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     gi::ValSetView valSet;
     const bool runGi = options_.giEnabled && gi_.technique != "none";
     const bool runDifferential = options_.differential && s.differential && haveDepth && s.vals;
+    render::Renderer& r = *renderer_;
+    bool gbufferReady = false;
     if (haveDepth && (runGi || runDifferential) && s.vals) {
         valSet = s.vals->generate(s.depthMetres, 1.0, frame.colour, frame.colourIntrinsics, world_T_camera);
         out.valCount = valSet.count;
+        if (gi_.robustRealDepth && s.occupancy) {
+            // The VALs whose space the virtual content occupies (gi/ValOccupancyCull.h); needs the view.
+            r.renderGBuffer(world_T_camera);
+            gbufferReady = true;
+            s.occupancy->apply(valSet, r.instances(), r.viewParameters().clip_T_world, world_T_camera.inverse().matrixFloat());
+        }
     }
     addTime(out.cpuTimes, used, "vals", msSince(t));
 
@@ -531,8 +546,7 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
 
     // G-buffer and indirect light.
     t = Clock::now();
-    render::Renderer& r = *renderer_;
-    r.renderGBuffer(world_T_camera);
+    if (!gbufferReady) r.renderGBuffer(world_T_camera);
     if (runGi) {
         s.technique->render(valSet, r.instances(), r.gbuffer(), r.viewParameters(), r.indirectTarget());
         if (const auto* lightSkin = dynamic_cast<const gi::LightSkinIllumination*>(s.technique.get());
@@ -573,10 +587,35 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
             else if (std::isinf(p[0]) || std::isinf(p[1]) || std::isinf(p[2])) ++out.linearInfPixels;
         }
     }
-    if (options_.linearIndirect && runGi) {
+    if ((options_.linearIndirect || options_.referenceIndirect) && runGi) {
         r.readIndirectInto(s.indirectTechnique);
         cv::cvtColor(s.indirectTechnique, out.linearIndirect, cv::COLOR_RGBA2BGR);
         out.linearIndirect.convertTo(out.linearIndirect, -1, double(std::exp2(s.scene->exposureStops)));
+    }
+    if (options_.referenceIndirect) {
+        // Coverage from the shaded output's alpha (the G-buffer's coverage), not from the light:
+        // a covered pixel with no indirect light must still count.
+        out.coverage.create(s.virtualColour.size(), CV_8UC1);
+        cv::extractChannel(s.virtualColour, out.coverage, 3);
+        cv::threshold(out.coverage, out.coverage, 0, 255, cv::THRESH_BINARY);
+        s.virtualDepth.copyTo(out.virtualDepthMetres);
+        const gi::GBufferView& g = r.gbuffer();
+        s.normalsRgba.create(g.height, g.width, CV_32FC4);
+        glGetTextureImage(g.worldNormal, 0, GL_RGBA, GL_FLOAT, GLsizei(s.normalsRgba.total() * s.normalsRgba.elemSize()), s.normalsRgba.data);
+        cv::flip(s.normalsRgba, s.normalsRgba, 0); // GL rows count from the bottom
+        cv::cvtColor(s.normalsRgba, out.virtualNormals, cv::COLOR_RGBA2RGB);
+        if (runGi) {
+            if (!s.bruteForce) {
+                render::GiSettings reference = gi_;
+                reference.technique = "brute-force";
+                s.bruteForce = createTechnique(reference, r);
+                s.bruteForce->prepare(r.instances());
+            }
+            s.bruteForce->render(valSet, r.instances(), r.gbuffer(), r.viewParameters(), r.indirectTarget());
+            r.readIndirectInto(s.indirectReference);
+            cv::cvtColor(s.indirectReference, out.linearIndirectReference, cv::COLOR_RGBA2BGR);
+            out.linearIndirectReference.convertTo(out.linearIndirectReference, -1, double(std::exp2(s.scene->exposureStops)));
+        }
     }
     if (options_.overlay == Overlay::Vals && out.valCount > 0 && s.vals)
         drawVals(out.withGi, s.vals->downloadVals(), frame.colourIntrinsics, world_T_camera);

@@ -190,7 +190,7 @@ GiSettings readGi(const Reader& r, const json& value, const std::string& p) {
     r.object(value, p);
     r.allowOnly(value, p,
                 {"technique", "backend", "sparsePoints", "valStride", "kCache", "diffuse", "glossy", "occlusion",
-                 "virtualBounce", "rsmResolution", "budgetMs"});
+                 "virtualBounce", "rsmResolution", "budgetMs", "robustRealDepth"});
     GiSettings g;
     if (value.contains("technique")) {
         g.technique = r.string(value["technique"], p + "/technique");
@@ -218,6 +218,7 @@ GiSettings readGi(const Reader& r, const json& value, const std::string& p) {
     if (value.contains("budgetMs"))
         g.budgetMs =
             double(r.number(value["budgetMs"], p + "/budgetMs", 0.001f, 1.0e6f, "in [0.001, 1e6] (milliseconds)"));
+    if (value.contains("robustRealDepth")) g.robustRealDepth = r.boolean(value["robustRealDepth"], p + "/robustRealDepth");
     return g;
 }
 

@@ -116,6 +116,7 @@ TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
         {head + R"("compositing": {"differential": "yes"}})", "/compositing/differential: expected true or false"},
         {head + R"("lights": [{"type": "point", "position": [0, 0, 1], "inRoom": 1}]})",
          "/lights/0/inRoom: expected true or false"},
+        {head + R"("gi": {"robustRealDepth": 1}})", "/gi/robustRealDepth: expected true or false"},
         {R"({"objects": []})", "/version: expected 1"},
         {R"([1, 2])", "/: expected an object"},
         {R"({"version": 1, )", "not valid JSON"},
@@ -137,6 +138,11 @@ TEST(Scene, DifferentialIsOnByDefaultAndLightsAreInTheRoom) {
         ".", "test");
     EXPECT_FALSE(off.compositing.differential);
     EXPECT_FALSE(off.lights[0].inRoom);
+}
+
+TEST(Scene, RobustRealDepthIsTheDefaultAndCanBeTurnedOff) {
+    EXPECT_TRUE(parseScene(R"({"version": 1})", meshDir(), "t").gi.robustRealDepth);
+    EXPECT_FALSE(parseScene(R"({"version": 1, "gi": {"robustRealDepth": false}})", meshDir(), "t").gi.robustRealDepth);
 }
 
 TEST(Scene, MissingFileIsAnError) {

@@ -8,6 +8,9 @@
 #include <glm/mat3x3.hpp>
 #include <glm/matrix.hpp>
 
+#include <algorithm>
+#include <limits>
+
 namespace lightskin::gi::reference {
 
 namespace m = refmath;
@@ -135,10 +138,14 @@ void interpolateVerticesInto(std::span<const glm::dvec3> vertexPositions, std::s
         }
         const m::VertexWeights weights = m::ls_vertexWeights(dist, cosN, unique);
         VplPair r{};
+        double minDD = std::numeric_limits<double>::max(), minDS = std::numeric_limits<double>::max(); // G8
         for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
             const double w = weights.w[j];
             if (w == 0.0) continue;
             const VplPair& s = sparse[neighbours[v][j]];
+            const glm::dvec3 x = sparseReceivers[neighbours[v][j]].position;
+            minDD = std::min(minDD, glm::dot(s.diffuse.position - x, s.diffuse.position - x) + s.diffuse.r2);
+            minDS = std::min(minDS, glm::dot(s.glossy.position - x, s.glossy.position - x) + s.glossy.r2);
             r.diffuse.radiance += w * s.diffuse.radiance;
             r.diffuse.r2 += w * s.diffuse.r2;
             r.diffuse.position += w * s.diffuse.position;
@@ -146,6 +153,8 @@ void interpolateVerticesInto(std::span<const glm::dvec3> vertexPositions, std::s
             r.glossy.r2 += w * s.glossy.r2;
             r.glossy.position += w * s.glossy.position;
         }
+        r.diffuse.r2 = m::ls_vertexR2Floor(r.diffuse.r2, vertexPositions[v], r.diffuse.position, minDD);
+        r.glossy.r2 = m::ls_vertexR2Floor(r.glossy.r2, vertexPositions[v], r.glossy.position, minDS);
         out[v] = r;
     }
 }

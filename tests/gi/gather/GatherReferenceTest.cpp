@@ -175,6 +175,43 @@ TEST(GatherReference, VertexWeightsNeverProduceNaN) {
     EXPECT_DOUBLE_EQ(out[2].diffuse.radiance.x, 3.0) << "facing away: nearest neighbour";
 }
 
+// G8 (issue 12): two sparse points 20 cm apart whose VPLs lie 1 m away on opposite sides, 5 cm above
+// their plane. eq. 13 alone puts the vertex VPL 5 cm above the vertex between them: D = 0.0025 m^2
+// against D_j = 1.0025 at the sparse points, so eq. 10 would give 400 L'' at the vertex where each
+// sparse point received 0.05 L'' (a blown pixel). The floor raises rbar^2 to Dmin - |v - l|^2 = 1.
+TEST(GatherReference, VertexVplIsNeverNearerThanTheNearestGatheredVpl) {
+    std::vector<ref::Receiver> sparse(2);
+    sparse[0].position = dvec3(0.1, 0, 0);
+    sparse[1].position = dvec3(-0.1, 0, 0);
+    std::vector<ref::VplPair> vpls(2);
+    vpls[0].diffuse.position = dvec3(1.1, 0, 0.05);
+    vpls[1].diffuse.position = dvec3(-1.1, 0, 0.05);
+    for (auto& v : vpls) v.diffuse.radiance = dvec3(1.0);
+    using List = std::array<std::uint32_t, 8>;
+    const std::vector<dvec3> positions{dvec3(0.0), dvec3(0.11, 0, 0)};
+    const std::vector<dvec3> normals{dvec3(0, 0, 1), dvec3(0, 0, 1)};
+    const std::vector<List> neighbours{List{0, 1, 1, 1, 1, 1, 1, 1}, List{0, 0, 0, 0, 0, 0, 0, 0}};
+    std::vector<ref::VplPair> out;
+    ref::interpolateVerticesInto(positions, normals, neighbours, sparse, vpls, out);
+    const double dMin = 1.0 * 1.0 + 0.05 * 0.05; // |x_j - l_j|^2 + rbar_j^2 (rbar = 0)
+    EXPECT_NEAR(out[0].diffuse.position.z, 0.05, 1e-12);
+    EXPECT_NEAR(out[0].diffuse.r2, dMin - 0.05 * 0.05, 1e-12);
+    // eq. 10 at the vertex is now bounded by L / Dmin (cos <= 1), times rho_d / pi.
+    const ref::Surface surface{positions[0], normals[0], dvec3(1.0), dvec3(0.0), 1.0};
+    const double e = ref::shade(out[0], surface, dvec3(0, 0, 5)).x;
+    EXPECT_LE(e, 1.0 / std::numbers::pi / dMin * (1.0 + 1e-12));
+    EXPECT_GT(e, 0.0);
+    // One neighbour, vertex 1 cm from it toward its VPL: raised by exactly Dmin - |v - l|^2.
+    const dvec3 o = out[1].diffuse.position - positions[1];
+    EXPECT_GT(dMin - glm::dot(o, o), 0.0);
+    EXPECT_NEAR(out[1].diffuse.r2, dMin - glm::dot(o, o), 1e-12);
+    // A vertex at least as far from the VPL as its sparse point: no change (the old model).
+    std::vector<ref::VplPair> far;
+    ref::interpolateVerticesInto(std::vector<dvec3>{dvec3(0.09, 0, 0)}, std::vector<dvec3>{normals[0]},
+                                 std::vector<List>{List{0, 0, 0, 0, 0, 0, 0, 0}}, sparse, vpls, far);
+    EXPECT_EQ(far[0].diffuse.r2, 0.0);
+}
+
 // Numerical extremes on the reference: finite, non-negative, bounded by sum M_j, guards exact.
 struct Extreme {
     const char* name;

@@ -125,6 +125,10 @@ struct LightSkinSettings {
     StaticChangeTest staticChangeTest = StaticChangeTest::Bound;
     /// Probes: every n-th sparse point is a probe (re-gathering them costs ~1/n of the gather).
     int staticProbeStride = 16;
+    /// Guard G8 of lightskin_math.glsl (issue 12): a vertex VPL (eq. 13) is never nearer, in
+    /// D = |x - l|^2 + rbar^2, than the nearest VPL of the sparse points it interpolates. false = the
+    /// model before it (for measurement, `lightskin bench-realdepth`).
+    bool vertexDistanceFloor = true;
 };
 
 /// What the adaptive mode chose for the last frame.

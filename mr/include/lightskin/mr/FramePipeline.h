@@ -87,6 +87,10 @@ struct PipelineOptions {
     bool differential = true;
     /// Also fill FrameOutput::withGiWithoutDifferential (replay: comparing with the objects-present truth).
     bool differentialBaseline = false;
+    /// Also fill FrameOutput::linearIndirectReference (the brute force on the same VALs and
+    /// G-buffer) and FrameOutput::coverage (`lightskin bench-realdepth`: speckle and flicker of
+    /// both side by side). Costs a second GI pass and two float read-backs per frame.
+    bool referenceIndirect = false;
 };
 
 struct FrameOutput {
@@ -105,6 +109,15 @@ struct FrameOutput {
     /// options.linearIndirect and GI ran: CV_32FC3 BGR 2^exposure * the technique's indirect radiance
     /// (unclamped, 0 where no virtual content), else empty.
     cv::Mat linearIndirect;
+    /// options.referenceIndirect and GI ran: like linearIndirect, for the brute force on the same VALs.
+    cv::Mat linearIndirectReference;
+    /// options.referenceIndirect: CV_8UC1, 255 where virtual content covers the pixel (its G-buffer
+    /// coverage, independent of the light it receives), else 0.
+    cv::Mat coverage;
+    /// options.referenceIndirect: CV_32FC1 camera-space depth (metres) of the virtual content.
+    cv::Mat virtualDepthMetres;
+    /// options.referenceIndirect: CV_32FC3 unit world normals (x, y, z) of the G-buffer, image rows.
+    cv::Mat virtualNormals;
     tracking::TrackingResult tracking;
     std::optional<Pose> world_T_camera;
     std::uint32_t valCount = 0;     ///< VALs from depth

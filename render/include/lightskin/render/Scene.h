@@ -72,6 +72,9 @@ struct GiSettings {
     /// Frame-time budget in milliseconds ("budgetMs"; 0 = none): a mr::Session then picks technique,
     /// sparse points, VAL stride and channels per frame to meet it (mr/FrameBudget.h).
     double budgetMs = 0.0;
+    /// The light model for real depth (issue 12; docs/BENCHMARKS.md "Indirect light on real depth"):
+    /// on by default; false = the model before it, for measurement (`lightskin bench-realdepth`).
+    bool robustRealDepth = true;
 };
 
 struct CompositeSettings {

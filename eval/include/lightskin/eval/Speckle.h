@@ -1,0 +1,63 @@
+#pragma once
+// Speckle of an indirect-light image (issue 12): how many pixels of the virtual content stand out
+// from their neighbourhood, the "grey patches, dark streaks and isolated black pixels" a noisy VAL
+// set or an unstable gather produce, while a smooth indirect image has none.
+//
+// Definition (all on linear luminance Y = 0.2126 R + 0.7152 G + 0.0722 B of a CV_32FC3 BGR image):
+//  * Interior: covered pixels whose whole 5x5 neighbourhood is covered (the coverage mask eroded by
+//    2 px), so object borders, where the median mixes in background, never count.
+//  * m = the median of Y over the 5x5 neighbourhood (the pixel included).
+//  * Speckle pixel: |Y - m| > 0.5 max(m, floor), floor = 0.1 x the mean Y of the interior. The floor
+//    restricts the measure to lit neighbourhoods: where m is below a tenth of the object's mean
+//    indirect level (shadowed sides, receivers facing away from all VALs) a 50 % change is a step
+//    of < 5 % of that level, and smooth but steep falloffs toward 0 there (cos(theta_i) -> 0 for
+//    every VAL) would count although nothing is blotchy. (With a floor of 0.01 the bench's real
+//    scenes measure 0.3-1.4 %, all of it in such regions; docs/BENCHMARKS.md.)
+//  * Speckle fraction = speckle pixels / interior pixels.
+//  * Black pixel (subset): Y < 0.1 m in a lit neighbourhood (m >= 0.1 x mean Y): a hole in the light.
+//  * Blown pixel (subset): Y > 10 max(m, floor): a spike. Non-finite Y counts as blown and speckle.
+// A median (not a mean) of 25 samples tolerates up to 12 outliers, so a speckle pixel is one that
+// differs from the bulk of its neighbourhood, and an isolated outlier in a smooth image is found
+// exactly once. A smooth image (|grad Y| * 2 px < 0.5 m everywhere) has speckle 0.
+
+#include <opencv2/core/mat.hpp>
+
+#include <cstddef>
+#include <string>
+
+namespace lightskin::eval {
+
+struct SpeckleStats {
+    std::size_t interiorPixels = 0; ///< covered pixels with a fully covered 5x5 neighbourhood
+    std::size_t specklePixels = 0;
+    std::size_t blackPixels = 0; ///< subset of specklePixels (see above)
+    std::size_t blownPixels = 0; ///< subset of specklePixels, incl. non-finite
+    double meanLuminance = 0.0;  ///< mean Y over the interior (finite pixels), linear units
+    double speckleFraction() const noexcept {
+        return interiorPixels ? double(specklePixels) / double(interiorPixels) : 0.0;
+    }
+    std::string describe() const;
+};
+
+/// Measures `linearBgr` (CV_32FC3, linear, any scale) inside `coverage` (CV_8UC1 of the same size,
+/// != 0 = virtual content). `map` (optional): CV_8UC1, 0 outside the interior, 64 interior, 255
+/// speckle (for looking at where it is). `smooth` (optional, CV_8UC1, e.g. smoothSurfaceMaskInto()):
+/// the interior is further restricted to pixels where it is != 0. Throws lightskin::Error on other
+/// types or sizes.
+SpeckleStats measureSpeckle(const cv::Mat& linearBgr, const cv::Mat& coverage, cv::Mat* map = nullptr,
+                            const cv::Mat& smooth = cv::Mat());
+
+/// The part of `coverage` where the true indirect light can be expected to be smooth at the 5x5
+/// scale of the measure: covered pixels whose 5x5 neighbourhood is one continuous surface patch:
+/// every neighbour covered, its normal within `maxNormalAngleDegrees` of the centre's and its depth
+/// within `maxRelativeDepthStep` x the centre's depth. Across creases and occlusion edges inside an
+/// object (an ear in front of the head) irradiance legitimately jumps by more than 50 %, so those
+/// pixels say nothing about speckle. `normals`: CV_32FC3 unit normals; `depth`: CV_32FC1 metres;
+/// `mask` (sized by the call): CV_8UC1 255 = smooth. Throws lightskin::Error on bad types or sizes.
+void smoothSurfaceMaskInto(const cv::Mat& coverage, const cv::Mat& normals, const cv::Mat& depth,
+                           double maxNormalAngleDegrees, double maxRelativeDepthStep, cv::Mat& mask);
+
+/// Luminance Y of a CV_32FC3 BGR linear image into a CV_32FC1 image (sized by the call).
+void luminanceInto(const cv::Mat& linearBgr, cv::Mat& luminance);
+
+} // namespace lightskin::eval

@@ -1,0 +1,116 @@
+#include <lightskin/core/Error.h>
+#include <lightskin/eval/Speckle.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace lightskin::eval {
+
+std::string SpeckleStats::describe() const {
+    char text[200];
+    std::snprintf(text, sizeof text, "speckle %.3f %% (%zu of %zu interior pixels; %zu black, %zu blown), mean Y %.4g",
+                  100.0 * speckleFraction(), specklePixels, interiorPixels, blackPixels, blownPixels, meanLuminance);
+    return text;
+}
+
+void luminanceInto(const cv::Mat& linearBgr, cv::Mat& luminance) {
+    if (linearBgr.type() != CV_32FC3) throw Error("luminanceInto", std::nullopt, "expected a CV_32FC3 image");
+    // BGR order: weights of B, G, R (Rec. 709 / sRGB primaries).
+    const cv::Matx13f weights(0.0722f, 0.7152f, 0.2126f);
+    cv::transform(linearBgr, luminance, weights);
+}
+
+void smoothSurfaceMaskInto(const cv::Mat& coverage, const cv::Mat& normals, const cv::Mat& depth,
+                           double maxNormalAngleDegrees, double maxRelativeDepthStep, cv::Mat& mask) {
+    if (coverage.type() != CV_8UC1 || normals.type() != CV_32FC3 || depth.type() != CV_32FC1 ||
+        normals.size() != coverage.size() || depth.size() != coverage.size())
+        throw Error("smoothSurfaceMaskInto", std::nullopt,
+                    "expected CV_8UC1 coverage, CV_32FC3 normals, CV_32FC1 depth of one size");
+    const double minCos = std::cos(maxNormalAngleDegrees * 3.14159265358979323846 / 180.0);
+    mask.create(coverage.size(), CV_8UC1);
+    mask.setTo(cv::Scalar(0));
+    for (int v = 2; v + 2 < coverage.rows; ++v)
+        for (int u = 2; u + 2 < coverage.cols; ++u) {
+            if (!coverage.at<std::uint8_t>(v, u)) continue;
+            const cv::Vec3f n = normals.at<cv::Vec3f>(v, u);
+            const double z = double(depth.at<float>(v, u));
+            bool smooth = std::isfinite(z) && z > 0.0;
+            for (int dv = -2; dv <= 2 && smooth; ++dv)
+                for (int du = -2; du <= 2 && smooth; ++du) {
+                    const cv::Vec3f m = normals.at<cv::Vec3f>(v + dv, u + du);
+                    smooth = coverage.at<std::uint8_t>(v + dv, u + du) &&
+                             double(n.dot(m)) >= minCos * double(cv::norm(n)) * double(cv::norm(m)) &&
+                             std::abs(double(depth.at<float>(v + dv, u + du)) - z) <= maxRelativeDepthStep * z;
+                }
+            if (smooth) mask.at<std::uint8_t>(v, u) = 255;
+        }
+}
+
+SpeckleStats measureSpeckle(const cv::Mat& linearBgr, const cv::Mat& coverage, cv::Mat* map, const cv::Mat& smooth) {
+    if (linearBgr.type() != CV_32FC3 || coverage.type() != CV_8UC1 || linearBgr.size() != coverage.size())
+        throw Error("measureSpeckle", std::nullopt,
+                    "expected a CV_32FC3 image and a CV_8UC1 coverage mask of the same size");
+    SpeckleStats s;
+    cv::Mat y, interior, median;
+    luminanceInto(linearBgr, y);
+    // Erode with a 5x5 square and zero outside the image: an interior pixel's neighbourhood is all covered.
+    cv::erode(coverage != 0, interior, cv::Mat::ones(5, 5, CV_8U), cv::Point(-1, -1), 1, cv::BORDER_CONSTANT,
+              cv::Scalar(0));
+    if (!smooth.empty()) {
+        if (smooth.type() != CV_8UC1 || smooth.size() != coverage.size())
+            throw Error("measureSpeckle", std::nullopt, "the smooth mask must be CV_8UC1 of the image's size");
+        interior.setTo(cv::Scalar(0), smooth == 0);
+    }
+    // Non-finite values would poison the median filter: replace them by 0 for the median only
+    // (a non-finite pixel is counted as blown below).
+    cv::Mat finiteY = y.clone();
+    cv::patchNaNs(finiteY, 0.0);
+    cv::max(cv::min(finiteY, 3.0e38), -3.0e38, finiteY);
+    cv::medianBlur(finiteY, median, 5);
+
+    double sum = 0.0;
+    std::size_t finiteCount = 0;
+    for (int v = 0; v < y.rows; ++v)
+        for (int u = 0; u < y.cols; ++u)
+            if (interior.at<std::uint8_t>(v, u)) {
+                ++s.interiorPixels;
+                const float value = y.at<float>(v, u);
+                if (std::isfinite(value)) {
+                    sum += double(value);
+                    ++finiteCount;
+                }
+            }
+    s.meanLuminance = finiteCount ? sum / double(finiteCount) : 0.0;
+    const double floor = 0.1 * s.meanLuminance, litLevel = 0.1 * s.meanLuminance;
+    if (map) {
+        map->create(y.size(), CV_8UC1);
+        map->setTo(cv::Scalar(0));
+        map->setTo(cv::Scalar(64), interior);
+    }
+    for (int v = 0; v < y.rows; ++v)
+        for (int u = 0; u < y.cols; ++u) {
+            if (!interior.at<std::uint8_t>(v, u)) continue;
+            const double value = double(y.at<float>(v, u)), m = double(median.at<float>(v, u));
+            const auto mark = [&] {
+                if (map) map->at<std::uint8_t>(v, u) = 255;
+            };
+            if (!std::isfinite(value)) {
+                mark();
+                ++s.specklePixels;
+                ++s.blownPixels;
+                continue;
+            }
+            const double scale = std::max(m, floor);
+            if (std::abs(value - m) <= 0.5 * scale) continue;
+            mark();
+            ++s.specklePixels;
+            if (m >= litLevel && value < 0.1 * m) ++s.blackPixels;
+            if (value > 10.0 * scale) ++s.blownPixels;
+        }
+    return s;
+}
+
+} // namespace lightskin::eval

@@ -1,0 +1,65 @@
+#pragma once
+// Removes the depth VALs whose space the virtual content now occupies (issue 12). A depth VAL stands
+// for the real surface seen through its depth pixel. Where that pixel's camera ray meets a virtual
+// object, the real surface lies behind the object's front surface; if it also lies before the
+// object's back surface (plus a contact margin), it is inside the object or in contact with its far
+// side: in the augmented scene that surface is enclosed by (or pressed against) the object and sends
+// no light to the visible world, while as a VAL it would sit within millimetres of the object's
+// receivers, where the disc model (eq. 3) and the sparse gather are least accurate (speckle measured
+// in docs/BENCHMARKS.md, "Indirect light on real depth"). Such VALs get area 0 (invalid: every
+// consumer skips them); everything else, including real surfaces far behind the object that light its
+// back, is kept.
+//
+// Per VAL j at camera depth z_j (metres along the optical axis) whose pixel sees virtual content
+// between depths zFront and zBack (min and max over all virtual fragments on the ray):
+//     culled  <=>  zFront - 3 sigma(z_j)  <=  z_j  <=  zBack + r_j + 3 sigma(z_j)
+// sigma(z) = 0.0012 + 0.0019 (z - 0.4)^2 m, the Kinect v1 axial noise (Nguyen, Izadi, Lovell 2012):
+// within 3 sigma of the front surface a real point cannot be told from one just behind it; r_j =
+// sqrt(a_j / pi), the VAL's own radius: a disc whose centre is within its radius of the back surface
+// touches the object.
+// The test uses the VAL's key (ValGenerator::pixelIndexBuffer(): its depth pixel), so it needs depth
+// registered to the colour camera the view is rendered with, at the same resolution.
+
+#include <lightskin/gi/IndirectIllumination.h>
+#include <lightskin/gi/VirtualAreaLight.h>
+#include <lightskin/gl/Objects.h>
+
+#include <glm/mat4x4.hpp>
+
+#include <cstdint>
+#include <span>
+
+namespace lightskin::gi {
+
+class ValOccupancyCull {
+public:
+    ValOccupancyCull() = default;
+    /// Compiles the passes and sizes the depth-range target for width x height pixels (the depth
+    /// map's size, registered to the camera). Needs a current GL 4.5 context until destruction.
+    /// Throws lightskin::Error on a bad size.
+    static ValOccupancyCull create(int width, int height);
+
+    /// Renders the instances' depth range per pixel with `clip_T_world` (the camera's projection *
+    /// view, as the G-buffer) and `camera_T_world` (for depths along the optical axis), then sets
+    /// area = 0 in `vals` for every culled VAL (see above). `vals.keys` must be the depth pixel index
+    /// (v * width + u) of each VAL. Returns nothing (no read-back); culledCount() reads the count.
+    /// The set is changed in place: a producer that hands out the same buffer again without
+    /// regenerating it (ValGeneratorSettings::skipUnchangedInput) keeps this cull, which stays right
+    /// while the virtual content has not moved (scene objects are fixed in the pipeline); culling a
+    /// culled set again changes nothing.
+    /// GL state changed: framebuffer binding 0, program, SSBO bindings 0-2, texture unit 0, viewport.
+    void apply(const ValSetView& vals, std::span<const MeshInstance> instances, const glm::mat4& clip_T_world,
+               const glm::mat4& camera_T_world);
+
+    /// VALs culled by the last apply() (reads one uint back: a GPU sync; tests and logging).
+    std::uint32_t culledCount() const;
+
+private:
+    int width_ = 0, height_ = 0;
+    gl::Program range_, cull_;
+    gl::Texture rangeTexture_;
+    gl::Framebuffer framebuffer_;
+    gl::Buffer counter_;
+};
+
+} // namespace lightskin::gi

@@ -1,0 +1,160 @@
+// eval::measureSpeckle on constructed images whose speckle is known by construction.
+#include <lightskin/core/Error.h>
+#include <lightskin/eval/Speckle.h>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <limits>
+
+namespace lightskin::test {
+namespace {
+
+constexpr int kSize = 64;
+
+/// A smooth indirect image: a linear ramp in luminance from 0.2 to 1.0 across the image (grey,
+/// so Y = the channel value), inside a disc of radius 28 px. Neighbours differ by 0.8/64 = 1.3 %
+/// per pixel, so within 5x5 at most 2 px * 1.3 % / 0.2 = 12 % < 50 % of the median.
+cv::Mat smoothRamp() {
+    cv::Mat image(kSize, kSize, CV_32FC3);
+    for (int v = 0; v < kSize; ++v)
+        for (int u = 0; u < kSize; ++u)
+            image.at<cv::Vec3f>(v, u) = cv::Vec3f::all(0.2f + 0.8f * float(u) / float(kSize));
+    return image;
+}
+
+cv::Mat discCoverage() {
+    cv::Mat mask(kSize, kSize, CV_8UC1, cv::Scalar(0));
+    cv::circle(mask, {kSize / 2, kSize / 2}, 28, cv::Scalar(255), cv::FILLED);
+    return mask;
+}
+
+std::size_t interiorCount(const cv::Mat& coverage) {
+    cv::Mat interior;
+    cv::erode(coverage, interior, cv::Mat::ones(5, 5, CV_8U), cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(0));
+    return std::size_t(cv::countNonZero(interior));
+}
+
+TEST(SpeckleTest, SmoothImageHasNone) {
+    const cv::Mat coverage = discCoverage();
+    const eval::SpeckleStats s = eval::measureSpeckle(smoothRamp(), coverage);
+    EXPECT_EQ(s.interiorPixels, interiorCount(coverage)); // independent count of the eroded disc
+    EXPECT_GT(s.interiorPixels, 2000u);                   // pi 26^2 = 2124
+    EXPECT_EQ(s.specklePixels, 0u);
+    EXPECT_EQ(s.speckleFraction(), 0.0);
+    EXPECT_GT(s.meanLuminance, 0.2);
+}
+
+TEST(SpeckleTest, InjectedIsolatedOutliersAreCountedExactly) {
+    cv::Mat image = smoothRamp();
+    const cv::Mat coverage = discCoverage();
+    // 16 outliers on a grid 6 px apart (no two within one 5x5 window, so every median stays the
+    // ramp's): 8 black (0), 4 blown (x 20), 4 grey (x 1.8: speckle, neither black nor blown).
+    int k = 0, black = 0, blown = 0;
+    for (int v = 20; v <= 38; v += 6)
+        for (int u = 20; u <= 38; u += 6, ++k) {
+            cv::Vec3f& p = image.at<cv::Vec3f>(v, u);
+            if (k < 8) {
+                p = cv::Vec3f::all(0.0f);
+                ++black;
+            } else if (k < 12) {
+                p *= 20.0f;
+                ++blown;
+            } else
+                p *= 1.8f;
+        }
+    // A spike on the border band (not interior) must not count.
+    image.at<cv::Vec3f>(kSize / 2, kSize / 2 + 27) = cv::Vec3f::all(100.0f);
+    const eval::SpeckleStats s = eval::measureSpeckle(image, coverage);
+    EXPECT_EQ(s.specklePixels, 16u);
+    EXPECT_EQ(s.blackPixels, std::size_t(black));
+    EXPECT_EQ(s.blownPixels, std::size_t(blown));
+    EXPECT_DOUBLE_EQ(s.speckleFraction(), 16.0 / double(interiorCount(coverage)));
+}
+
+TEST(SpeckleTest, ThresholdIsFiftyPercentOfTheMedian) {
+    // Uniform 1.0; one pixel at 1.45 (45 % off: not speckle), one at 1.55 and one at 0.45 (55 %: speckle).
+    cv::Mat image(kSize, kSize, CV_32FC3, cv::Scalar::all(1.0));
+    image.at<cv::Vec3f>(20, 20) = cv::Vec3f::all(1.45f);
+    image.at<cv::Vec3f>(30, 30) = cv::Vec3f::all(1.55f);
+    image.at<cv::Vec3f>(40, 40) = cv::Vec3f::all(0.45f);
+    const eval::SpeckleStats s = eval::measureSpeckle(image, cv::Mat(kSize, kSize, CV_8UC1, cv::Scalar(1)));
+    EXPECT_EQ(s.interiorPixels, std::size_t((kSize - 4) * (kSize - 4)));
+    EXPECT_EQ(s.specklePixels, 2u);
+    EXPECT_EQ(s.blackPixels, 0u);
+    EXPECT_EQ(s.blownPixels, 0u);
+}
+
+TEST(SpeckleTest, DenseNoiseIsMostlySpeckle) {
+    // Half the pixels 0, half 1 at random: the median is 0 or 1 and about half the pixels differ
+    // from it by 100 %; a measure that missed dense blotches would report ~0.
+    cv::Mat noise(kSize, kSize, CV_32FC1), image;
+    cv::RNG rng(12);
+    rng.fill(noise, cv::RNG::UNIFORM, 0.0, 1.0);
+    cv::threshold(noise, noise, 0.5, 1.0, cv::THRESH_BINARY);
+    cv::merge(std::vector<cv::Mat>{noise, noise, noise}, image);
+    const eval::SpeckleStats s = eval::measureSpeckle(image, cv::Mat(kSize, kSize, CV_8UC1, cv::Scalar(1)));
+    EXPECT_GT(s.speckleFraction(), 0.3);
+    EXPECT_LT(s.speckleFraction(), 0.7);
+}
+
+TEST(SpeckleTest, DarkRegionsBelowTheFloorDoNotCount) {
+    // Left half lit (1.0), right half in shadow at 1e-4 with one pixel at 5e-4 and one at 0.02 (5x
+    // and 200x their median, but within 0.5 x the floor 0.1 x mean 0.5 = 0.025 of it): not speckle;
+    // 0.03 would be. The shadow edge itself moves the median by whole
+    // steps only, so it adds nothing either.
+    cv::Mat image(kSize, kSize, CV_32FC3, cv::Scalar::all(1.0));
+    image(cv::Rect(kSize / 2, 0, kSize / 2, kSize)).setTo(cv::Scalar::all(1e-4));
+    image.at<cv::Vec3f>(30, 50) = cv::Vec3f::all(5e-4f);
+    image.at<cv::Vec3f>(40, 50) = cv::Vec3f::all(0.02f);
+    const eval::SpeckleStats s = eval::measureSpeckle(image, cv::Mat(kSize, kSize, CV_8UC1, cv::Scalar(1)));
+    EXPECT_EQ(s.specklePixels, 0u);
+}
+
+TEST(SpeckleTest, NonFiniteIsBlownAndBadInputThrows) {
+    cv::Mat image(kSize, kSize, CV_32FC3, cv::Scalar::all(1.0));
+    image.at<cv::Vec3f>(30, 30)[1] = std::numeric_limits<float>::quiet_NaN();
+    image.at<cv::Vec3f>(40, 40)[0] = std::numeric_limits<float>::infinity();
+    const eval::SpeckleStats s = eval::measureSpeckle(image, cv::Mat(kSize, kSize, CV_8UC1, cv::Scalar(1)));
+    EXPECT_EQ(s.specklePixels, 2u);
+    EXPECT_EQ(s.blownPixels, 2u);
+    EXPECT_DOUBLE_EQ(s.meanLuminance, 1.0);
+    EXPECT_THROW(eval::measureSpeckle(cv::Mat(4, 4, CV_32FC1), cv::Mat(4, 4, CV_8UC1)), Error);
+    EXPECT_THROW(eval::measureSpeckle(cv::Mat(4, 4, CV_32FC3), cv::Mat(5, 4, CV_8UC1)), Error);
+}
+
+TEST(SpeckleTest, SmoothSurfaceMaskDropsCreasesAndDepthSteps) {
+    // Left half faces +z, right half is turned by 40 degrees (a crease at u = 32); a depth step of
+    // 10 % along v = 32. Pixels whose 5x5 window crosses either are not smooth; the others are.
+    cv::Mat coverage(kSize, kSize, CV_8UC1, cv::Scalar(255)), normals(kSize, kSize, CV_32FC3),
+        depth(kSize, kSize, CV_32FC1);
+    const float a = float(40.0 * 3.14159265358979 / 180.0);
+    for (int v = 0; v < kSize; ++v)
+        for (int u = 0; u < kSize; ++u) {
+            normals.at<cv::Vec3f>(v, u) = u < 32 ? cv::Vec3f(0, 0, 1) : cv::Vec3f(std::sin(a), 0, std::cos(a));
+            depth.at<float>(v, u) = v < 32 ? 1.0f : 1.1f;
+        }
+    cv::Mat mask;
+    eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, mask);
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 10), 255);
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 29), 255); // window u = 27..31: one side of the crease
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 30), 0);   // window reaches u = 32
+    EXPECT_EQ(mask.at<std::uint8_t>(29, 10), 255);
+    EXPECT_EQ(mask.at<std::uint8_t>(30, 10), 0); // window reaches the depth step
+    EXPECT_EQ(mask.at<std::uint8_t>(1, 10), 0);  // image border: no full window
+    // With a 45-degree tolerance the crease is smooth.
+    eval::smoothSurfaceMaskInto(coverage, normals, depth, 45.0, 0.02, mask);
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 30), 255);
+    // measureSpeckle restricted to the mask: an outlier outside it is not counted.
+    cv::Mat image(kSize, kSize, CV_32FC3, cv::Scalar::all(1.0));
+    image.at<cv::Vec3f>(30, 10) = cv::Vec3f::all(0.0f);
+    image.at<cv::Vec3f>(10, 10) = cv::Vec3f::all(0.0f);
+    eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, mask);
+    EXPECT_EQ(eval::measureSpeckle(image, coverage, nullptr, mask).specklePixels, 1u);
+    EXPECT_EQ(eval::measureSpeckle(image, coverage).specklePixels, 2u);
+}
+
+} // namespace
+} // namespace lightskin::test
