@@ -5,7 +5,6 @@
 // and keeps everything written so far (video finalised, report marked "interrupted"; exit 130).
 #include "Commands.h"
 #include "LiveWindowDisplay.h"
-#include <lightskin/mr/FramePipeline.h>
 #include "ReplayReport.h"
 
 #include <lightskin/capture/FrameSource.h>
@@ -14,6 +13,7 @@
 #include <lightskin/eval/GoldenImage.h>
 #include <lightskin/gl/Context.h>
 #include <lightskin/gl/DebugOutput.h>
+#include <lightskin/mr/FramePipeline.h>
 #include <lightskin/render/Scene.h>
 
 #include <opencv2/imgcodecs.hpp>
@@ -26,6 +26,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <numbers>
 #include <set>
 #include <sstream>
 #include <unistd.h>
@@ -44,7 +45,7 @@ extern "C" void onReplayInterrupt(int) {
 struct ReplayArgs {
     std::string recording, scene, out = "replay-out", frames, pose, view = "final", videoFormat = "auto";
     bool window = false, noVideo = false, sideBySideVideo = false, noCompare = false;
-    bool adaptive = false, linearOut = false;
+    bool adaptive = false, linearOut = false, rawDepth = false;
     float staticTolerance = 0.0f;
     std::string staticTest = "probes";
     std::int64_t maxFrames = -1;
@@ -178,7 +179,12 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     mr::Overlay overlay = mr::Overlay::None;
     mr::parseView(args.view, view, overlay);
 
-    auto source = capture::openFrameSource(args.recording, {});
+    capture::FrameSourceOptions sourceOptions;
+    sourceOptions.softwareRegistration = !args.rawDepth;
+    auto source = capture::openFrameSource(args.recording, sourceOptions);
+    if (source->info().softwareRegistration)
+        log::info(args.recording + ": depth is registered to colour in software (" + source->info().calibrationSource +
+                  ")");
     const capture::FrameSourceInfo& info = source->info();
     mr::PoseMode poseMode = args.pose.empty() ? (info.hasGroundTruth ? mr::PoseMode::GroundTruth : mr::PoseMode::Tracking) : mr::parsePoseMode(args.pose);
 
@@ -244,7 +250,20 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
             rf.trackingState = tracking::toString(output.tracking.state);
             rf.trackingReason = output.tracking.reason != nullptr ? output.tracking.reason : "";
             rf.world_T_camera = output.world_T_camera;
+            if (output.world_T_camera && frame.groundTruth_world_T_camera) {
+                rf.poseErrorMetres =
+                    Pose::translationDistance(*output.world_T_camera, *frame.groundTruth_world_T_camera);
+                rf.poseErrorDegrees =
+                    Pose::rotationAngleBetween(*output.world_T_camera, *frame.groundTruth_world_T_camera) * 180.0 /
+                    std::numbers::pi;
+            }
             rf.valCount = output.valCount;
+            rf.giActive = output.giActive;
+            if (!output.giActive) {
+                rf.giInactiveCause = output.giInactiveCause;
+                std::fprintf(stderr, "replay: frame %lld: GI inactive: %s\n", static_cast<long long>(frame.index),
+                             output.giInactiveCause);
+            }
             rf.rsmValCount = output.rsmValCount;
             rf.valsDropped = output.valsDropped;
             rf.cpuTimes = output.cpuTimes;
@@ -305,6 +324,17 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     summary.videoCodec = videoCodec;
     summary.wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     writeReplayReport(out, summary, frames);
+    {
+        std::int64_t active = 0;
+        for (const ReportFrame& f : frames) active += f.giActive ? 1 : 0;
+        if (active == std::int64_t(frames.size()))
+            std::printf("replay: GI (%s) active in all %lld frames\n", pipeline->techniqueName().c_str(),
+                        static_cast<long long>(active));
+        else
+            std::printf("replay: GI INACTIVE in %lld of %lld frames (causes per frame in report.md / report.json)\n",
+                        static_cast<long long>(std::int64_t(frames.size()) - active),
+                        static_cast<long long>(frames.size()));
+    }
     std::printf("replay: %lld frames read%s; outputs in %s (report.md, report.json%s)\n", static_cast<long long>(read),
                 summary.interrupted ? " (interrupted)" : "", out.string().c_str(), videoPath.empty() ? "" : (", " + summary.video).c_str());
     return summary.interrupted ? 130 : 0;
@@ -328,6 +358,10 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
     command->add_flag("--linear-out", args->linearOut,
                       "Also write each written frame's linear-light composite (linear/) and indirect-only light (linear-indirect/) "
                       "as 32-bit float OpenEXR (NaN, inf and values > 1 kept; 16-bit PNG clamped to [0,1] if this OpenCV has no EXR)");
+    command->add_flag(
+        "--raw-depth", args->rawDepth,
+        "Do not register unregistered depth (.oni, fakenect, raw recordings) to colour in software: shows what "
+        "the pipeline does without registration (no VALs, no GI)");
     command->add_flag("--adaptive", args->adaptive,
                       "LightSkin's adaptive mode: turn off what cannot change the image and reuse the VPLs for static content");
     command->add_option("--static-tolerance", args->staticTolerance,
