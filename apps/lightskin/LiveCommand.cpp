@@ -59,6 +59,7 @@ std::string statusLine(double fps, const mr::FrameOutput& out, const mr::FramePi
     line += options.giEnabled ? pipeline.techniqueName() : std::string("off");
     line += pipeline.giSettings().glossy ? " +glossy" : "";
     line += pipeline.giSettings().occlusion ? " +occl" : "";
+    if (!out.giActive && out.giInactiveCause != nullptr) line += std::string(" INACTIVE: ") + out.giInactiveCause;
     line += " | ";
     const char* overlays[] = {"", " + vals", " + sparse points", " + error vs brute force", " + vertex VPLs"};
     line += render::toString(options.view);
