@@ -61,6 +61,7 @@ std::string statusLine(double fps, const mr::FrameOutput& out, const mr::FramePi
     line += pipeline.giSettings().glossy ? " +glossy" : "";
     line += pipeline.giSettings().occlusion ? " +occl" : "";
     line += options.differential && out.differentialReceivers >= 0 ? " | differential" : "";
+    if (!out.giActive && out.giInactiveCause != nullptr) line += std::string(" INACTIVE: ") + out.giInactiveCause;
     line += " | ";
     const char* overlays[] = {
         "", " + vals", " + sparse points", " + error vs brute force", " + vertex VPLs", " + differential"};

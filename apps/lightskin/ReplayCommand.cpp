@@ -28,6 +28,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <numbers>
 #include <set>
 #include <sstream>
 #include <unistd.h>
@@ -46,7 +47,7 @@ extern "C" void onReplayInterrupt(int) {
 struct ReplayArgs {
     std::string recording, scene, out = "replay-out", frames, pose, view = "final", videoFormat = "auto";
     bool window = false, noVideo = false, sideBySideVideo = false, noCompare = false;
-    bool adaptive = false, linearOut = false;
+    bool adaptive = false, linearOut = false, rawDepth = false;
     float staticTolerance = 0.0f;
     double budgetMs = 0.0; ///< --budget-ms (0: the scene's gi.budgetMs, if any)
     std::string staticTest = "probes";
@@ -227,7 +228,12 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     mr::Overlay overlay = mr::Overlay::None;
     mr::parseView(args.view, view, overlay);
 
-    auto opened = capture::openFrameSource(args.recording, {});
+    capture::FrameSourceOptions sourceOptions;
+    sourceOptions.softwareRegistration = !args.rawDepth;
+    auto opened = capture::openFrameSource(args.recording, sourceOptions);
+    if (opened->info().softwareRegistration)
+        log::info(args.recording + ": depth is registered to colour in software (" + opened->info().calibrationSource +
+                  ")");
     const capture::FrameSourceInfo info = opened->info();
     mr::PoseMode poseMode = args.pose.empty() ? (info.hasGroundTruth ? mr::PoseMode::GroundTruth : mr::PoseMode::Tracking) : mr::parsePoseMode(args.pose);
 
@@ -325,7 +331,20 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
             rf.trackingState = tracking::toString(output.tracking.state);
             rf.trackingReason = output.tracking.reason != nullptr ? output.tracking.reason : "";
             rf.world_T_camera = output.world_T_camera;
+            if (output.world_T_camera && frame.groundTruth_world_T_camera) {
+                rf.poseErrorMetres =
+                    Pose::translationDistance(*output.world_T_camera, *frame.groundTruth_world_T_camera);
+                rf.poseErrorDegrees =
+                    Pose::rotationAngleBetween(*output.world_T_camera, *frame.groundTruth_world_T_camera) * 180.0 /
+                    std::numbers::pi;
+            }
             rf.valCount = output.valCount;
+            rf.giActive = output.giActive;
+            if (!output.giActive) {
+                rf.giInactiveCause = output.giInactiveCause;
+                std::fprintf(stderr, "replay: frame %lld: GI inactive: %s\n", static_cast<long long>(frame.index),
+                             output.giInactiveCause);
+            }
             rf.rsmValCount = output.rsmValCount;
             rf.valsDropped = output.valsDropped;
             rf.cpuTimes = output.cpuTimes;
@@ -409,6 +428,17 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     summary.videoCodec = videoCodec;
     summary.wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     writeReplayReport(out, summary, frames);
+    {
+        std::int64_t active = 0;
+        for (const ReportFrame& f : frames) active += f.giActive ? 1 : 0;
+        if (active == std::int64_t(frames.size()))
+            std::printf("replay: GI (%s) active in all %lld frames\n", pipeline->techniqueName().c_str(),
+                        static_cast<long long>(active));
+        else
+            std::printf("replay: GI INACTIVE in %lld of %lld frames (causes per frame in report.md / report.json)\n",
+                        static_cast<long long>(std::int64_t(frames.size()) - active),
+                        static_cast<long long>(frames.size()));
+    }
     std::printf("replay: %lld frames read%s; outputs in %s (report.md, report.json%s)\n", static_cast<long long>(read),
                 summary.interrupted ? " (interrupted)" : "", out.string().c_str(), videoPath.empty() ? "" : (", " + summary.video).c_str());
     return summary.interrupted ? 130 : 0;
@@ -447,6 +477,10 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
     command->add_option(
         "--backend", args->backend,
         "LightSkin's stages 0-4 on gl (default: the scene's gi.backend) or cpu (SIMD + threads; shading stays on GL)");
+    command->add_flag(
+        "--raw-depth", args->rawDepth,
+        "Do not register unregistered depth (.oni, fakenect, raw recordings) to colour in software: shows what "
+        "the pipeline does without registration (no VALs, no GI)");
     command->add_flag("--adaptive", args->adaptive,
                       "LightSkin's adaptive mode: turn off what cannot change the image and reuse the VPLs for static content");
     command->add_option("--static-tolerance", args->staticTolerance,

@@ -57,6 +57,51 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
     }
     double totalSum = 0.0;
     for (const ReportFrame& f : frames) totalSum += f.totalMs;
+    // GI inactive frames by cause, in first-seen order.
+    std::int64_t giActiveFrames = 0;
+    std::vector<std::pair<std::string, std::int64_t>> giInactive;
+    for (const ReportFrame& f : frames) {
+        if (f.giActive) {
+            ++giActiveFrames;
+            continue;
+        }
+        auto it = std::find_if(giInactive.begin(), giInactive.end(),
+                               [&](const auto& c) { return c.first == f.giInactiveCause; });
+        if (it == giInactive.end())
+            giInactive.emplace_back(f.giInactiveCause, 1);
+        else
+            ++it->second;
+    }
+    // Pose error against ground truth: mean, median and max over the frames that have both.
+    std::vector<double> poseMetres, poseDegrees;
+    for (const ReportFrame& f : frames)
+        if (f.poseErrorMetres >= 0.0) {
+            poseMetres.push_back(f.poseErrorMetres);
+            poseDegrees.push_back(f.poseErrorDegrees);
+        }
+    const auto statistics = [](std::vector<double> values) {
+        nlohmann::json j;
+        if (values.empty()) return j;
+        std::sort(values.begin(), values.end());
+        double sum = 0.0;
+        for (double v : values) sum += v;
+        j["mean"] = sum / double(values.size());
+        j["median"] = values[values.size() / 2];
+        j["max"] = values.back();
+        return j;
+    };
+    const nlohmann::json poseMetresStats = statistics(poseMetres), poseDegreesStats = statistics(poseDegrees);
+    // The same per tracking state: a held pose (the last good one while the tags are poorly seen)
+    // is expected to drift from the truth; tracking frames measure the tracker.
+    std::map<std::string, std::pair<std::vector<double>, std::vector<double>>> poseByState;
+    for (const ReportFrame& f : frames)
+        if (f.poseErrorMetres >= 0.0) {
+            poseByState[f.trackingState].first.push_back(f.poseErrorMetres);
+            poseByState[f.trackingState].second.push_back(f.poseErrorDegrees);
+        }
+    std::string giSummary = std::to_string(giActiveFrames) + " of " + std::to_string(frames.size()) + " frames";
+    for (const auto& [cause, count] : giInactive)
+        giSummary += "; **inactive in " + std::to_string(count) + "**: " + cause;
     const double n = std::max<double>(1.0, double(frames.size()));
 
     nlohmann::json root;
@@ -73,6 +118,20 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
     root["video"] = s.video;
     root["videoCodec"] = s.videoCodec;
     root["meanFrameMs"] = totalSum / n;
+    if (!poseMetres.empty()) {
+        root["poseError"] = {{"frames", poseMetres.size()},
+                             {"framesWithoutPose", std::int64_t(frames.size()) - std::int64_t(poseMetres.size())},
+                             {"translationMetres", poseMetresStats},
+                             {"rotationDegrees", poseDegreesStats}};
+        for (const auto& [state, errors] : poseByState)
+            root["poseError"]["byState"][state] = {{"frames", errors.first.size()},
+                                                   {"translationMetres", statistics(errors.first)},
+                                                   {"rotationDegrees", statistics(errors.second)}};
+    }
+    root["giActiveFrames"] = giActiveFrames;
+    root["giInactiveFrames"] = std::int64_t(frames.size()) - giActiveFrames;
+    root["giInactiveCauses"] = nlohmann::json::object();
+    for (const auto& [cause, count] : giInactive) root["giInactiveCauses"][cause] = count;
     {
         std::int64_t adaptive = 0, reused = 0;
         for (const ReportFrame& f : frames)
@@ -99,7 +158,11 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
         j["tracking"] = f.trackingState;
         if (!f.trackingReason.empty()) j["trackingReason"] = f.trackingReason;
         j["world_T_camera"] = f.world_T_camera ? poseJson(*f.world_T_camera) : nlohmann::json(nullptr);
+        if (f.poseErrorMetres >= 0.0)
+            j["poseError"] = {{"translationMetres", f.poseErrorMetres}, {"rotationDegrees", f.poseErrorDegrees}};
         j["vals"] = f.valCount;
+        j["giActive"] = f.giActive;
+        if (!f.giActive) j["giInactiveCause"] = f.giInactiveCause;
         if (f.rsmValCount >= 0) j["rsmVals"] = f.rsmValCount;
         if (f.valsDropped >= 0) j["valsDropped"] = f.valsDropped;
         j["totalMs"] = f.totalMs;
@@ -141,6 +204,7 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
     md += "| command | `" + s.command + "` |\n";
     md += "| renderer | " + escapeCell(s.renderer) + " |\n";
     md += "| GI technique | " + s.technique + " |\n";
+    md += "| GI active | " + giSummary + " |\n";
     md += "| pose | " + s.poseMode + " |\n";
     md += "| frames read | " + std::to_string(s.framesRead) +
           (s.framesInSource ? " of " + std::to_string(*s.framesInSource) : std::string()) + (s.interrupted ? " (interrupted by Ctrl-C)" : "") + " |\n";
@@ -149,6 +213,22 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
     std::string states;
     for (const auto& [state, count] : trackingCounts) states += (states.empty() ? "" : ", ") + state + " " + std::to_string(count);
     md += "| tracking states | " + states + " |\n";
+    if (!poseMetres.empty())
+        md += "| pose error vs ground truth | translation mean " + fixed(poseMetresStats["mean"].get<double>(), 3) +
+              " m, median " + fixed(poseMetresStats["median"].get<double>(), 3) + " m, max " +
+              fixed(poseMetresStats["max"].get<double>(), 3) + " m; rotation mean " +
+              fixed(poseDegreesStats["mean"].get<double>(), 2) + " deg, median " +
+              fixed(poseDegreesStats["median"].get<double>(), 2) + " deg, max " +
+              fixed(poseDegreesStats["max"].get<double>(), 2) + " deg (" + std::to_string(poseMetres.size()) +
+              " frames with a pose; " + std::to_string(frames.size() - poseMetres.size()) + " without) |\n";
+    if (poseByState.size() > 1 || (poseByState.size() == 1 && poseByState.begin()->first != "tracking"))
+        for (const auto& [state, errors] : poseByState) {
+            const nlohmann::json m = statistics(errors.first), d = statistics(errors.second);
+            md += "| pose error, " + state + " frames | translation mean " + fixed(m["mean"].get<double>(), 3) +
+                  " m, max " + fixed(m["max"].get<double>(), 3) + " m; rotation mean " +
+                  fixed(d["mean"].get<double>(), 2) + " deg, max " + fixed(d["max"].get<double>(), 2) + " deg (" +
+                  std::to_string(errors.first.size()) + " frames) |\n";
+        }
     {
         std::int64_t nanPixels = 0, infPixels = 0, badFrames = 0;
         for (const ReportFrame& f : frames) {
@@ -217,10 +297,13 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
     if (shown == 0) md += "No images were written (see `--frames`).\n\n";
 
     md += "## Per frame: tracking, pose track (world_T_camera translation, metres) and stage times (ms)\n\n";
-    md += std::string("| frame | tracking | x | y | z | VALs |") + (bounceFrames > 0 ? " RSM VALs |" : "");
+    md += std::string("| frame | tracking | x | y | z |") +
+          (poseMetres.empty() ? "" : " pose error m | pose error deg |") + " VALs | GI |" +
+          (bounceFrames > 0 ? " RSM VALs |" : "");
     for (const auto& name : cpuStages) md += " " + name + " |";
     for (const auto& name : gpuStages) md += " GPU " + name + " |";
-    md += std::string(" total |\n|---|---|---|---|---|---|") + (bounceFrames > 0 ? "---|" : "");
+    md += std::string(" total |\n|---|---|---|---|---|---|---|") + (poseMetres.empty() ? "" : "---|---|") +
+          (bounceFrames > 0 ? "---|" : "");
     for (std::size_t i = 0; i < cpuStages.size() + gpuStages.size() + 1; ++i) md += "---|";
     md += "\n";
     for (const ReportFrame& f : frames) {
@@ -231,7 +314,11 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
         } else {
             md += "- | - | - | ";
         }
-        md += std::to_string(f.valCount) + " |";
+        if (!poseMetres.empty())
+            md += f.poseErrorMetres >= 0.0 ? fixed(f.poseErrorMetres, 3) + " | " + fixed(f.poseErrorDegrees, 2) + " | "
+                                           : std::string("- | - | ");
+        md += std::to_string(f.valCount) + " | " +
+              (f.giActive ? std::string("active") : "inactive: " + escapeCell(f.giInactiveCause)) + " |";
         if (bounceFrames > 0) md += " " + (f.rsmValCount >= 0 ? std::to_string(f.rsmValCount) : std::string("-")) + " |";
         for (const auto& name : cpuStages) {
             double v = NAN;

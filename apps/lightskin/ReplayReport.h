@@ -15,7 +15,12 @@ struct ReportFrame {
     std::string trackingState;
     std::string trackingReason;
     std::optional<Pose> world_T_camera;
+    /// Pose error against the recording's ground truth (frames with both): translation distance,
+    /// metres, and relative rotation angle, degrees; < 0 when not available.
+    double poseErrorMetres = -1.0, poseErrorDegrees = -1.0;
     std::uint32_t valCount = 0;      ///< VALs from depth
+    bool giActive = false;           ///< GI lit this frame (mr::FrameOutput::giActive)
+    std::string giInactiveCause;     ///< why not, when !giActive
     std::int64_t rsmValCount = -1;   ///< gi.virtualBounce: VALs from the virtual lights' RSMs, else < 0
     std::int64_t valsDropped = -1;   ///< gi.virtualBounce: VALs that did not fit the merged set, else < 0
     std::vector<gl::StageTime> cpuTimes, gpuTimes;

@@ -444,6 +444,8 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     std::size_t used = 0;
     out.frameIndex = frame.index;
     out.valCount = 0;
+    out.giActive = false;
+    out.giInactiveCause = nullptr;
     out.rsmValCount = -1;
     out.valsDropped = -1;
     out.meanRelativeErrorVsBruteForce = -1.0;
@@ -482,6 +484,7 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
 
     if (!out.world_T_camera) {
         // Lost: nothing virtual can be placed; the frame passes through unchanged.
+        out.giInactiveCause = kGiCauseNoPose;
         frame.colour.copyTo(out.withGi);
         if (options_.compare) frame.colour.copyTo(out.withoutGi);
         if (s.srgbToLinearTable.empty()) {
@@ -542,6 +545,21 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
             log::warning("frame " + std::to_string(frame.index) + ": " + std::to_string(out.valsDropped) + " of " +
                          std::to_string(sets[0].count + sets[1].count) + " VALs dropped (merged set full)");
         addTime(out.cpuTimes, used, "rsm", msSince(t));
+    }
+
+    // Say when GI does nothing this frame, and why (reports and the console show it).
+    out.giActive = runGi && valSet.count > 0;
+    if (!out.giActive) {
+        if (!options_.giEnabled)
+            out.giInactiveCause = kGiCauseSwitchedOff;
+        else if (gi_.technique == "none" || s.technique->name() == std::string_view("none"))
+            out.giInactiveCause = kGiCauseNoTechnique;
+        else if (!s.valsUsable)
+            out.giInactiveCause = kGiCauseUnregistered;
+        else if (!frame.hasDepth())
+            out.giInactiveCause = kGiCauseNoDepth;
+        else
+            out.giInactiveCause = kGiCauseNoVals;
     }
 
     // G-buffer and indirect light.

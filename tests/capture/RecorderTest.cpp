@@ -6,7 +6,9 @@
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/capture/Recorder.h>
 #include <lightskin/capture/Recording.h>
+#include <lightskin/capture/Registration.h>
 
+#include <glm/gtc/quaternion.hpp>
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -188,6 +190,58 @@ TEST(RecorderTest, InfoCommandDescribesARecording) {
         << text;
     EXPECT_NE(text.find("64x48 fx=30.000"), std::string::npos) << text;
     EXPECT_NE(text.find("state:         finished"), std::string::npos) << text;
+}
+
+// An unregistered source: `record` keeps its depth and stores its extrinsic (info prints it), or
+// with --register-depth writes the depth registered to colour exactly as DepthRegistrar does.
+TEST(RecorderTest, RecordCommandStoresTheExtrinsicOrRegistersTheDepth) {
+    const auto scratch = scratchDir("recorder_cli_registration");
+    auto info = smallRecordingInfo(64, 48);
+    info.registration = DepthRegistration::Unregistered;
+    info.depthIntrinsics.fx = info.depthIntrinsics.fy = 36.0; // a depth camera narrower than the colour one
+    info.colour_T_depth = Pose(glm::dquat(1.0, 0.0, 0.0, 0.0), glm::dvec3(0.025, 0.001, -0.002));
+    {
+        auto writer = capture::RecordingWriter::create(scratch / "source", info);
+        for (std::uint32_t i = 0; i < 3; ++i) writer.write(syntheticFrame(info, i));
+    }
+    const std::string source = (scratch / "source").string();
+    ASSERT_EQ(std::system((std::string(LIGHTSKIN_CLI) + " --quiet record --source " + source + " --out " +
+                           (scratch / "raw").string() + " > /dev/null")
+                              .c_str()),
+              0);
+    ASSERT_EQ(std::system((std::string(LIGHTSKIN_CLI) + " --quiet record --register-depth --source " + source +
+                           " --out " + (scratch / "registered").string() + " > /dev/null")
+                              .c_str()),
+              0);
+    capture::FrameSourceOptions asStored;
+    asStored.softwareRegistration = false;
+    auto raw = capture::openFrameSource((scratch / "raw").string(), asStored);
+    EXPECT_EQ(raw->info().registration, DepthRegistration::Unregistered);
+    EXPECT_EQ(raw->info().colour_T_depth.translation(), info.colour_T_depth.translation());
+    auto registered = capture::openFrameSource((scratch / "registered").string(), asStored);
+    EXPECT_EQ(registered->info().registration, DepthRegistration::RegisteredToColour);
+    EXPECT_EQ(registered->info().depthIntrinsics.fx, info.colourIntrinsics.fx);
+
+    const auto registrar =
+        capture::DepthRegistrar::create({info.depthIntrinsics, info.colourIntrinsics, info.colour_T_depth, "test"});
+    RgbdFrame frame;
+    cv::Mat expected;
+    std::uint32_t frames = 0;
+    for (; registered->next(frame); ++frames) {
+        registrar.registerInto(syntheticFrame(info, frames).depth, info.depthScaleMetres, expected);
+        EXPECT_TRUE(identical(frame.depth, expected)) << "frame " << frames;
+        EXPECT_GT(cv::countNonZero(frame.depth), 0);
+    }
+    EXPECT_EQ(frames, 3u);
+
+    const std::string command =
+        std::string(LIGHTSKIN_CLI) + " info " + (scratch / "raw").string() + " > " + (scratch / "info.txt").string();
+    ASSERT_EQ(std::system(command.c_str()), 0);
+    std::ifstream in(scratch / "info.txt");
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_NE(text.find("registration:  unregistered"), std::string::npos) << text;
+    EXPECT_NE(text.find("colour_T_depth: t = (0.0250, 0.0010, -0.0020) m, rotation 0.000 deg"), std::string::npos)
+        << text;
 }
 
 } // namespace

@@ -444,13 +444,23 @@ std::vector<ReplayCase> cases() {
          .pose = "ground-truth", .maxFrames = -1, .goldenFrames = {4}, .indirectFrame = 4,
          .recordedFrames = std::int64_t(tumLines(root / "tests/data/icl-nuim-open3d/rgb.txt").size()), .truth = Truth::TumGroundTruth,
          .composite = kComposite, .indirect = kIndirect, .minIndirectMean = 0.01, .minVirtualPixels = 1000, .roi = cv::Rect{184, 240, 204, 128}});
-    // The real Kinect v1 .oni, fixed pose, first 2 of its 12 frames (12: tests/data/oni-kinect-v1/README.md).
-    // Its depth is not registered to colour, so the pipeline makes no VALs (and warns): no GI. Its
-    // composite is compared relative to itself (no baseline: a 10 % change of the rendered radiance
-    // reads 0.10), its indirect golden is black (any non-zero pixel reads +inf).
-    add({.name = "oni_kinect_v1", .recording = "tests/data/oni-kinect-v1/3dj_test.oni", .scene = "recordings/scenes/camera_frame.json",
-         .pose = "fixed", .maxFrames = 2, .goldenFrames = {1}, .indirectFrame = 1, .recordedFrames = 12, .truth = Truth::None,
-         .valsExpected = false, .composite = kComposite, .indirect = kIndirect, .minVirtualPixels = 2000, .roi = cv::Rect{188, 216, 256, 172}});
+    // The real Kinect v1 .oni, fixed pose, first 2 of its 12 frames (12: tests/data/oni-kinect-v1/README.md),
+    // its unregistered depth registered in software (capture/Registration.h), a bunny and a cube on
+    // its floor (oni_room.json). Every frame of it is checked for VALs and visible GI below.
+    add({.name = "oni_kinect_v1",
+         .recording = "tests/data/oni-kinect-v1/3dj_test.oni",
+         .scene = "recordings/scenes/oni_room.json",
+         .pose = "fixed",
+         .maxFrames = 2,
+         .goldenFrames = {1},
+         .indirectFrame = 1,
+         .recordedFrames = 12,
+         .truth = Truth::None,
+         .composite = kComposite,
+         .indirect = kIndirect,
+         .minIndirectMean = 0.01,
+         .minVirtualPixels = 4000,
+         .roi = cv::Rect{216, 308, 152, 160}});
     return all;
 }
 
@@ -478,6 +488,7 @@ struct TrackedFrame {
     std::string state;
     double rotationErrorDegrees = -1.0, acrossErrorMetres = -1.0, alongErrorMetres = 0.0; // < 0: no pose
     double acrossBoundMetres = 0.0;
+    double translationError = -1.0; // metres, < 0: no pose (the report's poseError must equal it)
 };
 
 glm::dvec3 rotate(const double q[4], const glm::dvec3& v) { // q = x y z w
@@ -506,6 +517,7 @@ std::vector<TrackedFrame> replayTracked(const std::string& recording, const std:
         t.state = f["tracking"].get<std::string>();
         if (f["world_T_camera"].is_object() && i < truth.size()) {
             t.rotationErrorDegrees = rotationErrorDegrees(f["world_T_camera"], truth[i]);
+            t.translationError = translationError(f["world_T_camera"], truth[i]);
             const glm::dvec3 trueCentre(truth[i].t[0], truth[i].t[1], truth[i].t[2]);
             glm::dvec3 d;
             for (glm::length_t k = 0; k < 3; ++k)
@@ -517,11 +529,28 @@ std::vector<TrackedFrame> replayTracked(const std::string& recording, const std:
             for (const tracking::WorldTag& worldTag : world.tags())
                 nearest = std::min(nearest, glm::length(worldTag.world_T_tag.translation() - trueCentre));
             t.acrossBoundMetres = kSigmasOverBudgetSigmas * nearest * tangent;
+            // The report's own pose error (replay compares with the recording's ground truth) must be
+            // this test's, computed from frames.jsonl independently (1e-9 m; 1e-6 deg: acos near 0).
+            EXPECT_NEAR(f["poseError"]["translationMetres"].get<double>(), t.translationError, 1e-9) << f.dump();
+            EXPECT_NEAR(f["poseError"]["rotationDegrees"].get<double>(), t.rotationErrorDegrees, 1e-6) << f.dump();
+        } else {
+            EXPECT_FALSE(f.contains("poseError")) << "no pose, no pose error: " << f.dump();
+            // No pose: nothing is placed, so GI is inactive and the report says why.
+            EXPECT_FALSE(f["giActive"].get<bool>()) << f.dump();
+            EXPECT_NE(f.value("giInactiveCause", std::string()).find("no camera pose"), std::string::npos) << f.dump();
         }
         std::printf("%s frame %zu: %s, pose error %.2f deg, %.3f m across (bound %.3f), %.3f m along the view\n",
                     tag.c_str(), i, t.state.c_str(), t.rotationErrorDegrees, t.acrossErrorMetres, t.acrossBoundMetres,
                     t.alongErrorMetres);
         out.push_back(t);
+    }
+    // The summary: the worst error of the tracking frames, as computed above.
+    double worst = -1.0;
+    for (const TrackedFrame& t : out)
+        if (t.state == "tracking") worst = std::max(worst, t.translationError);
+    if (worst >= 0.0) {
+        EXPECT_NEAR(report["poseError"]["byState"]["tracking"]["translationMetres"]["max"].get<double>(), worst, 1e-9);
+        EXPECT_NE(test::readText(scratch / "out" / "report.md").find("pose error, tracking frames"), std::string::npos);
     }
     return out;
 }
@@ -613,6 +642,125 @@ TEST(ReplayTracking, SynthPanLosesTheTagAndReacquiresIt) {
     // The recording must exercise every state, or the expectations above prove little.
     for (const char* state : {"tracking", "held", "lost"})
         EXPECT_GT(std::count(expected.begin(), expected.end(), state), 0) << state;
+}
+
+// Issue 12: the real Kinect v1 .oni (unregistered depth, registered in software) has VALs and
+// visible GI on every one of its 12 frames, with the oni_room.json scene (objects on its floor).
+TEST(ReplayRealData, OniKinectV1HasValsAndVisibleGiOnEveryFrame) {
+    const fs::path root = sourceDir(), scratch = scratchDir("replay_oni_every_frame");
+    const std::string common = (root / "tests/data/oni-kinect-v1/3dj_test.oni").string() + " --scene " +
+                               (root / "recordings/scenes/oni_room.json").string() + " --pose fixed --no-video";
+    ASSERT_EQ(runLightskin(common + " --out " + (scratch / "final").string(), scratch, "final"), 0)
+        << test::readText(scratch / "final.stderr.txt");
+    ASSERT_EQ(runLightskin(common + " --no-compare --view normals --out " + (scratch / "normals").string(), scratch,
+                           "normals"),
+              0)
+        << test::readText(scratch / "normals.stderr.txt");
+    const nlohmann::json report = nlohmann::json::parse(test::readText(scratch / "final" / "report.json"));
+    ASSERT_EQ(report["frames"].size(), 12u);
+    EXPECT_EQ(report["giActiveFrames"].get<int>(), 12);
+    EXPECT_EQ(report["giInactiveFrames"].get<int>(), 0);
+    EXPECT_NE(test::readText(scratch / "final.stdout.txt").find("GI (lightskin) active in all 12 frames"),
+              std::string::npos);
+    for (const auto& f : report["frames"]) {
+        // VALs: stride 8 over 640x480 gives 80 x 60 = 4800 VAL cells; the registered depth covers
+        // > 40% of the image (tests/capture OniSourceTest), so a frame should have ~1900 VALs; 960
+        // (20%) leaves half of that for cells whose samples are all holes or edges. 0 = the bug.
+        EXPECT_GT(f["vals"].get<int>(), 960) << f.dump();
+        EXPECT_TRUE(f["giActive"].get<bool>()) << f.dump();
+        EXPECT_FALSE(f.contains("giInactiveCause")) << f.dump();
+    }
+    // Visible GI: the with-GI and without-GI halves of each comparison image differ over the virtual
+    // content. Without GI (before registration) they were bit-identical, and the renderer is
+    // deterministic up to one 8-bit step now and then (docs/TESTING.md), so the noise floor is 1
+    // step. Required: at least half of the virtual pixels change by >= 3 sRGB steps (3x that floor) in
+    // some channel, and GI only adds light (the indirect term is >= 0), so the mean of with - without
+    // must be > 0 in linear luminance and no pixel may get darker by more than the 1-step noise.
+    for (int index = 0; index < 12; ++index) {
+        SCOPED_TRACE("frame " + std::to_string(index));
+        const cv::Mat mask = virtualMask(scratch / "final" / "frames" / frameFile(index),
+                                         scratch / "normals" / "frames" / frameFile(index));
+        ASSERT_GT(cv::countNonZero(mask), 4000); // measured ~6300 virtual pixels per frame
+        const cv::Mat compare =
+            cv::imread((scratch / "final" / "compare" / frameFile(index)).string(), cv::IMREAD_COLOR);
+        ASSERT_EQ(compare.cols, 2 * mask.cols);
+        const cv::Mat with = compare(cv::Rect(0, 0, mask.cols, mask.rows)),
+                      without = compare(cv::Rect(mask.cols, 0, mask.cols, mask.rows));
+        int changed = 0, darker = 0;
+        double sumDifference = 0.0;
+        for (int v = 0; v < mask.rows; ++v)
+            for (int u = 0; u < mask.cols; ++u) {
+                if (!mask.at<std::uint8_t>(v, u)) continue;
+                const cv::Vec3b a = with.at<cv::Vec3b>(v, u), b = without.at<cv::Vec3b>(v, u);
+                int most = 0, least = 0;
+                for (int c = 0; c < 3; ++c) {
+                    most = std::max(most, int(a[c]) - int(b[c]));
+                    least = std::min(least, int(a[c]) - int(b[c]));
+                }
+                changed += std::max(most, -least) >= 3 ? 1 : 0;
+                darker += least < -1 ? 1 : 0;
+                const auto luminance = [](const cv::Vec3b& p) {
+                    return 0.0722 * double(eval::srgbToLinear(p[0] / 255.0f)) +
+                           0.7152 * double(eval::srgbToLinear(p[1] / 255.0f)) +
+                           0.2126 * double(eval::srgbToLinear(p[2] / 255.0f));
+                };
+                sumDifference += luminance(a) - luminance(b);
+            }
+        const int pixels = cv::countNonZero(mask);
+        std::printf(
+            "oni frame %d: %d of %d virtual pixels changed by >= 3 steps, %d darker, mean linear luminance +%.4f\n",
+            index, changed, pixels, darker, sumDifference / pixels);
+        EXPECT_GE(2 * changed, pixels) << "GI is not visible on the virtual objects";
+        EXPECT_GT(sumDifference, 0.0);
+        EXPECT_EQ(darker, 0);
+    }
+}
+
+// Issue 12: when GI does nothing the console, report.json and report.md say so per frame and in the
+// summary, with the cause. The .oni with --raw-depth (no software registration): no VALs.
+TEST(ReplayGiActive, UnregisteredDepthIsReportedAsGiInactive) {
+    const fs::path root = sourceDir(), scratch = scratchDir("replay_gi_inactive");
+    const std::string args = (root / "tests/data/oni-kinect-v1/3dj_test.oni").string() + " --scene " +
+                             (root / "recordings/scenes/oni_room.json").string() +
+                             " --pose fixed --no-video --no-compare --raw-depth" + " --max-frames 2 --frames 0 --out " +
+                             (scratch / "out").string();
+    ASSERT_EQ(runLightskin(args, scratch, "raw"), 0) << test::readText(scratch / "raw.stderr.txt");
+    const nlohmann::json report = nlohmann::json::parse(test::readText(scratch / "out" / "report.json"));
+    const std::string cause = "depth is not registered to colour: no VALs";
+    ASSERT_EQ(report["frames"].size(), 2u);
+    for (const auto& f : report["frames"]) {
+        EXPECT_EQ(f["vals"].get<int>(), 0) << f.dump();
+        EXPECT_FALSE(f["giActive"].get<bool>()) << f.dump();
+        EXPECT_EQ(f.value("giInactiveCause", std::string()), cause) << f.dump();
+    }
+    EXPECT_EQ(report["giActiveFrames"].get<int>(), 0);
+    EXPECT_EQ(report["giInactiveFrames"].get<int>(), 2);
+    EXPECT_EQ(report["giInactiveCauses"][cause].get<int>(), 2);
+    const std::string md = test::readText(scratch / "out" / "report.md");
+    EXPECT_NE(md.find("| GI active | 0 of 2 frames; **inactive in 2**: " + cause), std::string::npos) << md;
+    EXPECT_NE(md.find("| inactive: " + cause + " |"), std::string::npos) << md;
+    const std::string err = test::readText(scratch / "raw.stderr.txt"),
+                      out = test::readText(scratch / "raw.stdout.txt");
+    EXPECT_NE(err.find("frame 0: GI inactive: " + cause), std::string::npos) << err;
+    EXPECT_NE(err.find("frame 1: GI inactive: " + cause), std::string::npos) << err;
+    EXPECT_NE(out.find("GI INACTIVE in 2 of 2 frames"), std::string::npos) << out;
+}
+
+// A scene without a GI technique: inactive, with that cause (the report used to name no technique
+// problem at all; a reader could not tell "no GI" from "GI that happens to be dark").
+TEST(ReplayGiActive, SceneWithoutTechniqueIsReportedAsGiInactive) {
+    const fs::path root = sourceDir(), scratch = scratchDir("replay_gi_none");
+    const std::string args = (root / "recordings/synth-clean-channels").string() + " --scene " +
+                             (root / "recordings/scenes/cube_no_gi.json").string() + " --pose ground-truth --no-video" +
+                             " --max-frames 1 --frames 0 --out " + (scratch / "out").string();
+    ASSERT_EQ(runLightskin(args, scratch, "none"), 0) << test::readText(scratch / "none.stderr.txt");
+    const nlohmann::json report = nlohmann::json::parse(test::readText(scratch / "out" / "report.json"));
+    ASSERT_EQ(report["frames"].size(), 1u);
+    EXPECT_FALSE(report["frames"][0]["giActive"].get<bool>());
+    EXPECT_NE(report["frames"][0].value("giInactiveCause", std::string()).find("technique is \"none\""),
+              std::string::npos)
+        << report["frames"][0].dump();
+    EXPECT_EQ(report["giInactiveFrames"].get<int>(), 1);
 }
 
 } // namespace

@@ -12,13 +12,16 @@
 // (distortion applied) and written to the nearest colour pixel. Collisions keep the nearest depth
 // (z-buffer: the surface the colour camera sees). Colour pixels that no depth pixel reaches stay 0
 // (holes stay holes: nothing is interpolated), including the real scene's occlusion shadows.
+// Where the colour camera samples the surface more densely than the depth camera (a colour focal
+// length above the depth one, or surfaces seen at a grazing angle by the depth camera only) the
+// splatting leaves cracks of single pixels; for a Kinect v1 (colour f 525 < depth f 576) it does not.
 //
 // Why not cv::rgbd::registerDepth (OpenCV contrib 4.6, Debian 12), which computes the same thing:
 // on the .oni's frames both give the same 194,062 valid pixels, all within 1 mm of each other, but
 // it assigns a new output matrix on every call (a 600 KB allocation per VGA frame, even into a
 // preallocated buffer; the per-frame code here must not allocate), ignores the depth camera's
-// distortion, and took 1.21-1.33x this code's time (7.9-10.9 ms against 6.3-8.2 ms per 640x480
-// frame, measured side by side; docs/BENCHMARKS.md, "Depth registration").
+// distortion, and is not faster: 2.76 ms against 2.39 ms CPU time per 640x480 frame, measured side
+// by side (docs/BENCHMARKS.md, "Capture: depth-to-colour registration", capture/bench/RegistrationBenchmark.cpp).
 //
 // Units: depth in raw sensor units on both sides (metres = value * depthScaleMetres); the
 // registered value is the depth along the colour camera's optical axis.
@@ -49,7 +52,7 @@ struct RegistrationCalibration {
 /// and no rotation (NYU's is within 0.4 degrees of identity; not used, its sign convention is
 /// unverified here). Checked on tests/data/oni-kinect-v1: the colour image's mean gradient at the
 /// registered depth edges peaks at t_x = +0.025..+0.030 m (65.7-75.4) and is 51.0 at -0.025 m
-/// (docs/BENCHMARKS.md, "Depth registration"). Each unit differs by a few pixels.
+/// (docs/BENCHMARKS.md, "Capture: depth-to-colour registration"). Each unit differs by a few pixels.
 Pose kinectV1DefaultColour_T_depth();
 /// The depth camera's default intrinsics when a Kinect v1 reports none: 640x480, f 575.8157,
 /// centre 319.5/239.5 (ROS openni_camera's default depth focal length).

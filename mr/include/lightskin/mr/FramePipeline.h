@@ -93,6 +93,15 @@ struct PipelineOptions {
     bool referenceIndirect = false;
 };
 
+/// Why a frame had no GI (FrameOutput::giInactiveCause); stable strings for reports and tests.
+inline constexpr const char* kGiCauseNoPose = "no camera pose (tracking lost): the camera image passes through";
+inline constexpr const char* kGiCauseSwitchedOff = "GI switched off";
+inline constexpr const char* kGiCauseNoTechnique =
+    "the GI technique is \"none\" (scene gi.technique, or not in this build)";
+inline constexpr const char* kGiCauseUnregistered = "depth is not registered to colour: no VALs";
+inline constexpr const char* kGiCauseNoDepth = "the frame has no depth: no VALs";
+inline constexpr const char* kGiCauseNoVals = "no depth pixel became a VAL (all missing or out of range)";
+
 struct FrameOutput {
     std::int64_t frameIndex = 0;
     cv::Mat withGi;       ///< CV_8UC3 BGR composite (GI on, or direct only when GI is off)
@@ -120,6 +129,10 @@ struct FrameOutput {
     cv::Mat virtualNormals;
     tracking::TrackingResult tracking;
     std::optional<Pose> world_T_camera;
+    /// Whether GI lit this frame: a technique ran on at least one VAL. When false, giInactiveCause
+    /// says why (a static string: kGiCause* above), else it is nullptr.
+    bool giActive = false;
+    const char* giInactiveCause = nullptr;
     std::uint32_t valCount = 0;     ///< VALs from depth
     std::int64_t coveredPixels = 0; ///< pixels the virtual content covers (before occlusion by real depth)
     std::int64_t rsmValCount = -1;  ///< gi.virtualBounce: VALs from the virtual lights' RSMs, else -1
