@@ -18,6 +18,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <ctime>
 #include <omp.h>
 
@@ -300,16 +301,24 @@ struct CpuLightSkin::Impl {
                 }
                 const m::VertexWeights weights = m::ls_vertexWeights(dist, cosN, unique);
                 glm::dvec4 diffuse(0.0), diffusePosition(0.0), glossyRadiance(0.0), glossyPosition(0.0);
+                double minDD = std::numeric_limits<double>::max(), minDS = minDD; // G8
                 for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
                     const double w = weights.w[j];
                     if (w == 0.0) continue;
                     const std::uint32_t s = list[j];
+                    const glm::dvec3 od = vplD[s].position - pointPosition[s], os = vplS[s].position - pointPosition[s];
+                    minDD = std::min(minDD, glm::dot(od, od) + vplD[s].r2);
+                    minDS = std::min(minDS, glm::dot(os, os) + vplS[s].r2);
                     const double keepD = occlusion ? 1.0 - std::clamp(double(occlusionD[s]), 0.0, 1.0) : 1.0;
                     const double keepS = occlusion ? 1.0 - std::clamp(double(occlusionS[s]), 0.0, 1.0) : 1.0;
                     diffuse += w * glm::dvec4(vplD[s].radiance * keepD, vplD[s].r2);
                     diffusePosition += w * glm::dvec4(vplD[s].position, 0.0);
                     glossyRadiance += w * glm::dvec4(vplS[s].radiance * keepS, vplS[s].r2);
                     glossyPosition += w * glm::dvec4(vplS[s].position, 0.0);
+                }
+                if (settings.lightSkin.vertexDistanceFloor) {
+                    diffuse.w = m::ls_vertexR2Floor(diffuse.w, p, glm::dvec3(diffusePosition), minDD);
+                    glossyRadiance.w = m::ls_vertexR2Floor(glossyRadiance.w, p, glm::dvec3(glossyPosition), minDS);
                 }
                 glm::vec4* out = &vertexVpls[4 * v];
                 out[0] = glm::vec4(diffuse);

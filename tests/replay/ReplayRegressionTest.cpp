@@ -649,7 +649,10 @@ TEST(ReplayTracking, SynthPanLosesTheTagAndReacquiresIt) {
 TEST(ReplayRealData, OniKinectV1HasValsAndVisibleGiOnEveryFrame) {
     const fs::path root = sourceDir(), scratch = scratchDir("replay_oni_every_frame");
     const std::string common = (root / "tests/data/oni-kinect-v1/3dj_test.oni").string() + " --scene " +
-                               (root / "recordings/scenes/oni_room.json").string() + " --pose fixed --no-video";
+                               (root / "recordings/scenes/oni_room.json").string() +
+                               // The differential darkens the floor at the objects' contact (by design), which
+                               // the soft edge band blends into the with-GI half only: off, as in the goldens.
+                               " --pose fixed --no-video --differential off";
     ASSERT_EQ(runLightskin(common + " --out " + (scratch / "final").string(), scratch, "final"), 0)
         << test::readText(scratch / "final.stderr.txt");
     ASSERT_EQ(runLightskin(common + " --no-compare --view normals --out " + (scratch / "normals").string(), scratch,

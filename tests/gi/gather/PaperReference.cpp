@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace lightskin::test::paper {
 
@@ -196,11 +197,22 @@ vertexWeights(const glm::dvec3& vertex, const glm::dvec3& vertexNormal,
     return w;
 }
 
+static double sq(const glm::dvec3& v) { return glm::dot(v, v); }
+
 LightPair interpolate(const glm::dvec3& vertex, const glm::dvec3& vertexNormal,
                       const std::array<std::uint32_t, gi::kVertexNeighbours>& neighbours, std::span<const Point> points,
-                      std::span<const LightPair> lights) {
+                      std::span<const LightPair> lights, bool distanceFloor) {
     const auto w = vertexWeights(vertex, vertexNormal, neighbours, points);
     LightPair out;
+    // G8: the smallest D = |x_j - l_j|^2 + rbar_j^2 among the contributing points (weight > 0).
+    double nearestD = std::numeric_limits<double>::infinity(), nearestS = nearestD;
+    for (std::size_t j = 0; j < w.size(); ++j) {
+        if (w[j] <= 0.0) continue;
+        const LightPair& s = lights[neighbours[j]];
+        const glm::dvec3 x = points[neighbours[j]].position;
+        nearestD = std::min(nearestD, sq(s.diffuse.position - x) + s.diffuse.r2);
+        nearestS = std::min(nearestS, sq(s.glossy.position - x) + s.glossy.r2);
+    }
     for (std::size_t j = 0; j < w.size(); ++j) {
         const LightPair& s = lights[neighbours[j]];
         out.diffuse.radiance += w[j] * s.diffuse.radiance;
@@ -209,6 +221,12 @@ LightPair interpolate(const glm::dvec3& vertex, const glm::dvec3& vertexNormal,
         out.glossy.radiance += w[j] * s.glossy.radiance;
         out.glossy.position += w[j] * s.glossy.position;
         out.glossy.r2 += w[j] * s.glossy.r2;
+    }
+    if (distanceFloor) {
+        const double shortD = nearestD - (sq(out.diffuse.position - vertex) + out.diffuse.r2);
+        const double shortS = nearestS - (sq(out.glossy.position - vertex) + out.glossy.r2);
+        if (shortD > 0.0 && std::isfinite(shortD)) out.diffuse.r2 += shortD;
+        if (shortS > 0.0 && std::isfinite(shortS)) out.glossy.r2 += shortS;
     }
     return out;
 }

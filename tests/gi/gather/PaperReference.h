@@ -86,10 +86,12 @@ glm::dvec2 occlusion(std::span<const Point> points, std::span<const LightPair> l
 std::array<double, gi::kVertexNeighbours>
 vertexWeights(const glm::dvec3& vertex, const glm::dvec3& vertexNormal,
               const std::array<std::uint32_t, gi::kVertexNeighbours>& neighbours, std::span<const Point> points);
-/// eq. 13: the weighted VPLs of one vertex.
+/// eq. 13: the weighted VPLs of one vertex. With `distanceFloor` (the core's guard G8, issue 12)
+/// the vertex VPL is never nearer, in D = |v - l|^2 + rbar^2, than the nearest VPL of the sparse
+/// points it averages was to its own point: rbar^2 grows by the shortfall.
 LightPair interpolate(const glm::dvec3& vertex, const glm::dvec3& vertexNormal,
                       const std::array<std::uint32_t, gi::kVertexNeighbours>& neighbours, std::span<const Point> points,
-                      std::span<const LightPair> lights);
+                      std::span<const LightPair> lights, bool distanceFloor = true);
 /// eq. 10: radiance toward `eye` of a surface with rho_d, f_s, k lit by one VPL pair.
 glm::dvec3 shade(const LightPair& lights, const glm::dvec3& p, const glm::dvec3& n, const glm::dvec3& eye,
                  const glm::dvec3& rhoD, const glm::dvec3& fs, double k);
