@@ -42,6 +42,8 @@ std::string sizeText(cv::Size size) { return std::to_string(size.width) + "x" + 
 void decodeInto(const std::filesystem::path& path, std::optional<std::int64_t> frame, int flags,
                 const std::vector<unsigned char>& bytes, std::optional<cv::Size> expected, const char* what,
                 cv::Mat& out) {
+    // OpenCV reports an empty buffer as a failed assertion: say what it means.
+    if (bytes.empty()) throw Error(path.string(), frame, "file is empty (0 bytes)");
     // The size in the header is checked before the decoder allocates anything for it.
     if (const std::optional<cv::Size> headerSize = peekImageSize(bytes, path, frame);
         headerSize && expected && *headerSize != *expected)

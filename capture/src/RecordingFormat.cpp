@@ -185,7 +185,10 @@ ParsedIndex readIndex(const std::filesystem::path& folder) {
             index.partialTail = true;
             break;
         }
-        if (end - begin > kMaxIndexLineBytes) throw Error(file, expectedFrame, "index line is absurdly long");
+        if (end - begin > kMaxIndexLineBytes)
+            throw Error(file, expectedFrame,
+                        "index line is " + std::to_string(end - begin) + " bytes, more than the " +
+                            std::to_string(kMaxIndexLineBytes) + " accepted");
         if (index.finished) throw Error(file, expectedFrame, "lines after the end marker");
         json line;
         try {
@@ -203,7 +206,9 @@ ParsedIndex readIndex(const std::filesystem::path& folder) {
             IndexEntry entry;
             const double frame = number(line, "frame", file, expectedFrame);
             if (frame != double(expectedFrame))
-                throw Error(file, expectedFrame, "frame number " + std::to_string(frame) + " out of order");
+                throw Error(file, expectedFrame,
+                            "frame number " + line["frame"].dump() + " where " + std::to_string(expectedFrame) +
+                                " was expected (frames are numbered 0, 1, 2, ...: out of order, repeated or missing)");
             entry.frame = expectedFrame;
             entry.colourTimestamp = timestampFromJson(line, "colourTime", file, expectedFrame);
             entry.depthTimestamp = timestampFromJson(line, "depthTime", file, expectedFrame);
