@@ -199,6 +199,12 @@ ParsedIndex readIndex(const std::filesystem::path& folder) {
         begin = end + 1;
         if (!line.is_object()) throw Error(file, expectedFrame, "index line is not a JSON object");
         if (line.value("end", false)) {
+            // The writer states how many frames it finished: a different count means lost lines.
+            if (const auto frames = line.find("frames");
+                frames != line.end() && !(frames->is_number() && *frames == index.entries.size()))
+                throw Error(file, std::nullopt,
+                            "the end marker counts " + frames->dump() + " frames, the index holds " +
+                                std::to_string(index.entries.size()));
             index.finished = true;
             continue;
         }

@@ -174,6 +174,14 @@ TEST(MalformedInputTest, LinesAfterTheEndMarker) {
     lines.push_back(lines.at(0));
     writeLines(folder / kIndex, lines);
     expectError([&] { capture::openFrameSource(folder.string()); }, {kIndex, 3, "lines after the end marker"});
+
+    // An end marker whose count differs from the lines before it (a frame line lost).
+    lines.pop_back();
+    lines.erase(lines.begin() + 1);
+    writeLines(folder / kIndex, lines);
+    editIndexLine(folder, 1, [](json& line) { line["frame"] = 1; });
+    expectError([&] { capture::openFrameSource(folder.string()); },
+                {kIndex, std::nullopt, "the end marker counts 3 frames, the index holds 2"});
 }
 
 TEST(MalformedInputTest, OverLongIndexLine) {
