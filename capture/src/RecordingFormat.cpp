@@ -116,7 +116,10 @@ RecordingInfo readHeader(const std::filesystem::path& folder, int& version) {
     } catch (const json::exception& error) {
         throw Error(file, std::nullopt, std::string("malformed JSON: ") + error.what());
     }
-    if (!header.is_object() || header.value("format", std::string()) != "lightskin-recording")
+    // Not header.value("format", ...): it throws a json type_error outside the try below when
+    // "format" is not a string (a fuzz finding).
+    const auto format = header.find("format");
+    if (!header.is_object() || format == header.end() || !format->is_string() || *format != "lightskin-recording")
         throw Error(file, std::nullopt,
                     "not a lightskin recording header (\"format\" must be \"lightskin-recording\")");
     const double versionNumber = number(header, "version", file, std::nullopt);
@@ -198,7 +201,10 @@ ParsedIndex readIndex(const std::filesystem::path& folder) {
         }
         begin = end + 1;
         if (!line.is_object()) throw Error(file, expectedFrame, "index line is not a JSON object");
-        if (line.value("end", false)) {
+        // Not line.value("end", false): a non-boolean "end" would throw a json type_error here.
+        if (const auto marker = line.find("end"); marker != line.end()) {
+            if (!marker->is_boolean() || !marker->get<bool>())
+                throw Error(file, expectedFrame, "'end' must be true (the end marker line)");
             // The writer states how many frames it finished: a different count means lost lines.
             if (const auto frames = line.find("frames");
                 frames != line.end() && !(frames->is_number() && *frames == index.entries.size()))

@@ -175,6 +175,14 @@ TEST(MalformedInputTest, LinesAfterTheEndMarker) {
     writeLines(folder / kIndex, lines);
     expectError([&] { capture::openFrameSource(folder.string()); }, {kIndex, 3, "lines after the end marker"});
 
+    // An end marker that is not one (a json type error before the fix, found by reading the code
+    // after the fuzzer's finding in the header).
+    auto marker = lines;
+    marker.pop_back();
+    marker.back() = R"({"end":"yes","frames":3})";
+    writeLines(folder / kIndex, marker);
+    expectError([&] { capture::openFrameSource(folder.string()); }, {kIndex, 3, "'end' must be true"});
+
     // An end marker whose count differs from the lines before it (a frame line lost).
     lines.pop_back();
     lines.erase(lines.begin() + 1);
