@@ -25,6 +25,7 @@ cmake --build "$build_dir" --parallel "${LIGHTSKIN_FUZZ_JOBS:-2}" --target "${ta
 
 failed=0
 export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1}"
+export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$root/fuzz/lsan.supp:print_suppressions=0}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 for target in "${targets[@]}"; do
   corpus="$build_dir/corpus/$target"
@@ -34,6 +35,7 @@ for target in "${targets[@]}"; do
   log="$build_dir/fuzz-$target.log"
   # -max_len 64 KiB: larger than every seed; -timeout 10 s per input is a hang; -rss_limit_mb 2048
   # is libFuzzer's default, named here because an input that makes us allocate that much is a finding.
+  started=$(date +%s)
   if "$build_dir/fuzz/lightskin_fuzz_$target" "$corpus" -max_total_time="$seconds" -max_len=65536 -timeout=10 \
       -rss_limit_mb=2048 -print_final_stats=1 -artifact_prefix="$findings/" >"$log" 2>&1; then
     status=ok
@@ -42,6 +44,6 @@ for target in "${targets[@]}"; do
     failed=1
   fi
   runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo "?")
-  echo "$target: $runs executions in ${seconds} s, corpus $(ls "$corpus" | wc -l) inputs: $status"
+  echo "$target: $runs executions in $(($(date +%s) - started)) s, corpus $(ls "$corpus" | wc -l) inputs: $status"
 done
 exit "$failed"
