@@ -106,6 +106,7 @@ TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
         {R"({"objects": []})", "/version: expected 1"},
         {R"([1, 2])", "/: expected an object"},
         {R"({"version": 1, )", "not valid JSON"},
+        {R"({"version": 1e999})", "not valid JSON"}, // number overflow (a fuzz finding: escaped as a json exception)
     };
     for (const Case& c : cases) {
         const std::string cause = causeOf(c.text);

@@ -124,7 +124,7 @@ TagWorld TagWorld::fromJson(const std::string& text, const std::string& sourceNa
     Json root;
     try {
         root = Json::parse(text);
-    } catch (const Json::parse_error& error) {
+    } catch (const Json::exception& error) { // parse_error, and out_of_range for a number that overflows
         fail(sourceName, "(json)", std::string("malformed JSON: ") + error.what());
     }
     if (!root.is_object()) fail(sourceName, "(root)", "must be a JSON object with \"tag\" or \"tags\"");
