@@ -295,5 +295,21 @@ TEST(MalformedInputTest, SixteenBitAndRgbaColourAreConvertedNotRefused) {
     expectError([&] { readAll(tum); }, {"c16.png", 0, "depth must be 16-bit single-channel"});
 }
 
+TEST(MalformedInputTest, AbsentFreenectDevice) {
+    // The real libfreenect (no Kinect on a test machine, index 7 in any case): either USB works and
+    // no device has that index, or libusb cannot start at all (a container without USB). Both
+    // messages name the URI and say which.
+    try {
+        capture::openFrameSource("freenect://7");
+        ADD_FAILURE() << "freenect://7 opened";
+    } catch (const Error& error) {
+        EXPECT_EQ(error.source(), "freenect://7");
+        EXPECT_FALSE(error.frame().has_value());
+        const bool noSuchIndex = error.cause().find("no Kinect v1 with index 7 (") != std::string::npos;
+        const bool noUsb = error.cause().find("libfreenect initialisation failed") != std::string::npos;
+        EXPECT_TRUE(noSuchIndex || noUsb) << error.what();
+    }
+}
+
 } // namespace
 } // namespace lightskin::test
