@@ -67,7 +67,7 @@ TEST(BadInputTest, CorruptPng) {
     std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
     expectError([&] { readAll(folder); }, {"depth/000000.png", 0, "cannot decode"});
     std::ofstream(path, std::ios::binary | std::ios::trunc) << "this is not an image";
-    expectError([&] { readAll(folder); }, {"depth/000000.png", 0, "cannot decode"});
+    expectError([&] { readAll(folder); }, {"depth/000000.png", 0, "not a PNG, TIFF or JPEG file"});
 }
 
 TEST(BadInputTest, MissingFrameFile) {
