@@ -14,6 +14,9 @@ endif()
 
 # Sanitizer builds (scripts/sanitize.sh; docs/TESTING.md). Every finding is fatal: UBSan does not recover
 # (-fno-sanitize-recover=all), so a test with undefined behaviour fails instead of printing and passing.
+if((LIGHTSKIN_SANITIZE OR LIGHTSKIN_SANITIZE_THREAD) AND LIGHTSKIN_FUZZ)
+  message(FATAL_ERROR "LIGHTSKIN_FUZZ is a build of its own (it already has ASan+UBSan)")
+endif()
 if(LIGHTSKIN_SANITIZE AND LIGHTSKIN_SANITIZE_THREAD)
   message(FATAL_ERROR "LIGHTSKIN_SANITIZE (ASan+UBSan) and LIGHTSKIN_SANITIZE_THREAD (TSan) need separate builds")
 endif()
@@ -30,6 +33,17 @@ if(LIGHTSKIN_SANITIZE)
   set(LIGHTSKIN_TEST_ENVIRONMENT
     "LSAN_OPTIONS=suppressions=${CMAKE_CURRENT_LIST_DIR}/sanitizers/lsan.supp:print_suppressions=0"
     "UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1")
+elseif(LIGHTSKIN_FUZZ)
+  # fuzz/ (scripts/fuzz.sh): our code instrumented for libFuzzer's coverage and checked by
+  # ASan+UBSan; only the fuzz targets link the libFuzzer driver (-fsanitize=fuzzer, fuzz/CMakeLists.txt).
+  if(NOT CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
+    message(FATAL_ERROR "LIGHTSKIN_FUZZ needs clang (libFuzzer): CC=clang-15 CXX=clang++-15")
+  endif()
+  set(LIGHTSKIN_SANITIZER_FLAGS -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all)
+  add_compile_options(-fsanitize=fuzzer-no-link ${LIGHTSKIN_SANITIZER_FLAGS})
+  add_link_options(${LIGHTSKIN_SANITIZER_FLAGS})
+  add_compile_definitions(EIGEN_MALLOC_ALREADY_ALIGNED=1) # as for LIGHTSKIN_SANITIZE, above
+  set(LIGHTSKIN_TEST_ENVIRONMENT "")
 elseif(LIGHTSKIN_SANITIZE_THREAD)
   set(LIGHTSKIN_SANITIZER_FLAGS -fsanitize=thread -fno-omit-frame-pointer)
   add_compile_options(${LIGHTSKIN_SANITIZER_FLAGS})

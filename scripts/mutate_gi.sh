@@ -11,7 +11,7 @@
 # Works on a scratch copy of the source tree, build-mutate/src/ (build dir build-mutate/src/build,
 # RelWithDebInfo; the checkout itself is never edited), so the rest of the checkout can be built
 # meanwhile. The copy's first build is mostly ccache hits when ccache has the checkout's objects
-# (CCACHE_BASEDIR / CCACHE_NOHASHDIR as in /work/ccache.env); each mutation then rebuilds only the
+# (with CCACHE_BASEDIR and CCACHE_NOHASHDIR set); each mutation then rebuilds only the
 # shader embedding, the gi library and the four test binaries. Prints a Markdown table (also
 # written to build-mutate/mutate_gi.md) and exits non-zero if a mutation survived or the unmutated
 # tests fail. ~1 min per mutation on 2 cores (incremental rebuild + ~30 s of tests).

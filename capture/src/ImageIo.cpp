@@ -42,9 +42,14 @@ std::string sizeText(cv::Size size) { return std::to_string(size.width) + "x" + 
 void decodeInto(const std::filesystem::path& path, std::optional<std::int64_t> frame, int flags,
                 const std::vector<unsigned char>& bytes, std::optional<cv::Size> expected, const char* what,
                 cv::Mat& out) {
+    // OpenCV reports an empty buffer as a failed assertion: say what it means.
+    if (bytes.empty()) throw Error(path.string(), frame, "file is empty (0 bytes)");
+    // Only PNG, TIFF and JPEG reach cv::imdecode: on other bytes it tries every decoder OpenCV has,
+    // and Debian's GDCM (DICOM) aborts the process on an assertion (a fuzz finding).
+    const std::optional<cv::Size> headerSize = peekImageSize(bytes, path, frame);
+    if (!headerSize) throw Error(path.string(), frame, "not a PNG, TIFF or JPEG file");
     // The size in the header is checked before the decoder allocates anything for it.
-    if (const std::optional<cv::Size> headerSize = peekImageSize(bytes, path, frame);
-        headerSize && expected && *headerSize != *expected)
+    if (expected && *headerSize != *expected)
         throw Error(path.string(), frame,
                     std::string(what) + " image is " + sizeText(*headerSize) + ", expected " + sizeText(*expected));
     try {

@@ -2,6 +2,9 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
 
+#include <algorithm>
+#include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <mutex>
 #include <thread>
@@ -30,6 +33,22 @@ void copyFrameInto(const RgbdFrame& from, RgbdFrame& to) {
     to.colour_T_depth = from.colour_T_depth;
     to.groundTruth_world_T_camera = from.groundTruth_world_T_camera;
 }
+using Clock = std::chrono::steady_clock;
+
+/// 1 ms bins up to 10 s: preallocated, so the writer records a latency without allocating.
+constexpr std::size_t kLatencyBins = 10000;
+
+/// Upper edge (ms) of the bin holding the q-quantile of `histogram`; 0 when empty.
+double percentileMs(const std::vector<std::uint32_t>& histogram, std::int64_t total, double q) {
+    if (total <= 0) return 0.0;
+    const auto rank = std::int64_t(std::ceil(q * double(total)));
+    std::int64_t seen = 0;
+    for (std::size_t bin = 0; bin < histogram.size(); ++bin) {
+        seen += histogram[bin];
+        if (seen >= rank) return double(bin + 1);
+    }
+    return double(histogram.size());
+}
 } // namespace
 
 struct Recorder::Impl {
@@ -40,13 +59,26 @@ struct Recorder::Impl {
     std::size_t head = 0, tail = 0, count = 0;
     bool stopping = false, finished = false;
     RecorderStats stats;
+    std::vector<Clock::time_point> pushedAt; ///< per slot
+    std::vector<std::uint32_t> latencyHistogram = std::vector<std::uint32_t>(kLatencyBins, 0);
     mutable std::mutex mutex;
     std::condition_variable wake;
     std::thread thread;
 
     explicit Impl(RecordingWriter w, std::size_t capacity)
         : writer(std::move(w))
-        , slots(capacity) {}
+        , slots(capacity)
+        , pushedAt(capacity) {}
+
+    /// `stats` with the latency percentiles filled in; call with `mutex` held.
+    RecorderStats snapshot() const {
+        RecorderStats copy = stats;
+        copy.queued = std::int64_t(count);
+        copy.writeLatencyP50Ms = percentileMs(latencyHistogram, stats.written, 0.50);
+        copy.writeLatencyP95Ms = percentileMs(latencyHistogram, stats.written, 0.95);
+        copy.writeLatencyP99Ms = percentileMs(latencyHistogram, stats.written, 0.99);
+        return copy;
+    }
 
     void run() {
         for (;;) {
@@ -61,10 +93,13 @@ struct Recorder::Impl {
             } catch (const std::exception& e) {
                 error = e.what();
             }
+            const double latencyMs = std::chrono::duration<double, std::milli>(Clock::now() - pushedAt[head]).count();
             lock.lock();
-            if (error.empty())
+            if (error.empty()) {
                 ++stats.written;
-            else {
+                ++latencyHistogram[std::min(std::size_t(latencyMs), kLatencyBins - 1)];
+                stats.writeLatencyMaxMs = std::max(stats.writeLatencyMaxMs, latencyMs);
+            } else {
                 ++stats.dropped;
                 if (stats.firstError.empty()) stats.firstError = error;
                 log::error("recorder: frame not written: " + error);
@@ -104,11 +139,13 @@ bool Recorder::push(const RgbdFrame& frame) {
         }
         slot = s.tail;
     }
+    s.pushedAt[slot] = Clock::now();
     copyFrameInto(frame, s.slots[slot]);
     {
         std::lock_guard lock(s.mutex);
         s.tail = (s.tail + 1) % s.slots.size();
         ++s.count;
+        s.stats.queueHighWater = std::max(s.stats.queueHighWater, std::int64_t(s.count));
     }
     s.wake.notify_one();
     return true;
@@ -118,7 +155,7 @@ RecorderStats Recorder::finish() {
     Impl& s = *impl_;
     {
         std::lock_guard lock(s.mutex);
-        if (s.finished) return s.stats;
+        if (s.finished) return s.snapshot();
         s.stopping = true;
     }
     s.wake.notify_one();
@@ -130,14 +167,12 @@ RecorderStats Recorder::finish() {
         if (s.stats.firstError.empty()) s.stats.firstError = e.what();
     }
     s.finished = true;
-    return s.stats;
+    return s.snapshot();
 }
 
 RecorderStats Recorder::stats() const {
     std::lock_guard lock(impl_->mutex);
-    RecorderStats copy = impl_->stats;
-    copy.queued = std::int64_t(impl_->count);
-    return copy;
+    return impl_->snapshot();
 }
 
 } // namespace lightskin::capture

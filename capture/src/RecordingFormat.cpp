@@ -116,7 +116,10 @@ RecordingInfo readHeader(const std::filesystem::path& folder, int& version) {
     } catch (const json::exception& error) {
         throw Error(file, std::nullopt, std::string("malformed JSON: ") + error.what());
     }
-    if (!header.is_object() || header.value("format", std::string()) != "lightskin-recording")
+    // Not header.value("format", ...): it throws a json type_error outside the try below when
+    // "format" is not a string (a fuzz finding).
+    const auto format = header.find("format");
+    if (!header.is_object() || format == header.end() || !format->is_string() || *format != "lightskin-recording")
         throw Error(file, std::nullopt,
                     "not a lightskin recording header (\"format\" must be \"lightskin-recording\")");
     const double versionNumber = number(header, "version", file, std::nullopt);
@@ -185,7 +188,10 @@ ParsedIndex readIndex(const std::filesystem::path& folder) {
             index.partialTail = true;
             break;
         }
-        if (end - begin > kMaxIndexLineBytes) throw Error(file, expectedFrame, "index line is absurdly long");
+        if (end - begin > kMaxIndexLineBytes)
+            throw Error(file, expectedFrame,
+                        "index line is " + std::to_string(end - begin) + " bytes, more than the " +
+                            std::to_string(kMaxIndexLineBytes) + " accepted");
         if (index.finished) throw Error(file, expectedFrame, "lines after the end marker");
         json line;
         try {
@@ -195,7 +201,16 @@ ParsedIndex readIndex(const std::filesystem::path& folder) {
         }
         begin = end + 1;
         if (!line.is_object()) throw Error(file, expectedFrame, "index line is not a JSON object");
-        if (line.value("end", false)) {
+        // Not line.value("end", false): a non-boolean "end" would throw a json type_error here.
+        if (const auto marker = line.find("end"); marker != line.end()) {
+            if (!marker->is_boolean() || !marker->get<bool>())
+                throw Error(file, expectedFrame, "'end' must be true (the end marker line)");
+            // The writer states how many frames it finished: a different count means lost lines.
+            if (const auto frames = line.find("frames");
+                frames != line.end() && !(frames->is_number() && *frames == index.entries.size()))
+                throw Error(file, std::nullopt,
+                            "the end marker counts " + frames->dump() + " frames, the index holds " +
+                                std::to_string(index.entries.size()));
             index.finished = true;
             continue;
         }
@@ -203,7 +218,9 @@ ParsedIndex readIndex(const std::filesystem::path& folder) {
             IndexEntry entry;
             const double frame = number(line, "frame", file, expectedFrame);
             if (frame != double(expectedFrame))
-                throw Error(file, expectedFrame, "frame number " + std::to_string(frame) + " out of order");
+                throw Error(file, expectedFrame,
+                            "frame number " + line["frame"].dump() + " where " + std::to_string(expectedFrame) +
+                                " was expected (frames are numbered 0, 1, 2, ...: out of order, repeated or missing)");
             entry.frame = expectedFrame;
             entry.colourTimestamp = timestampFromJson(line, "colourTime", file, expectedFrame);
             entry.depthTimestamp = timestampFromJson(line, "depthTime", file, expectedFrame);

@@ -215,6 +215,9 @@ private:
 std::unique_ptr<FrameSource> openTumSource(const std::filesystem::path& folder, const FrameSourceOptions& options) {
     const std::string name = folder.string();
     if (!(options.maxAssociationSeconds > 0.0)) throw Error(name, std::nullopt, "association limit must be positive");
+    if (options.depthScaleMetres && !(*options.depthScaleMetres > 0.0 && std::isfinite(*options.depthScaleMetres)))
+        throw Error(name, std::nullopt,
+                    "depth scale must be positive and finite, got " + std::to_string(*options.depthScaleMetres));
     for (const char* list : {"rgb.txt", "depth.txt"})
         if (!std::filesystem::exists(folder / list))
             throw Error((folder / list).string(), std::nullopt,
@@ -236,11 +239,16 @@ std::unique_ptr<FrameSource> openTumSource(const std::filesystem::path& folder, 
             if (!intrinsics && json.contains("colour"))
                 intrinsics = intrinsicsFromJson(json["colour"], sidecar.string(), "colour");
             if (json.contains("depthScaleMetres")) {
-                if (!json["depthScaleMetres"].is_number() || !(json["depthScaleMetres"].get<double>() > 0.0))
+                const auto& scale = json["depthScaleMetres"];
+                if (!scale.is_number() || !(scale.get<double>() > 0.0) || !std::isfinite(scale.get<double>()))
                     throw Error(sidecar.string(), std::nullopt, "'depthScaleMetres' must be a positive number");
                 info.depthScaleMetres = json["depthScaleMetres"].get<double>();
             }
-            info.deviceName = json.value("device", std::string());
+            if (json.contains("device")) {
+                if (!json["device"].is_string())
+                    throw Error(sidecar.string(), std::nullopt, "'device' must be a string");
+                info.deviceName = json["device"].get<std::string>();
+            }
         } catch (const nlohmann::json::exception& error) {
             throw Error(sidecar.string(), std::nullopt, std::string("malformed JSON: ") + error.what());
         }

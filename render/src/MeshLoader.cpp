@@ -8,8 +8,10 @@
 #include <assimp/scene.h>
 
 #include <glm/geometric.hpp>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -124,6 +126,66 @@ void checkPlyHeader(const std::filesystem::path& path) {
     }
 }
 
+bool hasExtension(const std::filesystem::path& path, const char* lower) {
+    std::string extension = path.extension().string();
+    for (char& c : extension) c = char(std::tolower(static_cast<unsigned char>(c)));
+    return extension == lower;
+}
+
+// assimp 5.2.5 reads a glTF buffer file shorter than its byteLength with a vague error and leaks the
+// open stream (found by fuzz/MeshFuzz.cpp). Check every external buffer first: present, and at
+// least as long as the file declares.
+void checkGltfBuffers(const std::filesystem::path& path) {
+    const std::string source = path.string();
+    nlohmann::json gltf;
+    try {
+        std::ifstream file(path, std::ios::binary);
+        gltf = nlohmann::json::parse(file);
+    } catch (const nlohmann::json::exception& error) {
+        throw Error(source, std::nullopt, std::string("malformed glTF JSON: ") + error.what());
+    }
+    if (!gltf.is_object() || !gltf.contains("buffers")) return;
+    const nlohmann::json& buffers = gltf["buffers"];
+    if (!buffers.is_array()) throw Error(source, std::nullopt, "'buffers' must be an array");
+    for (std::size_t i = 0; i < buffers.size(); ++i) {
+        const nlohmann::json& buffer = buffers[i];
+        const std::string key = "buffers[" + std::to_string(i) + "]";
+        if (!buffer.is_object() || !buffer.contains("byteLength") || !buffer["byteLength"].is_number_unsigned())
+            throw Error(source, std::nullopt, key + " must be an object with a whole 'byteLength'");
+        if (!buffer.contains("uri")) continue; // the binary chunk of a .glb
+        if (!buffer["uri"].is_string()) throw Error(source, std::nullopt, key + ".uri must be a string");
+        const std::string uri = buffer["uri"].get<std::string>();
+        if (uri.rfind("data:", 0) == 0) continue; // embedded base64, decoded and checked by assimp
+        const std::filesystem::path file = path.parent_path() / uri;
+        std::error_code error;
+        if (!std::filesystem::is_regular_file(file, error))
+            throw Error(source, std::nullopt, key + ": buffer file '" + uri + "' does not exist");
+        const std::uintmax_t size = std::filesystem::file_size(file, error);
+        const auto declared = buffer["byteLength"].get<std::uintmax_t>();
+        if (error || size < declared)
+            throw Error(source, std::nullopt,
+                        key + ": buffer file '" + uri + "' is " + std::to_string(size) +
+                            " bytes, shorter than its byteLength " + std::to_string(declared) +
+                            " (truncated or corrupt)");
+    }
+}
+
+// assimp's OBJ importer replaces a missing material library by a default grey material with only
+// a log line: the object would render in the wrong colours without an error.
+void checkObjMaterialLibraries(const std::filesystem::path& path) {
+    std::ifstream file(path, std::ios::binary);
+    std::string line;
+    while (std::getline(file, line)) {
+        if (line.rfind("mtllib", 0) != 0 || line.size() < 7 || (line[6] != ' ' && line[6] != '\t')) continue;
+        std::istringstream names(line.substr(7));
+        for (std::string name; names >> name;) {
+            std::error_code error;
+            if (!std::filesystem::is_regular_file(path.parent_path() / name, error))
+                throw Error(path.string(), std::nullopt, "material library '" + name + "' (mtllib) does not exist");
+        }
+    }
+}
+
 } // namespace
 
 std::size_t LoadedModel::triangleCount() const noexcept {
@@ -192,6 +254,8 @@ LoadedModel loadModel(const std::filesystem::path& path) {
                     "unsupported mesh format '" + path.extension().string() + "' (use OBJ, PLY or glTF 2.0)");
 
     if (path.extension() == ".ply" || path.extension() == ".PLY") checkPlyHeader(path);
+    if (hasExtension(path, ".gltf")) checkGltfBuffers(path);
+    if (hasExtension(path, ".obj")) checkObjMaterialLibraries(path);
     // Debian's assimp 5.2.5 PLY importer flags triangle meshes as TRIANGLE|POLYGON; with that,
     // SortByPType crashes (SIGBUS) and Triangulate hits an ai_assert that aborts (no handler can
     // be installed). So: no SortByPType (points and lines are skipped below), and Triangulate

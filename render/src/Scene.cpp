@@ -236,7 +236,7 @@ Scene parseScene(std::string_view text, const std::filesystem::path& baseFolder,
     json root;
     try {
         root = json::parse(text.begin(), text.end());
-    } catch (const json::parse_error& error) {
+    } catch (const json::exception& error) { // parse_error, and out_of_range for a number that overflows
         throw Error(sourceName, std::nullopt, std::string("not valid JSON: ") + error.what());
     }
     const Reader r(sourceName, baseFolder);

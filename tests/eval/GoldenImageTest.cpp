@@ -1,3 +1,4 @@
+#include "ExpectError.h"
 #include "TestPaths.h"
 
 #include <lightskin/core/Error.h>
@@ -5,6 +6,9 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include <fstream>
 
 #include <cmath>
 
@@ -120,6 +124,38 @@ TEST(GoldenImageTest, SixteenBitEncodingRoundTripsWithinQuantisation) {
     const cv::Mat back = eval::readLinearPng16(folder / "g.png", renderer, peak);
     EXPECT_EQ(peak, 2.0);
     EXPECT_LE(cv::norm(back, gradient(), cv::NORM_INF), 2.0 / 65535.0);
+}
+
+// Issue 21 part 5: a golden whose sidecar is missing or malformed, or whose PNG is not 16-bit, is an
+// error naming the file and the cause (never a golden read with a made-up peak).
+TEST(GoldenImageTest, MalformedSidecarOrPngIsAnErrorNamingTheFile) {
+    const auto folder = scratchDir("golden_malformed");
+    const auto png = folder / "g.png", sidecar = folder / "g.json";
+    const auto read = [&] {
+        std::string renderer;
+        double peak = 0.0;
+        (void)eval::readLinearPng16(png, renderer, peak);
+    };
+    eval::writeLinearPng16(png, gradient(), "r", 1.0);
+    std::filesystem::remove(sidecar);
+    expectError(read, {"g.json", std::nullopt, "missing golden sidecar"});
+    const std::pair<const char*, const char*> cases[] = {
+        {R"({"renderer": "r", "linearPeak": )", "malformed sidecar"},
+        {R"({"linearPeak": 1.0})", "malformed sidecar"}, // no renderer
+        {R"({"renderer": "r", "linearPeak": "one"})", "malformed sidecar"},
+        {R"({"renderer": "r", "linearPeak": 1e999})", "number overflow"},
+        {R"({"renderer": "r", "linearPeak": 0})", "linearPeak must be positive"},
+        {R"({"renderer": "r", "linearPeak": -2})", "linearPeak must be positive"},
+    };
+    for (const auto& [text, cause] : cases) {
+        std::ofstream(sidecar, std::ios::trunc) << text;
+        expectError(read, {"g.json", std::nullopt, cause});
+    }
+    std::ofstream(sidecar, std::ios::trunc) << R"({"renderer": "r", "linearPeak": 1.0})";
+    cv::imwrite(png.string(), cv::Mat(3, 4, CV_8UC3, cv::Scalar(1, 2, 3)));
+    expectError(read, {"g.png", std::nullopt, "a golden must be a 16-bit PNG"});
+    std::ofstream(png, std::ios::trunc) << "";
+    expectError(read, {"g.png", std::nullopt, "missing or unreadable PNG"});
 }
 
 } // namespace

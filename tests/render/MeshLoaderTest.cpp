@@ -8,6 +8,7 @@
 #include <glm/geometric.hpp>
 
 #include <cmath>
+#include <fstream>
 
 using lightskin::Error;
 using lightskin::TriangleMesh;
@@ -157,4 +158,46 @@ TEST(MeshLoader, RemoveDegenerateTrianglesOnAHandMadeMesh) {
     EXPECT_EQ(mesh.indices, (std::vector<std::uint32_t>{0, 1, 2}));
     EXPECT_EQ(mesh.positions.size(), 3u);
     EXPECT_NO_THROW(mesh.validate("hand-made"));
+}
+
+// Issue 21 part 5: files a mesh depends on, missing or corrupt. Each names the mesh file and the cause.
+TEST(MeshLoader, MissingMaterialLibraryOrCorruptGltfBufferIsAnError) {
+    const auto dir = lightskin::test::scratchDir("mesh_dependencies");
+    const auto expectCause = [](const std::filesystem::path& path, const std::string& cause) {
+        try {
+            loadModel(path);
+            ADD_FAILURE() << path << ": no error, expected '" << cause << "'";
+        } catch (const Error& error) {
+            EXPECT_EQ(error.source(), path.string());
+            EXPECT_NE(error.cause().find(cause), std::string::npos) << error.what();
+        }
+    };
+    // An OBJ whose mtllib is absent (assimp alone would use a default grey material and log a line).
+    std::ofstream(dir / "no_mtl.obj") << "mtllib absent.mtl\nusemtl red\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    expectCause(dir / "no_mtl.obj", "material library 'absent.mtl' (mtllib) does not exist");
+    // The same OBJ with the library present loads, with the library's colour.
+    std::ofstream(dir / "absent.mtl") << "newmtl red\nKd 0.3 0.6 0.1\n";
+    const auto withMtl = loadModel(dir / "no_mtl.obj");
+    ASSERT_EQ(withMtl.parts.size(), 1u);
+    // Not the default albedo (0.8 grey): the library was read.
+    EXPECT_NEAR(withMtl.parts[0].material.diffuseAlbedo.r, 0.3f, 1e-6f);
+    EXPECT_NEAR(withMtl.parts[0].material.diffuseAlbedo.g, 0.6f, 1e-6f);
+
+    // A glTF triangle whose positions live in tri.bin (3 float vec3 = 36 bytes).
+    const std::string gltf =
+        R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],)"
+        R"("meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],)"
+        R"("buffers":[{"uri":"tri.bin","byteLength":36}],"bufferViews":[{"buffer":0,"byteLength":36}],)"
+        R"("accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}]})";
+    std::ofstream(dir / "tri.gltf") << gltf;
+    expectCause(dir / "tri.gltf", "buffers[0]: buffer file 'tri.bin' does not exist");
+    const float positions[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    std::ofstream(dir / "tri.bin", std::ios::binary).write(reinterpret_cast<const char*>(positions), 28);
+    expectCause(dir / "tri.gltf", "buffers[0]: buffer file 'tri.bin' is 28 bytes, shorter than its byteLength 36");
+    std::ofstream(dir / "tri.bin", std::ios::binary | std::ios::trunc)
+        .write(reinterpret_cast<const char*>(positions), sizeof positions);
+    const auto triangle = loadModel(dir / "tri.gltf");
+    EXPECT_EQ(triangle.triangleCount(), 1u);
+    std::ofstream(dir / "tri.gltf", std::ios::trunc) << gltf.substr(0, gltf.size() / 2);
+    expectCause(dir / "tri.gltf", "malformed glTF JSON");
 }

@@ -97,6 +97,9 @@ TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
         {head + R"("objects": [{"mesh": "box_no_normals.obj", "material": {"specularExponent": "shiny"}}]})",
          "/objects/0/material/specularExponent: expected a number >= 1 (Phong exponent k), got \"shiny\""},
         {head + R"("objects": [{"mesh": "no_such_mesh.obj"}]})", "/objects/0/mesh: mesh file '"},
+        // A missing texture (issue 21 part 5): named with its key before anything is loaded.
+        {head + R"("objects": [{"mesh": "box_no_normals.obj", "material": {"diffuseTexture": "gone.png"}}]})",
+         "/objects/0/material/diffuseTexture: texture '"},
         {head + R"("objects": [{"mesh": "box_no_normals.obj", "materail": {}}]})", "/objects/0/materail: unknown key"},
         {head + R"("objects": [{"mesh": "box_no_normals.obj", "material": {"diffuseAlbedo": [1, 2, 0]}}]})",
          "/objects/0/material/diffuseAlbedo/1: expected a number in [0, 1]"},
@@ -120,6 +123,7 @@ TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
         {R"({"objects": []})", "/version: expected 1"},
         {R"([1, 2])", "/: expected an object"},
         {R"({"version": 1, )", "not valid JSON"},
+        {R"({"version": 1e999})", "not valid JSON"}, // number overflow (a fuzz finding: escaped as a json exception)
     };
     for (const Case& c : cases) {
         const std::string cause = causeOf(c.text);

@@ -15,7 +15,10 @@ DetectorSettings detectorSettingsFromJson(const std::string& jsonObjectText, con
     }
     if (!json.is_object()) throw Error(sourceName, std::nullopt, "detector settings must be a JSON object");
     DetectorSettings settings = defaults;
-    for (const auto& [key, value] : json.items()) {
+    for (const auto& item : json.items()) {
+        // Plain references, not a structured binding: clang 15 (the fuzz build) cannot capture one.
+        const std::string& key = item.key();
+        const nlohmann::json& value = item.value();
         const auto expect = [&](bool ok, const char* what) {
             if (!ok) throw Error(sourceName, std::nullopt, "/" + key + ": expected " + what + ", got " + value.dump());
         };

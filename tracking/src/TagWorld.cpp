@@ -50,7 +50,8 @@ std::vector<double> readArray(const Json& object, const std::string& name, std::
 
 WorldTag readTag(const Json& object, const std::string& key, const std::string& source, bool withPose) {
     if (!object.is_object()) fail(source, key, "must be an object with \"id\" and \"size\", got " + object.dump());
-    for (const auto& [name, value] : object.items()) {
+    for (const auto& item : object.items()) {
+        const std::string& name = item.key(); // not a structured binding: clang 15 cannot capture one
         static const char* known[] = {"id", "size", "position", "orientation"};
         const bool isKnown = std::any_of(std::begin(known), std::end(known), [&](const char* k) { return name == k; });
         if (!isKnown || (!withPose && (name == "position" || name == "orientation")))
@@ -123,7 +124,7 @@ TagWorld TagWorld::fromJson(const std::string& text, const std::string& sourceNa
     Json root;
     try {
         root = Json::parse(text);
-    } catch (const Json::parse_error& error) {
+    } catch (const Json::exception& error) { // parse_error, and out_of_range for a number that overflows
         fail(sourceName, "(json)", std::string("malformed JSON: ") + error.what());
     }
     if (!root.is_object()) fail(sourceName, "(root)", "must be a JSON object with \"tag\" or \"tags\"");

@@ -1,6 +1,6 @@
 #pragma once
 // An INDEPENDENT double-precision implementation of the LightSkin equations (Lensing & Broll,
-// /work/shared/papers/000_*.txt, eq. 3-5, 7, 10-14), written from the paper for the tests. It
+// ../shared/papers/000_*.txt (the LightSkin paper), eq. 3-5, 7, 10-14), written from the paper for the tests. It
 // does not include gi/shaders/lightskin_math.glsl or gi/src/reference (which compile the same
 // source as the shaders, so a formula error there would cancel) and deliberately computes
 // differently where the maths allows it: absolute light positions and two-pass variances instead

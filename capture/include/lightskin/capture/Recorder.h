@@ -27,6 +27,12 @@ struct RecorderStats {
     std::int64_t written = 0; ///< frames complete in the recording
     std::int64_t dropped = 0; ///< queue full or write failed
     std::int64_t queued = 0;  ///< waiting for the writer right now
+    std::int64_t queueHighWater = 0; ///< most frames waiting at once (<= queueCapacity); drops start there
+    /// Write latency of the written frames: push() to the frame complete in the recording (files
+    /// renamed into place, index line appended), milliseconds. From a histogram of 1 ms bins (each
+    /// percentile is the upper edge of its bin; beyond 10 s all land in the last bin); max is exact.
+    /// 0 when nothing was written.
+    double writeLatencyP50Ms = 0.0, writeLatencyP95Ms = 0.0, writeLatencyP99Ms = 0.0, writeLatencyMaxMs = 0.0;
     std::string firstError;   ///< the first write error (empty when none)
 };
 

@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer targets (fuzz/, clang-15 + ASan + UBSan, in build-fuzz/) and runs each for
+# SECONDS (default 60). Usage: scripts/fuzz.sh [SECONDS] [TARGET...]   (targets: fuzz/CMakeLists.txt;
+# default all). Each target starts from a working copy of its committed corpus (build-fuzz/corpus/
+# <target>, seeded from fuzz/corpus/<target>, kept between runs) so that new inputs never land in the
+# repository by themselves; findings go to build-fuzz/findings/<target>/ and fail the script.
+# Prints one line per target with the executions done (libFuzzer's final stats).
+# Installs clang-15 and libfuzzer-15-dev when missing (not in scripts/debian-packages.txt: the normal
+# build and CI replay the corpora with gcc and need neither).
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+build_dir="${LIGHTSKIN_FUZZ_BUILD_DIR:-$root/build-fuzz}"
+seconds="${1:-60}"
+shift || true
+all_targets=(recording_header recording_index tum image_header scene_json mesh tag_world detector_settings
+  golden_sidecar)
+targets=("$@")
+[[ ${#targets[@]} -gt 0 ]] || targets=("${all_targets[@]}")
+
+if ! command -v clang++-15 >/dev/null || ! dpkg-query -W -f='${Status}' libfuzzer-15-dev 2>/dev/null | grep -q "ok installed"; then
+  as_root=()
+  [[ $(id -u) -eq 0 ]] || as_root=(sudo)
+  "${as_root[@]}" apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive "${as_root[@]}" apt-get install -y -qq --no-install-recommends clang-15 libfuzzer-15-dev
+fi
+# Warnings are errors in the gcc build (CI); clang's warning set differs, so not here.
+CC=clang-15 CXX=clang++-15 cmake -S "$root" -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DLIGHTSKIN_FUZZ=ON -DLIGHTSKIN_BUILD_TESTS=OFF -DLIGHTSKIN_BUILD_BENCHMARKS=OFF \
+  -DLIGHTSKIN_WARNINGS_AS_ERRORS=OFF >/dev/null
+cmake --build "$build_dir" --parallel "${LIGHTSKIN_FUZZ_JOBS:-2}" --target "${targets[@]/#/lightskin_fuzz_}"
+
+failed=0
+export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1}"
+export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$root/fuzz/lsan.supp:print_suppressions=0}"
+export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
+for target in "${targets[@]}"; do
+  corpus="$build_dir/corpus/$target"
+  findings="$build_dir/findings/$target"
+  mkdir -p "$corpus" "$findings"
+  cp -n "$root/fuzz/corpus/$target/"* "$corpus/"
+  log="$build_dir/fuzz-$target.log"
+  # -max_len 64 KiB: larger than every seed; -timeout 10 s per input is a hang; -rss_limit_mb 2048
+  # is libFuzzer's default, named here because an input that makes us allocate that much is a finding.
+  started=$(date +%s)
+  if "$build_dir/fuzz/lightskin_fuzz_$target" "$corpus" -max_total_time="$seconds" -max_len=65536 -timeout=10 \
+      -rss_limit_mb=2048 -print_final_stats=1 -artifact_prefix="$findings/" >"$log" 2>&1; then
+    status=ok
+  else
+    status="FINDING (see $log and $findings/)"
+    failed=1
+  fi
+  runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo "?")
+  echo "$target: $runs executions in $(($(date +%s) - started)) s, corpus $(ls "$corpus" | wc -l) inputs: $status"
+done
+exit "$failed"
