@@ -16,22 +16,7 @@
 namespace lightskin::test {
 namespace {
 
-/// Reads every frame of `path`.
-void readAll(const std::filesystem::path& path) {
-    auto source = capture::openFrameSource(path.string());
-    RgbdFrame frame;
-    while (source->next(frame)) {
-    }
-}
 
-/// A finished 3-frame recording of 32x24 frames.
-std::filesystem::path makeRecording(const std::string& name) {
-    const auto folder = scratchDir(name) / "rec";
-    const auto info = smallRecordingInfo();
-    auto writer = capture::RecordingWriter::create(folder, info);
-    for (std::uint32_t i = 0; i < 3; ++i) writer.write(syntheticFrame(info, i));
-    return folder;
-}
 
 void truncateFile(const std::filesystem::path& path, std::uintmax_t keep) { std::filesystem::resize_file(path, keep); }
 

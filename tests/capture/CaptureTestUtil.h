@@ -1,11 +1,16 @@
 #pragma once
 // Helpers shared by the capture tests: deterministic synthetic frames.
+#include <lightskin/capture/FrameSource.h>
 #include <lightskin/capture/Recording.h>
 #include <lightskin/core/RgbdFrame.h>
 
 #include <opencv2/core.hpp>
 
+#include "TestPaths.h"
+
 #include <cstdint>
+#include <filesystem>
+#include <string>
 
 namespace lightskin::test {
 
@@ -39,6 +44,23 @@ inline RgbdFrame syntheticFrame(const capture::RecordingInfo& info, std::uint32_
 
 inline bool identical(const cv::Mat& a, const cv::Mat& b) {
     return a.size() == b.size() && a.type() == b.type() && cv::norm(a, b, cv::NORM_INF) == 0.0;
+}
+
+/// Reads every frame of `path` (the bad-input tests expect it to throw).
+inline void readAll(const std::filesystem::path& path) {
+    auto source = capture::openFrameSource(path.string());
+    RgbdFrame frame;
+    while (source->next(frame)) {
+    }
+}
+
+/// A finished 3-frame recording of 32x24 frames in a scratch folder named `name`.
+inline std::filesystem::path makeRecording(const std::string& name) {
+    const auto folder = scratchDir(name) / "rec";
+    const auto info = smallRecordingInfo();
+    auto writer = capture::RecordingWriter::create(folder, info);
+    for (std::uint32_t i = 0; i < 3; ++i) writer.write(syntheticFrame(info, i));
+    return folder;
 }
 
 } // namespace lightskin::test

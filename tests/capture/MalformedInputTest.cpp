@@ -21,21 +21,7 @@ namespace {
 
 using nlohmann::json;
 
-void readAll(const std::filesystem::path& path) {
-    auto source = capture::openFrameSource(path.string());
-    RgbdFrame frame;
-    while (source->next(frame)) {
-    }
-}
 
-/// A finished 3-frame recording of 32x24 frames.
-std::filesystem::path makeRecording(const std::string& name) {
-    const auto folder = scratchDir(name) / "rec";
-    const auto info = smallRecordingInfo();
-    auto writer = capture::RecordingWriter::create(folder, info);
-    for (std::uint32_t i = 0; i < 3; ++i) writer.write(syntheticFrame(info, i));
-    return folder;
-}
 
 std::vector<std::string> readLines(const std::filesystem::path& path) {
     std::ifstream in(path);
