@@ -1,12 +1,12 @@
 #pragma once
 // Helpers shared by the capture tests: deterministic synthetic frames.
+#include "TestPaths.h"
+
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/capture/Recording.h>
 #include <lightskin/core/RgbdFrame.h>
 
 #include <opencv2/core.hpp>
-
-#include "TestPaths.h"
 
 #include <cstdint>
 #include <filesystem>
