@@ -122,25 +122,11 @@ void runCpuBench(const CpuBenchOptions& options) {
     std::printf("SIMD targets: dispatched %s; available", gi::cpuSimdTarget().c_str());
     for (const std::string& t : gi::cpuSimdTargets()) std::printf(" %s", t.c_str());
     std::printf("\n");
-    std::vector<TriangleMesh> meshes{bench::uvSphere(0.4f, 4 * 64 * 64), bench::grid(2.4f, 64)};
-    std::vector<gi::UploadedMesh> gpu;
-    std::vector<gi::MeshInstance> instances(2);
-    for (std::size_t i = 0; i < 2; ++i) {
-        gpu.push_back(gi::UploadedMesh::create(meshes[i]));
-        instances[i].meshId = std::uint32_t(i);
-        instances[i].mesh = &meshes[i];
-        instances[i].gpu = gpu[i].view();
-    }
-    instances[0].world_T_model = glm::translate(glm::mat4(1.0f), {0.0f, 0.0f, 0.55f});
-    instances[0].material.specularAlbedo = glm::vec3(0.3f);
-    instances[0].material.specularExponent = 30.0f;
-    instances[1].material.diffuseAlbedo = glm::vec3(0.6f);
-    const glm::vec3 eye(1.8f, -2.0f, 1.6f);
-    const glm::mat4 projection =
-        glm::perspective(0.8f, float(options.outputWidth) / float(options.outputHeight), 0.05f, 50.0f);
-    const gi::ViewParameters view{projection * glm::lookAt(eye, glm::vec3(0.0f, 0.0f, 0.4f), glm::vec3(0, 0, 1)), eye};
-    gi::SimpleGBuffer gbuffer = gi::SimpleGBuffer::create(options.outputWidth, options.outputHeight);
-    gbuffer.render(instances, view.clip_T_world);
+    bench::GatherScene scene = bench::gatherScene(options.outputWidth, options.outputHeight);
+    const std::vector<TriangleMesh>& meshes = scene.meshes;
+    const std::vector<gi::MeshInstance>& instances = scene.instances;
+    const gi::ViewParameters& view = scene.view;
+    gi::SimpleGBuffer& gbuffer = scene.gbuffer;
     std::printf("output %dx%d; meshes: sphere %zu + floor %zu vertices\n", options.outputWidth, options.outputHeight,
                 meshes[0].vertexCount(), meshes[1].vertexCount());
     gl::Texture target = gl::Texture::create2D(GL_RGBA32F, options.outputWidth, options.outputHeight);
@@ -150,9 +136,7 @@ void runCpuBench(const CpuBenchOptions& options) {
     if (targets.empty()) targets.push_back("");
 
     for (const std::string& mapName : options.valMaps) {
-        int mapWidth = 0, mapHeight = 0;
-        if (std::sscanf(mapName.c_str(), "%dx%d", &mapWidth, &mapHeight) != 2 || mapWidth <= 0 || mapHeight <= 1)
-            throw Error("--vals", std::nullopt, "expected WIDTHxHEIGHT, got '" + mapName + "'");
+        const auto [mapWidth, mapHeight] = bench::parseValMapSize(mapName);
         const auto vals = bench::valMap(mapWidth, mapHeight);
         const gl::Buffer valBuffer =
             gl::Buffer::create(GLsizeiptr(vals.size() * sizeof(gi::VirtualAreaLight)), vals.data(), 0);

@@ -50,25 +50,11 @@ double minimum(const std::vector<double>& v) { return *std::min_element(v.begin(
 void runBench(const BenchOptions& options) {
     auto context = gl::createHeadlessContext();
     std::printf("renderer: %s\n", context->describe().c_str());
-    std::vector<TriangleMesh> meshes{bench::uvSphere(0.4f, 4 * 64 * 64),
-                                     bench::grid(2.4f, 64)}; // 64 stacks x 128 slices
-    std::vector<gi::UploadedMesh> gpu;
-    std::vector<gi::MeshInstance> instances(2);
-    for (std::size_t i = 0; i < 2; ++i) {
-        gpu.push_back(gi::UploadedMesh::create(meshes[i]));
-        instances[i].meshId = std::uint32_t(i);
-        instances[i].mesh = &meshes[i];
-        instances[i].gpu = gpu[i].view();
-    }
-    instances[0].world_T_model = glm::translate(glm::mat4(1.0f), {0.0f, 0.0f, 0.55f});
-    instances[0].material.specularAlbedo = glm::vec3(0.3f);
-    instances[0].material.specularExponent = 30.0f;
-    instances[1].material.diffuseAlbedo = glm::vec3(0.6f);
-    const glm::vec3 eye(1.8f, -2.0f, 1.6f);
-    const glm::mat4 projection = glm::perspective(0.8f, float(options.outputWidth) / float(options.outputHeight), 0.05f, 50.0f);
-    const gi::ViewParameters view{projection * glm::lookAt(eye, glm::vec3(0.0f, 0.0f, 0.4f), glm::vec3(0, 0, 1)), eye};
-    gi::SimpleGBuffer gbuffer = gi::SimpleGBuffer::create(options.outputWidth, options.outputHeight);
-    gbuffer.render(instances, view.clip_T_world);
+    bench::GatherScene scene = bench::gatherScene(options.outputWidth, options.outputHeight);
+    const std::vector<TriangleMesh>& meshes = scene.meshes;
+    const std::vector<gi::MeshInstance>& instances = scene.instances;
+    const gi::ViewParameters& view = scene.view;
+    gi::SimpleGBuffer& gbuffer = scene.gbuffer;
     std::vector<glm::vec4> positions(std::size_t(options.outputWidth) * std::size_t(options.outputHeight));
     glGetTextureImage(gbuffer.position().id(), 0, GL_RGBA, GL_FLOAT, GLsizei(positions.size() * sizeof(glm::vec4)),
                       positions.data());
@@ -82,9 +68,7 @@ void runBench(const BenchOptions& options) {
     };
 
     for (const std::string& mapName : options.valMaps) {
-        int mapWidth = 0, mapHeight = 0;
-        if (std::sscanf(mapName.c_str(), "%dx%d", &mapWidth, &mapHeight) != 2 || mapWidth <= 0 || mapHeight <= 1)
-            throw Error("--vals", std::nullopt, "expected WIDTHxHEIGHT, got '" + mapName + "'");
+        const auto [mapWidth, mapHeight] = bench::parseValMapSize(mapName);
         const auto vals = bench::valMap(mapWidth, mapHeight);
         const gl::Buffer valBuffer = gl::Buffer::create(GLsizeiptr(vals.size() * sizeof(gi::VirtualAreaLight)), vals.data(), 0);
         const gi::ValSetView valSet{valBuffer.id(), std::uint32_t(vals.size())};

@@ -9,6 +9,7 @@
 #include <glm/geometric.hpp>
 
 #include <algorithm>
+#include <cstdio>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -256,6 +257,35 @@ std::vector<gi::VirtualAreaLight> valMap(int width, int height) {
             vals.push_back(l);
         }
     return vals;
+}
+
+std::pair<int, int> parseValMapSize(const std::string& text) {
+    int width = 0, height = 0;
+    if (std::sscanf(text.c_str(), "%dx%d", &width, &height) != 2 || width <= 0 || height <= 1)
+        throw Error("--vals", std::nullopt, "expected WIDTHxHEIGHT, got '" + text + "'");
+    return {width, height};
+}
+
+GatherScene gatherScene(int width, int height) {
+    std::vector<TriangleMesh> meshes{uvSphere(0.4f, 4 * 64 * 64), grid(2.4f, 64)}; // 64 stacks x 128 slices
+    std::vector<gi::UploadedMesh> gpu;
+    std::vector<gi::MeshInstance> instances(2);
+    for (std::size_t i = 0; i < 2; ++i) {
+        gpu.push_back(gi::UploadedMesh::create(meshes[i]));
+        instances[i].meshId = std::uint32_t(i);
+        instances[i].mesh = &meshes[i];
+        instances[i].gpu = gpu[i].view();
+    }
+    instances[0].world_T_model = glm::translate(glm::mat4(1.0f), {0.0f, 0.0f, 0.55f});
+    instances[0].material.specularAlbedo = glm::vec3(0.3f);
+    instances[0].material.specularExponent = 30.0f;
+    instances[1].material.diffuseAlbedo = glm::vec3(0.6f);
+    const glm::vec3 eye(1.8f, -2.0f, 1.6f);
+    const glm::mat4 projection = glm::perspective(0.8f, float(width) / float(height), 0.05f, 50.0f);
+    const gi::ViewParameters view{projection * glm::lookAt(eye, glm::vec3(0.0f, 0.0f, 0.4f), glm::vec3(0, 0, 1)), eye};
+    gi::SimpleGBuffer gbuffer = gi::SimpleGBuffer::create(width, height);
+    gbuffer.render(instances, view.clip_T_world);
+    return {std::move(meshes), std::move(gpu), std::move(instances), view, std::move(gbuffer)};
 }
 
 } // namespace lightskin::apps::bench

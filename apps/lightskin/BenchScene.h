@@ -12,6 +12,8 @@
 #include <lightskin/core/Material.h>
 #include <lightskin/core/Pose.h>
 #include <lightskin/core/TriangleMesh.h>
+#include <lightskin/gi/IndirectIllumination.h>
+#include <lightskin/gi/SimpleGBuffer.h>
 #include <lightskin/gi/VirtualAreaLight.h>
 
 #include <glm/mat4x4.hpp>
@@ -21,6 +23,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace lightskin::apps::bench {
@@ -79,5 +82,19 @@ TriangleMesh grid(float size, int cells);
 /// A width x height VAL map like a depth camera's: half on a wall (x = -1.2, facing +x), half on
 /// the ceiling (z = 1.8, facing down), radiance 0.5 x a smooth colour pattern.
 std::vector<gi::VirtualAreaLight> valMap(int width, int height);
+/// A --vals entry "WIDTHxHEIGHT" (width > 0, height > 1); throws lightskin::Error naming --vals otherwise.
+std::pair<int, int> parseValMapSize(const std::string& text);
+
+/// The gather benchmarks' scene: a glossy sphere (0.4 m, ~16k triangles) 0.55 m above a 2.4 m
+/// floor of 64 x 64 cells, seen from (1.8, -2.0, 1.6), with its G-buffer rendered at width x
+/// height. Needs a current GL context; `instances` point into `meshes` (kept valid by moves).
+struct GatherScene {
+    std::vector<TriangleMesh> meshes;
+    std::vector<gi::UploadedMesh> gpu;
+    std::vector<gi::MeshInstance> instances;
+    gi::ViewParameters view;
+    gi::SimpleGBuffer gbuffer;
+};
+GatherScene gatherScene(int width, int height);
 
 } // namespace lightskin::apps::bench
