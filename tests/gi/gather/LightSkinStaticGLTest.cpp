@@ -9,7 +9,10 @@
 //
 // "Equal to a fresh technique" is bit for bit: the adaptive cull keeps the VALs' input order
 // (gather_cull.glsl), so two full computations sum in the same order. Reuse itself is checked bit
-// for bit against the full computation it reuses.
+// for bit against the full computation it reuses. Every comparison of two runs also requires the
+// image to carry the light (expectCarriesTheLight: >= half of the double brute force), since two
+// all-zero images are equal bit for bit too.
+#include "CarriesTheLight.h"
 #include "GatherTestScenes.h"
 #include "GlTestEnvironment.h"
 #include "GpuRig.h"
@@ -51,7 +54,8 @@ Frame render(Rig& rig, gi::LightSkinIllumination& technique, const gi::ValSetVie
     technique.render(vals, rig.instances, rig.gbuffer.view(), view, rig.output.id());
     Frame f;
     f.image.resize(std::size_t(rig.width) * std::size_t(rig.height));
-    glGetTextureImage(rig.output.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(f.image.size() * sizeof(glm::vec4)), f.image.data());
+    glGetTextureImage(rig.output.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(f.image.size() * sizeof(glm::vec4)),
+                      f.image.data());
     technique.readGatherSums(f.gather);
     technique.readVertexVpls(f.vertex);
     technique.lastStageTimes(f.times);
@@ -81,9 +85,9 @@ void expectFreshPairReuses(RunPair runPair) {
 }
 
 bool bitIdentical(const std::vector<glm::vec4>& a, const std::vector<glm::vec4>& b) {
-    return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](const glm::vec4& x, const glm::vec4& y) {
-               return std::memcmp(&x, &y, sizeof x) == 0;
-           });
+    return a.size() == b.size() &&
+           std::equal(a.begin(), a.end(), b.begin(),
+                      [](const glm::vec4& x, const glm::vec4& y) { return std::memcmp(&x, &y, sizeof x) == 0; });
 }
 
 /// The gather test scene: a glossy sphere over a glossy floor (two objects, so the adaptive mode
@@ -133,6 +137,7 @@ TEST_F(LightSkinStaticGLTest, IdenticalInputsSkipTheStagesAndGiveTheSameImageBit
     const Frame full = render(rig, *technique, set);
     EXPECT_FALSE(full.choice.reused);
     ASSERT_TRUE(full.choice.glossy && full.choice.occlusion);
+    expectCarriesTheLight(rig, full.image, vals, true, "full computation");
     const Frame reused = render(rig, *technique, set);
     EXPECT_TRUE(reused.choice.reused) << reused.choice.reason;
     EXPECT_NE(reused.choice.reason.find("reused"), std::string::npos);
@@ -172,6 +177,7 @@ TEST_F(LightSkinStaticGLTest, ChangedValsMovedInstanceOrMovedGlossyCameraRecompu
         const Frame reference = render(rig, *fresh, set);
         EXPECT_TRUE(bitIdentical(frame.image, reference.image)) << what;
         EXPECT_TRUE(bitIdentical(frame.vertex, reference.vertex)) << what;
+        expectCarriesTheLight(rig, frame.image, vals, true, what);
         EXPECT_TRUE(render(rig, *technique, set).choice.reused) << what << ": the next identical frame reuses";
     };
 
@@ -207,6 +213,7 @@ TEST_F(LightSkinStaticGLTest, MovedCameraWithoutGlossyReusesTheViewIndependentVp
     const Frame reference = render(rig, *fresh, set);
     EXPECT_TRUE(bitIdentical(moved.vertex, reference.vertex));
     EXPECT_TRUE(bitIdentical(moved.image, reference.image));
+    expectCarriesTheLight(rig, moved.image, vals, false, "moved camera, diffuse");
 }
 
 TEST_F(LightSkinStaticGLTest, EmptyValSetIsZeroAndReusedUntilLightArrives) {
@@ -223,9 +230,7 @@ TEST_F(LightSkinStaticGLTest, EmptyValSetIsZeroAndReusedUntilLightArrives) {
         for (const glm::vec4& p : f->image) ASSERT_EQ(p, glm::vec4(0.0f));
     const Frame lit = render(rig, *technique, {buffer.id(), std::uint32_t(vals.size()), 3});
     EXPECT_FALSE(lit.choice.reused);
-    double sum = 0.0;
-    for (const glm::vec4& p : lit.image) sum += double(p.x);
-    EXPECT_GT(sum, 0.0);
+    expectCarriesTheLight(rig, lit.image, vals, true, "light after an empty set");
     const Frame dark = render(rig, *technique, empty);
     EXPECT_FALSE(dark.choice.reused);
     for (const glm::vec4& p : dark.image) ASSERT_EQ(p, glm::vec4(0.0f));
@@ -268,7 +273,8 @@ TEST_F(LightSkinStaticGLTest, ToleranceModeStaysWithinItsBound) {
     for (std::uint32_t i = 0; i < keys.size(); ++i) keys[i] = std::uint32_t(keys.size()) - 1 - i; // any stable naming
     const gl::Buffer keyBuffer = gl::Buffer::create(GLsizeiptr(keys.size() * sizeof(std::uint32_t)), keys.data(), 0);
     const auto keyed = [&](const gl::Buffer& b, std::uint64_t generation) {
-        return gi::ValSetView{b.id(), std::uint32_t(base.size()), generation, keyBuffer.id(), std::uint32_t(base.size())};
+        return gi::ValSetView{b.id(), std::uint32_t(base.size()), generation, keyBuffer.id(),
+                              std::uint32_t(base.size())};
     };
     const float tolerance = 0.1f;
     gi::LightSkinSettings settings = adaptive();
@@ -304,10 +310,12 @@ TEST_F(LightSkinStaticGLTest, ToleranceModeStaysWithinItsBound) {
             worst = std::max(worst, double(std::abs(reused.gather[i][c] - reference.gather[i][c])));
         }
     ASSERT_GT(largest, 0.0);
+    expectCarriesTheLight(rig, reused.image, jittered(base, 1e-3f, 0.01f, 2), false, "reused within the tolerance");
     EXPECT_LE(worst / largest, double(reused.choice.staticChangeBound) + 1e-5);
     EXPECT_GT(worst / largest, 0.0) << "the noise must change the gather";
     std::printf("tolerance mode: bound %.4f, measured L'_d change %.5f, image change %.5f (relative to the maximum)\n",
-                double(reused.choice.staticChangeBound), worst / largest, relativeDifference(reused.image, reference.image));
+                double(reused.choice.staticChangeBound), worst / largest,
+                relativeDifference(reused.image, reference.image));
 
     // larger noise (2 cm) exceeds the tolerance: recomputed, and equal to a fresh computation
     const gl::Buffer noisy = upload(jittered(base, 2e-2f, 0.2f, 3));
@@ -362,12 +370,14 @@ TEST_F(LightSkinStaticGLTest, ProbeModeHoldsTheToleranceAtTheProbesWithoutKeys) 
             if (point % std::size_t(stride) == 0) atProbes = std::max(atProbes, diff);
         }
     ASSERT_GT(largest, 0.0);
+    expectCarriesTheLight(rig, reused.image, jittered(base, 1e-3f, 0.01f, 2), false, "reused at the probes");
     EXPECT_GT(atProbes, 0.0);
     // 1e-5: float summation order of two gathers of ~2300 positive terms
     EXPECT_NEAR(atProbes / largest, double(reused.choice.staticChangeBound), 1e-5);
     EXPECT_LE(atProbes / largest, double(tolerance) + 1e-5);
-    std::printf("probe mode: change at the probes %.5f, at all sparse points %.5f, image %.5f (relative to the maximum)\n",
-                atProbes / largest, everywhere / largest, relativeDifference(reused.image, reference.image));
+    std::printf(
+        "probe mode: change at the probes %.5f, at all sparse points %.5f, image %.5f (relative to the maximum)\n",
+        atProbes / largest, everywhere / largest, relativeDifference(reused.image, reference.image));
 
     // independent noise cancels (2 cm / 20 % noise moves L'_d by ~0.3 %); a light turned up by
     // 5 % does not: recomputed, equal to a fresh computation
@@ -393,14 +403,16 @@ TEST_F(LightSkinStaticGLTest, ChangeBoundHoldsForRandomSingleValChanges) {
     Material diffuse;
     rig.add(makeSphere(0.3f, 12, 24), glm::mat4(1.0f), diffuse, 200);
     rig.upload();
-    std::vector<gi::VirtualAreaLight> base = randomVals(12, {-0.9f, -0.9f, -0.9f}, {0.9f, 0.9f, 0.9f}, {0, 0, 0}, 0.01f, 5);
+    std::vector<gi::VirtualAreaLight> base =
+        randomVals(12, {-0.9f, -0.9f, -0.9f}, {0.9f, 0.9f, 0.9f}, {0, 0, 0}, 0.01f, 5);
     for (auto& v : base) // keep the VALs outside the sphere
         if (glm::length(v.position) < 0.5f) v.position *= 0.5f / glm::length(v.position);
     std::vector<std::uint32_t> keys(base.size());
     for (std::uint32_t i = 0; i < keys.size(); ++i) keys[i] = i;
     const gl::Buffer keyBuffer = gl::Buffer::create(GLsizeiptr(keys.size() * sizeof(std::uint32_t)), keys.data(), 0);
     const auto keyed = [&](const gl::Buffer& b, std::uint64_t generation) {
-        return gi::ValSetView{b.id(), std::uint32_t(base.size()), generation, keyBuffer.id(), std::uint32_t(base.size())};
+        return gi::ValSetView{b.id(), std::uint32_t(base.size()), generation, keyBuffer.id(),
+                              std::uint32_t(base.size())};
     };
     const gl::Buffer baseBuffer = upload(base);
     auto baseTechnique = rig.technique(adaptive());
@@ -417,7 +429,8 @@ TEST_F(LightSkinStaticGLTest, ChangeBoundHoldsForRandomSingleValChanges) {
         auto changed = base;
         gi::VirtualAreaLight& v = changed[std::size_t(trial) % changed.size()];
         v.position += 0.05f * glm::vec3(unit(random), unit(random), unit(random)) / std::sqrt(3.0f);
-        v.normal = glm::normalize(v.normal + 0.3f * glm::vec3(unit(random), unit(random), unit(random)) / std::sqrt(3.0f));
+        v.normal =
+            glm::normalize(v.normal + 0.3f * glm::vec3(unit(random), unit(random), unit(random)) / std::sqrt(3.0f));
         v.area *= 1.0f + 0.3f * unit(random);
         v.flux *= 1.0f + 0.3f * unit(random);
         const gl::Buffer buffer = upload(changed);
@@ -431,7 +444,8 @@ TEST_F(LightSkinStaticGLTest, ChangeBoundHoldsForRandomSingleValChanges) {
         const Frame truth = render(rig, *fresh, keyed(buffer, 2));
         double worst = 0.0;
         for (std::size_t i = 0; i < truth.gather.size(); i += 5)
-            for (int c = 0; c < 3; ++c) worst = std::max(worst, double(std::abs(truth.gather[i][c] - reference.gather[i][c])));
+            for (int c = 0; c < 3; ++c)
+                worst = std::max(worst, double(std::abs(truth.gather[i][c] - reference.gather[i][c])));
         const double bound = double(check.choice.staticChangeBound);
         EXPECT_LE(worst / largest, bound * (1.0 + 1e-3) + 1e-5) << "trial " << trial;
         if (worst > 1e-3 * largest) tightest = std::min(tightest, bound / (worst / largest));
@@ -477,7 +491,8 @@ TEST_F(LightSkinStaticGLTest, ValGeneratorKeepsTheGenerationForIdenticalInput) {
     settings.exposure = 2.0f;
     generator.setSettings(settings);
     const std::uint64_t before = generator.lastSet().generation;
-    EXPECT_GT(generator.generate(depth, 1.0, colour, K, Pose(glm::dquat(1, 0, 0, 0), {0.0, 0.0, 0.01})).generation, before);
+    EXPECT_GT(generator.generate(depth, 1.0, colour, K, Pose(glm::dquat(1, 0, 0, 0), {0.0, 0.0, 0.01})).generation,
+              before);
 
     // off (the default): every call runs the pass
     settings.skipUnchangedInput = false;
