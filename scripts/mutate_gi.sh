@@ -7,6 +7,8 @@
 # (GPU against PaperReference) and gi_truth_gl_test (GPU against the Embree ray tracer).
 #
 #   scripts/mutate_gi.sh
+#   MUTATE_ONLY=7,8,10 MUTATE_TESTS=gi_truth_gl_test scripts/mutate_gi.sh   # a subset (numbers as
+#                       in the table; a subset run cannot prove that every mutation is caught)
 #
 # Works on a scratch copy of the source tree, build-mutate/src/ (build dir build-mutate/src/build,
 # RelWithDebInfo; the checkout itself is never edited), so the rest of the checkout can be built
@@ -40,6 +42,8 @@ for folder, dirs, files in os.walk(src):
 EOF_SYNC
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
 tests=(gi_paper_reference_test gi_gather_reference_test gi_gather_gl_test gi_truth_gl_test)
+if [[ -n "${MUTATE_TESTS:-}" ]]; then read -r -a tests <<<"$MUTATE_TESTS"; fi
+only=",${MUTATE_ONLY:-},"
 declare -A binary=(
   [gi_paper_reference_test]=tests/gi/gather/gi_paper_reference_test
   [gi_gather_reference_test]=tests/gi/gather/gi_gather_reference_test
@@ -135,6 +139,7 @@ survivors=0
 i=0
 for m in "${mutations[@]}"; do
   i=$((i + 1))
+  if [[ -n "${MUTATE_ONLY:-}" && "$only" != *",$i,"* ]]; then continue; fi
   IFS='|' read -r name equation file old new <<<"$m"
   key="$scratch/$i"
   cp "$root/$file" "$key.orig"
