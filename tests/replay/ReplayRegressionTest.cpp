@@ -52,7 +52,8 @@ namespace {
 /// Runs `lightskin replay <arguments>`; stdout/stderr go to files in `scratch` (printed on failure).
 int runLightskin(const std::string& arguments, const fs::path& scratch, const std::string& tag) {
     const std::string command = std::string(LIGHTSKIN_PROGRAM) + " replay " + arguments + " > " +
-                                (scratch / (tag + ".stdout.txt")).string() + " 2> " + (scratch / (tag + ".stderr.txt")).string();
+                                (scratch / (tag + ".stdout.txt")).string() + " 2> " +
+                                (scratch / (tag + ".stderr.txt")).string();
     return test::runShell(command);
 }
 
@@ -155,8 +156,10 @@ std::string frameFile(std::int64_t index) {
 /// virtual pixels show a normal as a colour in one and shaded radiance in the other. Eroded by one
 /// pixel so that the blended silhouette (soft occlusion band) does not count.
 cv::Mat virtualMask(const fs::path& finalPng, const fs::path& normalsPng) {
-    const cv::Mat a = cv::imread(finalPng.string(), cv::IMREAD_COLOR), b = cv::imread(normalsPng.string(), cv::IMREAD_COLOR);
-    if (a.empty() || b.empty() || a.size() != b.size()) throw std::runtime_error("cannot read " + finalPng.string() + " / " + normalsPng.string());
+    const cv::Mat a = cv::imread(finalPng.string(), cv::IMREAD_COLOR),
+                  b = cv::imread(normalsPng.string(), cv::IMREAD_COLOR);
+    if (a.empty() || b.empty() || a.size() != b.size())
+        throw std::runtime_error("cannot read " + finalPng.string() + " / " + normalsPng.string());
     cv::Mat diff, channels[3], mask;
     cv::absdiff(a, b, diff);
     cv::split(diff, channels);
@@ -173,7 +176,8 @@ constexpr int kMaskMarginPx = 4;
 /// `linear` inside `roi`, zero farther than kMaskMarginPx from the virtual content.
 cv::Mat keepAround(const cv::Mat& linear, const cv::Mat& mask, const cv::Rect& roi) {
     cv::Mat around;
-    cv::dilate(mask, around, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * kMaskMarginPx + 1, 2 * kMaskMarginPx + 1)));
+    cv::dilate(mask, around,
+               cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * kMaskMarginPx + 1, 2 * kMaskMarginPx + 1)));
     cv::Mat out = cv::Mat::zeros(roi.size(), linear.type());
     linear(roi).copyTo(out, around(roi));
     return out;
@@ -208,23 +212,46 @@ cv::Mat scaleIndirect(const cv::Mat& withGi, const cv::Mat& withoutGi, double fa
 /// uniform 10 % change either way, and GI switched off (thresholds and why: above cases()).
 constexpr double kIndirectScalesThatMustFail[] = {0.9, 1.1, 0.0};
 
+/// `scene` copied to `out` with LightSkin's occlusion channel off and its file references (meshes,
+/// the tag world) made absolute, so that the copy works from the scratch folder.
+void writeSceneWithoutOcclusion(const fs::path& scene, const fs::path& out) {
+    nlohmann::json j = nlohmann::json::parse(test::readText(scene));
+    const fs::path folder = scene.parent_path();
+    for (auto& object : j["objects"])
+        if (object.contains("mesh"))
+            object["mesh"] = (folder / object["mesh"].get<std::string>()).lexically_normal().string();
+    if (j.contains("tracking") && j["tracking"].contains("file"))
+        j["tracking"]["file"] = (folder / j["tracking"]["file"].get<std::string>()).lexically_normal().string();
+    j["gi"]["occlusion"] = false;
+    std::ofstream(out) << j.dump(2);
+}
+
+/// Largest mean relative error |LightSkin - brute force| / brute force (luminance, summed over the
+/// virtual content; replay's `--view error`) that a working GI may show. Derived from what must be
+/// caught, like the golden limit: a GI that silently does nothing reads exactly 1 (|0 - b| / b),
+/// one that delivers half of its light 0.5, and the limit is half of what "nothing" reads. What a
+/// working LightSkin may differ from the brute force on the same VALs (occlusion off on both sides,
+/// so only the sparse gather and the eq. 12-13 interpolation differ) has no tight bound on these
+/// scenes: the objects rest on real surfaces, where the smoothing model of gi_truth_gl_test
+/// diverges (l -> 0 at contact), and the cube is glossy (k = 30); the near-contact test's derived
+/// budget (tests/gi/gather/NearContactGLTest.cpp: 20 % of the truth in total for LightSkin, 12 % for
+/// the brute force) puts a working technique well inside 0.5.
+constexpr double kMaxRelativeErrorVsBruteForce = 0.5;
+
 enum class Truth { None, RecordingIndex, TumGroundTruth };
 
 struct ReplayCase {
     std::string name;
-    fs::path recording;    ///< relative to the source dir
-    fs::path scene;        ///< relative to the source dir
-    std::string pose;      ///< --pose
+    fs::path recording; ///< relative to the source dir
+    fs::path scene;     ///< relative to the source dir
+    std::string pose;   ///< --pose
     std::int64_t maxFrames = -1;
     std::vector<std::int64_t> goldenFrames; ///< composite frames compared with goldens
     std::int64_t indirectFrame = 0;         ///< the frame whose indirect-light view is compared
     std::int64_t recordedFrames = 0;        ///< counted independently of the reader (see each case)
     Truth truth = Truth::None;
-    bool valsExpected = true;               ///< depth registered to colour: VALs and GI exist
+    bool valsExpected = true; ///< depth registered to colour: VALs and GI exist
     eval::GoldenThresholds composite, indirect;
-    /// Linear mean luminance of the indirect view over the virtual content must exceed this: 0.01 is
-    /// 1/6 of the smallest measured (0.057, tum-fr2-desk; the others 0.088-0.158), black is 0.
-    double minIndirectMean = 0.0;
     std::size_t minVirtualPixels = 0;
     /// Compared region: the bounding box of the virtual content in the chosen frames (dilated 8 px),
     /// measured when the goldens were made, rounded out by a few pixels.
@@ -237,7 +264,8 @@ class ReplayRegression : public ::testing::TestWithParam<ReplayCase> {};
 
 TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
     const ReplayCase& c = GetParam();
-    const fs::path root = sourceDir(), scratch = scratchDir("replay_" + c.name), goldens = root / "tests" / "replay" / "goldens";
+    const fs::path root = sourceDir(), scratch = scratchDir("replay_" + c.name),
+                   goldens = root / "tests" / "replay" / "goldens";
     std::string frameList;
     for (const std::int64_t f : c.goldenFrames) frameList += (frameList.empty() ? "" : ",") + std::to_string(f);
     if (std::find(c.goldenFrames.begin(), c.goldenFrames.end(), c.indirectFrame) == c.goldenFrames.end())
@@ -251,8 +279,24 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
     // Three runs over the same frames: the final composite (with the without-GI comparison), the
     // indirect light alone, and the normals (for the virtual-content mask).
     for (const char* view : {"final", "indirect", "normals"}) {
-        const std::string args = common + " --view " + view + " --out " + (scratch / view).string() + (std::string(view) == "final" ? "" : " --no-compare");
-        ASSERT_EQ(runLightskin(args, scratch, view), 0) << "lightskin replay " << args << "\n" << test::readText(scratch / (std::string(view) + ".stderr.txt"));
+        const std::string args = common + " --view " + view + " --out " + (scratch / view).string() +
+                                 (std::string(view) == "final" ? "" : " --no-compare");
+        ASSERT_EQ(runLightskin(args, scratch, view), 0)
+            << "lightskin replay " << args << "\n"
+            << test::readText(scratch / (std::string(view) + ".stderr.txt"));
+    }
+    // A fourth run against an independent estimate of the indirect light: the brute force (every VAL
+    // at every pixel, no sparse points, no interpolation) on the same VALs and frame, replay's error
+    // view, with occlusion off (the brute force has none), up to the indirect frame.
+    if (c.valsExpected) {
+        writeSceneWithoutOcclusion(root / c.scene, scratch / "scene-without-occlusion.json");
+        const std::string args = (root / c.recording).string() + " --scene " +
+                                 (scratch / "scene-without-occlusion.json").string() + " --pose " + c.pose +
+                                 " --no-video --no-compare --differential off --view error --frames " +
+                                 std::to_string(c.indirectFrame) + " --max-frames " +
+                                 std::to_string(c.indirectFrame + 1) + " --out " + (scratch / "error").string();
+        ASSERT_EQ(runLightskin(args, scratch, "error"), 0) << "lightskin replay " << args << "\n"
+                                                           << test::readText(scratch / "error.stderr.txt");
     }
     const nlohmann::json report = nlohmann::json::parse(test::readText(scratch / "final" / "report.json"));
     const std::string renderer = report["renderer"].get<std::string>();
@@ -281,7 +325,8 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
         for (std::size_t k = 0; k < 3; ++k) EXPECT_TRUE(f["world_T_camera"]["translation"][k].is_number()) << f.dump();
         for (std::size_t k = 0; k < 4; ++k) EXPECT_TRUE(f["world_T_camera"]["rotationXYZW"][k].is_number()) << f.dump();
         for (const char* group : {"cpuMs", "gpuMs"})
-            for (const auto& [stage, ms] : f[group].items()) EXPECT_TRUE(ms.is_number() && ms.get<double>() >= 0.0) << stage << " " << f.dump();
+            for (const auto& [stage, ms] : f[group].items())
+                EXPECT_TRUE(ms.is_number() && ms.get<double>() >= 0.0) << stage << " " << f.dump();
         if (c.valsExpected) {
             EXPECT_GT(f["vals"].get<int>(), 100) << f.dump();
         } else {
@@ -304,7 +349,8 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
     // Composite frames against goldens, linear, around the virtual content.
     for (const std::int64_t index : c.goldenFrames) {
         SCOPED_TRACE("frame " + std::to_string(index));
-        const cv::Mat mask = virtualMask(scratch / "final" / "frames" / frameFile(index), scratch / "normals" / "frames" / frameFile(index));
+        const cv::Mat mask = virtualMask(scratch / "final" / "frames" / frameFile(index),
+                                         scratch / "normals" / "frames" / frameFile(index));
         EXPECT_GE(std::size_t(cv::countNonZero(mask)), c.minVirtualPixels) << "too little virtual content visible";
         const cv::Mat linear = readLinear(scratch / "final" / "frames" / frameFile(index));
         // The virtual content must lie inside the compared region (else the region is stale).
@@ -342,12 +388,15 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
     {
         const std::int64_t index = c.indirectFrame;
         SCOPED_TRACE("indirect, frame " + std::to_string(index));
-        const cv::Mat mask = virtualMask(scratch / "final" / "frames" / frameFile(index), scratch / "normals" / "frames" / frameFile(index));
-        const cv::Mat srgb = cv::imread((scratch / "indirect" / "frames" / frameFile(index)).string(), cv::IMREAD_COLOR);
+        const cv::Mat mask = virtualMask(scratch / "final" / "frames" / frameFile(index),
+                                         scratch / "normals" / "frames" / frameFile(index));
+        const cv::Mat srgb =
+            cv::imread((scratch / "indirect" / "frames" / frameFile(index)).string(), cv::IMREAD_COLOR);
         ASSERT_FALSE(srgb.empty());
         const cv::Mat linear = readLinear(scratch / "indirect" / "frames" / frameFile(index));
         // NaN/inf in the indirect view's linear image (the PNG cannot show them): counted by replay.
-        const nlohmann::json indirectReport = nlohmann::json::parse(test::readText(scratch / "indirect" / "report.json"));
+        const nlohmann::json indirectReport =
+            nlohmann::json::parse(test::readText(scratch / "indirect" / "report.json"));
         EXPECT_EQ(indirectReport["linearNanPixels"].get<std::int64_t>(), 0);
         EXPECT_EQ(indirectReport["linearInfPixels"].get<std::int64_t>(), 0);
         cv::Mat grey;
@@ -358,7 +407,20 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
         saturated = (cv::max(cv::max(channels[0], channels[1]), channels[2]) >= 254) & mask;
         const double saturatedFraction = double(cv::countNonZero(saturated)) / std::max(1, cv::countNonZero(mask));
         if (c.valsExpected) {
-            EXPECT_GT(mean, c.minIndirectMean) << "indirect light is (nearly) black on the virtual content";
+            // Not black (any lit VAL in front of the content gives it light), and quantitatively
+            // against the brute force on the same VALs (derivation at kMaxRelativeErrorVsBruteForce):
+            EXPECT_GT(mean, 0.0) << "indirect light is black on the virtual content";
+            const nlohmann::json errorReport = nlohmann::json::parse(test::readText(scratch / "error" / "report.json"));
+            ASSERT_GT(std::int64_t(errorReport["frames"].size()), index);
+            const auto& errorFrame = errorReport["frames"][std::size_t(index)];
+            ASSERT_TRUE(errorFrame.contains("meanRelativeErrorVsBruteForce")) << errorFrame.dump();
+            const double errorVsBrute = errorFrame["meanRelativeErrorVsBruteForce"].get<double>();
+            // replay reports 0 when the brute force itself is black: no agreement to count on
+            EXPECT_GT(errorVsBrute, 0.0) << "the brute force is black too, or equal to LightSkin bit for bit";
+            EXPECT_LT(errorVsBrute, kMaxRelativeErrorVsBruteForce)
+                << "LightSkin's indirect light against the brute force's";
+            std::printf("%s: |LightSkin - brute force| / brute force (occlusion off) %.4f (limit %.2f)\n",
+                        c.name.c_str(), errorVsBrute, kMaxRelativeErrorVsBruteForce);
             // Clipped pixels would mean the indirect light (or the exposure) blew up. Measured:
             // 0 on all recordings except icl-nuim (0.5%: the bunny's edge facing the sunlit window).
             EXPECT_LT(saturatedFraction, 0.01) << "indirect light saturated on the virtual content";
@@ -424,26 +486,74 @@ std::vector<ReplayCase> cases() {
     // Synthetic recordings with their exact ground-truth poses (tracking is checked separately
     // below: goldens of a tracked run would change with every tracker change, measuring the
     // tracker rather than the rendering).
-    add({.name = "synth_orbit", .recording = "recordings/synth-orbit", .scene = "recordings/scenes/orbit.json", .pose = "ground-truth",
-         .maxFrames = 3, .goldenFrames = {0, 2}, .indirectFrame = 2, .recordedFrames = orbitFrames, .truth = Truth::RecordingIndex,
-         .composite = kComposite, .indirect = kIndirect, .minIndirectMean = 0.01, .minVirtualPixels = 300, .roi = cv::Rect{100, 94, 164, 72}});
-    add({.name = "synth_pan", .recording = "recordings/synth-pan", .scene = "recordings/scenes/pan.json", .pose = "ground-truth",
-         .maxFrames = 2, .goldenFrames = {1}, .indirectFrame = 1, .recordedFrames = panFrames, .truth = Truth::RecordingIndex,
-         .composite = kComposite, .indirect = kIndirect, .minIndirectMean = 0.01, .minVirtualPixels = 300, .roi = cv::Rect{48, 52, 196, 98}});
+    add({.name = "synth_orbit",
+         .recording = "recordings/synth-orbit",
+         .scene = "recordings/scenes/orbit.json",
+         .pose = "ground-truth",
+         .maxFrames = 3,
+         .goldenFrames = {0, 2},
+         .indirectFrame = 2,
+         .recordedFrames = orbitFrames,
+         .truth = Truth::RecordingIndex,
+         .composite = kComposite,
+         .indirect = kIndirect,
+         .minVirtualPixels = 300,
+         .roi = cv::Rect{100, 94, 164, 72}});
+    add({.name = "synth_pan",
+         .recording = "recordings/synth-pan",
+         .scene = "recordings/scenes/pan.json",
+         .pose = "ground-truth",
+         .maxFrames = 2,
+         .goldenFrames = {1},
+         .indirectFrame = 1,
+         .recordedFrames = panFrames,
+         .truth = Truth::RecordingIndex,
+         .composite = kComposite,
+         .indirect = kIndirect,
+         .minVirtualPixels = 300,
+         .roi = cv::Rect{48, 52, 196, 98}});
     // All 4 frames: the full-length check of "frames replayed == frames recorded".
-    add({.name = "synth_clean_channels", .recording = "recordings/synth-clean-channels", .scene = "recordings/scenes/clean_channels.json",
-         .pose = "ground-truth", .maxFrames = -1, .goldenFrames = {3}, .indirectFrame = 3, .recordedFrames = cleanFrames,
-         .truth = Truth::RecordingIndex, .composite = kComposite, .indirect = kIndirect, .minIndirectMean = 0.01, .minVirtualPixels = 60, .roi = cv::Rect{24, 42, 104, 40}});
+    add({.name = "synth_clean_channels",
+         .recording = "recordings/synth-clean-channels",
+         .scene = "recordings/scenes/clean_channels.json",
+         .pose = "ground-truth",
+         .maxFrames = -1,
+         .goldenFrames = {3},
+         .indirectFrame = 3,
+         .recordedFrames = cleanFrames,
+         .truth = Truth::RecordingIndex,
+         .composite = kComposite,
+         .indirect = kIndirect,
+         .minVirtualPixels = 60,
+         .roi = cv::Rect{24, 42, 104, 40}});
     // Real TUM fr2/desk frames, fixed pose (content placed in camera coordinates). Both frames.
-    add({.name = "tum_fr2_desk", .recording = "tests/data/tum-fr2-desk", .scene = "recordings/scenes/camera_frame.json", .pose = "fixed",
-         .maxFrames = -1, .goldenFrames = {1}, .indirectFrame = 1,
-         .recordedFrames = std::int64_t(tumLines(root / "tests/data/tum-fr2-desk/rgb.txt").size()), .truth = Truth::None,
-         .composite = kComposite, .indirect = kIndirect, .minIndirectMean = 0.01, .minVirtualPixels = 2000, .roi = cv::Rect{188, 216, 256, 172}});
+    add({.name = "tum_fr2_desk",
+         .recording = "tests/data/tum-fr2-desk",
+         .scene = "recordings/scenes/camera_frame.json",
+         .pose = "fixed",
+         .maxFrames = -1,
+         .goldenFrames = {1},
+         .indirectFrame = 1,
+         .recordedFrames = std::int64_t(tumLines(root / "tests/data/tum-fr2-desk/rgb.txt").size()),
+         .truth = Truth::None,
+         .composite = kComposite,
+         .indirect = kIndirect,
+         .minVirtualPixels = 2000,
+         .roi = cv::Rect{188, 216, 256, 172}});
     // ICL-NUIM living room with its ground-truth trajectory (groundtruth.txt), all 5 frames.
-    add({.name = "icl_nuim", .recording = "tests/data/icl-nuim-open3d", .scene = "recordings/scenes/icl_living_room.json",
-         .pose = "ground-truth", .maxFrames = -1, .goldenFrames = {4}, .indirectFrame = 4,
-         .recordedFrames = std::int64_t(tumLines(root / "tests/data/icl-nuim-open3d/rgb.txt").size()), .truth = Truth::TumGroundTruth,
-         .composite = kComposite, .indirect = kIndirect, .minIndirectMean = 0.01, .minVirtualPixels = 1000, .roi = cv::Rect{184, 240, 204, 128}});
+    add({.name = "icl_nuim",
+         .recording = "tests/data/icl-nuim-open3d",
+         .scene = "recordings/scenes/icl_living_room.json",
+         .pose = "ground-truth",
+         .maxFrames = -1,
+         .goldenFrames = {4},
+         .indirectFrame = 4,
+         .recordedFrames = std::int64_t(tumLines(root / "tests/data/icl-nuim-open3d/rgb.txt").size()),
+         .truth = Truth::TumGroundTruth,
+         .composite = kComposite,
+         .indirect = kIndirect,
+         .minVirtualPixels = 1000,
+         .roi = cv::Rect{184, 240, 204, 128}});
     // The real Kinect v1 .oni, fixed pose, first 2 of its 12 frames (12: tests/data/oni-kinect-v1/README.md),
     // its unregistered depth registered in software (capture/Registration.h), a bunny and a cube on
     // its floor (oni_room.json). Every frame of it is checked for VALs and visible GI below.
@@ -458,7 +568,6 @@ std::vector<ReplayCase> cases() {
          .truth = Truth::None,
          .composite = kComposite,
          .indirect = kIndirect,
-         .minIndirectMean = 0.01,
          .minVirtualPixels = 4000,
          .roi = cv::Rect{216, 308, 152, 160}});
     return all;
@@ -496,11 +605,12 @@ glm::dvec3 rotate(const double q[4], const glm::dvec3& v) { // q = x y z w
     return v + 2.0 * glm::cross(u, glm::cross(u, v) + q[3] * v);
 }
 
-std::vector<TrackedFrame> replayTracked(const std::string& recording, const std::string& scene, std::int64_t frames, const std::string& tag) {
+std::vector<TrackedFrame> replayTracked(const std::string& recording, const std::string& scene, std::int64_t frames,
+                                        const std::string& tag) {
     const fs::path root = sourceDir(), scratch = scratchDir("replay_tracking_" + tag);
     const std::string args = (root / recording).string() + " --scene " + (root / scene).string() +
-                             " --pose tracking --no-video --no-compare --frames 0 --max-frames " + std::to_string(frames) + " --out " +
-                             (scratch / "out").string();
+                             " --pose tracking --no-video --no-compare --frames 0 --max-frames " +
+                             std::to_string(frames) + " --out " + (scratch / "out").string();
     if (runLightskin(args, scratch, "tracking") != 0) {
         ADD_FAILURE() << "lightskin replay " << args << "\n" << test::readText(scratch / "tracking.stderr.txt");
         return {};
