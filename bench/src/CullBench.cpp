@@ -7,18 +7,18 @@
 // and the sparse-point upload (the same in every row); adaptive off (a plain VAL copy instead of
 // the cull) is shown as the baseline. llvmpipe's timer queries may not cover compute work that
 // nothing waits for, so the whole frame's wall-clock time (glFinish before and after) is shown too:
-// the two adaptive variants gather the same VALs, their frame-time difference is the cull's. Scene: a 1 m floor grid with 16 sparse points (so the
-// gather stays cheap), N random VALs around it: about half face away (culled), 1/17 invalid.
-#include "Commands.h"
+// the two adaptive variants gather the same VALs, their frame-time difference is the cull's. Scene: a 1 m floor grid
+// with 16 sparse points (so the gather stays cheap), N random VALs around it: about half face away (culled), 1/17
+// invalid.
 
+#include <lightskin/bench/BenchScene.h>
+#include <lightskin/bench/CullBench.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/LightSkinIllumination.h>
 #include <lightskin/gi/SimpleGBuffer.h>
 #include <lightskin/gi/VertexSparsePoints.h>
 #include <lightskin/gl/Context.h>
 #include <lightskin/gl/DebugOutput.h>
-
-#include "BenchScene.h"
 
 #include <glm/ext/matrix_clip_space.hpp>
 #include <glm/ext/matrix_transform.hpp>
@@ -34,14 +34,9 @@
 #include <string>
 #include <vector>
 
-namespace lightskin::apps {
+namespace lightskin::bench {
 
 namespace {
-
-struct CullOptions {
-    std::vector<std::uint32_t> counts;
-    int repeat = 5;
-};
 
 TriangleMesh floorGrid(int cells) {
     TriangleMesh mesh;
@@ -80,7 +75,9 @@ double stage(const std::vector<gl::StageTime>& stages, const char* name) {
     return 0.0;
 }
 
-void runCullBench(const CullOptions& options) {
+} // namespace
+
+void runCullBench(const CullBenchOptions& options) {
     auto context = gl::createHeadlessContext();
     std::printf("renderer: %s\n", context->describe().c_str());
     TriangleMesh mesh = floorGrid(16);
@@ -90,12 +87,14 @@ void runCullBench(const CullOptions& options) {
     instances[0].gpu = gpu.view();
     const int width = 64, height = 64;
     const glm::vec3 eye(1.2f, -1.4f, 1.2f);
-    const gi::ViewParameters view{glm::perspective(0.8f, 1.0f, 0.05f, 50.0f) * glm::lookAt(eye, glm::vec3(0.0f), glm::vec3(0, 0, 1)),
-                                  eye};
+    const gi::ViewParameters view{
+        glm::perspective(0.8f, 1.0f, 0.05f, 50.0f) * glm::lookAt(eye, glm::vec3(0.0f), glm::vec3(0, 0, 1)), eye};
     gi::SimpleGBuffer gbuffer = gi::SimpleGBuffer::create(width, height);
     gbuffer.render(instances, view.clip_T_world);
     gl::Texture target = gl::Texture::create2D(GL_RGBA32F, width, height);
-    const auto provider = [](const gi::MeshInstance& instance) { return gi::sparsePointsFromVertices(*instance.mesh, 16); };
+    const auto provider = [](const gi::MeshInstance& instance) {
+        return gi::sparsePointsFromVertices(*instance.mesh, 16);
+    };
 
     struct Variant {
         const char* name;
@@ -104,13 +103,15 @@ void runCullBench(const CullOptions& options) {
     const Variant variants[] = {{"adaptive off (VAL copy)", false, true},
                                 {"atomic append (before)", true, false},
                                 {"stable compaction (after)", true, true}};
-    std::printf("upload stage (GPU timer) / whole frame (wall clock, glFinish), minimum over %d frames\n", options.repeat);
+    std::printf("upload stage (GPU timer) / whole frame (wall clock, glFinish), minimum over %d frames\n",
+                options.repeat);
     std::printf("| VALs | kept | %s | %s | %s |\n|---|---|---|---|---|\n", variants[0].name, variants[1].name,
                 variants[2].name);
     for (const std::uint32_t count : options.counts) {
         const auto vals = randomVals(count);
-        const gl::Buffer buffer = gl::Buffer::create(GLsizeiptr(std::max<std::size_t>(vals.size(), 1) * sizeof(gi::VirtualAreaLight)),
-                                                     vals.empty() ? nullptr : vals.data(), 0);
+        const gl::Buffer buffer =
+            gl::Buffer::create(GLsizeiptr(std::max<std::size_t>(vals.size(), 1) * sizeof(gi::VirtualAreaLight)),
+                               vals.empty() ? nullptr : vals.data(), 0);
         double best[3] = {1e30, 1e30, 1e30}, wall[3] = {1e30, 1e30, 1e30};
         std::uint32_t kept = 0;
         std::vector<std::unique_ptr<gi::LightSkinIllumination>> techniques;
@@ -132,38 +133,18 @@ void runCullBench(const CullOptions& options) {
                 const auto start = std::chrono::steady_clock::now();
                 techniques[k]->render({buffer.id(), count}, instances, gbuffer.view(), view, target.id());
                 glFinish();
-                wall[k] = std::min(wall[k], std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+                wall[k] = std::min(
+                    wall[k],
+                    std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
                 techniques[k]->lastStageTimes(stages);
                 best[k] = std::min(best[k], stage(stages, "upload"));
                 if (k == 2) kept = techniques[k]->lastChoice().valsGathered;
             }
-        std::printf("| %u | %u | %.2f / %.1f ms | %.2f / %.1f ms | %.2f / %.1f ms |\n", count, kept, best[0], wall[0], best[1],
-                    wall[1], best[2], wall[2]);
+        std::printf("| %u | %u | %.2f / %.1f ms | %.2f / %.1f ms | %.2f / %.1f ms |\n", count, kept, best[0], wall[0],
+                    best[1], wall[1], best[2], wall[2]);
         std::fflush(stdout);
     }
     gl::DebugOutput::throwIfErrors("bench-cull");
 }
 
-void addBenchCullCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand("bench-cull", "Time the adaptive VAL cull: stable compaction against atomic append");
-    auto options = std::make_shared<CullOptions>();
-    auto counts = std::make_shared<std::string>("16384,65536,524288");
-    command->add_option("--vals", *counts, "Comma-separated VAL counts");
-    command->add_option("--repeat", options->repeat, "Frames per variant (the minimum upload stage time is reported)");
-    command->callback([=, &exitCode] {
-        options->counts = bench::splitList<std::uint32_t>(*counts, [](const std::string& s) {
-            const unsigned long n = std::stoul(s);
-            if (n > 16u * 1024u * 1024u) throw Error("--vals", std::nullopt, "at most 16M VALs, got " + s);
-            return std::uint32_t(n);
-        });
-        if (options->repeat < 1) throw Error("--repeat", std::nullopt, "must be at least 1");
-        runCullBench(*options);
-        exitCode = 0;
-    });
-}
-
-} // namespace
-
-static const CommandRegistration registration{"bench-cull", &addBenchCullCommand};
-
-} // namespace lightskin::apps
+} // namespace lightskin::bench

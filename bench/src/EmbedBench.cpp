@@ -7,8 +7,8 @@
 // composite, and gl::StateGuard alone (save + restore, the overhead every session call carries).
 // Part 2: the same recording with each --budgets value: the settings chosen after warm-up, and the
 // median frame time against the budget.
-#include "Commands.h"
 
+#include <lightskin/bench/EmbedBench.h>
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
@@ -23,15 +23,9 @@
 #include <string>
 #include <vector>
 
-namespace lightskin::apps {
+namespace lightskin::bench {
 
 namespace {
-
-struct EmbedOptions {
-    std::string recording = "recordings/synth-orbit", scene = "recordings/scenes/orbit.json";
-    int frames = 10, warmUp = 4;
-    std::vector<double> budgets{400.0, 150.0, 60.0};
-};
 
 double median(std::vector<double> v) {
     if (v.empty()) return 0.0;
@@ -48,7 +42,9 @@ double timedMs(F&& f) {
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
-int runBenchEmbed(const EmbedOptions& o) {
+} // namespace
+
+int runEmbedBench(const EmbedBenchOptions& o) {
     auto context = gl::createHeadlessContext();
     std::printf("bench-embed: %s, %s on %s\n", o.recording.c_str(), o.scene.c_str(), context->describe().c_str());
     {
@@ -106,25 +102,4 @@ int runBenchEmbed(const EmbedOptions& o) {
     return 0;
 }
 
-void addBenchEmbedCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand(
-        "bench-embed",
-        "Benchmark: session overheads for embedding hosts (render, GL state guard) and the frame budget's choices");
-    auto o = std::make_shared<EmbedOptions>();
-    command->add_option("--recording", o->recording, "Recording (default recordings/synth-orbit)");
-    command->add_option("--scene", o->scene, "Scene file (default recordings/scenes/orbit.json)");
-    command->add_option("--frames", o->frames, "Frames per run (default 10)");
-    command->add_option("--warm-up", o->warmUp, "Budget runs: frames before the statistics (default 4)");
-    command->add_option("--budgets", o->budgets, "Budgets in ms, one run each (default 400 150 60)");
-    command->callback([o, &exitCode] {
-        if (o->frames < 1 || o->warmUp < 0 || o->warmUp >= o->frames)
-            throw Error("--frames/--warm-up", std::nullopt, "need frames >= 1 and 0 <= warm-up < frames");
-        exitCode = runBenchEmbed(*o);
-    });
-}
-
-} // namespace
-
-static const CommandRegistration registration{"bench-embed", &addBenchEmbedCommand};
-
-} // namespace lightskin::apps
+} // namespace lightskin::bench

@@ -7,9 +7,8 @@
 // Scene: a sphere over a floor (two meshes, 2/3 of the sparse points on the sphere), lit by a
 // VAL "map" (a width x height grid of disc VALs on a wall and the ceiling, like a depth camera's
 // VAL map), seen by a camera at the output resolution.
-#include "BenchScene.h"
-#include "Commands.h"
-
+#include <lightskin/bench/BenchScene.h>
+#include <lightskin/bench/GatherBench.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/BruteForceIllumination.h>
 #include <lightskin/gi/LightSkinIllumination.h>
@@ -31,23 +30,15 @@
 #include <string>
 #include <vector>
 
-namespace lightskin::apps {
+namespace lightskin::bench {
 
 namespace {
 
-struct BenchOptions {
-    int outputWidth = 320, outputHeight = 240;
-    std::vector<int> sparse{1024};
-    std::vector<std::string> valMaps{"160x120"};
-    std::vector<int> kCache{128};
-    int repeat = 3;
-    bool brute = true;
-    bool compute = false;
-};
-
 double minimum(const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); }
 
-void runBench(const BenchOptions& options) {
+} // namespace
+
+void runGatherBench(const GatherBenchOptions& options) {
     auto context = gl::createHeadlessContext();
     std::printf("renderer: %s\n", context->describe().c_str());
     bench::GatherScene scene = bench::gatherScene(options.outputWidth, options.outputHeight);
@@ -58,7 +49,8 @@ void runBench(const BenchOptions& options) {
     std::vector<glm::vec4> positions(std::size_t(options.outputWidth) * std::size_t(options.outputHeight));
     glGetTextureImage(gbuffer.position().id(), 0, GL_RGBA, GL_FLOAT, GLsizei(positions.size() * sizeof(glm::vec4)),
                       positions.data());
-    const auto covered = std::size_t(std::count_if(positions.begin(), positions.end(), [](const glm::vec4& p) { return p.w != 0.0f; }));
+    const auto covered =
+        std::size_t(std::count_if(positions.begin(), positions.end(), [](const glm::vec4& p) { return p.w != 0.0f; }));
     std::printf("output %dx%d, %zu covered pixels; meshes: sphere %zu + floor %zu vertices\n", options.outputWidth,
                 options.outputHeight, covered, meshes[0].vertexCount(), meshes[1].vertexCount());
     gl::Texture target = gl::Texture::create2D(GL_RGBA32F, options.outputWidth, options.outputHeight);
@@ -70,7 +62,8 @@ void runBench(const BenchOptions& options) {
     for (const std::string& mapName : options.valMaps) {
         const auto [mapWidth, mapHeight] = bench::parseValMapSize(mapName);
         const auto vals = bench::valMap(mapWidth, mapHeight);
-        const gl::Buffer valBuffer = gl::Buffer::create(GLsizeiptr(vals.size() * sizeof(gi::VirtualAreaLight)), vals.data(), 0);
+        const gl::Buffer valBuffer =
+            gl::Buffer::create(GLsizeiptr(vals.size() * sizeof(gi::VirtualAreaLight)), vals.data(), 0);
         const gi::ValSetView valSet{valBuffer.id(), std::uint32_t(vals.size())};
 
         double bruteMs = 0.0;
@@ -86,12 +79,14 @@ void runBench(const BenchOptions& options) {
                 const auto start = std::chrono::steady_clock::now();
                 brute->render(valSet, instances, gbuffer.view(), view, target.id());
                 glFinish();
-                times.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+                times.push_back(
+                    std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
             }
             bruteMs = minimum(times);
             readImage(reference);
-            std::printf("\nVAL map %s (%zu VALs): brute force (diffuse) %.1f ms, %.3g interactions/s\n", mapName.c_str(),
-                        vals.size(), bruteMs, double(covered) * double(vals.size()) / (bruteMs * 1e-3));
+            std::printf("\nVAL map %s (%zu VALs): brute force (diffuse) %.1f ms, %.3g interactions/s\n",
+                        mapName.c_str(), vals.size(), bruteMs,
+                        double(covered) * double(vals.size()) / (bruteMs * 1e-3));
         } else {
             std::printf("\nVAL map %s (%zu VALs)\n", mapName.c_str(), vals.size());
         }
@@ -100,8 +95,8 @@ void runBench(const BenchOptions& options) {
             for (int kCache : options.kCache) {
                 const auto sparseSphere = std::size_t(sparse) * 2 / 3;
                 const gi::SparsePointProvider provider = [&](const gi::MeshInstance& instance) {
-                    return gi::sparsePointsFromVertices(*instance.mesh, instance.meshId == 0 ? sparseSphere
-                                                                                              : std::size_t(sparse) - sparseSphere);
+                    return gi::sparsePointsFromVertices(
+                        *instance.mesh, instance.meshId == 0 ? sparseSphere : std::size_t(sparse) - sparseSphere);
                 };
                 struct SetupSpec {
                     const char* name;
@@ -134,7 +129,8 @@ void runBench(const BenchOptions& options) {
                     const double totalMs = minimum(totals);
                     std::printf("  sparse %5d K_cache %4d %-10s total %8.2f ms |", sparse, kCache, setup.name, totalMs);
                     for (const auto& s : stages) std::printf(" %s %.2f", s.name.c_str(), minimum(stageTimes[s.name]));
-                    std::printf(" | gather %.3g interactions/s", double(sparse) * double(vals.size()) / (gatherMs * 1e-3));
+                    std::printf(" | gather %.3g interactions/s",
+                                double(sparse) * double(vals.size()) / (gatherMs * 1e-3));
                     if (options.brute && !setup.glossy) {
                         readImage(image);
                         double sumAbs = 0.0, sumRef = 0.0, sum = 0.0;
@@ -144,8 +140,9 @@ void runBench(const BenchOptions& options) {
                                 sumRef += double(reference[i][c]);
                                 sum += double(image[i][c]);
                             }
-                        std::printf(" | speed-up over brute force %.1fx, mean abs error %.2f%% of the mean, total %+.2f%%",
-                                    bruteMs / totalMs, 100.0 * sumAbs / sumRef, 100.0 * (sum / sumRef - 1.0));
+                        std::printf(
+                            " | speed-up over brute force %.1fx, mean abs error %.2f%% of the mean, total %+.2f%%",
+                            bruteMs / totalMs, 100.0 * sumAbs / sumRef, 100.0 * (sum / sumRef - 1.0));
                     }
                     std::printf("\n");
                     std::fflush(stdout);
@@ -155,31 +152,4 @@ void runBench(const BenchOptions& options) {
     gl::DebugOutput::throwIfErrors("bench-gather");
 }
 
-void addBenchGatherCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand("bench-gather", "Time the LightSkin stages and compare with the brute force");
-    auto options = std::make_shared<BenchOptions>();
-    auto sparse = std::make_shared<std::string>("1024");
-    auto maps = std::make_shared<std::string>("160x120");
-    auto kCache = std::make_shared<std::string>("128");
-    command->add_option("--width", options->outputWidth, "Output width (pixels)");
-    command->add_option("--height", options->outputHeight, "Output height (pixels)");
-    command->add_option("--sparse", *sparse, "Comma-separated sparse point counts (total of both meshes)");
-    command->add_option("--vals", *maps, "Comma-separated VAL map sizes WxH, e.g. 160x120,320x240");
-    command->add_option("--kcache", *kCache, "Comma-separated K_cache values (multiples of 16)");
-    command->add_option("--repeat", options->repeat, "Frames per configuration (the minimum is reported)");
-    command->add_flag("--no-brute", [options](std::int64_t) { options->brute = false; }, "Skip the brute force");
-    command->add_flag("--compute", options->compute, "Gather with the compute-shader variant instead of fragment passes");
-    command->callback([=, &exitCode] {
-        options->sparse = bench::splitList<int>(*sparse, [](const std::string& s) { return std::stoi(s); });
-        options->kCache = bench::splitList<int>(*kCache, [](const std::string& s) { return std::stoi(s); });
-        options->valMaps = bench::splitList<std::string>(*maps, [](const std::string& s) { return s; });
-        runBench(*options);
-        exitCode = 0;
-    });
-}
-
-} // namespace
-
-static const CommandRegistration registration{"bench-gather", &addBenchGatherCommand};
-
-} // namespace lightskin::apps
+} // namespace lightskin::bench

@@ -14,8 +14,8 @@
 //     "excess" subtracts the brute force's own change per sample.
 // A benchmark, not a test: prints Markdown tables (and writes them with PNGs of the indirect light to
 // --out). tests/mr/RealDepthDataGLTest.cpp asserts the speckle target on one recording.
-#include "Commands.h"
 
+#include <lightskin/bench/RealDepthBench.h>
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/eval/ColourSpace.h>
@@ -42,7 +42,7 @@
 #include <string>
 #include <vector>
 
-namespace lightskin::apps {
+namespace lightskin::bench {
 
 namespace {
 
@@ -206,17 +206,6 @@ void writeIndirectPng(const std::filesystem::path& path, const cv::Mat& linearBg
     cv::imwrite(path.string(), srgb);
 }
 
-struct BenchOptions {
-    std::string data = "tests/data";
-    std::string scene = "recordings/scenes/on_real_surface.json";
-    std::string out = "bench-realdepth-out";
-    std::string models = "old,robust";
-    std::vector<double> sinks{0.0, 0.01};
-    int maxFrames = 5;
-    bool maps = false;
-    std::string recordings; ///< comma-separated case names; empty = all
-};
-
 /// Samples the indirect light at the tracked world points (NaN where hidden or off-screen).
 void sampleTracked(const std::vector<glm::dvec3>& points, const CameraIntrinsics& k, const Pose& world_T_camera,
                    const cv::Mat& coverage, const cv::Mat& virtualDepth, const cv::Mat& image,
@@ -239,7 +228,7 @@ void sampleTracked(const std::vector<glm::dvec3>& points, const CameraIntrinsics
     }
 }
 
-CaseResult runCase(const RealCase& c, const LightModel& model, double sink, const BenchOptions& options) {
+CaseResult runCase(const RealCase& c, const LightModel& model, double sink, const RealDepthBenchOptions& options) {
     const std::filesystem::path recording = std::filesystem::path(options.data) / c.recording;
     render::Scene scene = render::loadScene(options.scene);
     scene.gi.robustRealDepth = model.robust;
@@ -373,7 +362,9 @@ std::string percent(double f) {
     return b;
 }
 
-void runBench(const BenchOptions& options) {
+} // namespace
+
+void runRealDepthBench(const RealDepthBenchOptions& options) {
     auto context = gl::createHeadlessContext();
     std::vector<LightModel> models;
     std::istringstream list(options.models);
@@ -435,28 +426,4 @@ void runBench(const BenchOptions& options) {
     std::ofstream(std::filesystem::path(options.out) / "realdepth.md") << md.str();
 }
 
-void addBenchRealDepthCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand(
-        "bench-realdepth", "Speckle and flicker of the indirect light on real recordings, old vs robust light model");
-    auto options = std::make_shared<BenchOptions>();
-    command->add_option("--data", options->data, "Folder of the bundled recordings (default tests/data)");
-    command->add_option("--scene", options->scene, "Template scene (default recordings/scenes/on_real_surface.json)");
-    command->add_option("--out", options->out, "Output folder (tables, PNGs of the first frame's indirect light)");
-    command->add_option("--models", options->models, "Comma-separated light models: old, robust (default both)");
-    command->add_option("--sink", options->sinks,
-                        "Depths the objects are sunk into the surface, metres (default 0 0.01)");
-    command->add_option("--max-frames", options->maxFrames, "Frames per recording (default 5)");
-    command->add_option("--recordings", options->recordings,
-                        "Comma-separated recordings (tum-fr2-desk, icl-nuim, pcl-kinect-tiff; default all)");
-    command->add_flag("--maps", options->maps, "Also write the speckle maps of each recording's first frame");
-    command->callback([options, &exitCode] {
-        runBench(*options);
-        exitCode = 0;
-    });
-}
-
-} // namespace
-
-static const CommandRegistration registration{"bench-realdepth", &addBenchRealDepthCommand};
-
-} // namespace lightskin::apps
+} // namespace lightskin::bench

@@ -10,13 +10,11 @@
 // Every stream's frames go through one ValGenerator (skipUnchangedInput) and then through one
 // LightSkin instance per mode: "full" (adaptive, reuseStatic off: the reference), "exact"
 // (staticTolerance 0), "bound, tolerance <tau>" (StaticChangeTest::Bound, keyed by the depth pixel)
-// and "probes 1/<n>, tolerance <tau>" (StaticChangeTest::Probes). Per mode: reuse rate, mean GPU time of the technique's
-// stages, and the image error against "full" of the same frame (max |a - b| / max b and
-// mean |a - b| / mean b over covered pixels). Materials are made diffuse with --diffuse (the
-// tolerance mode needs the glossy channel off).
-#include "BenchScene.h"
-#include "Commands.h"
-
+// and "probes 1/<n>, tolerance <tau>" (StaticChangeTest::Probes). Per mode: reuse rate, mean GPU time of the
+// technique's stages, and the image error against "full" of the same frame (max |a - b| / max b and mean |a - b| / mean
+// b over covered pixels). Materials are made diffuse with --diffuse (the tolerance mode needs the glossy channel off).
+#include <lightskin/bench/BenchScene.h>
+#include <lightskin/bench/StaticBench.h>
 #include <lightskin/capture/DepthFilter.h>
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/Error.h>
@@ -41,22 +39,9 @@
 #include <string>
 #include <vector>
 
-namespace lightskin::apps {
+namespace lightskin::bench {
 
 namespace {
-
-struct StaticOptions {
-    int frames = 24;
-    int stride = 4;
-    int sparse = 1024;
-    int width = 640, height = 480;
-    std::string tolerances = "0.01,0.03,0.1";
-    int probeStride = 16;
-    bool diffuse = false;
-    std::string recording;
-    std::string bunnyPath = "tests/data/stanford-bunny/bun_zipper_res4.ply";
-    std::uint64_t seed = 1;
-};
 
 struct Mode {
     std::string name;
@@ -83,7 +68,8 @@ struct Meshes {
     std::vector<std::unique_ptr<gi::UploadedMesh>> gpu;
     std::map<const TriangleMesh*, gi::SparsePointSet> sparse;
 
-    gi::MeshInstance add(TriangleMesh mesh, std::uint32_t id, const glm::mat4& world_T_model, const Material& material) {
+    gi::MeshInstance add(TriangleMesh mesh, std::uint32_t id, const glm::mat4& world_T_model,
+                         const Material& material) {
         meshes.push_back(std::make_unique<TriangleMesh>(std::move(mesh)));
         gpu.push_back(std::make_unique<gi::UploadedMesh>(gi::UploadedMesh::create(*meshes.back())));
         gi::MeshInstance instance;
@@ -118,7 +104,7 @@ cv::Mat readRgba(std::uint32_t texture, int width, int height) {
     return image;
 }
 
-void runStream(const Stream& stream, const StaticOptions& o, Meshes& meshes, std::vector<Mode>& modes) {
+void runStream(const Stream& stream, const StaticBenchOptions& o, Meshes& meshes, std::vector<Mode>& modes) {
     gi::ValGeneratorSettings vs;
     vs.stride = o.stride;
     vs.exposure = 2.0f;
@@ -177,7 +163,8 @@ void runStream(const Stream& stream, const StaticOptions& o, Meshes& meshes, std
     std::printf("\n### stream %s: %d frames, %u VALs (stride %d), %d sparse points per object, %dx%d, "
                 "ValGenerator skipped %d of %d passes\n\n",
                 stream.name.c_str(), o.frames, vals, o.stride, o.sparse, o.width, o.height, skipped, o.frames);
-    std::printf("| mode | reused | GI GPU ms/frame | speed-up vs full | max image error | mean image error | mean change measure |\n");
+    std::printf("| mode | reused | GI GPU ms/frame | speed-up vs full | max image error | mean image error | mean "
+                "change measure |\n");
     std::printf("|---|---|---|---|---|---|---|\n");
     const double fullMs = modes.front().gpuMs / std::max(1, modes.front().frames);
     for (const Mode& m : modes) {
@@ -190,134 +177,116 @@ void runStream(const Stream& stream, const StaticOptions& o, Meshes& meshes, std
     std::fflush(stdout);
 }
 
-void addBenchStaticCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand(
-        "bench-static", "Adaptive mode, static content: reuse vs full recomputation on still frames (exact, Kinect noise, real)");
-    auto o = std::make_shared<StaticOptions>();
-    command->add_option("--frames", o->frames, "Frames per stream after one warm-up frame (default 24)");
-    command->add_option("--stride", o->stride, "VAL stride (default 4)");
-    command->add_option("--sparse", o->sparse, "Sparse points per object (default 1024)");
-    command->add_option("--width", o->width, "Output width (default 640)");
-    command->add_option("--height", o->height, "Output height (default 480)");
-    command->add_option("--tolerances", o->tolerances, "staticTolerance values (default 0.01,0.03,0.1)");
-    command->add_option("--probe-stride", o->probeStride, "staticProbeStride of the probe modes (default 16)");
-    command->add_flag("--diffuse", o->diffuse, "Drop f_s from all materials (the tolerance mode needs the glossy channel off)");
-    command->add_option("--recording", o->recording, "Also run the real stream on this recording (.oni, TUM or lightskin folder)");
-    command->add_option("--bunny", o->bunnyPath, "Stanford bunny PLY");
-    command->add_option("--seed", o->seed, "Noise seed");
-    command->callback([o, &exitCode] {
-        auto context = gl::createHeadlessContext();
-        std::vector<Mode> modes;
-        const auto addMode = [&](std::string name, bool reuse, float tolerance,
-                                 gi::StaticChangeTest test = gi::StaticChangeTest::Bound) {
-            Mode m;
-            m.name = std::move(name);
-            m.settings.adaptive = true;
-            m.settings.reuseStatic = reuse;
-            m.settings.staticTolerance = tolerance;
-            m.settings.staticChangeTest = test;
-            m.settings.staticProbeStride = o->probeStride;
-            m.settings.kCache = 128;
-            modes.push_back(std::move(m));
-        };
-        addMode("full (adaptive, reuseStatic off)", false, 0.0f);
-        addMode("exact (staticTolerance 0)", true, 0.0f);
-        const auto tolerances = bench::splitList<float>(o->tolerances, [](const std::string& x) { return std::stof(x); });
-        for (float tau : tolerances) {
-            char name[48];
-            std::snprintf(name, sizeof name, "bound, tolerance %.3g", double(tau));
-            addMode(name, true, tau);
-        }
-        for (float tau : tolerances) {
-            char name[48];
-            std::snprintf(name, sizeof name, "probes 1/%d, tolerance %.3g", o->probeStride, double(tau));
-            addMode(name, true, tau, gi::StaticChangeTest::Probes);
-        }
-
-        Meshes meshes;
-        // Synthetic room (BenchScene.h): the glossy sphere and the bunny on the floor.
-        Stream room;
-        room.K = bench::depthIntrinsics();
-        room.world_T_camera = bench::depthCameraPose();
-        room.instances.push_back(meshes.add(bench::uvSphere(0.3f, 20000), 1, bench::sphereWorld(),
-                                            maybeDiffuse(bench::sphereMaterial(), o->diffuse)));
-        room.instances.push_back(
-            meshes.add(bench::bunny(o->bunnyPath), 2, bench::bunnyWorld(), maybeDiffuse(bench::bunnyMaterial(), o->diffuse)));
-        room.clip = bench::viewClip(o->width, o->height);
-        room.eye = bench::viewEye();
-        cv::Mat roomDepth, roomColour;
-        bench::renderRoom(room.K, room.world_T_camera, 0.0, roomDepth, roomColour);
-        std::printf("## lightskin bench-static (%s materials)\n", o->diffuse ? "diffuse" : "scene");
-
-        room.name = "repeat (synthetic room, identical frames)";
-        room.frame = [&](int, cv::Mat& depth, cv::Mat& colour) {
-            depth = roomDepth;
-            colour = roomColour;
-        };
-        runStream(room, *o, meshes, modes);
-
-        capture::BilateralDepthFilter filter;
-        cv::Mat noisy, filtered;
-        cv::RNG random(o->seed);
-        room.name = "noise (synthetic room, Kinect v1 axial noise per frame, bilateral filtered)";
-        room.frame = [&](int, cv::Mat& depth, cv::Mat& colour) {
-            roomDepth.copyTo(noisy);
-            for (int y = 0; y < noisy.rows; ++y)
-                for (int x = 0; x < noisy.cols; ++x) {
-                    float& z = noisy.at<float>(y, x);
-                    if (z > 0.0f) z += float(random.gaussian(double(render::kinectAxialNoiseMetres(z))));
-                }
-            filter.filterInto(noisy, 1.0, filtered);
-            depth = filtered;
-            colour = roomColour;
-        };
-        runStream(room, *o, meshes, modes);
-
-        if (!o->recording.empty()) {
-            auto source = capture::openFrameSource(o->recording);
-            std::vector<cv::Mat> depths, colours;
-            RgbdFrame frame;
-            while (source->next(frame)) {
-                if (frame.depth.empty() || frame.colour.empty() || frame.depth.size() != frame.colour.size()) continue;
-                cv::Mat metres;
-                filter.filterInto(frame.depth, frame.depthScaleMetres, metres);
-                depths.push_back(metres.clone());
-                colours.push_back(frame.colour.clone());
-            }
-            if (depths.size() < 2) throw Error(o->recording, std::nullopt, "needs at least two frames with depth and colour");
-            Stream real;
-            real.name = "real (" + o->recording + ", " + std::to_string(depths.size()) + " frames ping-pong, pose fixed)";
-            real.K = source->info().colourIntrinsics;
-            // the median depth of the central quarter; a sphere of 0.15 m radius 0.3 m in front of it
-            std::vector<float> centre;
-            const cv::Mat& d0 = depths.front();
-            for (int y = d0.rows * 3 / 8; y < d0.rows * 5 / 8; ++y)
-                for (int x = d0.cols * 3 / 8; x < d0.cols * 5 / 8; ++x)
-                    if (d0.at<float>(y, x) > 0.0f) centre.push_back(d0.at<float>(y, x));
-            if (centre.empty()) throw Error(o->recording, 0, "no depth in the image centre");
-            std::nth_element(centre.begin(), centre.begin() + std::ptrdiff_t(centre.size() / 2), centre.end());
-            const float z = std::max(0.6f, centre[centre.size() / 2] - 0.3f);
-            Material material;
-            material.diffuseAlbedo = glm::vec3(0.8f);
-            real.instances.push_back(meshes.add(bench::uvSphere(0.15f, 20000), 3,
-                                                glm::translate(glm::mat4(1.0f), {0.0f, 0.0f, z}), material));
-            const float fovY = 2.0f * std::atan(0.5f * float(real.K.height) / float(std::abs(real.K.fy)));
-            real.clip = glm::perspective(fovY, float(o->width) / float(o->height), 0.05f, 20.0f) *
-                        glm::lookAt(glm::vec3(0.0f), glm::vec3(0, 0, 1), glm::vec3(0, -1, 0));
-            real.frame = [&](int t, cv::Mat& depth, cv::Mat& colour) {
-                const int n = int(depths.size()), period = 2 * (n - 1);
-                const int phase = t % period, i = phase < n ? phase : period - phase;
-                depth = depths[std::size_t(i)];
-                colour = colours[std::size_t(i)];
-            };
-            runStream(real, *o, meshes, modes);
-        }
-        exitCode = 0;
-    });
-}
-
-const CommandRegistration registration{"bench-static", &addBenchStaticCommand};
-
 } // namespace
 
-} // namespace lightskin::apps
+void runStaticBench(const StaticBenchOptions& o) {
+    auto context = gl::createHeadlessContext();
+    std::vector<Mode> modes;
+    const auto addMode = [&](std::string name, bool reuse, float tolerance,
+                             gi::StaticChangeTest test = gi::StaticChangeTest::Bound) {
+        Mode m;
+        m.name = std::move(name);
+        m.settings.adaptive = true;
+        m.settings.reuseStatic = reuse;
+        m.settings.staticTolerance = tolerance;
+        m.settings.staticChangeTest = test;
+        m.settings.staticProbeStride = o.probeStride;
+        m.settings.kCache = 128;
+        modes.push_back(std::move(m));
+    };
+    addMode("full (adaptive, reuseStatic off)", false, 0.0f);
+    addMode("exact (staticTolerance 0)", true, 0.0f);
+    const auto tolerances = bench::splitList<float>(o.tolerances, [](const std::string& x) { return std::stof(x); });
+    for (float tau : tolerances) {
+        char name[48];
+        std::snprintf(name, sizeof name, "bound, tolerance %.3g", double(tau));
+        addMode(name, true, tau);
+    }
+    for (float tau : tolerances) {
+        char name[48];
+        std::snprintf(name, sizeof name, "probes 1/%d, tolerance %.3g", o.probeStride, double(tau));
+        addMode(name, true, tau, gi::StaticChangeTest::Probes);
+    }
+
+    Meshes meshes;
+    // Synthetic room (BenchScene.h): the glossy sphere and the bunny on the floor.
+    Stream room;
+    room.K = bench::depthIntrinsics();
+    room.world_T_camera = bench::depthCameraPose();
+    room.instances.push_back(meshes.add(bench::uvSphere(0.3f, 20000), 1, bench::sphereWorld(),
+                                        maybeDiffuse(bench::sphereMaterial(), o.diffuse)));
+    room.instances.push_back(
+        meshes.add(bench::bunny(o.bunnyPath), 2, bench::bunnyWorld(), maybeDiffuse(bench::bunnyMaterial(), o.diffuse)));
+    room.clip = bench::viewClip(o.width, o.height);
+    room.eye = bench::viewEye();
+    cv::Mat roomDepth, roomColour;
+    bench::renderRoom(room.K, room.world_T_camera, 0.0, roomDepth, roomColour);
+    std::printf("## lightskin bench-static (%s materials)\n", o.diffuse ? "diffuse" : "scene");
+
+    room.name = "repeat (synthetic room, identical frames)";
+    room.frame = [&](int, cv::Mat& depth, cv::Mat& colour) {
+        depth = roomDepth;
+        colour = roomColour;
+    };
+    runStream(room, o, meshes, modes);
+
+    capture::BilateralDepthFilter filter;
+    cv::Mat noisy, filtered;
+    cv::RNG random(o.seed);
+    room.name = "noise (synthetic room, Kinect v1 axial noise per frame, bilateral filtered)";
+    room.frame = [&](int, cv::Mat& depth, cv::Mat& colour) {
+        roomDepth.copyTo(noisy);
+        for (int y = 0; y < noisy.rows; ++y)
+            for (int x = 0; x < noisy.cols; ++x) {
+                float& z = noisy.at<float>(y, x);
+                if (z > 0.0f) z += float(random.gaussian(double(render::kinectAxialNoiseMetres(z))));
+            }
+        filter.filterInto(noisy, 1.0, filtered);
+        depth = filtered;
+        colour = roomColour;
+    };
+    runStream(room, o, meshes, modes);
+
+    if (!o.recording.empty()) {
+        auto source = capture::openFrameSource(o.recording);
+        std::vector<cv::Mat> depths, colours;
+        RgbdFrame frame;
+        while (source->next(frame)) {
+            if (frame.depth.empty() || frame.colour.empty() || frame.depth.size() != frame.colour.size()) continue;
+            cv::Mat metres;
+            filter.filterInto(frame.depth, frame.depthScaleMetres, metres);
+            depths.push_back(metres.clone());
+            colours.push_back(frame.colour.clone());
+        }
+        if (depths.size() < 2)
+            throw Error(o.recording, std::nullopt, "needs at least two frames with depth and colour");
+        Stream real;
+        real.name = "real (" + o.recording + ", " + std::to_string(depths.size()) + " frames ping-pong, pose fixed)";
+        real.K = source->info().colourIntrinsics;
+        // the median depth of the central quarter; a sphere of 0.15 m radius 0.3 m in front of it
+        std::vector<float> centre;
+        const cv::Mat& d0 = depths.front();
+        for (int y = d0.rows * 3 / 8; y < d0.rows * 5 / 8; ++y)
+            for (int x = d0.cols * 3 / 8; x < d0.cols * 5 / 8; ++x)
+                if (d0.at<float>(y, x) > 0.0f) centre.push_back(d0.at<float>(y, x));
+        if (centre.empty()) throw Error(o.recording, 0, "no depth in the image centre");
+        std::nth_element(centre.begin(), centre.begin() + std::ptrdiff_t(centre.size() / 2), centre.end());
+        const float z = std::max(0.6f, centre[centre.size() / 2] - 0.3f);
+        Material material;
+        material.diffuseAlbedo = glm::vec3(0.8f);
+        real.instances.push_back(
+            meshes.add(bench::uvSphere(0.15f, 20000), 3, glm::translate(glm::mat4(1.0f), {0.0f, 0.0f, z}), material));
+        const float fovY = 2.0f * std::atan(0.5f * float(real.K.height) / float(std::abs(real.K.fy)));
+        real.clip = glm::perspective(fovY, float(o.width) / float(o.height), 0.05f, 20.0f) *
+                    glm::lookAt(glm::vec3(0.0f), glm::vec3(0, 0, 1), glm::vec3(0, -1, 0));
+        real.frame = [&](int t, cv::Mat& depth, cv::Mat& colour) {
+            const int n = int(depths.size()), period = 2 * (n - 1);
+            const int phase = t % period, i = phase < n ? phase : period - phase;
+            depth = depths[std::size_t(i)];
+            colour = colours[std::size_t(i)];
+        };
+        runStream(real, o, meshes, modes);
+    }
+}
+
+} // namespace lightskin::bench

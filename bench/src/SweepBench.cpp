@@ -7,10 +7,9 @@
 // (flicker at re-projected surface points) on three sequences. Writes CSV, JSON, a plot and a Markdown
 // table (optionally regenerated into docs/BENCHMARKS.md). A benchmark, not a test: `--quick` is the
 // CI smoke run (tests/bench) and checks that the error falls as sparse points or VALs grow.
-#include "BenchReport.h"
-#include "BenchScene.h"
-#include "Commands.h"
-
+#include <lightskin/bench/BenchReport.h>
+#include <lightskin/bench/BenchScene.h>
+#include <lightskin/bench/SweepBench.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/BruteForceIllumination.h>
 #include <lightskin/gi/LightSkinIllumination.h>
@@ -46,7 +45,7 @@
 #include <tuple>
 #include <vector>
 
-namespace lightskin::apps {
+namespace lightskin::bench {
 
 namespace {
 
@@ -59,7 +58,9 @@ double median(std::vector<double> v) {
     return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
 
-double msSince(Clock::time_point start) { return std::chrono::duration<double, std::milli>(Clock::now() - start).count(); }
+double msSince(Clock::time_point start) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
 
 /// CPU time of the whole process in ms (all threads: llvmpipe's rasteriser threads are ours). On a
 /// machine shared with other jobs, CPU time is what a frame costs; wall time includes waiting.
@@ -123,43 +124,7 @@ int parseInt(const std::string& s, const char* option) {
     throw Error(option, std::nullopt, "expected a positive integer, got '" + s + "'");
 }
 
-struct Options {
-    bool quick = false;
-    std::string out = "bench-out";
-    std::string docs;
-    std::string bunnyPath = "tests/data/stanford-bunny/bun_zipper_res4.ply";
-    std::string sparse = "64,256,1024,4096,16384";
-    std::string strides = "8,4,2,1";
-    std::string kCache = "32,128,512";
-    std::string channels = "diffuse,glossy,occlusion";
-    std::string resolutions = "640x480,1280x720,1920x1080";
-    std::string meshes = "20000,200000,730000";
-    std::string adaptive = "off,on";
-    Config defaults;
-    int frames = 3;
-    int truthStride = 2;
-    int truthGrid = 48;
-    double maxBruteInteractions = 1e10;
-    double maxTruthRays = 3e8;
-    int temporalFrames = 8;
-    std::string temporalSparse = "256,1024,4096";
-    int temporalStride = 8;
-    float temporalTolerance = 0.01f; ///< metres between a tracked vertex and the G-buffer position at its pixel
-    bool temporal = true;
-    bool check = false;
-    double tolerance = 0.05;
-    std::string exportBlender;
-    std::string fromJson;
-    bool table1 = false;     ///< the paper's Table 1 setups instead of the sweep
-    bool kinect = false;     ///< the Kinect setups instead of the sweep
-    std::string tableOutput; ///< overrides the table's output WxH
-    std::string tableSparse; ///< overrides the table's sparse totals
-    std::string tableVals;   ///< overrides the table's VAL maps
-    int tableSubset = 0;     ///< overrides the brute-force subset step
-    int tableFrames = 1;
-};
-
-void applyQuick(Options& o) {
+void applyQuick(SweepBenchOptions& o) {
     o.sparse = "64,256,1024";
     o.strides = "16,8,4";
     o.kCache = "";
@@ -203,7 +168,8 @@ cv::Mat readRgb(std::uint32_t texture, int width, int height) {
 /// The benchmark world: meshes, GPU copies, sparse points, VAL generators, caches of references.
 class World {
 public:
-    World(const Options& options) : options_(options) {
+    World(const SweepBenchOptions& options)
+        : options_(options) {
         K_ = depthIntrinsics();
         renderRoom(K_, depthCameraPose(), 0.0, depth_, colour_);
         bunny_ = std::make_unique<TriangleMesh>(bunny(options.bunnyPath));
@@ -262,13 +228,13 @@ public:
 
     /// VALs of the static frame at `stride` (generated now; the view stays valid until the next call
     /// for the same stride). `gpuMs` receives the generation's GPU time.
-    gi::ValSetView vals(int stride, double* gpuMs = nullptr, const cv::Mat* depth = nullptr, const cv::Mat* colour = nullptr,
-                        const Pose* pose = nullptr) {
+    gi::ValSetView vals(int stride, double* gpuMs = nullptr, const cv::Mat* depth = nullptr,
+                        const cv::Mat* colour = nullptr, const Pose* pose = nullptr) {
         if (!timer_.has_value()) timer_ = gl::GpuStageTimer::create(1);
         timer_->beginFrame();
         timer_->begin("vals");
-        const gi::ValSetView set = generator(stride).generate(depth ? *depth : depth_, 1.0, colour ? *colour : colour_, K_,
-                                                              pose ? *pose : depthCameraPose());
+        const gi::ValSetView set = generator(stride).generate(depth ? *depth : depth_, 1.0, colour ? *colour : colour_,
+                                                              K_, pose ? *pose : depthCameraPose());
         timer_->end();
         timer_->collect(stages_);
         if (gpuMs) *gpuMs = stages_.empty() ? 0.0 : stages_[0].milliseconds;
@@ -277,14 +243,16 @@ public:
 
     gi::SimpleGBuffer& gbuffer(int width, int height) {
         auto it = gbuffers_.find({width, height});
-        if (it == gbuffers_.end()) it = gbuffers_.emplace(std::make_pair(width, height), gi::SimpleGBuffer::create(width, height)).first;
+        if (it == gbuffers_.end())
+            it = gbuffers_.emplace(std::make_pair(width, height), gi::SimpleGBuffer::create(width, height)).first;
         return it->second;
     }
 
     gl::Texture& target(int width, int height) {
         auto it = targets_.find({width, height});
         if (it == targets_.end())
-            it = targets_.emplace(std::make_pair(width, height), gl::Texture::create2D(GL_RGBA32F, width, height)).first;
+            it =
+                targets_.emplace(std::make_pair(width, height), gl::Texture::create2D(GL_RGBA32F, width, height)).first;
         return it->second;
     }
 
@@ -322,7 +290,8 @@ public:
         const gi::ValSetView set = vals(c.stride);
         b.vals = set.count;
         if (double(set.count) * double(covered) <= options_.maxBruteInteractions) {
-            std::printf("    brute force (%s, %u VALs x %zu pixels) ...", glossy ? "+glossy" : "diffuse", set.count, covered);
+            std::printf("    brute force (%s, %u VALs x %zu pixels) ...", glossy ? "+glossy" : "diffuse", set.count,
+                        covered);
             std::fflush(stdout);
             gi::BruteForceSettings s;
             s.glossy = glossy;
@@ -404,7 +373,8 @@ public:
             t.full = cv::Mat(gh, gw, CV_32FC3, cv::Scalar::all(0));
             t.mask = cv::Mat(gh, gw, CV_8UC1, cv::Scalar(0));
             for (std::size_t k = 0; k < receivers.size(); ++k) {
-                const glm::dvec3 d = glm::dvec3(receivers[k].material.diffuseAlbedo) / std::numbers::pi * results[k].irradiance;
+                const glm::dvec3 d =
+                    glm::dvec3(receivers[k].material.diffuseAlbedo) / std::numbers::pi * results[k].irradiance;
                 t.diffuse.at<cv::Vec3f>(where[k]) = cv::Vec3f(float(d.x), float(d.y), float(d.z));
                 t.full.at<cv::Vec3f>(where[k]) =
                     cv::Vec3f(float(results[k].radiance.x), float(results[k].radiance.y), float(results[k].radiance.z));
@@ -449,7 +419,7 @@ private:
         std::optional<gi::ValGenerator> generator;
     };
     std::map<std::pair<int, int>, ScaledMap> maps_;
-    const Options& options_;
+    const SweepBenchOptions& options_;
     CameraIntrinsics K_;
     cv::Mat depth_, colour_;
     std::unique_ptr<TriangleMesh> bunny_;
@@ -478,7 +448,8 @@ gi::LightSkinSettings settingsFor(const Config& c, std::uint32_t vals) {
 cv::Mat sampleGrid(const cv::Mat& image, int step, int gw, int gh) {
     cv::Mat out(gh, gw, CV_32FC3);
     for (int j = 0; j < gh; ++j)
-        for (int i = 0; i < gw; ++i) out.at<cv::Vec3f>(j, i) = image.at<cv::Vec3f>(j * step + step / 2, i * step + step / 2);
+        for (int i = 0; i < gw; ++i)
+            out.at<cv::Vec3f>(j, i) = image.at<cv::Vec3f>(j * step + step / 2, i * step + step / 2);
     return out;
 }
 
@@ -496,7 +467,7 @@ eval::ImageError compare(const cv::Mat& image, const cv::Mat& reference, const c
     return eval::compareImages(image, reference, o);
 }
 
-RunResult runConfig(World& world, const Options& options, const Config& c) {
+RunResult runConfig(World& world, const SweepBenchOptions& options, const Config& c) {
     RunResult r;
     r.config = c;
     const auto inst = world.instances(c.sphereTriangles);
@@ -589,7 +560,7 @@ RunResult bruteRow(World& world, const Config& c) {
     return r;
 }
 
-std::vector<Config> buildSweep(const Options& o) {
+std::vector<Config> buildSweep(const SweepBenchOptions& o) {
     std::vector<Config> configs;
     Config d = o.defaults;
     d.isDefault = true;
@@ -643,8 +614,8 @@ struct Track {
     std::vector<float> reference;
 };
 
-void sampleTracked(const std::vector<glm::vec3>& points, const glm::mat4& clip, const ViewImages& view, const cv::Mat& image,
-                   float tolerance, std::vector<float>& out) {
+void sampleTracked(const std::vector<glm::vec3>& points, const glm::mat4& clip, const ViewImages& view,
+                   const cv::Mat& image, float tolerance, std::vector<float>& out) {
     const int w = view.position.cols, h = view.position.rows;
     for (const glm::vec3& p : points) {
         const glm::vec4 c = clip * glm::vec4(p, 1.0f);
@@ -664,9 +635,10 @@ void sampleTracked(const std::vector<glm::vec3>& points, const glm::mat4& clip, 
     }
 }
 
-std::vector<TemporalResult> runTemporal(World& world, const Options& options) {
+std::vector<TemporalResult> runTemporal(World& world, const SweepBenchOptions& options) {
     const int width = 320, height = 240, n = std::max(2, options.temporalFrames), stride = options.temporalStride;
-    const auto sparseList = splitList<int>(options.temporalSparse, [](const std::string& x) { return parseInt(x, "--temporal-sparse"); });
+    const auto sparseList =
+        splitList<int>(options.temporalSparse, [](const std::string& x) { return parseInt(x, "--temporal-sparse"); });
     const auto inst = world.instances(options.defaults.sphereTriangles);
     // Tracked surface points: every k-th vertex of both meshes, in world space.
     std::vector<glm::vec3> points;
@@ -713,10 +685,12 @@ std::vector<TemporalResult> runTemporal(World& world, const Options& options) {
             const gi::ViewParameters viewParameters{clip, moveCamera ? viewEye(f, n) : viewEye()};
             const ViewImages view = world.renderView(inst, width, height, clip);
             brute->render(set, inst, g.view(), viewParameters, target.id());
-            sampleTracked(points, clip, view, readRgb(target.id(), width, height), options.temporalTolerance, reference);
+            sampleTracked(points, clip, view, readRgb(target.id(), width, height), options.temporalTolerance,
+                          reference);
             for (std::size_t k = 0; k < techniques.size(); ++k) {
                 techniques[k]->render(set, inst, g.view(), viewParameters, target.id());
-                sampleTracked(points, clip, view, readRgb(target.id(), width, height), options.temporalTolerance, ours[k]);
+                sampleTracked(points, clip, view, readRgb(target.id(), width, height), options.temporalTolerance,
+                              ours[k]);
             }
         }
         // Mean reference level over all visible samples.
@@ -728,13 +702,17 @@ std::vector<TemporalResult> runTemporal(World& world, const Options& options) {
                 ++levelCount;
             }
         level = levelCount ? level / double(levelCount) : 1.0;
-        const auto flickerOf = [&](const std::vector<float>& a, const std::vector<float>* refSeries, std::size_t& samples) {
+        const auto flickerOf = [&](const std::vector<float>& a, const std::vector<float>* refSeries,
+                                   std::size_t& samples) {
             double sum = 0.0;
             samples = 0;
             for (int f = 1; f < n; ++f)
                 for (std::size_t p = 0; p < points.size(); ++p) {
-                    const std::size_t i0 = std::size_t(f - 1) * points.size() + p, i1 = std::size_t(f) * points.size() + p;
-                    if (std::isnan(a[i0]) || std::isnan(a[i1]) || std::isnan(reference[i0]) || std::isnan(reference[i1])) continue;
+                    const std::size_t i0 = std::size_t(f - 1) * points.size() + p,
+                                      i1 = std::size_t(f) * points.size() + p;
+                    if (std::isnan(a[i0]) || std::isnan(a[i1]) || std::isnan(reference[i0]) ||
+                        std::isnan(reference[i1]))
+                        continue;
                     double d = double(a[i1]) - double(a[i0]);
                     if (refSeries) d -= double((*refSeries)[i1]) - double((*refSeries)[i0]);
                     sum += d * d;
@@ -744,7 +722,8 @@ std::vector<TemporalResult> runTemporal(World& world, const Options& options) {
         };
         std::size_t samples = 0;
         const double referenceFlicker = flickerOf(reference, nullptr, samples);
-        results.push_back({sequence, "brute force (reference, diffuse)", n, samples, referenceFlicker, referenceFlicker, 0.0});
+        results.push_back(
+            {sequence, "brute force (reference, diffuse)", n, samples, referenceFlicker, referenceFlicker, 0.0});
         for (std::size_t k = 0; k < sparseList.size(); ++k) {
             TemporalResult t;
             t.sequence = sequence;
@@ -756,8 +735,8 @@ std::vector<TemporalResult> runTemporal(World& world, const Options& options) {
             t.referenceFlicker = referenceFlicker;
             t.pointPairs = samples;
             results.push_back(t);
-            std::printf("    %-45s flicker %.4f (reference %.4f), excess %.4f, %zu samples\n", t.technique.c_str(), t.flicker,
-                        t.referenceFlicker, t.excessFlicker, samples);
+            std::printf("    %-45s flicker %.4f (reference %.4f), excess %.4f, %zu samples\n", t.technique.c_str(),
+                        t.flicker, t.referenceFlicker, t.excessFlicker, samples);
         }
         std::fflush(stdout);
     }
@@ -775,13 +754,18 @@ CheckResult monotone(const std::vector<RunResult>& runs, const std::string& axis
         const auto& e = truth ? r.vsTruth : axis == "stride" ? r.vsFineBrute : r.vsBrute;
         if (!e) continue;
         const double knob = axis == "sparse" ? double(r.config.sparse) : -double(r.config.stride);
-        if (r.config.isDefault && std::any_of(series.begin(), series.end(), [&](const auto& s) { return s.first == knob; })) continue;
+        if (r.config.isDefault &&
+            std::any_of(series.begin(), series.end(), [&](const auto& s) { return s.first == knob; }))
+            continue;
         series.emplace_back(knob, e->relativeMse);
     }
     std::sort(series.begin(), series.end());
     CheckResult c;
-    c.name = "error " + std::string(truth ? "vs ground truth" : axis == "stride" ? "vs brute force on the finest VALs" : "vs brute force (same VALs)") + " falls as " +
-             (axis == "sparse" ? "sparse points grow" : "VALs grow (stride shrinks)");
+    c.name = "error " +
+             std::string(truth              ? "vs ground truth"
+                         : axis == "stride" ? "vs brute force on the finest VALs"
+                                            : "vs brute force (same VALs)") +
+             " falls as " + (axis == "sparse" ? "sparse points grow" : "VALs grow (stride shrinks)");
     c.passed = series.size() >= 2;
     std::ostringstream detail;
     detail << "rel. MSE";
@@ -809,7 +793,7 @@ void writeRaw(const cv::Mat& glImage, const std::string& path) {
 /// scene.json, and our images of it as raw float32 RGB (top-down rows): LightSkin (diffuse + glossy +
 /// occlusion), brute force (diffuse + glossy), ground truth (diffuse + glossy, with visibility, every
 /// covered pixel), plus the coverage mask.
-void exportBlender(World& world, const Options& options) {
+void exportBlender(World& world, const SweepBenchOptions& options) {
     const std::string dir = options.exportBlender;
     std::filesystem::create_directories(dir);
     Config c = options.defaults;
@@ -832,8 +816,8 @@ void exportBlender(World& world, const Options& options) {
     j["glossy_c"] = glossyC;
     for (const auto& v : vals) {
         const glm::vec3 radiance = v.flux / (std::numbers::pi_v<float> * v.area);
-        j["vals"].push_back({v.position.x, v.position.y, v.position.z, v.normal.x, v.normal.y, v.normal.z, v.area, radiance.x,
-                             radiance.y, radiance.z});
+        j["vals"].push_back({v.position.x, v.position.y, v.position.z, v.normal.x, v.normal.y, v.normal.z, v.area,
+                             radiance.x, radiance.y, radiance.z});
     }
     for (const auto& m : inst) {
         nlohmann::json mesh;
@@ -928,22 +912,22 @@ void exportBlender(World& world, const Options& options) {
 // it runs on a uniform pixel subset: every s-th pixel in each direction of the same full-resolution
 // G-buffer (copied into an (W/s) x (H/s) G-buffer, so each subset pixel is exactly one full-resolution
 // pixel), and its full-frame time is extrapolated by the covered-pixel ratio (the brute force's cost is
-// VALs x covered pixels), unless it exceeds --max-brute interactions. The error is LightSkin's full-resolution image at the subset pixels against
-// the subset brute force (and against the full brute force where that was measured).
+// VALs x covered pixels), unless it exceeds --max-brute interactions. The error is LightSkin's full-resolution image at
+// the subset pixels against the subset brute force (and against the full brute force where that was measured).
 
 struct TableSpec {
     int width = 1920, height = 1080;
-    std::vector<int> sparseTotals;                  ///< sparse points over both models (split evenly)
-    std::vector<std::pair<int, int>> valMaps;       ///< VAL map sizes
-    int subset = 4;                                 ///< brute force on every subset-th pixel per direction
+    std::vector<int> sparseTotals;            ///< sparse points over both models (split evenly)
+    std::vector<std::pair<int, int>> valMaps; ///< VAL map sizes
+    int subset = 4;                           ///< brute force on every subset-th pixel per direction
     int frames = 1;
 };
 
 struct TableBrute {
     std::size_t vals = 0;
-    double subsetMs[2] = {0.0, 0.0};               ///< diffuse, + glossy (timer queries)
-    double subsetWallMs[2] = {0.0, 0.0};           ///< the same, wall time of render() + glFinish
-    double subsetCpuMs[2] = {0.0, 0.0};            ///< the same, process CPU time
+    double subsetMs[2] = {0.0, 0.0};                              ///< diffuse, + glossy (timer queries)
+    double subsetWallMs[2] = {0.0, 0.0};                          ///< the same, wall time of render() + glFinish
+    double subsetCpuMs[2] = {0.0, 0.0};                           ///< the same, process CPU time
     std::optional<double> fullMs[2], fullWallMs[2], fullCpuMs[2]; ///< measured at the full output (first map only)
     cv::Mat subsetImage[2], fullImage[2];
 };
@@ -951,15 +935,15 @@ struct TableBrute {
 struct TableRow {
     std::pair<int, int> map;
     std::size_t vals = 0;
-    std::size_t sparse = 0;                         ///< actual sparse points over both models
+    std::size_t sparse = 0; ///< actual sparse points over both models
     int channels = 1;
     double gpuMs = 0.0, cpuMs = 0.0;
     std::vector<std::pair<std::string, double>> stages;
-    double cpuTimeMs = 0.0;                         ///< process CPU time of render() + glFinish
-    double bruteMs = 0.0, bruteWallMs = 0.0, bruteCpuMs = 0.0; ///< extrapolated from the subset
+    double cpuTimeMs = 0.0;                                             ///< process CPU time of render() + glFinish
+    double bruteMs = 0.0, bruteWallMs = 0.0, bruteCpuMs = 0.0;          ///< extrapolated from the subset
     std::optional<double> bruteFullMs, bruteFullWallMs, bruteFullCpuMs; ///< measured at the full output
     std::optional<eval::ImageError> vsSubset, vsFull;
-    double meanRatio = 0.0;                         ///< total light / the brute force's, subset pixels
+    double meanRatio = 0.0; ///< total light / the brute force's, subset pixels
 };
 
 /// Sum of `image` over the mask divided by the same sum of `reference` (total light ratio).
@@ -1012,8 +996,9 @@ SubsetGBuffer subsetGBuffer(const ViewImages& view, int s) {
 
 /// One brute-force frame (after a warm-up on the first VALs, which compiles and binds everything):
 /// {timer-query ms, wall ms of render() + glFinish, process CPU ms of the same}.
-std::tuple<double, double, double> bruteFrame(const gi::ValSetView& set, bool glossy, std::span<const gi::MeshInstance> inst,
-                                     const gi::GBufferView& g, const gi::ViewParameters& view, gl::Texture& target, cv::Mat& image) {
+std::tuple<double, double, double> bruteFrame(const gi::ValSetView& set, bool glossy,
+                                              std::span<const gi::MeshInstance> inst, const gi::GBufferView& g,
+                                              const gi::ViewParameters& view, gl::Texture& target, cv::Mat& image) {
     gi::BruteForceSettings s;
     s.glossy = glossy;
     s.valCapacity = std::max(1u, set.count);
@@ -1043,25 +1028,33 @@ std::string fixed(double v, int decimals) {
     return buf;
 }
 
-std::string tableMarkdown(const TableSpec& spec, const std::vector<TableRow>& rows, const std::vector<TableBrute>& brutes,
-                          std::size_t coveredFull, std::size_t coveredSubset, const std::string& header) {
+std::string tableMarkdown(const TableSpec& spec, const std::vector<TableRow>& rows,
+                          const std::vector<TableBrute>& brutes, std::size_t coveredFull, std::size_t coveredSubset,
+                          const std::string& header) {
     const double ratio = double(coveredFull) / double(coveredSubset);
     std::ostringstream md;
     md << header;
-    md << "- Output " << spec.width << "x" << spec.height << ", " << coveredFull << " covered pixels; brute-force subset: every "
-       << spec.subset << "th pixel per direction, " << coveredSubset << " covered pixels (ratio " << fixed(ratio, 3) << ").\n\n";
-    md << "Brute force, ms: timer queries / wall (render() + glFinish) / process CPU time of the same. `extrapolated` = subset time x covered-pixel "
+    md << "- Output " << spec.width << "x" << spec.height << ", " << coveredFull
+       << " covered pixels; brute-force subset: every " << spec.subset << "th pixel per direction, " << coveredSubset
+       << " covered pixels (ratio " << fixed(ratio, 3) << ").\n\n";
+    md << "Brute force, ms: timer queries / wall (render() + glFinish) / process CPU time of the same. `extrapolated` "
+          "= subset time x covered-pixel "
           "ratio; `measured` = the full output; scaling check = measured / extrapolated.\n\n"
-          "| VAL map | VALs | diffuse, subset | diffuse, extrapolated | diffuse, measured | + glossy, subset | + glossy, "
-          "extrapolated | + glossy, measured | scaling check (query; wall; CPU) |\n|---|---|---|---|---|---|---|---|---|\n";
-    const auto triple = [](double q, double w, double c) { return fixed(q, 0) + " / " + fixed(w, 0) + " / " + fixed(c, 0); };
+          "| VAL map | VALs | diffuse, subset | diffuse, extrapolated | diffuse, measured | + glossy, subset | + "
+          "glossy, "
+          "extrapolated | + glossy, measured | scaling check (query; wall; CPU) "
+          "|\n|---|---|---|---|---|---|---|---|---|\n";
+    const auto triple = [](double q, double w, double c) {
+        return fixed(q, 0) + " / " + fixed(w, 0) + " / " + fixed(c, 0);
+    };
     for (std::size_t m = 0; m < brutes.size(); ++m) {
         const TableBrute& b = brutes[m];
         std::string check = "-";
         if (b.fullMs[0] && b.fullMs[1]) {
             const auto scale = [&](int k) {
-                return fixed(*b.fullMs[k] / (b.subsetMs[k] * ratio), 3) + "; " + fixed(*b.fullWallMs[k] / (b.subsetWallMs[k] * ratio), 3) +
-                       "; " + fixed(*b.fullCpuMs[k] / (b.subsetCpuMs[k] * ratio), 3);
+                return fixed(*b.fullMs[k] / (b.subsetMs[k] * ratio), 3) + "; " +
+                       fixed(*b.fullWallMs[k] / (b.subsetWallMs[k] * ratio), 3) + "; " +
+                       fixed(*b.fullCpuMs[k] / (b.subsetCpuMs[k] * ratio), 3);
             };
             check = "diffuse " + scale(0) + ", + glossy " + scale(1);
         }
@@ -1076,24 +1069,32 @@ std::string tableMarkdown(const TableSpec& spec, const std::vector<TableRow>& ro
     std::vector<std::string> stageNames;
     for (const auto& r : rows)
         for (const auto& st : r.stages)
-            if (std::find(stageNames.begin(), stageNames.end(), st.first) == stageNames.end()) stageNames.push_back(st.first);
-    md << "\nLightSkin: GPU ms per stage (timer queries), total = their sum, fps = 1000 / total, wall = render() + glFinish, CPU = process CPU time of the same. "
-          "Speed-up over the brute force of the same reflectance (diffuse for the diffuse setup, + glossy otherwise; the brute "
-          "force has no occlusion): by timer queries, wall time and CPU time, `(x)` = extrapolated from the subset. Error against the "
-          "brute force at the subset pixels (rel. MSE, SSIM, total light ratio) and at every pixel where the full brute force "
+            if (std::find(stageNames.begin(), stageNames.end(), st.first) == stageNames.end())
+                stageNames.push_back(st.first);
+    md << "\nLightSkin: GPU ms per stage (timer queries), total = their sum, fps = 1000 / total, wall = render() + "
+          "glFinish, CPU = process CPU time of the same. "
+          "Speed-up over the brute force of the same reflectance (diffuse for the diffuse setup, + glossy otherwise; "
+          "the brute "
+          "force has no occlusion): by timer queries, wall time and CPU time, `(x)` = extrapolated from the subset. "
+          "Error against the "
+          "brute force at the subset pixels (rel. MSE, SSIM, total light ratio) and at every pixel where the full "
+          "brute force "
           "was measured. Gather interactions/s = sparse points x VALs / gather time.\n\n";
     md << "| VAL map | VALs | sparse | setup | total | fps | wall | CPU |";
     for (const auto& n : stageNames) md << " " << n << " |";
-    md << " gather interactions/s | speed-up (query) | speed-up (wall) | speed-up (CPU) | rel. MSE vs brute | SSIM | total / brute | "
+    md << " gather interactions/s | speed-up (query) | speed-up (wall) | speed-up (CPU) | rel. MSE vs brute | SSIM | "
+          "total / brute | "
           "rel. MSE vs full brute |\n|---|---|---|---|---|---|---|---|";
     for (std::size_t i = 0; i < stageNames.size(); ++i) md << "---|";
     md << "---|---|---|---|---|---|---|---|\n";
     for (const auto& r : rows) {
-        md << "| " << mapName(r.map) << " | " << r.vals << " | " << r.sparse << " | " << channelName(r.channels) << " | "
-           << fixed(r.gpuMs, 1) << " | " << fixed(1000.0 / r.gpuMs, 2) << " | " << fixed(r.cpuMs, 1) << " | " << fixed(r.cpuTimeMs, 1) << " |";
+        md << "| " << mapName(r.map) << " | " << r.vals << " | " << r.sparse << " | " << channelName(r.channels)
+           << " | " << fixed(r.gpuMs, 1) << " | " << fixed(1000.0 / r.gpuMs, 2) << " | " << fixed(r.cpuMs, 1) << " | "
+           << fixed(r.cpuTimeMs, 1) << " |";
         double gather = 0.0;
         for (const auto& n : stageNames) {
-            const auto it = std::find_if(r.stages.begin(), r.stages.end(), [&](const auto& st) { return st.first == n; });
+            const auto it =
+                std::find_if(r.stages.begin(), r.stages.end(), [&](const auto& st) { return st.first == n; });
             if (it == r.stages.end()) {
                 md << " - |";
                 continue;
@@ -1102,7 +1103,8 @@ std::string tableMarkdown(const TableSpec& spec, const std::vector<TableRow>& ro
             md << " " << fixed(it->second, 1) << " |";
         }
         char rate[32];
-        std::snprintf(rate, sizeof rate, "%.2e", gather > 0.0 ? double(r.sparse) * double(r.vals) / (gather / 1000.0) : 0.0);
+        std::snprintf(rate, sizeof rate, "%.2e",
+                      gather > 0.0 ? double(r.sparse) * double(r.vals) / (gather / 1000.0) : 0.0);
         md << " " << rate << " | ";
         if (r.bruteFullMs)
             md << fixed(*r.bruteFullMs / r.gpuMs, 0) << "x | " << fixed(*r.bruteFullWallMs / r.cpuMs, 0) << "x | "
@@ -1112,7 +1114,8 @@ std::string tableMarkdown(const TableSpec& spec, const std::vector<TableRow>& ro
                << fixed(r.bruteCpuMs / r.cpuTimeMs, 0) << "x) |";
         char err[160];
         if (r.vsSubset)
-            std::snprintf(err, sizeof err, " %.2e | %.4f | %.4f |", r.vsSubset->relativeMse, r.vsSubset->ssim, r.meanRatio);
+            std::snprintf(err, sizeof err, " %.2e | %.4f | %.4f |", r.vsSubset->relativeMse, r.vsSubset->ssim,
+                          r.meanRatio);
         else
             std::snprintf(err, sizeof err, " - | - | - |");
         md << err;
@@ -1126,12 +1129,13 @@ std::string tableMarkdown(const TableSpec& spec, const std::vector<TableRow>& ro
     return md.str();
 }
 
-void runTable(const Options& options, const TableSpec& spec, const std::string& title) {
+void runTable(const SweepBenchOptions& options, const TableSpec& spec, const std::string& title) {
     const auto start = Clock::now();
     auto context = gl::createHeadlessContext();
     const std::string header = "### " + title + "\n\n- Command: `" + commandLine() + "`\n- Date: " + utcNow() +
                                "\n- Machine: " + readFirstLine("/proc/cpuinfo", "model name") + ", " +
-                               std::to_string(std::thread::hardware_concurrency()) + " threads; renderer: " + context->describe() +
+                               std::to_string(std::thread::hardware_concurrency()) +
+                               " threads; renderer: " + context->describe() +
                                "\n- Load average (1/5/15 min) at start: " + loadAverage() + "\n";
     std::printf("%s", header.c_str());
     std::fflush(stdout);
@@ -1148,8 +1152,8 @@ void runTable(const Options& options, const TableSpec& spec, const std::string& 
     auto& target = world.target(spec.width, spec.height);
     gl::Texture subsetTarget = gl::Texture::create2D(GL_RGBA32F, subset.view.width, subset.view.height);
     const double ratio = double(view.covered) / double(subset.covered);
-    std::printf("output %dx%d: %zu covered pixels; brute-force subset %dx%d: %zu covered (ratio %.3f)\n", spec.width, spec.height,
-                view.covered, subset.view.width, subset.view.height, subset.covered, ratio);
+    std::printf("output %dx%d: %zu covered pixels; brute-force subset %dx%d: %zu covered (ratio %.3f)\n", spec.width,
+                spec.height, view.covered, subset.view.width, subset.view.height, subset.covered, ratio);
 
     std::vector<TableRow> rows;
     std::vector<TableBrute> brutes;
@@ -1159,23 +1163,25 @@ void runTable(const Options& options, const TableSpec& spec, const std::string& 
         TableBrute b;
         b.vals = set.count;
         for (int glossy = 0; glossy < 2; ++glossy) {
-            std::printf("[%5.0f s] VAL map %s (%u VALs): brute force %s, subset ...", msSince(start) / 1000.0, mapName(map).c_str(),
-                        set.count, glossy ? "+ glossy" : "diffuse");
+            std::printf("[%5.0f s] VAL map %s (%u VALs): brute force %s, subset ...", msSince(start) / 1000.0,
+                        mapName(map).c_str(), set.count, glossy ? "+ glossy" : "diffuse");
             std::fflush(stdout);
             std::tie(b.subsetMs[glossy], b.subsetWallMs[glossy], b.subsetCpuMs[glossy]) =
                 bruteFrame(set, glossy != 0, inst, subset.view, viewParams, subsetTarget, b.subsetImage[glossy]);
             std::printf(" %.0f ms, wall %.0f ms (extrapolated %.0f ms)", b.subsetMs[glossy], b.subsetWallMs[glossy],
                         b.subsetMs[glossy] * ratio);
-            if (m == 0 && double(set.count) * double(view.covered) <= options.maxBruteInteractions) { // the scaling check
+            if (m == 0 &&
+                double(set.count) * double(view.covered) <= options.maxBruteInteractions) { // the scaling check
                 std::printf(", full ...");
                 std::fflush(stdout);
                 gbuffer.render(inst, clip);
-                const auto [ms, wall, cpu] = bruteFrame(set, glossy != 0, inst, gbuffer.view(), viewParams, target, b.fullImage[glossy]);
+                const auto [ms, wall, cpu] =
+                    bruteFrame(set, glossy != 0, inst, gbuffer.view(), viewParams, target, b.fullImage[glossy]);
                 b.fullMs[glossy] = ms;
                 b.fullWallMs[glossy] = wall;
                 b.fullCpuMs[glossy] = cpu;
-                std::printf(" %.0f ms, wall %.0f ms, CPU %.0f ms (measured / extrapolated %.3f, wall %.3f, CPU %.3f)", ms, wall, cpu,
-                            ms / (b.subsetMs[glossy] * ratio), wall / (b.subsetWallMs[glossy] * ratio),
+                std::printf(" %.0f ms, wall %.0f ms, CPU %.0f ms (measured / extrapolated %.3f, wall %.3f, CPU %.3f)",
+                            ms, wall, cpu, ms / (b.subsetMs[glossy] * ratio), wall / (b.subsetWallMs[glossy] * ratio),
                             cpu / (b.subsetCpuMs[glossy] * ratio));
             }
             std::printf("\n");
@@ -1196,7 +1202,8 @@ void runTable(const Options& options, const TableSpec& spec, const std::string& 
                 technique->prepare(inst);
                 gbuffer.render(inst, clip);
                 // Warm-up on the first VALs only (compiles and binds everything; the full gather takes minutes).
-                technique->render({set.buffer, std::min(set.count, 256u)}, inst, gbuffer.view(), viewParams, target.id());
+                technique->render({set.buffer, std::min(set.count, 256u)}, inst, gbuffer.view(), viewParams,
+                                  target.id());
                 glFinish();
                 std::vector<double> gpu, cpu, cpuTime;
                 std::map<std::string, std::vector<double>> stageTimes;
@@ -1234,12 +1241,12 @@ void runTable(const Options& options, const TableSpec& spec, const std::string& 
                 r.vsSubset = compare(sampled, b.subsetImage[glossy], subset.mask);
                 r.meanRatio = totalRatio(sampled, b.subsetImage[glossy], subset.mask);
                 if (b.fullMs[glossy]) r.vsFull = compare(image, b.fullImage[glossy], view.mask);
-                std::printf("[%5.0f s] %s, %zu sparse, %s: GPU %.1f ms (", msSince(start) / 1000.0, mapName(map).c_str(), r.sparse,
-                            channelName(channels), r.gpuMs);
+                std::printf("[%5.0f s] %s, %zu sparse, %s: GPU %.1f ms (", msSince(start) / 1000.0,
+                            mapName(map).c_str(), r.sparse, channelName(channels), r.gpuMs);
                 for (const auto& st : r.stages) std::printf(" %s %.1f", st.first.c_str(), st.second);
-                std::printf(" ), wall %.1f ms, process CPU %.1f ms; speed-up %.0fx%s; vs brute (subset) %s\n", r.cpuMs, r.cpuTimeMs,
-                            (r.bruteFullWallMs ? *r.bruteFullWallMs : r.bruteWallMs) / r.cpuMs, r.bruteFullMs ? " (wall)" : " (wall, extrapolated)",
-                            r.vsSubset->describe().c_str());
+                std::printf(" ), wall %.1f ms, process CPU %.1f ms; speed-up %.0fx%s; vs brute (subset) %s\n", r.cpuMs,
+                            r.cpuTimeMs, (r.bruteFullWallMs ? *r.bruteFullWallMs : r.bruteWallMs) / r.cpuMs,
+                            r.bruteFullMs ? " (wall)" : " (wall, extrapolated)", r.vsSubset->describe().c_str());
                 std::fflush(stdout);
                 rows.push_back(std::move(r));
             }
@@ -1265,35 +1272,37 @@ std::vector<std::pair<int, int>> parseSizes(const std::string& text, const char*
     });
 }
 
-void runBench(const Options& options, int& exitCode) {
+int runSweep(const SweepBenchOptions& options) {
+    int exitCode = 0;
     const auto start = Clock::now();
     Report report;
     report.command = commandLine();
     report.date = utcNow();
-    report.machine = readFirstLine("/proc/cpuinfo", "model name") + ", " + std::to_string(std::thread::hardware_concurrency()) + " threads";
+    report.machine = readFirstLine("/proc/cpuinfo", "model name") + ", " +
+                     std::to_string(std::thread::hardware_concurrency()) + " threads";
     report.loadStart = loadAverage();
     report.truthStride = options.truthStride;
     report.frames = options.frames;
     report.quick = options.quick;
     auto context = gl::createHeadlessContext();
     report.renderer = context->describe();
-    std::printf("lightskin bench%s: %s\nrenderer: %s\nload average: %s\n", options.quick ? " --quick" : "", report.machine.c_str(),
-                report.renderer.c_str(), report.loadStart.c_str());
+    std::printf("lightskin bench%s: %s\nrenderer: %s\nload average: %s\n", options.quick ? " --quick" : "",
+                report.machine.c_str(), report.renderer.c_str(), report.loadStart.c_str());
     World world(options);
     if (!options.exportBlender.empty()) {
         exportBlender(world, options);
-        exitCode = 0;
-        return;
+        return 0;
     }
     const auto configs = buildSweep(options);
-    std::printf("%zu configurations (one knob at a time around the default), %d frames each after a warm-up\n", configs.size(),
-                options.frames);
+    std::printf("%zu configurations (one knob at a time around the default), %d frames each after a warm-up\n",
+                configs.size(), options.frames);
     for (std::size_t i = 0; i < configs.size(); ++i) {
         const Config& c = configs[i];
-        std::printf("[%zu/%zu %5.0f s] %s%s%s: sparse %d, stride %d, K_cache %d, %s, %dx%d, sphere %zu tris, adaptive %s\n", i + 1,
-                    configs.size(), msSince(start) / 1000.0, c.axis.c_str(), c.isDefault ? "" : "=", c.isDefault ? "" : c.value.c_str(),
-                    c.sparse, c.stride, c.kCache, channelName(c.channels), c.width, c.height, c.sphereTriangles,
-                    c.adaptive ? "on" : "off");
+        std::printf(
+            "[%zu/%zu %5.0f s] %s%s%s: sparse %d, stride %d, K_cache %d, %s, %dx%d, sphere %zu tris, adaptive %s\n",
+            i + 1, configs.size(), msSince(start) / 1000.0, c.axis.c_str(), c.isDefault ? "" : "=",
+            c.isDefault ? "" : c.value.c_str(), c.sparse, c.stride, c.kCache, channelName(c.channels), c.width,
+            c.height, c.sphereTriangles, c.adaptive ? "on" : "off");
         std::fflush(stdout);
         RunResult r = runConfig(world, options, c);
         std::printf("    %zu VALs, %zu px: GPU %.1f ms (", r.vals, r.covered, r.gpuMs);
@@ -1324,116 +1333,66 @@ void runBench(const Options& options, int& exitCode) {
     report.seconds = msSince(start) / 1000.0;
     writeOutputs(report, options.out);
     if (!options.docs.empty()) regenerateDocs(report, options.docs);
-    std::printf("wrote %s/bench.{csv,json,png,md}%s%s in %.0f s\n", options.out.c_str(), options.docs.empty() ? "" : " and ",
-                options.docs.c_str(), report.seconds);
+    std::printf("wrote %s/bench.{csv,json,png,md}%s%s in %.0f s\n", options.out.c_str(),
+                options.docs.empty() ? "" : " and ", options.docs.c_str(), report.seconds);
     exitCode = 0;
     for (const auto& c : report.checks) {
-        std::printf("%s %s: %s\n", c.passed ? "PASS" : c.required ? "FAIL" : "INFO (does not hold, reported only)", c.name.c_str(),
-                    c.detail.c_str());
+        std::printf("%s %s: %s\n",
+                    c.passed     ? "PASS"
+                    : c.required ? "FAIL"
+                                 : "INFO (does not hold, reported only)",
+                    c.name.c_str(), c.detail.c_str());
         if (!c.passed && c.required) exitCode = 3;
     }
-}
-
-void addBenchCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand("bench", "Sweep the LightSkin knobs: time and error against brute force and ground truth");
-    auto o = std::make_shared<Options>();
-    command->add_flag("--quick", o->quick, "CI smoke run (< 2 min): small sweep, checks that error falls with sparse points and VALs");
-    command->add_option("--out", o->out, "Output folder for bench.csv/json/png/md");
-    command->add_option("--docs", o->docs, "Regenerate the section between the lightskin-bench markers in this Markdown file");
-    command->add_option("--bunny", o->bunnyPath, "Stanford bunny PLY (tests/data/stanford-bunny/bun_zipper_res4.ply)");
-    command->add_option("--sparse", o->sparse, "Sparse points per model to sweep (comma-separated)");
-    command->add_option("--strides", o->strides, "VAL strides on the 640x480 depth frame to sweep (1 = 640x480 VALs, 8 = 80x60)");
-    command->add_option("--kcache", o->kCache, "K_cache values to sweep");
-    command->add_option("--channels", o->channels, "Channels to sweep: diffuse,glossy,occlusion");
-    command->add_option("--resolutions", o->resolutions, "Output resolutions to sweep, WxH");
-    command->add_option("--meshes", o->meshes, "Sphere triangle counts to sweep (the bunny adds ~15k)");
-    command->add_option("--adaptive", o->adaptive, "Adaptive mode values to sweep: off,on");
-    command->add_option("--default-sparse", o->defaults.sparse, "Default configuration: sparse points per model");
-    command->add_option("--default-stride", o->defaults.stride, "Default configuration: VAL stride");
-    command->add_option("--default-kcache", o->defaults.kCache, "Default configuration: K_cache");
-    command->add_option("--default-channels", o->defaults.channels, "Default configuration: 1 diffuse, 2 +glossy, 3 +occlusion")
-        ->check(CLI::Range(1, 3));
-    command->add_option("--default-width", o->defaults.width, "Default configuration: output width")->check(CLI::Range(16, 8192));
-    command->add_option("--default-height", o->defaults.height, "Default configuration: output height")->check(CLI::Range(16, 8192));
-    command->add_option("--default-mesh", o->defaults.sphereTriangles, "Default configuration: sphere triangles");
-    command->add_option("--frames", o->frames, "Timed frames per configuration (median; after one warm-up)")->check(CLI::Range(1, 100));
-    command->add_option("--truth-stride", o->truthStride, "VAL stride of the ground truth")->check(CLI::Range(1, 64));
-    command->add_option("--truth-grid", o->truthGrid, "Ground-truth receivers per image row")->check(CLI::Range(4, 1024));
-    command->add_option("--max-brute", o->maxBruteInteractions, "Skip brute force above this many VAL x pixel interactions");
-    command->add_option("--max-truth", o->maxTruthRays, "Skip the ground truth above this many rays");
-    command->add_option("--temporal-frames", o->temporalFrames, "Frames per temporal sequence")->check(CLI::Range(2, 1000));
-    command->add_option("--temporal-tolerance", o->temporalTolerance,
-                        "Metres: a tracked vertex counts as seen when the G-buffer position at its pixel is this close");
-    command->add_option("--temporal-sparse", o->temporalSparse, "Sparse points per model in the temporal sequences");
-    command->add_flag("--no-temporal", [o](std::int64_t) { o->temporal = false; }, "Skip the temporal sequences");
-    command->add_option(
-        "--export-blender", o->exportBlender,
-        "Only write the default view (diffuse + glossy) for scripts/blender_reference.sh into this folder");
-    command->add_flag("--check", o->check, "Fail (exit 3) unless error falls as sparse points and VALs grow");
-    command->add_option("--tolerance", o->tolerance, "Noise allowed in the monotonicity check (relative)");
-    command->add_flag("--table1", o->table1,
-                      "Instead of the sweep: the paper's Table 1 setups (1920x1080; 4k, 16k sparse points; 16k, 64k, 512k VALs), "
-                      "stage times and speed-up over the brute force (extrapolated from a pixel subset, checked on the first map)");
-    command->add_flag("--kinect", o->kinect,
-                      "Instead of the sweep: the Kinect setups (640x480 output; VAL maps 160x120, 320x240, 640x480; 1k, 4k sparse)");
-    command->add_option("--table-output", o->tableOutput, "--table1/--kinect: output WxH");
-    command->add_option("--table-sparse", o->tableSparse, "--table1/--kinect: sparse points over both models (comma-separated)");
-    command->add_option("--table-vals", o->tableVals, "--table1/--kinect: VAL maps WxH (comma-separated)");
-    command->add_option("--table-subset", o->tableSubset, "--table1/--kinect: brute force on every n-th pixel per direction")
-        ->check(CLI::Range(1, 64));
-    command->add_option("--table-frames", o->tableFrames, "--table1/--kinect: timed frames per cell (median)")->check(CLI::Range(1, 100));
-    command->add_option("--from-json", o->fromJson,
-                        "Do not measure: read this bench.json and rewrite the outputs (--out) and --docs from it");
-    command->callback([o, &exitCode] {
-        Options options = *o;
-        if (!options.fromJson.empty()) {
-            const Report report = readReport(options.fromJson);
-            writeOutputs(report, options.out);
-            if (!options.docs.empty()) regenerateDocs(report, options.docs);
-            exitCode = 0;
-            return;
-        }
-        if (options.table1 || options.kinect) {
-            TableSpec spec;
-            if (options.table1) {
-                spec.sparseTotals = {4096, 16384};
-                spec.valMaps = {{166, 124}, {312, 234}, {852, 639}}; // ~16k, ~64k, ~512k valid VALs (measured)
-            } else {
-                spec.width = 640;
-                spec.height = 480;
-                spec.sparseTotals = {1024, 4096};
-                spec.valMaps = {{160, 120}, {320, 240}, {640, 480}};
-            }
-            if (!options.tableOutput.empty()) {
-                const auto sizes = parseSizes(options.tableOutput, "--table-output");
-                if (sizes.size() != 1) throw Error("--table-output", std::nullopt, "expected one WxH, got '" + options.tableOutput + "'");
-                const auto size = sizes[0];
-                spec.width = size.first;
-                spec.height = size.second;
-            }
-            if (!options.tableSparse.empty())
-                spec.sparseTotals = splitList<int>(options.tableSparse, [](const std::string& v) { return parseInt(v, "--table-sparse"); });
-            if (!options.tableVals.empty()) spec.valMaps = parseSizes(options.tableVals, "--table-vals");
-            if (options.tableSubset > 0) spec.subset = options.tableSubset;
-            spec.frames = options.tableFrames;
-            runTable(options, spec, options.table1 ? "The paper's Table 1 setups" : "Kinect setups");
-            exitCode = 0;
-            return;
-        }
-        if (options.quick) {
-            const Options given = options;
-            applyQuick(options);
-            options.out = given.out;
-            options.docs = given.docs;
-            options.bunnyPath = given.bunnyPath;
-            options.temporal = given.temporal;
-        }
-        runBench(options, exitCode);
-    });
+    return exitCode;
 }
 
 } // namespace
 
-static const CommandRegistration registration{"bench", &addBenchCommand};
+int runSweepCommand(const SweepBenchOptions& given) {
+    SweepBenchOptions options = given;
+    if (!options.fromJson.empty()) {
+        const Report report = readReport(options.fromJson);
+        writeOutputs(report, options.out);
+        if (!options.docs.empty()) regenerateDocs(report, options.docs);
+        return 0;
+    }
+    if (options.table1 || options.kinect) {
+        TableSpec spec;
+        if (options.table1) {
+            spec.sparseTotals = {4096, 16384};
+            spec.valMaps = {{166, 124}, {312, 234}, {852, 639}}; // ~16k, ~64k, ~512k valid VALs (measured)
+        } else {
+            spec.width = 640;
+            spec.height = 480;
+            spec.sparseTotals = {1024, 4096};
+            spec.valMaps = {{160, 120}, {320, 240}, {640, 480}};
+        }
+        if (!options.tableOutput.empty()) {
+            const auto sizes = parseSizes(options.tableOutput, "--table-output");
+            if (sizes.size() != 1)
+                throw Error("--table-output", std::nullopt, "expected one WxH, got '" + options.tableOutput + "'");
+            const auto size = sizes[0];
+            spec.width = size.first;
+            spec.height = size.second;
+        }
+        if (!options.tableSparse.empty())
+            spec.sparseTotals =
+                splitList<int>(options.tableSparse, [](const std::string& v) { return parseInt(v, "--table-sparse"); });
+        if (!options.tableVals.empty()) spec.valMaps = parseSizes(options.tableVals, "--table-vals");
+        if (options.tableSubset > 0) spec.subset = options.tableSubset;
+        spec.frames = options.tableFrames;
+        runTable(options, spec, options.table1 ? "The paper's Table 1 setups" : "Kinect setups");
+        return 0;
+    }
+    if (options.quick) {
+        applyQuick(options);
+        options.out = given.out;
+        options.docs = given.docs;
+        options.bunnyPath = given.bunnyPath;
+        options.temporal = given.temporal;
+    }
+    return runSweep(options);
+}
 
-} // namespace lightskin::apps
+} // namespace lightskin::bench

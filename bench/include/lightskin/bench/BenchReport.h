@@ -10,17 +10,17 @@
 #include <utility>
 #include <vector>
 
-namespace lightskin::apps::bench {
+namespace lightskin::bench {
 
 /// One configuration of the sweep: the knob values. `axis`/`value` name the knob this row varies
 /// (one-at-a-time around the default configuration).
 struct Config {
     std::string axis = "default";
     std::string value = "-";
-    int sparse = 1024;        ///< sparse points per model
-    int stride = 4;           ///< VAL stride on the 640x480 depth frame (4: 160x120 VAL map)
+    int sparse = 1024; ///< sparse points per model
+    int stride = 4;    ///< VAL stride on the 640x480 depth frame (4: 160x120 VAL map)
     int kCache = 128;
-    int channels = 3;         ///< 1 diffuse, 2 + glossy, 3 + occlusion
+    int channels = 3; ///< 1 diffuse, 2 + glossy, 3 + occlusion
     int width = 640, height = 480;
     std::size_t sphereTriangles = 20000;
     bool adaptive = false;
@@ -31,27 +31,27 @@ const char* channelName(int channels);
 
 struct RunResult {
     Config config;
-    std::size_t vals = 0;          ///< VALs the generator produced
-    std::size_t covered = 0;       ///< output pixels covered by virtual content
-    std::size_t triangles = 0;     ///< of both virtual meshes
-    double gpuMs = 0.0;            ///< median over frames of the sum of the technique's GPU stages
-    double cpuMs = 0.0;            ///< median wall time of render() + glFinish
-    double valsMs = 0.0;           ///< median GPU time of the VAL generation (common to all techniques)
-    double prepareMs = 0.0;        ///< wall time of create() + prepare() (sparse points: load time, not per frame)
+    std::size_t vals = 0;      ///< VALs the generator produced
+    std::size_t covered = 0;   ///< output pixels covered by virtual content
+    std::size_t triangles = 0; ///< of both virtual meshes
+    double gpuMs = 0.0;        ///< median over frames of the sum of the technique's GPU stages
+    double cpuMs = 0.0;        ///< median wall time of render() + glFinish
+    double valsMs = 0.0;       ///< median GPU time of the VAL generation (common to all techniques)
+    double prepareMs = 0.0;    ///< wall time of create() + prepare() (sparse points: load time, not per frame)
     std::vector<std::pair<std::string, double>> stages; ///< medians, execution order
-    std::optional<double> bruteMs; ///< brute force GPU time on the same inputs (one frame)
-    std::optional<eval::ImageError> vsBrute;  ///< against the brute force, same VALs, full image
-    std::optional<eval::ImageError> vsTruth;  ///< against the ray-traced ground truth (receiver grid)
+    std::optional<double> bruteMs;                      ///< brute force GPU time on the same inputs (one frame)
+    std::optional<eval::ImageError> vsBrute;            ///< against the brute force, same VALs, full image
+    std::optional<eval::ImageError> vsTruth;            ///< against the ray-traced ground truth (receiver grid)
     /// Against the brute force on the finest (truth-stride) VAL map of the same frame: what the VAL
     /// stride and the approximation cost together, with the same reflectance model.
     std::optional<eval::ImageError> vsFineBrute;
     std::size_t truthReceivers = 0;
-    bool isBrute = false;          ///< the brute-force row itself (its error against the truth)
+    bool isBrute = false; ///< the brute-force row itself (its error against the truth)
 };
 
 struct TemporalResult {
-    std::string sequence;          ///< camera | light | edges
-    std::string technique;         ///< "lightskin sparse N" or "brute force"
+    std::string sequence;  ///< camera | light | edges
+    std::string technique; ///< "lightskin sparse N" or "brute force"
     int frames = 0;
     std::size_t pointPairs = 0;    ///< (point, frame pair) samples
     double flicker = 0.0;          ///< RMS frame-to-frame change / mean reference level
@@ -88,4 +88,4 @@ std::string markdown(const Report& report);
 /// `docsFile` (appends a section with the markers when they are missing).
 void regenerateDocs(const Report& report, const std::string& docsFile);
 
-} // namespace lightskin::apps::bench
+} // namespace lightskin::bench

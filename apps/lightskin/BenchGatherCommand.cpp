@@ -1,0 +1,45 @@
+// `lightskin bench-gather`: argument parsing only; the benchmark is lightskin::bench (GatherBench.h).
+#include "Commands.h"
+
+#include <lightskin/bench/GatherBench.h>
+#include <lightskin/bench/OptionLists.h>
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace lightskin::apps {
+
+namespace {
+
+void addBenchGatherCommand(CLI::App& app, int& exitCode) {
+    auto* command = app.add_subcommand("bench-gather", "Time the LightSkin stages and compare with the brute force");
+    auto options = std::make_shared<bench::GatherBenchOptions>();
+    auto sparse = std::make_shared<std::string>("1024");
+    auto maps = std::make_shared<std::string>("160x120");
+    auto kCache = std::make_shared<std::string>("128");
+    command->add_option("--width", options->outputWidth, "Output width (pixels)");
+    command->add_option("--height", options->outputHeight, "Output height (pixels)");
+    command->add_option("--sparse", *sparse, "Comma-separated sparse point counts (total of both meshes)");
+    command->add_option("--vals", *maps, "Comma-separated VAL map sizes WxH, e.g. 160x120,320x240");
+    command->add_option("--kcache", *kCache, "Comma-separated K_cache values (multiples of 16)");
+    command->add_option("--repeat", options->repeat, "Frames per configuration (the minimum is reported)");
+    command->add_flag(
+        "--no-brute", [options](std::int64_t) { options->brute = false; }, "Skip the brute force");
+    command->add_flag("--compute", options->compute,
+                      "Gather with the compute-shader variant instead of fragment passes");
+    command->callback([=, &exitCode] {
+        options->sparse = bench::splitList<int>(*sparse, [](const std::string& s) { return std::stoi(s); });
+        options->kCache = bench::splitList<int>(*kCache, [](const std::string& s) { return std::stoi(s); });
+        options->valMaps = bench::splitList<std::string>(*maps, [](const std::string& s) { return s; });
+        bench::runGatherBench(*options);
+        exitCode = 0;
+    });
+}
+
+} // namespace
+
+static const CommandRegistration registration{"bench-gather", &addBenchGatherCommand};
+
+} // namespace lightskin::apps

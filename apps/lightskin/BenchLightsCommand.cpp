@@ -1,0 +1,30 @@
+// `lightskin bench-lights`: argument parsing only; the benchmark is lightskin::bench (LightsBench.h).
+#include "Commands.h"
+
+#include <lightskin/bench/LightsBench.h>
+
+#include <memory>
+#include <string>
+
+namespace lightskin::apps {
+
+namespace {
+
+void addBenchLightsCommand(CLI::App& app, int& exitCode) {
+    auto* command = app.add_subcommand("bench-lights", "Time VAL generation, RSM VALs and sparse-point preparation");
+    auto options = std::make_shared<bench::LightsBenchOptions>();
+    command->add_option("--repeat", options->repeat, "Timed repetitions per case (median reported)")
+        ->check(CLI::Range(1, 1000));
+    command->add_option("--mesh", options->mesh, "OBJ mesh for sparse points (default: a 70k-triangle UV sphere)");
+    command->add_option("--out", options->out, "Also write the markdown table to this file");
+    command->callback([options, &exitCode] {
+        bench::runLightsBench(*options);
+        exitCode = 0;
+    });
+}
+
+} // namespace
+
+static const CommandRegistration registration{"bench-lights", &addBenchLightsCommand};
+
+} // namespace lightskin::apps
