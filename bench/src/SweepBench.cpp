@@ -542,6 +542,7 @@ RunResult bruteRow(World& world, const Config& c) {
     RunResult r;
     r.config = c;
     r.isBrute = true;
+    r.method = "brute force";
     const auto inst = world.instances(c.sphereTriangles);
     r.triangles = world.triangles(c.sphereTriangles);
     const ViewImages view = world.renderView(inst, c.width, c.height, viewClip(c.width, c.height));
@@ -722,8 +723,8 @@ std::vector<TemporalResult> runTemporal(World& world, const SweepBenchOptions& o
         };
         std::size_t samples = 0;
         const double referenceFlicker = flickerOf(reference, nullptr, samples);
-        results.push_back(
-            {sequence, "brute force (reference, diffuse)", n, samples, referenceFlicker, referenceFlicker, 0.0});
+        results.push_back({sequence, "brute force (reference, diffuse)", n, samples, referenceFlicker, referenceFlicker,
+                           0.0, "brute force", "GL"});
         for (std::size_t k = 0; k < sparseList.size(); ++k) {
             TemporalResult t;
             t.sequence = sequence;
@@ -1333,7 +1334,7 @@ int runSweep(const SweepBenchOptions& options) {
     report.seconds = msSince(start) / 1000.0;
     writeOutputs(report, options.out);
     if (!options.docs.empty()) regenerateDocs(report, options.docs);
-    std::printf("wrote %s/bench.{csv,json,png,md}%s%s in %.0f s\n", options.out.c_str(),
+    std::printf("wrote %s/bench.{csv,json,md}%s%s in %.0f s\n", options.out.c_str(),
                 options.docs.empty() ? "" : " and ", options.docs.c_str(), report.seconds);
     exitCode = 0;
     for (const auto& c : report.checks) {

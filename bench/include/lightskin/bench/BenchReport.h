@@ -1,7 +1,6 @@
 #pragma once
-// Results of `lightskin bench` (BenchCommand.cpp) and their outputs: CSV, JSON, the error-against-time
-// plot (OpenCV drawing: log-log axes, Pareto front, default configuration highlighted) and the
-// Markdown section regenerated into docs/BENCHMARKS.md between markers.
+// Results of `lightskin bench` (SweepBench.h) and their outputs: CSV, JSON (the source of the plots,
+// BenchPlots.h) and the Markdown section regenerated into docs/BENCHMARKS.md between markers.
 #include <lightskin/eval/ImageMetrics.h>
 
 #include <cstddef>
@@ -31,6 +30,10 @@ const char* channelName(int channels);
 
 struct RunResult {
     Config config;
+    /// The technique and the backend that produced this row ("LightSkin"/"brute force", "GL"/"CPU"): the
+    /// plots draw one series per pair, so a new technique or backend needs no plotting code.
+    std::string method = "LightSkin";
+    std::string backend = "GL";
     std::size_t vals = 0;      ///< VALs the generator produced
     std::size_t covered = 0;   ///< output pixels covered by virtual content
     std::size_t triangles = 0; ///< of both virtual meshes
@@ -53,10 +56,12 @@ struct TemporalResult {
     std::string sequence;  ///< camera | light | edges
     std::string technique; ///< "lightskin sparse N" or "brute force"
     int frames = 0;
-    std::size_t pointPairs = 0;    ///< (point, frame pair) samples
-    double flicker = 0.0;          ///< RMS frame-to-frame change / mean reference level
-    double referenceFlicker = 0.0; ///< the same for the reference (brute force)
-    double excessFlicker = 0.0;    ///< RMS of (our change - reference change) / mean reference level
+    std::size_t pointPairs = 0;       ///< (point, frame pair) samples
+    double flicker = 0.0;             ///< RMS frame-to-frame change / mean reference level
+    double referenceFlicker = 0.0;    ///< the same for the reference (brute force)
+    double excessFlicker = 0.0;       ///< RMS of (our change - reference change) / mean reference level
+    std::string method = "LightSkin"; ///< technique family, as RunResult::method
+    std::string backend = "GL";
 };
 
 struct CheckResult {
@@ -80,7 +85,8 @@ struct Report {
 /// Reads a bench.json back (to redraw the plot or regenerate the docs without re-running).
 /// Throws lightskin::Error on a missing or malformed file.
 Report readReport(const std::string& jsonFile);
-/// Writes bench.csv, bench.json, bench.png and bench.md into `dir` (created if missing).
+/// Writes bench.csv, bench.json and bench.md into `dir` (created if missing), then the plots from the
+/// JSON (drawPlots, BenchPlots.h: skipped with a warning naming the fix when python3-matplotlib is missing).
 void writeOutputs(const Report& report, const std::string& dir);
 /// The Markdown section (between the markers).
 std::string markdown(const Report& report);
