@@ -1,13 +1,9 @@
 #pragma once
-// The synthetic mixed-reality scene of `lightskin bench` (BenchCommand.cpp): a real room seen by a
-// depth camera, rendered analytically into a 640x480 depth + colour frame (so ValGenerator makes the
-// VALs exactly as from a Kinect frame, with depth edges at a real box), and two virtual objects
-// standing on the real floor: a glossy UV sphere (tessellated in memory to a chosen triangle count,
-// up to the paper's 200k / 730k) and the Stanford bunny (refined by edge midpoints to ~15k triangles).
-//
-// World frame: metres, Z up (Blender's convention, so scripts/blender_reference.py can rebuild the
-// same scene). Room: x in [-1.6, 1.6], y in [-1.0, 2.2], z in [0, 2.4]; real box x in [0.65, 1.15],
-// y in [0.95, 1.45], z in [0, 0.6]. Camera frames: OpenCV (x right, y down, z forward).
+// The synthetic mixed-reality scenes of the benchmarks: an analytic room seen by a Kinect-like depth
+// camera (so ValGenerator makes VALs exactly as from a captured frame) with virtual objects on its floor,
+// and the gather benchmarks' sphere over a floor. World frame: metres, Z up (Blender's convention, for
+// scripts/blender_reference.py); camera frames OpenCV (x right, y down, z forward). The room's layout and
+// why it looks like this: docs/BENCHMARKS.md, "Speed against accuracy: method".
 #include <lightskin/bench/OptionLists.h>
 #include <lightskin/core/CameraIntrinsics.h>
 #include <lightskin/core/Material.h>
