@@ -29,6 +29,8 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
     command->add_option("--resolutions", o->resolutions, "Output resolutions to sweep, WxH");
     command->add_option("--meshes", o->meshes, "Sphere triangle counts to sweep (the bunny adds ~15k)");
     command->add_option("--adaptive", o->adaptive, "Adaptive mode values to sweep: off,on");
+    command->add_option("--backends", o->backends,
+                        "LightSkin backends to sweep: gl,cpu (the CPU backend, gi.backend \"cpu\")");
     command->add_option("--default-sparse", o->defaults.sparse, "Default configuration: sparse points per model");
     command->add_option("--default-stride", o->defaults.stride, "Default configuration: VAL stride");
     command->add_option("--default-kcache", o->defaults.kCache, "Default configuration: K_cache");

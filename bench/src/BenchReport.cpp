@@ -327,6 +327,7 @@ Report readReport(const std::string& jsonFile) {
             c.width = x.at("width");
             c.height = x.at("height");
             c.adaptive = x.at("adaptive");
+            c.backend = run.backend;
             run.vals = x.at("vals");
             run.triangles = x.at("triangles");
             run.covered = x.at("covered_pixels");

@@ -12,6 +12,7 @@
 #include <lightskin/bench/SweepBench.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/BruteForceIllumination.h>
+#include <lightskin/gi/CpuLightSkin.h>
 #include <lightskin/gi/LightSkinIllumination.h>
 #include <lightskin/gi/RayTracedGroundTruth.h>
 #include <lightskin/gi/SimpleGBuffer.h>
@@ -482,7 +483,14 @@ RunResult runConfig(World& world, const SweepBenchOptions& options, const Config
     gi::ValSetView set = world.vals(c.stride);
     r.vals = set.count;
     const auto prepStart = Clock::now();
-    auto technique = gi::LightSkinIllumination::create(settingsFor(c, set.count), world.provider(c.sparse));
+    r.backend = c.backend;
+    // Both backends share the technique's settings and interface; the CPU backend's stage times are the
+    // wall times of its CPU stages plus the GPU time of its shading pass, so their sum is its frame time.
+    std::unique_ptr<gi::IndirectIllumination> technique;
+    if (c.backend == "CPU")
+        technique = gi::CpuLightSkin::create({settingsFor(c, set.count), 0}, world.provider(c.sparse));
+    else
+        technique = gi::LightSkinIllumination::create(settingsFor(c, set.count), world.provider(c.sparse));
     technique->prepare(inst);
     r.prepareMs = msSince(prepStart);
     auto& g = world.gbuffer(c.width, c.height);
@@ -576,7 +584,8 @@ std::vector<Config> buildSweep(const SweepBenchOptions& o) {
         probe.value = "-";
         const bool same = probe.sparse == d.sparse && probe.stride == d.stride && probe.kCache == d.kCache &&
                           probe.channels == d.channels && probe.width == d.width && probe.height == d.height &&
-                          probe.sphereTriangles == d.sphereTriangles && probe.adaptive == d.adaptive;
+                          probe.sphereTriangles == d.sphereTriangles && probe.adaptive == d.adaptive &&
+                          probe.backend == d.backend;
         if (!same) configs.push_back(c);
     };
     for (int s : splitList<int>(o.sparse, [](const std::string& x) { return parseInt(x, "--sparse"); }))
@@ -604,6 +613,11 @@ std::vector<Config> buildSweep(const SweepBenchOptions& o) {
     for (const std::string& a : splitList<std::string>(o.adaptive, [](const std::string& x) { return x; })) {
         if (a != "on" && a != "off") throw Error("--adaptive", std::nullopt, "expected on or off, got '" + a + "'");
         add("adaptive", a, [a](Config& c) { c.adaptive = a == "on"; });
+    }
+    for (const std::string& b : splitList<std::string>(o.backends, [](const std::string& x) { return x; })) {
+        if (b != "gl" && b != "cpu") throw Error("--backends", std::nullopt, "expected gl or cpu, got '" + b + "'");
+        const std::string name = b == "gl" ? "GL" : "CPU";
+        add("backend", name, [name](Config& c) { c.backend = name; });
     }
     return configs;
 }

@@ -23,6 +23,7 @@ struct Config {
     int width = 640, height = 480;
     std::size_t sphereTriangles = 20000;
     bool adaptive = false;
+    std::string backend = "GL"; ///< LightSkin on "GL" or on the "CPU" backend (gi::CpuLightSkin)
     bool isDefault = false;
 };
 

@@ -20,6 +20,7 @@ struct SweepBenchOptions {
     std::string resolutions = "640x480,1280x720,1920x1080";
     std::string meshes = "20000,200000,730000";
     std::string adaptive = "off,on";
+    std::string backends = "gl,cpu"; ///< backends of LightSkin to sweep: gl, cpu (gi::CpuLightSkin)
     Config defaults;
     int frames = 3;
     int truthStride = 2;
