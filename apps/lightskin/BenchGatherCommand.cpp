@@ -1,33 +1,11 @@
-// `lightskin bench-gather`: timings of the LightSkin stages (GL timer queries: upload, gather,
-// normalisation, occlusion, interpolation, shading) for the paper's three setups, the speed-up
-// over the brute force at equal inputs with the error at that point, and the gather throughput
-// in VAL-receiver interactions per second. A benchmark, not a test: results go to
-// docs/BENCHMARKS.md with the command line that produced them.
-//
-// Scene: a sphere over a floor (two meshes, 2/3 of the sparse points on the sphere), lit by a
-// VAL "map" (a width x height grid of disc VALs on a wall and the ceiling, like a depth camera's
-// VAL map), seen by a camera at the output resolution.
-#include "BenchScene.h"
+// `lightskin bench-gather`: argument parsing only; the benchmark is lightskin::bench (GatherBench.h).
 #include "Commands.h"
 
-#include <lightskin/core/Error.h>
-#include <lightskin/gi/BruteForceIllumination.h>
-#include <lightskin/gi/LightSkinIllumination.h>
-#include <lightskin/gi/SimpleGBuffer.h>
-#include <lightskin/gi/VertexSparsePoints.h>
-#include <lightskin/gl/Context.h>
-#include <lightskin/gl/DebugOutput.h>
+#include <lightskin/bench/GatherBench.h>
+#include <lightskin/bench/OptionLists.h>
 
-#include <glm/ext/matrix_clip_space.hpp>
-#include <glm/ext/matrix_transform.hpp>
-#include <glm/geometric.hpp>
-
-#include <algorithm>
-#include <chrono>
-#include <cmath>
-#include <cstdio>
-#include <map>
-#include <numbers>
+#include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -35,129 +13,9 @@ namespace lightskin::apps {
 
 namespace {
 
-struct BenchOptions {
-    int outputWidth = 320, outputHeight = 240;
-    std::vector<int> sparse{1024};
-    std::vector<std::string> valMaps{"160x120"};
-    std::vector<int> kCache{128};
-    int repeat = 3;
-    bool brute = true;
-    bool compute = false;
-};
-
-double minimum(const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); }
-
-void runBench(const BenchOptions& options) {
-    auto context = gl::createHeadlessContext();
-    std::printf("renderer: %s\n", context->describe().c_str());
-    bench::GatherScene scene = bench::gatherScene(options.outputWidth, options.outputHeight);
-    const std::vector<TriangleMesh>& meshes = scene.meshes;
-    const std::vector<gi::MeshInstance>& instances = scene.instances;
-    const gi::ViewParameters& view = scene.view;
-    gi::SimpleGBuffer& gbuffer = scene.gbuffer;
-    std::vector<glm::vec4> positions(std::size_t(options.outputWidth) * std::size_t(options.outputHeight));
-    glGetTextureImage(gbuffer.position().id(), 0, GL_RGBA, GL_FLOAT, GLsizei(positions.size() * sizeof(glm::vec4)),
-                      positions.data());
-    const auto covered = std::size_t(std::count_if(positions.begin(), positions.end(), [](const glm::vec4& p) { return p.w != 0.0f; }));
-    std::printf("output %dx%d, %zu covered pixels; meshes: sphere %zu + floor %zu vertices\n", options.outputWidth,
-                options.outputHeight, covered, meshes[0].vertexCount(), meshes[1].vertexCount());
-    gl::Texture target = gl::Texture::create2D(GL_RGBA32F, options.outputWidth, options.outputHeight);
-    std::vector<glm::vec4> image(positions.size()), reference(positions.size());
-    auto readImage = [&](std::vector<glm::vec4>& out) {
-        glGetTextureImage(target.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(out.size() * sizeof(glm::vec4)), out.data());
-    };
-
-    for (const std::string& mapName : options.valMaps) {
-        const auto [mapWidth, mapHeight] = bench::parseValMapSize(mapName);
-        const auto vals = bench::valMap(mapWidth, mapHeight);
-        const gl::Buffer valBuffer = gl::Buffer::create(GLsizeiptr(vals.size() * sizeof(gi::VirtualAreaLight)), vals.data(), 0);
-        const gi::ValSetView valSet{valBuffer.id(), std::uint32_t(vals.size())};
-
-        double bruteMs = 0.0;
-        if (options.brute) {
-            gi::BruteForceSettings bruteSettings;
-            bruteSettings.glossy = false;
-            auto brute = gi::BruteForceIllumination::create(bruteSettings);
-            // Wall time of render() + glFinish: llvmpipe's timestamp queries under-report the brute force's
-            // single full-screen stage (docs/BENCHMARKS.md, "Table 1 setups").
-            std::vector<double> times;
-            glFinish();
-            for (int r = 0; r < std::max(1, options.repeat / 2); ++r) {
-                const auto start = std::chrono::steady_clock::now();
-                brute->render(valSet, instances, gbuffer.view(), view, target.id());
-                glFinish();
-                times.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
-            }
-            bruteMs = minimum(times);
-            readImage(reference);
-            std::printf("\nVAL map %s (%zu VALs): brute force (diffuse) %.1f ms, %.3g interactions/s\n", mapName.c_str(),
-                        vals.size(), bruteMs, double(covered) * double(vals.size()) / (bruteMs * 1e-3));
-        } else {
-            std::printf("\nVAL map %s (%zu VALs)\n", mapName.c_str(), vals.size());
-        }
-
-        for (int sparse : options.sparse)
-            for (int kCache : options.kCache) {
-                const auto sparseSphere = std::size_t(sparse) * 2 / 3;
-                const gi::SparsePointProvider provider = [&](const gi::MeshInstance& instance) {
-                    return gi::sparsePointsFromVertices(*instance.mesh, instance.meshId == 0 ? sparseSphere
-                                                                                              : std::size_t(sparse) - sparseSphere);
-                };
-                struct SetupSpec {
-                    const char* name;
-                    bool glossy, occlusion;
-                };
-                for (const SetupSpec setup : {SetupSpec{"diffuse", false, false}, SetupSpec{"+glossy", true, false},
-                                              SetupSpec{"+occlusion", true, true}}) {
-                    gi::LightSkinSettings settings;
-                    settings.kCache = kCache;
-                    settings.glossy = setup.glossy;
-                    settings.occlusion = setup.occlusion;
-                    settings.valCapacity = std::uint32_t(vals.size());
-                    settings.computeGather = options.compute;
-                    auto technique = gi::LightSkinIllumination::create(settings, provider);
-                    technique->prepare(instances);
-                    std::map<std::string, std::vector<double>> stageTimes;
-                    std::vector<gl::StageTime> stages;
-                    std::vector<double> totals;
-                    for (int r = 0; r < options.repeat; ++r) {
-                        technique->render(valSet, instances, gbuffer.view(), view, target.id());
-                        technique->lastStageTimes(stages);
-                        double total = 0.0;
-                        for (const auto& s : stages) {
-                            stageTimes[s.name].push_back(s.milliseconds);
-                            total += s.milliseconds;
-                        }
-                        totals.push_back(total);
-                    }
-                    const double gatherMs = minimum(stageTimes["gather"]);
-                    const double totalMs = minimum(totals);
-                    std::printf("  sparse %5d K_cache %4d %-10s total %8.2f ms |", sparse, kCache, setup.name, totalMs);
-                    for (const auto& s : stages) std::printf(" %s %.2f", s.name.c_str(), minimum(stageTimes[s.name]));
-                    std::printf(" | gather %.3g interactions/s", double(sparse) * double(vals.size()) / (gatherMs * 1e-3));
-                    if (options.brute && !setup.glossy) {
-                        readImage(image);
-                        double sumAbs = 0.0, sumRef = 0.0, sum = 0.0;
-                        for (std::size_t i = 0; i < image.size(); ++i)
-                            for (int c = 0; c < 3; ++c) {
-                                sumAbs += double(std::abs(image[i][c] - reference[i][c]));
-                                sumRef += double(reference[i][c]);
-                                sum += double(image[i][c]);
-                            }
-                        std::printf(" | speed-up over brute force %.1fx, mean abs error %.2f%% of the mean, total %+.2f%%",
-                                    bruteMs / totalMs, 100.0 * sumAbs / sumRef, 100.0 * (sum / sumRef - 1.0));
-                    }
-                    std::printf("\n");
-                    std::fflush(stdout);
-                }
-            }
-    }
-    gl::DebugOutput::throwIfErrors("bench-gather");
-}
-
 void addBenchGatherCommand(CLI::App& app, int& exitCode) {
     auto* command = app.add_subcommand("bench-gather", "Time the LightSkin stages and compare with the brute force");
-    auto options = std::make_shared<BenchOptions>();
+    auto options = std::make_shared<bench::GatherBenchOptions>();
     auto sparse = std::make_shared<std::string>("1024");
     auto maps = std::make_shared<std::string>("160x120");
     auto kCache = std::make_shared<std::string>("128");
@@ -167,13 +25,15 @@ void addBenchGatherCommand(CLI::App& app, int& exitCode) {
     command->add_option("--vals", *maps, "Comma-separated VAL map sizes WxH, e.g. 160x120,320x240");
     command->add_option("--kcache", *kCache, "Comma-separated K_cache values (multiples of 16)");
     command->add_option("--repeat", options->repeat, "Frames per configuration (the minimum is reported)");
-    command->add_flag("--no-brute", [options](std::int64_t) { options->brute = false; }, "Skip the brute force");
-    command->add_flag("--compute", options->compute, "Gather with the compute-shader variant instead of fragment passes");
+    command->add_flag(
+        "--no-brute", [options](std::int64_t) { options->brute = false; }, "Skip the brute force");
+    command->add_flag("--compute", options->compute,
+                      "Gather with the compute-shader variant instead of fragment passes");
     command->callback([=, &exitCode] {
         options->sparse = bench::splitList<int>(*sparse, [](const std::string& s) { return std::stoi(s); });
         options->kCache = bench::splitList<int>(*kCache, [](const std::string& s) { return std::stoi(s); });
         options->valMaps = bench::splitList<std::string>(*maps, [](const std::string& s) { return s; });
-        runBench(*options);
+        bench::runGatherBench(*options);
         exitCode = 0;
     });
 }

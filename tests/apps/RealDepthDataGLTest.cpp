@@ -95,7 +95,7 @@ TEST_F(RealDepthDataGLTest, IclNuimObjectsOnTheFloorMeetTheSpeckleTarget) {
         ASSERT_GT(out.valCount, 1000u);
         ASSERT_FALSE(out.linearIndirect.empty());
         ASSERT_FALSE(out.linearIndirectReference.empty());
-        // 30 degrees, 2 %: the bench's smooth-patch restriction (BenchRealDepthCommand.cpp).
+        // 30 degrees, 2 %: the bench's smooth-patch restriction (bench/src/RealDepthBench.cpp).
         eval::smoothSurfaceMaskInto(out.coverage, out.virtualNormals, out.virtualDepthMetres, 30.0, 0.02, smooth);
         for (const cv::Mat* image : {&out.linearIndirect, &out.linearIndirectReference}) {
             const eval::SpeckleStats s = eval::measureSpeckle(*image, out.coverage, nullptr, smooth);

@@ -1,64 +1,11 @@
 #pragma once
-// The LightSkin technique (Lensing & Broll, sections 3-4) on OpenGL 4.5: per frame
-//   1. gather (eq. 3-5, 7) of all VALs at every sparse point: fragment passes, one texel per
-//      sparse point, K_cache VALs per pass read from a uniform buffer (Listing 1); each pass
-//      continues its texel's running sums in fixed blocks of 16 VALs, so the sums (and the
-//      image) do not depend on K_cache (gi/shaders/gather_sum_block.glsl);
-//   2. renormalisation (eq. 8-11);
-//   3. occlusion (section 3.3, eq. 14) by the sparse-point discs of all virtual meshes;
-//   4. vertex interpolation (eq. 12-13) from the 8 nearest sparse points (compute pass);
-//   5. per-pixel shading (eq. 10): the meshes are re-rasterised, the interpolated per-vertex VPLs
-//      arrive per pixel through the rasteriser, and each fragment is shaded with the G-buffer's
-//      position, normal and material (fragments whose position differs from the G-buffer's are
-//      hidden surfaces and are discarded).
-// All formulas come from gi/shaders/lightskin_math.glsl, shared with the double reference
-// (LightSkinReference.h). Units: see that file (VAL flux in W; output radiance W/(sr m^2)).
-//
-// "Model only what a scene requires" (Settings::adaptive): per frame the technique turns off
-// what cannot change the image: the glossy channel when no material has f_s (exact), occlusion
-// when the scene is one convex object (exact: no sparse point sees another above its horizon),
-// and VALs that cannot reach any sparse point (invalid, or the whole receivers' bounding sphere
-// behind the VAL's plane: exact up to eps_l; optionally VALs whose irradiance bound is below
-// Settings::valInfluenceCutoff: error <= dropped count * cutoff). The choice is logged when it
-// changes and readable through lastChoice().
-//
-// Static content (Settings::adaptive with Settings::reuseStatic): stages 1-4 and the upload
-// depend only on the VAL set, the instances (mesh, world_T_model, Phong exponent k, whether a
-// material has f_s), the settings and, with the glossy channel on, the camera position (eq. 5:
-// cos(gamma) of every gathered VAL and the renormalised glossy VPL depend on the eye direction;
-// the diffuse channel, occlusion and interpolation do not). When none of these changed since the
-// last full computation, render() keeps the sparse-point and vertex VPLs of that computation and
-// runs only the per-pixel shading (which depends on the G-buffer and the view every frame).
-//   * Exact mode (staticTolerance = 0): the VAL set counts as unchanged only when the producer
-//     says so: same buffer, count and nonzero ValSetView::generation (ValGenerator keeps the
-//     generation when depth, colour, pose, intrinsics and settings are bit-identical). No read-back,
-//     no GPU work; the image is bit-identical to that of the full computation it reuses (and to
-//     that of any other full computation with the same inputs: the adaptive cull keeps the
-//     VALs' input order).
-//   * Tolerance mode (staticTolerance = tau > 0, diffuse channel only; with the glossy channel on
-//     only exact reuse applies), change test Bound (the default; keyed VALs): a GPU pass pairs
-//     every VAL with the one of the same key at the last full computation and sums a bound B_j on
-//     how much that change can move the irradiance E = sum_j phi_j h(x; l_j, n_j, r_j^2) at any point
-//     of the receivers' bounding sphere S (derivation in gather_static_bound.comp: product rule on
-//     phi h, then r^2, n_l and l one at a time with |grad_l h| <= 4 / (pi d (r^2 + d^2)), d the
-//     distance to S; at most the sum of both VALs' bounds). The VPLs are reused when
-//     sum_j B_j <= tau * max_x L'_d(x) of the last full computation, which guarantees: every
-//     sparse point's gathered irradiance L'_d (each channel) differs from a full recomputation
-//     by at most tau times the largest gathered irradiance (up to float rounding of the full
-//     recomputation, ~1e-5 relative). The reference stays the last full computation, so
-//     consecutive reuses do not drift. The weights and averaged positions (eq. 7) are not bounded;
-//     the image error is measured (docs/BENCHMARKS.md). Costs one 16-byte read-back per frame.
-//     The bound adds per-VAL worst cases: it is far from the true change when sensor noise moves
-//     many VALs a little (the changes cancel) and useless when real surfaces touch the virtual
-//     objects (VALs at distance ~0 from a receiver); it suits far, slowly changing light.
-//   * Tolerance mode with probes (staticChangeTest = Probes, diffuse channel only, any VAL set):
-//     every staticProbeStride-th sparse point is gathered again with the new VALs (the gather
-//     pass itself on a small texture, ~1/stride of its cost) and compared with its gather at the
-//     last full computation; reuse when max |L'_d,new - L'_d,ref| over probes and channels is
-//     <= tau * max L'_d. The tolerance then holds exactly at the probes and is a measurement, not
-//     a guarantee, at the other sparse points (their error is reported in docs/BENCHMARKS.md).
-//     The probes see all VALs; the adaptive VAL culling only removes VALs that add nothing (or,
-//     with valInfluenceCutoff, less than the cutoff each). One 16-byte read-back per frame, too.
+// The LightSkin technique (Lensing & Broll, sections 3-4) on OpenGL 4.5: gather all VALs at the sparse
+// points (eq. 3-5, 7; K_cache VALs per pass, summed in fixed blocks of 16 so the image does not depend on
+// K_cache), renormalise (eq. 8-11), occlude by the sparse-point discs (3.3), interpolate per vertex
+// (eq. 12-13), shade per pixel (eq. 10). Formulas: gi/shaders/lightskin_math.glsl, shared with the double
+// reference (LightSkinReference.h); VAL flux in W, output radiance W/(sr m^2). Settings::adaptive turns off
+// what cannot change the image and, with reuseStatic, reuses the VPLs of static content (exactly, or within
+// a stated bound). The stages, the adaptive choices and the reuse guarantees: docs/LIGHTSKIN.md.
 // setSettings() and prepare() always force a full computation.
 
 #include <lightskin/gi/IndirectIllumination.h>

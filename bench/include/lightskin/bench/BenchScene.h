@@ -1,13 +1,10 @@
 #pragma once
-// The synthetic mixed-reality scene of `lightskin bench` (BenchCommand.cpp): a real room seen by a
-// depth camera, rendered analytically into a 640x480 depth + colour frame (so ValGenerator makes the
-// VALs exactly as from a Kinect frame, with depth edges at a real box), and two virtual objects
-// standing on the real floor: a glossy UV sphere (tessellated in memory to a chosen triangle count,
-// up to the paper's 200k / 730k) and the Stanford bunny (refined by edge midpoints to ~15k triangles).
-//
-// World frame: metres, Z up (Blender's convention, so scripts/blender_reference.py can rebuild the
-// same scene). Room: x in [-1.6, 1.6], y in [-1.0, 2.2], z in [0, 2.4]; real box x in [0.65, 1.15],
-// y in [0.95, 1.45], z in [0, 0.6]. Camera frames: OpenCV (x right, y down, z forward).
+// The synthetic mixed-reality scenes of the benchmarks: an analytic room seen by a Kinect-like depth
+// camera (so ValGenerator makes VALs exactly as from a captured frame) with virtual objects on its floor,
+// and the gather benchmarks' sphere over a floor. World frame: metres, Z up (Blender's convention, for
+// scripts/blender_reference.py); camera frames OpenCV (x right, y down, z forward). The room's layout and
+// why it looks like this: docs/BENCHMARKS.md, "Speed against accuracy: method".
+#include <lightskin/bench/OptionLists.h>
 #include <lightskin/core/CameraIntrinsics.h>
 #include <lightskin/core/Material.h>
 #include <lightskin/core/Pose.h>
@@ -26,21 +23,7 @@
 #include <utility>
 #include <vector>
 
-namespace lightskin::apps::bench {
-
-/// Splits a comma-separated option value ("64,256,1024") and parses each non-empty item with
-/// `parse` (which throws on a bad item).
-template <typename T, typename Parse>
-std::vector<T> splitList(const std::string& text, Parse parse) {
-    std::vector<T> out;
-    std::size_t start = 0;
-    while (start <= text.size()) {
-        const std::size_t end = std::min(text.find(',', start), text.size());
-        if (end > start) out.push_back(parse(text.substr(start, end - start)));
-        start = end + 1;
-    }
-    return out;
-}
+namespace lightskin::bench {
 
 /// The paper-style Kinect intrinsics (525 px, 640x480) of the synthetic depth camera.
 CameraIntrinsics depthIntrinsics();
@@ -54,7 +37,8 @@ Pose depthCameraPose(double shift = 0.0);
 /// Renders the room into depth (CV_32FC1, metres along the optical axis) and colour (CV_8UC3, BGR,
 /// sRGB-encoded). A bright "spot" (a lit patch, sRGB 255) of radius 0.3 m sits on the back wall
 /// (y = 2.2) at x = spotX, z = 1.3: moving it is the moving-light sequence.
-void renderRoom(const CameraIntrinsics& K, const Pose& world_T_camera, double spotX, cv::Mat& depth, cv::Mat& colourBgr);
+void renderRoom(const CameraIntrinsics& K, const Pose& world_T_camera, double spotX, cv::Mat& depth,
+                cv::Mat& colourBgr);
 
 /// A UV sphere of `radius` with about `triangles` triangles (stacks x 2 stacks grid), normals set.
 TriangleMesh uvSphere(float radius, std::size_t triangles);
@@ -97,4 +81,4 @@ struct GatherScene {
 };
 GatherScene gatherScene(int width, int height);
 
-} // namespace lightskin::apps::bench
+} // namespace lightskin::bench

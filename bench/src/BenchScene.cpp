@@ -1,6 +1,5 @@
 // The synthetic scene of `lightskin bench` (see BenchScene.h).
-#include "BenchScene.h"
-
+#include <lightskin/bench/BenchScene.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/SparsePointSampler.h>
 
@@ -9,14 +8,14 @@
 #include <glm/geometric.hpp>
 
 #include <algorithm>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <limits>
 #include <numbers>
 #include <sstream>
 
-namespace lightskin::apps::bench {
+namespace lightskin::bench {
 
 namespace {
 
@@ -101,7 +100,8 @@ Pose depthCameraPose(double shift) {
     return lookAtPose(glm::dvec3(0.15 + shift, -0.85, 1.35), glm::dvec3(0.0 + shift, 1.6, 0.6));
 }
 
-void renderRoom(const CameraIntrinsics& K, const Pose& world_T_camera, double spotX, cv::Mat& depth, cv::Mat& colourBgr) {
+void renderRoom(const CameraIntrinsics& K, const Pose& world_T_camera, double spotX, cv::Mat& depth,
+                cv::Mat& colourBgr) {
     depth.create(K.height, K.width, CV_32FC1);
     colourBgr.create(K.height, K.width, CV_8UC3);
     const glm::dmat4 m = world_T_camera.matrix();
@@ -126,7 +126,8 @@ TriangleMesh uvSphere(float radius, std::size_t triangles) {
     for (int i = 0; i <= stacks; ++i)
         for (int j = 0; j <= slices; ++j) {
             const double theta = pi * i / stacks, phi = 2.0 * pi * j / slices;
-            const glm::vec3 n(float(std::sin(theta) * std::cos(phi)), float(std::sin(theta) * std::sin(phi)), float(std::cos(theta)));
+            const glm::vec3 n(float(std::sin(theta) * std::cos(phi)), float(std::sin(theta) * std::sin(phi)),
+                              float(std::cos(theta)));
             mesh.positions.push_back(radius * n);
             mesh.normals.push_back(n);
         }
@@ -166,11 +167,13 @@ TriangleMesh bunny(const std::string& path) {
         std::size_t n = 0;
         words >> n;
         std::uint32_t f[3] = {0, 0, 0};
-        if (n != 3 || !(words >> f[0] >> f[1] >> f[2])) throw Error(path, std::nullopt, "face " + std::to_string(i) + " is not a triangle");
+        if (n != 3 || !(words >> f[0] >> f[1] >> f[2]))
+            throw Error(path, std::nullopt, "face " + std::to_string(i) + " is not a triangle");
         mesh.indices.insert(mesh.indices.end(), {f[0], f[1], f[2]});
         ++i;
     }
-    if (mesh.positions.size() != vertices || mesh.indices.size() != 3 * faces) throw Error(path, std::nullopt, "truncated PLY");
+    if (mesh.positions.size() != vertices || mesh.indices.size() != 3 * faces)
+        throw Error(path, std::nullopt, "truncated PLY");
     glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
     for (const auto& p : mesh.positions) {
         lo = glm::min(lo, p);
@@ -288,4 +291,4 @@ GatherScene gatherScene(int width, int height) {
     return {std::move(meshes), std::move(gpu), std::move(instances), view, std::move(gbuffer)};
 }
 
-} // namespace lightskin::apps::bench
+} // namespace lightskin::bench

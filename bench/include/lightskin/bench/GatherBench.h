@@ -1,0 +1,23 @@
+#pragma once
+// `lightskin bench-gather` (apps/lightskin): see bench/src/GatherBench.cpp and docs/BENCHMARKS.md.
+
+#include <string>
+#include <vector>
+
+namespace lightskin::bench {
+
+struct GatherBenchOptions {
+    int outputWidth = 320, outputHeight = 240;
+    std::vector<int> sparse{1024};
+    std::vector<std::string> valMaps{"160x120"};
+    std::vector<int> kCache{128};
+    int repeat = 3;
+    bool brute = true;
+    bool compute = false;
+};
+
+/// LightSkin stage times (GL timer queries) per setup, speed-up over the brute force and its error; prints a Markdown
+/// table. Needs no current GL context (creates its own headless one); throws lightskin::Error on bad input.
+void runGatherBench(const GatherBenchOptions& options);
+
+} // namespace lightskin::bench

@@ -1,0 +1,53 @@
+#pragma once
+// `lightskin bench` (apps/lightskin): see bench/src/SweepBench.cpp and docs/BENCHMARKS.md.
+
+#include <lightskin/bench/BenchReport.h>
+
+#include <string>
+#include <vector>
+
+namespace lightskin::bench {
+
+struct SweepBenchOptions {
+    bool quick = false;
+    std::string out = "bench-out";
+    std::string docs;
+    std::string bunnyPath = "tests/data/stanford-bunny/bun_zipper_res4.ply";
+    std::string sparse = "64,256,1024,4096,16384";
+    std::string strides = "8,4,2,1";
+    std::string kCache = "32,128,512";
+    std::string channels = "diffuse,glossy,occlusion";
+    std::string resolutions = "640x480,1280x720,1920x1080";
+    std::string meshes = "20000,200000,730000";
+    std::string adaptive = "off,on";
+    std::string backends = "gl,cpu"; ///< backends of LightSkin to sweep: gl, cpu (gi::CpuLightSkin)
+    Config defaults;
+    int frames = 3;
+    int truthStride = 2;
+    int truthGrid = 48;
+    double maxBruteInteractions = 1e10;
+    double maxTruthRays = 3e8;
+    int temporalFrames = 8;
+    std::string temporalSparse = "256,1024,4096";
+    int temporalStride = 8;
+    float temporalTolerance = 0.01f; ///< metres between a tracked vertex and the G-buffer position at its pixel
+    bool temporal = true;
+    bool check = false;
+    double tolerance = 0.05;
+    std::string exportBlender;
+    std::string fromJson;
+    bool table1 = false;     ///< the paper's Table 1 setups instead of the sweep
+    bool kinect = false;     ///< the Kinect setups instead of the sweep
+    std::string tableOutput; ///< overrides the table's output WxH
+    std::string tableSparse; ///< overrides the table's sparse totals
+    std::string tableVals;   ///< overrides the table's VAL maps
+    int tableSubset = 0;     ///< overrides the brute-force subset step
+    int tableFrames = 1;
+};
+
+/// The speed/accuracy sweep (or --table1/--kinect, --from-json, --export-blender); writes bench.{csv,json,md} and the
+/// plots to options.out. Returns the exit code (3: a --check failed). Needs no current GL context (creates its own
+/// headless one); throws lightskin::Error on bad input.
+int runSweepCommand(const SweepBenchOptions& options);
+
+} // namespace lightskin::bench

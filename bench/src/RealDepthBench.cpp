@@ -1,0 +1,429 @@
+// `lightskin bench-realdepth`: the indirect light of virtual objects standing on real surfaces of the
+// bundled real RGB-D recordings (issue 12, parts 3 and 4). For every recording the bunny and the cube of
+// recordings/scenes/on_real_surface.json are placed on the plane fitted to the depth around an anchor
+// pixel of frame 0 (resting on it, or sunk into it by --sink), and every frame runs through the
+// production per-frame pipeline (mr::FramePipeline: bilateral filter, VALs, G-buffer, GI). Per light
+// model (the old one and the robust one, see render::GiSettings) and frame it measures, for LightSkin
+// and for the brute force on the same VALs:
+//   * speckle (eval::measureSpeckle) with its black and blown pixels,
+//   * the total indirect light (sum of luminance over covered pixels), to report the change against
+//     the old model,
+//   * flicker on sequences with a moving camera, defined as `lightskin bench`'s: RMS over tracked
+//     surface points (every k-th mesh vertex, visible in both frames) and consecutive frame pairs of the
+//     change of the indirect light (mean of the channels), divided by the brute force's mean level;
+//     "excess" subtracts the brute force's own change per sample.
+// A benchmark, not a test: prints Markdown tables (and writes them with PNGs of the indirect light to
+// --out). tests/mr/RealDepthDataGLTest.cpp asserts the speckle target on one recording.
+
+#include <lightskin/bench/RealDepthBench.h>
+#include <lightskin/capture/FrameSource.h>
+#include <lightskin/core/Error.h>
+#include <lightskin/eval/ColourSpace.h>
+#include <lightskin/eval/Speckle.h>
+#include <lightskin/gl/Context.h>
+#include <lightskin/gl/DebugOutput.h>
+#include <lightskin/mr/FramePipeline.h>
+#include <lightskin/render/Scene.h>
+#include <lightskin/tracking/PoseTracker.h>
+
+#include <glm/geometric.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace lightskin::bench {
+
+namespace {
+
+struct Anchor {
+    int u = 0, v = 0; ///< pixel of frame 0 on the real surface the object stands on
+};
+
+struct RealCase {
+    std::string name;
+    std::string recording; ///< relative to --data (tests/data)
+    mr::PoseMode pose;
+    Anchor bunny, cube;
+    bool movingCamera; ///< the recording has a pose per frame: flicker is meaningful
+};
+
+/// The bundled registered real recordings. Anchors: free table or floor next to other real objects
+/// (chosen by looking at frame 0; the objects' bases must be fully on one surface).
+std::vector<RealCase> realCases() {
+    return {
+        {"tum-fr2-desk", "tum-fr2-desk", mr::PoseMode::Fixed, {300, 365}, {150, 335}, false},
+        {"icl-nuim", "icl-nuim-open3d", mr::PoseMode::GroundTruth, {250, 390}, {460, 430}, true},
+        {"pcl-kinect-tiff", "pcl-kinect-tiff", mr::PoseMode::Fixed, {250, 380}, {520, 380}, false},
+    };
+}
+
+/// The light models compared. "old": before issue 12 (render::GiSettings::robustRealDepth off);
+/// "robust": the fixes on (the default).
+struct LightModel {
+    std::string name;
+    bool robust;
+};
+
+struct Bounds {
+    glm::vec3 lo{std::numeric_limits<float>::max()}, hi{-std::numeric_limits<float>::max()};
+};
+
+/// Model-space bounds of an ASCII PLY or OBJ mesh's vertices (the two template meshes).
+Bounds meshBounds(const std::filesystem::path& path) {
+    std::ifstream in(path);
+    if (!in) throw Error(path.string(), std::nullopt, "cannot read");
+    Bounds b;
+    std::string line;
+    const auto add = [&b](float x, float y, float z) {
+        b.lo = glm::min(b.lo, glm::vec3(x, y, z));
+        b.hi = glm::max(b.hi, glm::vec3(x, y, z));
+    };
+    if (path.extension() == ".ply") {
+        long vertices = -1;
+        while (std::getline(in, line) && line != "end_header")
+            if (line.rfind("element vertex ", 0) == 0) vertices = std::stol(line.substr(15));
+        for (long i = 0; i < vertices && std::getline(in, line); ++i) {
+            std::istringstream s(line);
+            float x = 0, y = 0, z = 0;
+            s >> x >> y >> z;
+            add(x, y, z);
+        }
+    } else {
+        while (std::getline(in, line))
+            if (line.rfind("v ", 0) == 0) {
+                std::istringstream s(line.substr(2));
+                float x = 0, y = 0, z = 0;
+                s >> x >> y >> z;
+                add(x, y, z);
+            }
+    }
+    if (!(b.lo.x <= b.hi.x)) throw Error(path.string(), std::nullopt, "no vertices");
+    return b;
+}
+
+struct SurfacePoint {
+    glm::dvec3 position; ///< camera frame, metres
+    glm::dvec3 normal;   ///< camera frame, unit, facing the camera
+};
+
+/// Plane through the depth around pixel (u, v) of frame 0: points of a 31x31 window within 3 cm of
+/// the anchor's depth, normal = the smallest principal axis (cv::PCA), facing the camera.
+SurfacePoint fitSurface(const RgbdFrame& frame, const Anchor& a, const std::string& name) {
+    const CameraIntrinsics& k = frame.depthIntrinsics;
+    const auto depthAt = [&](int u, int v) {
+        return frame.depth.type() == CV_16UC1 ? double(frame.depth.at<std::uint16_t>(v, u)) * frame.depthScaleMetres
+                                              : double(frame.depth.at<float>(v, u));
+    };
+    const double z0 = depthAt(a.u, a.v);
+    if (!(z0 > 0.0)) throw Error(name, 0, "anchor pixel has no depth");
+    std::vector<cv::Vec3d> points;
+    for (int v = a.v - 15; v <= a.v + 15; ++v)
+        for (int u = a.u - 15; u <= a.u + 15; ++u) {
+            if (u < 0 || v < 0 || u >= frame.depth.cols || v >= frame.depth.rows) continue;
+            const double z = depthAt(u, v);
+            if (z > 0.0 && std::abs(z - z0) < 0.03) {
+                const glm::dvec3 p = k.backProject(u, v, z);
+                points.emplace_back(p.x, p.y, p.z);
+            }
+        }
+    if (points.size() < 100) throw Error(name, 0, "too few depth points around the anchor");
+    cv::Mat data(int(points.size()), 3, CV_64F, points.data());
+    const cv::PCA pca(data, cv::noArray(), cv::PCA::DATA_AS_ROW);
+    SurfacePoint s;
+    s.position = k.backProject(a.u, a.v, z0);
+    s.normal = glm::normalize(glm::dvec3(pca.eigenvectors.at<double>(2, 0), pca.eigenvectors.at<double>(2, 1),
+                                         pca.eigenvectors.at<double>(2, 2)));
+    if (glm::dot(s.normal, s.position) > 0.0) s.normal = -s.normal;
+    // Move the base point onto the fitted plane (the anchor pixel's own depth is noisy).
+    const glm::dvec3 mean(pca.mean.at<double>(0), pca.mean.at<double>(1), pca.mean.at<double>(2));
+    s.position -= glm::dot(s.position - mean, s.normal) * s.normal;
+    return s;
+}
+
+/// world_T_model placing the model's base (min y, centred in x and z) on the surface, model +y along
+/// its normal, sunk by `sink` metres.
+glm::mat4 placeOnSurface(const Bounds& b, float scale, const glm::dvec3& pointWorld, const glm::dvec3& normalWorld,
+                         double sink) {
+    const glm::vec3 base(0.5f * (b.lo.x + b.hi.x), b.lo.y, 0.5f * (b.lo.z + b.hi.z));
+    const glm::quat q(glm::vec3(0.0f, 1.0f, 0.0f), glm::vec3(normalWorld)); // shortest arc from +y to the normal
+    const glm::vec3 p(pointWorld - sink * normalWorld);
+    return glm::translate(glm::mat4(1.0f), p) * glm::mat4_cast(q) * glm::scale(glm::mat4(1.0f), glm::vec3(scale)) *
+           glm::translate(glm::mat4(1.0f), -base);
+}
+
+/// Normals within this angle over a 5x5 window count as one smooth patch. The bunny (res4, 948
+/// triangles, ~1 cm edges at 1.5x scale) turns its normal by ~10-20 degrees per edge on the body and
+/// more on ears and feet; 30 degrees keeps the body and drops creases and occlusion edges.
+constexpr double kSmoothAngleDegrees = 30.0;
+
+struct TechniqueStats {
+    eval::SpeckleStats speckle; ///< summed over frames
+    double totalLight = 0.0;    ///< sum of luminance over covered pixels, all frames
+};
+
+struct CaseResult {
+    std::string recording, model;
+    int frames = 0;
+    double sink = 0.0;
+    std::uint64_t vals = 0;
+    TechniqueStats lightSkin, brute;
+    bool flickerMeasured = false;
+    double flickerLightSkin = 0.0, flickerBrute = 0.0, excessFlicker = 0.0;
+    std::size_t flickerSamples = 0;
+};
+
+void accumulate(eval::SpeckleStats& sum, const eval::SpeckleStats& s) {
+    sum.meanLuminance = (sum.meanLuminance * double(sum.interiorPixels) + s.meanLuminance * double(s.interiorPixels)) /
+                        double(std::max<std::size_t>(1, sum.interiorPixels + s.interiorPixels));
+    sum.interiorPixels += s.interiorPixels;
+    sum.specklePixels += s.specklePixels;
+    sum.blackPixels += s.blackPixels;
+    sum.blownPixels += s.blownPixels;
+}
+
+double coveredLuminance(const cv::Mat& linearBgr, const cv::Mat& coverage) {
+    cv::Mat y;
+    eval::luminanceInto(linearBgr, y);
+    return cv::mean(y, coverage)[0] * double(cv::countNonZero(coverage));
+}
+
+/// The indirect image as an 8-bit sRGB PNG, scaled so that 4x the mean covered luminance is white.
+void writeIndirectPng(const std::filesystem::path& path, const cv::Mat& linearBgr, double meanLuminance) {
+    cv::Mat scaled, srgb;
+    linearBgr.convertTo(scaled, CV_32FC3, meanLuminance > 0.0 ? 0.25 / meanLuminance : 1.0);
+    eval::linearToSrgb8Into(scaled, srgb);
+    cv::imwrite(path.string(), srgb);
+}
+
+/// Samples the indirect light at the tracked world points (NaN where hidden or off-screen).
+void sampleTracked(const std::vector<glm::dvec3>& points, const CameraIntrinsics& k, const Pose& world_T_camera,
+                   const cv::Mat& coverage, const cv::Mat& virtualDepth, const cv::Mat& image,
+                   std::vector<float>& out) {
+    const Pose camera_T_world = world_T_camera.inverse();
+    for (const glm::dvec3& p : points) {
+        float value = std::nanf("");
+        const glm::dvec3 c = camera_T_world.transformPoint(p);
+        if (c.z > 0.05) {
+            const glm::dvec2 px = k.project(c);
+            const int u = int(std::floor(px.x)), v = int(std::floor(px.y));
+            // visible: covered, and the virtual depth there within 1 cm (plus 1 %) of the point's
+            if (u >= 0 && v >= 0 && u < image.cols && v < image.rows && coverage.at<std::uint8_t>(v, u) &&
+                std::abs(double(virtualDepth.at<float>(v, u)) - c.z) < 0.01 + 0.01 * c.z) {
+                const cv::Vec3f x = image.at<cv::Vec3f>(v, u);
+                value = (x[0] + x[1] + x[2]) / 3.0f;
+            }
+        }
+        out.push_back(value);
+    }
+}
+
+CaseResult runCase(const RealCase& c, const LightModel& model, double sink, const RealDepthBenchOptions& options) {
+    const std::filesystem::path recording = std::filesystem::path(options.data) / c.recording;
+    render::Scene scene = render::loadScene(options.scene);
+    scene.gi.robustRealDepth = model.robust;
+    // Frame 0: the surfaces the objects stand on, in the world frame of the case's pose mode.
+    auto source = capture::openFrameSource(recording.string(), {});
+    RgbdFrame first;
+    if (!source->next(first)) throw Error(recording.string(), 0, "no frames");
+    Pose world_T_camera0;
+    if (c.pose == mr::PoseMode::GroundTruth) {
+        if (!first.groundTruth_world_T_camera) throw Error(recording.string(), 0, "no ground-truth pose");
+        world_T_camera0 = *first.groundTruth_world_T_camera;
+    }
+    const Anchor anchors[2] = {c.bunny, c.cube};
+    const float scales[2] = {1.5f, 0.12f};
+    glm::dvec3 bunnyPoint{0.0}, bunnyNormal{0.0};
+    for (std::size_t i = 0; i < 2 && i < scene.objects.size(); ++i) {
+        const SurfacePoint s = fitSurface(first, anchors[i], recording.string());
+        const glm::dvec3 p = world_T_camera0.transformPoint(s.position);
+        const glm::dvec3 n = glm::normalize(world_T_camera0.rotation() * s.normal);
+        scene.objects[i].world_T_model = placeOnSurface(meshBounds(scene.objects[i].mesh), scales[i], p, n, sink);
+        if (i == 0) {
+            bunnyPoint = p;
+            bunnyNormal = n;
+        }
+    }
+    const glm::dvec3 towardCamera = glm::normalize(world_T_camera0.translation() - bunnyPoint);
+    if (!scene.lights.empty())
+        scene.lights[0].position = glm::vec3(bunnyPoint + 0.8 * bunnyNormal + 0.3 * towardCamera);
+
+    source = capture::openFrameSource(recording.string(), {});
+    mr::PipelineOptions po;
+    po.poseMode = c.pose;
+    po.compare = false;
+    po.view = render::DebugView::IndirectOnly;
+    po.referenceIndirect = true;
+    auto pipeline = mr::FramePipeline::create(scene, source->info(), po);
+
+    // Tracked points for flicker: every k-th vertex of both meshes (~1500 per mesh), world space.
+    std::vector<glm::dvec3> points;
+    for (const gi::MeshInstance& m : pipeline->renderer().instances()) {
+        const std::size_t step = std::max<std::size_t>(1, m.mesh->vertexCount() / 1500);
+        for (std::size_t i = 0; i < m.mesh->vertexCount(); i += step)
+            points.emplace_back(m.world_T_model * glm::vec4(m.mesh->positions[i], 1.0f));
+    }
+    std::vector<float> seriesLs, seriesBf;
+
+    CaseResult r;
+    r.recording = c.name;
+    r.model = model.name;
+    r.sink = sink;
+    RgbdFrame frame;
+    mr::FrameOutput out;
+    cv::Mat smooth, mapLs, mapBf;
+    const std::filesystem::path imageFolder = std::filesystem::path(options.out) / "images";
+    std::filesystem::create_directories(imageFolder);
+    while (r.frames < options.maxFrames && source->next(frame)) {
+        pipeline->process(frame, out);
+        if (!out.world_T_camera || out.linearIndirect.empty() || out.linearIndirectReference.empty())
+            throw Error(recording.string(), frame.index, "no pose or no GI in this frame");
+        r.vals += out.valCount;
+        // Speckle where the truth can be smooth: one surface patch per 5x5 window (normals within
+        // kSmoothAngle, depth within 2 %; eval::smoothSurfaceMaskInto).
+        eval::smoothSurfaceMaskInto(out.coverage, out.virtualNormals, out.virtualDepthMetres, kSmoothAngleDegrees, 0.02,
+                                    smooth);
+        const bool maps = options.maps && r.frames == 0;
+        const eval::SpeckleStats ls =
+            eval::measureSpeckle(out.linearIndirect, out.coverage, maps ? &mapLs : nullptr, smooth);
+        const eval::SpeckleStats bf =
+            eval::measureSpeckle(out.linearIndirectReference, out.coverage, maps ? &mapBf : nullptr, smooth);
+        accumulate(r.lightSkin.speckle, ls);
+        accumulate(r.brute.speckle, bf);
+        r.lightSkin.totalLight += coveredLuminance(out.linearIndirect, out.coverage);
+        r.brute.totalLight += coveredLuminance(out.linearIndirectReference, out.coverage);
+        if (r.frames == 0) {
+            char name[160];
+            std::snprintf(name, sizeof name, "%s_%s_sink%.0fmm_", c.name.c_str(), model.name.c_str(), sink * 1e3);
+            writeIndirectPng(imageFolder / (std::string(name) + "lightskin.png"), out.linearIndirect, bf.meanLuminance);
+            writeIndirectPng(imageFolder / (std::string(name) + "bruteforce.png"), out.linearIndirectReference,
+                             bf.meanLuminance);
+            if (maps) { // 0 outside, 64 measured, 255 speckle; LightSkin left, brute force right
+                cv::Mat both;
+                cv::hconcat(mapLs, mapBf, both);
+                cv::imwrite((imageFolder / (std::string(name) + "speckle_map.png")).string(), both);
+            }
+        }
+        if (c.movingCamera) {
+            sampleTracked(points, frame.colourIntrinsics, *out.world_T_camera, out.coverage, out.virtualDepthMetres,
+                          out.linearIndirect, seriesLs);
+            sampleTracked(points, frame.colourIntrinsics, *out.world_T_camera, out.coverage, out.virtualDepthMetres,
+                          out.linearIndirectReference, seriesBf);
+        }
+        ++r.frames;
+    }
+    if (c.movingCamera && r.frames >= 2) {
+        double level = 0.0;
+        std::size_t levelCount = 0;
+        for (float v : seriesBf)
+            if (!std::isnan(v)) {
+                level += double(v);
+                ++levelCount;
+            }
+        level = levelCount ? level / double(levelCount) : 1.0;
+        const auto flickerOf = [&](const std::vector<float>& a, const std::vector<float>* reference) {
+            double sum = 0.0;
+            std::size_t samples = 0;
+            for (int f = 1; f < r.frames; ++f)
+                for (std::size_t p = 0; p < points.size(); ++p) {
+                    const std::size_t i0 = std::size_t(f - 1) * points.size() + p, i1 = i0 + points.size();
+                    if (std::isnan(a[i0]) || std::isnan(a[i1]) || std::isnan(seriesBf[i0]) || std::isnan(seriesBf[i1]))
+                        continue;
+                    double d = double(a[i1]) - double(a[i0]);
+                    if (reference) d -= double((*reference)[i1]) - double((*reference)[i0]);
+                    sum += d * d;
+                    ++samples;
+                }
+            r.flickerSamples = samples;
+            return samples ? std::sqrt(sum / double(samples)) / level : 0.0;
+        };
+        r.flickerMeasured = true;
+        r.flickerBrute = flickerOf(seriesBf, nullptr);
+        r.flickerLightSkin = flickerOf(seriesLs, nullptr);
+        r.excessFlicker = flickerOf(seriesLs, &seriesBf);
+    }
+    gl::DebugOutput::throwIfErrors("bench-realdepth");
+    return r;
+}
+
+std::string percent(double f) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.3f %%", 100.0 * f);
+    return b;
+}
+
+} // namespace
+
+void runRealDepthBench(const RealDepthBenchOptions& options) {
+    auto context = gl::createHeadlessContext();
+    std::vector<LightModel> models;
+    std::istringstream list(options.models);
+    for (std::string m; std::getline(list, m, ',');) {
+        if (m == "old")
+            models.push_back({"old", false});
+        else if (m == "robust")
+            models.push_back({"robust", true});
+        else
+            throw Error("--models", std::nullopt, "unknown light model '" + m + "' (old, robust)");
+    }
+    std::vector<CaseResult> results;
+    for (const RealCase& c : realCases()) {
+        if (!options.recordings.empty() &&
+            ("," + options.recordings + ",").find("," + c.name + ",") == std::string::npos)
+            continue;
+        for (double sink : options.sinks)
+            for (const LightModel& m : models) {
+                results.push_back(runCase(c, m, sink, options));
+                const CaseResult& r = results.back();
+                std::printf("%s, %s, sink %.0f mm, %d frames: LightSkin %s | brute force %s\n", r.recording.c_str(),
+                            r.model.c_str(), r.sink * 1e3, r.frames, r.lightSkin.speckle.describe().c_str(),
+                            r.brute.speckle.describe().c_str());
+                std::fflush(stdout);
+            }
+    }
+    std::ostringstream md;
+    md << "| recording | sink | light model | frames | VALs/frame | speckle LightSkin | speckle brute force | black / "
+          "blown (LS) | "
+          "black / blown (BF) | total light LS vs old | total light BF vs old "
+          "|\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+    for (const CaseResult& r : results) {
+        const CaseResult* old = nullptr;
+        for (const CaseResult& o : results)
+            if (o.recording == r.recording && o.sink == r.sink && o.model == "old") old = &o;
+        char row[512];
+        std::snprintf(
+            row, sizeof row, "| %s | %.0f mm | %s | %d | %.0f | %s | %s | %zu / %zu | %zu / %zu | %s | %s |\n",
+            r.recording.c_str(), r.sink * 1e3, r.model.c_str(), r.frames,
+            double(r.vals) / double(std::max(1, r.frames)), percent(r.lightSkin.speckle.speckleFraction()).c_str(),
+            percent(r.brute.speckle.speckleFraction()).c_str(), r.lightSkin.speckle.blackPixels,
+            r.lightSkin.speckle.blownPixels, r.brute.speckle.blackPixels, r.brute.speckle.blownPixels,
+            old ? percent(r.lightSkin.totalLight / old->lightSkin.totalLight - 1.0).c_str() : "-",
+            old ? percent(r.brute.totalLight / old->brute.totalLight - 1.0).c_str() : "-");
+        md << row;
+    }
+    md << "\n| recording | sink | light model | frames | samples | flicker brute force | flicker LightSkin | excess "
+          "flicker LightSkin |\n"
+          "|---|---|---|---|---|---|---|---|\n";
+    for (const CaseResult& r : results) {
+        if (!r.flickerMeasured) continue;
+        char row[256];
+        std::snprintf(row, sizeof row, "| %s | %.0f mm | %s | %d | %zu | %.4f | %.4f | %.4f |\n", r.recording.c_str(),
+                      r.sink * 1e3, r.model.c_str(), r.frames, r.flickerSamples, r.flickerBrute, r.flickerLightSkin,
+                      r.excessFlicker);
+        md << row;
+    }
+    std::printf("\n%s", md.str().c_str());
+    std::ofstream(std::filesystem::path(options.out) / "realdepth.md") << md.str();
+}
+
+} // namespace lightskin::bench
