@@ -3,14 +3,16 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
 
-#include <array>
 #include <cerrno>
 #include <cstring>
 #include <fcntl.h>
 #include <iostream>
-#include <poll.h>
+#include <mutex>
+#include <streambuf>
 #include <system_error>
 #include <unistd.h>
+#include <utility>
+#include <vector>
 
 namespace lightskin::apps {
 
@@ -19,6 +21,23 @@ namespace fs = std::filesystem;
 CLI::Option* addOverwriteFlag(CLI::App* command, bool& overwrite) {
     return command->add_flag("--overwrite", overwrite,
                              "Use an existing output folder even when it is not empty: its contents are deleted first");
+}
+
+CLI::Validator atLeast(std::int64_t minimum) {
+    return CLI::Validator(
+        [minimum](std::string& text) -> std::string {
+            std::size_t used = 0;
+            long long value = 0;
+            try {
+                value = std::stoll(text, &used);
+            } catch (const std::exception&) {
+                used = 0;
+            }
+            if (used == 0 || used != text.size() || value < minimum)
+                return "expected an integer >= " + std::to_string(minimum) + ", got '" + text + "'";
+            return {};
+        },
+        "INT>=" + std::to_string(minimum));
 }
 
 namespace {
@@ -113,96 +132,115 @@ bool warnIfDeprecatedUsed(const CLI::App& command, const std::string& old, const
 }
 
 std::string_view ThirdPartyOutputCapture::sourceOf(std::string_view line) {
-    const auto has = [&](std::string_view text) { return line.find(text) != std::string_view::npos; };
-    if (line.starts_with("libpng")) return "libpng";
-    if (line.starts_with("[ WARN:") || line.starts_with("[ERROR:") || line.starts_with("[ INFO:") ||
-        line.starts_with("[DEBUG:") || has("OpenCV") || has("imread_") || has("imwrite_"))
+    const auto starts = [&](std::initializer_list<std::string_view> prefixes) {
+        for (const std::string_view prefix : prefixes)
+            if (line.starts_with(prefix)) return true;
+        return false;
+    };
+    if (starts({"libpng"})) return "libpng";
+    if (starts({"[ WARN:", "[ERROR:", "[ INFO:", "[DEBUG:", "[FATAL:", "imread_", "imwrite_", "OpenCV", "VIDEOIO"}))
         return "OpenCV";
-    if (has("OpenNI")) return "OpenNI2";
-    if (has("ssimp") || line.starts_with("Info,  T") || line.starts_with("Warn,  T") || line.starts_with("Error, T"))
-        return "assimp";
-    if (has("MESA") || has("Mesa") || has("EGL") || has("llvmpipe")) return "Mesa";
-    return "stderr";
+    if (starts({"OpenNI", "[OpenNI", "Warning: USB events thread"})) return "OpenNI2";
+    if (starts({"Assimp", "assimp", "Info,  T", "Warn,  T", "Error, T", "Debug, T"})) return "assimp";
+    if (starts({"MESA", "Mesa", "libEGL", "EGL", "llvmpipe"})) return "Mesa";
+    return {};
 }
 
 namespace {
 
-void logCaptured(std::string& pending, bool flushAll) {
-    std::size_t start = 0;
-    for (std::size_t end; (end = pending.find('\n', start)) != std::string::npos; start = end + 1) {
-        const std::string_view line(pending.data() + start, end - start);
-        if (!line.empty()) log::debug(std::string(ThirdPartyOutputCapture::sourceOf(line)) + ": " + std::string(line));
+/// The filter behind `stderr` and std::cerr. Decides at each line start whether the line is a
+/// library's (captured until its newline, then logged) or ours (written through at once, so
+/// progress lines and an assertion message before abort() are never held back).
+class StderrFilter {
+public:
+    void write(const char* data, std::size_t size) {
+        std::vector<std::string> lines; // logged after unlocking: spdlog takes its own lock and writes here
+        std::unique_lock lock(mutex_);
+        while (size > 0) {
+            if (atLineStart_) {
+                const std::string_view rest(data, size);
+                capturing_ = !ThirdPartyOutputCapture::sourceOf(rest).empty();
+                atLineStart_ = false;
+            }
+            const char* newline = static_cast<const char*>(std::memchr(data, '\n', size));
+            const std::size_t take = newline != nullptr ? std::size_t(newline - data) + 1 : size;
+            if (capturing_) {
+                captured_.append(data, take);
+                if (newline != nullptr) lines.push_back(std::exchange(captured_, {}));
+            } else {
+                for (std::size_t done = 0; done < take;) {
+                    const ssize_t n = ::write(STDERR_FILENO, data + done, take - done);
+                    if (n <= 0 && errno != EINTR) break;
+                    if (n > 0) done += std::size_t(n);
+                }
+            }
+            atLineStart_ = newline != nullptr;
+            data += take;
+            size -= take;
+        }
+        lock.unlock();
+        for (std::string& line : lines) logLine(line);
     }
-    pending.erase(0, start);
-    if (flushAll && !pending.empty()) {
-        log::debug(std::string(ThirdPartyOutputCapture::sourceOf(pending)) + ": " + pending);
-        pending.clear();
+    void finish() {
+        std::unique_lock lock(mutex_);
+        std::string rest = std::exchange(captured_, {});
+        lock.unlock();
+        logLine(rest);
     }
+
+private:
+    static void logLine(std::string& line) {
+        while (!line.empty() && (line.back() == '\n' || line.back() == '\r')) line.pop_back();
+        if (!line.empty()) log::debug(std::string(ThirdPartyOutputCapture::sourceOf(line)) + ": " + line);
+    }
+    std::mutex mutex_;
+    bool atLineStart_ = true, capturing_ = false;
+    std::string captured_;
+};
+
+StderrFilter& filter() {
+    static StderrFilter instance; // never destroyed before exit: `stderr` may be written until then
+    return instance;
 }
+
+ssize_t filterWrite(void*, const char* data, std::size_t size) {
+    filter().write(data, size);
+    return static_cast<ssize_t>(size);
+}
+
+class FilterStreambuf : public std::streambuf {
+protected:
+    std::streamsize xsputn(const char* data, std::streamsize size) override {
+        filter().write(data, static_cast<std::size_t>(size));
+        return size;
+    }
+    int_type overflow(int_type c) override {
+        if (traits_type::eq_int_type(c, traits_type::eof())) return traits_type::not_eof(c);
+        const char ch = traits_type::to_char_type(c);
+        filter().write(&ch, 1);
+        return c;
+    }
+};
 
 } // namespace
 
 ThirdPartyOutputCapture::ThirdPartyOutputCapture() {
-    std::array<int, 2> data{}, wake{};
+    static FilterStreambuf cerrBuffer;
+    std::FILE* filtered = ::fopencookie(nullptr, "w", cookie_io_functions_t{nullptr, &filterWrite, nullptr, nullptr});
+    if (filtered == nullptr) return;
+    std::setvbuf(filtered, nullptr, _IONBF, 0);
     std::fflush(stderr);
-    const int saved = ::fcntl(STDERR_FILENO, F_DUPFD_CLOEXEC, 3);
-    if (saved < 0) return;
-    if (::pipe2(data.data(), O_CLOEXEC) != 0) {
-        ::close(saved);
-        return;
-    }
-    if (::pipe2(wake.data(), O_CLOEXEC) != 0) {
-        for (const int fd : {saved, data[0], data[1]}) ::close(fd);
-        return;
-    }
-    std::FILE* ours = ::fdopen(saved, "w");
-    if (ours == nullptr) {
-        for (const int fd : {saved, data[0], data[1], wake[0], wake[1]}) ::close(fd);
-        return;
-    }
-    std::setvbuf(ours, nullptr, _IONBF, 0);
-    ::dup2(data[1], STDERR_FILENO);
-    ::close(data[1]);
-    // glibc's stdin/stdout/stderr are ordinary variables (glibc manual, "Standard Streams"): our
-    // fprintf(stderr, ...) and spdlog's sink (created after this) write to the saved descriptor.
+    // glibc's stdin/stdout/stderr are ordinary variables (glibc manual, "Standard Streams"):
+    // libraries' fprintf(stderr, ...) (libpng's "libpng error: ..."), ours and spdlog's sink
+    // (created after this) all write through the filter.
     originalStderr_ = stderr;
-    stderr = ours;
-    savedStderr_ = saved;
-    wakeWrite_ = wake[1];
-    reader_ = std::thread([dataRead = data[0], wakeRead = wake[0]] {
-        std::string pending;
-        std::array<char, 4096> buffer{};
-        std::array<pollfd, 2> fds{{{dataRead, POLLIN, 0}, {wakeRead, POLLIN, 0}}};
-        bool stopping = false;
-        while (true) {
-            if (!stopping && ::poll(fds.data(), fds.size(), -1) < 0 && errno != EINTR) break;
-            if (!stopping && fds[1].revents != 0) { // drain what is left without waiting for writers
-                stopping = true;
-                ::fcntl(dataRead, F_SETFL, O_NONBLOCK);
-            }
-            const ssize_t got = ::read(dataRead, buffer.data(), buffer.size());
-            if (got > 0) {
-                pending.append(buffer.data(), static_cast<std::size_t>(got));
-                logCaptured(pending, false);
-            } else if (got == 0 || (errno != EINTR && (stopping || errno != EAGAIN))) {
-                break;
-            }
-        }
-        logCaptured(pending, true);
-        ::close(dataRead);
-        ::close(wakeRead);
-    });
+    stderr = filtered;
+    originalCerr_ = std::cerr.rdbuf(&cerrBuffer); // OpenCV's log and imread messages
 }
 
 ThirdPartyOutputCapture::~ThirdPartyOutputCapture() {
-    if (savedStderr_ < 0) return;
-    std::cerr.flush();
-    std::fflush(originalStderr_);
-    ::dup2(savedStderr_, STDERR_FILENO); // closes our end of the pipe: the reader sees the end
-    ::close(wakeWrite_);
-    reader_.join();
-    // `stderr` keeps pointing at the saved descriptor (spdlog's sink holds that FILE*); both stay
-    // open until the process ends.
+    if (originalCerr_ != nullptr) std::cerr.rdbuf(originalCerr_);
+    filter().finish();
 }
 
 } // namespace lightskin::apps

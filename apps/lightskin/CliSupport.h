@@ -14,12 +14,14 @@
 #include <filesystem>
 #include <string>
 #include <string_view>
-#include <thread>
 
 namespace lightskin::apps {
 
 /// Adds `--overwrite` to `command` (clear an existing, non-empty output folder first).
 CLI::Option* addOverwriteFlag(CLI::App* command, bool& overwrite);
+
+/// Validator for counts and indices: an integer >= `minimum` ("expected an integer >= 1, got -1").
+CLI::Validator atLeast(std::int64_t minimum);
 
 /// Throws lightskin::Error (naming `option` and `folder`) unless `folder` can become this command's
 /// output folder: it does not exist and its nearest existing parent is a writable folder, or it is
@@ -41,11 +43,13 @@ std::filesystem::path findData(const std::filesystem::path& relative, std::strin
 /// `replacement` and returns true. Deprecated spellings are hidden from --help (docs/CLI.md lists them).
 bool warnIfDeprecatedUsed(const CLI::App& command, const std::string& old, const std::string& replacement);
 
-/// While alive, file descriptor 2 is a pipe read by a thread that logs each line through
-/// lightskin::log at debug level, tagged with its source ("libpng", "OpenCV", "OpenNI2", "assimp",
-/// "Mesa" or "stderr"); C's `stderr` (our own messages and spdlog's sink) is moved to a copy of the
-/// original descriptor, so only third-party writes to descriptor 2 or std::cerr are captured. The
-/// destructor restores descriptor 2 and logs what remained. Without a working pipe it does nothing.
+/// While alive, C's `stderr` and std::cerr go through a filter: a line that starts like a
+/// third-party library's message ("libpng error: ...", OpenCV's "[ WARN:...", "imread_(...)",
+/// OpenNI2, assimp, Mesa) is logged through lightskin::log at debug level with that source named
+/// ("libpng: libpng error: ..."; shown with -v), every other line (our own messages, the log itself)
+/// goes to descriptor 2 at once, unchanged. Libraries that write to descriptor 2 directly are not
+/// filtered. One instance, in main(); `stderr` keeps the filter until the process ends (spdlog's sink
+/// holds it), the destructor logs an unfinished captured line.
 class ThirdPartyOutputCapture {
 public:
     ThirdPartyOutputCapture();
@@ -53,14 +57,12 @@ public:
     ThirdPartyOutputCapture(const ThirdPartyOutputCapture&) = delete;
     ThirdPartyOutputCapture& operator=(const ThirdPartyOutputCapture&) = delete;
 
-    /// The source a captured line is attributed to (exposed for tests).
+    /// The library a line is attributed to, or empty for our own output (exposed for tests).
     static std::string_view sourceOf(std::string_view line);
 
 private:
-    int savedStderr_ = -1;
-    int wakeWrite_ = -1; ///< closing it tells the reader to drain what is left and stop
     std::FILE* originalStderr_ = nullptr;
-    std::thread reader_;
+    std::streambuf* originalCerr_ = nullptr;
 };
 
 } // namespace lightskin::apps
