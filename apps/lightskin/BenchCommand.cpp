@@ -9,6 +9,7 @@
 // CI smoke run (tests/bench) and checks that the error falls as sparse points or VALs grow.
 #include "BenchReport.h"
 #include "BenchScene.h"
+#include "CliSupport.h"
 #include "Commands.h"
 
 #include <lightskin/core/Error.h>
@@ -1340,7 +1341,8 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
     command->add_flag("--quick", o->quick, "CI smoke run (< 2 min): small sweep, checks that error falls with sparse points and VALs");
     command->add_option("--out", o->out, "Output folder for bench.csv/json/png/md");
     command->add_option("--docs", o->docs, "Regenerate the section between the lightskin-bench markers in this Markdown file");
-    command->add_option("--bunny", o->bunnyPath, "Stanford bunny PLY (tests/data/stanford-bunny/bun_zipper_res4.ply)");
+    command->add_option("--bunny", o->bunnyPath, "Stanford bunny PLY (relative paths of the default: beside the program or the build, never the current folder)");
+    resolveShippedData(command, {{"--bunny", &o->bunnyPath, "Stanford bunny PLY"}});
     command->add_option("--sparse", o->sparse, "Sparse points per model to sweep (comma-separated)");
     command->add_option("--strides", o->strides, "VAL strides on the 640x480 depth frame to sweep (1 = 640x480 VALs, 8 = 80x60)");
     command->add_option("--kcache", o->kCache, "K_cache values to sweep");

@@ -7,6 +7,7 @@
 // composite, and gl::StateGuard alone (save + restore, the overhead every session call carries).
 // Part 2: the same recording with each --budgets value: the settings chosen after warm-up, and the
 // median frame time against the budget.
+#include "CliSupport.h"
 #include "Commands.h"
 
 #include <lightskin/capture/FrameSource.h>
@@ -111,11 +112,12 @@ void addBenchEmbedCommand(CLI::App& app, int& exitCode) {
         "bench-embed",
         "Benchmark: session overheads for embedding hosts (render, GL state guard) and the frame budget's choices");
     auto o = std::make_shared<EmbedOptions>();
-    command->add_option("--recording", o->recording, "Recording (default recordings/synth-orbit)");
-    command->add_option("--scene", o->scene, "Scene file (default recordings/scenes/orbit.json)");
-    command->add_option("--frames", o->frames, "Frames per run (default 10)");
-    command->add_option("--warm-up", o->warmUp, "Budget runs: frames before the statistics (default 4)");
-    command->add_option("--budgets", o->budgets, "Budgets in ms, one run each (default 400 150 60)");
+    command->add_option("--recording", o->recording, "Recording (relative paths of the default: beside the program or the build, never the current folder)");
+    command->add_option("--scene", o->scene, "Scene file (relative paths of the default: beside the program or the build, never the current folder)");
+    resolveShippedData(command, {{"--recording", &o->recording, "sample recording"}, {"--scene", &o->scene, "scene"}});
+    command->add_option("--frames", o->frames, "Frames per run");
+    command->add_option("--warm-up", o->warmUp, "Budget runs: frames before the statistics");
+    command->add_option("--budgets", o->budgets, "Budgets in ms, one run each");
     command->callback([o, &exitCode] {
         if (o->frames < 1 || o->warmUp < 0 || o->warmUp >= o->frames)
             throw Error("--frames/--warm-up", std::nullopt, "need frames >= 1 and 0 <= warm-up < frames");

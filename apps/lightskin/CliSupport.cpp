@@ -125,6 +125,13 @@ fs::path findData(const fs::path& relative, std::string_view what) {
                 "cannot find the " + std::string(what) + " (looked in " + searched + "); give its path");
 }
 
+void resolveShippedData(CLI::App* command, std::vector<ShippedData> data) {
+    command->parse_complete_callback([command, data = std::move(data)] {
+        for (const ShippedData& d : data)
+            if (command->count(d.option) == 0) *d.path = findData(*d.path, d.what).string();
+    });
+}
+
 bool warnIfDeprecatedUsed(const CLI::App& command, const std::string& old, const std::string& replacement) {
     if (command.count(old) == 0) return false;
     log::warning(command.get_name() + ": " + old + " is deprecated, use " + replacement);

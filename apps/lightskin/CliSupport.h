@@ -39,6 +39,16 @@ void prepareOutputFolder(const std::filesystem::path& folder, bool overwrite, st
 /// configured from. Throws lightskin::Error naming `what` and the folders searched when missing.
 std::filesystem::path findData(const std::filesystem::path& relative, std::string_view what);
 
+/// Options whose default names data shipped with lightskin (a path relative to the source tree):
+/// when the user gives no value, findData resolves the default after parsing, so the command works
+/// from any folder. A value the user gives is used as given (relative to the current folder).
+struct ShippedData {
+    std::string option; ///< e.g. "--bunny"
+    std::string* path;  ///< the option's variable, holding the default
+    std::string what;   ///< for the error when missing, e.g. "Stanford bunny PLY"
+};
+void resolveShippedData(CLI::App* command, std::vector<ShippedData> data);
+
 /// When the deprecated spelling `old` of an option was given to `command`, logs a warning naming
 /// `replacement` and returns true. Deprecated spellings are hidden from --help (docs/CLI.md lists them).
 bool warnIfDeprecatedUsed(const CLI::App& command, const std::string& old, const std::string& replacement);
