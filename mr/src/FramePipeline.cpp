@@ -52,45 +52,37 @@ tracking::PoseTracker trackerFromScene(const render::Scene& scene) {
     const std::string source = (scene.file.empty() ? std::string("scene") : scene.file.string());
     nlohmann::json tracking = nlohmann::json::parse(scene.trackingJson);
     if (tracking.empty())
-        throw Error(source, std::nullopt,
-                    "/tracking: --pose tracking needs a \"tracking\" object in the scene (tag family, size, bundle); "
-                    "without tags use --pose fixed (the world is the camera frame) or --pose ground-truth");
+        throw Error(source, std::nullopt, "/tracking: --pose tracking needs a \"tracking\" object in the scene (tag family, size, bundle); "
+                                          "without tags use --pose fixed (the world is the camera frame) or --pose ground-truth");
     tracking::TrackerSettings settings;
     if (tracking.contains("detector")) {
-        settings.detector =
-            tracking::detectorSettingsFromJson(tracking["detector"].dump(), source + " /tracking/detector");
+        settings.detector = tracking::detectorSettingsFromJson(tracking["detector"].dump(), source + " /tracking/detector");
         tracking.erase("detector");
     }
     if (tracking.contains("useDepth")) {
         if (!tracking["useDepth"].is_boolean())
-            throw Error(source, std::nullopt,
-                        "/tracking/useDepth: expected true or false, got " + tracking["useDepth"].dump());
+            throw Error(source, std::nullopt, "/tracking/useDepth: expected true or false, got " + tracking["useDepth"].dump());
         settings.useDepth = tracking["useDepth"].get<bool>();
         tracking.erase("useDepth");
     }
     if (tracking.contains("file")) {
         if (tracking.size() != 1 || !tracking["file"].is_string())
-            throw Error(source, std::nullopt,
-                        "/tracking/file: expected a path string, beside only detector and useDepth");
+            throw Error(source, std::nullopt, "/tracking/file: expected a path string, beside only detector and useDepth");
         const std::filesystem::path world = scene.file.parent_path() / tracking["file"].get<std::string>();
         if (!std::filesystem::is_regular_file(world)) // name the scene key, not only the missing file
             throw Error(source, std::nullopt, "/tracking/file: tag world '" + world.string() + "' does not exist");
         return tracking::PoseTracker::create(tracking::TagWorld::load(world), settings);
     }
-    return tracking::PoseTracker::create(tracking::TagWorld::fromJson(tracking.dump(), source + " /tracking"),
-                                         settings);
+    return tracking::PoseTracker::create(tracking::TagWorld::fromJson(tracking.dump(), source + " /tracking"), settings);
 }
 
 } // namespace
 
 const char* toString(PoseMode mode) noexcept {
     switch (mode) {
-    case PoseMode::GroundTruth:
-        return "ground-truth";
-    case PoseMode::Tracking:
-        return "tracking";
-    case PoseMode::Fixed:
-        return "fixed";
+    case PoseMode::GroundTruth: return "ground-truth";
+    case PoseMode::Tracking: return "tracking";
+    case PoseMode::Fixed: return "fixed";
     }
     return "?";
 }
@@ -102,8 +94,7 @@ PoseMode parsePoseMode(const std::string& text) {
     throw Error("--pose", std::nullopt, "expected ground-truth, tracking or fixed, got '" + text + "'");
 }
 
-std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettings& settings,
-                                                          const render::Renderer& renderer) {
+std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettings& settings, const render::Renderer& renderer) {
     if (!settings.diffuse && settings.technique != "none")
         log::warning("gi.diffuse = false is not supported by the techniques: the diffuse channel stays on");
     if (settings.technique == "lightskin") {
@@ -114,8 +105,7 @@ std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettin
         s.vertexDistanceFloor = settings.robustRealDepth;
         const gi::SparsePointProvider provider = [&renderer](const gi::MeshInstance& instance) {
             const gi::SparsePointSet* points = renderer.sparsePoints(instance.meshId);
-            LIGHTSKIN_ASSERT(points != nullptr,
-                             "lightskin::mr::createTechnique(): the renderer prepared no sparse points");
+            LIGHTSKIN_ASSERT(points != nullptr, "lightskin::mr::createTechnique(): the renderer prepared no sparse points");
             return *points;
         };
         if (settings.backend == "cpu") {
@@ -152,14 +142,10 @@ std::vector<gi::VirtualLight> virtualLightsFromScene(const render::Scene& scene)
 void parseView(const std::string& text, render::DebugView& view, Overlay& overlay) {
     overlay = Overlay::None;
     view = render::DebugView::Final;
-    if (text == "vals")
-        overlay = Overlay::Vals;
-    else if (text == "sparse")
-        overlay = Overlay::SparsePoints;
-    else if (text == "error")
-        overlay = Overlay::ErrorVsBruteForce;
-    else if (text == "vpl")
-        overlay = Overlay::VertexVpls;
+    if (text == "vals") overlay = Overlay::Vals;
+    else if (text == "sparse") overlay = Overlay::SparsePoints;
+    else if (text == "error") overlay = Overlay::ErrorVsBruteForce;
+    else if (text == "vpl") overlay = Overlay::VertexVpls;
     else if (text == "differential")
         overlay = Overlay::Differential;
     else {
@@ -187,8 +173,7 @@ bool projectToPixel(const CameraIntrinsics& k, const Pose& camera_T_world, const
     return true;
 }
 
-void drawVals(cv::Mat& image, const std::vector<gi::VirtualAreaLight>& vals, const CameraIntrinsics& k,
-              const Pose& world_T_camera) {
+void drawVals(cv::Mat& image, const std::vector<gi::VirtualAreaLight>& vals, const CameraIntrinsics& k, const Pose& world_T_camera) {
     float brightest = 0.0f;
     for (const auto& v : vals) brightest = std::max({brightest, v.flux.x, v.flux.y, v.flux.z});
     if (!(brightest > 0.0f)) return;
@@ -201,8 +186,7 @@ void drawVals(cv::Mat& image, const std::vector<gi::VirtualAreaLight>& vals, con
     }
 }
 
-void drawSparsePoints(cv::Mat& image, const render::Renderer& renderer, const CameraIntrinsics& k,
-                      const Pose& world_T_camera) {
+void drawSparsePoints(cv::Mat& image, const render::Renderer& renderer, const CameraIntrinsics& k, const Pose& world_T_camera) {
     const Pose camera_T_world = world_T_camera.inverse();
     for (const gi::MeshInstance& instance : renderer.instances()) {
         const gi::SparsePointSet* set = renderer.sparsePoints(instance.meshId);
@@ -251,8 +235,7 @@ VplViewResult drawVertexVpls(cv::Mat& image, const Technique& technique, std::sp
     technique.readVertexVpls(vpls);
     const std::size_t vertexCount = vpls.size() / 4;
     const std::vector<std::uint32_t>& offsets = technique.vertexOffsets();
-    LIGHTSKIN_ASSERT(offsets.size() == instances.size(),
-                     "lightskin::apps: the technique was prepared with other instances");
+    LIGHTSKIN_ASSERT(offsets.size() == instances.size(), "lightskin::apps: the technique was prepared with other instances");
     float brightest = 0.0f;
     for (std::size_t v = 0; v < vertexCount; ++v) {
         const glm::vec3 radiance(vpls[4 * v]), position(vpls[4 * v + 1]);
@@ -379,8 +362,7 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
     } else {
         log::warning(source.uri + ": depth is not registered to colour; no VALs and no occlusion by real geometry");
     }
-    if (scene.gi.virtualBounce && scene.lights.empty())
-        log::info("gi.virtualBounce: the scene has no lights, nothing to bounce");
+    if (scene.gi.virtualBounce && scene.lights.empty()) log::info("gi.virtualBounce: the scene has no lights, nothing to bounce");
     if (scene.gi.virtualBounce && !scene.lights.empty()) {
         s.virtualLights = virtualLightsFromScene(scene);
         gi::RsmSettings rsm;
@@ -391,9 +373,8 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
         const std::uint32_t depthCapacity = s.vals ? s.vals->capacity() : 0u;
         s.merger = gi::ValSetMerger::create(depthCapacity + s.rsm->capacity());
         s.rsmTimer = gl::GpuStageTimer::create(1);
-        log::info("gi.virtualBounce: " + std::to_string(s.virtualLights.size()) + " light(s), RSM " +
-                  std::to_string(rsm.resolution) + "^2 per face, " + std::to_string(s.merger->capacity()) +
-                  " VALs merged at most");
+        log::info("gi.virtualBounce: " + std::to_string(s.virtualLights.size()) + " light(s), RSM " + std::to_string(rsm.resolution) + "^2 per face, " +
+                  std::to_string(s.merger->capacity()) + " VALs merged at most");
     }
     if (scene.compositing.differential && s.valsUsable && !scene.objects.empty()) {
         s.differential = gi::DifferentialIrradiance::create(p->renderer_->instances());
@@ -434,8 +415,7 @@ void FramePipeline::setGiSettings(const render::GiSettings& settings) {
     }
     gi_ = settings;
     state_->technique = createTechnique(settings, *renderer_);
-    if (auto* lightSkin = dynamic_cast<gi::LightSkinIllumination*>(state_->technique.get());
-        lightSkin && options_.adaptive) {
+    if (auto* lightSkin = dynamic_cast<gi::LightSkinIllumination*>(state_->technique.get()); lightSkin && options_.adaptive) {
         gi::LightSkinSettings s = lightSkin->settings();
         s.adaptive = true;
         s.staticTolerance = options_.staticTolerance;
@@ -495,12 +475,8 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     // Pose.
     t = Clock::now();
     switch (options_.poseMode) {
-    case PoseMode::GroundTruth:
-        out.tracking = tracking::PoseTracker::fromGroundTruth(frame);
-        break;
-    case PoseMode::Tracking:
-        s.tracker->trackInto(frame, out.tracking);
-        break;
+    case PoseMode::GroundTruth: out.tracking = tracking::PoseTracker::fromGroundTruth(frame); break;
+    case PoseMode::Tracking: s.tracker->trackInto(frame, out.tracking); break;
     case PoseMode::Fixed:
         out.tracking = tracking::TrackingResult{};
         out.tracking.frameIndex = frame.index;
@@ -542,8 +518,7 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
             // The VALs whose space the virtual content occupies (gi/ValOccupancyCull.h); needs the view.
             r.renderGBuffer(world_T_camera);
             gbufferReady = true;
-            s.occupancy->apply(valSet, r.instances(), r.viewParameters().clip_T_world,
-                               world_T_camera.inverse().matrixFloat());
+            s.occupancy->apply(valSet, r.instances(), r.viewParameters().clip_T_world, world_T_camera.inverse().matrixFloat());
         }
     }
     addTime(out.cpuTimes, used, "vals", msSince(t));
@@ -608,9 +583,7 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     // Shade, read back, composite.
     t = Clock::now();
     const cv::Mat realDepth = haveDepth ? s.depthMetres : cv::Mat();
-    render::ShadeOptions shade{.includeIndirect = runGi,
-                               .exposureStops = s.scene->exposureStops,
-                               .view = options_.view,
+    render::ShadeOptions shade{.includeIndirect = runGi, .exposureStops = s.scene->exposureStops, .view = options_.view,
                                .linearOutput = options_.linearComposite};
     r.shade(shade);
     r.readOutputsInto(s.virtualColour, s.virtualDepth);
@@ -633,10 +606,8 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
         const auto* row = out.linearWithGi.ptr<cv::Vec3f>(v);
         for (int u = 0; u < out.linearWithGi.cols; ++u) {
             const cv::Vec3f& p = row[u];
-            if (std::isnan(p[0]) || std::isnan(p[1]) || std::isnan(p[2]))
-                ++out.linearNanPixels;
-            else if (std::isinf(p[0]) || std::isinf(p[1]) || std::isinf(p[2]))
-                ++out.linearInfPixels;
+            if (std::isnan(p[0]) || std::isnan(p[1]) || std::isnan(p[2])) ++out.linearNanPixels;
+            else if (std::isinf(p[0]) || std::isinf(p[1]) || std::isinf(p[2])) ++out.linearInfPixels;
         }
     }
     if ((options_.linearIndirect || options_.referenceIndirect) && runGi) {
@@ -653,8 +624,7 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
         s.virtualDepth.copyTo(out.virtualDepthMetres);
         const gi::GBufferView& g = r.gbuffer();
         s.normalsRgba.create(g.height, g.width, CV_32FC4);
-        glGetTextureImage(g.worldNormal, 0, GL_RGBA, GL_FLOAT,
-                          GLsizei(s.normalsRgba.total() * s.normalsRgba.elemSize()), s.normalsRgba.data);
+        glGetTextureImage(g.worldNormal, 0, GL_RGBA, GL_FLOAT, GLsizei(s.normalsRgba.total() * s.normalsRgba.elemSize()), s.normalsRgba.data);
         cv::flip(s.normalsRgba, s.normalsRgba, 0); // GL rows count from the bottom
         cv::cvtColor(s.normalsRgba, out.virtualNormals, cv::COLOR_RGBA2RGB);
         if (runGi) {
@@ -667,20 +637,17 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
             s.bruteForce->render(valSet, r.instances(), r.gbuffer(), r.viewParameters(), r.indirectTarget());
             r.readIndirectInto(s.indirectReference);
             cv::cvtColor(s.indirectReference, out.linearIndirectReference, cv::COLOR_RGBA2BGR);
-            out.linearIndirectReference.convertTo(out.linearIndirectReference, -1,
-                                                  double(std::exp2(s.scene->exposureStops)));
+            out.linearIndirectReference.convertTo(out.linearIndirectReference, -1, double(std::exp2(s.scene->exposureStops)));
         }
     }
     if (options_.overlay == Overlay::Vals && out.valCount > 0 && s.vals)
         drawVals(out.withGi, s.vals->downloadVals(), frame.colourIntrinsics, world_T_camera);
     if (options_.overlay == Overlay::Differential && runDifferential)
         drawDifferential(out.withGi, frame.colour, s.differentialImages);
-    if (options_.overlay == Overlay::SparsePoints)
-        drawSparsePoints(out.withGi, r, frame.colourIntrinsics, world_T_camera);
+    if (options_.overlay == Overlay::SparsePoints) drawSparsePoints(out.withGi, r, frame.colourIntrinsics, world_T_camera);
     if (options_.overlay == Overlay::VertexVpls && runGi) {
         if (const auto* lightSkin = dynamic_cast<const gi::LightSkinIllumination*>(s.technique.get())) {
-            const VplViewResult vpl = drawVertexVpls(out.withGi, *lightSkin, r.instances(), frame.colourIntrinsics,
-                                                     world_T_camera, s.vertexVpls);
+            const VplViewResult vpl = drawVertexVpls(out.withGi, *lightSkin, r.instances(), frame.colourIntrinsics, world_T_camera, s.vertexVpls);
             out.vplSegments = vpl.drawn;
             out.vplNonFinite = vpl.nonFinite;
         } else if (const auto* cpu = dynamic_cast<const gi::CpuLightSkin*>(s.technique.get())) {
@@ -705,23 +672,20 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
         double sumError = 0.0, sumReference = 0.0;
         for (int v = 0; v < s.errorMap.rows; ++v)
             for (int u = 0; u < s.errorMap.cols; ++u) {
-                const cv::Vec4f a = s.indirectTechnique.at<cv::Vec4f>(v, u),
-                                b = s.indirectReference.at<cv::Vec4f>(v, u);
+                const cv::Vec4f a = s.indirectTechnique.at<cv::Vec4f>(v, u), b = s.indirectReference.at<cv::Vec4f>(v, u);
                 const float la = 0.2126f * a[0] + 0.7152f * a[1] + 0.0722f * a[2];
                 const float lb = 0.2126f * b[0] + 0.7152f * b[1] + 0.0722f * b[2];
                 if (s.virtualColour.at<cv::Vec4b>(v, u)[3] == 0) continue;
                 sumError += std::abs(double(la) - double(lb));
                 sumReference += std::abs(double(lb));
                 const float level = std::clamp(std::abs(la - lb) / options_.errorScale, 0.0f, 1.0f);
-                out.withGi.at<cv::Vec3b>(v, u) =
-                    cv::Vec3b(std::uint8_t(255.0f * (1.0f - level)), 0, std::uint8_t(255.0f * level));
+                out.withGi.at<cv::Vec3b>(v, u) = cv::Vec3b(std::uint8_t(255.0f * (1.0f - level)), 0, std::uint8_t(255.0f * level));
             }
         out.meanRelativeErrorVsBruteForce = sumReference > 0.0 ? sumError / sumReference : 0.0;
         char text[96];
-        std::snprintf(text, sizeof text, "|%s - brute force| / brute force: %.3f",
-                      std::string(s.technique->name()).c_str(), out.meanRelativeErrorVsBruteForce);
-        cv::putText(out.withGi, text, cv::Point(6, 16), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(255, 255, 255), 1,
-                    cv::LINE_AA);
+        std::snprintf(text, sizeof text, "|%s - brute force| / brute force: %.3f", std::string(s.technique->name()).c_str(),
+                      out.meanRelativeErrorVsBruteForce);
+        cv::putText(out.withGi, text, cv::Point(6, 16), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
     }
     if (options_.compare) {
         shade.includeIndirect = false;
