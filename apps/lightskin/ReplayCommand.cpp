@@ -127,8 +127,7 @@ std::set<std::int64_t> parseFrameList(const std::string& text) {
                 for (long long v = a; v <= b; ++v) frames.insert(v);
             }
         } catch (const std::exception&) {
-            throw Error("--write-frames", std::nullopt,
-                        "expected 'all' or indices and ranges like 0,5,10-20; cannot read '" + item + "'");
+            throw Error("--write-frames", std::nullopt, "expected 'all' or indices and ranges like 0,5,10-20; cannot read '" + item + "'");
         }
     }
     return frames;
@@ -136,10 +135,7 @@ std::set<std::int64_t> parseFrameList(const std::string& text) {
 
 class Progress {
 public:
-    Progress(std::optional<std::int64_t> total)
-        : total_(total)
-        , tty_(isatty(STDERR_FILENO) != 0)
-        , start_(Clock::now()) {}
+    Progress(std::optional<std::int64_t> total) : total_(total), tty_(isatty(STDERR_FILENO) != 0), start_(Clock::now()) {}
     void update(std::int64_t done, bool last = false) {
         const double seconds = std::chrono::duration<double>(Clock::now() - start_).count();
         const double fps = seconds > 0 ? double(done) / seconds : 0.0;
@@ -152,8 +148,7 @@ public:
             std::string bar;
             if (total_ && *total_ > 0) {
                 const int width = 30, filled = int(double(width) * double(done) / double(*total_));
-                bar = "[" + std::string(std::size_t(std::min(filled, width)), '#') +
-                      std::string(std::size_t(std::max(0, width - filled)), '.') + "] ";
+                bar = "[" + std::string(std::size_t(std::min(filled, width)), '#') + std::string(std::size_t(std::max(0, width - filled)), '.') + "] ";
             }
             std::fprintf(stderr, "\r%sframe %lld%s  %.1f fps  ETA %s   ", bar.c_str(), static_cast<long long>(done),
                          total_ ? (" / " + std::to_string(*total_)).c_str() : "", fps, eta);
@@ -182,9 +177,8 @@ cv::VideoWriter openVideo(const std::filesystem::path& folder, const std::string
         throw Error("--video-format", std::nullopt, "expected auto, mp4 or avi, got '" + format + "'");
     if (format == "auto" || format == "mp4") {
         path = (folder / "replay.mp4").string();
-        const std::pair<int, const char*> codecs[] = {
-            {cv::VideoWriter::fourcc('a', 'v', 'c', '1'), "H.264 (avc1) in MP4"},
-            {cv::VideoWriter::fourcc('m', 'p', '4', 'v'), "MPEG-4 part 2 (mp4v) in MP4"}};
+        const std::pair<int, const char*> codecs[] = {{cv::VideoWriter::fourcc('a', 'v', 'c', '1'), "H.264 (avc1) in MP4"},
+                                                      {cv::VideoWriter::fourcc('m', 'p', '4', 'v'), "MPEG-4 part 2 (mp4v) in MP4"}};
         for (const auto& [fourcc, name] : codecs) {
             if (writer.open(path, cv::CAP_FFMPEG, fourcc, fps, size)) {
                 codec = name;
@@ -216,8 +210,7 @@ std::string writeLinear(const std::filesystem::path& folder, const std::string& 
     static const std::vector<int> exrParams{cv::IMWRITE_EXR_TYPE, cv::IMWRITE_EXR_TYPE_FLOAT};
     const std::filesystem::path path = folder / (stem + (exr ? ".exr" : ".png"));
     if (exr) {
-        if (!cv::imwrite(path.string(), linear, exrParams))
-            throw Error(path.string(), std::nullopt, "could not write the EXR image");
+        if (!cv::imwrite(path.string(), linear, exrParams)) throw Error(path.string(), std::nullopt, "could not write the EXR image");
     } else {
         eval::writeLinearPng16(path, linear, renderer);
     }
@@ -247,9 +240,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
         log::info(args.recording + ": depth is registered to colour in software (" + opened->info().calibrationSource +
                   ")");
     const capture::FrameSourceInfo info = opened->info();
-    mr::PoseMode poseMode = args.pose.empty()
-                                ? (info.hasGroundTruth ? mr::PoseMode::GroundTruth : mr::PoseMode::Tracking)
-                                : mr::parsePoseMode(args.pose);
+    mr::PoseMode poseMode = args.pose.empty() ? (info.hasGroundTruth ? mr::PoseMode::GroundTruth : mr::PoseMode::Tracking) : mr::parsePoseMode(args.pose);
 
     std::unique_ptr<gl::Context> context;
     std::unique_ptr<gl::WindowContext> window;
@@ -319,8 +310,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     pipeline->options().compare = compare;
     if (compare) std::filesystem::create_directories(out / "compare");
     if (args.linearOut) std::filesystem::create_directories(out / "linear");
-    if (args.linearOut && pipeline->techniqueName() != "none")
-        std::filesystem::create_directories(out / "linear-indirect");
+    if (args.linearOut && pipeline->techniqueName() != "none") std::filesystem::create_directories(out / "linear-indirect");
 
     std::string videoPath, videoCodec;
     cv::VideoWriter video;
@@ -329,8 +319,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     summary.scene = scenePath.string();
     summary.renderer = rendererName;
     const std::string asked =
-        scene.gi.technique +
-        (scene.gi.technique == "lightskin" && pipeline->giSettings().backend == "cpu" ? "-cpu" : "");
+        scene.gi.technique + (scene.gi.technique == "lightskin" && pipeline->giSettings().backend == "cpu" ? "-cpu" : "");
     summary.technique = pipeline->techniqueName() +
                         (asked != pipeline->techniqueName() ? " (scene asked for " + asked + ", not available)" : "");
     summary.poseMode = mr::toString(poseMode);
@@ -428,14 +417,13 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
                     const std::string stem(name, std::strlen(name) - 4); // without ".png"
                     rf.linearImage = "linear/" + writeLinear(out / "linear", stem, output.linearWithGi, rendererName);
                     if (!output.linearIndirect.empty())
-                        rf.linearIndirectImage = "linear-indirect/" + writeLinear(out / "linear-indirect", stem,
-                                                                                  output.linearIndirect, rendererName);
+                        rf.linearIndirectImage =
+                            "linear-indirect/" + writeLinear(out / "linear-indirect", stem, output.linearIndirect, rendererName);
                 }
             }
             if (!args.noVideo) {
                 const cv::Mat& videoFrame = args.sideBySideVideo && compare ? sideBySide : output.withGi;
-                if (!video.isOpened())
-                    video = openVideo(out, args.videoFormat, videoFrame.size(), 30.0, videoPath, videoCodec);
+                if (!video.isOpened()) video = openVideo(out, args.videoFormat, videoFrame.size(), 30.0, videoPath, videoCodec);
                 video.write(videoFrame);
             }
             if (window) {
@@ -488,28 +476,22 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
                         static_cast<long long>(frames.size()));
     }
     std::printf("replay: %lld frames read%s; outputs in %s (report.md, report.json%s)\n", static_cast<long long>(read),
-                summary.interrupted ? " (interrupted)" : "", out.string().c_str(),
-                videoPath.empty() ? "" : (", " + summary.video).c_str());
+                summary.interrupted ? " (interrupted)" : "", out.string().c_str(), videoPath.empty() ? "" : (", " + summary.video).c_str());
     return summary.interrupted ? 130 : 0;
 }
 
 void addReplayCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand(
-        "replay", "Render a scene into a recording: PNGs, a video and a report (headless by default)");
+    auto* command = app.add_subcommand("replay", "Render a scene into a recording: PNGs, a video and a report (headless by default)");
     auto args = std::make_shared<ReplayArgs>();
     command->add_option("recording", args->recording, "Recording folder, TUM folder or .oni file")->required();
     command->add_option("--scene", args->scene, "Scene file (docs/SCENE_FORMAT.md); default <recording>/scene.json");
     command->add_option("--out", args->out, "Output folder: new or empty (see --overwrite)");
     addOverwriteFlag(command, args->overwrite);
     command->add_flag("--window", args->window, "Show a GLFW window while rendering (default: headless EGL)");
-    command->add_option("--write-frames", args->writeFrames,
-                        "Frames to write as PNG: all, or indices and ranges like 0,5,10-20");
+    command->add_option("--write-frames", args->writeFrames, "Frames to write as PNG: all, or indices and ranges like 0,5,10-20");
     command->add_option("--frames", args->writeFrames, "Deprecated spelling of --write-frames")->group("");
-    command->add_option("--max-frames", args->maxFrames, "Stop after this many frames (>= 1; default: all)")
-        ->check(atLeast(1));
-    command->add_option(
-        "--pose", args->pose,
-        "ground-truth | tracking | fixed (default: ground truth when the recording has it, else tracking)");
+    command->add_option("--max-frames", args->maxFrames, "Stop after this many frames (>= 1; default: all)")->check(atLeast(1));
+    command->add_option("--pose", args->pose, "ground-truth | tracking | fixed (default: ground truth when the recording has it, else tracking)");
     command->add_option("--view", args->view,
                         "Debug view: final | direct | indirect | normals | albedo | vals (VALs by flux) | sparse "
                         "(sparse points) | error (vs brute force) | vpl (interpolated vertex VPLs) | differential "
@@ -524,11 +506,9 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
                      "Differential rendering (virtual shadows and bounce on the real surfaces): scene (its "
                      "compositing.differential, default) | off")
         ->check(CLI::IsMember({"scene", "off"}));
-    command->add_flag(
-        "--linear-out", args->linearOut,
-        "Also write each written frame's linear-light composite (linear/) and indirect-only light (linear-indirect/) "
-        "as 32-bit float OpenEXR (NaN, inf and values > 1 kept; 16-bit PNG clamped to [0,1] if this OpenCV has no "
-        "EXR)");
+    command->add_flag("--linear-out", args->linearOut,
+                      "Also write each written frame's linear-light composite (linear/) and indirect-only light (linear-indirect/) "
+                      "as 32-bit float OpenEXR (NaN, inf and values > 1 kept; 16-bit PNG clamped to [0,1] if this OpenCV has no EXR)");
     command->add_option(
         "--budget-ms", args->budgetMs,
         "Frame-time budget in ms (overrides the scene's gi.budgetMs): per frame pick technique, sparse points, VAL "
@@ -540,29 +520,23 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
         "--raw-depth", args->rawDepth,
         "Do not register unregistered depth (.oni, fakenect, raw recordings) to colour in software: shows what "
         "the pipeline does without registration (no VALs, no GI)");
-    auto* adaptive = command->add_flag(
-        "--adaptive", args->adaptive,
-        "LightSkin's adaptive mode: turn off what cannot change the image and reuse the VPLs for static content");
-    auto* tolerance = command
-                          ->add_option("--static-tolerance", args->staticTolerance,
-                                       "With --adaptive: also reuse when the gathered irradiance changed by at most "
-                                       "this fraction of its maximum (0: exact only; diffuse channel only)")
-                          ->check(CLI::Range(0.0f, 1.0f))
-                          ->needs(adaptive);
-    command
-        ->add_option("--static-test", args->staticTest,
-                     "With --static-tolerance: probes (re-gather every 16th sparse point) or bound (guaranteed, keyed)")
+    auto* adaptive = command->add_flag("--adaptive", args->adaptive,
+                      "LightSkin's adaptive mode: turn off what cannot change the image and reuse the VPLs for static content");
+    auto* tolerance = command->add_option("--static-tolerance", args->staticTolerance,
+                        "With --adaptive: also reuse when the gathered irradiance changed by at most this fraction of its maximum (0: exact only; diffuse channel only)")
+        ->check(CLI::Range(0.0f, 1.0f))
+        ->needs(adaptive);
+    command->add_option("--static-test", args->staticTest, "With --static-tolerance: probes (re-gather every 16th sparse point) or bound (guaranteed, keyed)")
         ->check(CLI::IsMember({"probes", "bound"}))
         ->needs(tolerance);
     command->callback([args, &exitCode, command] {
         std::string line = "lightskin replay";
-        for (const auto& [name, value] : std::vector<std::pair<std::string, std::string>>{
-                 {"", args->recording},
-                 {"--scene", args->scene},
-                 {"--out", args->out},
-                 {"--write-frames", args->writeFrames == "all" ? "" : args->writeFrames},
-                 {"--pose", args->pose},
-                 {"--backend", args->backend}})
+        for (const auto& [name, value] : std::vector<std::pair<std::string, std::string>>{{"", args->recording},
+                                                                                          {"--scene", args->scene},
+                                                                                          {"--out", args->out},
+                                                                                          {"--write-frames", args->writeFrames == "all" ? "" : args->writeFrames},
+                                                                                          {"--pose", args->pose},
+                                                                                          {"--backend", args->backend}})
             if (!value.empty()) line += (name.empty() ? " " : " " + name + " ") + value;
         warnIfDeprecatedUsed(*command, "--frames", "--write-frames");
         exitCode = runReplay(*args, line);
