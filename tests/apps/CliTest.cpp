@@ -348,6 +348,30 @@ TEST(Cli, SceneErrorsComeFirstAndNameTheKey) {
             "--pose tracking", "/tracking/file: tag world");
 }
 
+// Point 7: a bad index line is reported with its line in the file (the JSON parser counts from 1 on
+// every line it is given), before anything is written.
+TEST(Cli, ABadIndexLineIsNamedByItsLineInTheFile) {
+    const Fixture f("cli_index_line");
+    const fs::path index = f.recording / "frames.jsonl";
+    std::vector<std::string> lines;
+    {
+        std::ifstream in(index);
+        for (std::string line; std::getline(in, line);) lines.push_back(line);
+    }
+    ASSERT_GE(lines.size(), 3u);
+    lines[2] = "{\"frame\": 2, oops";
+    {
+        std::ofstream file(index, std::ios::trunc);
+        for (const std::string& line : lines) file << line << "\n";
+    }
+    const fs::path out = f.scratch / "out";
+    const CliRun r = runCli(f.replay(out), f.scratch);
+    EXPECT_EQ(r.exitCode, 1);
+    expectOneErrorLine(r, "line 3: malformed index line");
+    EXPECT_EQ(r.errLines().back().find("at line 1,"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+}
+
 // docs/CLI.md holds every command's --help as the program prints it, so it cannot go stale:
 // LIGHTSKIN_UPDATE_CLI_DOC=1 rewrites the section (scripts/update-cli-doc.sh), else it is compared.
 TEST(Cli, DocsListEveryCommandAsTheProgramDoes) {
