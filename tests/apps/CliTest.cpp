@@ -316,6 +316,22 @@ TEST(Cli, LabelsSayWhatHappened) {
     EXPECT_EQ(live.err.find("+glossy"), std::string::npos) << live.err;
     EXPECT_NE(live.err.find("| ground-truth"), std::string::npos) << live.err;
 
+    // synth's progress says how long is left.
+    const CliRun synth = runCli("synth " + (test::sourceDir() / "recordings" / "scenes-synth" / "orbit.json").string() +
+                                    " --max-frames 2 --out " + (f.scratch / "synth").string(),
+                                f.scratch);
+    ASSERT_EQ(synth.exitCode, 0) << synth.err;
+    EXPECT_NE(synth.err.find("synth: frame 2 of 2"), std::string::npos) << synth.err;
+    EXPECT_NE(synth.err.find("ETA"), std::string::npos) << synth.err;
+
+    // A hold reason names the option a user sets (an impossible 0.001 px refuses every measurement).
+    const fs::path pan = test::sourceDir() / "recordings" / "synth-pan";
+    const CliRun held = runCli("track --world " + (pan / "synth" / "tag-world.json").string() +
+                                   " --decimate 1 --max-corner-std 0.001 " + pan.string(),
+                               f.scratch);
+    EXPECT_NE(held.out.find("--max-corner-std"), std::string::npos) << held.out;
+    EXPECT_EQ(held.out.find("maxWorldCornerStdPx"), std::string::npos) << held.out;
+
     // track: a missing image fails before the first line, without OpenCV's warning.
     const CliRun track = runCli("track --tag-id 0 --tag-size 0.1 missing.png", f.scratch);
     EXPECT_EQ(track.exitCode, 1);
