@@ -19,10 +19,11 @@ out_dir="${1:-$root/out}"
 cmake -S "$root" -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo
 cmake --build "$build_dir" --parallel "$(nproc)" --target lightskin
 program="$build_dir/apps/lightskin"
-mkdir -p "$out_dir"
-"$program" doctor --out "$out_dir/doctor.png"
+# --overwrite: a re-run replaces the previous run's outputs (the replay clears the folder first, so
+# the second replay's folder and doctor.png come after it).
 "$program" replay "$root/recordings/synth-orbit" --scene "$root/recordings/scenes/orbit.json" --pose tracking \
-  --out "$out_dir"
+  --out "$out_dir" --overwrite
 "$program" replay "$root/tests/data/oni-kinect-v1/3dj_test.oni" --scene "$root/recordings/scenes/oni_room.json" \
   --pose fixed --out "$out_dir/oni-kinect-v1"
+"$program" doctor --out "$out_dir/doctor.png"
 echo "main job: outputs in $out_dir (open report.md) and $out_dir/oni-kinect-v1 (real Kinect v1 data)"

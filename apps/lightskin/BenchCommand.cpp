@@ -1,4 +1,5 @@
 // `lightskin bench`: argument parsing only; the benchmark is lightskin::bench (SweepBench.h).
+#include "CliSupport.h"
 #include "Commands.h"
 
 #include <lightskin/bench/SweepBench.h>
@@ -20,7 +21,9 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
     command->add_option("--out", o->out, "Output folder for bench.csv/json/png/md");
     command->add_option("--docs", o->docs,
                         "Regenerate the section between the lightskin-bench markers in this Markdown file");
-    command->add_option("--bunny", o->bunnyPath, "Stanford bunny PLY (tests/data/stanford-bunny/bun_zipper_res4.ply)");
+    command->add_option("--bunny", o->bunnyPath,
+                        "Stanford bunny PLY (relative paths of the default: beside the program or the build, never the current folder)");
+    resolveShippedData(command, {{"--bunny", &o->bunnyPath, "Stanford bunny PLY"}});
     command->add_option("--sparse", o->sparse, "Sparse points per model to sweep (comma-separated)");
     command->add_option("--strides", o->strides,
                         "VAL strides on the 640x480 depth frame to sweep (1 = 640x480 VALs, 8 = 80x60)");

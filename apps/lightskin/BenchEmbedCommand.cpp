@@ -1,4 +1,5 @@
 // `lightskin bench-embed`: argument parsing only; the benchmark is lightskin::bench (EmbedBench.h).
+#include "CliSupport.h"
 #include "Commands.h"
 
 #include <lightskin/bench/EmbedBench.h>
@@ -16,11 +17,14 @@ void addBenchEmbedCommand(CLI::App& app, int& exitCode) {
         "bench-embed",
         "Benchmark: session overheads for embedding hosts (render, GL state guard) and the frame budget's choices");
     auto o = std::make_shared<bench::EmbedBenchOptions>();
-    command->add_option("--recording", o->recording, "Recording (default recordings/synth-orbit)");
-    command->add_option("--scene", o->scene, "Scene file (default recordings/scenes/orbit.json)");
-    command->add_option("--frames", o->frames, "Frames per run (default 10)");
-    command->add_option("--warm-up", o->warmUp, "Budget runs: frames before the statistics (default 4)");
-    command->add_option("--budgets", o->budgets, "Budgets in ms, one run each (default 400 150 60)");
+    command->add_option("--recording", o->recording,
+                        "Recording (relative paths of the default: beside the program or the build, never the current folder)");
+    command->add_option("--scene", o->scene,
+                        "Scene file (relative paths of the default: beside the program or the build, never the current folder)");
+    resolveShippedData(command, {{"--recording", &o->recording, "sample recording"}, {"--scene", &o->scene, "scene"}});
+    command->add_option("--frames", o->frames, "Frames per run");
+    command->add_option("--warm-up", o->warmUp, "Budget runs: frames before the statistics");
+    command->add_option("--budgets", o->budgets, "Budgets in ms, one run each");
     command->callback([o, &exitCode] {
         if (o->frames < 1 || o->warmUp < 0 || o->warmUp >= o->frames)
             throw Error("--frames/--warm-up", std::nullopt, "need frames >= 1 and 0 <= warm-up < frames");

@@ -5,8 +5,10 @@
 // Keys: G GI on/off, L glossy on/off, O occlusion on/off, V next debug view, C with/without-GI
 // comparison side by side, P snapshot (PNG in --snapshot-dir), Q or Esc quit.
 // --headless runs the same loop without a window (EGL), for tests and machines without a display.
+#include "CliSupport.h"
 #include "Commands.h"
 #include "LiveWindowDisplay.h"
+#include "PoseLabel.h"
 
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/capture/Recording.h>
@@ -42,8 +44,8 @@ extern "C" void onLiveInterrupt(int) {
 
 struct LiveArgs {
     std::string device = "freenect://0", scene, pose, snapshot, snapshotDir = ".", record;
-    bool headless = false, loop = false, fast = false;
-    std::int64_t maxFrames = -1, snapshotAfter = -1;
+    bool headless = false, loop = false, fast = false, overwrite = false;
+    std::optional<std::int64_t> maxFrames, snapshotAfter; ///< unset: all frames / no automatic snapshot
     double budgetMs = 0.0; ///< --budget-ms (0: the scene's gi.budgetMs, if any)
 };
 
@@ -57,9 +59,11 @@ std::string statusLine(double fps, const mr::FrameOutput& out, const mr::FramePi
         line += text;
     }
     line += " ms | GI ";
+    // Glossy and occlusion are channels of a GI technique: without one they do nothing, so say nothing.
+    const bool gi = options.giEnabled && pipeline.techniqueName() != "none";
     line += options.giEnabled ? pipeline.techniqueName() : std::string("off");
-    line += pipeline.giSettings().glossy ? " +glossy" : "";
-    line += pipeline.giSettings().occlusion ? " +occl" : "";
+    line += gi && pipeline.giSettings().glossy ? " +glossy" : "";
+    line += gi && pipeline.giSettings().occlusion ? " +occl" : "";
     line += options.differential && out.differentialReceivers >= 0 ? " | differential" : "";
     if (!out.giActive && out.giInactiveCause != nullptr) line += std::string(" INACTIVE: ") + out.giInactiveCause;
     line += " | ";
@@ -68,7 +72,7 @@ std::string statusLine(double fps, const mr::FrameOutput& out, const mr::FramePi
     line += render::toString(options.view);
     line += overlays[int(options.overlay)];
     line += " | ";
-    line += tracking::toString(out.tracking.state);
+    line += poseLabel(options.poseMode, out.tracking);
     return line;
 }
 
@@ -87,12 +91,25 @@ void writePng(const std::filesystem::path& path, const cv::Mat& image) {
 
 int runLive(const LiveArgs& args) {
     if (args.scene.empty()) throw Error("--scene", std::nullopt, "live needs a scene file (docs/SCENE_FORMAT.md)");
+    if (!args.record.empty()) checkOutputFolder(args.record, args.overwrite, "--record");
     const std::string uri = args.device == "freenect" ? "freenect://0" : args.device;
     capture::FrameSourceOptions sourceOptions;
     sourceOptions.pacing = args.fast ? capture::Pacing::AsFastAsPossible : capture::Pacing::Realtime;
     sourceOptions.loop = args.loop;
     auto source = capture::openFrameSource(uri, sourceOptions);
     const capture::FrameSourceInfo& info = source->info();
+    if (args.snapshotAfter) {
+        // A snapshot after more frames than will be shown would silently never be written.
+        const std::optional<std::int64_t> count = args.loop ? std::nullopt : source->frameCount();
+        if (args.maxFrames && *args.snapshotAfter >= *args.maxFrames)
+            throw Error("--snapshot-after", std::nullopt,
+                        std::to_string(*args.snapshotAfter) + " frames: --max-frames " + std::to_string(*args.maxFrames) +
+                            " stops before (at most " + std::to_string(*args.maxFrames - 1) + ")");
+        if (count && *args.snapshotAfter >= *count)
+            throw Error("--snapshot-after", std::nullopt,
+                        std::to_string(*args.snapshotAfter) + " frames: " + uri + " has " + std::to_string(*count) +
+                            " frames (at most " + std::to_string(*count - 1) + ", or add --loop)");
+    }
 
     std::unique_ptr<gl::Context> headless;
     std::unique_ptr<gl::WindowContext> window;
@@ -126,6 +143,7 @@ int runLive(const LiveArgs& args) {
         recordingInfo.depthScaleMetres = info.depthScaleMetres;
         recordingInfo.registration = info.registration;
         recordingInfo.colour_T_depth = info.colour_T_depth;
+        prepareOutputFolder(args.record, args.overwrite, "--record");
         recorder = capture::RecordingWriter::create(args.record, recordingInfo);
     }
 
@@ -166,12 +184,12 @@ int runLive(const LiveArgs& args) {
     const auto previous = std::signal(SIGINT, onLiveInterrupt);
     WindowDisplay display;
     RgbdFrame frame;
-    cv::Mat shown;
+    cv::Mat shown, clean; // clean: what is shown without the status line (snapshots)
     std::int64_t count = 0;
     double fps = 0.0;
     auto last = std::chrono::steady_clock::now();
     try {
-        while (!quit && !liveInterrupt && (args.maxFrames < 0 || count < args.maxFrames) && source->next(frame)) {
+        while (!quit && !liveInterrupt && (!args.maxFrames || count < *args.maxFrames) && source->next(frame)) {
             ++count;
             if (recorder) recorder->write(frame);
             session->process(frame);
@@ -182,21 +200,23 @@ int runLive(const LiveArgs& args) {
             const double seconds = std::chrono::duration<double>(now - last).count();
             last = now;
             fps = fps == 0.0 ? 1.0 / std::max(seconds, 1e-6) : 0.9 * fps + 0.1 / std::max(seconds, 1e-6);
+            const bool autoSnapshot = args.snapshotAfter && count == *args.snapshotAfter + 1;
+            // Snapshots are the rendered image, without the status line (which a 640-pixel frame cuts off).
+            if (autoSnapshot || snapshotRequested) shown.copyTo(clean);
             drawStatus(shown, statusLine(fps, out, *pipeline, pipeline->options()));
-            const bool autoSnapshot = args.snapshotAfter >= 0 && count == args.snapshotAfter + 1;
             if (window) {
                 display.show(*window, shown);
                 if (autoSnapshot || snapshotRequested) {
                     const std::filesystem::path path = autoSnapshot && !args.snapshot.empty()
                                                            ? std::filesystem::path(args.snapshot)
                                                            : std::filesystem::path(args.snapshotDir) / ("snapshot-" + std::to_string(snapshots++) + ".png");
-                    writePng(path, WindowDisplay::readBack(*window));
+                    writePng(path, clean);
                 }
                 window->swapBuffers();
                 window->pollEvents();
                 if (window->shouldClose()) quit = true;
             } else {
-                if (autoSnapshot) writePng(args.snapshot.empty() ? std::filesystem::path(args.snapshotDir) / "snapshot-0.png" : std::filesystem::path(args.snapshot), shown);
+                if (autoSnapshot) writePng(args.snapshot.empty() ? std::filesystem::path(args.snapshotDir) / "snapshot-0.png" : std::filesystem::path(args.snapshot), clean);
                 if (count % 30 == 1) std::fprintf(stderr, "live: frame %lld: %s\n", static_cast<long long>(count), statusLine(fps, out, *pipeline, pipeline->options()).c_str());
             }
             snapshotRequested = false;
@@ -221,12 +241,15 @@ void addLiveCommand(CLI::App& app, int& exitCode) {
     command->add_flag("--headless", args->headless, "No window: render through EGL (tests, no display)");
     command->add_flag("--loop", args->loop, "Start file input again at its end");
     command->add_flag("--fast", args->fast, "File input as fast as possible instead of at the recorded speed");
-    command->add_option("--max-frames", args->maxFrames, "Stop after this many frames");
-    command->add_option("--snapshot-after", args->snapshotAfter, "Write a snapshot of what is shown after this many frames");
-    command->add_option("--snapshot", args->snapshot, "Path of that snapshot (default <snapshot-dir>/snapshot-0.png)");
+    command->add_option("--max-frames", args->maxFrames, "Stop after this many frames (>= 1; default: all)")->check(atLeast(1));
+    auto* after = command->add_option("--snapshot-after", args->snapshotAfter,
+                                      "Write a snapshot of what is shown (without the status line) after this many frames")
+                      ->check(atLeast(0));
+    command->add_option("--snapshot", args->snapshot, "Path of that snapshot (default <snapshot-dir>/snapshot-0.png)")->needs(after);
     command->add_option("--snapshot-dir", args->snapshotDir, "Folder for snapshots (key P)");
     command->add_option("--budget-ms", args->budgetMs, "Frame-time budget in ms: the session picks the GI settings per frame (docs/PLUGIN.md)");
-    command->add_option("--record", args->record, "Also record the input frames into this new recording folder");
+    command->add_option("--record", args->record, "Also record the input frames into this recording folder: new or empty (see --overwrite)");
+    addOverwriteFlag(command, args->overwrite);
     command->callback([args, &exitCode] { exitCode = runLive(*args); });
 }
 

@@ -3,6 +3,7 @@
 // into a fakenect dump with --to-fakenect. Capture never waits for the disk (capture::Recorder);
 // frames that cannot be queued or written are counted and reported. Ctrl-C stops cleanly; after a
 // hard kill every frame in the index is complete. Exit code 0, or 3 when frames were dropped.
+#include "CliSupport.h"
 #include "Commands.h"
 
 #include <lightskin/capture/Fakenect.h>
@@ -29,9 +30,9 @@ extern "C" void onInterrupt(int) {
 
 struct RecordArguments {
     std::string source, out;
-    std::int64_t maxFrames = -1;
+    std::optional<std::int64_t> maxFrames; ///< --max-frames; until the end or Ctrl-C when unset
     std::size_t queue = 30;
-    bool jpeg = false, realtime = false, toFakenect = false, registerDepth = false;
+    bool overwrite = false, jpeg = false, realtime = false, toFakenect = false, registerDepth = false;
 };
 
 void addRecordCommand(CLI::App& app, int& exitCode) {
@@ -42,10 +43,16 @@ void addRecordCommand(CLI::App& app, int& exitCode) {
         ->add_option("--source", args->source,
                      "openni2://[uri], freenect://<n>, a .oni file, a TUM folder or a recording")
         ->required();
-    command->add_option("--out", args->out, "Output folder (must not exist or be empty)")->required();
-    command->add_option("--frames", args->maxFrames, "Stop after this many frames (default: until the end or Ctrl-C)");
-    command->add_option("--queue", args->queue, "Frames that may wait for the disk (default 30)")
-        ->check(CLI::Range(1, 10000));
+    command->add_option("--out", args->out, "Output folder: new or empty (see --overwrite)")->required();
+    addOverwriteFlag(command, args->overwrite);
+    command
+        ->add_option("--max-frames", args->maxFrames,
+                     "Stop after this many frames (>= 1; default: until the end or Ctrl-C)")
+        ->check(atLeast(1));
+    command->add_option("--frames", args->maxFrames, "Deprecated spelling of --max-frames")
+        ->group("")
+        ->check(atLeast(1));
+    command->add_option("--queue", args->queue, "Frames that may wait for the disk")->check(CLI::Range(1, 10000));
     command->add_flag("--jpeg", args->jpeg, "Store colour as JPEG (lossy, smaller) instead of PNG");
     command->add_flag("--realtime", args->realtime, "Replay recorded sources at their recorded speed");
     command->add_flag("--register-depth", args->registerDepth,
@@ -53,13 +60,16 @@ void addRecordCommand(CLI::App& app, int& exitCode) {
                       "default: the source's depth as delivered, with its colour_T_depth in the header");
     command->add_flag("--to-fakenect", args->toFakenect,
                       "Write a fakenect dump (640x480) instead of a lightskin recording");
-    command->callback([args, &exitCode] {
+    command->callback([args, &exitCode, command] {
+        warnIfDeprecatedUsed(*command, "--frames", "--max-frames");
+        checkOutputFolder(args->out, args->overwrite, "--out"); // before the source opens: nothing written yet
         capture::FrameSourceOptions options;
         options.pacing = args->realtime ? capture::Pacing::Realtime : capture::Pacing::AsFastAsPossible;
         options.softwareRegistration = args->registerDepth;
         auto source = capture::openFrameSource(args->source, options);
+        prepareOutputFolder(args->out, args->overwrite, "--out");
         if (args->toFakenect) {
-            const auto frames = capture::writeFakenectDump(*source, args->out, args->maxFrames);
+            const auto frames = capture::writeFakenectDump(*source, args->out, args->maxFrames.value_or(-1));
             std::printf("wrote %lld frames as a fakenect dump to %s\n", static_cast<long long>(frames),
                         args->out.c_str());
             exitCode = 0;
@@ -84,7 +94,7 @@ void addRecordCommand(CLI::App& app, int& exitCode) {
         RgbdFrame frame;
         std::string sourceError;
         try {
-            while (!stopRequested && (args->maxFrames < 0 || source->framesDelivered() < args->maxFrames) &&
+            while (!stopRequested && (!args->maxFrames || source->framesDelivered() < *args->maxFrames) &&
                    source->next(frame))
                 recorder->push(frame);
         } catch (const Error& error) {

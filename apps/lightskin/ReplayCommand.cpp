@@ -3,8 +3,10 @@
 // light and the GI technique, composites it over the colour image and writes PNGs, a video and
 // a report (JSON + Markdown). Headless (EGL) unless --window. Ctrl-C stops after the current frame
 // and keeps everything written so far (video finalised, report marked "interrupted"; exit 130).
+#include "CliSupport.h"
 #include "Commands.h"
 #include "LiveWindowDisplay.h"
+#include "PoseLabel.h"
 #include "ReplayReport.h"
 
 #include <lightskin/capture/FrameSource.h>
@@ -28,6 +30,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <numbers>
 #include <set>
 #include <sstream>
@@ -45,15 +48,15 @@ extern "C" void onReplayInterrupt(int) {
 }
 
 struct ReplayArgs {
-    std::string recording, scene, out = "replay-out", frames, pose, view = "final", videoFormat = "auto";
-    bool window = false, noVideo = false, sideBySideVideo = false, noCompare = false;
+    std::string recording, scene, out = "replay-out", writeFrames = "all", pose, view = "final", videoFormat = "auto";
+    bool overwrite = false, window = false, noVideo = false, sideBySideVideo = false, noCompare = false;
     bool adaptive = false, linearOut = false, rawDepth = false;
     float staticTolerance = 0.0f;
     double budgetMs = 0.0; ///< --budget-ms (0: the scene's gi.budgetMs, if any)
     std::string staticTest = "probes";
     std::string backend; ///< overrides the scene's gi.backend when set
     std::string differential = "scene";
-    std::int64_t maxFrames = -1;
+    std::optional<std::int64_t> maxFrames; ///< --max-frames (>= 1); all frames when unset
 };
 
 /// Error of two composites against the objects-present truth (synth/present, see ReplayReport.h).
@@ -124,7 +127,7 @@ std::set<std::int64_t> parseFrameList(const std::string& text) {
                 for (long long v = a; v <= b; ++v) frames.insert(v);
             }
         } catch (const std::exception&) {
-            throw Error("--frames", std::nullopt, "expected 'all' or indices and ranges like 0,5,10-20; cannot read '" + item + "'");
+            throw Error("--write-frames", std::nullopt, "expected 'all' or indices and ranges like 0,5,10-20; cannot read '" + item + "'");
         }
     }
     return frames;
@@ -216,6 +219,8 @@ std::string writeLinear(const std::filesystem::path& folder, const std::string& 
 
 int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     const auto start = std::chrono::steady_clock::now();
+    const std::filesystem::path out(args.out);
+    checkOutputFolder(out, args.overwrite, "--out"); // writes nothing; the folder is made once all inputs are checked
     // Scene: --scene, else <recording>/scene.json.
     std::filesystem::path scenePath = args.scene;
     if (scenePath.empty()) {
@@ -223,7 +228,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
         if (!std::filesystem::exists(scenePath))
             throw Error(args.recording, std::nullopt, "no --scene given and the recording has no scene.json");
     }
-    const std::set<std::int64_t> chosen = parseFrameList(args.frames);
+    const std::set<std::int64_t> chosen = parseFrameList(args.writeFrames);
     render::DebugView view = render::DebugView::Final;
     mr::Overlay overlay = mr::Overlay::None;
     mr::parseView(args.view, view, overlay);
@@ -247,7 +252,6 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     }
     const std::string rendererName = window ? window->describe() : context->describe();
 
-    const std::filesystem::path out(args.out);
     mr::PipelineOptions options;
     options.poseMode = poseMode;
     options.view = view;
@@ -286,7 +290,21 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
         gi.backend = args.backend;
         pipeline->setGiSettings(gi);
     }
-    std::filesystem::create_directories(out / "frames"); // after the scene loaded: no outputs for a bad scene
+    // --write-frames past the frames that will be read would silently write nothing.
+    if (!chosen.empty()) {
+        const std::optional<std::int64_t> available = source->frameCount();
+        std::int64_t end = available.value_or(std::numeric_limits<std::int64_t>::max());
+        if (args.maxFrames) end = std::min(end, *args.maxFrames);
+        if (*chosen.rbegin() >= end)
+            throw Error("--write-frames", std::nullopt,
+                        "frame " + std::to_string(*chosen.rbegin()) + " will not be read: " +
+                            (args.maxFrames && (!available || *args.maxFrames < *available)
+                                 ? "--max-frames " + std::to_string(*args.maxFrames) + " stops before it"
+                                 : args.recording + " has " + std::to_string(*available) + " frames (0-" +
+                                       std::to_string(*available - 1) + ")"));
+    }
+    prepareOutputFolder(out, args.overwrite, "--out"); // every input is valid: from here on, outputs
+    std::filesystem::create_directories(out / "frames");
     // Without a GI technique both halves of the comparison would be the same image.
     const bool compare = options.compare && pipeline->techniqueName() != "none";
     pipeline->options().compare = compare;
@@ -308,8 +326,12 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     summary.command = commandLine;
     summary.framesInSource = source->frameCount();
     std::int64_t total = summary.framesInSource.value_or(-1);
-    if (args.maxFrames >= 0 && (total < 0 || args.maxFrames < total)) total = args.maxFrames;
+    if (args.maxFrames && (total < 0 || *args.maxFrames < total)) total = *args.maxFrames;
 
+    // A debug view compares that view with and without GI, and says so.
+    const std::string viewName = args.view == "final" ? "" : args.view + " view, ";
+    const std::string withLabel = viewName + "with GI (" + pipeline->techniqueName() + ")",
+                      withoutLabel = viewName + "without GI";
     interruptRequested = false;
     const auto previous = std::signal(SIGINT, onReplayInterrupt);
     std::vector<ReportFrame> frames;
@@ -317,7 +339,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     cv::Mat sideBySide, presentPair, presentTriple, presentFigure;
     std::int64_t read = 0;
     try {
-        while (!interruptRequested && (args.maxFrames < 0 || read < args.maxFrames) && session->processNext()) {
+        while (!interruptRequested && (!args.maxFrames || read < *args.maxFrames) && session->processNext()) {
             ++read;
             const mr::FrameOutput& output = session->output();
             const RgbdFrame& frame = session->sourceFrame();
@@ -328,7 +350,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
                 rf.giSettings = mr::describe(report.settings);
                 rf.predictedMs = report.predictedMs;
             }
-            rf.trackingState = tracking::toString(output.tracking.state);
+            rf.trackingState = poseLabel(poseMode, output.tracking);
             rf.trackingReason = output.tracking.reason != nullptr ? output.tracking.reason : "";
             rf.world_T_camera = output.world_T_camera;
             if (output.world_T_camera && frame.groundTruth_world_T_camera) {
@@ -380,7 +402,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
                     writePng(out / rf.presentImage, presentFigure);
                 }
             }
-            if (compare) render::sideBySideInto(output.withGi, "with GI (" + pipeline->techniqueName() + ")", output.withoutGi, "without GI", sideBySide);
+            if (compare) render::sideBySideInto(output.withGi, withLabel, output.withoutGi, withoutLabel, sideBySide);
             const bool write = chosen.empty() || chosen.count(report.frameIndex) > 0;
             if (write) {
                 char name[32];
@@ -414,10 +436,24 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
             frames.push_back(std::move(rf));
             progress.update(read);
         }
-    } catch (...) {
+    } catch (const std::exception& error) {
+        // Keep what was written: close the video, write the report marked failed, say what is kept.
         std::signal(SIGINT, previous);
         video.release();
-        throw;
+        summary.failure = error.what();
+        summary.framesRead = read;
+        summary.video = videoPath.empty() ? "" : std::filesystem::path(videoPath).filename().string();
+        summary.videoCodec = videoCodec;
+        summary.wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        std::string kept = "kept in " + out.string() + ": " + std::to_string(frames.size()) + " frames";
+        try {
+            writeReplayReport(out, summary, frames);
+            kept += (summary.video.empty() ? "" : ", " + summary.video) + " and report.md/report.json (marked failed)";
+        } catch (const std::exception& reportError) {
+            kept += (summary.video.empty() ? "" : ", " + summary.video) + "; the report could not be written (" +
+                    reportError.what() + ")";
+        }
+        throw Error(std::string(error.what()) + "; " + kept);
     }
     std::signal(SIGINT, previous);
     progress.update(read, true);
@@ -449,17 +485,20 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
     auto args = std::make_shared<ReplayArgs>();
     command->add_option("recording", args->recording, "Recording folder, TUM folder or .oni file")->required();
     command->add_option("--scene", args->scene, "Scene file (docs/SCENE_FORMAT.md); default <recording>/scene.json");
-    command->add_option("--out", args->out, "Output folder (default replay-out)");
+    command->add_option("--out", args->out, "Output folder: new or empty (see --overwrite)");
+    addOverwriteFlag(command, args->overwrite);
     command->add_flag("--window", args->window, "Show a GLFW window while rendering (default: headless EGL)");
-    command->add_option("--frames", args->frames, "Frames to write as PNG: all (default) or a list like 0,5,10-20");
-    command->add_option("--max-frames", args->maxFrames, "Stop after this many frames");
+    command->add_option("--write-frames", args->writeFrames, "Frames to write as PNG: all, or indices and ranges like 0,5,10-20");
+    command->add_option("--frames", args->writeFrames, "Deprecated spelling of --write-frames")->group("");
+    command->add_option("--max-frames", args->maxFrames, "Stop after this many frames (>= 1; default: all)")->check(atLeast(1));
     command->add_option("--pose", args->pose, "ground-truth | tracking | fixed (default: ground truth when the recording has it, else tracking)");
     command->add_option("--view", args->view,
                         "Debug view: final | direct | indirect | normals | albedo | vals (VALs by flux) | sparse "
                         "(sparse points) | error (vs brute force) | vpl (interpolated vertex VPLs) | differential "
                         "(change of the real light by the virtual objects)");
     command->add_flag("--no-video", args->noVideo, "Do not write a video");
-    command->add_option("--video-format", args->videoFormat, "auto (MP4, falling back to MJPG AVI) | mp4 | avi");
+    command->add_option("--video-format", args->videoFormat, "auto (MP4, falling back to MJPG AVI) | mp4 | avi")
+        ->check(CLI::IsMember({"auto", "mp4", "avi"}));
     command->add_flag("--side-by-side-video", args->sideBySideVideo, "Video frames show with GI | without GI");
     command->add_flag("--no-compare", args->noCompare, "Do not render the without-GI comparison");
     command
@@ -481,21 +520,25 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
         "--raw-depth", args->rawDepth,
         "Do not register unregistered depth (.oni, fakenect, raw recordings) to colour in software: shows what "
         "the pipeline does without registration (no VALs, no GI)");
-    command->add_flag("--adaptive", args->adaptive,
+    auto* adaptive = command->add_flag("--adaptive", args->adaptive,
                       "LightSkin's adaptive mode: turn off what cannot change the image and reuse the VPLs for static content");
-    command->add_option("--static-tolerance", args->staticTolerance,
-                        "With --adaptive: also reuse when the gathered irradiance changed by at most this fraction of its maximum (default 0: exact only; diffuse channel only)");
-    command->add_option("--static-test", args->staticTest, "With --static-tolerance: probes (default; re-gather every 16th sparse point) or bound (guaranteed, keyed)");
+    auto* tolerance = command->add_option("--static-tolerance", args->staticTolerance,
+                        "With --adaptive: also reuse when the gathered irradiance changed by at most this fraction of its maximum (0: exact only; diffuse channel only)")
+        ->check(CLI::Range(0.0f, 1.0f))
+        ->needs(adaptive);
+    command->add_option("--static-test", args->staticTest, "With --static-tolerance: probes (re-gather every 16th sparse point) or bound (guaranteed, keyed)")
+        ->check(CLI::IsMember({"probes", "bound"}))
+        ->needs(tolerance);
     command->callback([args, &exitCode, command] {
         std::string line = "lightskin replay";
         for (const auto& [name, value] : std::vector<std::pair<std::string, std::string>>{{"", args->recording},
                                                                                           {"--scene", args->scene},
                                                                                           {"--out", args->out},
-                                                                                          {"--frames", args->frames},
+                                                                                          {"--write-frames", args->writeFrames == "all" ? "" : args->writeFrames},
                                                                                           {"--pose", args->pose},
                                                                                           {"--backend", args->backend}})
             if (!value.empty()) line += (name.empty() ? " " : " " + name + " ") + value;
-        (void)command;
+        warnIfDeprecatedUsed(*command, "--frames", "--write-frames");
         exitCode = runReplay(*args, line);
     });
 }

@@ -114,6 +114,8 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
     root["framesRead"] = s.framesRead;
     root["framesInSource"] = s.framesInSource ? nlohmann::json(*s.framesInSource) : nlohmann::json(nullptr);
     root["interrupted"] = s.interrupted;
+    root["status"] = !s.failure.empty() ? "failed" : s.interrupted ? "interrupted" : "complete";
+    root["failure"] = s.failure.empty() ? nlohmann::json(nullptr) : nlohmann::json(s.failure);
     root["wallSeconds"] = s.wallSeconds;
     root["video"] = s.video;
     root["videoCodec"] = s.videoCodec;
@@ -198,6 +200,9 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
 
     std::string md;
     md += "# lightskin replay report\n\n";
+    if (!s.failure.empty())
+        md += "**FAILED** after " + std::to_string(s.framesRead) + " frames: " + escapeCell(s.failure) +
+              "\n\nThe frames, images and video below are what was written before the failure.\n\n";
     md += "| | |\n|---|---|\n";
     md += "| recording | `" + s.recording + "` |\n";
     md += "| scene | `" + s.scene + "` |\n";

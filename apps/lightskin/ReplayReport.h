@@ -57,6 +57,9 @@ struct ReportSummary {
     std::int64_t framesRead = 0;
     std::optional<std::int64_t> framesInSource;
     bool interrupted = false;
+    /// Why the run stopped early with an error (the frames, images and video before it are kept),
+    /// or empty. report.json's "status" is "failed" then, else "interrupted" or "complete".
+    std::string failure;
     double wallSeconds = 0.0;
 };
 

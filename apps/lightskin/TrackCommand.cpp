@@ -24,6 +24,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -61,6 +62,12 @@ void runTrack(const TrackOptions& options, int& exitCode) {
             throw Error("track", std::nullopt, "give --world <config.json> or --tag-id and --tag-size (metres)");
         return tracking::TagWorld::singleTag(options.tagId, options.tagSize, options.family);
     }();
+    // Every image is there before the first line is printed (a missing one is a bad command, not a lost frame).
+    if (!(options.images.size() == 1 &&
+          (std::filesystem::is_directory(options.images[0]) || options.images[0].ends_with(".oni"))))
+        for (std::size_t i = 0; i < options.images.size(); ++i)
+            if (!std::filesystem::is_regular_file(options.images[i]))
+                throw Error(options.images[i], static_cast<std::int64_t>(i), "no such image file");
     tracking::TrackerSettings settings;
     settings.detector.quadDecimate = options.decimate;
     settings.detector.upsample = options.upsample;
@@ -69,7 +76,8 @@ void runTrack(const TrackOptions& options, int& exitCode) {
     settings.filter.enabled = !options.noFilter;
     tracking::PoseTracker tracker = tracking::PoseTracker::create(std::move(world), settings);
 
-    std::printf("# frame state tags reprojection_px tx ty tz qw qx qy qz rotation_std_deg world_corner_std_px ambiguous total_ms "
+    std::printf("# frame state tags reprojection_px tx ty tz qw qx qy qz rotation_std_deg world_corner_std_px "
+                "ambiguous total_ms "
                 "[gt_position_error_m gt_rotation_error_deg] reason\n");
     tracking::TrackingResult result;
     int trackedFrames = 0, heldFrames = 0, poorlyDeterminedFrames = 0, lostFrames = 0, totalFrames = 0;
@@ -104,13 +112,18 @@ void runTrack(const TrackOptions& options, int& exitCode) {
         for (std::size_t k = 0; k < result.rejectedTags.size(); ++k)
             notes += (k == 0 ? " (dropped, disagreeing with the others: " : ",") +
                      std::to_string(result.rejectedTags[k]) + (k + 1 == result.rejectedTags.size() ? ")" : "");
-        std::printf(" %s%s\n", result.reason[0] != '\0' ? result.reason : "-", notes.c_str());
+        // The library names its setting; a user of this command knows it as --max-corner-std.
+        std::string reason = result.reason[0] != '\0' ? result.reason : "-";
+        if (const auto at = reason.find("maxWorldCornerStdPx"); at != std::string::npos)
+            reason.replace(at, std::strlen("maxWorldCornerStdPx"), "--max-corner-std");
+        std::printf(" %s%s\n", reason.c_str(), notes.c_str());
         ++totalFrames;
         trackedFrames += result.state == tracking::TrackingState::Tracking ? 1 : 0;
         heldFrames += result.state == tracking::TrackingState::Held ? 1 : 0;
         lostFrames += result.state == tracking::TrackingState::Lost ? 1 : 0;
         // Refused by maxWorldCornerStdPx (Held, or Lost before any pose): the uncertainty is the refused one's.
-        poorlyDeterminedFrames += !result.measured_world_T_camera && std::isfinite(result.uncertainty.worldCornerStdPx) &&
+        poorlyDeterminedFrames += !result.measured_world_T_camera &&
+                                          std::isfinite(result.uncertainty.worldCornerStdPx) &&
                                           result.uncertainty.worldCornerStdPx > settings.maxWorldCornerStdPx
                                       ? 1
                                       : 0;
@@ -170,12 +183,15 @@ void addTrackCommand(CLI::App& app, int& exitCode) {
     command->add_option("--family", options->family, "Tag family for --tag-id")->capture_default_str();
     command->add_option("--intrinsics", options->intrinsics, "fx fy cx cy in pixels (no distortion)")->expected(4);
     command->add_option("--decimate", options->decimate, "quad_decimate (1 for small tags)")->capture_default_str();
-    command->add_option("--upsample", options->upsample,
-                        "Detect on the image enlarged by this factor (1-4; 2 finds small tags, ~3.6x the time)")
+    command
+        ->add_option("--upsample", options->upsample,
+                     "Detect on the image enlarged by this factor (1-4; 2 finds small tags, ~3.6x the time)")
         ->capture_default_str();
     command->add_option("--threads", options->threads, "Detector threads")->capture_default_str();
-    command->add_option("--max-corner-std", options->maxCornerStd,
-                        "Hold frames whose pose places the world's tag corners worse than this std, pixels (> 0; inf = off)")
+    command
+        ->add_option(
+            "--max-corner-std", options->maxCornerStd,
+            "Hold frames whose pose places the world's tag corners worse than this std, pixels (> 0; inf = off)")
         ->capture_default_str();
     command->add_option("--fps", options->fps, "Frame rate the images were taken at")->capture_default_str();
     command->add_flag("--no-filter", options->noFilter, "Report unfiltered poses");

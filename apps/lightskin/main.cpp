@@ -1,4 +1,6 @@
-// `lightskin`: the command-line front end of the lightskin library.
+// `lightskin`: the command-line front end of the lightskin library. The rules every subcommand
+// follows (options, output folders, failures, exit codes) are in docs/CLI.md.
+#include "CliSupport.h"
 #include "Commands.h"
 
 #include <lightskin/core/Error.h>
@@ -6,32 +8,79 @@
 
 #include <cstdio>
 #include <exception>
+#include <filesystem>
+#include <string_view>
+
+namespace {
+
+/// Exit codes (docs/CLI.md): 0 done, 1 failed (bad input or a run-time failure; what was written is
+/// kept and said), 2 internal error, 3 done with losses (command-specific), 64 bad command line.
+constexpr int kExitFailed = 1, kExitInternal = 2, kExitUsage = 64;
+
+/// The first argument that is no option of the main program, or nullptr.
+const char* firstCommandWord(int argc, char** argv) {
+    for (int i = 1; i < argc; ++i)
+        if (argv[i][0] != '-') return argv[i];
+    return nullptr;
+}
+
+} // namespace
 
 int main(int argc, char** argv) {
+    const lightskin::apps::ThirdPartyOutputCapture capture; // first: before anything prints or logs
+
     CLI::App app{"lightskin: real-time global illumination of virtual content lit by the real room (RGB-D)"};
     app.set_version_flag("--version", std::string("lightskin ") + LIGHTSKIN_VERSION);
     app.require_subcommand(1);
+    // Subcommands pass options they do not know (-q, -v) up to here: global options work anywhere.
+    app.fallthrough();
+    // Every option shows its default the same way in --help ("--out TEXT=replay-out").
+    app.option_defaults()->always_capture_default();
     bool verbose = false, quiet = false;
-    app.add_flag("-v,--verbose", verbose, "Log debug messages");
+    app.add_flag("-v,--verbose", verbose, "Log debug messages (also what libraries print: libpng, OpenCV, ...)");
     app.add_flag("-q,--quiet", quiet, "Log warnings and errors only");
     app.parse_complete_callback([&] {
         lightskin::log::setLevel(verbose ? lightskin::log::Level::Debug
-                                         : quiet ? lightskin::log::Level::Warning : lightskin::log::Level::Info);
+                                 : quiet ? lightskin::log::Level::Warning
+                                         : lightskin::log::Level::Info);
     });
 
     int exitCode = 0;
     lightskin::apps::addRegisteredCommands(app, exitCode);
 
+    if (const char* word = firstCommandWord(argc, argv); word != nullptr) {
+        std::string names;
+        bool known = false;
+        for (const CLI::App* command : app.get_subcommands({})) {
+            names += (names.empty() ? "" : ", ") + command->get_name();
+            known = known || command->get_name() == word;
+        }
+        if (!known) {
+            std::fprintf(stderr, "lightskin: error: unknown command '%s'; the commands are: %s\n", word, names.c_str());
+            return kExitUsage;
+        }
+    }
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& error) {
-        return app.exit(error);
+        if (error.get_exit_code() == 0) return app.exit(error); // --help, --version
+        const CLI::App* command = &app;
+        for (const CLI::App* sub : app.get_subcommands()) command = sub;
+        std::fprintf(stderr, "lightskin%s%s: error: %s (see --help)\n", command == &app ? "" : " ",
+                     command == &app ? "" : command->get_name().c_str(), error.what());
+        return kExitUsage;
     } catch (const lightskin::Error& error) {
         std::fprintf(stderr, "lightskin: error: %s\n", error.what());
-        return 1;
+        return kExitFailed;
+    } catch (const std::filesystem::filesystem_error& error) {
+        // Names the path and the cause ("Permission denied"), like lightskin::Error.
+        std::fprintf(stderr, "lightskin: error: %s: %s\n", error.path1().string().c_str(),
+                     error.code().message().c_str());
+        return kExitFailed;
     } catch (const std::exception& error) {
-        std::fprintf(stderr, "lightskin: unexpected error: %s\n", error.what());
-        return 2;
+        std::fprintf(stderr, "lightskin: internal error: %s\n", error.what());
+        return kExitInternal;
     }
     return exitCode;
 }

@@ -5,6 +5,7 @@
 #include <lightskin/core/Error.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 namespace lightskin::capture::detail {
@@ -180,7 +181,9 @@ ParsedIndex readIndex(const std::filesystem::path& folder) {
     readFileBounded(path, std::nullopt, kMaxIndexBytes, bytes);
     std::size_t begin = 0;
     double lastTime = -std::numeric_limits<double>::infinity();
+    std::int64_t lineNumber = 0; // in the file, from 1 (messages name it: the parser counts from each line)
     while (begin < bytes.size()) {
+        ++lineNumber;
         std::size_t end = begin;
         while (end < bytes.size() && bytes[end] != '\n') ++end;
         const std::int64_t expectedFrame = std::int64_t(index.entries.size());
@@ -197,7 +200,11 @@ ParsedIndex readIndex(const std::filesystem::path& folder) {
         try {
             line = json::parse(bytes.begin() + std::ptrdiff_t(begin), bytes.begin() + std::ptrdiff_t(end));
         } catch (const json::exception& error) {
-            throw Error(file, expectedFrame, std::string("malformed index line: ") + error.what());
+            // The parser saw one line: its "at line 1, column C" is column C of this file's line.
+            std::string what = error.what();
+            if (const auto at = what.find("at line 1, "); at != std::string::npos)
+                what.replace(at, std::strlen("at line 1, "), "at ");
+            throw Error(file, expectedFrame, "line " + std::to_string(lineNumber) + ": malformed index line: " + what);
         }
         begin = end + 1;
         if (!line.is_object()) throw Error(file, expectedFrame, "index line is not a JSON object");
@@ -246,7 +253,7 @@ ParsedIndex readIndex(const std::filesystem::path& folder) {
                 entry.world_T_camera = poseFromJson(line["world_T_camera"], file, expectedFrame);
             index.entries.push_back(std::move(entry));
         } catch (const json::exception& error) {
-            throw Error(file, expectedFrame, std::string("malformed index line: ") + error.what());
+            throw Error(file, expectedFrame, "line " + std::to_string(lineNumber) + ": malformed index line: " + error.what());
         }
     }
     return index;

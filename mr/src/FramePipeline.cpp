@@ -23,6 +23,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <numbers>
 #include <span>
 
@@ -51,7 +52,8 @@ tracking::PoseTracker trackerFromScene(const render::Scene& scene) {
     const std::string source = (scene.file.empty() ? std::string("scene") : scene.file.string());
     nlohmann::json tracking = nlohmann::json::parse(scene.trackingJson);
     if (tracking.empty())
-        throw Error(source, std::nullopt, "/tracking: --pose tracking needs a \"tracking\" object in the scene (tag family, size, bundle)");
+        throw Error(source, std::nullopt, "/tracking: --pose tracking needs a \"tracking\" object in the scene (tag family, size, bundle); "
+                                          "without tags use --pose fixed (the world is the camera frame) or --pose ground-truth");
     tracking::TrackerSettings settings;
     if (tracking.contains("detector")) {
         settings.detector = tracking::detectorSettingsFromJson(tracking["detector"].dump(), source + " /tracking/detector");
@@ -66,7 +68,10 @@ tracking::PoseTracker trackerFromScene(const render::Scene& scene) {
     if (tracking.contains("file")) {
         if (tracking.size() != 1 || !tracking["file"].is_string())
             throw Error(source, std::nullopt, "/tracking/file: expected a path string, beside only detector and useDepth");
-        return tracking::PoseTracker::create(tracking::TagWorld::load(scene.file.parent_path() / tracking["file"].get<std::string>()), settings);
+        const std::filesystem::path world = scene.file.parent_path() / tracking["file"].get<std::string>();
+        if (!std::filesystem::is_regular_file(world)) // name the scene key, not only the missing file
+            throw Error(source, std::nullopt, "/tracking/file: tag world '" + world.string() + "' does not exist");
+        return tracking::PoseTracker::create(tracking::TagWorld::load(world), settings);
     }
     return tracking::PoseTracker::create(tracking::TagWorld::fromJson(tracking.dump(), source + " /tracking"), settings);
 }

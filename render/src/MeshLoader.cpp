@@ -261,7 +261,10 @@ LoadedModel loadModel(const std::filesystem::path& path) {
     // be installed). So: no SortByPType (points and lines are skipped below), and Triangulate
     // only when a face really has more than three corners.
     const aiScene* scene = importer.ReadFile(source, aiProcess_PreTransformVertices | aiProcess_ValidateDataStructure);
-    if (scene == nullptr) throw Error(source, std::nullopt, std::string("cannot read mesh: ") + importer.GetErrorString());
+    if (scene == nullptr) // assimp's words ("aiScene::mNumMeshes is 0") follow ours
+        throw Error(source, std::nullopt,
+                    "not a readable " + path.extension().string() + " mesh (no triangles could be read; assimp: " +
+                        importer.GetErrorString() + ")");
     if ((scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE) != 0 || scene->mNumMeshes == 0)
         throw Error(source, std::nullopt, "file contains no triangle meshes");
 

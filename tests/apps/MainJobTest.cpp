@@ -58,7 +58,7 @@ TEST(MainJob, ReplayOfTheBundledRecordingWritesImagesVideoAndReport) {
 TEST(MainJob, TrackingModeFollowsTheGroundTruth) {
     const fs::path scratch = test::scratchDir("main_job_tracking");
     const fs::path out = scratch / "out";
-    ASSERT_EQ(replay("--out " + out.string() + " --max-frames 3 --pose tracking --no-video --no-compare --frames 0", scratch), 0)
+    ASSERT_EQ(replay("--out " + out.string() + " --max-frames 3 --pose tracking --no-video --no-compare --write-frames 0", scratch), 0)
         << test::readText(scratch / "stderr.txt");
     const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
     EXPECT_EQ(report["poseMode"], "tracking");

@@ -126,7 +126,7 @@ TEST(ReplayCommand, WritesEveryFrameAVideoWithTheFrameCountAndAReport) {
     EXPECT_EQ(report["frames"].size(), std::size_t(kFrames));
     EXPECT_EQ(report["poseMode"], "ground-truth"); // the recording has ground truth
     EXPECT_EQ(report["interrupted"], false);
-    EXPECT_EQ(report["trackingStates"].value("tracking", 0), kFrames);
+    EXPECT_EQ(report["trackingStates"].value("ground-truth", 0), kFrames); // labelled by what placed the content
     EXPECT_TRUE(fs::exists(out / "report.md"));
 
     const fs::path video = out / report["video"].get<std::string>();
@@ -155,7 +155,7 @@ TEST(ReplayCommand, WritesEveryFrameAVideoWithTheFrameCountAndAReport) {
 
 TEST(ReplayCommand, FrameListChoosesThePngsButEveryFrameIsRead) {
     const fs::path scratch = test::scratchDir("replay_list");
-    const auto [recording, out, r] = replayTestRecording(scratch, kScene, " --frames 1,3-4 --no-video --pose fixed");
+    const auto [recording, out, r] = replayTestRecording(scratch, kScene, " --write-frames 1,3-4 --no-video --pose fixed");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_EQ(countFiles(out / "frames", ".png"), 3u);
     EXPECT_TRUE(fs::exists(out / "frames" / "000003.png"));
@@ -167,7 +167,7 @@ TEST(ReplayCommand, FrameListChoosesThePngsButEveryFrameIsRead) {
 
 TEST(ReplayCommand, AviFallbackHasTheFrameCount) {
     const fs::path scratch = test::scratchDir("replay_avi");
-    const auto [recording, out, r] = replayTestRecording(scratch, kScene, " --video-format avi --frames 0");
+    const auto [recording, out, r] = replayTestRecording(scratch, kScene, " --video-format avi --write-frames 0");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
     EXPECT_EQ(report["video"], "replay.avi");
@@ -213,7 +213,7 @@ TEST(ReplayCommand, BadSceneAndMissingMeshGiveClearErrorsAndFail) {
 // face tilted toward the wall beside it can receive their light: the cube is turned 45 degrees.
 TEST(ReplayCommand, LightSkinTechniqueAddsIndirectLightToTheComparison) {
     const fs::path scratch = test::scratchDir("replay_gi");
-    const auto [recording, out, r] = replayTestRecording(scratch, kGiScene, " --frames 0 --max-frames 2");
+    const auto [recording, out, r] = replayTestRecording(scratch, kGiScene, " --write-frames 0 --max-frames 2");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
     EXPECT_EQ(report["framesRead"], 2);
@@ -315,7 +315,7 @@ TEST(ReplayCommand, BudgetReportsTheChosenSettingsPerFrame) {
     // the cheapest configuration; every frame reports what it ran. The cube is one convex, diffuse
     // object: glossy and occlusion can never be chosen.
     const auto [recording, out, r] =
-        replayTestRecording(scratch, kGiScene, " --frames 0 --max-frames 3 --no-video --budget-ms 1");
+        replayTestRecording(scratch, kGiScene, " --write-frames 0 --max-frames 3 --no-video --budget-ms 1");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
     ASSERT_EQ(report["frames"].size(), 3u);
@@ -328,7 +328,7 @@ TEST(ReplayCommand, BudgetReportsTheChosenSettingsPerFrame) {
     }
     // Without a budget: no such fields.
     const fs::path plain = test::scratchDir("replay_budget_off");
-    const auto [recording2, out2, r2] = replayTestRecording(plain, kGiScene, " --frames 0 --max-frames 1 --no-video");
+    const auto [recording2, out2, r2] = replayTestRecording(plain, kGiScene, " --write-frames 0 --max-frames 1 --no-video");
     ASSERT_EQ(r2.exitCode, 0) << r2.err;
     EXPECT_FALSE(nlohmann::json::parse(test::readText(out2 / "report.json"))["frames"][0].contains("giSettings"));
     // A negative budget is an error naming the option.

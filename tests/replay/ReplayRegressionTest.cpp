@@ -303,7 +303,7 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
     if (std::find(c.goldenFrames.begin(), c.goldenFrames.end(), c.indirectFrame) == c.goldenFrames.end())
         frameList += "," + std::to_string(c.indirectFrame);
     const std::string common = (root / c.recording).string() + " --scene " + (root / c.scene).string() + " --pose " +
-                               c.pose + " --no-video --frames " + frameList +
+                               c.pose + " --no-video --write-frames " + frameList +
                                (c.maxFrames >= 0 ? " --max-frames " + std::to_string(c.maxFrames) : "") +
                                // The goldens pin the virtual content's light; the differential's change of the real
                                // pixels around it is pinned by tests/apps/DifferentialPipelineTest.cpp and gi/lights.
@@ -324,7 +324,7 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
         writeSceneWithoutOcclusion(root / c.scene, scratch / "scene-without-occlusion.json");
         const std::string args = (root / c.recording).string() + " --scene " +
                                  (scratch / "scene-without-occlusion.json").string() + " --pose " + c.pose +
-                                 " --no-video --no-compare --differential off --view error --frames " +
+                                 " --no-video --no-compare --differential off --view error --write-frames " +
                                  std::to_string(c.indirectFrame) + " --max-frames " +
                                  std::to_string(c.indirectFrame + 1) + " --out " + (scratch / "error").string();
         ASSERT_EQ(runLightskin(args, scratch, "error"), 0) << "lightskin replay " << args << "\n"
@@ -352,7 +352,8 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
     for (std::size_t i = 0; i < report["frames"].size(); ++i) {
         const auto& f = report["frames"][i];
         EXPECT_EQ(f["index"].get<std::int64_t>(), std::int64_t(i));
-        EXPECT_EQ(f["tracking"], "tracking") << f.dump();
+        // Frames are labelled by what placed the content: the tracker's state, or the pose mode.
+        EXPECT_EQ(f["tracking"], report["poseMode"] == "tracking" ? "tracking" : report["poseMode"].get<std::string>()) << f.dump();
         ASSERT_TRUE(f["world_T_camera"].is_object()) << f.dump();
         for (std::size_t k = 0; k < 3; ++k) EXPECT_TRUE(f["world_T_camera"]["translation"][k].is_number()) << f.dump();
         for (std::size_t k = 0; k < 4; ++k) EXPECT_TRUE(f["world_T_camera"]["rotationXYZW"][k].is_number()) << f.dump();
@@ -643,7 +644,7 @@ std::vector<TrackedFrame> replayTracked(const std::string& recording, const std:
                                         const std::string& tag) {
     const fs::path root = sourceDir(), scratch = scratchDir("replay_tracking_" + tag);
     const std::string args = (root / recording).string() + " --scene " + (root / scene).string() +
-                             " --pose tracking --no-video --no-compare --frames 0 --max-frames " +
+                             " --pose tracking --no-video --no-compare --write-frames 0 --max-frames " +
                              std::to_string(frames) + " --out " + (scratch / "out").string();
     if (runLightskin(args, scratch, "tracking") != 0) {
         ADD_FAILURE() << "lightskin replay " << args << "\n" << test::readText(scratch / "tracking.stderr.txt");
@@ -869,7 +870,7 @@ TEST(ReplayGiActive, UnregisteredDepthIsReportedAsGiInactive) {
     const fs::path root = sourceDir(), scratch = scratchDir("replay_gi_inactive");
     const std::string args = (root / "tests/data/oni-kinect-v1/3dj_test.oni").string() + " --scene " +
                              (root / "recordings/scenes/oni_room.json").string() +
-                             " --pose fixed --no-video --no-compare --raw-depth" + " --max-frames 2 --frames 0 --out " +
+                             " --pose fixed --no-video --no-compare --raw-depth" + " --max-frames 2 --write-frames 0 --out " +
                              (scratch / "out").string();
     ASSERT_EQ(runLightskin(args, scratch, "raw"), 0) << test::readText(scratch / "raw.stderr.txt");
     const nlohmann::json report = nlohmann::json::parse(test::readText(scratch / "out" / "report.json"));
@@ -899,7 +900,7 @@ TEST(ReplayGiActive, SceneWithoutTechniqueIsReportedAsGiInactive) {
     const fs::path root = sourceDir(), scratch = scratchDir("replay_gi_none");
     const std::string args = (root / "recordings/synth-clean-channels").string() + " --scene " +
                              (root / "recordings/scenes/cube_no_gi.json").string() + " --pose ground-truth --no-video" +
-                             " --max-frames 1 --frames 0 --out " + (scratch / "out").string();
+                             " --max-frames 1 --write-frames 0 --out " + (scratch / "out").string();
     ASSERT_EQ(runLightskin(args, scratch, "none"), 0) << test::readText(scratch / "none.stderr.txt");
     const nlohmann::json report = nlohmann::json::parse(test::readText(scratch / "out" / "report.json"));
     ASSERT_EQ(report["frames"].size(), 1u);

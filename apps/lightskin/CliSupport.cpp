@@ -1,0 +1,253 @@
+#include "CliSupport.h"
+
+#include <lightskin/core/Error.h>
+#include <lightskin/core/Log.h>
+
+#include <cerrno>
+#include <cstring>
+#include <fcntl.h>
+#include <iostream>
+#include <mutex>
+#include <streambuf>
+#include <system_error>
+#include <unistd.h>
+#include <utility>
+#include <vector>
+
+namespace lightskin::apps {
+
+namespace fs = std::filesystem;
+
+CLI::Option* addOverwriteFlag(CLI::App* command, bool& overwrite) {
+    return command->add_flag("--overwrite", overwrite,
+                             "Use an existing output folder even when it is not empty: its contents are deleted first");
+}
+
+CLI::Validator atLeast(std::int64_t minimum) {
+    return CLI::Validator(
+        [minimum](std::string& text) -> std::string {
+            std::size_t used = 0;
+            long long value = 0;
+            try {
+                value = std::stoll(text, &used);
+            } catch (const std::exception&) {
+                used = 0;
+            }
+            if (used == 0 || used != text.size() || value < minimum)
+                return "expected an integer >= " + std::to_string(minimum) + ", got '" + text + "'";
+            return {};
+        },
+        "INT>=" + std::to_string(minimum));
+}
+
+namespace {
+
+std::string errnoText(int error) { return std::error_code(error, std::generic_category()).message(); }
+
+/// The folder a new `folder` would be created in: its nearest existing ancestor.
+fs::path nearestExisting(const fs::path& folder) {
+    fs::path at = fs::absolute(folder).lexically_normal();
+    std::error_code ec;
+    while (!at.empty() && !fs::exists(at, ec)) {
+        if (at == at.parent_path()) break;
+        at = at.parent_path();
+    }
+    return at;
+}
+
+} // namespace
+
+void checkOutputFolder(const fs::path& folder, bool overwrite, std::string_view option) {
+    const std::string name = folder.string();
+    if (folder.empty()) throw Error(std::string(option), std::nullopt, "needs a folder name");
+    std::error_code ec;
+    const fs::file_status status = fs::status(folder, ec);
+    if (fs::exists(status)) {
+        if (!fs::is_directory(status))
+            throw Error(name, std::nullopt, "exists and is not a folder (" + std::string(option) + " needs a folder)");
+        if (::access(name.c_str(), W_OK | X_OK) != 0)
+            throw Error(name, std::nullopt, "output folder is not writable: " + errnoText(errno));
+        const bool empty = fs::is_empty(folder, ec);
+        if (ec) throw Error(name, std::nullopt, "cannot list the output folder: " + ec.message());
+        if (!empty && !overwrite)
+            throw Error(
+                name, std::nullopt,
+                "output folder is not empty: choose a new one, or add --overwrite to delete its contents first");
+        if (!empty) {
+            // Deleting the folder we run in, or one holding it, would delete the caller's work.
+            const fs::path target = fs::weakly_canonical(folder, ec), cwd = fs::current_path(ec);
+            const auto [end, rest] = std::mismatch(target.begin(), target.end(), cwd.begin(), cwd.end());
+            if (end == target.end())
+                throw Error(name, std::nullopt,
+                            "--overwrite refuses to delete the current folder or one that holds it");
+            (void)rest;
+        }
+        return;
+    }
+    const fs::path parent = nearestExisting(folder);
+    if (!fs::is_directory(parent, ec))
+        throw Error(name, std::nullopt, "cannot create the output folder: " + parent.string() + " is not a folder");
+    if (::access(parent.c_str(), W_OK | X_OK) != 0)
+        throw Error(name, std::nullopt,
+                    "cannot create the output folder: " + parent.string() + " is not writable (" + errnoText(errno) +
+                        ")");
+}
+
+void prepareOutputFolder(const fs::path& folder, bool overwrite, std::string_view option) {
+    checkOutputFolder(folder, overwrite, option);
+    const std::string name = folder.string();
+    std::error_code ec;
+    if (overwrite && fs::is_directory(folder, ec)) {
+        for (const fs::directory_entry& entry : fs::directory_iterator(folder, ec)) {
+            fs::remove_all(entry.path(), ec);
+            if (ec) throw Error(entry.path().string(), std::nullopt, "--overwrite cannot delete it: " + ec.message());
+        }
+        if (ec) throw Error(name, std::nullopt, "--overwrite cannot list the folder: " + ec.message());
+    }
+    fs::create_directories(folder, ec);
+    if (ec) throw Error(name, std::nullopt, "cannot create the output folder: " + ec.message());
+}
+
+fs::path findData(const fs::path& relative, std::string_view what) {
+    std::vector<fs::path> roots;
+    std::error_code ec;
+    const fs::path program = fs::read_symlink("/proc/self/exe", ec);
+    if (!ec) roots.push_back(program.parent_path().parent_path() / "share" / "lightskin"); // <prefix>/bin/lightskin
+#ifdef LIGHTSKIN_SOURCE_DIR
+    roots.emplace_back(LIGHTSKIN_SOURCE_DIR);
+#endif
+    std::string searched;
+    for (const fs::path& root : roots) {
+        if (fs::exists(root / relative, ec)) return root / relative;
+        searched += (searched.empty() ? "" : ", ") + root.string();
+    }
+    throw Error(relative.string(), std::nullopt,
+                "cannot find the " + std::string(what) + " (looked in " + searched + "); give its path");
+}
+
+void resolveShippedData(CLI::App* command, std::vector<ShippedData> data) {
+    command->parse_complete_callback([command, data = std::move(data)] {
+        for (const ShippedData& d : data)
+            if (command->count(d.option) == 0) *d.path = findData(*d.path, d.what).string();
+    });
+}
+
+bool warnIfDeprecatedUsed(const CLI::App& command, const std::string& old, const std::string& replacement) {
+    if (command.count(old) == 0) return false;
+    log::warning(command.get_name() + ": " + old + " is deprecated, use " + replacement);
+    return true;
+}
+
+std::string_view ThirdPartyOutputCapture::sourceOf(std::string_view line) {
+    const auto starts = [&](std::initializer_list<std::string_view> prefixes) {
+        for (const std::string_view prefix : prefixes)
+            if (line.starts_with(prefix)) return true;
+        return false;
+    };
+    if (starts({"libpng"})) return "libpng";
+    if (starts({"[ WARN:", "[ERROR:", "[ INFO:", "[DEBUG:", "[FATAL:", "imread_", "imwrite_", "OpenCV", "VIDEOIO"}))
+        return "OpenCV";
+    if (starts({"OpenNI", "[OpenNI", "Warning: USB events thread"})) return "OpenNI2";
+    if (starts({"Assimp", "assimp", "Info,  T", "Warn,  T", "Error, T", "Debug, T"})) return "assimp";
+    if (starts({"MESA", "Mesa", "libEGL", "EGL", "llvmpipe"})) return "Mesa";
+    return {};
+}
+
+namespace {
+
+/// The filter behind `stderr` and std::cerr. Decides at each line start whether the line is a
+/// library's (captured until its newline, then logged) or ours (written through at once, so
+/// progress lines and an assertion message before abort() are never held back).
+class StderrFilter {
+public:
+    void write(const char* data, std::size_t size) {
+        std::vector<std::string> lines; // logged after unlocking: spdlog takes its own lock and writes here
+        std::unique_lock lock(mutex_);
+        while (size > 0) {
+            if (atLineStart_) {
+                const std::string_view rest(data, size);
+                capturing_ = !ThirdPartyOutputCapture::sourceOf(rest).empty();
+                atLineStart_ = false;
+            }
+            const char* newline = static_cast<const char*>(std::memchr(data, '\n', size));
+            const std::size_t take = newline != nullptr ? std::size_t(newline - data) + 1 : size;
+            if (capturing_) {
+                captured_.append(data, take);
+                if (newline != nullptr) lines.push_back(std::exchange(captured_, {}));
+            } else {
+                for (std::size_t done = 0; done < take;) {
+                    const ssize_t n = ::write(STDERR_FILENO, data + done, take - done);
+                    if (n <= 0 && errno != EINTR) break;
+                    if (n > 0) done += std::size_t(n);
+                }
+            }
+            atLineStart_ = newline != nullptr;
+            data += take;
+            size -= take;
+        }
+        lock.unlock();
+        for (std::string& line : lines) logLine(line);
+    }
+    void finish() {
+        std::unique_lock lock(mutex_);
+        std::string rest = std::exchange(captured_, {});
+        lock.unlock();
+        logLine(rest);
+    }
+
+private:
+    static void logLine(std::string& line) {
+        while (!line.empty() && (line.back() == '\n' || line.back() == '\r')) line.pop_back();
+        if (!line.empty()) log::debug(std::string(ThirdPartyOutputCapture::sourceOf(line)) + ": " + line);
+    }
+    std::mutex mutex_;
+    bool atLineStart_ = true, capturing_ = false;
+    std::string captured_;
+};
+
+StderrFilter& filter() {
+    static StderrFilter instance; // never destroyed before exit: `stderr` may be written until then
+    return instance;
+}
+
+ssize_t filterWrite(void*, const char* data, std::size_t size) {
+    filter().write(data, size);
+    return static_cast<ssize_t>(size);
+}
+
+class FilterStreambuf : public std::streambuf {
+protected:
+    std::streamsize xsputn(const char* data, std::streamsize size) override {
+        filter().write(data, static_cast<std::size_t>(size));
+        return size;
+    }
+    int_type overflow(int_type c) override {
+        if (traits_type::eq_int_type(c, traits_type::eof())) return traits_type::not_eof(c);
+        const char ch = traits_type::to_char_type(c);
+        filter().write(&ch, 1);
+        return c;
+    }
+};
+
+} // namespace
+
+ThirdPartyOutputCapture::ThirdPartyOutputCapture() {
+    static FilterStreambuf cerrBuffer;
+    std::FILE* filtered = ::fopencookie(nullptr, "w", cookie_io_functions_t{nullptr, &filterWrite, nullptr, nullptr});
+    if (filtered == nullptr) return;
+    std::setvbuf(filtered, nullptr, _IONBF, 0);
+    std::fflush(stderr);
+    // glibc's stdin/stdout/stderr are ordinary variables (glibc manual, "Standard Streams"):
+    // libraries' fprintf(stderr, ...) (libpng's "libpng error: ..."), ours and spdlog's sink
+    // (created after this) all write through the filter.
+    originalStderr_ = stderr;
+    stderr = filtered;
+    originalCerr_ = std::cerr.rdbuf(&cerrBuffer); // OpenCV's log and imread messages
+}
+
+ThirdPartyOutputCapture::~ThirdPartyOutputCapture() {
+    if (originalCerr_ != nullptr) std::cerr.rdbuf(originalCerr_);
+    filter().finish();
+}
+
+} // namespace lightskin::apps

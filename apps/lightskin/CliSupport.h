@@ -1,0 +1,78 @@
+#pragma once
+// Rules every `lightskin` subcommand follows (docs/CLI.md), written once:
+//  - an output folder is new or empty, or refused unless --overwrite, which clears it first; the
+//    check runs before anything is written (checkOutputFolder), the folder is made only after every
+//    input was validated (prepareOutputFolder);
+//  - data the program ships (the bunny PLY, sample recordings) is found relative to the installed
+//    program or the build tree, never the current directory (findData);
+//  - third-party libraries' console output (libpng, OpenCV, OpenNI2, assimp, Mesa) goes into our
+//    log with its source instead of onto the terminal raw (ThirdPartyOutputCapture).
+
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+namespace lightskin::apps {
+
+/// Adds `--overwrite` to `command` (clear an existing, non-empty output folder first).
+CLI::Option* addOverwriteFlag(CLI::App* command, bool& overwrite);
+
+/// Validator for counts and indices: an integer >= `minimum` ("expected an integer >= 1, got -1").
+CLI::Validator atLeast(std::int64_t minimum);
+
+/// Throws lightskin::Error (naming `option` and `folder`) unless `folder` can become this command's
+/// output folder: it does not exist and its nearest existing parent is a writable folder, or it is
+/// an empty writable folder, or (`overwrite`) a writable folder whose contents may be deleted.
+/// Writes nothing.
+void checkOutputFolder(const std::filesystem::path& folder, bool overwrite, std::string_view option);
+
+/// checkOutputFolder, then (`overwrite`) deletes the folder's contents and creates it. Call it once
+/// every input is validated, right before the first write.
+void prepareOutputFolder(const std::filesystem::path& folder, bool overwrite, std::string_view option);
+
+/// A file shipped with lightskin, given relative to the source tree (e.g.
+/// "tests/data/stanford-bunny/bun_zipper_res4.ply"): looked up in <prefix>/share/lightskin/ beside
+/// the installed program (found through /proc/self/exe), then in the source tree this build was
+/// configured from. Throws lightskin::Error naming `what` and the folders searched when missing.
+std::filesystem::path findData(const std::filesystem::path& relative, std::string_view what);
+
+/// Options whose default names data shipped with lightskin (a path relative to the source tree):
+/// when the user gives no value, findData resolves the default after parsing, so the command works
+/// from any folder. A value the user gives is used as given (relative to the current folder).
+struct ShippedData {
+    std::string option; ///< e.g. "--bunny"
+    std::string* path;  ///< the option's variable, holding the default
+    std::string what;   ///< for the error when missing, e.g. "Stanford bunny PLY"
+};
+void resolveShippedData(CLI::App* command, std::vector<ShippedData> data);
+
+/// When the deprecated spelling `old` of an option was given to `command`, logs a warning naming
+/// `replacement` and returns true. Deprecated spellings are hidden from --help (docs/CLI.md lists them).
+bool warnIfDeprecatedUsed(const CLI::App& command, const std::string& old, const std::string& replacement);
+
+/// While alive, C's `stderr` and std::cerr go through a filter: a line that starts like a
+/// third-party library's message ("libpng error: ...", OpenCV's "[ WARN:...", "imread_(...)",
+/// OpenNI2, assimp, Mesa) is logged through lightskin::log at debug level with that source named
+/// ("libpng: libpng error: ..."; shown with -v), every other line (our own messages, the log itself)
+/// goes to descriptor 2 at once, unchanged. Libraries that write to descriptor 2 directly are not
+/// filtered. One instance, in main(); `stderr` keeps the filter until the process ends (spdlog's sink
+/// holds it), the destructor logs an unfinished captured line.
+class ThirdPartyOutputCapture {
+public:
+    ThirdPartyOutputCapture();
+    ~ThirdPartyOutputCapture();
+    ThirdPartyOutputCapture(const ThirdPartyOutputCapture&) = delete;
+    ThirdPartyOutputCapture& operator=(const ThirdPartyOutputCapture&) = delete;
+
+    /// The library a line is attributed to, or empty for our own output (exposed for tests).
+    static std::string_view sourceOf(std::string_view line);
+
+private:
+    std::FILE* originalStderr_ = nullptr;
+    std::streambuf* originalCerr_ = nullptr;
+};
+
+} // namespace lightskin::apps

@@ -1,0 +1,437 @@
+// Issue 14: the command line a user can trust. Golden CLI transcripts of the built program: the exit
+// code, the one error line, and the files left behind, for each point of the issue and for the
+// general rules on every subcommand (docs/CLI.md). Set LIGHTSKIN_TEST_PROGRAM to run them against
+// another build (e.g. main's, to see them fail there).
+#include "TestPaths.h"
+
+#include <lightskin/capture/Recording.h>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <unistd.h>
+
+using namespace lightskin;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int kWidth = 64, kHeight = 48, kFrames = 6;
+
+std::string program() {
+    const char* other = std::getenv("LIGHTSKIN_TEST_PROGRAM");
+    return other != nullptr ? other : LIGHTSKIN_PROGRAM;
+}
+
+/// A 6-frame 64x48 recording with ground truth (a wall with a box; PNG colour).
+fs::path writeRecording(const fs::path& folder) {
+    capture::RecordingInfo info;
+    info.deviceName = "cli test";
+    info.colourIntrinsics = {kWidth, kHeight, 60.0, 60.0, 31.5, 23.5, {}};
+    info.depthIntrinsics = info.colourIntrinsics;
+    info.depthScaleMetres = 0.001;
+    auto writer = capture::RecordingWriter::create(folder, info);
+    for (int i = 0; i < kFrames; ++i) {
+        RgbdFrame frame;
+        frame.colourIntrinsics = frame.depthIntrinsics = info.colourIntrinsics;
+        frame.depth = cv::Mat(kHeight, kWidth, CV_16UC1, cv::Scalar(1500));
+        frame.depth.colRange(0, kWidth / 3).setTo(800);
+        frame.colour = cv::Mat(kHeight, kWidth, CV_8UC3, cv::Scalar(40, 90, 160));
+        frame.colourTimestampSeconds = frame.depthTimestampSeconds = i / 30.0;
+        frame.groundTruth_world_T_camera =
+            Pose(glm::angleAxis(glm::pi<double>(), glm::dvec3(1, 0, 0)), {0.01 * i, 0.0, 1.0});
+        writer.write(frame);
+    }
+    writer.finish();
+    return folder;
+}
+
+// A cube lit by a point light, no GI technique: the fastest scene that renders virtual content.
+const std::string kScene = R"({"version": 1,
+  "objects": [{"name": "cube", "mesh": "cube.obj", "transform": {"translation": [0, 0, 0.1], "scale": 0.2}}],
+  "lights": [{"type": "point", "position": [0.3, 0.2, 1.0], "power": 30}],
+  "gi": {"technique": "none"}})";
+
+struct CliRun {
+    int exitCode = -1;
+    std::string out, err;
+    /// stderr's lines (what a user reads).
+    std::vector<std::string> errLines() const {
+        std::vector<std::string> lines;
+        std::istringstream stream(err);
+        for (std::string line; std::getline(stream, line);)
+            if (!line.empty()) lines.push_back(line);
+        return lines;
+    }
+};
+
+/// Runs `lightskin <arguments>` in `cwd` (default: the scratch folder).
+CliRun runCli(const std::string& arguments, const fs::path& scratch, const fs::path& cwd = {}) {
+    const fs::path out = scratch / "stdout.txt", err = scratch / "stderr.txt";
+    CliRun r;
+    r.exitCode = test::runShell("cd " + (cwd.empty() ? scratch : cwd).string() + " && " + program() + " " + arguments +
+                                " > " + out.string() + " 2> " + err.string() + " < /dev/null");
+    r.out = test::readText(out);
+    r.err = test::readText(err);
+    return r;
+}
+
+/// The files under `folder`, relative, sorted ("" when it does not exist).
+std::string listing(const fs::path& folder) {
+    if (!fs::exists(folder)) return "<missing>";
+    std::vector<std::string> names;
+    for (const auto& entry : fs::recursive_directory_iterator(folder))
+        names.push_back(fs::relative(entry.path(), folder).string());
+    std::sort(names.begin(), names.end());
+    std::string text;
+    for (const auto& name : names) text += name + "\n";
+    return text;
+}
+
+struct Fixture {
+    fs::path scratch, recording, scene;
+    explicit Fixture(const std::string& name)
+        : scratch(test::scratchDir(name)) {
+        recording = writeRecording(scratch / "recording");
+        fs::copy_file(test::sourceDir() / "recordings" / "scenes" / "meshes" / "cube.obj", scratch / "cube.obj");
+        scene = scratch / "scene.json";
+        std::ofstream(scene) << kScene;
+    }
+    std::string replay(const fs::path& out, const std::string& options = "") const {
+        return "replay " + recording.string() + " --scene " + scene.string() + " --out " + out.string() +
+               (options.empty() ? "" : " " + options);
+    }
+};
+
+/// The error line every failure ends with: exactly one stderr line starts with "lightskin", it is the
+/// last, and no raw third-party line (libpng, OpenCV's "[ WARN") was printed.
+void expectOneErrorLine(const CliRun& r, const std::string& contains) {
+    const auto lines = r.errLines();
+    ASSERT_FALSE(lines.empty());
+    EXPECT_NE(lines.back().find(contains), std::string::npos) << r.err;
+    EXPECT_EQ(lines.back().rfind("lightskin", 0), 0u) << r.err;
+    EXPECT_EQ(r.err.find("libpng"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("[ WARN"), std::string::npos) << r.err;
+}
+
+} // namespace
+
+// Point 1 and the output-folder rule: replay into a used folder is refused; --overwrite clears it.
+TEST(Cli, ReplayRefusesAUsedOutputFolderAndOverwriteClearsIt) {
+    const Fixture f("cli_replay_overwrite");
+    const fs::path out = f.scratch / "out";
+    ASSERT_EQ(runCli(f.replay(out, "--no-video"), f.scratch).exitCode, 0);
+    std::ofstream(out / "frames" / "999999.png") << "an earlier run's frame";
+    const std::string before = listing(out);
+
+    const CliRun again = runCli(f.replay(out, "--no-video"), f.scratch);
+    EXPECT_EQ(again.exitCode, 1);
+    expectOneErrorLine(again, "--overwrite");
+    EXPECT_NE(again.err.find(out.string()), std::string::npos) << again.err;
+    EXPECT_EQ(listing(out), before); // untouched
+
+    const CliRun overwrite = runCli(f.replay(out, "--no-video --overwrite"), f.scratch);
+    ASSERT_EQ(overwrite.exitCode, 0) << overwrite.err;
+    EXPECT_FALSE(fs::exists(out / "frames" / "999999.png"));
+    EXPECT_TRUE(fs::exists(out / "frames" / "000005.png"));
+}
+
+// Point 2: a truncated PNG at frame 3 keeps frames 0-2, the video and a report marked failed; one
+// clear error line that says what was kept; libpng's own line only in the log (-v).
+TEST(Cli, AFailureMidReplayKeepsAReportMarkedFailed) {
+    const Fixture f("cli_replay_failure");
+    const fs::path png = f.recording / "colour" / "000003.png";
+    ASSERT_TRUE(fs::exists(png));
+    fs::resize_file(png, 60); // the signature and part of IHDR: libpng fails while decoding
+    const fs::path out = f.scratch / "out";
+    const CliRun r = runCli(f.replay(out), f.scratch);
+    EXPECT_EQ(r.exitCode, 1);
+    expectOneErrorLine(r, "kept in " + out.string() + ": 3 frames");
+    EXPECT_NE(r.errLines().back().find("000003.png"), std::string::npos) << r.err;
+    EXPECT_EQ(listing(out / "frames"), "000000.png\n000001.png\n000002.png\n");
+    const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
+    EXPECT_EQ(report["status"], "failed");
+    EXPECT_NE(report["failure"].get<std::string>().find("000003.png"), std::string::npos);
+    EXPECT_EQ(report["framesRead"], 3);
+    EXPECT_EQ(report["frames"].size(), 3u);
+    ASSERT_FALSE(report["video"].get<std::string>().empty());
+    EXPECT_GT(fs::file_size(out / report["video"].get<std::string>()), 0u);
+    EXPECT_NE(test::readText(out / "report.md").find("FAILED"), std::string::npos);
+
+    // The library's own words are kept, in the log with their source, for -v.
+    const CliRun verbose = runCli(f.replay(f.scratch / "out-verbose", "-v --no-video"), f.scratch);
+    EXPECT_EQ(verbose.exitCode, 1);
+    EXPECT_NE(verbose.err.find("[debug] libpng: libpng error"), std::string::npos) << verbose.err;
+}
+
+// Point 3: settings that would do nothing are refused before anything is written.
+TEST(Cli, SettingsThatWouldDoNothingAreRefused) {
+    const Fixture f("cli_do_nothing");
+    const fs::path out = f.scratch / "out";
+    const auto refused = [&](const std::string& arguments, int code, const std::string& says) {
+        SCOPED_TRACE(arguments);
+        const CliRun r = runCli(arguments, f.scratch);
+        EXPECT_EQ(r.exitCode, code);
+        expectOneErrorLine(r, says);
+        EXPECT_FALSE(fs::exists(out)) << listing(out);
+    };
+    refused(f.replay(out, "--write-frames 999"), 1, "--write-frames");
+    refused(f.replay(out, "--write-frames 4 --max-frames 3"), 1, "--max-frames 3 stops before it");
+    refused(f.replay(out, "--max-frames -1"), 64, "--max-frames");
+    refused(f.replay(out, "--max-frames 0"), 64, "--max-frames");
+    refused(f.replay(out, "--static-tolerance 0.1"), 64, "--static-tolerance requires --adaptive");
+    refused("record --source " + f.recording.string() + " --out " + out.string() + " --max-frames 0", 64,
+            "--max-frames");
+    refused("synth " + f.scene.string() + " --out " + out.string() + " --max-frames 0", 64, "--max-frames");
+    refused("live --headless --fast --device " + f.recording.string() + " --scene " + f.scene.string() +
+                " --snapshot-after 100 --snapshot " + (out / "s.png").string(),
+            1, "--snapshot-after");
+}
+
+// Point 4: --out that is a file, or inside a file, reads like record's message, exit 1, on every
+// command with an output folder.
+TEST(Cli, OutputFolderThatIsAFileIsAClearError) {
+    const Fixture f("cli_out_file");
+    const fs::path file = f.scratch / "a-file";
+    std::ofstream(file) << "x";
+    const std::vector<std::string> commands = {f.replay(file),
+                                               "record --source " + f.recording.string() + " --out " + file.string(),
+                                               "synth " + f.scene.string() + " --out " + file.string(),
+                                               "live --headless --fast --device " + f.recording.string() + " --scene " +
+                                                   f.scene.string() + " --record " + file.string()};
+    for (const std::string& command : commands) {
+        SCOPED_TRACE(command);
+        const CliRun r = runCli(command, f.scratch);
+        EXPECT_EQ(r.exitCode, 1);
+        expectOneErrorLine(r, file.string() + ": exists and is not a folder");
+        const CliRun inside = runCli(command + "/sub", f.scratch);
+        EXPECT_EQ(inside.exitCode, 1);
+        expectOneErrorLine(inside, file.string() + " is not a folder");
+        EXPECT_EQ(test::readText(file), "x");
+    }
+    if (::geteuid() != 0) { // root writes into read-only folders: nothing to refuse then
+        const fs::path locked = f.scratch / "locked";
+        fs::create_directories(locked);
+        fs::permissions(locked, fs::perms::owner_read | fs::perms::owner_exec);
+        const CliRun r = runCli(f.replay(locked / "out"), f.scratch);
+        fs::permissions(locked, fs::perms::owner_all);
+        EXPECT_EQ(r.exitCode, 1);
+        expectOneErrorLine(r, "is not writable");
+    }
+}
+
+// The output-folder rule on every command that writes a folder: a used one is refused (naming
+// --overwrite) and left as it was; --overwrite clears it first.
+TEST(Cli, EveryOutputFolderIsNewOrEmptyOrOverwritten) {
+    const Fixture f("cli_every_out");
+    const fs::path used = f.scratch / "used";
+    const std::vector<std::string> commands = {
+        f.replay(used, "--no-video"),
+        "record --source " + f.recording.string() + " --max-frames 2 --out " + used.string(),
+        "live --headless --fast --max-frames 2 --device " + f.recording.string() + " --scene " + f.scene.string() +
+            " --record " + used.string()};
+    for (const std::string& command : commands) {
+        SCOPED_TRACE(command);
+        fs::remove_all(used);
+        fs::create_directories(used);
+        std::ofstream(used / "earlier.txt") << "keep me unless --overwrite";
+        const CliRun r = runCli(command, f.scratch);
+        EXPECT_EQ(r.exitCode, 1);
+        expectOneErrorLine(r, "add --overwrite");
+        EXPECT_EQ(listing(used), "earlier.txt\n");
+        const CliRun overwrite = runCli(command + " --overwrite", f.scratch);
+        EXPECT_EQ(overwrite.exitCode, 0) << overwrite.err;
+        EXPECT_FALSE(fs::exists(used / "earlier.txt"));
+        EXPECT_NE(listing(used), "") << "nothing written";
+    }
+    // synth checks its folder before reading the scene description.
+    const CliRun synth = runCli("synth " + f.scene.string() + " --out " + used.string(), f.scratch);
+    EXPECT_EQ(synth.exitCode, 1);
+    expectOneErrorLine(synth, "add --overwrite");
+}
+
+// Point 6: one vocabulary, global options anywhere, unknown commands named, defaults shown one way,
+// shipped data found from any folder.
+TEST(Cli, OptionsMeanOneThingEverywhere) {
+    const Fixture f("cli_vocabulary");
+    const CliRun bogus = runCli("bogus", f.scratch);
+    EXPECT_EQ(bogus.exitCode, 64);
+    expectOneErrorLine(bogus, "unknown command 'bogus'");
+    EXPECT_NE(bogus.err.find("replay"), std::string::npos);
+
+    // Counts are --max-frames everywhere; replay's PNG list is --write-frames.
+    for (const std::string command : {"record", "synth", "replay", "live"}) {
+        const CliRun help = runCli(command + " --help", f.scratch);
+        EXPECT_EQ(help.exitCode, 0);
+        EXPECT_NE(help.out.find("--max-frames"), std::string::npos) << command;
+        EXPECT_EQ(help.out.find("--frames"), std::string::npos) << command << ": deprecated spellings are hidden";
+    }
+    EXPECT_NE(runCli("replay --help", f.scratch).out.find("--write-frames TEXT=all"), std::string::npos);
+    // Defaults shown as OPTION TYPE=value, also for live --device and the bench commands.
+    EXPECT_NE(runCli("live --help", f.scratch).out.find("--device TEXT=freenect://0"), std::string::npos);
+    EXPECT_NE(runCli("bench-embed --help", f.scratch).out.find("--frames INT=10"), std::string::npos);
+
+    // The old spelling still works, with a warning.
+    const CliRun old =
+        runCli("record --source " + f.recording.string() + " --out " + (f.scratch / "rec").string() + " --frames 2",
+               f.scratch);
+    EXPECT_EQ(old.exitCode, 0) << old.err;
+    EXPECT_NE(old.err.find("--frames is deprecated, use --max-frames"), std::string::npos) << old.err;
+    EXPECT_NE(old.out.find("recorded 2 frames"), std::string::npos) << old.out;
+
+    // -q after the subcommand: no info lines.
+    const CliRun quiet = runCli(f.replay(f.scratch / "quiet", "--no-video -q"), f.scratch);
+    EXPECT_EQ(quiet.exitCode, 0) << quiet.err;
+    EXPECT_EQ(quiet.err.find("[info]"), std::string::npos) << quiet.err;
+    const CliRun loud = runCli(f.replay(f.scratch / "loud", "--no-video"), f.scratch);
+    EXPECT_NE(loud.err.find("[info]"), std::string::npos) << "-q above proves nothing without info lines here";
+
+    // The bunny is found from a folder that has no tests/data (here: the scratch folder).
+    const CliRun bench =
+        runCli("bench-static --frames 1 --width 32 --height 24 --sparse 32 --tolerances 0.1", f.scratch);
+    EXPECT_EQ(bench.exitCode, 0) << bench.err;
+    EXPECT_EQ(bench.err.find("bunny"), std::string::npos) << bench.err;
+}
+
+// Point 7: labels say what happened.
+TEST(Cli, LabelsSayWhatHappened) {
+    const Fixture f("cli_labels");
+    for (const std::string pose : {"fixed", "ground-truth"}) {
+        const fs::path out = f.scratch / ("out-" + pose);
+        const CliRun r = runCli(f.replay(out, "--no-video --pose " + pose), f.scratch);
+        ASSERT_EQ(r.exitCode, 0) << r.err;
+        const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
+        for (const auto& frame : report["frames"]) EXPECT_EQ(frame["tracking"], pose);
+    }
+    // Without a GI technique the status line names no GI channels; the pose says where it came from.
+    const CliRun live = runCli("live --headless --fast --max-frames 1 --device " + f.recording.string() + " --scene " +
+                                   f.scene.string(),
+                               f.scratch);
+    ASSERT_EQ(live.exitCode, 0) << live.err;
+    EXPECT_NE(live.err.find("GI none |"), std::string::npos) << live.err;
+    EXPECT_EQ(live.err.find("+glossy"), std::string::npos) << live.err;
+    EXPECT_NE(live.err.find("| ground-truth"), std::string::npos) << live.err;
+
+    // synth's progress says how long is left.
+    const CliRun synth = runCli("synth " + (test::sourceDir() / "recordings" / "scenes-synth" / "orbit.json").string() +
+                                    " --max-frames 2 --out " + (f.scratch / "synth").string(),
+                                f.scratch);
+    ASSERT_EQ(synth.exitCode, 0) << synth.err;
+    EXPECT_NE(synth.err.find("synth: frame 2 of 2"), std::string::npos) << synth.err;
+    EXPECT_NE(synth.err.find("ETA"), std::string::npos) << synth.err;
+
+    // A hold reason names the option a user sets (an impossible 0.001 px refuses every measurement).
+    const fs::path pan = test::sourceDir() / "recordings" / "synth-pan";
+    const CliRun held = runCli("track --world " + (pan / "synth" / "tag-world.json").string() +
+                                   " --decimate 1 --max-corner-std 0.001 " + pan.string(),
+                               f.scratch);
+    EXPECT_NE(held.out.find("--max-corner-std"), std::string::npos) << held.out;
+    EXPECT_EQ(held.out.find("maxWorldCornerStdPx"), std::string::npos) << held.out;
+
+    // track: a missing image fails before the first line, without OpenCV's warning.
+    const CliRun track = runCli("track --tag-id 0 --tag-size 0.1 missing.png", f.scratch);
+    EXPECT_EQ(track.exitCode, 1);
+    expectOneErrorLine(track, "missing.png: frame 0: no such image file");
+    EXPECT_EQ(track.out, "");
+}
+
+// Point 5: scene errors are found before anything is written and name the key and the way out.
+TEST(Cli, SceneErrorsComeFirstAndNameTheKey) {
+    const Fixture f("cli_scene_errors");
+    const fs::path out = f.scratch / "out";
+    const auto refused = [&](const std::string& scene, const std::string& options, const std::string& says) {
+        SCOPED_TRACE(scene);
+        const fs::path path = f.scratch / "bad-scene.json";
+        std::ofstream(path) << scene;
+        const CliRun r = runCli("replay " + f.recording.string() + " --scene " + path.string() + " --out " +
+                                    out.string() + " " + options,
+                                f.scratch);
+        EXPECT_EQ(r.exitCode, 1);
+        expectOneErrorLine(r, says);
+        EXPECT_FALSE(fs::exists(out)) << listing(out);
+    };
+    std::ofstream(f.scratch / "garbage.obj") << "this is not a mesh\n\x01\x02\n";
+    refused(R"({"version": 1, "objects": [{"mesh": "garbage.obj"}], "gi": {"technique": "none"}})", "",
+            "garbage.obj: not a readable .obj mesh");
+    refused(R"({"version": 1, "objects": [{"mesh": "cube.obj"}], "gi": {"technique": "none"}})", "--pose tracking",
+            "--pose fixed");
+    refused(R"({"version": 1, "objects": [{"mesh": "cube.obj"}], "gi": {"technique": "none"},
+                "tracking": {"file": "no-such-world.json"}})",
+            "--pose tracking", "/tracking/file: tag world");
+}
+
+// Point 7: a bad index line is reported with its line in the file (the JSON parser counts from 1 on
+// every line it is given), before anything is written.
+TEST(Cli, ABadIndexLineIsNamedByItsLineInTheFile) {
+    const Fixture f("cli_index_line");
+    const fs::path index = f.recording / "frames.jsonl";
+    std::vector<std::string> lines;
+    {
+        std::ifstream in(index);
+        for (std::string line; std::getline(in, line);) lines.push_back(line);
+    }
+    ASSERT_GE(lines.size(), 3u);
+    lines[2] = "{\"frame\": 2, oops";
+    {
+        std::ofstream file(index, std::ios::trunc);
+        for (const std::string& line : lines) file << line << "\n";
+    }
+    const fs::path out = f.scratch / "out";
+    const CliRun r = runCli(f.replay(out), f.scratch);
+    EXPECT_EQ(r.exitCode, 1);
+    expectOneErrorLine(r, "line 3: malformed index line");
+    EXPECT_EQ(r.errLines().back().find("at line 1,"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+}
+
+// docs/CLI.md holds every command's --help as the program prints it, so it cannot go stale:
+// LIGHTSKIN_UPDATE_CLI_DOC=1 rewrites the section (scripts/update-cli-doc.sh), else it is compared.
+TEST(Cli, DocsListEveryCommandAsTheProgramDoes) {
+    const fs::path scratch = test::scratchDir("cli_doc");
+    const CliRun top = runCli("--help", scratch);
+    ASSERT_EQ(top.exitCode, 0);
+    std::vector<std::string> commands;
+    {
+        std::istringstream lines(top.out);
+        bool inList = false;
+        for (std::string line; std::getline(lines, line);) {
+            if (line.rfind("Subcommands:", 0) == 0)
+                inList = true;
+            else if (inList && line.rfind("  ", 0) == 0)
+                commands.push_back(line.substr(2, line.find(' ', 2) - 2));
+        }
+    }
+    ASSERT_GE(commands.size(), 16u) << top.out; // the 16 commands of docs/CLI.md's table at least
+    const auto normalised = [&](std::string help) {
+        // "Usage: /path/to/build/apps/lightskin replay ..." -> "Usage: lightskin replay ..."
+        const std::string path = program();
+        for (std::size_t at; (at = help.find(path)) != std::string::npos;) help.replace(at, path.size(), "lightskin");
+        return help;
+    };
+    std::string generated =
+        "<!-- cli-help:begin (generated: scripts/update-cli-doc.sh) -->\n\n### lightskin\n\n```text\n" +
+        normalised(top.out) + "```\n";
+    for (const std::string& command : commands) {
+        const CliRun help = runCli(command + " --help", scratch);
+        ASSERT_EQ(help.exitCode, 0) << command;
+        generated += "\n### lightskin " + command + "\n\n```text\n" + normalised(help.out) + "```\n";
+    }
+    generated += "\n<!-- cli-help:end -->\n";
+
+    const fs::path doc = test::sourceDir() / "docs" / "CLI.md";
+    std::string text = test::readText(doc);
+    const std::size_t begin = text.find("<!-- cli-help:begin"), end = text.find("<!-- cli-help:end -->");
+    ASSERT_NE(begin, std::string::npos) << doc;
+    ASSERT_NE(end, std::string::npos) << doc;
+    const std::string current = text.substr(begin, end + std::strlen("<!-- cli-help:end -->\n") - begin);
+    if (std::getenv("LIGHTSKIN_UPDATE_CLI_DOC") != nullptr) {
+        text.replace(begin, current.size(), generated);
+        std::ofstream(doc) << text;
+        return;
+    }
+    EXPECT_EQ(current, generated) << "docs/CLI.md is out of date: run scripts/update-cli-doc.sh";
+}
