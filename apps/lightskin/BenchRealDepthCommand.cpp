@@ -65,6 +65,9 @@ std::vector<RealCase> realCases() {
         {"tum-fr2-desk", "tum-fr2-desk", mr::PoseMode::Fixed, {300, 365}, {150, 335}, false},
         {"icl-nuim", "icl-nuim-open3d", mr::PoseMode::GroundTruth, {250, 390}, {460, 430}, true},
         {"pcl-kinect-tiff", "pcl-kinect-tiff", mr::PoseMode::Fixed, {250, 380}, {520, 380}, false},
+        // fr3/long_office_household (one frame): the bunny on the floor between the two chairs, the
+        // cube on the floor right of the yellow chair (~2 m from the camera)
+        {"tum-fr3-office", "tum-fr3-office", mr::PoseMode::Fixed, {300, 440}, {580, 420}, false},
     };
 }
 
@@ -447,7 +450,7 @@ void addBenchRealDepthCommand(CLI::App& app, int& exitCode) {
                         "Depths the objects are sunk into the surface, metres (default 0 0.01)");
     command->add_option("--max-frames", options->maxFrames, "Frames per recording (default 5)");
     command->add_option("--recordings", options->recordings,
-                        "Comma-separated recordings (tum-fr2-desk, icl-nuim, pcl-kinect-tiff; default all)");
+                        "Comma-separated recordings (tum-fr2-desk, icl-nuim, pcl-kinect-tiff, tum-fr3-office; default all)");
     command->add_flag("--maps", options->maps, "Also write the speckle maps of each recording's first frame");
     command->callback([options, &exitCode] {
         runBench(*options);
