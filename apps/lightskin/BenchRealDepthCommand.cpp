@@ -13,7 +13,7 @@
 //     change of the indirect light (mean of the channels), divided by the brute force's mean level;
 //     "excess" subtracts the brute force's own change per sample.
 // A benchmark, not a test: prints Markdown tables (and writes them with PNGs of the indirect light to
-// --out). tests/mr/RealDepthDataGLTest.cpp asserts the speckle target on one recording.
+// --out). tests/apps/RealDepthDataGLTest.cpp asserts the targets on every recording (exceptions named there).
 #include "Commands.h"
 
 #include <lightskin/capture/FrameSource.h>
