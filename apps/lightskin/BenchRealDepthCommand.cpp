@@ -26,7 +26,7 @@ void addBenchRealDepthCommand(CLI::App& app, int& exitCode) {
                         "Depths the objects are sunk into the surface, metres");
     command->add_option("--max-frames", options->maxFrames, "Frames per recording");
     command->add_option("--recordings", options->recordings,
-                        "Comma-separated recordings (tum-fr2-desk, icl-nuim, pcl-kinect-tiff; default all)");
+                        "Comma-separated recordings (tum-fr2-desk, icl-nuim, pcl-kinect-tiff, tum-fr3-office; default all)");
     command->add_flag("--maps", options->maps, "Also write the speckle maps of each recording's first frame");
     command->callback([options, &exitCode] {
         bench::runRealDepthBench(*options);

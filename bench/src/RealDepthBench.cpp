@@ -13,7 +13,7 @@
 //     change of the indirect light (mean of the channels), divided by the brute force's mean level;
 //     "excess" subtracts the brute force's own change per sample.
 // A benchmark, not a test: prints Markdown tables (and writes them with PNGs of the indirect light to
-// --out). tests/mr/RealDepthDataGLTest.cpp asserts the speckle target on one recording.
+// --out). tests/apps/RealDepthDataGLTest.cpp asserts the targets on every recording (exceptions named there).
 
 #include <lightskin/bench/RealDepthBench.h>
 #include <lightskin/capture/FrameSource.h>
@@ -65,6 +65,9 @@ std::vector<RealCase> realCases() {
         {"tum-fr2-desk", "tum-fr2-desk", mr::PoseMode::Fixed, {300, 365}, {150, 335}, false},
         {"icl-nuim", "icl-nuim-open3d", mr::PoseMode::GroundTruth, {250, 390}, {460, 430}, true},
         {"pcl-kinect-tiff", "pcl-kinect-tiff", mr::PoseMode::Fixed, {250, 380}, {520, 380}, false},
+        // fr3/long_office_household (one frame): the bunny on the floor between the two chairs, the
+        // cube on the floor right of the yellow chair (~2 m from the camera)
+        {"tum-fr3-office", "tum-fr3-office", mr::PoseMode::Fixed, {300, 440}, {580, 420}, false},
     };
 }
 

@@ -26,6 +26,7 @@ uniform mat3 uNormalFromModel;
 uniform uint uFirstVertex;
 uniform uint uVertexCount;
 uniform int uApplyOcclusion;
+uniform float uHorizonSpread; // G9: 0 = shade point VPLs (the diffuse S_o radius not handed on)
 
 void main() {
     const uint local = gl_GlobalInvocationID.x;
@@ -65,7 +66,7 @@ void main() {
         const vec4 d = texelFetch(uDiffuse, texel, 0);
         const vec4 g = texelFetch(uGlossy, texel, 0);
         result.diffuse += w * vec4(d.rgb * keep.x, d.w);
-        result.diffusePosition += w * vec4(texelFetch(uPositionD, texel, 0).xyz, 0.0);
+        result.diffusePosition += w * texelFetch(uPositionD, texel, 0) * vec4(1.0, 1.0, 1.0, uHorizonSpread);
         result.glossy += w * vec4(g.rgb * keep.y, g.w);
         result.glossyPosition += w * vec4(texelFetch(uPositionS, texel, 0).xyz, 0.0);
     }

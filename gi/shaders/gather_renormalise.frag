@@ -13,6 +13,7 @@ uniform vec3 uEye;
 uniform float uEpsilonL;
 uniform int uGlossyOn;    // 0: the glossy sums stay empty (no eps_l terms either), like the reference
 uniform int uOcclusionOn; // 0: no moments were gathered
+uniform float uHorizonSpread; // G9: 1 = extended VPL horizon (robust model), 0 = point VPL
 // sum over all valid VALs: (sum l, sum r^2), (sum l^2 per axis, count), see gather_val_sums.comp
 layout(std430, binding = 3) readonly buffer ValSums { vec4 valSums[2]; };
 
@@ -38,7 +39,7 @@ void main() {
     const float epsR2 = uEpsilonL * valSums[0].w;
     const vec3 epsMoment = float(uOcclusionOn) * uEpsilonL * max(valSums[1].xyz - 2.0 * x * valSums[0].xyz + n * x * x, vec3(0.0));
     const vec3 nx = texelFetch(uPointNormal, texel, 0).xyz;
-    const Vpl vd = ls_renormaliseDiffuse(d.rgb, od.xyz + epsOffset, od.w + epsW, d.w + epsR2, m.xyz + epsMoment, x, nx);
+    const Vpl vd = ls_renormaliseDiffuse(d.rgb, od.xyz + epsOffset, od.w + epsW, d.w + epsR2, m.xyz + epsMoment, x, nx, uHorizonSpread);
     const float glossyEps = float(uGlossyOn);
     const Vpl vs = ls_renormaliseGlossy(g.rgb, os.xyz + glossyEps * epsOffset, os.w + glossyEps * epsW, g.w + glossyEps * epsR2,
                                         m.w + glossyEps * (epsMoment.x + epsMoment.y + epsMoment.z), x, nx, ls_toEye(x, uEye), positionK.w);

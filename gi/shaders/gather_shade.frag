@@ -13,7 +13,7 @@ uniform int uGlossy;
 
 layout(location = 0) in vec3 vWorld;
 layout(location = 1) in vec4 vDiffuse;
-layout(location = 2) in vec3 vDiffusePosition;
+layout(location = 2) in vec4 vDiffusePosition;
 layout(location = 3) in vec4 vGlossy;
 layout(location = 4) in vec3 vGlossyPosition;
 layout(location = 0) out vec4 outRadiance;
@@ -30,8 +30,8 @@ void main() {
     Vpl d;
     d.radiance = vDiffuse.rgb;
     d.r2 = vDiffuse.w;
-    d.position = vDiffusePosition;
-    d.sphereRadius = 0.0;
+    d.position = vDiffusePosition.xyz;
+    d.sphereRadius = vDiffusePosition.w; // G9 (0 without it)
     vec3 radiance = rhoD * ls_applyDiffuse(d, position.xyz, n) / kPi;
     if (uGlossy != 0) {
         Vpl s;

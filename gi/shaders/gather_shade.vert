@@ -11,7 +11,7 @@ uniform uint uFirstVertex;
 
 layout(location = 0) out vec3 vWorld;
 layout(location = 1) out vec4 vDiffuse;
-layout(location = 2) out vec3 vDiffusePosition;
+layout(location = 2) out vec4 vDiffusePosition; // l'''_d, S_o radius (G9)
 layout(location = 3) out vec4 vGlossy;
 layout(location = 4) out vec3 vGlossyPosition;
 
@@ -20,7 +20,7 @@ void main() {
     const vec4 world = uWorldFromModel * vec4(inPosition, 1.0);
     vWorld = world.xyz;
     vDiffuse = vpl.diffuse;
-    vDiffusePosition = vpl.diffusePosition.xyz;
+    vDiffusePosition = vpl.diffusePosition;
     vGlossy = vpl.glossy;
     vGlossyPosition = vpl.glossyPosition.xyz;
     gl_Position = uClipFromWorld * world;

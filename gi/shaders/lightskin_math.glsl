@@ -70,6 +70,17 @@
 //     rbar^2 (ls_vertexR2Floor). No change wherever the averaged VPL is at least as far as the
 //     nearest gathered one (e.g. one neighbour, or neighbours with equal VPLs). Off: #define
 //     LS_VERTEX_DISTANCE_FLOOR 0 (the model before issue 12).
+//  G9 extended VPL at the horizon (eq. 10/11, issue 12): an averaged VPL stands for VALs spread
+//     around l' (S_o's radius R, section 3.3), but eq. 10 shades it as a point, so a receiver whose
+//     l' lies just below its horizon gets exactly 0 while most of the VALs behind l' are still above
+//     it: holes (black pixels) with a hard edge in smoothly lit objects, measured on TUM fr2 and the
+//     PCL Kinect TIFFs, where the brute force is smooth. G9 replaces cos(theta) in eq. 10 and 11 by
+//     the cosine factor of a uniformly bright sphere of angular radius sigma, sin^2 sigma =
+//     R^2 / (R^2 + |l' - x|^2), clipped by the horizon (ls_horizonCos): exactly cos(theta) when l'
+//     is more than sigma above the horizon (no change there), 0 only when it is more than sigma
+//     below, smooth in between. Renormalisation (eq. 11) uses the same factor, so eq. 10 still
+//     reproduces L' at the sparse point. Vertices interpolate R like l' (eq. 13). Needs the second
+//     moments (gathered for occlusion, and for G9). Off (horizonSpread 0, R not handed on): points.
 // ---------------------------------------------------------------------------------------------
 
 #ifndef LIGHTSKIN_MATH_GLSL
@@ -92,6 +103,7 @@ const real kTinyLength2 = 1.0e-36;  // G1/G2, m^2 (a normal float)
 const real kTinyCos = 1.0e-30;      // G3
 const real kMinLogPow = -80.0;      // G3
 const real kMinRenormCos = 1.0e-3;  // G4
+const real kMinSpreadSin2 = 1.0e-6; // G9
 const real kTinyWeight = 1.0e-35;   // G5
 const real kTinyArea = 1.0e-30;     // G7 (unit-circle area, dimensionless)
 const int kNeighbours = 8;          // eq. 12/13
@@ -185,11 +197,35 @@ struct Vpl {
     real sphereRadius;  // radius of S_o, metres
 };
 
+// G9: the cosine factor of a uniformly bright sphere of angular radius sigma (sin2 = sin^2 sigma)
+// whose centre lies at cos(theta) from the normal, clipped by the horizon, divided by the unclipped
+// pi sin^2 sigma (Snyder 1996, "Area light sources for real-time graphics", sphere irradiance).
+LS_FN real ls_horizonCos(real cosT, real sin2) {
+    if (!(sin2 > 0.0) || cosT * cosT > sin2) return max(cosT, 0.0);
+    const real s2 = min(sin2, 0.999999);
+    const real sinT = sqrt(max(1.0 - cosT * cosT, 0.0));
+    const real x = sqrt(1.0 / s2 - 1.0);
+    const real y = clamp(-x * cosT / max(sinT, 1.0e-30), -1.0, 1.0);
+    const real sy = sinT * sqrt(max(1.0 - y * y, 0.0));
+    const real e = (cosT * acos(y) - x * sy) * s2 + atan(sy, x);
+    return max(e / (kPi * s2), 0.0);
+}
+
+// G9: sin^2 of the angular radius of the VPL's spread (S_o, radius R) seen at squared distance d2;
+// 0 below kMinSpreadSin2 (sigma < 1e-3 rad, the scale of G4): S_o's radius is the square root of a
+// difference of two sums ~|l' - x|^2, whose float rounding (~1e-7 relative) alone makes sin^2 ~ 1e-7.
+LS_FN real ls_spreadSin2(real radius, real d2) {
+    const real r2 = radius * radius;
+    const real s2 = r2 / max(r2 + d2, kTinyLength2);
+    return s2 > kMinSpreadSin2 ? s2 : 0.0;
+}
+
 // eq. 10, diffuse factor of one VPL at p with normal n: L'' cos(theta) / D (irradiance, W/m^2).
 LS_FN rvec3 ls_applyDiffuse(Vpl v, rvec3 p, rvec3 n) {
     const rvec3 o = v.position - p;
     const real d2 = dot(o, o);
-    const real cosT = max(dot(n, o) * inversesqrt(max(d2 + kCoincident * v.r2, kTinyLength2)), 0.0);
+    const real cosT = ls_horizonCos(dot(n, o) * inversesqrt(max(d2 + kCoincident * v.r2, kTinyLength2)),
+                                    ls_spreadSin2(v.sphereRadius, d2));
     return v.radiance * (cosT / max(d2 + v.r2, kTinyLength2));
 }
 
@@ -206,7 +242,7 @@ LS_FN rvec3 ls_applyGlossy(Vpl v, rvec3 p, rvec3 n, rvec3 toEye, real k) {
 // eq. 8-11 for the diffuse channel. sumL = L'_d, sumOffset = sum (l_j - x) weight_j, sumW = W_d,
 // sumR2 = sum r_j^2 weight_j, sumMoment = sum (l_j - x)^2 weight_j per axis (for S_o).
 LS_FN Vpl ls_renormaliseDiffuse(rvec3 sumL, rvec3 sumOffset, real sumW, real sumR2, rvec3 sumMoment, rvec3 x,
-                                rvec3 n) {
+                                rvec3 n, real horizonSpread) {
     const real invW = 1.0 / max(sumW, kTinyWeight);                 // G5
     const rvec3 mean = sumOffset * invW;
     Vpl v;
@@ -215,7 +251,8 @@ LS_FN Vpl ls_renormaliseDiffuse(rvec3 sumL, rvec3 sumOffset, real sumW, real sum
     const rvec3 variance = max(sumMoment * invW - mean * mean, rvec3(0.0));
     v.sphereRadius = sqrt(max(max(variance.x, variance.y), variance.z)); // radius = max sigma_i
     const real d2 = dot(mean, mean);
-    const real cosT = dot(n, mean) * inversesqrt(max(d2 + kCoincident * v.r2, kTinyLength2));
+    const real cosT = ls_horizonCos(dot(n, mean) * inversesqrt(max(d2 + kCoincident * v.r2, kTinyLength2)),
+                                    horizonSpread * ls_spreadSin2(v.sphereRadius, d2));
     v.radiance = sumL * (max(d2 + v.r2, kTinyLength2) / max(cosT, kMinRenormCos)); // eq. 11, G4
     return v;
 }

@@ -191,7 +191,7 @@ struct CpuLightSkin::Impl {
     /// Stage 1: the running sums of every receiver over all VALs, tile by tile.
     void gather() {
         std::fill(sums.begin(), sums.end(), 0.0f);
-        const cpu::GatherParameters parameters{glossy, occlusion};
+        const cpu::GatherParameters parameters{glossy, moments()};
         const std::size_t stride = receivers.padded;
         parallelRanges(threadCount(), receivers.padded, [&](std::size_t begin, std::size_t end) {
             for (std::uint32_t first = 0; first < vals.padded; first += kValTile)
@@ -201,6 +201,9 @@ struct CpuLightSkin::Impl {
     }
 
     double sum(std::size_t s, std::size_t i) const { return double(sums[s * receivers.padded + i]); }
+
+    /// The second moments are gathered for S_o: occlusion, and the extended VPLs of guard G9.
+    bool moments() const { return occlusion || settings.lightSkin.extendedVplHorizon; }
 
     /// eq. 7's sums of point i with the folded eps_l terms (as gather_renormalise.frag adds them).
     struct PointSums {
@@ -214,7 +217,7 @@ struct CpuLightSkin::Impl {
         const glm::dvec3 sumL(valSums[0], valSums[1], valSums[2]), sumL2(valSums[4], valSums[5], valSums[6]);
         const glm::dvec3 epsOffset = eps * (sumL - n * x);
         const glm::dvec3 epsMoment =
-            occlusion ? eps * glm::max(sumL2 - 2.0 * x * sumL + n * x * x, glm::dvec3(0.0)) : glm::dvec3(0.0);
+            moments() ? eps * glm::max(sumL2 - 2.0 * x * sumL + n * x * x, glm::dvec3(0.0)) : glm::dvec3(0.0);
         const double glossyEps = glossy ? 1.0 : 0.0;
         PointSums p;
         p.L = {sum(0, i), sum(1, i), sum(2, i)};
@@ -240,7 +243,8 @@ struct CpuLightSkin::Impl {
             const std::size_t i = std::size_t(ii);
             const PointSums p = pointSums(i);
             const glm::dvec3 x = pointPosition[i], nx = pointNormal[i];
-            vplD[i] = m::ls_renormaliseDiffuse(p.L, p.offset, p.W, p.r2, p.moment, x, nx);
+            vplD[i] = m::ls_renormaliseDiffuse(p.L, p.offset, p.W, p.r2, p.moment, x, nx,
+                                               settings.lightSkin.extendedVplHorizon ? 1.0 : 0.0);
             vplS[i] = m::ls_renormaliseGlossy(p.Ls, p.offsetS, p.Ws, p.r2s, p.momentS, x, nx, m::ls_toEye(x, eye),
                                               pointExponent[i]);
         }
@@ -286,6 +290,7 @@ struct CpuLightSkin::Impl {
             const glm::dmat3 normalMatrix = glm::transpose(glm::inverse(glm::dmat3(transform)));
             const std::int64_t first = std::int64_t(vertexOffsets[mesh]);
             const std::int64_t end = first + std::int64_t(instances[mesh].mesh->vertexCount());
+            const bool horizon = settings.lightSkin.extendedVplHorizon;
 #pragma omp parallel for num_threads(threadCount()) schedule(static)
             for (std::int64_t vv = first; vv < end; ++vv) {
                 const std::size_t v = std::size_t(vv);
@@ -312,7 +317,7 @@ struct CpuLightSkin::Impl {
                     const double keepD = occlusion ? 1.0 - std::clamp(double(occlusionD[s]), 0.0, 1.0) : 1.0;
                     const double keepS = occlusion ? 1.0 - std::clamp(double(occlusionS[s]), 0.0, 1.0) : 1.0;
                     diffuse += w * glm::dvec4(vplD[s].radiance * keepD, vplD[s].r2);
-                    diffusePosition += w * glm::dvec4(vplD[s].position, 0.0);
+                    diffusePosition += w * glm::dvec4(vplD[s].position, horizon ? vplD[s].sphereRadius : 0.0); // G9
                     glossyRadiance += w * glm::dvec4(vplS[s].radiance * keepS, vplS[s].r2);
                     glossyPosition += w * glm::dvec4(vplS[s].position, 0.0);
                 }

@@ -748,7 +748,8 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     impl.timer.end();
     if (s.adaptive) impl.logChoice(choice.reason);
 
-    // 1. Gather.
+    // 1. Gather. The second moments (S_o) serve the occlusion and guard G9's extended VPLs.
+    const bool moments = choice.occlusion || s.extendedVplHorizon;
     impl.timer.begin("gather");
     const float zeros[4] = {0.0f, 0.0f, 0.0f, 0.0f};
     for (int i = 0; i < kGatherTargets; ++i) glClearNamedFramebufferfv(impl.gatherFramebuffer.id(), GL_COLOR, i, zeros);
@@ -757,7 +758,7 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     glBindTextureUnit(8, impl.pointPosition.id());
     glBindTextureUnit(9, impl.pointNormal.id());
     if (count > 0 && s.computeGather) {
-        const gl::Program& p = impl.gatherCompute[choice.glossy ? 1 : 0][choice.occlusion ? 1 : 0];
+        const gl::Program& p = impl.gatherCompute[choice.glossy ? 1 : 0][moments ? 1 : 0];
         p.use();
         glUniform1i(p.uniformLocation("uPointCount"), int(impl.pointCount));
         glUniform3fv(p.uniformLocation("uEye"), 1, glm::value_ptr(view.cameraPositionWorld));
@@ -777,7 +778,7 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
         }
         glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT);
     } else if (count > 0) {
-        const GatherProgram& p = impl.gather[choice.glossy ? 1 : 0][choice.occlusion ? 1 : 0];
+        const GatherProgram& p = impl.gather[choice.glossy ? 1 : 0][moments ? 1 : 0];
         p.program.use();
         glUniform1i(p.pointCount, int(impl.pointCount));
         glUniform3fv(p.eye, 1, glm::value_ptr(view.cameraPositionWorld));
@@ -816,7 +817,8 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     glUniform3fv(impl.renormalise.uniformLocation("uEye"), 1, glm::value_ptr(view.cameraPositionWorld));
     glUniform1f(impl.renormalise.uniformLocation("uEpsilonL"), s.epsilonL);
     glUniform1i(impl.renormalise.uniformLocation("uGlossyOn"), choice.glossy ? 1 : 0);
-    glUniform1i(impl.renormalise.uniformLocation("uOcclusionOn"), choice.occlusion ? 1 : 0);
+    glUniform1i(impl.renormalise.uniformLocation("uOcclusionOn"), moments ? 1 : 0);
+    glUniform1f(impl.renormalise.uniformLocation("uHorizonSpread"), s.extendedVplHorizon ? 1.0f : 0.0f);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, impl.valSumsBuffer.id());
     for (int i = 0; i < kGatherTargets; ++i) glBindTextureUnit(GLuint(i), impl.gatherTargets[std::size_t(i)].id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
@@ -854,6 +856,7 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, impl.vertexInputs.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, impl.vertexVpls.id());
     glUniform1i(impl.interpolate.uniformLocation("uApplyOcclusion"), choice.occlusion ? 1 : 0);
+    glUniform1f(impl.interpolate.uniformLocation("uHorizonSpread"), s.extendedVplHorizon ? 1.0f : 0.0f);
     for (std::size_t m = 0; m < instances.size(); ++m) {
         const glm::mat3 normalMatrix = glm::transpose(glm::inverse(glm::mat3(instances[m].world_T_model)));
         const std::uint32_t vertices = std::uint32_t(instances[m].mesh->vertexCount());
@@ -901,7 +904,8 @@ void LightSkinIllumination::readGatherSums(std::vector<glm::vec4>& out) const {
             g[2].w += eps * sums[0].w;
             g[3] += glm::vec4(offset, eps * n);
         }
-        if (impl_->choice.occlusion) g[4] += glm::vec4(moment, impl_->choice.glossy ? moment.x + moment.y + moment.z : 0.0f);
+        if (impl_->choice.occlusion || impl_->settings.extendedVplHorizon)
+            g[4] += glm::vec4(moment, impl_->choice.glossy ? moment.x + moment.y + moment.z : 0.0f);
     }
 }
 

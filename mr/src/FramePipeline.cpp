@@ -103,6 +103,7 @@ std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettin
         s.glossy = settings.glossy;
         s.occlusion = settings.occlusion;
         s.vertexDistanceFloor = settings.robustRealDepth;
+        s.extendedVplHorizon = settings.robustRealDepth;
         const gi::SparsePointProvider provider = [&renderer](const gi::MeshInstance& instance) {
             const gi::SparsePointSet* points = renderer.sparsePoints(instance.meshId);
             LIGHTSKIN_ASSERT(points != nullptr, "lightskin::mr::createTechnique(): the renderer prepared no sparse points");

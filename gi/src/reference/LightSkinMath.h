@@ -6,6 +6,7 @@
 #include <glm/common.hpp>
 #include <glm/exponential.hpp>
 #include <glm/geometric.hpp>
+#include <glm/trigonometric.hpp>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
@@ -15,6 +16,8 @@ using real = double;
 using rvec2 = glm::dvec2;
 using rvec3 = glm::dvec3;
 using glm::abs;
+using glm::acos;
+using glm::atan;
 using glm::clamp;
 using glm::dot;
 using glm::exp;

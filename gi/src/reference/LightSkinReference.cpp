@@ -84,7 +84,7 @@ void renormaliseInto(std::span<const GatherSums> sums, std::span<const Receiver>
         const GatherSums& s = sums[i];
         const Receiver& x = receivers[i];
         out[i].diffuse = fromMath(
-            m::ls_renormaliseDiffuse(s.irradiance, s.offsetD, s.weightD, s.r2D, s.momentD, x.position, x.normal));
+            m::ls_renormaliseDiffuse(s.irradiance, s.offsetD, s.weightD, s.r2D, s.momentD, x.position, x.normal, 1.0));
         out[i].glossy = fromMath(m::ls_renormaliseGlossy(s.glossy, s.offsetS, s.weightS, s.r2S, s.momentS, x.position,
                                                          x.normal, m::ls_toEye(x.position, eye), x.exponent));
     }
@@ -149,6 +149,7 @@ void interpolateVerticesInto(std::span<const glm::dvec3> vertexPositions, std::s
             r.diffuse.radiance += w * s.diffuse.radiance;
             r.diffuse.r2 += w * s.diffuse.r2;
             r.diffuse.position += w * s.diffuse.position;
+            r.diffuse.sphereRadius += w * s.diffuse.sphereRadius; // G9: the spread of the shaded VPL
             r.glossy.radiance += w * s.glossy.radiance;
             r.glossy.r2 += w * s.glossy.r2;
             r.glossy.position += w * s.glossy.position;

@@ -175,7 +175,7 @@ inline ReferenceRun runIndependent(const Scene& scene, const PaperSetup& setup, 
     for (std::size_t v = 0; v < r.vertexPositions.size(); ++v) {
         const paper::LightPair p =
             paper::interpolate(r.vertexPositions[v], r.vertexNormals[v], r.neighbours[v], points, run.occluded);
-        r.vertex[v].diffuse = {p.diffuse.radiance, p.diffuse.r2, p.diffuse.position, 0.0};
+        r.vertex[v].diffuse = {p.diffuse.radiance, p.diffuse.r2, p.diffuse.position, p.diffuse.sphereRadius};
         r.vertex[v].glossy = {p.glossy.radiance, p.glossy.r2, p.glossy.position, 0.0};
     }
     return r;
@@ -226,7 +226,7 @@ inline std::size_t adoptUnresolvedOcclusion(ReferenceRun& r, const GpuRun& gpu) 
     for (std::size_t v = 0; v < r.vertexPositions.size(); ++v) {
         const paper::LightPair p =
             paper::interpolate(r.vertexPositions[v], r.vertexNormals[v], r.neighbours[v], points, lights);
-        r.vertex[v].diffuse = {p.diffuse.radiance, p.diffuse.r2, p.diffuse.position, 0.0};
+        r.vertex[v].diffuse = {p.diffuse.radiance, p.diffuse.r2, p.diffuse.position, p.diffuse.sphereRadius};
         r.vertex[v].glossy = {p.glossy.radiance, p.glossy.r2, p.glossy.position, 0.0};
     }
     return adopted;
@@ -259,6 +259,7 @@ inline std::optional<dvec3> referencePixel(const ReferenceRun& r, const dvec3& p
             v.diffuse.radiance += w[k] * s.diffuse.radiance;
             v.diffuse.r2 += w[k] * s.diffuse.r2;
             v.diffuse.position += w[k] * s.diffuse.position;
+            v.diffuse.sphereRadius += w[k] * s.diffuse.sphereRadius; // G9: interpolated like the others
             v.glossy.radiance += w[k] * s.glossy.radiance;
             v.glossy.r2 += w[k] * s.glossy.r2;
             v.glossy.position += w[k] * s.glossy.position;
@@ -268,7 +269,7 @@ inline std::optional<dvec3> referencePixel(const ReferenceRun& r, const dvec3& p
                                    glossy ? dvec3(material.specularAlbedo) : dvec3(0.0),
                                    double(material.specularExponent)};
         if (r.independent) {
-            const paper::LightPair l{{v.diffuse.radiance, v.diffuse.position, v.diffuse.r2, 0.0},
+            const paper::LightPair l{{v.diffuse.radiance, v.diffuse.position, v.diffuse.r2, v.diffuse.sphereRadius},
                                      {v.glossy.radiance, v.glossy.position, v.glossy.r2, 0.0}};
             result = paper::shade(l, p, n, eye, surface.diffuseAlbedo, surface.specular, surface.exponent);
         } else {

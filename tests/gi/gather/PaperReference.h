@@ -37,7 +37,16 @@ struct Options {
     double epsilonL = 1e-20;                   ///< eps_l of eq. 7
     bool glossy = true;                        ///< false: the glossy channel stays 0
     double renormalisationFloor = 1e-3;        ///< eq. 11 divides by max(cos, this) (core guard G4)
+    /// The core's guard G9 (issue 12): the diffuse VPL is a uniformly bright sphere of its S_o radius,
+    /// clipped by the receiver's horizon, in eq. 10 and 11 (horizonFactor); false: a point.
+    bool extendedVplHorizon = true;
 };
+
+/// Guard G9's cosine factor, computed here by quadrature from its definition: the integral of
+/// max(n . w, 0) over the directions w of a cone of half-angle sigma (sin^2 sigma = sin2) whose axis
+/// makes cos(theta) = cosTheta with n, divided by pi sin^2 sigma (the unclipped integral). Equals
+/// max(cosTheta, 0) for sin2 <= 1e-6 (the core's floor: sigma < 1e-3 rad counts as a point).
+double horizonFactor(double cosTheta, double sin2);
 
 struct Point {
     glm::dvec3 position{0.0};
@@ -92,6 +101,7 @@ vertexWeights(const glm::dvec3& vertex, const glm::dvec3& vertexNormal,
 LightPair interpolate(const glm::dvec3& vertex, const glm::dvec3& vertexNormal,
                       const std::array<std::uint32_t, gi::kVertexNeighbours>& neighbours, std::span<const Point> points,
                       std::span<const LightPair> lights, bool distanceFloor = true);
+// (interpolate also averages the diffuse S_o radius with the same weights, for G9's shading.)
 /// eq. 10: radiance toward `eye` of a surface with rho_d, f_s, k lit by one VPL pair.
 glm::dvec3 shade(const LightPair& lights, const glm::dvec3& p, const glm::dvec3& n, const glm::dvec3& eye,
                  const glm::dvec3& rhoD, const glm::dvec3& fs, double k);

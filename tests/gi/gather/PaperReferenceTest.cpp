@@ -122,6 +122,48 @@ TEST(PaperReference, AveragedAndRenormalisedVplsOfTwoSymmetricDiscsAreTheClosedF
 // eq. 12-13 by hand: 8 neighbours at distances 1..8 on the x axis, all normals +z except the
 // third (cos = 0.5). w_j = (1 - d_j / 8) cos_j = (14, 12, 5, 8, 6, 4, 2, 0) / 16, W_v = 51/16.
 // With L''_j = j + 1 and l''_j = (j, 0, 1): L''' = 153 / 51 = 3, l'''.x = 102 / 51 = 2.
+// Guard G9 (issue 12): eq. 10 of gi::reference (the shaders' closed form, Snyder's sphere
+// irradiance clipped by the horizon) against the independent quadrature of its definition
+// (paper::horizonFactor: projected solid angle of a cone / pi sin^2 sigma), for a VPL of spread R at
+// distance d swept from above to below the receiver's horizon. Tolerance: the quadrature's relative
+// error is ~1e-7 (4096 midpoint steps of a function with a bounded second derivative) and the
+// closed form is double arithmetic: 1e-6 of the unclipped value. Above the horizon by more than
+// sigma the factor must be cos(theta) exactly (no change to the paper's model there), below it by
+// more than sigma exactly 0, and in between strictly positive: no receiver with light partly
+// above its horizon gets 0 (the black pixels of issue 12).
+TEST(PaperReference, ExtendedVplHorizonFactorIsTheClippedConeIntegral) {
+    const double d = 0.8;
+    for (const double R : {0.002, 0.05, 0.3, 0.8, 3.0}) {
+        const double sin2 = R * R / (R * R + d * d), sinSigma = std::sqrt(sin2);
+        double previous = -1.0;
+        for (int i = 0; i <= 200; ++i) {
+            const double theta = kPi * double(i) / 200.0; // 0 .. pi from the normal
+            ref::VplPair v{};
+            v.diffuse.radiance = dvec3(d * d);
+            v.diffuse.position = d * dvec3(std::sin(theta), 0.0, std::cos(theta));
+            v.diffuse.sphereRadius = R;
+            const ref::Surface surface{dvec3(0.0), {0, 0, 1}, dvec3(kPi), dvec3(0.0), 1.0};
+            const double shared = ref::shade(v, surface, {0, 0, 5}).x; // = L'' h / D * rho / pi = h
+            const double quadrature = paper::horizonFactor(std::cos(theta), sin2);
+            SCOPED_TRACE("R " + std::to_string(R) + ", theta " + std::to_string(theta));
+            EXPECT_NEAR(shared, quadrature, 1e-6);
+            if (std::cos(theta) >= sinSigma + 1e-9) {
+                EXPECT_NEAR(shared, std::cos(theta), 1e-12);
+            }
+            if (std::cos(theta) <= -sinSigma - 1e-9) {
+                EXPECT_EQ(shared, 0.0);
+            }
+            if (std::abs(std::cos(theta)) < sinSigma - 1e-6 && sin2 > 1e-6) {
+                EXPECT_GT(shared, 0.0);
+            }
+            if (previous >= 0.0) {
+                EXPECT_LE(shared, previous + 1e-12); // falls monotonically with theta
+            }
+            previous = shared;
+        }
+    }
+}
+
 TEST(PaperReference, VertexWeightsOfEightNeighboursAreTheHandComputedValues) {
     std::vector<paper::Point> points;
     std::vector<ref::Receiver> receivers;

@@ -76,6 +76,12 @@ struct LightSkinSettings {
     /// D = |x - l|^2 + rbar^2, than the nearest VPL of the sparse points it interpolates. false = the
     /// model before it (for measurement, `lightskin bench-realdepth`).
     bool vertexDistanceFloor = true;
+    /// Guard G9 of lightskin_math.glsl (issue 12): eq. 10 and 11 treat an averaged VPL as a sphere of
+    /// its spread (the radius of S_o) clipped by the receiver's horizon instead of a point, so a
+    /// receiver whose light arrives near its horizon gets a smooth falloff, not 0. Needs the second
+    /// moments of the gather (gathered when this or `occlusion` is on). false = point VPLs (the model
+    /// before it).
+    bool extendedVplHorizon = true;
 };
 
 /// What the adaptive mode chose for the last frame.
