@@ -17,11 +17,18 @@ layout(location = 4) uniform uint uRayEnd;
 layout(location = 5) uniform uint uRayCount;
 layout(location = 6) uniform int uMaxSteps;     // enough steps to cross the grid
 layout(location = 7) uniform float uMaxDistance; // metres (AO range; huge for radiance)
+// Temporal mitigation (ImperfectVolumesSettings::jitter / temporalBlend): ray origins moved by this
+// sub-voxel offset (voxel units, per frame); on the last chunk of the last pass, the result blended
+// with the previous frame's where that voxel was marched then too.
+layout(location = 8) uniform vec3 uOriginOffset;
+layout(location = 9) uniform float uHistoryWeight; // 0: no blending
+layout(std430, binding = 9) readonly buffer History { RgbSh history[]; };
+layout(std430, binding = 10) readonly buffer HistoryActive { uint historyActive[]; };
 
 void main() {
     const uint i = gl_GlobalInvocationID.x;
     if (i >= uint(uResolution * uResolution * uResolution) || activeVoxels[i] == 0u) return;
-    const vec3 centre = voxelCentre(voxelFromIndex(i));
+    const vec3 centre = voxelCentre(voxelFromIndex(i)) + uOriginOffset * uVoxelSize;
     RgbSh sum = uRayBegin == 0u ? RgbSh(vec4(0.0), vec4(0.0), vec4(0.0)) : incoming[i];
     for (uint r = uRayBegin; r < uRayEnd; ++r) {
         const vec3 d = directions[r].xyz;
@@ -51,6 +58,12 @@ void main() {
         sum.r *= weight;
         sum.g *= weight;
         sum.b *= weight;
+        if (uHistoryWeight > 0.0 && historyActive[i] != 0u) {
+            const RgbSh previous = history[i];
+            sum.r = mix(sum.r, previous.r, uHistoryWeight);
+            sum.g = mix(sum.g, previous.g, uHistoryWeight);
+            sum.b = mix(sum.b, previous.b, uHistoryWeight);
+        }
     }
     incoming[i] = sum;
 }

@@ -55,6 +55,13 @@ std::vector<glm::vec4> stratifiedDirections(int count) {
     return out;
 }
 
+// PCG output hash (as the shaders' pcgHash): per-frame jitter values.
+std::uint32_t pcgHash(std::uint32_t value) {
+    const std::uint32_t state = value * 747796405u + 2891336453u;
+    const std::uint32_t word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
 struct MeshBuffers {
     gl::Buffer positions, normals, indices;
     std::uint32_t triangles = 0;
@@ -77,6 +84,9 @@ void validate(const ImperfectVolumesSettings& s) {
     checkPositive("size", s.size, false);
     checkPositive("realAlbedo", s.realAlbedo, true);
     if (s.realAlbedo > 1.0f) throw Error("gi.imperfectVolumes", std::nullopt, "realAlbedo must be <= 1");
+    if (!std::isfinite(s.temporalBlend) || s.temporalBlend < 0.0f || s.temporalBlend > 0.95f)
+        throw Error("gi.imperfectVolumes", std::nullopt,
+                    "temporalBlend = " + std::to_string(s.temporalBlend) + " is outside [0, 0.95]");
     if (!std::isfinite(s.origin.x) || !std::isfinite(s.origin.y) || !std::isfinite(s.origin.z))
         throw Error("gi.imperfectVolumes", std::nullopt, "origin must be finite");
 }
@@ -86,6 +96,9 @@ struct ImperfectVolumes::Impl {
     gl::ShaderLibrary library{embeddedShaders()};
     gl::Program injectMesh, injectVals, resolve, markPixels, markVoxels, gather, bounce, reconstruct;
     gl::Buffer accumulation, voxels, exitant, incoming, directions, active;
+    gl::Buffer history, historyActive; // temporalBlend: the previous frame's SH and active mask
+    bool historyValid = false;
+    std::uint32_t frame = 0;
     std::unordered_map<std::uint32_t, MeshBuffers> meshes;
     gl::GpuStageTimer timer;
     std::vector<gl::StageTime> stageTimes;
@@ -130,6 +143,9 @@ std::unique_ptr<ImperfectVolumes> ImperfectVolumes::create(const ImperfectVolume
     impl.exitant = gl::Buffer::create(voxels * GLsizeiptr(sizeof(glm::vec4)));
     impl.incoming = gl::Buffer::create(voxels * 3 * GLsizeiptr(sizeof(glm::vec4)));
     impl.active = gl::Buffer::create(voxels * GLsizeiptr(sizeof(std::uint32_t)));
+    const GLsizeiptr historyVoxels = settings.temporalBlend > 0.0f ? voxels : 1;
+    impl.history = gl::Buffer::create(historyVoxels * 3 * GLsizeiptr(sizeof(glm::vec4)));
+    impl.historyActive = gl::Buffer::create(historyVoxels * GLsizeiptr(sizeof(std::uint32_t)));
     const std::vector<glm::vec4> dirs = stratifiedDirections(settings.raysPerVoxel);
     impl.directions = gl::Buffer::create(GLsizeiptr(dirs.size() * sizeof(glm::vec4)), dirs.data());
     impl.timer = gl::GpuStageTimer::create(4);
@@ -211,7 +227,21 @@ void ImperfectVolumes::render(const ValSetView& lights, std::span<const MeshInst
                               const GBufferView& gbuffer, const ViewParameters&, std::uint32_t targetTexture) {
     Impl& impl = *impl_;
     const ImperfectVolumesSettings& s = impl.settings;
+    const glm::vec3 previousOrigin = impl.origin;
+    const float previousVoxelSize = impl.voxelSize;
     impl.fitGrid(instances);
+    // History is only meaningful on the same grid.
+    const bool blend = s.temporalBlend > 0.0f && impl.historyValid && previousOrigin == impl.origin &&
+                       previousVoxelSize == impl.voxelSize;
+    // Jitter: a sub-voxel ray origin and fresh triangle points per frame (hash of the frame number).
+    ++impl.frame;
+    const std::uint32_t frameHash = s.jitter ? pcgHash(impl.frame) : 0u;
+    const glm::vec3 originOffset =
+        s.jitter ? glm::vec3(float(pcgHash(frameHash ^ 1u) >> 8u), float(pcgHash(frameHash ^ 2u) >> 8u),
+                             float(pcgHash(frameHash ^ 3u) >> 8u)) /
+                           16777216.0f -
+                       0.5f
+                 : glm::vec3(0.0f);
     const GLuint voxelGroups = (impl.voxelCount + 63u) / 64u;
     const GLuint pixelGroupsX = GLuint(gbuffer.width + 7) / 8u, pixelGroupsY = GLuint(gbuffer.height + 7) / 8u;
     const std::uint32_t zero = 0;
@@ -227,7 +257,7 @@ void ImperfectVolumes::render(const ValSetView& lights, std::span<const MeshInst
         impl.injectMesh.use();
         impl.setGrid(impl.injectMesh);
         glUniform1ui(Uniforms::first + 1, std::uint32_t(s.pointsPerTriangle));
-        glUniform1ui(Uniforms::first + 2, s.seed);
+        glUniform1ui(Uniforms::first + 2, s.seed ^ frameHash);
         for (const MeshInstance& instance : instances) {
             const auto it = impl.meshes.find(instance.meshId);
             LIGHTSKIN_ASSERT(it != impl.meshes.end(),
@@ -303,6 +333,10 @@ void ImperfectVolumes::render(const ValSetView& lights, std::span<const MeshInst
         glUniform1ui(Uniforms::first + 2, std::uint32_t(s.raysPerVoxel));
         glUniform1i(Uniforms::first + 3, maxSteps);
         glUniform1f(Uniforms::first + 4, maxDistance);
+        glUniform3fv(Uniforms::first + 5, 1, glm::value_ptr(originOffset));
+        glUniform1f(Uniforms::first + 6, blend && pass == passes - 1 ? s.temporalBlend : 0.0f);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 9, impl.history.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 10, impl.historyActive.id());
         for (std::uint32_t begin = 0; begin < std::uint32_t(s.raysPerVoxel); begin += raysPerPass) {
             glUniform1ui(Uniforms::first, begin);
             glUniform1ui(Uniforms::first + 1, std::min(begin + raysPerPass, std::uint32_t(s.raysPerVoxel)));
@@ -312,6 +346,13 @@ void ImperfectVolumes::render(const ValSetView& lights, std::span<const MeshInst
     }
     impl.timer.end();
 
+    if (s.temporalBlend > 0.0f) {
+        const GLsizeiptr n = GLsizeiptr(impl.voxelCount);
+        glCopyNamedBufferSubData(impl.incoming.id(), impl.history.id(), 0, 0, n * 3 * GLsizeiptr(sizeof(glm::vec4)));
+        glCopyNamedBufferSubData(impl.active.id(), impl.historyActive.id(), 0, 0,
+                                 n * GLsizeiptr(sizeof(std::uint32_t)));
+        impl.historyValid = true;
+    }
     impl.timer.begin("reconstruct");
     impl.reconstruct.use();
     impl.setGrid(impl.reconstruct);

@@ -191,7 +191,7 @@ gi::ImperfectVolumesSettings readImperfectVolumes(const Reader& r, const json& v
     r.object(value, p);
     r.allowOnly(value, p,
                 {"resolution", "pointsPerTriangle", "raysPerVoxel", "bounces", "ambientOcclusion", "aoRange", "margin",
-                 "origin", "size", "realAlbedo", "seed"});
+                 "origin", "size", "realAlbedo", "seed", "jitter", "temporalBlend"});
     gi::ImperfectVolumesSettings v;
     if (value.contains("resolution")) v.resolution = r.integer(value["resolution"], p + "/resolution", 1, 128);
     if (value.contains("pointsPerTriangle"))
@@ -215,6 +215,9 @@ gi::ImperfectVolumesSettings readImperfectVolumes(const Reader& r, const json& v
     }
     if (value.contains("realAlbedo"))
         v.realAlbedo = r.number(value["realAlbedo"], p + "/realAlbedo", 0.0f, 1.0f, "in [0, 1]");
+    if (value.contains("jitter")) v.jitter = r.boolean(value["jitter"], p + "/jitter");
+    if (value.contains("temporalBlend"))
+        v.temporalBlend = r.number(value["temporalBlend"], p + "/temporalBlend", 0.0f, 0.95f, "in [0, 0.95]");
     if (value.contains("seed")) v.seed = std::uint32_t(r.integer(value["seed"], p + "/seed", 0, 1 << 30));
     return v;
 }

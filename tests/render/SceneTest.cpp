@@ -163,6 +163,8 @@ TEST(Scene, ImperfectVolumesSettingsAreReadAndCheckedByKey) {
         {head + R"({"origin": [0, 0, 0]}}})", "/gi/imperfectVolumes/size: expected both \"origin\" and \"size\""},
         {head + R"({"voxels": 64}}})", "/gi/imperfectVolumes/voxels: unknown key"},
         {head + R"({"realAlbedo": 1.5}}})", "/gi/imperfectVolumes/realAlbedo: expected a number in [0, 1]"},
+        {head + R"({"temporalBlend": 1}}})", "/gi/imperfectVolumes/temporalBlend: expected a number in [0, 0.95]"},
+        {head + R"({"jitter": 1}}})", "/gi/imperfectVolumes/jitter: expected true or false"},
         {R"({"version": 1, "gi": {"imperfectVolumes": {}}})",
          "/gi/imperfectVolumes: expected gi.technique \"imperfect-volumes\""},
     };

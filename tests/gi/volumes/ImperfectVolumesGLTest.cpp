@@ -266,6 +266,47 @@ TEST_F(ImperfectVolumesExtremeGLTest, AllOccupiedOneVoxelAndMaximumResolutionSta
     }
 }
 
+TEST_F(ImperfectVolumesExtremeGLTest, TemporalBlendIsAnExponentialAverageOfTheFrames) {
+    // Static scene, h = 1/2: frames 1 and 2 equal the unblended output (frame 1 has no history,
+    // frame 2 blends two equal frames); then every VAL's flux doubles: the light is linear in it, so
+    // frame 3 = (1 - h) 2 x + h x = 1.5 x. Tolerance: float rounding of the sums, 1e-5 relative.
+    Scene scene;
+    gi::ImperfectVolumesSettings s = fixedGrid(16);
+    auto plain = gi::ImperfectVolumes::create(s);
+    s.temporalBlend = 0.5f;
+    auto blended = gi::ImperfectVolumes::create(s);
+    plain->prepare(scene.instances);
+    blended->prepare(scene.instances);
+    const gi::ViewParameters view{scene.clip_T_world, scene.eye};
+    cv::Mat reference, frame;
+    plain->render(scene.valSet(), scene.instances, scene.gbuffer.view(), view, scene.output.id());
+    gl::readTextureRgba32fInto(scene.output, reference);
+    ASSERT_GT(cv::norm(reference), 0.0);
+    const auto expectScaled = [&](double factor, const char* what) {
+        gl::readTextureRgba32fInto(scene.output, frame);
+        double worst = 0.0;
+        for (int y = 0; y < frame.rows; ++y)
+            for (int x = 0; x < frame.cols; ++x)
+                for (int c = 0; c < 3; ++c) {
+                    const double expected = factor * double(reference.at<cv::Vec4f>(y, x)[c]);
+                    worst = std::max(worst, std::abs(double(frame.at<cv::Vec4f>(y, x)[c]) - expected) /
+                                                std::max(expected, 1e-3));
+                }
+        EXPECT_LT(worst, 1e-5) << what;
+    };
+    for (int f = 1; f <= 2; ++f) {
+        blended->render(scene.valSet(), scene.instances, scene.gbuffer.view(), view, scene.output.id());
+        expectScaled(1.0, f == 1 ? "frame 1" : "frame 2");
+    }
+    std::vector<gi::VirtualAreaLight> brighter = scene.vals;
+    for (auto& val : brighter) val.flux *= 2.0f;
+    gl::Buffer buffer =
+        gl::Buffer::create(GLsizeiptr(brighter.size() * sizeof(gi::VirtualAreaLight)), brighter.data());
+    blended->render({buffer.id(), std::uint32_t(brighter.size())}, scene.instances, scene.gbuffer.view(), view,
+                    scene.output.id());
+    expectScaled(1.5, "frame 3 after the light doubled");
+}
+
 using ImperfectVolumesSettingsTest = GlTest;
 
 TEST_F(ImperfectVolumesSettingsTest, BadSettingsNameTheField) {
@@ -288,6 +329,9 @@ TEST_F(ImperfectVolumesSettingsTest, BadSettingsNameTheField) {
     s = {};
     s.realAlbedo = 2.0f;
     expectError([&] { gi::validate(s); }, {"gi.imperfectVolumes", std::nullopt, "realAlbedo must be <= 1"});
+    s = {};
+    s.temporalBlend = 1.0f;
+    expectError([&] { gi::validate(s); }, {"gi.imperfectVolumes", std::nullopt, "temporalBlend = 1.0"});
 }
 
 } // namespace

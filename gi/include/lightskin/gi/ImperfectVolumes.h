@@ -19,7 +19,7 @@
 // Only the voxels that a reconstruction reads (the eight around each covered pixel's p', and for
 // bounces around each occupied voxel's) are ray-marched: the others' SH is never used.
 //
-// GPU memory: 116 bytes per voxel (30 MB at 64^3, 243 MB at the maximum 128^3).
+// GPU memory: 116 bytes per voxel (30 MB at 64^3, 243 MB at the maximum 128^3); 168 with temporalBlend.
 
 #include <lightskin/gi/IndirectIllumination.h>
 
@@ -49,6 +49,14 @@ struct ImperfectVolumesSettings {
     /// which already holds the room's own interreflections (a nonzero value counts those twice).
     float realAlbedo = 0.0f;
     std::uint32_t seed = 1; ///< of the triangle points (same hash as the reference)
+    /// Temporal aliasing (the paper's section 4.1: voxels toggle as points move between them).
+    /// jitter: per frame the ray origins move to a different sub-voxel position (a frame hash in
+    /// [-1/2, 1/2)^3 voxels) instead of the centres, and the triangle points are re-drawn; with
+    /// temporalBlend h > 0 each voxel's SH is (1 - h) * this frame's + h * the previous frame's
+    /// (where that voxel was marched in the previous frame too and the grid did not move), an
+    /// exponential average over ~1 / (1 - h) frames, so the sampling positions average over the voxel.
+    bool jitter = false;
+    float temporalBlend = 0.0f; ///< h in [0, 0.95]; 0 = off
 };
 
 /// Throws lightskin::Error naming the field and the allowed range.
