@@ -13,6 +13,7 @@
 
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/BruteForceIllumination.h>
+#include <lightskin/gi/ImperfectVolumes.h>
 #include <lightskin/gi/LightSkinIllumination.h>
 #include <lightskin/gi/RayTracedGroundTruth.h>
 #include <lightskin/gi/SimpleGBuffer.h>
@@ -135,6 +136,8 @@ struct Options {
     std::string resolutions = "640x480,1280x720,1920x1080";
     std::string meshes = "20000,200000,730000";
     std::string adaptive = "off,on";
+    /// Imperfect-volumes rows (resolution:points/triangle:rays/voxel:bounces); the first is the paper's.
+    std::string volumes = "64:12:100:1,32:12:100:1,64:6:100:1,64:12:36:1,64:12:100:2";
     Config defaults;
     int frames = 3;
     int truthStride = 2;
@@ -167,6 +170,7 @@ void applyQuick(Options& o) {
     o.resolutions = "";
     o.meshes = "";
     o.adaptive = "off,on";
+    o.volumes = "16:12:36:1";
     o.defaults.sparse = 256;
     o.defaults.stride = 4;
     o.defaults.channels = 1; // the checks compare like with like: brute force has no occlusion
@@ -511,7 +515,11 @@ RunResult runConfig(World& world, const Options& options, const Config& c) {
     gi::ValSetView set = world.vals(c.stride);
     r.vals = set.count;
     const auto prepStart = Clock::now();
-    auto technique = gi::LightSkinIllumination::create(settingsFor(c, set.count), world.provider(c.sparse));
+    std::unique_ptr<gi::IndirectIllumination> technique;
+    if (c.technique == "imperfect-volumes")
+        technique = gi::ImperfectVolumes::create(c.volumes);
+    else
+        technique = gi::LightSkinIllumination::create(settingsFor(c, set.count), world.provider(c.sparse));
     technique->prepare(inst);
     r.prepareMs = msSince(prepStart);
     auto& g = world.gbuffer(c.width, c.height);
@@ -604,7 +612,8 @@ std::vector<Config> buildSweep(const Options& o) {
         probe.value = "-";
         const bool same = probe.sparse == d.sparse && probe.stride == d.stride && probe.kCache == d.kCache &&
                           probe.channels == d.channels && probe.width == d.width && probe.height == d.height &&
-                          probe.sphereTriangles == d.sphereTriangles && probe.adaptive == d.adaptive;
+                          probe.sphereTriangles == d.sphereTriangles && probe.adaptive == d.adaptive &&
+                          probe.technique == d.technique;
         if (!same) configs.push_back(c);
     };
     for (int s : splitList<int>(o.sparse, [](const std::string& x) { return parseInt(x, "--sparse"); }))
@@ -632,6 +641,17 @@ std::vector<Config> buildSweep(const Options& o) {
     for (const std::string& a : splitList<std::string>(o.adaptive, [](const std::string& x) { return x; })) {
         if (a != "on" && a != "off") throw Error("--adaptive", std::nullopt, "expected on or off, got '" + a + "'");
         add("adaptive", a, [a](Config& c) { c.adaptive = a == "on"; });
+    }
+    for (const std::string& v : splitList<std::string>(o.volumes, [](const std::string& x) { return x; })) {
+        gi::ImperfectVolumesSettings s;
+        if (std::sscanf(v.c_str(), "%d:%d:%d:%d", &s.resolution, &s.pointsPerTriangle, &s.raysPerVoxel, &s.bounces) != 4)
+            throw Error("--volumes", std::nullopt, "expected resolution:points:rays:bounces, got '" + v + "'");
+        gi::validate(s);
+        add("volumes", v, [s](Config& c) {
+            c.technique = "imperfect-volumes";
+            c.volumes = s;
+            c.channels = 1;
+        });
     }
     return configs;
 }
@@ -679,12 +699,22 @@ std::vector<TemporalResult> runTemporal(World& world, const Options& options) {
     for (const std::string sequence : {"camera", "light", "edges"}) {
         std::printf("  temporal sequence '%s' (%d frames, %zu tracked points)\n", sequence.c_str(), n, points.size());
         std::fflush(stdout);
-        std::vector<std::unique_ptr<gi::LightSkinIllumination>> techniques;
+        std::vector<std::unique_ptr<gi::IndirectIllumination>> techniques;
         Config c = options.defaults;
         c.width = width;
         c.height = height;
         c.stride = stride;
-        std::vector<std::vector<float>> ours(sparseList.size());
+        // Imperfect volumes (issue 15) at the paper's settings, without and with the temporal
+        // mitigation (jitter + temporal blend), after the LightSkin entries.
+        const std::vector<std::pair<std::string, gi::ImperfectVolumesSettings>> volumeVariants = [] {
+            gi::ImperfectVolumesSettings paper, mitigated;
+            mitigated.jitter = true;
+            mitigated.temporalBlend = 0.75f;
+            return std::vector<std::pair<std::string, gi::ImperfectVolumesSettings>>{
+                {"imperfect volumes, 64^3/12/100, diffuse", paper},
+                {"imperfect volumes, 64^3/12/100, jitter + blend 0.75", mitigated}};
+        }();
+        std::vector<std::vector<float>> ours(sparseList.size() + volumeVariants.size());
         std::vector<float> reference;
         gi::BruteForceSettings bs;
         bs.glossy = false; // diffuse on both sides: the true change in the camera sequence is then 0
@@ -698,6 +728,10 @@ std::vector<TemporalResult> runTemporal(World& world, const Options& options) {
             auto t = gi::LightSkinIllumination::create(settings, world.provider(s));
             t->prepare(inst);
             techniques.push_back(std::move(t));
+        }
+        for (const auto& variant : volumeVariants) {
+            techniques.push_back(gi::ImperfectVolumes::create(variant.second));
+            techniques.back()->prepare(inst);
         }
         auto& g = world.gbuffer(width, height);
         auto& target = world.target(width, height);
@@ -745,11 +779,12 @@ std::vector<TemporalResult> runTemporal(World& world, const Options& options) {
         std::size_t samples = 0;
         const double referenceFlicker = flickerOf(reference, nullptr, samples);
         results.push_back({sequence, "brute force (reference, diffuse)", n, samples, referenceFlicker, referenceFlicker, 0.0});
-        for (std::size_t k = 0; k < sparseList.size(); ++k) {
+        for (std::size_t k = 0; k < techniques.size(); ++k) {
             TemporalResult t;
             t.sequence = sequence;
-            t.technique = "lightskin, " + std::to_string(sparseList[k]) + " sparse/model, diffuse" +
-                          (c.channels >= 3 ? " + occlusion" : "");
+            t.technique = k >= sparseList.size() ? volumeVariants[k - sparseList.size()].first
+                                                 : "lightskin, " + std::to_string(sparseList[k]) +
+                                                       " sparse/model, diffuse" + (c.channels >= 3 ? " + occlusion" : "");
             t.frames = n;
             t.flicker = flickerOf(ours[k], nullptr, samples);
             t.excessFlicker = flickerOf(ours[k], &reference, samples);
@@ -1348,6 +1383,8 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
     command->add_option("--resolutions", o->resolutions, "Output resolutions to sweep, WxH");
     command->add_option("--meshes", o->meshes, "Sphere triangle counts to sweep (the bunny adds ~15k)");
     command->add_option("--adaptive", o->adaptive, "Adaptive mode values to sweep: off,on");
+    command->add_option("--volumes", o->volumes,
+                        "Imperfect-volumes rows, resolution:points-per-triangle:rays-per-voxel:bounces (comma-separated)");
     command->add_option("--default-sparse", o->defaults.sparse, "Default configuration: sparse points per model");
     command->add_option("--default-stride", o->defaults.stride, "Default configuration: VAL stride");
     command->add_option("--default-kcache", o->defaults.kCache, "Default configuration: K_cache");

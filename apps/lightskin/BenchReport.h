@@ -3,6 +3,7 @@
 // plot (OpenCV drawing: log-log axes, Pareto front, default configuration highlighted) and the
 // Markdown section regenerated into docs/BENCHMARKS.md between markers.
 #include <lightskin/eval/ImageMetrics.h>
+#include <lightskin/gi/ImperfectVolumes.h>
 
 #include <cstddef>
 #include <optional>
@@ -25,6 +26,10 @@ struct Config {
     std::size_t sphereTriangles = 20000;
     bool adaptive = false;
     bool isDefault = false;
+    /// "lightskin", or "imperfect-volumes" (issue 15; its knobs in `volumes`, axis "volumes": value
+    /// resolution:points per triangle:rays per voxel:bounces; diffuse only, so channels = 1).
+    std::string technique = "lightskin";
+    gi::ImperfectVolumesSettings volumes;
 };
 
 const char* channelName(int channels);
