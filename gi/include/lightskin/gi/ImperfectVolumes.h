@@ -42,7 +42,7 @@ struct ImperfectVolumesSettings {
     /// Auto-fit (default): the cube around the virtual content's bounding box grown by `margin`
     /// metres on every side, so the real surfaces near the objects (table, walls) enter the volume.
     bool autoFit = true;
-    float margin = 0.3f;     ///< metres, >= 0
+    float margin = 1.0f;     ///< metres, >= 0
     glm::vec3 origin{-1.0f}; ///< fixed grid (autoFit false): minimum corner, world metres
     float size = 2.0f;       ///< fixed grid: edge length, metres (> 0)
     /// Albedo of the real points for bounces. 0: real surfaces re-emit only what the camera saw,
