@@ -32,6 +32,8 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
     command->add_option("--resolutions", o->resolutions, "Output resolutions to sweep, WxH");
     command->add_option("--meshes", o->meshes, "Sphere triangle counts to sweep (the bunny adds ~15k)");
     command->add_option("--adaptive", o->adaptive, "Adaptive mode values to sweep: off,on");
+    command->add_option("--volumes", o->volumes,
+                        "Imperfect-volumes rows, resolution:points-per-triangle:rays-per-voxel:bounces (comma-separated)");
     command->add_option("--backends", o->backends,
                         "LightSkin backends to sweep: gl,cpu (the CPU backend, gi.backend \"cpu\")");
     command->add_option("--default-sparse", o->defaults.sparse, "Default configuration: sparse points per model");

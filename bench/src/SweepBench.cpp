@@ -13,6 +13,7 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/BruteForceIllumination.h>
 #include <lightskin/gi/CpuLightSkin.h>
+#include <lightskin/gi/ImperfectVolumes.h>
 #include <lightskin/gi/LightSkinIllumination.h>
 #include <lightskin/gi/RayTracedGroundTruth.h>
 #include <lightskin/gi/SimpleGBuffer.h>
@@ -133,6 +134,7 @@ void applyQuick(SweepBenchOptions& o) {
     o.resolutions = "";
     o.meshes = "";
     o.adaptive = "off,on";
+    o.volumes = "16:12:36:1";
     o.defaults.sparse = 256;
     o.defaults.stride = 4;
     o.defaults.channels = 1; // the checks compare like with like: brute force has no occlusion
@@ -487,7 +489,10 @@ RunResult runConfig(World& world, const SweepBenchOptions& options, const Config
     // Both backends share the technique's settings and interface; the CPU backend's stage times are the
     // wall times of its CPU stages plus the GPU time of its shading pass, so their sum is its frame time.
     std::unique_ptr<gi::IndirectIllumination> technique;
-    if (c.backend == "CPU")
+    if (c.technique == "imperfect-volumes") {
+        r.method = "imperfect volumes";
+        technique = gi::ImperfectVolumes::create(c.volumes);
+    } else if (c.backend == "CPU")
         technique = gi::CpuLightSkin::create({settingsFor(c, set.count), 0}, world.provider(c.sparse));
     else
         technique = gi::LightSkinIllumination::create(settingsFor(c, set.count), world.provider(c.sparse));
@@ -585,7 +590,7 @@ std::vector<Config> buildSweep(const SweepBenchOptions& o) {
         const bool same = probe.sparse == d.sparse && probe.stride == d.stride && probe.kCache == d.kCache &&
                           probe.channels == d.channels && probe.width == d.width && probe.height == d.height &&
                           probe.sphereTriangles == d.sphereTriangles && probe.adaptive == d.adaptive &&
-                          probe.backend == d.backend;
+                          probe.backend == d.backend && probe.technique == d.technique;
         if (!same) configs.push_back(c);
     };
     for (int s : splitList<int>(o.sparse, [](const std::string& x) { return parseInt(x, "--sparse"); }))
@@ -618,6 +623,17 @@ std::vector<Config> buildSweep(const SweepBenchOptions& o) {
         if (b != "gl" && b != "cpu") throw Error("--backends", std::nullopt, "expected gl or cpu, got '" + b + "'");
         const std::string name = b == "gl" ? "GL" : "CPU";
         add("backend", name, [name](Config& c) { c.backend = name; });
+    }
+    for (const std::string& v : splitList<std::string>(o.volumes, [](const std::string& x) { return x; })) {
+        gi::ImperfectVolumesSettings s;
+        if (std::sscanf(v.c_str(), "%d:%d:%d:%d", &s.resolution, &s.pointsPerTriangle, &s.raysPerVoxel, &s.bounces) != 4)
+            throw Error("--volumes", std::nullopt, "expected resolution:points:rays:bounces, got '" + v + "'");
+        gi::validate(s);
+        add("volumes", v, [s](Config& c) {
+            c.technique = "imperfect-volumes";
+            c.volumes = s;
+            c.channels = 1;
+        });
     }
     return configs;
 }
@@ -666,12 +682,22 @@ std::vector<TemporalResult> runTemporal(World& world, const SweepBenchOptions& o
     for (const std::string sequence : {"camera", "light", "edges"}) {
         std::printf("  temporal sequence '%s' (%d frames, %zu tracked points)\n", sequence.c_str(), n, points.size());
         std::fflush(stdout);
-        std::vector<std::unique_ptr<gi::LightSkinIllumination>> techniques;
+        std::vector<std::unique_ptr<gi::IndirectIllumination>> techniques;
         Config c = options.defaults;
         c.width = width;
         c.height = height;
         c.stride = stride;
-        std::vector<std::vector<float>> ours(sparseList.size());
+        // Imperfect volumes (issue 15) at the paper's settings, without and with the temporal
+        // mitigation (jitter + temporal blend), after the LightSkin entries.
+        const std::vector<std::pair<std::string, gi::ImperfectVolumesSettings>> volumeVariants = [] {
+            gi::ImperfectVolumesSettings paper, mitigated;
+            mitigated.jitter = true;
+            mitigated.temporalBlend = 0.75f;
+            return std::vector<std::pair<std::string, gi::ImperfectVolumesSettings>>{
+                {"imperfect volumes, 64^3/12/100, diffuse", paper},
+                {"imperfect volumes, 64^3/12/100, jitter + blend 0.75", mitigated}};
+        }();
+        std::vector<std::vector<float>> ours(sparseList.size() + volumeVariants.size());
         std::vector<float> reference;
         gi::BruteForceSettings bs;
         bs.glossy = false; // diffuse on both sides: the true change in the camera sequence is then 0
@@ -685,6 +711,10 @@ std::vector<TemporalResult> runTemporal(World& world, const SweepBenchOptions& o
             auto t = gi::LightSkinIllumination::create(settings, world.provider(s));
             t->prepare(inst);
             techniques.push_back(std::move(t));
+        }
+        for (const auto& variant : volumeVariants) {
+            techniques.push_back(gi::ImperfectVolumes::create(variant.second));
+            techniques.back()->prepare(inst);
         }
         auto& g = world.gbuffer(width, height);
         auto& target = world.target(width, height);
@@ -739,11 +769,14 @@ std::vector<TemporalResult> runTemporal(World& world, const SweepBenchOptions& o
         const double referenceFlicker = flickerOf(reference, nullptr, samples);
         results.push_back({sequence, "brute force (reference, diffuse)", n, samples, referenceFlicker, referenceFlicker,
                            0.0, "brute force", "GL"});
-        for (std::size_t k = 0; k < sparseList.size(); ++k) {
+        for (std::size_t k = 0; k < techniques.size(); ++k) {
             TemporalResult t;
             t.sequence = sequence;
-            t.technique = "lightskin, " + std::to_string(sparseList[k]) + " sparse/model, diffuse" +
-                          (c.channels >= 3 ? " + occlusion" : "");
+            const bool volumes = k >= sparseList.size();
+            t.technique = volumes ? volumeVariants[k - sparseList.size()].first
+                                  : "lightskin, " + std::to_string(sparseList[k]) + " sparse/model, diffuse" +
+                                        (c.channels >= 3 ? " + occlusion" : "");
+            if (volumes) t.method = "imperfect volumes";
             t.frames = n;
             t.flicker = flickerOf(ours[k], nullptr, samples);
             t.excessFlicker = flickerOf(ours[k], &reference, samples);

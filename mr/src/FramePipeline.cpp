@@ -5,6 +5,7 @@
 #include <lightskin/gi/BruteForceIllumination.h>
 #include <lightskin/gi/CpuLightSkin.h>
 #include <lightskin/gi/DifferentialIrradiance.h>
+#include <lightskin/gi/ImperfectVolumes.h>
 #include <lightskin/gi/LightSkinIllumination.h>
 #include <lightskin/gi/ValGenerator.h>
 #include <lightskin/gi/ValOccupancyCull.h>
@@ -122,6 +123,7 @@ std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettin
         s.glossy = settings.glossy;
         return gi::BruteForceIllumination::create(s);
     }
+    if (settings.technique == "imperfect-volumes") return gi::ImperfectVolumes::create(settings.imperfectVolumes);
     return std::make_unique<render::NullIndirectIllumination>();
 }
 

@@ -109,7 +109,7 @@ TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
         {head + R"("lights": [{"type": "point", "position": [0, 0]}]})",
          "/lights/0/position: expected an array of 3 numbers"},
         {head + R"("gi": {"technique": "magic"}})",
-         "/gi/technique: expected \"lightskin\", \"brute-force\" or \"none\""},
+         "/gi/technique: expected \"lightskin\", \"brute-force\", \"imperfect-volumes\" or \"none\""},
         {head + R"("gi": {"backend": "gpu"}})", "/gi/backend: expected \"gl\" or \"cpu\", got \"gpu\""},
         {head + R"("gi": {"technique": "brute-force", "backend": "cpu"}})",
          "/gi/backend: expected \"gl\" (the CPU backend exists for technique \"lightskin\" only)"},
@@ -128,6 +128,49 @@ TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
     for (const Case& c : cases) {
         const std::string cause = causeOf(c.text);
         EXPECT_EQ(cause.rfind(c.expectedStart, 0), 0u) << "scene: " << c.text << "\ncause: " << cause;
+    }
+}
+
+TEST(Scene, ImperfectVolumesSettingsAreReadAndCheckedByKey) {
+    const Scene defaults = parseScene(R"({"version": 1, "gi": {"technique": "imperfect-volumes"}})", meshDir(), "t");
+    EXPECT_EQ(defaults.gi.technique, "imperfect-volumes");
+    EXPECT_EQ(defaults.gi.imperfectVolumes.resolution, 64); // the paper's 64^3, 12 points, 100 rays
+    EXPECT_EQ(defaults.gi.imperfectVolumes.pointsPerTriangle, 12);
+    EXPECT_EQ(defaults.gi.imperfectVolumes.raysPerVoxel, 100);
+    EXPECT_TRUE(defaults.gi.imperfectVolumes.autoFit);
+    const Scene set = parseScene(R"({"version": 1, "gi": {"technique": "imperfect-volumes", "imperfectVolumes":
+        {"resolution": 32, "pointsPerTriangle": 6, "raysPerVoxel": 64, "bounces": 3, "ambientOcclusion": true,
+         "aoRange": 0.2, "origin": [0, 1, 2], "size": 1.5, "realAlbedo": 0.25, "seed": 9}}})",
+                                 meshDir(), "t");
+    const auto& v = set.gi.imperfectVolumes;
+    EXPECT_EQ(v.resolution, 32);
+    EXPECT_EQ(v.pointsPerTriangle, 6);
+    EXPECT_EQ(v.raysPerVoxel, 64);
+    EXPECT_EQ(v.bounces, 3);
+    EXPECT_TRUE(v.ambientOcclusion);
+    EXPECT_FLOAT_EQ(v.aoRange, 0.2f);
+    EXPECT_FALSE(v.autoFit);
+    EXPECT_EQ(v.origin, glm::vec3(0, 1, 2));
+    EXPECT_FLOAT_EQ(v.size, 1.5f);
+    EXPECT_FLOAT_EQ(v.realAlbedo, 0.25f);
+    EXPECT_EQ(v.seed, 9u);
+
+    const std::string head = R"({"version": 1, "gi": {"technique": "imperfect-volumes", "imperfectVolumes": )";
+    const std::pair<std::string, std::string> cases[] = {
+        {head + R"({"resolution": 256}}})", "/gi/imperfectVolumes/resolution: expected an integer in [1, 128]"},
+        {head + R"({"bounces": 0}}})", "/gi/imperfectVolumes/bounces: expected an integer in [1, 4]"},
+        {head + R"({"raysPerVoxel": "many"}}})", "/gi/imperfectVolumes/raysPerVoxel: expected an integer"},
+        {head + R"({"origin": [0, 0, 0]}}})", "/gi/imperfectVolumes/size: expected both \"origin\" and \"size\""},
+        {head + R"({"voxels": 64}}})", "/gi/imperfectVolumes/voxels: unknown key"},
+        {head + R"({"realAlbedo": 1.5}}})", "/gi/imperfectVolumes/realAlbedo: expected a number in [0, 1]"},
+        {head + R"({"temporalBlend": 1}}})", "/gi/imperfectVolumes/temporalBlend: expected a number in [0, 0.95]"},
+        {head + R"({"jitter": 1}}})", "/gi/imperfectVolumes/jitter: expected true or false"},
+        {R"({"version": 1, "gi": {"imperfectVolumes": {}}})",
+         "/gi/imperfectVolumes: expected gi.technique \"imperfect-volumes\""},
+    };
+    for (const auto& [text, expectedStart] : cases) {
+        const std::string cause = causeOf(text);
+        EXPECT_EQ(cause.rfind(expectedStart, 0), 0u) << "scene: " << text << "\ncause: " << cause;
     }
 }
 

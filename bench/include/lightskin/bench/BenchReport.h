@@ -2,6 +2,7 @@
 // Results of `lightskin bench` (SweepBench.h) and their outputs: CSV, JSON (the source of the plots,
 // BenchPlots.h) and the Markdown section regenerated into docs/BENCHMARKS.md between markers.
 #include <lightskin/eval/ImageMetrics.h>
+#include <lightskin/gi/ImperfectVolumes.h>
 
 #include <cstddef>
 #include <optional>
@@ -25,6 +26,10 @@ struct Config {
     bool adaptive = false;
     std::string backend = "GL"; ///< LightSkin on "GL" or on the "CPU" backend (gi::CpuLightSkin)
     bool isDefault = false;
+    /// "lightskin", or "imperfect-volumes" (issue 15; its knobs in `volumes`, axis "volumes": value
+    /// resolution:points per triangle:rays per voxel:bounces; diffuse only, so channels = 1).
+    std::string technique = "lightskin";
+    gi::ImperfectVolumesSettings volumes;
 };
 
 const char* channelName(int channels);

@@ -21,6 +21,8 @@ struct SweepBenchOptions {
     std::string meshes = "20000,200000,730000";
     std::string adaptive = "off,on";
     std::string backends = "gl,cpu"; ///< backends of LightSkin to sweep: gl, cpu (gi::CpuLightSkin)
+    /// Imperfect-volumes rows (resolution:points/triangle:rays/voxel:bounces); the first is the paper's.
+    std::string volumes = "64:12:100:1,32:12:100:1,64:6:100:1,64:12:36:1,64:12:100:2";
     Config defaults;
     int frames = 3;
     int truthStride = 2;

@@ -11,6 +11,8 @@
 // and says what was expected. Unknown keys are errors too (typos would otherwise be silently ignored),
 // except inside "tracking", which is passed to the tracking module as it is.
 
+#include <lightskin/gi/ImperfectVolumes.h>
+
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
 
@@ -54,7 +56,7 @@ struct SceneLight {
 };
 
 struct GiSettings {
-    std::string technique = "lightskin"; ///< "lightskin", "brute-force" or "none"
+    std::string technique = "lightskin"; ///< "lightskin", "brute-force", "imperfect-volumes" or "none"
     /// Where LightSkin's stages 0-4 run: "gl" (gi::LightSkinIllumination) or "cpu"
     /// (gi::CpuLightSkin: SIMD + threads on the CPU; shading stays on GL). Only for "lightskin".
     std::string backend = "gl";
@@ -75,6 +77,8 @@ struct GiSettings {
     /// The light model for real depth (issue 12; docs/BENCHMARKS.md "Indirect light on real depth"):
     /// on by default; false = the model before it, for measurement (`lightskin bench-realdepth`).
     bool robustRealDepth = true;
+    /// Technique "imperfect-volumes" (gi/ImperfectVolumes.h): the "imperfectVolumes" object.
+    gi::ImperfectVolumesSettings imperfectVolumes;
 };
 
 struct CompositeSettings {

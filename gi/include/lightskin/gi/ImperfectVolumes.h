@@ -1,0 +1,93 @@
+#pragma once
+// Imperfect volumes (Mavridis & Papaioannou, GRAPP 2011; issue 15), the second indirect-illumination
+// technique behind gi::IndirectIllumination. Per frame, on the GPU (compute shaders, gi/shaders/volumes_*):
+//  1. a cubic grid (resolution^3 voxels) auto-fitted to the virtual content plus a margin for the
+//     real surfaces around it, or fixed;
+//  2. injection of points (section 3.1/3.2): pointsPerTriangle random points per virtual triangle
+//     (p(x) = 1/A; occupancy, normal, the material's diffuse albedo) and every VAL of the set (the
+//     depth frame's pixels, and the RSM VALs of the virtual content when the pipeline merges them:
+//     position, normal, exitant radiance flux / (pi area)); a voxel keeps the means;
+//  3. ray marching per voxel (section 3.3): raysPerVoxel stratified directions, one-voxel steps from
+//     the voxel's bounding sphere (sqrt(3)/2 s) to the first occupied voxel or the grid's border,
+//     projected to L1 SH (eq. 3); `bounces` passes (each occupied voxel re-emits direct + albedo / pi
+//     * E between passes); or ambient occlusion (visibility only, within aoRange);
+//  4. reconstruction per G-buffer pixel (eq. 4/5): the point moved s/2 along its normal, the eight
+//     nearest voxels weighted by the clamped cosine, irradiance E = SH . cosine lobe; the target gets
+//     rho_d / pi * E (W/(sr m^2), the diffuse indirect radiance toward the camera) or, in AO mode, the
+//     ambient occlusion in [0, 1] (dimensionless) in rgb.
+// Model choices shared with the double-precision reference: gi/include/lightskin/gi/ImperfectVolumesReference.h.
+// Only the voxels that a reconstruction reads (the eight around each covered pixel's p', and for
+// bounces around each occupied voxel's) are ray-marched: the others' SH is never used.
+//
+// GPU memory: 116 bytes per voxel (30 MB at 64^3, 243 MB at the maximum 128^3); 168 with temporalBlend.
+
+#include <lightskin/gi/IndirectIllumination.h>
+
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace lightskin::gi {
+
+struct ImperfectVolumesSettings {
+    int resolution = 64;           ///< voxels per side, 1..128 (paper: 64)
+    int pointsPerTriangle = 12;    ///< random points per virtual triangle, 0..256 (paper: 12)
+    int raysPerVoxel = 100;        ///< stratified directions per voxel, 1..4096 (paper: 100)
+    int bounces = 1;               ///< ray-marching passes, 1..4 (1 = one indirect bounce)
+    bool ambientOcclusion = false; ///< AO mode: visibility within aoRange instead of radiance
+    float aoRange = 0.5f;          ///< metres; rays unblocked this far count as open (AO mode only)
+    /// Auto-fit (default): the cube around the virtual content's bounding box grown by `margin`
+    /// metres on every side, so the real surfaces near the objects (table, walls) enter the volume.
+    bool autoFit = true;
+    float margin = 1.0f;     ///< metres, >= 0
+    glm::vec3 origin{-1.0f}; ///< fixed grid (autoFit false): minimum corner, world metres
+    float size = 2.0f;       ///< fixed grid: edge length, metres (> 0)
+    /// Albedo of the real points for bounces. 0: real surfaces re-emit only what the camera saw,
+    /// which already holds the room's own interreflections (a nonzero value counts those twice).
+    float realAlbedo = 0.0f;
+    std::uint32_t seed = 1; ///< of the triangle points (same hash as the reference)
+    /// Temporal aliasing (the paper's section 4.1: voxels toggle as points move between them).
+    /// jitter: per frame the ray origins move to a different sub-voxel position (a frame hash in
+    /// [-1/2, 1/2)^3 voxels) instead of the centres, and the triangle points are re-drawn; with
+    /// temporalBlend h > 0 each voxel's SH is (1 - h) * this frame's + h * the previous frame's
+    /// (where that voxel was marched in the previous frame too and the grid did not move), an
+    /// exponential average over ~1 / (1 - h) frames, so the sampling positions average over the voxel.
+    bool jitter = false;
+    float temporalBlend = 0.0f; ///< h in [0, 0.95]; 0 = off
+};
+
+/// Throws lightskin::Error naming the field and the allowed range.
+void validate(const ImperfectVolumesSettings& settings);
+
+class ImperfectVolumes final : public IndirectIllumination {
+public:
+    /// Needs a current GL 4.5 context; allocates the volume. Throws lightskin::Error on bad settings.
+    static std::unique_ptr<ImperfectVolumes> create(const ImperfectVolumesSettings& settings);
+    ~ImperfectVolumes() override;
+
+    std::string_view name() const override { return "imperfect-volumes"; }
+    /// Uploads each mesh's positions, normals and indices (model space) for the point sampling.
+    void prepare(std::span<const MeshInstance> instances) override;
+    void render(const ValSetView& lights, std::span<const MeshInstance> instances, const GBufferView& gbuffer,
+                const ViewParameters& view, std::uint32_t targetTexture) override;
+    void lastStageTimes(std::vector<gl::StageTime>& out) const override;
+
+    /// The grid of the last render(): minimum corner (world metres) and voxel edge (metres).
+    glm::vec3 gridOrigin() const;
+    float voxelSize() const;
+    /// Read-backs for tests (slow): per voxel (x fastest) the mean normal with w = 1 where occupied,
+    /// and the incoming SH of the last pass as three vec4 (r, g, b; coefficients Y00, Y1-1, Y10, Y11;
+    /// 0 for voxels that were not ray-marched).
+    std::vector<glm::vec4> downloadVoxelNormals() const;
+    std::vector<glm::vec4> downloadIncoming() const;
+
+private:
+    ImperfectVolumes();
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+} // namespace lightskin::gi

@@ -1,0 +1,338 @@
+// gi::ImperfectVolumes on the GPU against the double-precision reference
+// (gi/include/lightskin/gi/ImperfectVolumesReference.h, written separately from the shaders): the
+// same points (shared hash), the same grid and directions; occupancy, normals and every covered
+// pixel compared, for one bounce, two bounces and ambient occlusion. Extremes: an empty volume, an
+// all-occupied one, a 1^3 and a 128^3 volume (the maximum; one ray), stage times, bad settings.
+#include "../lights/TestMeshes.h"
+#include "ExpectError.h"
+#include "GlTestEnvironment.h"
+
+#include <lightskin/core/Error.h>
+#include <lightskin/gi/ImperfectVolumes.h>
+#include <lightskin/gi/ImperfectVolumesReference.h>
+#include <lightskin/gi/SimpleGBuffer.h>
+#include <lightskin/gl/Objects.h>
+#include <lightskin/gl/Readback.h>
+
+#include <glm/ext/matrix_clip_space.hpp>
+#include <glm/ext/matrix_transform.hpp>
+#include <glm/geometric.hpp>
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+
+#include <cmath>
+#include <numbers>
+#include <string>
+
+namespace lightskin::test {
+namespace {
+
+namespace vol = gi::reference::volumes;
+using glm::dvec3;
+constexpr double kPi = std::numbers::pi;
+
+// A floor (0.3 voxel above a voxel face, so that no pixel's p' = p + s/2 n lies on a plane of
+// voxel centres, where float and double could pick different neighbours) with a cube on it, in a
+// fixed 16^3 grid of 0.1 m voxels (every face of the cube 0.2-0.5 voxel from a voxel face: points
+// on a voxel face could fall on either side in float and double); a "real" wall of VALs at x = 0.65 facing -x and a
+// ceiling of VALs at z = 1.25 facing down, each VAL at a voxel centre.
+struct Scene {
+    std::vector<TriangleMesh> meshes;
+    std::vector<gi::UploadedMesh> gpu;
+    std::vector<gi::MeshInstance> instances;
+    std::vector<gi::VirtualAreaLight> vals;
+    gl::Buffer valBuffer;
+    gi::SimpleGBuffer gbuffer;
+    gl::Texture output;
+    glm::mat4 clip_T_world{1.0f};
+    glm::vec3 eye{1.3f, -1.5f, 1.1f};
+    static constexpr int kSize = 64;
+
+    Scene() {
+        meshes.push_back(planeGrid(1.5f, 3, 0.03f));
+        meshes.push_back(cube(0.15f));
+        instances.resize(2);
+        instances[0].meshId = 0;
+        instances[0].material.diffuseAlbedo = glm::vec3(0.5f, 0.6f, 0.7f);
+        instances[1].meshId = 1;
+        instances[1].world_T_model = glm::translate(glm::mat4(1.0f), glm::vec3(0.0f, 0.07f, 0.18f));
+        instances[1].material.diffuseAlbedo = glm::vec3(0.8f, 0.6f, 0.4f);
+        for (std::size_t i = 0; i < meshes.size(); ++i) {
+            gpu.push_back(gi::UploadedMesh::create(meshes[i]));
+            instances[i].mesh = &meshes[i];
+            instances[i].gpu = gpu[i].view();
+        }
+        for (int a = 0; a < 15; ++a)
+            for (int b = 0; b < 14; ++b) {
+                const float u = -0.75f + 0.1f * float(a), v = -0.15f + 0.1f * float(b);
+                vals.push_back({{0.65f, u, v}, 0.01f, {-1, 0, 0}, 0.0f, {0.03f, 0.015f, 0.008f}, 0.0f});
+                vals.push_back({{u, v - 0.6f, 1.25f}, 0.01f, {0, 0, -1}, 0.0f, {0.01f, 0.01f, 0.012f}, 0.0f});
+            }
+        valBuffer = gl::Buffer::create(GLsizeiptr(vals.size() * sizeof(gi::VirtualAreaLight)), vals.data());
+        gbuffer = gi::SimpleGBuffer::create(kSize, kSize);
+        output = gl::Texture::create2D(GL_RGBA32F, kSize, kSize);
+        clip_T_world = glm::perspective(0.9f, 1.0f, 0.01f, 100.0f) *
+                       glm::lookAt(eye, glm::vec3(0.0f, 0.0f, 0.15f), glm::vec3(0, 0, 1));
+        gbuffer.render(instances, clip_T_world);
+    }
+    gi::ValSetView valSet() const { return {valBuffer.id(), std::uint32_t(vals.size())}; }
+};
+
+gi::ImperfectVolumesSettings fixedGrid(int resolution, double size = 1.6) {
+    gi::ImperfectVolumesSettings s;
+    s.autoFit = false;
+    s.origin = glm::vec3(-0.8f, -0.8f, -0.2f);
+    s.size = float(size);
+    s.resolution = resolution;
+    s.pointsPerTriangle = 40;
+    s.raysPerVoxel = 64;
+    return s;
+}
+
+vol::Volume referenceVolume(const Scene& scene, const gi::ImperfectVolumesSettings& s) {
+    vol::Volume volume(vol::Grid{dvec3(s.origin), double(s.size) / s.resolution, s.resolution});
+    for (const auto& instance : scene.instances)
+        volume.inject(vol::sampleTriangles(*instance.mesh, glm::dmat4(instance.world_T_model), s.pointsPerTriangle,
+                                           dvec3(instance.material.diffuseAlbedo), s.seed));
+    std::vector<vol::SurfacePoint> points;
+    for (const auto& val : scene.vals) points.push_back(vol::pointFromVal(val, dvec3(s.realAlbedo)));
+    volume.inject(points);
+    return volume;
+}
+
+struct Pixels {
+    cv::Mat position, normal, albedo, output;
+};
+
+Pixels readPixels(const Scene& scene) {
+    Pixels p;
+    gl::readTextureRgba32fInto(scene.gbuffer.position(), p.position);
+    gl::readTextureRgba32fInto(scene.gbuffer.normal(), p.normal);
+    gl::Texture albedo = gl::Texture::wrap(scene.gbuffer.view().diffuseAlbedo, Scene::kSize, Scene::kSize);
+    gl::readTextureRgba32fInto(albedo, p.albedo);
+    (void)albedo.release(); // the G-buffer owns it
+    gl::readTextureRgba32fInto(scene.output, p.output);
+    return p;
+}
+
+struct Case {
+    const char* name;
+    int bounces;
+    bool ambientOcclusion;
+};
+
+class ImperfectVolumesGLTest : public GlTest, public ::testing::WithParamInterface<Case> {};
+
+TEST_P(ImperfectVolumesGLTest, MatchesTheDoubleReferenceAtEveryPixel) {
+    Scene scene;
+    gi::ImperfectVolumesSettings s = fixedGrid(16);
+    s.bounces = GetParam().bounces;
+    s.ambientOcclusion = GetParam().ambientOcclusion;
+    s.aoRange = 0.45f;
+    auto technique = gi::ImperfectVolumes::create(s);
+    technique->prepare(scene.instances);
+    technique->render(scene.valSet(), scene.instances, scene.gbuffer.view(), {scene.clip_T_world, scene.eye},
+                      scene.output.id());
+
+    const vol::Volume volume = referenceVolume(scene, s);
+    // Injection: the same occupied voxels and mean normals (float sums of <= ~100 unit vectors:
+    // 1e-5 covers their rounding).
+    const auto normals = technique->downloadVoxelNormals();
+    int occupied = 0;
+    for (std::size_t i = 0; i < normals.size(); ++i) {
+        ASSERT_EQ(normals[i].w > 0.0f, volume.occupied(i)) << "voxel " << i;
+        occupied += volume.occupied(i) ? 1 : 0;
+        for (int c = 0; c < 3; ++c) EXPECT_NEAR(normals[i][c], volume.normal(i)[c], 1e-5) << "voxel " << i;
+    }
+    EXPECT_GT(occupied, 200); // floor, cube, wall and ceiling
+
+    const auto directions = vol::stratifiedDirections(s.raysPerVoxel);
+    vol::MarchSettings march;
+    march.visibility = s.ambientOcclusion;
+    if (s.ambientOcclusion) march.maxDistance = double(s.aoRange);
+    const auto incoming = vol::solve(volume, directions, s.bounces, march);
+
+    const Pixels px = readPixels(scene);
+    // Tolerance: float against double on the same inputs. The sums (64 rays, 8 voxels, 2 passes)
+    // round to ~1e-5 relative; a ray whose sample point lies within float rounding of a voxel face
+    // may enter another voxel, which changes E by at most one ray's share, 4 pi / N * L_max *
+    // (pi Y00^2 + 2 pi / 3 Y1^2) = 3 pi / N * L_max: allowed on at most 1 % of the pixels.
+    const double lMax = s.ambientOcclusion ? 1.0 : 1.0 / kPi * 3.0; // brightest exitant: wall 3 W/m^2 / pi
+    const double oneRay = 3.0 * kPi / s.raysPerVoxel * lMax;
+    int covered = 0, rayFlips = 0;
+    double sum = 0.0;
+    for (int y = 0; y < Scene::kSize; ++y)
+        for (int x = 0; x < Scene::kSize; ++x) {
+            const cv::Vec4f pos = px.position.at<cv::Vec4f>(y, x), out = px.output.at<cv::Vec4f>(y, x);
+            if (pos[3] <= 0.0f) {
+                EXPECT_EQ(out, cv::Vec4f(0, 0, 0, 0)) << x << "," << y;
+                continue;
+            }
+            ++covered;
+            const cv::Vec4f nrm = px.normal.at<cv::Vec4f>(y, x), alb = px.albedo.at<cv::Vec4f>(y, x);
+            const dvec3 p(pos[0], pos[1], pos[2]);
+            const dvec3 n = glm::normalize(dvec3(nrm[0], nrm[1], nrm[2]));
+            const dvec3 e = vol::reconstructIrradiance(volume, incoming, p, n);
+            for (int c = 0; c < 3; ++c) {
+                const double expected = s.ambientOcclusion ? e.x / kPi : double(alb[c]) / kPi * e[c];
+                const double scale = s.ambientOcclusion ? 1.0 : double(alb[c]) / kPi;
+                const double error = std::abs(double(out[c]) - expected);
+                sum += expected;
+                if (error > 1e-5 * std::max(expected, 1e-3)) {
+                    ++rayFlips;
+                    EXPECT_LE(error, scale * oneRay) << x << "," << y << " channel " << c;
+                }
+            }
+        }
+    EXPECT_GT(covered, Scene::kSize * Scene::kSize / 4);
+    EXPECT_LE(rayFlips, covered * 3 / 100) << "values differing by more than rounding";
+    EXPECT_GT(sum, 0.0); // not all zero
+}
+
+INSTANTIATE_TEST_SUITE_P(Modes, ImperfectVolumesGLTest,
+                         ::testing::Values(Case{"OneBounce", 1, false}, Case{"TwoBounces", 2, false},
+                                           Case{"AmbientOcclusion", 1, true}),
+                         [](const auto& param) { return std::string(param.param.name); });
+
+using ImperfectVolumesExtremeGLTest = GlTest;
+
+TEST_F(ImperfectVolumesExtremeGLTest, EmptyVolumeGivesExactlyZeroAndStagesAreTimed) {
+    Scene scene;
+    gi::ImperfectVolumesSettings s = fixedGrid(16);
+    s.pointsPerTriangle = 0;
+    auto technique = gi::ImperfectVolumes::create(s);
+    technique->prepare(scene.instances);
+    technique->render({}, scene.instances, scene.gbuffer.view(), {scene.clip_T_world, scene.eye}, scene.output.id());
+    cv::Mat out;
+    gl::readTextureRgba32fInto(scene.output, out);
+    EXPECT_EQ(cv::countNonZero(out.reshape(1)), 0);
+    std::vector<gl::StageTime> times;
+    technique->lastStageTimes(times);
+    ASSERT_EQ(times.size(), 3u);
+    EXPECT_EQ(times[0].name, "inject");
+    EXPECT_EQ(times[1].name, "ray march");
+    EXPECT_EQ(times[2].name, "reconstruct");
+}
+
+TEST_F(ImperfectVolumesExtremeGLTest, AllOccupiedOneVoxelAndMaximumResolutionStayFiniteAndBounded) {
+    Scene scene;
+    // All occupied: one VAL per voxel centre of a 4^3 (and 1^3) grid around the scene, radiance 1,
+    // normals up and down (they cancel: seen from every side). Every ray hits a neighbour or leaves,
+    // so E <= pi and the output <= albedo. 128^3 (the maximum) with one ray: finite and >= 0.
+    for (const int resolution : {4, 1, 128}) {
+        gi::ImperfectVolumesSettings s = fixedGrid(resolution);
+        s.raysPerVoxel = resolution == 128 ? 1 : 16;
+        std::vector<gi::VirtualAreaLight> vals;
+        if (resolution <= 4) {
+            const float voxel = s.size / float(resolution);
+            for (int i = 0; i < resolution * resolution * resolution; ++i) {
+                const glm::vec3 c = s.origin + voxel * (glm::vec3(i % resolution, (i / resolution) % resolution,
+                                                                  i / (resolution * resolution)) +
+                                                        0.5f);
+                for (float sign : {1.0f, -1.0f})
+                    vals.push_back({c, 0.01f, {0, 0, sign}, 0.0f, glm::vec3(float(kPi * 0.01)), 0.0f});
+            }
+        } else {
+            vals = scene.vals;
+        }
+        gl::Buffer buffer = gl::Buffer::create(GLsizeiptr(vals.size() * sizeof(gi::VirtualAreaLight)), vals.data());
+        auto technique = gi::ImperfectVolumes::create(s);
+        technique->prepare(scene.instances);
+        technique->render({buffer.id(), std::uint32_t(vals.size())}, scene.instances, scene.gbuffer.view(),
+                          {scene.clip_T_world, scene.eye}, scene.output.id());
+        cv::Mat out;
+        gl::readTextureRgba32fInto(scene.output, out);
+        double maxValue = 0.0;
+        for (int y = 0; y < out.rows; ++y)
+            for (int x = 0; x < out.cols; ++x)
+                for (int c = 0; c < 3; ++c) {
+                    const float v = out.at<cv::Vec4f>(y, x)[c];
+                    ASSERT_TRUE(std::isfinite(v) && v >= 0.0f) << resolution << ": " << x << "," << y;
+                    maxValue = std::max(maxValue, double(v));
+                }
+        if (resolution == 1) {
+            EXPECT_EQ(maxValue, 0.0); // its rays start outside its only voxel: nothing seen
+        }
+        if (resolution == 4) {
+            // Radiance <= 1 everywhere, so E <= pi (1 + L1 ringing: <= 4/3 for a hemisphere step,
+            // 1 + 1/2 * 3/4 bound used generously) and the output <= albedo (0.8) * E / pi.
+            EXPECT_LE(maxValue, 0.8 * 1.5) << resolution;
+            EXPECT_GT(maxValue, 0.0) << resolution;
+        }
+        if (resolution == 4) {
+            const auto normals = technique->downloadVoxelNormals();
+            for (const glm::vec4& n : normals) EXPECT_GT(n.w, 0.0f);
+        }
+    }
+}
+
+TEST_F(ImperfectVolumesExtremeGLTest, TemporalBlendIsAnExponentialAverageOfTheFrames) {
+    // Static scene, h = 1/2: frames 1 and 2 equal the unblended output (frame 1 has no history,
+    // frame 2 blends two equal frames); then every VAL's flux doubles: the light is linear in it, so
+    // frame 3 = (1 - h) 2 x + h x = 1.5 x. Tolerance: float rounding of the sums, 1e-5 relative.
+    Scene scene;
+    gi::ImperfectVolumesSettings s = fixedGrid(16);
+    auto plain = gi::ImperfectVolumes::create(s);
+    s.temporalBlend = 0.5f;
+    auto blended = gi::ImperfectVolumes::create(s);
+    plain->prepare(scene.instances);
+    blended->prepare(scene.instances);
+    const gi::ViewParameters view{scene.clip_T_world, scene.eye};
+    cv::Mat reference, frame;
+    plain->render(scene.valSet(), scene.instances, scene.gbuffer.view(), view, scene.output.id());
+    gl::readTextureRgba32fInto(scene.output, reference);
+    ASSERT_GT(cv::norm(reference), 0.0);
+    const auto expectScaled = [&](double factor, const char* what) {
+        gl::readTextureRgba32fInto(scene.output, frame);
+        double worst = 0.0;
+        for (int y = 0; y < frame.rows; ++y)
+            for (int x = 0; x < frame.cols; ++x)
+                for (int c = 0; c < 3; ++c) {
+                    const double expected = factor * double(reference.at<cv::Vec4f>(y, x)[c]);
+                    worst = std::max(worst, std::abs(double(frame.at<cv::Vec4f>(y, x)[c]) - expected) /
+                                                std::max(expected, 1e-3));
+                }
+        EXPECT_LT(worst, 1e-5) << what;
+    };
+    for (int f = 1; f <= 2; ++f) {
+        blended->render(scene.valSet(), scene.instances, scene.gbuffer.view(), view, scene.output.id());
+        expectScaled(1.0, f == 1 ? "frame 1" : "frame 2");
+    }
+    std::vector<gi::VirtualAreaLight> brighter = scene.vals;
+    for (auto& val : brighter) val.flux *= 2.0f;
+    gl::Buffer buffer =
+        gl::Buffer::create(GLsizeiptr(brighter.size() * sizeof(gi::VirtualAreaLight)), brighter.data());
+    blended->render({buffer.id(), std::uint32_t(brighter.size())}, scene.instances, scene.gbuffer.view(), view,
+                    scene.output.id());
+    expectScaled(1.5, "frame 3 after the light doubled");
+}
+
+using ImperfectVolumesSettingsTest = GlTest;
+
+TEST_F(ImperfectVolumesSettingsTest, BadSettingsNameTheField) {
+    gi::ImperfectVolumesSettings s;
+    s.resolution = 0;
+    expectError([&] { gi::validate(s); }, {"gi.imperfectVolumes", std::nullopt, "resolution = 0 is outside [1, 128]"});
+    s = {};
+    s.resolution = 256;
+    expectError([&] { gi::validate(s); },
+                {"gi.imperfectVolumes", std::nullopt, "resolution = 256 is outside [1, 128]"});
+    s = {};
+    s.bounces = 5;
+    expectError([&] { gi::validate(s); }, {"gi.imperfectVolumes", std::nullopt, "bounces = 5 is outside [1, 4]"});
+    s = {};
+    s.raysPerVoxel = 0;
+    expectError([&] { gi::ImperfectVolumes::create(s); }, {"gi.imperfectVolumes", std::nullopt, "raysPerVoxel = 0"});
+    s = {};
+    s.aoRange = -1.0f;
+    expectError([&] { gi::validate(s); }, {"gi.imperfectVolumes", std::nullopt, "aoRange"});
+    s = {};
+    s.realAlbedo = 2.0f;
+    expectError([&] { gi::validate(s); }, {"gi.imperfectVolumes", std::nullopt, "realAlbedo must be <= 1"});
+    s = {};
+    s.temporalBlend = 1.0f;
+    expectError([&] { gi::validate(s); }, {"gi.imperfectVolumes", std::nullopt, "temporalBlend = 1.0"});
+}
+
+} // namespace
+} // namespace lightskin::test
