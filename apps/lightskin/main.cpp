@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
     });
 
     int exitCode = 0;
+    lightskin::apps::setProgramArguments(argc, argv);
     lightskin::apps::addRegisteredCommands(app, exitCode);
 
     try {
