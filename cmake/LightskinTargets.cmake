@@ -57,6 +57,16 @@ endif()
 # Release builds keep assertions: a wrong result from a graphics pipeline is worse than an abort.
 string(REPLACE "-DNDEBUG" "" CMAKE_CXX_FLAGS_RELWITHDEBINFO "${CMAKE_CXX_FLAGS_RELWITHDEBINFO}")
 string(REPLACE "-DNDEBUG" "" CMAKE_CXX_FLAGS_RELEASE "${CMAKE_CXX_FLAGS_RELEASE}")
+# RelWithDebInfo (the main job's and CI's build) keeps function names and line tables (-g1: backtraces,
+# sanitizer and profiler reports with file:line) but not variables and types: full -g costs the
+# nlohmann::json-heavy files ~1.3x the CPU time (render/src/Scene.cpp: 9.1 s against 7.2 s) and makes
+# the links slower, and the main job is compile-bound (docs/TESTING.md, "Build and CI times").
+# -DLIGHTSKIN_FULL_DEBUG_INFO=ON (or the Debug build) for a debugger session.
+if(NOT LIGHTSKIN_FULL_DEBUG_INFO)
+  foreach(lang C CXX)
+    string(REGEX REPLACE "(^| )-g( |$)" "\\1-g1\\2" CMAKE_${lang}_FLAGS_RELWITHDEBINFO "${CMAKE_${lang}_FLAGS_RELWITHDEBINFO}")
+  endforeach()
+endif()
 
 # Applies lightskin's own warning set to a target. Third-party headers are included as SYSTEM
 # by the imported targets, so their warnings never fail our build.

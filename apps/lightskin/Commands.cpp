@@ -18,4 +18,12 @@ void addRegisteredCommands(CLI::App& app, int& exitCode) {
     for (const auto& [name, add] : registry()) add(app, exitCode);
 }
 
+namespace {
+std::span<char* const> arguments;
+} // namespace
+
+void setProgramArguments(int argc, char** argv) { arguments = {argv, static_cast<std::size_t>(argc)}; }
+
+std::span<char* const> programArguments() { return arguments; }
+
 } // namespace lightskin::apps

@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 
 #include <functional>
+#include <span>
 
 namespace lightskin::apps {
 
@@ -18,5 +19,10 @@ struct CommandRegistration {
 
 /// Adds every registered subcommand to `app`, in name order.
 void addRegisteredCommands(CLI::App& app, int& exitCode);
+
+/// The process's arguments as main() received them (argv[0] first; not owned, valid for the process's
+/// lifetime), for a command that runs another program with them (ToolsForward.cpp).
+void setProgramArguments(int argc, char** argv);
+std::span<char* const> programArguments();
 
 } // namespace lightskin::apps

@@ -46,6 +46,7 @@ int main(int argc, char** argv) {
     });
 
     int exitCode = 0;
+    lightskin::apps::setProgramArguments(argc, argv);
     lightskin::apps::addRegisteredCommands(app, exitCode);
 
     if (const char* word = firstCommandWord(argc, argv); word != nullptr) {
