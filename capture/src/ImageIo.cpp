@@ -172,7 +172,7 @@ void readColour8(const std::filesystem::path& path, std::optional<std::int64_t> 
 }
 
 void writeFileAtomically(const std::filesystem::path& path, std::optional<std::int64_t> frame,
-                         const std::vector<unsigned char>& bytes) {
+                         const std::vector<unsigned char>& bytes, bool durable) {
     const std::string temporary = path.string() + ".tmp";
     const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
     if (fd < 0) throw Error(temporary, frame, std::string("cannot create the file: ") + std::strerror(errno));
@@ -187,6 +187,13 @@ void writeFileAtomically(const std::filesystem::path& path, std::optional<std::i
             throw Error(temporary, frame, std::string("cannot write the file: ") + std::strerror(code));
         }
         written += static_cast<std::size_t>(n);
+    }
+    while (durable && ::fsync(fd) != 0) {
+        if (errno == EINTR) continue;
+        const int code = errno;
+        ::close(fd);
+        ::unlink(temporary.c_str());
+        throw Error(temporary, frame, std::string("cannot fsync the file: ") + std::strerror(code));
     }
     if (::close(fd) != 0) {
         const int code = errno;

@@ -36,9 +36,11 @@ void readDepth16(const std::filesystem::path& path, std::optional<std::int64_t> 
 void readColour8(const std::filesystem::path& path, std::optional<std::int64_t> frame, std::optional<cv::Size> expected,
                  std::vector<unsigned char>& scratch, cv::Mat& out);
 
-/// Writes `bytes` to `path` through `path.tmp` + rename, so `path` is either absent or complete.
+/// Writes `bytes` to `path` through `path.tmp` + rename, so `path` is either absent or complete
+/// after a crash. With `durable` the data is fsync'ed before the rename (a power loss then leaves
+/// the old or the complete new content; the folder entry still needs an fsync of the folder).
 void writeFileAtomically(const std::filesystem::path& path, std::optional<std::int64_t> frame,
-                         const std::vector<unsigned char>& bytes);
+                         const std::vector<unsigned char>& bytes, bool durable = false);
 
 /// Resolves `relative` (from a manifest or list) inside `folder`. Throws when it is absolute or
 /// would leave the folder (`..`, or a symbolic link pointing outside).

@@ -74,16 +74,49 @@ struct Recorder::Impl {
     RecorderStats snapshot() const {
         RecorderStats copy = stats;
         copy.queued = std::int64_t(count);
-        copy.writeLatencyP50Ms = percentileMs(latencyHistogram, stats.written, 0.50);
-        copy.writeLatencyP95Ms = percentileMs(latencyHistogram, stats.written, 0.95);
-        copy.writeLatencyP99Ms = percentileMs(latencyHistogram, stats.written, 0.99);
+        copy.waitingForSync = writerWaiting;
+        copy.dropped = stats.pushed - stats.written - writerWaiting - copy.queued;
+        copy.writeLatencyP50Ms = percentileMs(latencyHistogram, latencySamples, 0.50);
+        copy.writeLatencyP95Ms = percentileMs(latencyHistogram, latencySamples, 0.95);
+        copy.writeLatencyP99Ms = percentileMs(latencyHistogram, latencySamples, 0.99);
         return copy;
+    }
+
+    // The writer's counters, copied under `mutex` after each writer call (the writer itself is the
+    // writer thread's alone). written = listed; a frame the writer took but whose sync failed is in
+    // neither, so dropped = pushed - written - waiting - queued covers it with the refused ones.
+    std::int64_t writerWaiting = 0, latencySamples = 0;
+
+    void takeWriterCounts() {
+        stats.written = writer.framesListed();
+        writerWaiting = writer.framesWritten() - stats.written;
+    }
+
+    void noteError(const std::string& error) {
+        if (stats.firstError.empty()) stats.firstError = error;
+        log::error("recorder: " + error);
     }
 
     void run() {
         for (;;) {
             std::unique_lock lock(mutex);
-            wake.wait(lock, [&] { return count > 0 || stopping; });
+            // Wakes at least every 100 ms while idle, so frames waiting for a sync get listed within
+            // syncEverySeconds + 0.1 s even when the source pauses.
+            const bool woken =
+                wake.wait_for(lock, std::chrono::milliseconds(100), [&] { return count > 0 || stopping; });
+            if (!woken) {
+                lock.unlock();
+                std::string error;
+                try {
+                    writer.syncIfDue();
+                } catch (const std::exception& e) {
+                    error = e.what();
+                }
+                lock.lock();
+                takeWriterCounts();
+                if (!error.empty()) noteError("frames not listed: " + error);
+                continue;
+            }
             if (count == 0) return; // stopping and drained
             RgbdFrame& frame = slots[head];
             lock.unlock();
@@ -91,19 +124,18 @@ struct Recorder::Impl {
             try {
                 writer.write(frame);
             } catch (const std::exception& e) {
-                error = e.what();
+                error = e.what(); // the frame failed, or the sync it triggered did (losing the batch)
             }
             const double latencyMs = std::chrono::duration<double, std::milli>(Clock::now() - pushedAt[head]).count();
             lock.lock();
             if (error.empty()) {
-                ++stats.written;
+                ++latencySamples;
                 ++latencyHistogram[std::min(std::size_t(latencyMs), kLatencyBins - 1)];
                 stats.writeLatencyMaxMs = std::max(stats.writeLatencyMaxMs, latencyMs);
             } else {
-                ++stats.dropped;
-                if (stats.firstError.empty()) stats.firstError = error;
-                log::error("recorder: frame not written: " + error);
+                noteError("frame not written: " + error);
             }
+            takeWriterCounts();
             head = (head + 1) % slots.size();
             --count;
         }
@@ -133,10 +165,7 @@ bool Recorder::push(const RgbdFrame& frame) {
         std::lock_guard lock(s.mutex);
         LIGHTSKIN_ASSERT(!s.stopping, "push() after finish()");
         ++s.stats.pushed;
-        if (s.count == s.slots.size()) {
-            ++s.stats.dropped;
-            return false;
-        }
+        if (s.count == s.slots.size()) return false; // counted as dropped by snapshot()
         slot = s.tail;
     }
     s.pushedAt[slot] = Clock::now();
@@ -166,6 +195,7 @@ RecorderStats Recorder::finish() {
     } catch (const std::exception& e) {
         if (s.stats.firstError.empty()) s.stats.firstError = e.what();
     }
+    s.takeWriterCounts();
     s.finished = true;
     return s.snapshot();
 }
