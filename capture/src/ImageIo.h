@@ -3,6 +3,8 @@
 // lightskin::Error naming the file, the frame and the cause; nothing is allocated for a size
 // taken from a file before that size has been checked against the limits below.
 
+#include <lightskin/core/ImageFile.h>
+
 #include <opencv2/core/mat.hpp>
 
 #include <cstdint>
@@ -14,17 +16,15 @@
 namespace lightskin::capture::detail {
 
 /// Largest image file accepted (bytes) and largest image side (pixels).
-inline constexpr std::uintmax_t kMaxImageFileBytes = std::uintmax_t{256} << 20;
-inline constexpr int kMaxImageSide = 16384;
+using lightskin::kMaxImageFileBytes;
+using lightskin::kMaxImageSide;
 
 /// Reads a whole file into `bytes` (reused), refusing files larger than `maxBytes`.
 void readFileBounded(const std::filesystem::path& path, std::optional<std::int64_t> frame, std::uintmax_t maxBytes,
                      std::vector<unsigned char>& bytes);
 
-/// Width and height from a PNG, TIFF or JPEG header, when `bytes` is one of those (nullopt for other
-/// formats). Throws when the header is truncated or states an absurd size.
-std::optional<cv::Size> peekImageSize(const std::vector<unsigned char>& bytes, const std::filesystem::path& path,
-                                      std::optional<std::int64_t> frame);
+/// Width and height from a PNG, TIFF or JPEG header (lightskin/core/ImageFile.h).
+using lightskin::peekImageSize;
 
 /// Decodes a depth image (16-bit single-channel PNG/TIFF) into `out` (reused). Refuses 8-bit,
 /// float or multi-channel images, and a size other than `expected` when given.

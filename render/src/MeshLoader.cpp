@@ -73,6 +73,16 @@ Material convertMaterial(const aiMaterial& source, const std::filesystem::path& 
     return material;
 }
 
+std::uint64_t saturatingAdd(std::uint64_t a, std::uint64_t b) {
+    std::uint64_t sum = 0;
+    return __builtin_add_overflow(a, b, &sum) ? std::numeric_limits<std::uint64_t>::max() : sum;
+}
+
+std::uint64_t saturatingMultiply(std::uint64_t a, std::uint64_t b) {
+    std::uint64_t product = 0;
+    return __builtin_mul_overflow(a, b, &product) ? std::numeric_limits<std::uint64_t>::max() : product;
+}
+
 std::size_t plyTypeSize(const std::string& type) {
     if (type == "char" || type == "uchar" || type == "int8" || type == "uint8") return 1;
     if (type == "short" || type == "ushort" || type == "int16" || type == "uint16") return 2;
@@ -81,8 +91,10 @@ std::size_t plyTypeSize(const std::string& type) {
     return 0;
 }
 
-// assimp 5.2.5 loops forever on a PLY whose header is cut off, and reads past the data of a
-// truncated binary body. Check the header and the least size a binary body needs first.
+// assimp 5.2.5 loops forever on a PLY whose header is cut off, reads past the data of a truncated
+// binary body, and reserves memory for the header's element counts before reading any (an ASCII
+// PLY claiming 2^31 faces made it request 32 GB: a fuzz finding). Check the header, and that the
+// body can hold what the counts claim, first.
 void checkPlyHeader(const std::filesystem::path& path) {
     const std::string source = path.string();
     std::ifstream file(path, std::ios::binary);
@@ -91,8 +103,11 @@ void checkPlyHeader(const std::filesystem::path& path) {
     std::getline(file, line);
     if (line.rfind("ply", 0) != 0) throw Error(source, std::nullopt, "not a PLY file (no 'ply' magic line)");
     bool binary = false, ended = false;
-    std::uint64_t minimumBody = 0, elementCount = 0;
+    // Least body sizes the counts imply: binary, the properties' sizes (a list at least its count);
+    // ASCII, two bytes per value (a digit and a separator; a list at least its count).
+    std::uint64_t minimumBody = 0, minimumAsciiBody = 0, elementCount = 0;
     std::size_t headerBytes = line.size() + 1;
+    const std::uint64_t fileBytes = std::filesystem::file_size(path);
     for (int lines = 0; lines < 10000 && std::getline(file, line); ++lines) {
         headerBytes += line.size() + 1;
         if (!line.empty() && line.back() == '\r') line.pop_back();
@@ -111,7 +126,9 @@ void checkPlyHeader(const std::filesystem::path& path) {
             std::string type;
             words >> type;
             if (type == "list") words >> type; // the count type; at least the count is stored
-            minimumBody += elementCount * plyTypeSize(type);
+            // Saturating: a forged count must not wrap the sums around to a small size.
+            minimumBody = saturatingAdd(minimumBody, saturatingMultiply(elementCount, plyTypeSize(type)));
+            minimumAsciiBody = saturatingAdd(minimumAsciiBody, saturatingMultiply(elementCount, 2));
         } else if (keyword == "end_header") {
             ended = true;
             break;
@@ -119,10 +136,15 @@ void checkPlyHeader(const std::filesystem::path& path) {
     }
     if (!ended) throw Error(source, std::nullopt, "PLY header is truncated (no end_header line)");
     if (binary) {
-        const std::uint64_t size = std::filesystem::file_size(path);
-        if (size < headerBytes + minimumBody)
-            throw Error(source, std::nullopt, "binary PLY is truncated: " + std::to_string(size) + " bytes, the header needs at least " +
-                                                  std::to_string(headerBytes + minimumBody));
+        if (fileBytes < saturatingAdd(headerBytes, minimumBody))
+            throw Error(source, std::nullopt,
+                        "binary PLY is truncated: " + std::to_string(fileBytes) + " bytes, the header needs at least " +
+                            std::to_string(saturatingAdd(headerBytes, minimumBody)));
+    } else if (fileBytes + 1 < saturatingAdd(headerBytes, minimumAsciiBody)) { // + 1: the last value needs no separator
+        throw Error(source, std::nullopt,
+                    "ASCII PLY is truncated or its element counts are wrong: " + std::to_string(fileBytes) +
+                        " bytes, the header's counts need at least " +
+                        std::to_string(saturatingAdd(headerBytes, minimumAsciiBody)));
     }
 }
 

@@ -145,6 +145,15 @@ TEST(MeshLoader, BadFilesGiveErrorsNamingTheFileAndCause) {
 
     const std::string truncatedBinary = errorOf(dir / "truncated_binary.ply");
     EXPECT_NE(truncatedBinary.find("binary PLY is truncated"), std::string::npos) << truncatedBinary;
+
+    // Fuzz finding: an ASCII PLY claiming 2^31 - 1 faces made assimp reserve 32 GB before reading any.
+    const std::string overflow = errorOf(dir / "ascii_face_count_overflow.ply");
+    EXPECT_NE(overflow.find("ascii_face_count_overflow.ply"), std::string::npos) << overflow;
+    EXPECT_NE(overflow.find("ASCII PLY is truncated or its element counts are wrong"), std::string::npos) << overflow;
+    EXPECT_NE(overflow.find("need at least 4294967"), std::string::npos) << overflow; // 2 bytes x (2^31 - 1) faces
+    // Counts below the file size but more than its body holds (300 vertices, 3 given): 2 bytes per value.
+    const std::string shortBody = errorOf(dir / "ascii_counts_exceed_body.ply");
+    EXPECT_NE(shortBody.find("ASCII PLY is truncated or its element counts are wrong"), std::string::npos) << shortBody;
 }
 
 TEST(MeshLoader, RemoveDegenerateTrianglesOnAHandMadeMesh) {
