@@ -83,6 +83,56 @@ std::uint64_t saturatingMultiply(std::uint64_t a, std::uint64_t b) {
     return __builtin_mul_overflow(a, b, &product) ? std::numeric_limits<std::uint64_t>::max() : product;
 }
 
+/// Largest value of a PLY list's count type; 0 for an unknown or non-integer type.
+std::uint64_t plyCountTypeMax(const std::string& type) {
+    if (type == "char" || type == "int8") return 127;
+    if (type == "uchar" || type == "uint8") return 255;
+    if (type == "short" || type == "int16") return 32767;
+    if (type == "ushort" || type == "uint16") return 65535;
+    if (type == "int" || type == "int32") return 2147483647;
+    if (type == "uint" || type == "uint32") return 4294967295;
+    return 0;
+}
+
+struct PlyProperty {
+    bool list = false;
+    std::uint64_t countMax = 0; ///< list: its count type's largest value
+};
+struct PlyElement {
+    std::string name;
+    std::uint64_t count = 0;
+    std::vector<PlyProperty> properties;
+};
+
+/// Walks an ASCII PLY body, one element instance per line (as assimp reads it; "comment" lines
+/// are skipped like assimp does): every list count must be a whole number within its count type.
+/// assimp reads "99999999993" into a uchar count without a check and allocates for it (32 GB: fuzz
+/// finding 2b). Lines with too few values are left to assimp, which reports them.
+void checkPlyAsciiBody(std::istream& body, const std::vector<PlyElement>& elements, const std::string& source) {
+    std::string line, token;
+    for (const PlyElement& element : elements)
+        for (std::uint64_t i = 0; i < element.count; ++i) {
+            do {
+                if (!std::getline(body, line)) return;
+            } while (line.find_first_not_of(" \t\r") == std::string::npos ||
+                     line.compare(line.find_first_not_of(" \t"), 7, "comment") == 0);
+            std::istringstream values(line);
+            for (const PlyProperty& property : element.properties) {
+                if (!(values >> token)) break;
+                if (!property.list) continue;
+                const bool digits = token.size() <= 19 && std::all_of(token.begin(), token.end(),
+                                                                      [](char c) { return c >= '0' && c <= '9'; });
+                if (!digits || std::stoull(token) > property.countMax)
+                    throw Error(source, std::nullopt,
+                                "ASCII PLY: element '" + element.name + "' " + std::to_string(i) + ": list count '" +
+                                    token.substr(0, 32) + "' is not a whole number within its count type (0.." +
+                                    std::to_string(property.countMax) + ")");
+                for (std::uint64_t k = std::stoull(token); k > 0 && values >> token; --k) {
+                }
+            }
+        }
+}
+
 std::size_t plyTypeSize(const std::string& type) {
     if (type == "char" || type == "uchar" || type == "int8" || type == "uint8") return 1;
     if (type == "short" || type == "ushort" || type == "int16" || type == "uint16") return 2;
@@ -106,6 +156,7 @@ void checkPlyHeader(const std::filesystem::path& path) {
     // Least body sizes the counts imply: binary, the properties' sizes (a list at least its count);
     // ASCII, two bytes per value (a digit and a separator; a list at least its count).
     std::uint64_t minimumBody = 0, minimumAsciiBody = 0, elementCount = 0;
+    std::vector<PlyElement> elements;
     std::size_t headerBytes = line.size() + 1;
     const std::uint64_t fileBytes = std::filesystem::file_size(path);
     for (int lines = 0; lines < 10000 && std::getline(file, line); ++lines) {
@@ -122,10 +173,17 @@ void checkPlyHeader(const std::filesystem::path& path) {
             std::string name;
             words >> name >> elementCount;
             if (!words) throw Error(source, std::nullopt, "PLY header: malformed element line '" + line + "'");
+            elements.push_back({name, elementCount, {}});
         } else if (keyword == "property") {
             std::string type;
             words >> type;
-            if (type == "list") words >> type; // the count type; at least the count is stored
+            PlyProperty property;
+            if (type == "list") {
+                words >> type; // the count type; at least the count is stored
+                property.list = true;
+                property.countMax = plyCountTypeMax(type);
+            }
+            if (!elements.empty()) elements.back().properties.push_back(property);
             // Saturating: a forged count must not wrap the sums around to a small size.
             minimumBody = saturatingAdd(minimumBody, saturatingMultiply(elementCount, plyTypeSize(type)));
             minimumAsciiBody = saturatingAdd(minimumAsciiBody, saturatingMultiply(elementCount, 2));
@@ -145,6 +203,8 @@ void checkPlyHeader(const std::filesystem::path& path) {
                     "ASCII PLY is truncated or its element counts are wrong: " + std::to_string(fileBytes) +
                         " bytes, the header's counts need at least " +
                         std::to_string(saturatingAdd(headerBytes, minimumAsciiBody)));
+    } else {
+        checkPlyAsciiBody(file, elements, source); // the counts are now bounded by the file size
     }
 }
 

@@ -152,6 +152,12 @@ TEST(MeshLoader, BadFilesGiveErrorsNamingTheFileAndCause) {
     EXPECT_NE(overflow.find("ASCII PLY is truncated or its element counts are wrong"), std::string::npos) << overflow;
     EXPECT_NE(overflow.find("need at least 4294967"), std::string::npos) << overflow; // 2 bytes x (2^31 - 1) faces
     // Counts below the file size but more than its body holds (300 vertices, 3 given): 2 bytes per value.
+    // Fuzz finding 2b: a face's list count far beyond its uchar type made assimp allocate 32 GB.
+    const std::string listCount = errorOf(dir / "ascii_list_count_overflow.ply");
+    EXPECT_NE(listCount.find("element 'face' 0: list count '99999999999993' is not a whole number within its count "
+                             "type (0..255)"),
+              std::string::npos)
+        << listCount;
     const std::string shortBody = errorOf(dir / "ascii_counts_exceed_body.ply");
     EXPECT_NE(shortBody.find("ASCII PLY is truncated or its element counts are wrong"), std::string::npos) << shortBody;
 }
