@@ -8,6 +8,7 @@
 #include <condition_variable>
 #include <mutex>
 #include <thread>
+#include <time.h>
 #include <vector>
 
 namespace lightskin::capture {
@@ -34,6 +35,13 @@ void copyFrameInto(const RgbdFrame& from, RgbdFrame& to) {
     to.groundTruth_world_T_camera = from.groundTruth_world_T_camera;
 }
 using Clock = std::chrono::steady_clock;
+
+/// CPU time of the calling thread (what the writer costs, independent of how loaded the machine is).
+double threadCpuSeconds() {
+    timespec now{};
+    ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &now);
+    return double(now.tv_sec) + 1e-9 * double(now.tv_nsec);
+}
 
 /// 1 ms bins up to 10 s: preallocated, so the writer records a latency without allocating.
 constexpr std::size_t kLatencyBins = 10000;
@@ -76,6 +84,7 @@ struct Recorder::Impl {
         copy.queued = std::int64_t(count);
         copy.waitingForSync = writerWaiting;
         copy.dropped = stats.pushed - stats.written - writerWaiting - copy.queued;
+        copy.writerCpuMsPerFrame = latencySamples > 0 ? 1000.0 * writerCpuSeconds / double(latencySamples) : 0.0;
         copy.writeLatencyP50Ms = percentileMs(latencyHistogram, latencySamples, 0.50);
         copy.writeLatencyP95Ms = percentileMs(latencyHistogram, latencySamples, 0.95);
         copy.writeLatencyP99Ms = percentileMs(latencyHistogram, latencySamples, 0.99);
@@ -86,6 +95,7 @@ struct Recorder::Impl {
     // writer thread's alone). written = listed; a frame the writer took but whose sync failed is in
     // neither, so dropped = pushed - written - waiting - queued covers it with the refused ones.
     std::int64_t writerWaiting = 0, latencySamples = 0;
+    double writerCpuSeconds = 0.0; ///< CPU time of the writer thread inside write()
 
     void takeWriterCounts() {
         stats.written = writer.framesListed();
@@ -121,13 +131,16 @@ struct Recorder::Impl {
             RgbdFrame& frame = slots[head];
             lock.unlock();
             std::string error;
+            const double cpuBefore = threadCpuSeconds();
             try {
                 writer.write(frame);
             } catch (const std::exception& e) {
                 error = e.what(); // the frame failed, or the sync it triggered did (losing the batch)
             }
+            const double cpuSeconds = threadCpuSeconds() - cpuBefore;
             const double latencyMs = std::chrono::duration<double, std::milli>(Clock::now() - pushedAt[head]).count();
             lock.lock();
+            writerCpuSeconds += cpuSeconds;
             if (error.empty()) {
                 ++latencySamples;
                 ++latencyHistogram[std::min(std::size_t(latencyMs), kLatencyBins - 1)];

@@ -35,6 +35,9 @@ struct RecorderStats {
     /// histogram of 1 ms bins (each percentile is the upper edge of its bin; beyond 10 s all land in the last bin); max
     /// is exact. 0 when nothing was written.
     double writeLatencyP50Ms = 0.0, writeLatencyP95Ms = 0.0, writeLatencyP99Ms = 0.0, writeLatencyMaxMs = 0.0;
+    /// CPU time the writer thread spent per written frame (encoding, writing, its share of the
+    /// syncs), milliseconds: 1000 / 30 = 33 ms is a whole core at 30 fps. 0 when nothing was written.
+    double writerCpuMsPerFrame = 0.0;
     std::string firstError; ///< the first write error (empty when none)
 };
 
