@@ -177,14 +177,18 @@ bool Recorder::push(const RgbdFrame& frame) {
     {
         std::lock_guard lock(s.mutex);
         LIGHTSKIN_ASSERT(!s.stopping, "push() after finish()");
-        ++s.stats.pushed;
-        if (s.count == s.slots.size()) return false; // counted as dropped by snapshot()
+        if (s.count == s.slots.size()) {
+            ++s.stats.pushed; // counted as dropped by snapshot()
+            return false;
+        }
         slot = s.tail;
     }
     s.pushedAt[slot] = Clock::now();
     copyFrameInto(frame, s.slots[slot]);
     {
         std::lock_guard lock(s.mutex);
+        // Counted pushed only now, with the frame queued: snapshot() derives dropped from both.
+        ++s.stats.pushed;
         s.tail = (s.tail + 1) % s.slots.size();
         ++s.count;
         s.stats.queueHighWater = std::max(s.stats.queueHighWater, std::int64_t(s.count));
