@@ -263,6 +263,23 @@ void checkGltfBuffers(const std::filesystem::path& path) {
     }
 }
 
+// assimp 5.2.5's MTL reader dereferences its current material, which exists only after a `newmtl`
+// line: a property line before the first `newmtl` crashes it (SEGV; a fuzz finding). Every line
+// before the first `newmtl` must be empty or a comment.
+void checkMaterialLibrary(const std::filesystem::path& path) {
+    std::ifstream file(path, std::ios::binary);
+    std::string line;
+    for (std::int64_t number = 1; std::getline(file, line); ++number) {
+        std::istringstream words(line);
+        std::string keyword;
+        if (!(words >> keyword) || keyword[0] == '#') continue;
+        if (keyword == "newmtl") return;
+        throw Error(path.string(), std::nullopt,
+                    "line " + std::to_string(number) + ": '" + keyword.substr(0, 32) +
+                        "' before the first 'newmtl' (material properties need a material)");
+    }
+}
+
 // assimp's OBJ importer replaces a missing material library by a default grey material with only
 // a log line: the object would render in the wrong colours without an error.
 void checkObjMaterialLibraries(const std::filesystem::path& path) {
@@ -275,6 +292,7 @@ void checkObjMaterialLibraries(const std::filesystem::path& path) {
             std::error_code error;
             if (!std::filesystem::is_regular_file(path.parent_path() / name, error))
                 throw Error(path.string(), std::nullopt, "material library '" + name + "' (mtllib) does not exist");
+            checkMaterialLibrary(path.parent_path() / name);
         }
     }
 }

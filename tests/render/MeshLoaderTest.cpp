@@ -163,6 +163,10 @@ TEST(MeshLoader, BadFilesGiveErrorsNamingTheFileAndCause) {
     const std::string noProperties = errorOf(dir / "ascii_element_without_properties.ply");
     EXPECT_NE(noProperties.find("ASCII PLY is truncated or its element counts are wrong"), std::string::npos)
         << noProperties;
+    // Fuzz finding: a material property before the first newmtl crashed assimp's MTL reader (SEGV).
+    const std::string mtl = errorOf(dir / "mtl_property_before_newmtl.obj");
+    EXPECT_NE(mtl.find("mtl_property_before_newmtl.mtl"), std::string::npos) << mtl;
+    EXPECT_NE(mtl.find("line 1: 'Kd' before the first 'newmtl'"), std::string::npos) << mtl;
     const std::string shortBody = errorOf(dir / "ascii_counts_exceed_body.ply");
     EXPECT_NE(shortBody.find("ASCII PLY is truncated or its element counts are wrong"), std::string::npos) << shortBody;
 }
