@@ -5,8 +5,9 @@
 # <target>, seeded from fuzz/corpus/<target>, kept between runs) so that new inputs never land in the
 # repository by themselves; findings go to build-fuzz/findings/<target>/ and fail the script.
 # Prints one line per target with the executions done (libFuzzer's final stats).
-# Installs clang-15 and libfuzzer-15-dev when missing (not in scripts/debian-packages.txt: the normal
-# build and CI replay the corpora with gcc and need neither).
+# Installs clang-15, libfuzzer-15-dev and libomp-15-dev (clang's OpenMP, which the gi module's CPU
+# backend needs) when missing (not in scripts/debian-packages.txt: the normal build and CI replay the
+# corpora with gcc and need none of them).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build_dir="${LIGHTSKIN_FUZZ_BUILD_DIR:-$root/build-fuzz}"
@@ -17,11 +18,12 @@ all_targets=(recording_header recording_index tum image_header scene_json mesh t
 targets=("$@")
 [[ ${#targets[@]} -gt 0 ]] || targets=("${all_targets[@]}")
 
-if ! command -v clang++-15 >/dev/null || ! dpkg-query -W -f='${Status}' libfuzzer-15-dev 2>/dev/null | grep -q "ok installed"; then
+installed() { dpkg-query -W -f='${Status}' "$1" 2>/dev/null | grep -q "ok installed"; }
+if ! command -v clang++-15 >/dev/null || ! installed libfuzzer-15-dev || ! installed libomp-15-dev; then
   as_root=()
   [[ $(id -u) -eq 0 ]] || as_root=(sudo)
   "${as_root[@]}" apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive "${as_root[@]}" apt-get install -y -qq --no-install-recommends clang-15 libfuzzer-15-dev
+  DEBIAN_FRONTEND=noninteractive "${as_root[@]}" apt-get install -y -qq --no-install-recommends clang-15 libfuzzer-15-dev libomp-15-dev
 fi
 # Warnings are errors in the gcc build (CI); clang's warning set differs, so not here.
 CC=clang-15 CXX=clang++-15 cmake -S "$root" -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \

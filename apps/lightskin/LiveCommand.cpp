@@ -17,6 +17,7 @@
 #include <lightskin/gl/Context.h>
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/gl/Objects.h>
+#include <lightskin/mr/LiveFrameReader.h>
 #include <lightskin/mr/Session.h>
 #include <lightskin/render/Scene.h>
 
@@ -183,13 +184,32 @@ int runLive(const LiveArgs& args) {
     liveInterrupt = false;
     const auto previous = std::signal(SIGINT, onLiveInterrupt);
     WindowDisplay display;
+    mr::LiveFrameReader reader(*source);
     RgbdFrame frame;
     cv::Mat shown, clean; // clean: what is shown without the status line (snapshots)
     std::int64_t count = 0;
     double fps = 0.0;
     auto last = std::chrono::steady_clock::now();
     try {
-        while (!quit && !liveInterrupt && (!args.maxFrames || count < *args.maxFrames) && source->next(frame)) {
+        while (!quit && !liveInterrupt && (!args.maxFrames || count < *args.maxFrames)) {
+            const mr::LiveFrameReader::Result result = reader.next(frame);
+            if (result == mr::LiveFrameReader::Result::Ended) break;
+            if (result == mr::LiveFrameReader::Result::Stalled) {
+                // The camera paused: keep the last image up with the stall on its status line and
+                // the window responsive, and wait for frames again (the reader gives up eventually).
+                if (window) {
+                    if (!shown.empty()) {
+                        drawStatus(shown, reader.status());
+                        display.show(*window, shown);
+                    }
+                    window->swapBuffers();
+                    window->pollEvents();
+                    if (window->shouldClose()) quit = true;
+                } else {
+                    std::fprintf(stderr, "live: %s\n", reader.status().c_str());
+                }
+                continue;
+            }
             ++count;
             if (recorder) recorder->write(frame);
             session->process(frame);
@@ -203,7 +223,9 @@ int runLive(const LiveArgs& args) {
             const bool autoSnapshot = args.snapshotAfter && count == *args.snapshotAfter + 1;
             // Snapshots are the rendered image, without the status line (which a 640-pixel frame cuts off).
             if (autoSnapshot || snapshotRequested) shown.copyTo(clean);
-            drawStatus(shown, statusLine(fps, out, *pipeline, pipeline->options()));
+            drawStatus(shown, reader.status().empty()
+                                  ? statusLine(fps, out, *pipeline, pipeline->options())
+                                  : statusLine(fps, out, *pipeline, pipeline->options()) + " | " + reader.status());
             if (window) {
                 display.show(*window, shown);
                 if (autoSnapshot || snapshotRequested) {
@@ -228,7 +250,9 @@ int runLive(const LiveArgs& args) {
     }
     std::signal(SIGINT, previous);
     if (recorder) recorder->finish();
-    std::printf("live: %lld frames, %lld dropped by the source\n", static_cast<long long>(count), static_cast<long long>(source->framesDropped()));
+    std::printf("live: %lld frames, %lld dropped by the source, %lld camera stalls survived\n",
+                static_cast<long long>(count), static_cast<long long>(source->framesDropped()),
+                static_cast<long long>(reader.stalls()));
     return 0;
 }
 

@@ -2,7 +2,9 @@
 // .oni, TUM folder, recording) into the lightskin recording format (recordings/README.md), or
 // into a fakenect dump with --to-fakenect. Capture never waits for the disk (capture::Recorder);
 // frames that cannot be queued or written are counted and reported. Ctrl-C stops cleanly; after a
-// hard kill every frame in the index is complete. Exit code 0, or 3 when frames were dropped.
+// hard kill or a power loss every frame in the index is complete, and at most the last
+// --sync-frames / --sync-seconds (plus the queue) are lost (capture::RecordingDurability). Exit code 0, or 3 when
+// frames were dropped.
 #include "CliSupport.h"
 #include "Commands.h"
 
@@ -32,6 +34,8 @@ struct RecordArguments {
     std::string source, out;
     std::optional<std::int64_t> maxFrames; ///< --max-frames; until the end or Ctrl-C when unset
     std::size_t queue = 30;
+    capture::RecordingDurability durability;
+    bool noFsync = false;
     bool overwrite = false, jpeg = false, realtime = false, toFakenect = false, registerDepth = false;
 };
 
@@ -53,6 +57,16 @@ void addRecordCommand(CLI::App& app, int& exitCode) {
         ->group("")
         ->check(atLeast(1));
     command->add_option("--queue", args->queue, "Frames that may wait for the disk")->check(CLI::Range(1, 10000));
+    command
+        ->add_option("--sync-frames", args->durability.syncEveryFrames,
+                     "Make frames durable and list them in the index every N frames")
+        ->check(CLI::Range(std::int64_t{1}, std::int64_t{100000}));
+    command
+        ->add_option("--sync-seconds", args->durability.syncEverySeconds,
+                     "... or when the oldest unlisted frame is this old (seconds)")
+        ->check(CLI::Range(0.001, 3600.0));
+    command->add_flag("--no-fsync", args->noFsync,
+                      "Batch the index the same way but never fsync (survives a kill, not a power loss)");
     command->add_flag("--jpeg", args->jpeg, "Store colour as JPEG (lossy, smaller) instead of PNG");
     command->add_flag("--realtime", args->realtime, "Replay recorded sources at their recorded speed");
     command->add_flag("--register-depth", args->registerDepth,
@@ -84,7 +98,9 @@ void addRecordCommand(CLI::App& app, int& exitCode) {
         recording.registration = info.registration;
         recording.colour_T_depth = info.colour_T_depth;
         recording.jpegColour = args->jpeg;
-        auto recorder = capture::Recorder::start(capture::RecordingWriter::create(args->out, recording),
+        capture::RecordingDurability durability = args->durability;
+        durability.fsync = !args->noFsync;
+        auto recorder = capture::Recorder::start(capture::RecordingWriter::create(args->out, recording, durability),
                                                  capture::RecorderOptions{args->queue});
         stopRequested = 0;
         const auto previous = std::signal(SIGINT, onInterrupt);

@@ -83,12 +83,13 @@ int main(int argc, char** argv) {
         stop = true;
         for (auto& thread : busy) thread.join();
         std::printf("%lld frames (%.0f s at 30 fps, 640x480, %d busy threads, queue %zu): written %lld, dropped %lld, "
-                    "queue high-water %lld, write latency p50 %.0f ms, p95 %.0f ms, p99 %.0f ms, max %.1f ms%s%s\n",
+                    "queue high-water %lld, write latency p50 %.0f ms, p95 %.0f ms, p99 %.0f ms, max %.1f ms, "
+                    "writer CPU %.1f ms per frame%s%s\n",
                     static_cast<long long>(frameCount), seconds, busyThreads, queue,
                     static_cast<long long>(stats.written), static_cast<long long>(stats.dropped),
                     static_cast<long long>(stats.queueHighWater), stats.writeLatencyP50Ms, stats.writeLatencyP95Ms,
-                    stats.writeLatencyP99Ms, stats.writeLatencyMaxMs, stats.firstError.empty() ? "" : "; ",
-                    stats.firstError.c_str());
+                    stats.writeLatencyP99Ms, stats.writeLatencyMaxMs, stats.writerCpuMsPerFrame,
+                    stats.firstError.empty() ? "" : "; ", stats.firstError.c_str());
         return stats.dropped == 0 && stats.written == frameCount ? 0 : 1;
     } catch (const lightskin::Error& error) {
         std::fprintf(stderr, "%s\n", error.what());

@@ -154,9 +154,9 @@ protected:
             }
             if (std::chrono::steady_clock::now() > deadline) {
                 target_ = nullptr;
-                throw Error(info_.uri, next_,
-                            "no frame pair for " + std::to_string(options_.liveTimeout.count()) +
-                                " ms: Kinect stalled or unplugged");
+                throw SourceStalled(info_.uri, next_,
+                                    "no frame pair for " + std::to_string(options_.liveTimeout.count()) +
+                                        " ms: Kinect stalled or unplugged");
             }
         }
         target_ = nullptr;

@@ -233,8 +233,9 @@ protected:
                     if (haveDepth_ || haveColour_) ++unpaired_;
                     return false;
                 }
-                throw Error("openni2://" + info_.uri, next_,
-                            "no frame for " + std::to_string(timeout.count()) + " ms: device stalled or unplugged");
+                throw SourceStalled("openni2://" + info_.uri, next_,
+                                    "no frame for " + std::to_string(timeout.count()) +
+                                        " ms: device stalled or unplugged");
             }
             if (status != openni::STATUS_OK || ready < 0)
                 throw Error(info_.uri, next_,

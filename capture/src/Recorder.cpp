@@ -8,6 +8,7 @@
 #include <condition_variable>
 #include <mutex>
 #include <thread>
+#include <time.h>
 #include <vector>
 
 namespace lightskin::capture {
@@ -34,6 +35,13 @@ void copyFrameInto(const RgbdFrame& from, RgbdFrame& to) {
     to.groundTruth_world_T_camera = from.groundTruth_world_T_camera;
 }
 using Clock = std::chrono::steady_clock;
+
+/// CPU time of the calling thread (what the writer costs, independent of how loaded the machine is).
+double threadCpuSeconds() {
+    timespec now{};
+    ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &now);
+    return double(now.tv_sec) + 1e-9 * double(now.tv_nsec);
+}
 
 /// 1 ms bins up to 10 s: preallocated, so the writer records a latency without allocating.
 constexpr std::size_t kLatencyBins = 10000;
@@ -74,36 +82,73 @@ struct Recorder::Impl {
     RecorderStats snapshot() const {
         RecorderStats copy = stats;
         copy.queued = std::int64_t(count);
-        copy.writeLatencyP50Ms = percentileMs(latencyHistogram, stats.written, 0.50);
-        copy.writeLatencyP95Ms = percentileMs(latencyHistogram, stats.written, 0.95);
-        copy.writeLatencyP99Ms = percentileMs(latencyHistogram, stats.written, 0.99);
+        copy.waitingForSync = writerWaiting;
+        copy.dropped = stats.pushed - stats.written - writerWaiting - copy.queued;
+        copy.writerCpuMsPerFrame = latencySamples > 0 ? 1000.0 * writerCpuSeconds / double(latencySamples) : 0.0;
+        copy.writeLatencyP50Ms = percentileMs(latencyHistogram, latencySamples, 0.50);
+        copy.writeLatencyP95Ms = percentileMs(latencyHistogram, latencySamples, 0.95);
+        copy.writeLatencyP99Ms = percentileMs(latencyHistogram, latencySamples, 0.99);
         return copy;
+    }
+
+    // The writer's counters, copied under `mutex` after each writer call (the writer itself is the
+    // writer thread's alone). written = listed; a frame the writer took but whose sync failed is in
+    // neither, so dropped = pushed - written - waiting - queued covers it with the refused ones.
+    std::int64_t writerWaiting = 0, latencySamples = 0;
+    double writerCpuSeconds = 0.0; ///< CPU time of the writer thread inside write()
+
+    void takeWriterCounts() {
+        stats.written = writer.framesListed();
+        writerWaiting = writer.framesWritten() - stats.written;
+    }
+
+    void noteError(const std::string& error) {
+        if (stats.firstError.empty()) stats.firstError = error;
+        log::error("recorder: " + error);
     }
 
     void run() {
         for (;;) {
             std::unique_lock lock(mutex);
-            wake.wait(lock, [&] { return count > 0 || stopping; });
+            // Wakes at least every 100 ms while idle, so frames waiting for a sync get listed within
+            // syncEverySeconds + 0.1 s even when the source pauses.
+            const bool woken =
+                wake.wait_for(lock, std::chrono::milliseconds(100), [&] { return count > 0 || stopping; });
+            if (!woken) {
+                lock.unlock();
+                std::string error;
+                try {
+                    writer.syncIfDue();
+                } catch (const std::exception& e) {
+                    error = e.what();
+                }
+                lock.lock();
+                takeWriterCounts();
+                if (!error.empty()) noteError("frames not listed: " + error);
+                continue;
+            }
             if (count == 0) return; // stopping and drained
             RgbdFrame& frame = slots[head];
             lock.unlock();
             std::string error;
+            const double cpuBefore = threadCpuSeconds();
             try {
                 writer.write(frame);
             } catch (const std::exception& e) {
-                error = e.what();
+                error = e.what(); // the frame failed, or the sync it triggered did (losing the batch)
             }
+            const double cpuSeconds = threadCpuSeconds() - cpuBefore;
             const double latencyMs = std::chrono::duration<double, std::milli>(Clock::now() - pushedAt[head]).count();
             lock.lock();
+            writerCpuSeconds += cpuSeconds;
             if (error.empty()) {
-                ++stats.written;
+                ++latencySamples;
                 ++latencyHistogram[std::min(std::size_t(latencyMs), kLatencyBins - 1)];
                 stats.writeLatencyMaxMs = std::max(stats.writeLatencyMaxMs, latencyMs);
             } else {
-                ++stats.dropped;
-                if (stats.firstError.empty()) stats.firstError = error;
-                log::error("recorder: frame not written: " + error);
+                noteError("frame not written: " + error);
             }
+            takeWriterCounts();
             head = (head + 1) % slots.size();
             --count;
         }
@@ -132,9 +177,8 @@ bool Recorder::push(const RgbdFrame& frame) {
     {
         std::lock_guard lock(s.mutex);
         LIGHTSKIN_ASSERT(!s.stopping, "push() after finish()");
-        ++s.stats.pushed;
         if (s.count == s.slots.size()) {
-            ++s.stats.dropped;
+            ++s.stats.pushed; // counted as dropped by snapshot()
             return false;
         }
         slot = s.tail;
@@ -143,6 +187,8 @@ bool Recorder::push(const RgbdFrame& frame) {
     copyFrameInto(frame, s.slots[slot]);
     {
         std::lock_guard lock(s.mutex);
+        // Counted pushed only now, with the frame queued: snapshot() derives dropped from both.
+        ++s.stats.pushed;
         s.tail = (s.tail + 1) % s.slots.size();
         ++s.count;
         s.stats.queueHighWater = std::max(s.stats.queueHighWater, std::int64_t(s.count));
@@ -166,6 +212,7 @@ RecorderStats Recorder::finish() {
     } catch (const std::exception& e) {
         if (s.stats.firstError.empty()) s.stats.firstError = e.what();
     }
+    s.takeWriterCounts();
     s.finished = true;
     return s.snapshot();
 }

@@ -4,6 +4,7 @@
 
 #include <lightskin/core/Error.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -188,6 +189,14 @@ ParsedIndex readIndex(const std::filesystem::path& folder) {
         while (end < bytes.size() && bytes[end] != '\n') ++end;
         const std::int64_t expectedFrame = std::int64_t(index.entries.size());
         if (end == bytes.size()) { // no newline: the writer was cut off in the middle of this line
+            index.partialTail = true;
+            break;
+        }
+        // A power loss during the last append can leave the file longer than the data that reached
+        // the disk, the gap read back as NUL bytes (which JSON never holds): a torn last line.
+        if (end + 1 == bytes.size() &&
+            std::find(bytes.begin() + std::ptrdiff_t(begin), bytes.begin() + std::ptrdiff_t(end), '\0') !=
+                bytes.begin() + std::ptrdiff_t(end)) {
             index.partialTail = true;
             break;
         }

@@ -43,7 +43,7 @@ std::string indexLine(const IndexEntry& entry);
 struct ParsedIndex {
     std::vector<IndexEntry> entries;
     bool finished = false;    ///< the end marker line was found
-    bool partialTail = false; ///< the last line had no newline (cut off) and was ignored
+    bool partialTail = false; ///< the last line was torn (no newline, or NUL bytes) and was ignored
 };
 /// Parses the index of `folder`: complete lines only; throws on a malformed complete line,
 /// frame numbers out of order, timestamps going backwards or paths leaving the folder.

@@ -1,4 +1,5 @@
 #include <lightskin/core/Error.h>
+#include <lightskin/core/ImageFile.h>
 #include <lightskin/eval/GoldenImage.h>
 
 #include <nlohmann/json.hpp>
@@ -51,8 +52,9 @@ void writeLinearPng16(const std::filesystem::path& path, const cv::Mat& linearIm
 }
 
 cv::Mat readLinearPng16(const std::filesystem::path& path, std::string& renderer, double& linearPeak) {
-    const cv::Mat encoded = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
-    if (encoded.empty()) throw Error(path.string(), std::nullopt, "missing or unreadable PNG");
+    // Through the PNG/TIFF/JPEG guard (lightskin/core/ImageFile.h), not cv::imread: every decoder.
+    if (!std::filesystem::exists(path)) throw Error(path.string(), std::nullopt, "missing or unreadable PNG");
+    const cv::Mat encoded = readImageFile(path, cv::IMREAD_UNCHANGED);
     if (encoded.depth() != CV_16U) throw Error(path.string(), std::nullopt, "a golden must be a 16-bit PNG");
     std::ifstream sidecarStream(sidecarOf(path));
     if (!sidecarStream) throw Error(sidecarOf(path).string(), std::nullopt, "missing golden sidecar");
@@ -82,7 +84,7 @@ GoldenCandidate readGoldenCandidate(const std::filesystem::path& actualPng) {
     candidate.image = readLinearPng16(actualPng, candidate.renderer, candidate.linearPeak);
     const std::filesystem::path coverage = withSuffix(actualPng, ".coverage.png");
     if (std::filesystem::exists(coverage)) {
-        candidate.coverage = cv::imread(coverage.string(), cv::IMREAD_UNCHANGED);
+        candidate.coverage = readImageFile(coverage, cv::IMREAD_UNCHANGED);
         if (candidate.coverage.type() != CV_8UC1 || candidate.coverage.size() != candidate.image.size())
             throw Error(coverage.string(), std::nullopt, "the coverage must be an 8-bit grey PNG of the image's size");
     }

@@ -73,6 +73,66 @@ Material convertMaterial(const aiMaterial& source, const std::filesystem::path& 
     return material;
 }
 
+std::uint64_t saturatingAdd(std::uint64_t a, std::uint64_t b) {
+    std::uint64_t sum = 0;
+    return __builtin_add_overflow(a, b, &sum) ? std::numeric_limits<std::uint64_t>::max() : sum;
+}
+
+std::uint64_t saturatingMultiply(std::uint64_t a, std::uint64_t b) {
+    std::uint64_t product = 0;
+    return __builtin_mul_overflow(a, b, &product) ? std::numeric_limits<std::uint64_t>::max() : product;
+}
+
+/// Largest value of a PLY list's count type; 0 for an unknown or non-integer type.
+std::uint64_t plyCountTypeMax(const std::string& type) {
+    if (type == "char" || type == "int8") return 127;
+    if (type == "uchar" || type == "uint8") return 255;
+    if (type == "short" || type == "int16") return 32767;
+    if (type == "ushort" || type == "uint16") return 65535;
+    if (type == "int" || type == "int32") return 2147483647;
+    if (type == "uint" || type == "uint32") return 4294967295;
+    return 0;
+}
+
+struct PlyProperty {
+    bool list = false;
+    std::uint64_t countMax = 0; ///< list: its count type's largest value
+};
+struct PlyElement {
+    std::string name;
+    std::uint64_t count = 0;
+    std::vector<PlyProperty> properties;
+};
+
+/// Walks an ASCII PLY body, one element instance per line (as assimp reads it; "comment" lines
+/// are skipped like assimp does): every list count must be a whole number within its count type.
+/// assimp reads "99999999993" into a uchar count without a check and allocates for it (32 GB: fuzz
+/// finding 2b). Lines with too few values are left to assimp, which reports them.
+void checkPlyAsciiBody(std::istream& body, const std::vector<PlyElement>& elements, const std::string& source) {
+    std::string line, token;
+    for (const PlyElement& element : elements)
+        for (std::uint64_t i = 0; i < element.count; ++i) {
+            do {
+                if (!std::getline(body, line)) return;
+            } while (line.find_first_not_of(" \t\r") == std::string::npos ||
+                     line.compare(line.find_first_not_of(" \t"), 7, "comment") == 0);
+            std::istringstream values(line);
+            for (const PlyProperty& property : element.properties) {
+                if (!(values >> token)) break;
+                if (!property.list) continue;
+                const bool digits = token.size() <= 19 && std::all_of(token.begin(), token.end(),
+                                                                      [](char c) { return c >= '0' && c <= '9'; });
+                if (!digits || std::stoull(token) > property.countMax)
+                    throw Error(source, std::nullopt,
+                                "ASCII PLY: element '" + element.name + "' " + std::to_string(i) + ": list count '" +
+                                    token.substr(0, 32) + "' is not a whole number within its count type (0.." +
+                                    std::to_string(property.countMax) + ")");
+                for (std::uint64_t k = std::stoull(token); k > 0 && values >> token; --k) {
+                }
+            }
+        }
+}
+
 std::size_t plyTypeSize(const std::string& type) {
     if (type == "char" || type == "uchar" || type == "int8" || type == "uint8") return 1;
     if (type == "short" || type == "ushort" || type == "int16" || type == "uint16") return 2;
@@ -81,8 +141,10 @@ std::size_t plyTypeSize(const std::string& type) {
     return 0;
 }
 
-// assimp 5.2.5 loops forever on a PLY whose header is cut off, and reads past the data of a
-// truncated binary body. Check the header and the least size a binary body needs first.
+// assimp 5.2.5 loops forever on a PLY whose header is cut off, reads past the data of a truncated
+// binary body, and reserves memory for the header's element counts before reading any (an ASCII
+// PLY claiming 2^31 faces made it request 32 GB: a fuzz finding). Check the header, and that the
+// body can hold what the counts claim, first.
 void checkPlyHeader(const std::filesystem::path& path) {
     const std::string source = path.string();
     std::ifstream file(path, std::ios::binary);
@@ -91,8 +153,12 @@ void checkPlyHeader(const std::filesystem::path& path) {
     std::getline(file, line);
     if (line.rfind("ply", 0) != 0) throw Error(source, std::nullopt, "not a PLY file (no 'ply' magic line)");
     bool binary = false, ended = false;
-    std::uint64_t minimumBody = 0, elementCount = 0;
+    // Least body sizes the counts imply: binary, the properties' sizes (a list at least its count);
+    // ASCII, two bytes per value (a digit and a separator; a list at least its count).
+    std::uint64_t minimumBody = 0, minimumAsciiBody = 0, elementCount = 0;
+    std::vector<PlyElement> elements;
     std::size_t headerBytes = line.size() + 1;
+    const std::uint64_t fileBytes = std::filesystem::file_size(path);
     for (int lines = 0; lines < 10000 && std::getline(file, line); ++lines) {
         headerBytes += line.size() + 1;
         if (!line.empty() && line.back() == '\r') line.pop_back();
@@ -104,25 +170,58 @@ void checkPlyHeader(const std::filesystem::path& path) {
             words >> format;
             binary = format != "ascii";
         } else if (keyword == "element") {
-            std::string name;
-            words >> name >> elementCount;
-            if (!words) throw Error(source, std::nullopt, "PLY header: malformed element line '" + line + "'");
+            std::string name, count;
+            words >> name >> count;
+            // A whole decimal count only: ">> elementCount" took "1.0" as 1 and left assimp and this
+            // check reading the body differently (a fuzz finding).
+            if (!words || count.empty() || count.size() > 19 ||
+                !std::all_of(count.begin(), count.end(), [](char c) { return c >= '0' && c <= '9'; }))
+                throw Error(source, std::nullopt, "PLY header: malformed element line '" + line + "'");
+            elementCount = std::stoull(count);
+            elements.push_back({name, elementCount, {}});
         } else if (keyword == "property") {
             std::string type;
             words >> type;
-            if (type == "list") words >> type; // the count type; at least the count is stored
-            minimumBody += elementCount * plyTypeSize(type);
+            PlyProperty property;
+            if (type == "list") {
+                words >> type; // the count type; at least the count is stored
+                property.list = true;
+                property.countMax = plyCountTypeMax(type);
+            }
+            if (!elements.empty()) elements.back().properties.push_back(property);
+            // Saturating: a forged count must not wrap the sums around to a small size.
+            minimumBody = saturatingAdd(minimumBody, saturatingMultiply(elementCount, plyTypeSize(type)));
+
         } else if (keyword == "end_header") {
             ended = true;
             break;
+        } else if (keyword != "format" && keyword != "comment" && keyword != "obj_info" && !keyword.empty()) {
+            // Unknown lines (a misspelt "property") would make this check and assimp disagree on the body.
+            throw Error(source, std::nullopt, "PLY header: unknown line '" + line.substr(0, 64) + "'");
         }
     }
     if (!ended) throw Error(source, std::nullopt, "PLY header is truncated (no end_header line)");
+    for (const PlyElement& element : elements) {
+        // ASCII: every instance is a line, at least a byte (fuzz finding: 2^31 faces whose property
+        // line was misspelt, so none counted, kept assimp reading for minutes).
+        minimumAsciiBody =
+            saturatingAdd(minimumAsciiBody,
+                          saturatingMultiply(element.count, std::max<std::uint64_t>(1, 2 * element.properties.size())));
+        if (element.properties.empty() && element.count > 0)
+            throw Error(source, std::nullopt, "PLY header: element '" + element.name + "' has no properties");
+    }
     if (binary) {
-        const std::uint64_t size = std::filesystem::file_size(path);
-        if (size < headerBytes + minimumBody)
-            throw Error(source, std::nullopt, "binary PLY is truncated: " + std::to_string(size) + " bytes, the header needs at least " +
-                                                  std::to_string(headerBytes + minimumBody));
+        if (fileBytes < saturatingAdd(headerBytes, minimumBody))
+            throw Error(source, std::nullopt,
+                        "binary PLY is truncated: " + std::to_string(fileBytes) + " bytes, the header needs at least " +
+                            std::to_string(saturatingAdd(headerBytes, minimumBody)));
+    } else if (fileBytes + 1 < saturatingAdd(headerBytes, minimumAsciiBody)) { // + 1: the last value needs no separator
+        throw Error(source, std::nullopt,
+                    "ASCII PLY is truncated or its element counts are wrong: " + std::to_string(fileBytes) +
+                        " bytes, the header's counts need at least " +
+                        std::to_string(saturatingAdd(headerBytes, minimumAsciiBody)));
+    } else {
+        checkPlyAsciiBody(file, elements, source); // the counts are now bounded by the file size
     }
 }
 
@@ -170,6 +269,23 @@ void checkGltfBuffers(const std::filesystem::path& path) {
     }
 }
 
+// assimp 5.2.5's MTL reader dereferences its current material, which exists only after a `newmtl`
+// line: a property line before the first `newmtl` crashes it (SEGV; a fuzz finding). Every line
+// before the first `newmtl` must be empty or a comment.
+void checkMaterialLibrary(const std::filesystem::path& path) {
+    std::ifstream file(path, std::ios::binary);
+    std::string line;
+    for (std::int64_t number = 1; std::getline(file, line); ++number) {
+        std::istringstream words(line);
+        std::string keyword;
+        if (!(words >> keyword) || keyword[0] == '#') continue;
+        if (keyword == "newmtl") return;
+        throw Error(path.string(), std::nullopt,
+                    "line " + std::to_string(number) + ": '" + keyword.substr(0, 32) +
+                        "' before the first 'newmtl' (material properties need a material)");
+    }
+}
+
 // assimp's OBJ importer replaces a missing material library by a default grey material with only
 // a log line: the object would render in the wrong colours without an error.
 void checkObjMaterialLibraries(const std::filesystem::path& path) {
@@ -182,6 +298,7 @@ void checkObjMaterialLibraries(const std::filesystem::path& path) {
             std::error_code error;
             if (!std::filesystem::is_regular_file(path.parent_path() / name, error))
                 throw Error(path.string(), std::nullopt, "material library '" + name + "' (mtllib) does not exist");
+            checkMaterialLibrary(path.parent_path() / name);
         }
     }
 }

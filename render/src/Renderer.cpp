@@ -1,6 +1,7 @@
 #include "EmbeddedShaders.h"
 
 #include <lightskin/core/Error.h>
+#include <lightskin/core/ImageFile.h>
 #include <lightskin/core/Log.h>
 #include <lightskin/gi/SparsePointSampler.h>
 #include <lightskin/gl/DebugOutput.h>
@@ -13,14 +14,13 @@
 #include <glm/gtc/matrix_inverse.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
-
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
-#include <optional>
 #include <numbers>
+#include <optional>
 
 namespace lightskin::render {
 
@@ -38,8 +38,8 @@ namespace {
 constexpr int kMaxLights = 4;
 
 gl::Texture loadTexture(const std::string& path) {
-    cv::Mat image = cv::imread(path, cv::IMREAD_COLOR);
-    if (image.empty()) throw Error(path, std::nullopt, "cannot read the texture image");
+    // Through the PNG/TIFF/JPEG guard: a scene's texture is untrusted input like a recording.
+    const cv::Mat image = readImageFile(path, cv::IMREAD_COLOR);
     cv::Mat rgba;
     cv::cvtColor(image, rgba, cv::COLOR_BGR2RGBA);
     cv::flip(rgba, rgba, 0); // texture coordinate v = 0 is the bottom row (OBJ/glTF after assimp)

@@ -5,7 +5,9 @@
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/Error.h>
 
+#include <OpenNI.h>
 #include <gtest/gtest.h>
+#include <opencv2/core.hpp>
 
 #include <fstream>
 #include <iterator>
@@ -62,6 +64,64 @@ TEST(OniCorruptTest, BitFlippedInTheMiddle) {
             EXPECT_FALSE(error.cause().empty());
         }
         EXPECT_EQ(frames, damage.expectedFrames) << damage.name;
+    }
+}
+
+/// Copies one stream of 3dj_test.oni (depth + colour, 12 frames) into `out` with OpenNI2's own
+/// recorder: playback device, one stream attached, every frame read once. Returns the frames read.
+int recordSingleStream(const std::filesystem::path& out, openni::SensorType sensor) {
+    EXPECT_EQ(openni::OpenNI::initialize(), openni::STATUS_OK) << openni::OpenNI::getExtendedError();
+    openni::Device device;
+    const std::string input = dataPath("oni-kinect-v1/3dj_test.oni").string();
+    EXPECT_EQ(device.open(input.c_str()), openni::STATUS_OK) << openni::OpenNI::getExtendedError();
+    device.getPlaybackControl()->setSpeed(-1.0f); // manual stepping: every frame, in order
+    device.getPlaybackControl()->setRepeatEnabled(false);
+    openni::VideoStream stream;
+    EXPECT_EQ(stream.create(device, sensor), openni::STATUS_OK) << openni::OpenNI::getExtendedError();
+    const int frames = device.getPlaybackControl()->getNumberOfFrames(stream);
+    openni::Recorder recorder;
+    EXPECT_EQ(recorder.create(out.c_str()), openni::STATUS_OK) << openni::OpenNI::getExtendedError();
+    EXPECT_EQ(recorder.attach(stream), openni::STATUS_OK) << openni::OpenNI::getExtendedError();
+    EXPECT_EQ(stream.start(), openni::STATUS_OK);
+    EXPECT_EQ(recorder.start(), openni::STATUS_OK);
+    openni::VideoFrameRef frame;
+    int read = 0;
+    for (int i = 0; i < frames && stream.readFrame(&frame) == openni::STATUS_OK; ++i) ++read;
+    recorder.stop();
+    recorder.destroy();
+    stream.stop();
+    stream.destroy();
+    device.close();
+    return read;
+}
+
+// Issue 21 part 5: an .oni with one stream, made by OpenNI2's recorder from the two-stream sample.
+// Depth only: frames without colour (our source's documented behaviour for a depth-only device).
+// Colour only: no VALs without depth, so opening it is an error naming the file and the cause.
+TEST(OniCorruptTest, SingleStreamFiles) {
+    const auto scratch = scratchDir("oni_single_stream");
+    const auto depthOnly = scratch / "depth_only.oni", colourOnly = scratch / "colour_only.oni";
+    ASSERT_GT(recordSingleStream(depthOnly, openni::SENSOR_DEPTH), 0);
+    ASSERT_GT(recordSingleStream(colourOnly, openni::SENSOR_COLOR), 0);
+
+    auto source = capture::openFrameSource(depthOnly.string());
+    RgbdFrame frame;
+    int frames = 0;
+    while (source->next(frame)) {
+        ++frames;
+        ASSERT_EQ(frame.depth.type(), CV_16UC1);
+        ASSERT_EQ(frame.depth.size(), cv::Size(640, 480));
+        EXPECT_FALSE(frame.hasColour()) << "frame " << frames;
+        EXPECT_GT(cv::countNonZero(frame.depth), 0) << "frame " << frames << ": no depth measured";
+    }
+    EXPECT_GE(frames, 1);
+
+    try {
+        capture::openFrameSource(colourOnly.string());
+        ADD_FAILURE() << "a colour-only .oni opened";
+    } catch (const Error& error) {
+        EXPECT_EQ(error.source(), colourOnly.string()) << error.what();
+        EXPECT_NE(error.cause().find("no depth stream"), std::string::npos) << error.what();
     }
 }
 

@@ -105,7 +105,10 @@ TEST(RecordingTest, LoopingAndCountersAndUnfinishedRecording) {
     const auto info = smallRecordingInfo();
     auto writer = RecordingWriter::create(folder, info);
     for (std::uint32_t i = 0; i < 3; ++i) writer.write(syntheticFrame(info, i));
-    // Not finished: the reader must see three frames already.
+    // Not finished but synced (the default batch is 30 frames): the reader must see three frames.
+    EXPECT_EQ(writer.framesListed(), 0);
+    writer.sync();
+    EXPECT_EQ(writer.framesListed(), 3);
     capture::FrameSourceOptions options;
     options.loop = true;
     auto source = capture::openFrameSource(folder.string(), options);

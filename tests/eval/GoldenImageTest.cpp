@@ -155,7 +155,14 @@ TEST(GoldenImageTest, MalformedSidecarOrPngIsAnErrorNamingTheFile) {
     cv::imwrite(png.string(), cv::Mat(3, 4, CV_8UC3, cv::Scalar(1, 2, 3)));
     expectError(read, {"g.png", std::nullopt, "a golden must be a 16-bit PNG"});
     std::ofstream(png, std::ios::trunc) << "";
+    expectError(read, {"g.png", std::nullopt, "file is empty (0 bytes)"});
+    std::filesystem::remove(png);
     expectError(read, {"g.png", std::nullopt, "missing or unreadable PNG"});
+    // Fuzz follow-up: a golden (or its coverage) in another format never reaches OpenCV's other
+    // decoders (Debian's GDCM aborts the process on some bytes): a BMP is refused by its magic.
+    cv::imwrite(png.string() + ".bmp", cv::Mat(3, 4, CV_16UC1, cv::Scalar(7)));
+    std::filesystem::rename(png.string() + ".bmp", png);
+    expectError(read, {"g.png", std::nullopt, "not a PNG, TIFF or JPEG file"});
 }
 
 } // namespace

@@ -145,6 +145,29 @@ TEST(MeshLoader, BadFilesGiveErrorsNamingTheFileAndCause) {
 
     const std::string truncatedBinary = errorOf(dir / "truncated_binary.ply");
     EXPECT_NE(truncatedBinary.find("binary PLY is truncated"), std::string::npos) << truncatedBinary;
+
+    // Fuzz finding: an ASCII PLY claiming 2^31 - 1 faces made assimp reserve 32 GB before reading any.
+    const std::string overflow = errorOf(dir / "ascii_face_count_overflow.ply");
+    EXPECT_NE(overflow.find("ascii_face_count_overflow.ply"), std::string::npos) << overflow;
+    EXPECT_NE(overflow.find("ASCII PLY is truncated or its element counts are wrong"), std::string::npos) << overflow;
+    EXPECT_NE(overflow.find("need at least 4294967"), std::string::npos) << overflow; // 2 bytes x (2^31 - 1) faces
+    // Counts below the file size but more than its body holds (300 vertices, 3 given): 2 bytes per value.
+    // Fuzz finding 2b: a face's list count far beyond its uchar type made assimp allocate 32 GB.
+    const std::string listCount = errorOf(dir / "ascii_list_count_overflow.ply");
+    EXPECT_NE(listCount.find("element 'face' 0: list count '99999999999993' is not a whole number within its count "
+                             "type (0..255)"),
+              std::string::npos)
+        << listCount;
+    // Fuzz finding: 2^31 - 1 faces whose property line is misspelt (so no value counted) kept
+    // assimp reading for minutes: an unknown header line is refused.
+    const std::string noProperties = errorOf(dir / "ascii_element_without_properties.ply");
+    EXPECT_NE(noProperties.find("PLY header: unknown line 'proper"), std::string::npos) << noProperties;
+    // Fuzz finding: a material property before the first newmtl crashed assimp's MTL reader (SEGV).
+    const std::string mtl = errorOf(dir / "mtl_property_before_newmtl.obj");
+    EXPECT_NE(mtl.find("mtl_property_before_newmtl.mtl"), std::string::npos) << mtl;
+    EXPECT_NE(mtl.find("line 1: 'Kd' before the first 'newmtl'"), std::string::npos) << mtl;
+    const std::string shortBody = errorOf(dir / "ascii_counts_exceed_body.ply");
+    EXPECT_NE(shortBody.find("ASCII PLY is truncated or its element counts are wrong"), std::string::npos) << shortBody;
 }
 
 TEST(MeshLoader, RemoveDegenerateTrianglesOnAHandMadeMesh) {

@@ -14,6 +14,7 @@
 
 #include <lightskin/capture/Registration.h>
 #include <lightskin/core/CameraIntrinsics.h>
+#include <lightskin/core/Error.h>
 #include <lightskin/core/Pose.h>
 #include <lightskin/core/RgbdFrame.h>
 
@@ -82,6 +83,14 @@ struct FrameSourceInfo {
     /// colour_T_depth above then describe the delivered (registered) frames.
     std::optional<RegistrationCalibration> softwareRegistration;
     bool hasGroundTruth = false; ///< frames carry groundTruth_world_T_camera (where the source has it)
+};
+
+/// Thrown by next() of a live source that saw no frame for FrameSourceOptions::liveTimeout
+/// (device stalled, unplugged or starved). The source stays usable: a later next() may deliver
+/// again (mr::LiveFrameReader waits for that and shows it). Any other Error is fatal.
+class SourceStalled : public Error {
+public:
+    using Error::Error;
 };
 
 class FrameSource {
