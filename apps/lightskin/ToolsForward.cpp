@@ -27,9 +27,8 @@ namespace {
         throw Error(source, std::nullopt, "cannot find this program's folder (/proc/self/exe): " + error.message());
     const std::string program = (self.parent_path() / LIGHTSKIN_TOOLS_PROGRAM).string();
 
+    // argv[0] stays this program's, so the tool's --help and errors read "lightskin bench ...".
     std::vector<char*> arguments(programArguments().begin(), programArguments().end());
-    std::string argument0 = program;
-    arguments.at(0) = argument0.data();
     arguments.push_back(nullptr);
     std::fflush(nullptr);
     ::execv(program.c_str(), arguments.data());
@@ -49,8 +48,10 @@ void addToolsCommands(CLI::App& app, int& /*exitCode*/) {
                                                  " (synthetic recordings, benchmarks); `lightskin " +
                                                      name + " --help` for its options");
         // Everything after the name belongs to the tool, --help included; the tool parses it.
+        // (fallthrough off: main() turns it on for every command, which would hand --help to `lightskin`).
         command->prefix_command();
         command->allow_extras();
+        command->fallthrough(false);
         command->set_help_flag();
         command->callback([name] { runTools(name); });
     }
