@@ -22,7 +22,8 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
     command->add_option("--docs", o->docs,
                         "Regenerate the section between the lightskin-bench markers in this Markdown file");
     command->add_option("--bunny", o->bunnyPath,
-                        "Stanford bunny PLY (relative paths of the default: beside the program or the build, never the current folder)");
+                        "Stanford bunny PLY (relative paths of the default: beside the program or the build, never the "
+                        "current folder)");
     resolveShippedData(command, {{"--bunny", &o->bunnyPath, "Stanford bunny PLY"}});
     command->add_option("--sparse", o->sparse, "Sparse points per model to sweep (comma-separated)");
     command->add_option("--strides", o->strides,
@@ -32,8 +33,9 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
     command->add_option("--resolutions", o->resolutions, "Output resolutions to sweep, WxH");
     command->add_option("--meshes", o->meshes, "Sphere triangle counts to sweep (the bunny adds ~15k)");
     command->add_option("--adaptive", o->adaptive, "Adaptive mode values to sweep: off,on");
-    command->add_option("--volumes", o->volumes,
-                        "Imperfect-volumes rows, resolution:points-per-triangle:rays-per-voxel:bounces (comma-separated)");
+    command->add_option(
+        "--volumes", o->volumes,
+        "Imperfect-volumes rows, resolution:points-per-triangle:rays-per-voxel:bounces (comma-separated)");
     command->add_option("--backends", o->backends,
                         "LightSkin backends to sweep: gl,cpu (the CPU backend, gi.backend \"cpu\")");
     command->add_option("--default-sparse", o->defaults.sparse, "Default configuration: sparse points per model");

@@ -17,10 +17,12 @@ void addBenchEmbedCommand(CLI::App& app, int& exitCode) {
         "bench-embed",
         "Benchmark: session overheads for embedding hosts (render, GL state guard) and the frame budget's choices");
     auto o = std::make_shared<bench::EmbedBenchOptions>();
-    command->add_option("--recording", o->recording,
-                        "Recording (relative paths of the default: beside the program or the build, never the current folder)");
-    command->add_option("--scene", o->scene,
-                        "Scene file (relative paths of the default: beside the program or the build, never the current folder)");
+    command->add_option(
+        "--recording", o->recording,
+        "Recording (relative paths of the default: beside the program or the build, never the current folder)");
+    command->add_option(
+        "--scene", o->scene,
+        "Scene file (relative paths of the default: beside the program or the build, never the current folder)");
     resolveShippedData(command, {{"--recording", &o->recording, "sample recording"}, {"--scene", &o->scene, "scene"}});
     command->add_option("--frames", o->frames, "Frames per run");
     command->add_option("--warm-up", o->warmUp, "Budget runs: frames before the statistics");

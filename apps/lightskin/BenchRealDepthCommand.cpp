@@ -16,17 +16,20 @@ void addBenchRealDepthCommand(CLI::App& app, int& exitCode) {
         "bench-realdepth", "Speckle and flicker of the indirect light on real recordings, old vs robust light model");
     auto options = std::make_shared<bench::RealDepthBenchOptions>();
     command->add_option("--data", options->data,
-                        "Folder of the bundled recordings (relative paths of the default: beside the program or the build, never the current folder)");
-    command->add_option("--scene", options->scene,
-                        "Template scene (relative paths of the default: beside the program or the build, never the current folder)");
-    resolveShippedData(command, {{"--data", &options->data, "bundled recordings"}, {"--scene", &options->scene, "template scene"}});
+                        "Folder of the bundled recordings (relative paths of the default: beside the program or the "
+                        "build, never the current folder)");
+    command->add_option(
+        "--scene", options->scene,
+        "Template scene (relative paths of the default: beside the program or the build, never the current folder)");
+    resolveShippedData(
+        command, {{"--data", &options->data, "bundled recordings"}, {"--scene", &options->scene, "template scene"}});
     command->add_option("--out", options->out, "Output folder (tables, PNGs of the first frame's indirect light)");
     command->add_option("--models", options->models, "Comma-separated light models: old, robust");
-    command->add_option("--sink", options->sinks,
-                        "Depths the objects are sunk into the surface, metres");
+    command->add_option("--sink", options->sinks, "Depths the objects are sunk into the surface, metres");
     command->add_option("--max-frames", options->maxFrames, "Frames per recording");
-    command->add_option("--recordings", options->recordings,
-                        "Comma-separated recordings (tum-fr2-desk, icl-nuim, pcl-kinect-tiff, tum-fr3-office; default all)");
+    command->add_option(
+        "--recordings", options->recordings,
+        "Comma-separated recordings (tum-fr2-desk, icl-nuim, pcl-kinect-tiff, tum-fr3-office; default all)");
     command->add_flag("--maps", options->maps, "Also write the speckle maps of each recording's first frame");
     command->callback([options, &exitCode] {
         bench::runRealDepthBench(*options);

@@ -28,7 +28,8 @@ void addBenchStaticCommand(CLI::App& app, int& exitCode) {
     command->add_option("--recording", o->recording,
                         "Also run the real stream on this recording (.oni, TUM or lightskin folder)");
     command->add_option("--bunny", o->bunnyPath,
-                        "Stanford bunny PLY (relative paths of the default: beside the program or the build, never the current folder)");
+                        "Stanford bunny PLY (relative paths of the default: beside the program or the build, never the "
+                        "current folder)");
     resolveShippedData(command, {{"--bunny", &o->bunnyPath, "Stanford bunny PLY"}});
     command->add_option("--seed", o->seed, "Noise seed");
     command->callback([o, &exitCode] {

@@ -626,7 +626,8 @@ std::vector<Config> buildSweep(const SweepBenchOptions& o) {
     }
     for (const std::string& v : splitList<std::string>(o.volumes, [](const std::string& x) { return x; })) {
         gi::ImperfectVolumesSettings s;
-        if (std::sscanf(v.c_str(), "%d:%d:%d:%d", &s.resolution, &s.pointsPerTriangle, &s.raysPerVoxel, &s.bounces) != 4)
+        if (std::sscanf(v.c_str(), "%d:%d:%d:%d", &s.resolution, &s.pointsPerTriangle, &s.raysPerVoxel, &s.bounces) !=
+            4)
             throw Error("--volumes", std::nullopt, "expected resolution:points:rays:bounces, got '" + v + "'");
         gi::validate(s);
         add("volumes", v, [s](Config& c) {
