@@ -1,7 +1,7 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/DifferentialIrradiance.h>
+#include <lightskin/gi/TriangleRayScene.h>
 
-#include <embree3/rtcore.h>
 #include <epoxy/gl.h>
 #include <glm/geometric.hpp>
 #include <opencv2/core.hpp>
@@ -16,13 +16,6 @@
 namespace lightskin::gi {
 
 namespace {
-
-void throwIfEmbreeError(RTCDevice device, const char* what) {
-    const RTCError error = rtcGetDeviceError(device);
-    if (error != RTC_ERROR_NONE)
-        throw Error("embree", std::nullopt,
-                    std::string("differential: ") + what + " failed (RTCError " + std::to_string(int(error)) + ")");
-}
 
 struct BoundingSphere {
     glm::dvec3 centre{0.0};
@@ -151,8 +144,7 @@ void validate(const DifferentialSettings& s) {
 
 struct DifferentialIrradiance::Impl {
     DifferentialSettings settings;
-    RTCDevice device = nullptr;
-    RTCScene scene = nullptr;
+    TriangleRayScene scene; ///< the virtual meshes, world frame
     std::vector<BoundingSphere> spheres;
     // Emitters: geometry fixed at create(), flux per frame.
     std::vector<glm::dvec3> emitterPosition, emitterNormal, emitterAlbedo;
@@ -162,27 +154,9 @@ struct DifferentialIrradiance::Impl {
     std::vector<DifferentialReceiver> receivers;
     int gridWidth = 0, gridHeight = 0;
 
-    ~Impl() {
-        if (scene) rtcReleaseScene(scene);
-        if (device) rtcReleaseDevice(device);
-    }
-
     bool occluded(const glm::dvec3& from, const glm::dvec3& to) const {
-        const glm::dvec3 d = to - from;
-        RTCIntersectContext context;
-        rtcInitIntersectContext(&context);
-        RTCRay ray{};
-        ray.org_x = float(from.x);
-        ray.org_y = float(from.y);
-        ray.org_z = float(from.z);
-        ray.dir_x = float(d.x); // unnormalised: t in [eps, 1 - eps] is the segment at any scale
-        ray.dir_y = float(d.y);
-        ray.dir_z = float(d.z);
-        ray.tnear = float(settings.rayEpsilon);
-        ray.tfar = float(1.0 - settings.rayEpsilon);
-        ray.mask = 0xffffffffu;
-        rtcOccluded1(scene, &context, &ray);
-        return ray.tfar == -std::numeric_limits<float>::infinity();
+        // unnormalised direction: t in [eps, 1 - eps] is the segment at any scale
+        return scene.occluded(from, to - from, settings.rayEpsilon, 1.0 - settings.rayEpsilon);
     }
 
     /// Segment x-y blocked by a virtual mesh; the bounding spheres decide most segments without a ray.
@@ -216,10 +190,7 @@ DifferentialIrradiance DifferentialIrradiance::create(std::span<const MeshInstan
     out.impl_ = std::make_unique<Impl>();
     Impl& impl = *out.impl_;
     impl.settings = settings;
-    impl.device = rtcNewDevice("threads=1");
-    if (!impl.device) throw Error("embree", std::nullopt, "differential: rtcNewDevice failed");
-    impl.scene = rtcNewScene(impl.device);
-    rtcSetSceneFlags(impl.scene, RTC_SCENE_FLAG_ROBUST);
+    std::vector<RayMesh> rayMeshes;
     const double regionFactor = std::sqrt(1.0 / double(settings.falloffFraction) - 1.0);
     std::vector<glm::dvec3> world;
     std::vector<double> cumulative;
@@ -244,18 +215,7 @@ DifferentialIrradiance DifferentialIrradiance::create(std::span<const MeshInstan
         sphere.regionRadius = sphere.radius * regionFactor;
         impl.spheres.push_back(sphere);
 
-        RTCGeometry geometry = rtcNewGeometry(impl.device, RTC_GEOMETRY_TYPE_TRIANGLE);
-        auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
-            geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.vertexCount()));
-        auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-            geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), mesh.triangleCount()));
-        throwIfEmbreeError(impl.device, "creating geometry buffers");
-        for (std::size_t v = 0; v < world.size(); ++v)
-            for (int c = 0; c < 3; ++c) vertices[3 * v + std::size_t(c)] = float(world[v][c]);
-        for (std::size_t i = 0; i < mesh.indices.size(); ++i) indices[i] = mesh.indices[i];
-        rtcCommitGeometry(geometry);
-        rtcAttachGeometry(impl.scene, geometry);
-        rtcReleaseGeometry(geometry);
+        rayMeshes.push_back({&mesh, world_T_model});
 
         // Emitters: N stratified points along the area CDF (first coordinate), the radical
         // inverse across each triangle (second), uniform in the triangle by the square-root map.
@@ -290,8 +250,7 @@ DifferentialIrradiance DifferentialIrradiance::create(std::span<const MeshInstan
             impl.emitterAlbedo.push_back(toDouble(instances[m].material.diffuseAlbedo));
         }
     }
-    rtcCommitScene(impl.scene);
-    throwIfEmbreeError(impl.device, "building the scene");
+    impl.scene = TriangleRayScene::create(rayMeshes, "differential");
     impl.emitters.resize(impl.emitterPosition.size());
     return out;
 }

@@ -1,9 +1,9 @@
 #include <lightskin/core/Error.h>
+#include <lightskin/gi/TriangleRayScene.h>
 #include <lightskin/render/MeshLoader.h>
 #include <lightskin/render/Scene.h>
 #include <lightskin/synth/PresentObjects.h>
 
-#include <embree3/rtcore.h>
 #include <glm/geometric.hpp>
 #include <glm/mat3x3.hpp>
 #include <opencv2/core.hpp>
@@ -122,30 +122,10 @@ struct PresentObjects::Impl {
     std::vector<Box> boxes;
     std::vector<Disc> emitters;  ///< on the objects, radiance rho_d E / pi (fixed: static lights and objects)
     std::vector<Disc> roomDiscs; ///< the room seen from the objects (cube maps)
-    RTCDevice device = nullptr;
-    RTCScene scene = nullptr;
-
-    ~Impl() {
-        if (scene) rtcReleaseScene(scene);
-        if (device) rtcReleaseDevice(device);
-    }
+    gi::TriangleRayScene scene;  ///< the objects (world frame); a hit's mesh index is the object's
 
     bool objectBetween(const glm::dvec3& a, const glm::dvec3& b) const {
-        const glm::dvec3 d = b - a;
-        RTCIntersectContext context;
-        rtcInitIntersectContext(&context);
-        RTCRay ray{};
-        ray.org_x = float(a.x);
-        ray.org_y = float(a.y);
-        ray.org_z = float(a.z);
-        ray.dir_x = float(d.x);
-        ray.dir_y = float(d.y);
-        ray.dir_z = float(d.z);
-        ray.tnear = 1e-4f;
-        ray.tfar = 1.0f - 1e-4f;
-        ray.mask = 0xffffffffu;
-        rtcOccluded1(scene, &context, &ray);
-        return ray.tfar == -std::numeric_limits<float>::infinity();
+        return scene.occluded(a, b - a, double(1e-4f), double(1.0f - 1e-4f));
     }
 
     bool boxBetween(const glm::dvec3& a, const glm::dvec3& b) const {
@@ -216,30 +196,12 @@ PresentObjects PresentObjects::create(const SceneDescription& room, std::vector<
                                   glm::dvec3(-std::sin(yaw), std::cos(yaw), 0.0), glm::dvec3(0.0, 0.0, 1.0));
         impl.boxes.push_back({glm::transpose(rotation), b.center, b.size / 2.0});
     }
-    impl.device = rtcNewDevice("threads=1");
-    if (!impl.device) throw Error("embree", std::nullopt, "objects present: rtcNewDevice failed");
-    impl.scene = rtcNewScene(impl.device);
-    rtcSetSceneFlags(impl.scene, RTC_SCENE_FLAG_ROBUST);
-    for (std::size_t m = 0; m < impl.objects.size(); ++m) {
-        const TriangleMesh& mesh = impl.objects[m].mesh;
-        mesh.validate("objects present: " + impl.objects[m].name);
-        RTCGeometry geometry = rtcNewGeometry(impl.device, RTC_GEOMETRY_TYPE_TRIANGLE);
-        auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
-            geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.vertexCount()));
-        auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-            geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), mesh.triangleCount()));
-        if (vertices == nullptr || indices == nullptr)
-            throw Error("embree", std::nullopt, "objects present: geometry buffers");
-        for (std::size_t v = 0; v < mesh.vertexCount(); ++v)
-            for (int c = 0; c < 3; ++c) vertices[3 * v + std::size_t(c)] = mesh.positions[v][c];
-        for (std::size_t i = 0; i < mesh.indices.size(); ++i) indices[i] = mesh.indices[i];
-        rtcCommitGeometry(geometry);
-        rtcAttachGeometry(impl.scene, geometry); // geometry id = m
-        rtcReleaseGeometry(geometry);
+    std::vector<gi::RayMesh> rayMeshes;
+    for (const PresentObject& object : impl.objects) {
+        object.mesh.validate("objects present: " + object.name);
+        rayMeshes.push_back({&object.mesh, glm::dmat4(1.0)}); // positions are world already
     }
-    rtcCommitScene(impl.scene);
-    if (rtcGetDeviceError(impl.device) != RTC_ERROR_NONE)
-        throw Error("embree", std::nullopt, "objects present: building the scene failed");
+    impl.scene = gi::TriangleRayScene::create(rayMeshes, "objects present");
 
     // The room seen from each object's bounding-sphere centre: six 90-degree faces.
     SceneDescription cubeScene = room;
@@ -339,32 +301,20 @@ void PresentObjects::renderInto(const Pose& world_T_camera, const RenderedView& 
                     world_T_camera.transformDirection({(u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0});
                 const double roomZ =
                     double(room.depthMetres.at<float>(v, u)); // the ray parameter (camera z = 1 per unit)
-                RTCIntersectContext context;
-                rtcInitIntersectContext(&context);
-                RTCRayHit hit{};
-                hit.ray.org_x = float(eye.x);
-                hit.ray.org_y = float(eye.y);
-                hit.ray.org_z = float(eye.z);
-                hit.ray.dir_x = float(direction.x);
-                hit.ray.dir_y = float(direction.y);
-                hit.ray.dir_z = float(direction.z);
-                hit.ray.tnear = 0.0f;
-                hit.ray.tfar = roomZ > 0.0 ? float(roomZ) : std::numeric_limits<float>::infinity();
-                hit.ray.mask = 0xffffffffu;
-                hit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-                rtcIntersect1(impl.scene, &context, &hit);
+                const std::optional<gi::RayHit> hit = impl.scene.intersect(
+                    eye, direction, 0.0, roomZ > 0.0 ? double(float(roomZ)) : std::numeric_limits<double>::infinity());
                 cv::Vec3f& pixel = out.at<cv::Vec3f>(v, u);
-                if (hit.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
+                if (hit) {
                     // An object: smooth normal from the vertex normals, facing the camera.
-                    const PresentObject& object = impl.objects[hit.hit.geomID];
+                    const PresentObject& object = impl.objects[hit->mesh];
                     const TriangleMesh& mesh = object.mesh;
-                    const std::size_t t = hit.hit.primID;
-                    const double bu = hit.hit.u, bv = hit.hit.v;
+                    const std::size_t t = hit->triangle;
+                    const double bu = hit->u, bv = hit->v;
                     glm::dvec3 n = glm::normalize((1.0 - bu - bv) * glm::dvec3(mesh.normals[mesh.indices[3 * t]]) +
                                                   bu * glm::dvec3(mesh.normals[mesh.indices[3 * t + 1]]) +
                                                   bv * glm::dvec3(mesh.normals[mesh.indices[3 * t + 2]]));
                     if (glm::dot(n, direction) > 0.0) n = -n;
-                    const glm::dvec3 y = eye + double(hit.ray.tfar) * direction, toViewer = glm::normalize(-direction);
+                    const glm::dvec3 y = eye + hit->t * direction, toViewer = glm::normalize(-direction);
                     glm::dvec3 withBoxes(0.0), withObjects(0.0), specular(0.0);
                     impl.direct(y, n, withBoxes, withObjects, &toViewer, &object.material, &specular);
                     const glm::dvec3 rho(object.material.diffuseAlbedo);

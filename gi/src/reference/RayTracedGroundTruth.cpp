@@ -1,7 +1,7 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/RayTracedGroundTruth.h>
+#include <lightskin/gi/TriangleRayScene.h>
 
-#include <embree3/rtcore.h>
 #include <glm/geometric.hpp>
 
 #include <algorithm>
@@ -15,12 +15,7 @@
 namespace lightskin::gi {
 
 struct RayTracedGroundTruth::Impl {
-    RTCDevice device = nullptr;
-    RTCScene scene = nullptr;
-    ~Impl() {
-        if (scene) rtcReleaseScene(scene);
-        if (device) rtcReleaseDevice(device);
-    }
+    TriangleRayScene scene;
 };
 
 RayTracedGroundTruth::RayTracedGroundTruth() = default;
@@ -29,13 +24,6 @@ RayTracedGroundTruth::RayTracedGroundTruth(RayTracedGroundTruth&&) noexcept = de
 RayTracedGroundTruth& RayTracedGroundTruth::operator=(RayTracedGroundTruth&&) noexcept = default;
 
 namespace {
-void throwIfEmbreeError(RTCDevice device, const char* what) {
-    const RTCError error = rtcGetDeviceError(device);
-    if (error != RTC_ERROR_NONE)
-        throw Error("embree", std::nullopt,
-                    std::string(what) + " failed (RTCError " + std::to_string(int(error)) + ")");
-}
-
 // Orthonormal tangents of a unit normal (Duff et al. 2017, branchless).
 void tangents(const glm::dvec3& n, glm::dvec3& t, glm::dvec3& b) {
     const double sign = std::copysign(1.0, n.z);
@@ -52,32 +40,13 @@ RayTracedGroundTruth RayTracedGroundTruth::create(std::span<const GroundTruthMes
     RayTracedGroundTruth out;
     out.impl_ = std::make_unique<Impl>();
     Impl& impl = *out.impl_;
-    impl.device = rtcNewDevice("threads=1");
-    if (!impl.device) throw Error("embree", std::nullopt, "rtcNewDevice failed");
-    impl.scene = rtcNewScene(impl.device);
-    rtcSetSceneFlags(impl.scene, RTC_SCENE_FLAG_ROBUST);
-    rtcSetSceneBuildQuality(impl.scene, RTC_BUILD_QUALITY_HIGH);
+    std::vector<RayMesh> rayMeshes;
     for (std::size_t m = 0; m < meshes.size(); ++m) {
         LIGHTSKIN_ASSERT(meshes[m].mesh != nullptr, "GroundTruthMesh without a mesh");
-        const TriangleMesh& mesh = *meshes[m].mesh;
-        mesh.validate("ground-truth mesh " + std::to_string(m));
-        RTCGeometry geometry = rtcNewGeometry(impl.device, RTC_GEOMETRY_TYPE_TRIANGLE);
-        auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
-            geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.vertexCount()));
-        auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-            geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), mesh.triangleCount()));
-        throwIfEmbreeError(impl.device, "creating geometry buffers");
-        for (std::size_t v = 0; v < mesh.vertexCount(); ++v) {
-            const glm::dvec3 p = glm::dvec3(meshes[m].world_T_model * glm::dvec4(glm::dvec3(mesh.positions[v]), 1.0));
-            for (int k = 0; k < 3; ++k) vertices[3 * v + std::size_t(k)] = float(p[k]);
-        }
-        for (std::size_t i = 0; i < mesh.indices.size(); ++i) indices[i] = mesh.indices[i];
-        rtcCommitGeometry(geometry);
-        rtcAttachGeometry(impl.scene, geometry);
-        rtcReleaseGeometry(geometry);
+        meshes[m].mesh->validate("ground-truth mesh " + std::to_string(m));
+        rayMeshes.push_back({meshes[m].mesh, meshes[m].world_T_model});
     }
-    rtcCommitScene(impl.scene);
-    throwIfEmbreeError(impl.device, "building the scene");
+    impl.scene = TriangleRayScene::create(rayMeshes, "ground truth", TriangleRayScene::BuildQuality::High);
     return out;
 }
 
@@ -86,22 +55,8 @@ bool RayTracedGroundTruth::occluded(const glm::dvec3& from, const glm::dvec3& to
     const glm::dvec3 d = to - from;
     const double length = glm::length(d);
     if (!(length > 0.0)) return false;
-    RTCIntersectContext context;
-    rtcInitIntersectContext(&context);
-    RTCRay ray{};
-    ray.org_x = float(from.x);
-    ray.org_y = float(from.y);
-    ray.org_z = float(from.z);
     // Unnormalised direction = the segment: t in [eps, 1 - eps] covers it independent of scale.
-    ray.dir_x = float(d.x);
-    ray.dir_y = float(d.y);
-    ray.dir_z = float(d.z);
-    ray.tnear = float(rayEpsilon);
-    ray.tfar = float(1.0 - rayEpsilon);
-    ray.mask = 0xffffffffu;
-    ray.time = 0.0f;
-    rtcOccluded1(impl_->scene, &context, &ray);
-    return ray.tfar == -std::numeric_limits<float>::infinity();
+    return impl_->scene.occluded(from, d, rayEpsilon, 1.0 - rayEpsilon);
 }
 
 void RayTracedGroundTruth::compute(std::span<const VirtualAreaLight> vals,
