@@ -14,6 +14,7 @@
 #include <lightskin.h>
 #include <new>
 #include <string>
+#include <type_traits>
 
 struct lsk_session {
     std::unique_ptr<lightskin::mr::Session> session;
@@ -45,6 +46,20 @@ lsk_status guarded(const char* function, Body&& body) noexcept {
     } catch (...) {
         return fail(LSK_ERROR_INTERNAL, std::string(function) + ": unknown exception");
     }
+}
+
+/// guarded() for the entry points on a session: a null handle is LSK_ERROR_INVALID_ARGUMENT naming the
+/// function; `body` gets the mr::Session (const for the read-only entry points).
+template <typename Handle, typename Body>
+lsk_status guardedSession(const char* function, Handle* handle, Body&& body) noexcept {
+    return guarded(function, [&]() -> lsk_status {
+        if (handle == nullptr) return fail(LSK_ERROR_INVALID_ARGUMENT, std::string(function) + ": session is null");
+        return body(*handle->session);
+    });
+}
+
+lsk_status invalidArgument(const char* function, const std::string& what) {
+    return fail(LSK_ERROR_INVALID_ARGUMENT, std::string(function) + ": " + what);
 }
 
 /// Copies the caller's struct into `out` (already default-initialised) up to its struct_size.
@@ -114,6 +129,27 @@ lsk_status sceneInput(const lsk_scene* in, mr::SceneInput& out) {
     return LSK_OK;
 }
 
+/// The two lsk_session_create* entry points: `input` (the camera or the source URI) and `out` must be set;
+/// `make` builds the session from the parsed options and scene.
+template <typename Input, typename Make>
+lsk_status createSession(const char* function, const lsk_session_options* options, const lsk_scene* scene,
+                         const Input* input, lsk_session** out, Make&& make) noexcept {
+    return guarded(function, [&]() -> lsk_status {
+        if (out == nullptr || input == nullptr)
+            return invalidArgument(function, std::is_same_v<Input, lsk_camera> ? "camera and out must not be null"
+                                                                               : "source_uri and out must not be null");
+        *out = nullptr;
+        mr::SessionOptions o;
+        mr::SceneInput s;
+        if (lsk_status status = sessionOptions(options, o); status != LSK_OK) return status;
+        if (lsk_status status = sceneInput(scene, s); status != LSK_OK) return status;
+        auto handle = std::make_unique<lsk_session>();
+        handle->session = make(o, s);
+        *out = handle.release();
+        return LSK_OK;
+    });
+}
+
 } // namespace
 
 extern "C" {
@@ -164,37 +200,18 @@ void lsk_render_target_init(lsk_render_target* t) {
 
 lsk_status lsk_session_create(const lsk_session_options* options, const lsk_scene* scene, const lsk_camera* camera,
                               lsk_session** out) {
-    return guarded("lsk_session_create", [&]() -> lsk_status {
-        if (out == nullptr || camera == nullptr)
-            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_create: camera and out must not be null");
-        *out = nullptr;
-        mr::SessionOptions o;
-        mr::SceneInput s;
-        if (lsk_status status = sessionOptions(options, o); status != LSK_OK) return status;
-        if (lsk_status status = sceneInput(scene, s); status != LSK_OK) return status;
-        auto handle = std::make_unique<lsk_session>();
-        handle->session = mr::Session::create(o, s, intrinsicsOf(*camera));
-        *out = handle.release();
-        return LSK_OK;
-    });
+    return createSession("lsk_session_create", options, scene, camera, out,
+                         [&](const mr::SessionOptions& o, const mr::SceneInput& s) {
+                             return mr::Session::create(o, s, intrinsicsOf(*camera));
+                         });
 }
 
 lsk_status lsk_session_create_from_source(const lsk_session_options* options, const lsk_scene* scene,
                                           const char* sourceUri, lsk_session** out) {
-    return guarded("lsk_session_create_from_source", [&]() -> lsk_status {
-        if (out == nullptr || sourceUri == nullptr)
-            return fail(LSK_ERROR_INVALID_ARGUMENT,
-                        "lsk_session_create_from_source: source_uri and out must not be null");
-        *out = nullptr;
-        mr::SessionOptions o;
-        mr::SceneInput s;
-        if (lsk_status status = sessionOptions(options, o); status != LSK_OK) return status;
-        if (lsk_status status = sceneInput(scene, s); status != LSK_OK) return status;
-        auto handle = std::make_unique<lsk_session>();
-        handle->session = mr::Session::create(o, s, lightskin::capture::openFrameSource(sourceUri, {}));
-        *out = handle.release();
-        return LSK_OK;
-    });
+    return createSession("lsk_session_create_from_source", options, scene, sourceUri, out,
+                         [&](const mr::SessionOptions& o, const mr::SceneInput& s) {
+                             return mr::Session::create(o, s, lightskin::capture::openFrameSource(sourceUri, {}));
+                         });
 }
 
 void lsk_session_destroy(lsk_session* session) {
@@ -205,19 +222,16 @@ void lsk_session_destroy(lsk_session* session) {
 }
 
 lsk_status lsk_session_process_next(lsk_session* session) {
-    return guarded("lsk_session_process_next", [&]() -> lsk_status {
-        if (session == nullptr) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_process_next: session is null");
-        return session->session->processNext() ? LSK_OK : LSK_END_OF_STREAM;
-    });
+    return guardedSession("lsk_session_process_next", session,
+                          [&](mr::Session& s) -> lsk_status { return s.processNext() ? LSK_OK : LSK_END_OF_STREAM; });
 }
 
 lsk_status lsk_session_submit(lsk_session* session, const lsk_frame* frame) {
-    return guarded("lsk_session_submit", [&]() -> lsk_status {
+    constexpr const char* function = "lsk_session_submit";
+    return guardedSession(function, session, [&](mr::Session& s) -> lsk_status {
         lsk_frame f;
         lsk_frame_init(&f);
-        if (session == nullptr || !readVersioned(frame, f))
-            return fail(LSK_ERROR_INVALID_ARGUMENT,
-                        "lsk_session_submit: session or frame is null, or frame->struct_size not set");
+        if (!readVersioned(frame, f)) return invalidArgument(function, "frame is null or frame->struct_size not set");
         mr::HostFrame h;
         h.rgb = f.rgb;
         h.rgbRowBytes = f.rgb_row_bytes;
@@ -227,18 +241,18 @@ lsk_status lsk_session_submit(lsk_session* session, const lsk_frame* frame) {
         h.intrinsics = intrinsicsOf(f.camera);
         h.timestampSeconds = f.timestamp_seconds;
         if (f.has_pose) h.world_T_camera = lightskin::Pose::fromMatrix(glm::make_mat4(f.world_T_camera));
-        session->session->submit(h);
+        s.submit(h);
         return LSK_OK;
     });
 }
 
 lsk_status lsk_session_report(const lsk_session* session, lsk_frame_report* report) {
-    return guarded("lsk_session_report", [&]() -> lsk_status {
-        if (session == nullptr || report == nullptr || report->struct_size < sizeof(std::uint32_t))
-            return fail(LSK_ERROR_INVALID_ARGUMENT,
-                        "lsk_session_report: session or report is null, or report->struct_size not set");
-        const mr::FrameReport& r = session->session->report();
-        const mr::FrameOutput& o = session->session->output();
+    constexpr const char* function = "lsk_session_report";
+    return guardedSession(function, session, [&](const mr::Session& s) -> lsk_status {
+        if (report == nullptr || report->struct_size < sizeof(std::uint32_t))
+            return invalidArgument(function, "report is null or report->struct_size not set");
+        const mr::FrameReport& r = s.report();
+        const mr::FrameOutput& o = s.output();
         lsk_frame_report full;
         lsk_frame_report_init(&full);
         full.frame_index = r.frameIndex;
@@ -273,12 +287,12 @@ lsk_status lsk_session_report(const lsk_session* session, lsk_frame_report* repo
 }
 
 lsk_status lsk_session_render(lsk_session* session, const lsk_render_target* target) {
-    return guarded("lsk_session_render", [&]() -> lsk_status {
+    constexpr const char* function = "lsk_session_render";
+    return guardedSession(function, session, [&](mr::Session& s) -> lsk_status {
         lsk_render_target t;
         lsk_render_target_init(&t);
-        if (session == nullptr || !readVersioned(target, t))
-            return fail(LSK_ERROR_INVALID_ARGUMENT,
-                        "lsk_session_render: session or target is null, or target->struct_size not set");
+        if (!readVersioned(target, t))
+            return invalidArgument(function, "target is null or target->struct_size not set");
         if (t.content != LSK_CONTENT_VIRTUAL_ONLY && t.content != LSK_CONTENT_COMPOSITE)
             return fail(LSK_ERROR_INVALID_ARGUMENT,
                         "lsk_render_target.content: " + std::to_string(t.content) + " is not an lsk_content");
@@ -294,31 +308,33 @@ lsk_status lsk_session_render(lsk_session* session, const lsk_render_target* tar
         r.depthTest = t.depth_test != 0;
         r.nearMetres = t.near_metres;
         r.farMetres = t.far_metres;
-        session->session->render(r);
+        s.render(r);
         return LSK_OK;
     });
 }
 
 lsk_status lsk_session_projection(const lsk_session* session, double nearMetres, double farMetres, float out[16]) {
-    return guarded("lsk_session_projection", [&]() -> lsk_status {
-        if (session == nullptr || out == nullptr)
-            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_projection: null argument");
+    constexpr const char* function = "lsk_session_projection";
+    return guardedSession(function, session, [&](const mr::Session& s) -> lsk_status {
+        if (out == nullptr) return invalidArgument(function, "out is null");
         if (!(nearMetres > 0.0 && farMetres > nearMetres))
-            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_projection: needs 0 < near_metres < far_metres");
-        const glm::mat4 m = session->session->projection(nearMetres, farMetres);
+            return invalidArgument(function, "needs 0 < near_metres < far_metres");
+        const glm::mat4 m = s.projection(nearMetres, farMetres);
         std::memcpy(out, glm::value_ptr(m), 16 * sizeof(float));
         return LSK_OK;
     });
 }
 
 lsk_status lsk_session_read_composite(const lsk_session* session, uint8_t* rgb, size_t rowBytes) {
-    return guarded("lsk_session_read_composite", [&]() -> lsk_status {
-        if (session == nullptr || rgb == nullptr) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_read_composite: null argument");
-        const cv::Mat& composite = session->session->output().withGi;
-        if (composite.empty()) return fail(LSK_ERROR_INPUT, "lsk_session_read_composite: no frame has been processed yet");
+    constexpr const char* function = "lsk_session_read_composite";
+    return guardedSession(function, session, [&](const mr::Session& s) -> lsk_status {
+        if (rgb == nullptr) return invalidArgument(function, "rgb is null");
+        const cv::Mat& composite = s.output().withGi;
+        if (composite.empty())
+            return fail(LSK_ERROR_INPUT, std::string(function) + ": no frame has been processed yet");
         const std::size_t step = rowBytes != 0 ? rowBytes : std::size_t(composite.cols) * 3;
         if (step < std::size_t(composite.cols) * 3)
-            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_read_composite: row_bytes smaller than a row (width * 3)");
+            return invalidArgument(function, "row_bytes smaller than a row (width * 3)");
         cv::Mat out(composite.rows, composite.cols, CV_8UC3, rgb, step); // a header: cvtColor writes in place
         cv::cvtColor(composite, out, cv::COLOR_BGR2RGB);
         return LSK_OK;
@@ -326,30 +342,30 @@ lsk_status lsk_session_read_composite(const lsk_session* session, uint8_t* rgb, 
 }
 
 lsk_status lsk_session_camera(const lsk_session* session, lsk_camera* out) {
-    return guarded("lsk_session_camera", [&]() -> lsk_status {
-        if (session == nullptr || out == nullptr)
-            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_camera: null argument");
-        const lightskin::CameraIntrinsics& k = session->session->camera();
+    constexpr const char* function = "lsk_session_camera";
+    return guardedSession(function, session, [&](const mr::Session& s) -> lsk_status {
+        if (out == nullptr) return invalidArgument(function, "out is null");
+        const lightskin::CameraIntrinsics& k = s.camera();
         *out = lsk_camera{k.width, k.height, k.fx, k.fy, k.cx, k.cy};
         return LSK_OK;
     });
 }
 
 lsk_status lsk_session_view(const lsk_session* session, float out[16]) {
-    return guarded("lsk_session_view", [&]() -> lsk_status {
-        if (session == nullptr || out == nullptr)
-            return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_view: null argument");
-        const glm::mat4 m = session->session->viewMatrix();
+    constexpr const char* function = "lsk_session_view";
+    return guardedSession(function, session, [&](const mr::Session& s) -> lsk_status {
+        if (out == nullptr) return invalidArgument(function, "out is null");
+        const glm::mat4 m = s.viewMatrix();
         std::memcpy(out, glm::value_ptr(m), 16 * sizeof(float));
         return LSK_OK;
     });
 }
 
 lsk_status lsk_session_set_budget(lsk_session* session, double budgetMs) {
-    return guarded("lsk_session_set_budget", [&]() -> lsk_status {
-        if (session == nullptr) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_set_budget: session is null");
-        if (!(budgetMs > 0.0)) return fail(LSK_ERROR_INVALID_ARGUMENT, "lsk_session_set_budget: budget_ms must be > 0");
-        session->session->setBudgetMs(budgetMs);
+    constexpr const char* function = "lsk_session_set_budget";
+    return guardedSession(function, session, [&](mr::Session& s) -> lsk_status {
+        if (!(budgetMs > 0.0)) return invalidArgument(function, "budget_ms must be > 0");
+        s.setBudgetMs(budgetMs);
         return LSK_OK;
     });
 }
