@@ -1,17 +1,21 @@
 #!/usr/bin/env python3
-"""Plots of `lightskin bench` drawn from its bench.json (docs/BENCHMARKS.md, "Plots").
+"""Plots of the bench JSON (`lightskin bench`, bench-gather, bench-cpu, bench-realdepth; keys in
+docs/bench/SCHEMA.md; how to read the plots: docs/BENCHMARKS.md, "Plots").
 
     python3 bench/plots/bench_plots.py bench-out/bench.json bench-out
 
-writes into the output folder:
-  bench.png            error against the ray-traced truth vs time per frame (Pareto plot, log-log)
-  bench-vs-brute.png   the same against the brute force on the same VALs
-  bench-scaling.png    time per frame vs VAL count, per technique and backend
-  bench-flicker.png    temporal stability: flicker and excess flicker per sequence and technique
-  bench-plots.json     what was drawn (series, colours, markers, labels and their overlaps), for tests
+writes into the output folder, named by the JSON's "bench" key (B; "bench" for files without it):
+  B.png            error against the ray-traced truth vs time per frame (Pareto plot, log-log)
+  B-vs-brute.png   the same against the brute force on the same VALs
+  B-scaling.png    time per frame vs VAL count, per technique and backend (and series)
+  B-flicker.png    temporal stability: flicker and excess flicker per sequence and technique
+  B-plots.json     what was drawn (series, colours, markers, labels and their overlaps), for tests
+A plot whose rows the JSON lacks (no errors, no VAL counts, no temporal rows) is not written.
 
 Series are the (method, backend) pairs found in the JSON (runs[].method / runs[].backend; older files
-without them: "LightSkin"/"brute force" on "GL"), so a new technique or backend needs no change here.
+without them: "LightSkin"/"brute force" on "GL"). The known techniques (TECHNIQUES) keep one colour and
+marker in every plot and file, whichever spelling of their method key a file uses; any other method
+gets the next free colour, so a new technique needs no change here to be drawn.
 Exit status: 0 plotted, 2 bad input (message names the file and key), 3 matplotlib missing.
 """
 import json
@@ -33,11 +37,38 @@ except ImportError as error:
     print(f"bench_plots.py: matplotlib is not available ({error}); install python3-matplotlib", file=sys.stderr)
     sys.exit(EXIT_NO_MATPLOTLIB)
 
-# One colour per series in order of appearance (colour-blind safe Okabe-Ito palette), one marker per
-# method: the brute force always black squares, the reference every other series is judged against.
-PALETTE = ["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#F0E442", "#882255"]
-MARKERS = ["o", "^", "D", "v", "P", "X", "<", ">"]
+# Colour-blind safe (Okabe-Ito). The known techniques own a hue each (GL backend) and a lighter one (CPU
+# backend), and a marker; the brute force is black squares, the reference the others are judged against.
+# Keys are compared without case, spaces, '-' and '_': "multiscale-prt" = "multi-scale PRT".
+TECHNIQUES = [
+    # (key, display name, marker, {backend: colour})
+    ("lightskin", "LightSkin", "o", {"GL": "#0072B2", "CPU": "#56B4E9"}),
+    ("imperfectvolumes", "imperfect volumes", "^", {"GL": "#D55E00", "CPU": "#E69F00"}),
+    ("multiscaleprt", "multi-scale PRT", "D", {"GL": "#009E73", "CPU": "#66C2A5"}),
+]
+# For any other (method, backend): colours and markers no known technique uses.
+SPARE_COLOURS = ["#CC79A7", "#882255", "#F0E442", "#44AA99", "#999933", "#AA4499"]
+SPARE_MARKERS = ["v", "P", "X", "<", ">", "h"]
 BRUTE = "brute force"
+BRUTE_COLOURS = ["#000000", "#777777", "#BBBBBB"]
+LINE_STYLES = ["-", "--", ":", "-."]
+HATCHES = ["", "//", "..", "xx", "\\\\", "++"]
+
+
+def technique_key(method):
+    return "".join(c for c in str(method).lower() if c not in " -_")
+
+
+def known_technique(method):
+    key = technique_key(method)
+    return next((t for t in TECHNIQUES if t[0] == key), None)
+
+
+def display_name(method):
+    known = known_technique(method)
+    if known:
+        return known[1]
+    return BRUTE if technique_key(method) == technique_key(BRUTE) else str(method)
 
 
 class BadInput(Exception):
@@ -51,7 +82,8 @@ def field(obj, key, where):
 
 
 def method_of(run):
-    return run.get("method") or (BRUTE if run.get("is_brute") else "LightSkin")
+    """The run's technique by its display name (one series whichever spelling of a known key it uses)."""
+    return display_name(run.get("method") or (BRUTE if run.get("is_brute") else "LightSkin"))
 
 
 def backend_of(run):
@@ -68,31 +100,35 @@ def time_of(run, where):
 
 
 class Styles:
-    """Colour and marker per (method, backend), fixed for all plots of one JSON."""
+    """Colour and marker per (method, backend), fixed for all plots of one JSON: the known techniques'
+    own (TECHNIQUES), the brute force black, others the spare colours in order of appearance."""
 
     def __init__(self, keys):
         self.style = {}
-        methods = []
-        for key in keys:
-            if key[0] not in methods and key[0] != BRUTE:
-                methods.append(key[0])
-        colour, brutes = 0, 0
+        spare_methods, spare, brutes = [], 0, 0
         for key in keys:
             if key in self.style:
                 continue
-            if key[0] == BRUTE:
-                self.style[key] = (["#000000", "#777777", "#BBBBBB"][min(brutes, 2)], "s")
+            known = known_technique(key[0])
+            if technique_key(key[0]) == technique_key(BRUTE):
+                self.style[key] = (BRUTE_COLOURS[min(brutes, len(BRUTE_COLOURS) - 1)], "s")
                 brutes += 1
+            elif known and key[1] in known[3]:
+                self.style[key] = (known[3][key[1]], known[2])
             else:
-                self.style[key] = (PALETTE[colour % len(PALETTE)], MARKERS[methods.index(key[0]) % len(MARKERS)])
-                colour += 1
+                if technique_key(key[0]) not in spare_methods:
+                    spare_methods.append(technique_key(key[0]))
+                marker = known[2] if known else SPARE_MARKERS[
+                    spare_methods.index(technique_key(key[0])) % len(SPARE_MARKERS)]
+                self.style[key] = (SPARE_COLOURS[spare % len(SPARE_COLOURS)], marker)
+                spare += 1
 
     def __call__(self, key):
         return self.style[key]
 
 
 def series_name(key):
-    return f"{key[0]} ({key[1]})"
+    return f"{display_name(key[0])} ({key[1]})"
 
 
 def place_labels(ax, fig, items, avoid_points):
@@ -162,6 +198,8 @@ def pareto_plot(report, truth, path, manifest, styles):
             continue
         points.append({"t": t, "e": e, "run": r, "key": (method_of(r), backend_of(r)),
                        "own_reference": r.get("channels") == default_channels or r.get("is_brute")})
+    if not points:
+        return False
     fig, ax = plt.subplots(figsize=(10, 6.2), dpi=110)
     ax.set_xscale("log")
     ax.set_yscale("log")
@@ -231,62 +269,84 @@ def pareto_plot(report, truth, path, manifest, styles):
                    for k, n in drawn.items()],
         "pareto_front": [p["run"].get("label") for p in front],
         "labels": texts, "label_overlaps": overlap_count}
+    return True
 
 
 def scaling_plot(report, path, manifest, styles):
-    """Time per frame against VAL count: the runs that vary only the VAL map (axis stride, and the default),
-    per (method, backend); a LightSkin row's brute_ms (the brute force on its inputs) joins the brute force."""
+    """Time per frame against VAL count, one line per (method, backend, series). The sweep (bench.json):
+    the runs that vary only the VAL map (axis stride, and the default), and a LightSkin row's brute_ms (the
+    brute force on its inputs) joins the brute force; the table benches: every row with a VAL count."""
+    sweep = report.get("bench", "bench") == "bench"
     series = {}
     for i, r in enumerate(field(report, "runs", "bench.json")):
-        if r.get("axis") not in ("stride", "default"):
+        if sweep and r.get("axis") not in ("stride", "default"):
             continue
         vals = field(r, "vals", f"bench.json runs[{i}]")
         t = time_of(r, f"bench.json runs[{i}]")
+        variant = "" if r.get("is_brute") and sweep else (r.get("series") or "")
         if t and vals:
-            series.setdefault((method_of(r), backend_of(r)), {})[vals] = t
-        if not r.get("is_brute") and r.get("brute_ms") and vals:
-            series.setdefault((BRUTE, backend_of(r)), {})[vals] = float(r["brute_ms"])
-    fig, ax = plt.subplots(figsize=(8, 5.5), dpi=110)
+            series.setdefault((method_of(r), backend_of(r), variant), {})[vals] = t
+        if sweep and not r.get("is_brute") and r.get("brute_ms") and vals:
+            series.setdefault((BRUTE, backend_of(r), ""), {})[vals] = float(r["brute_ms"])
+    if not series:
+        return False
+    fig, ax = plt.subplots(figsize=(10, 5.8), dpi=110)
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.grid(True, which="both", color="0.88")
+    variants = {}  # line style per series within one (method, backend): colour says technique and backend
+    drawn = []
     for key, points in series.items():
         xs = sorted(points)
-        colour, marker = styles(key)
-        ax.plot(xs, [points[x] for x in xs], marker=marker, color=colour, label=series_name(key))
+        colour, marker = styles(key[:2])
+        same = variants.setdefault(key[:2], [])
+        same.append(key[2])
+        style = LINE_STYLES[(len(same) - 1) % len(LINE_STYLES)]
+        label = series_name(key[:2]) + (f": {key[2]}" if key[2] else "")
+        ax.plot(xs, [points[x] for x in xs], marker=marker, color=colour, ls=style, label=label)
+        drawn.append({"method": key[0], "backend": key[1], "series": key[2], "colour": colour, "marker": marker,
+                      "linestyle": style, "points": len(xs), "label": label})
     ax.set_xlabel("VALs (log)")
     ax.set_ylabel("time per frame (ms, log)")
-    ax.set_title("lightskin bench: time against VAL count (the VAL-stride runs)", fontsize=10)
-    if series:
-        ax.legend(fontsize=8)
+    what = "the VAL-stride runs" if sweep else report.get("command") or report.get("bench")
+    ax.set_title(f"lightskin {report.get('bench', 'bench')}: time against VAL count ({what})\n"
+                 f"{report.get('renderer', '')}", fontsize=9)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
-    manifest[os.path.basename(path)] = {
-        "series": [{"method": k[0], "backend": k[1], "colour": styles(k)[0], "marker": styles(k)[1],
-                    "points": len(v)} for k, v in series.items()]}
+    manifest[os.path.basename(path)] = {"series": drawn}
+    return True
 
 
-def flicker_plot(report, path, manifest):
+def temporal_method(row):
+    return display_name(row.get("method") or (BRUTE if str(row.get("technique", "")).startswith(BRUTE)
+                                              else "LightSkin"))
+
+
+def flicker_plot(report, path, manifest, styles):
     """Grouped bars per sequence: flicker of each technique (the brute force's is the reference floor) and,
-    below, the excess flicker the approximation adds."""
+    below, the excess flicker the approximation adds. A bar's colour is its technique's (as in the other
+    plots); variants of one technique (sparse counts, light models) differ by hatching."""
     temporal = report.get("temporal") or []
+    if not temporal:
+        return False
     sequences, techniques = [], []
     for t in temporal:
         if t["sequence"] not in sequences:
             sequences.append(t["sequence"])
         if t["technique"] not in techniques:
             techniques.append(t["technique"])
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 6.5), dpi=110, sharex=True)
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(10, 6.5), dpi=110, sharex=True)
     width = 0.8 / max(1, len(techniques))
-    colours = {}
-    c = 0
+    colours, hatches, variants = {}, {}, {}
     for name in techniques:
-        if name.startswith(BRUTE):
-            colours[name] = "#000000"
-        else:
-            colours[name] = PALETTE[c % len(PALETTE)]
-            c += 1
+        row = next(t for t in temporal if t["technique"] == name)
+        key = (temporal_method(row), row.get("backend") or "GL")
+        colours[name] = styles(key)[0]
+        same = variants.setdefault(key, [])
+        same.append(name)
+        hatches[name] = HATCHES[(len(same) - 1) % len(HATCHES)]
     for j, name in enumerate(techniques):
         xs, flicker, excess = [], [], []
         for i, s in enumerate(sequences):
@@ -295,22 +355,25 @@ def flicker_plot(report, path, manifest):
                 xs.append(i + (j - (len(techniques) - 1) / 2) * width)
                 flicker.append(row["flicker"])
                 excess.append(row["excess_flicker"])
-        top.bar(xs, flicker, width * 0.95, color=colours[name], label=name)
-        bottom.bar(xs, excess, width * 0.95, color=colours[name])
+        top.bar(xs, flicker, width * 0.95, color=colours[name], hatch=hatches[name], edgecolor="white", label=name)
+        bottom.bar(xs, excess, width * 0.95, color=colours[name], hatch=hatches[name], edgecolor="white")
     top.set_ylabel("flicker\n(RMS change / mean)")
     bottom.set_ylabel("excess flicker\n(over the reference)")
     bottom.set_xticks(range(len(sequences)))
-    bottom.set_xticklabels(sequences)
-    bottom.set_xlabel("sequence: camera = moving view, light = moving light, edges = moving depth camera")
-    top.set_title("lightskin bench: temporal stability", fontsize=10)
-    if techniques:
-        top.legend(fontsize=8)
+    bottom.set_xticklabels(sequences, fontsize=8, rotation=20 if len(sequences) > 4 else 0)
+    if report.get("bench", "bench") == "bench":
+        bottom.set_xlabel("sequence: camera = moving view, light = moving light, edges = moving depth camera")
+    top.set_title(f"lightskin {report.get('bench', 'bench')}: temporal stability", fontsize=10)
+    top.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     for ax in (top, bottom):
         ax.grid(True, axis="y", color="0.88")
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
-    manifest[os.path.basename(path)] = {"sequences": sequences, "techniques": techniques}
+    manifest[os.path.basename(path)] = {"sequences": sequences, "techniques": techniques,
+                                        "colours": [colours[n] for n in techniques],
+                                        "hatches": [hatches[n] for n in techniques]}
+    return True
 
 
 def main(argv):
@@ -324,21 +387,27 @@ def main(argv):
     except (OSError, ValueError) as error:
         print(f"bench_plots.py: {json_path}: cannot read the bench JSON: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    # Outputs are named after the bench that wrote the file (bench.png, ...; bench-gather-scaling.png, ...).
+    stem = report.get("bench", "bench") if isinstance(report, dict) else "bench"
     try:
         runs = field(report, "runs", json_path)
         keys = [(method_of(r), backend_of(r)) for r in runs]
         keys += [(BRUTE, backend_of(r)) for r in runs if r.get("brute_ms")]
+        keys += [(temporal_method(t), t.get("backend") or "GL") for t in report.get("temporal") or []]
         styles = Styles(keys)
         os.makedirs(out, exist_ok=True)
-        manifest = {"source": json_path}
-        pareto_plot(report, True, os.path.join(out, "bench.png"), manifest, styles)
-        pareto_plot(report, False, os.path.join(out, "bench-vs-brute.png"), manifest, styles)
-        scaling_plot(report, os.path.join(out, "bench-scaling.png"), manifest, styles)
-        flicker_plot(report, os.path.join(out, "bench-flicker.png"), manifest)
+        manifest = {"source": json_path, "drawn": []}
+        plots = [(f"{stem}.png", lambda p: pareto_plot(report, True, p, manifest, styles)),
+                 (f"{stem}-vs-brute.png", lambda p: pareto_plot(report, False, p, manifest, styles)),
+                 (f"{stem}-scaling.png", lambda p: scaling_plot(report, p, manifest, styles)),
+                 (f"{stem}-flicker.png", lambda p: flicker_plot(report, p, manifest, styles))]
+        for name, draw in plots:
+            if draw(os.path.join(out, name)):
+                manifest["drawn"].append(name)
     except (BadInput, KeyError, TypeError, ValueError) as error:
         print(f"bench_plots.py: {json_path}: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    with open(os.path.join(out, "bench-plots.json"), "w", encoding="utf-8") as f:
+    with open(os.path.join(out, f"{stem}-plots.json"), "w", encoding="utf-8") as f:
         json.dump(manifest, f, indent=2)
     return 0
 

@@ -50,18 +50,17 @@ std::optional<int> run(const std::vector<std::string>& argv) {
 
 } // namespace
 
-PlotOutcome drawPlots(const std::string& jsonFile, const std::string& outDir) {
-    for (const char* name :
-         {"bench.png", "bench-vs-brute.png", "bench-scaling.png", "bench-flicker.png", "bench-plots.json"}) {
+PlotOutcome drawPlots(const std::string& jsonFile, const std::string& outDir, const std::string& prefix) {
+    for (const char* suffix : {".png", "-vs-brute.png", "-scaling.png", "-flicker.png", "-plots.json"}) {
         std::error_code ignored;
-        std::filesystem::remove(std::filesystem::path(outDir) / name, ignored);
+        std::filesystem::remove(std::filesystem::path(outDir) / (prefix + suffix), ignored);
     }
     const std::string script = environmentOr("LIGHTSKIN_BENCH_PLOTS", LIGHTSKIN_BENCH_PLOT_SCRIPT);
     const std::string python = interpreter();
     const std::string howTo =
         "; the results are in " + jsonFile +
         ". To draw the plots: apt-get install python3-matplotlib, then `lightskin bench --from-json " + jsonFile +
-        " --out " + outDir + "`";
+        " --out " + outDir + "` (or python3 " + script + " " + jsonFile + " " + outDir + ")";
     if (!std::filesystem::exists(script))
         return {false, "plots skipped: the plot script " + script +
                            " is missing (set LIGHTSKIN_BENCH_PLOTS to bench/plots/bench_plots.py of a source tree)" +
@@ -77,7 +76,7 @@ PlotOutcome drawPlots(const std::string& jsonFile, const std::string& outDir) {
         throw Error(outDir, std::nullopt,
                     "the plot script " + script + " failed with exit status " + std::to_string(*status) +
                         " (its message is above)");
-    return {true, "plots: " + outDir + "/bench{,-vs-brute,-scaling,-flicker}.png (matplotlib)"};
+    return {true, "plots: " + outDir + "/" + prefix + "*.png (matplotlib; the list in " + prefix + "-plots.json)"};
 }
 
 } // namespace lightskin::bench

@@ -9,10 +9,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <sstream>
+#include <thread>
 
 namespace lightskin::bench {
 
@@ -52,22 +54,56 @@ double stage(const RunResult& r, const std::string& name) {
     return std::numeric_limits<double>::quiet_NaN();
 }
 
-nlohmann::json errorJson(const std::optional<eval::ImageError>& e) {
-    if (!e) return nullptr;
-    return {{"relative_mse", e->relativeMse},
-            {"ssim", e->ssim},
-            {"mae", e->meanAbsoluteError},
-            {"max", e->maxAbsoluteError},
-            {"psnr", std::isfinite(e->psnr) ? nlohmann::json(e->psnr) : nlohmann::json(nullptr)},
-            {"pixels", e->pixelsCompared}};
-}
-
 std::string errorCells(const std::optional<eval::ImageError>& e) {
     if (!e) return "- | -";
     return sci(e->relativeMse) + " | " + fixed(3, e->ssim);
 }
 
 } // namespace
+
+std::string commandLine() {
+    std::ifstream in("/proc/self/cmdline", std::ios::binary);
+    std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()), out;
+    std::size_t start = 0;
+    bool first = true;
+    while (start < all.size()) {
+        const std::size_t end = std::min(all.find('\0', start), all.size());
+        std::string word = all.substr(start, end - start);
+        if (first) word = std::filesystem::path(word).filename().string();
+        out += (first ? "" : " ") + word;
+        first = false;
+        start = end + 1;
+    }
+    return out;
+}
+
+std::string utcNow() {
+    const std::time_t now = std::time(nullptr);
+    std::tm tm{};
+    gmtime_r(&now, &tm);
+    char buffer[64];
+    std::strftime(buffer, sizeof buffer, "%Y-%m-%d %H:%M UTC", &tm);
+    return buffer;
+}
+
+std::string machineDescription() {
+    std::ifstream in("/proc/cpuinfo");
+    std::string model = "unknown";
+    for (std::string line; std::getline(in, line);)
+        if (line.rfind("model name", 0) == 0) {
+            const auto colon = line.find(':');
+            if (colon != std::string::npos) model = line.substr(colon + 2);
+            break;
+        }
+    return model + ", " + std::to_string(std::thread::hardware_concurrency()) + " threads";
+}
+
+std::string loadAverage() {
+    std::ifstream in("/proc/loadavg");
+    std::string one, five, fifteen;
+    in >> one >> five >> fifteen;
+    return one + " " + five + " " + fifteen;
+}
 
 const char* channelName(int channels) {
     switch (channels) {
@@ -77,6 +113,224 @@ const char* channelName(int channels) {
         return "+glossy";
     default:
         return "+occlusion";
+    }
+}
+
+// ---- bench JSON (docs/bench/SCHEMA.md): every key is listed once, in fields(), for both directions ----
+
+namespace {
+
+/// Writes each visited field into a JSON object.
+struct JsonWriter {
+    nlohmann::json& j;
+    template <typename T>
+    void operator()(const char* key, const T& value) {
+        j[key] = toJson(value);
+    }
+    /// Keys added after the first files were written: read with a fallback, written like the others.
+    template <typename T>
+    void withFallback(const char* key, const T& value, const T& /*fallback*/) {
+        (*this)(key, value);
+    }
+    template <typename T>
+    static nlohmann::json toJson(const T& value) {
+        return value;
+    }
+    static nlohmann::json toJson(const std::optional<double>& value) {
+        return value && std::isfinite(*value) ? nlohmann::json(*value) : nlohmann::json(nullptr);
+    }
+    static nlohmann::json toJson(const std::optional<eval::ImageError>& e) {
+        if (!e) return nullptr;
+        return {{"relative_mse", e->relativeMse},
+                {"ssim", e->ssim},
+                {"mae", e->meanAbsoluteError},
+                {"max", e->maxAbsoluteError},
+                {"psnr", toJson(std::optional<double>(e->psnr))}, // +inf (identical images): null
+                {"pixels", e->pixelsCompared}};
+    }
+};
+
+/// Reads each visited field from a JSON object (nlohmann's exceptions name a missing key or wrong type).
+struct JsonReader {
+    const nlohmann::json& j;
+    template <typename T>
+    void operator()(const char* key, T& value) {
+        fromJson(j.at(key), value);
+    }
+    template <typename T>
+    void withFallback(const char* key, T& value, const T& fallback) {
+        if (j.contains(key))
+            fromJson(j.at(key), value);
+        else
+            value = fallback;
+    }
+    template <typename T>
+    static void fromJson(const nlohmann::json& x, T& value) {
+        x.get_to(value);
+    }
+    static void fromJson(const nlohmann::json& x, std::optional<double>& value) {
+        value = x.is_null() ? std::nullopt : std::optional<double>(x.get<double>());
+    }
+    static void fromJson(const nlohmann::json& x, std::optional<eval::ImageError>& value) {
+        if (x.is_null()) {
+            value.reset();
+            return;
+        }
+        eval::ImageError e;
+        e.relativeMse = x.at("relative_mse").get<double>();
+        e.ssim = x.at("ssim").get<double>();
+        e.meanAbsoluteError = x.at("mae").get<double>();
+        e.maxAbsoluteError = x.at("max").get<double>();
+        e.psnr = x.at("psnr").is_null() ? std::numeric_limits<double>::infinity() : x.at("psnr").get<double>();
+        e.pixelsCompared = x.at("pixels").get<std::size_t>();
+        value = e;
+    }
+};
+
+template <typename Io, typename R>
+void reportFields(Io& io, R& r) {
+    io.withFallback("bench", r.bench, std::string("bench")); // files of `lightskin bench` before the key
+    io("machine", r.machine);
+    io("renderer", r.renderer);
+    io("date", r.date);
+    io("command", r.command);
+    io("load_start", r.loadStart);
+    io("load_end", r.loadEnd);
+    io("truth_stride", r.truthStride);
+    io("frames", r.frames);
+    io("seconds", r.seconds);
+    io("quick", r.quick);
+}
+
+template <typename Io, typename R>
+void runFields(Io& io, R& r) {
+    auto& c = r.config;
+    io("axis", c.axis);
+    io("value", c.value);
+    io("is_default", c.isDefault);
+    io("is_brute", r.isBrute);
+    // Files from before the method/backend keys: the sweep's rows were LightSkin or brute force on GL.
+    io.withFallback("method", r.method, std::string(r.isBrute ? "brute force" : "LightSkin"));
+    io.withFallback("backend", r.backend, std::string("GL"));
+    io.withFallback("series", r.series, std::string());
+    io("sparse_per_model", c.sparse);
+    io("val_stride", c.stride);
+    io("vals", r.vals);
+    io("kcache", c.kCache);
+    io("width", c.width);
+    io("height", c.height);
+    io("triangles", r.triangles);
+    io("adaptive", c.adaptive);
+    io("covered_pixels", r.covered);
+    io("gpu_ms", r.gpuMs);
+    io("cpu_ms", r.cpuMs);
+    io("val_generation_ms", r.valsMs);
+    io("prepare_ms", r.prepareMs);
+    io("brute_ms", r.bruteMs);
+    io("vs_brute", r.vsBrute);
+    io("vs_truth", r.vsTruth);
+    io.withFallback("vs_fine_brute", r.vsFineBrute, std::optional<eval::ImageError>());
+    io("truth_receivers", r.truthReceivers);
+}
+
+template <typename Io, typename T>
+void temporalFields(Io& io, T& t) {
+    io("sequence", t.sequence);
+    io("technique", t.technique);
+    io("frames", t.frames);
+    io("samples", t.pointPairs);
+    io("flicker", t.flicker);
+    io("reference_flicker", t.referenceFlicker);
+    io("excess_flicker", t.excessFlicker);
+    io.withFallback("method", t.method,
+                    std::string(t.technique.starts_with("brute force") ? "brute force" : "LightSkin"));
+    io.withFallback("backend", t.backend, std::string("GL"));
+}
+
+template <typename Io, typename C>
+void checkFields(Io& io, C& c) {
+    io("name", c.name);
+    io("passed", c.passed);
+    io.withFallback("required", c.required, true);
+    io("detail", c.detail);
+}
+
+/// A run's fields that are not plain members: its label (written only), channels by name, stages.
+nlohmann::json runToJson(const RunResult& r) {
+    nlohmann::json j;
+    JsonWriter w{j};
+    runFields(w, r);
+    j["label"] = label(r);
+    j["channels"] = channelName(r.config.channels);
+    for (const auto& s : r.stages) j["stages_ms"][s.first] = s.second;
+    return j;
+}
+
+RunResult runFromJson(const nlohmann::json& j) {
+    RunResult r;
+    JsonReader reader{j};
+    runFields(reader, r);
+    const std::string channels = j.at("channels");
+    r.config.channels = channels == "diffuse" ? 1 : channels == "+glossy" ? 2 : 3;
+    r.config.backend = r.backend;
+    if (j.contains("stages_ms"))
+        for (const auto& [name, ms] : j.at("stages_ms").items()) r.stages.emplace_back(name, ms.get<double>());
+    return r;
+}
+
+template <typename T, typename Fields>
+nlohmann::json listToJson(const std::vector<T>& items, Fields fields) {
+    nlohmann::json list = nlohmann::json::array();
+    for (const T& item : items) {
+        nlohmann::json j;
+        JsonWriter w{j};
+        fields(w, item);
+        list.push_back(std::move(j));
+    }
+    return list;
+}
+
+template <typename T, typename Fields>
+std::vector<T> listFromJson(const nlohmann::json& report, const char* key, Fields fields) {
+    std::vector<T> items;
+    for (const auto& j : report.value(key, nlohmann::json::array())) {
+        T item;
+        JsonReader reader{j};
+        fields(reader, item);
+        items.push_back(std::move(item));
+    }
+    return items;
+}
+
+} // namespace
+
+void writeJson(const Report& report, const std::string& file) {
+    nlohmann::json j;
+    JsonWriter w{j};
+    reportFields(w, report);
+    j["runs"] = nlohmann::json::array();
+    for (const auto& r : report.runs) j["runs"].push_back(runToJson(r));
+    j["temporal"] = listToJson(report.temporal, [](JsonWriter& io, const TemporalResult& t) { temporalFields(io, t); });
+    j["checks"] = listToJson(report.checks, [](JsonWriter& io, const CheckResult& c) { checkFields(io, c); });
+    std::ofstream out(file);
+    if (!(out << j.dump(2) << "\n")) throw Error(file, std::nullopt, "cannot write the bench JSON");
+}
+
+Report readReport(const std::string& jsonFile) {
+    std::ifstream in(jsonFile);
+    if (!in) throw Error(jsonFile, std::nullopt, "cannot read the bench JSON");
+    try {
+        const nlohmann::json j = nlohmann::json::parse(in);
+        Report r;
+        JsonReader reader{j};
+        reportFields(reader, r);
+        for (const auto& x : j.value("runs", nlohmann::json::array())) r.runs.push_back(runFromJson(x));
+        r.temporal = listFromJson<TemporalResult>(j, "temporal",
+                                                  [](JsonReader& io, TemporalResult& t) { temporalFields(io, t); });
+        r.checks = listFromJson<CheckResult>(j, "checks", [](JsonReader& io, CheckResult& c) { checkFields(io, c); });
+        return r;
+    } catch (const nlohmann::json::exception& e) {
+        throw Error(jsonFile, std::nullopt, std::string("malformed bench JSON: ") + e.what());
     }
 }
 
@@ -211,159 +465,20 @@ void writeOutputs(const Report& report, const std::string& dir) {
             csv << '\n';
         }
     }
-    {
-        nlohmann::json j;
-        j["machine"] = report.machine;
-        j["renderer"] = report.renderer;
-        j["date"] = report.date;
-        j["command"] = report.command;
-        j["load_start"] = report.loadStart;
-        j["load_end"] = report.loadEnd;
-        j["truth_stride"] = report.truthStride;
-        j["frames"] = report.frames;
-        j["seconds"] = report.seconds;
-        j["quick"] = report.quick;
-        for (const auto& r : report.runs) {
-            const auto& c = r.config;
-            nlohmann::json run = {{"label", label(r)},
-                                  {"method", r.method},
-                                  {"backend", r.backend},
-                                  {"axis", c.axis},
-                                  {"value", c.value},
-                                  {"is_default", c.isDefault},
-                                  {"is_brute", r.isBrute},
-                                  {"sparse_per_model", c.sparse},
-                                  {"val_stride", c.stride},
-                                  {"vals", r.vals},
-                                  {"kcache", c.kCache},
-                                  {"channels", channelName(c.channels)},
-                                  {"width", c.width},
-                                  {"height", c.height},
-                                  {"triangles", r.triangles},
-                                  {"adaptive", c.adaptive},
-                                  {"covered_pixels", r.covered},
-                                  {"gpu_ms", r.gpuMs},
-                                  {"cpu_ms", r.cpuMs},
-                                  {"val_generation_ms", r.valsMs},
-                                  {"prepare_ms", r.prepareMs},
-                                  {"brute_ms", r.bruteMs ? nlohmann::json(*r.bruteMs) : nlohmann::json(nullptr)},
-                                  {"vs_brute", errorJson(r.vsBrute)},
-                                  {"vs_truth", errorJson(r.vsTruth)},
-                                  {"vs_fine_brute", errorJson(r.vsFineBrute)},
-                                  {"truth_receivers", r.truthReceivers}};
-            for (const auto& s : r.stages) run["stages_ms"][s.first] = s.second;
-            j["runs"].push_back(run);
-        }
-        for (const auto& t : report.temporal)
-            j["temporal"].push_back({{"sequence", t.sequence},
-                                     {"technique", t.technique},
-                                     {"frames", t.frames},
-                                     {"samples", t.pointPairs},
-                                     {"flicker", t.flicker},
-                                     {"reference_flicker", t.referenceFlicker},
-                                     {"excess_flicker", t.excessFlicker},
-                                     {"method", t.method},
-                                     {"backend", t.backend}});
-        for (const auto& c : report.checks)
-            j["checks"].push_back(
-                {{"name", c.name}, {"passed", c.passed}, {"required", c.required}, {"detail", c.detail}});
-        std::ofstream(dir + "/bench.json") << j.dump(2) << "\n";
-    }
     std::ofstream(dir + "/bench.md") << markdown(report);
-    const PlotOutcome plots = drawPlots(dir + "/bench.json", dir);
+    writeJsonAndPlots(report, dir);
+}
+
+void writeJsonAndPlots(const Report& report, const std::string& dir) {
+    std::filesystem::create_directories(dir);
+    const std::string file = dir + "/" + report.bench + ".json";
+    writeJson(report, file);
+    log::info("results: " + file);
+    const PlotOutcome plots = drawPlots(file, dir, report.bench);
     if (plots.drawn)
         log::info(plots.message);
     else
         log::warning(plots.message);
-}
-
-namespace {
-
-std::optional<eval::ImageError> errorFromJson(const nlohmann::json& j) {
-    if (j.is_null()) return std::nullopt;
-    eval::ImageError e;
-    e.relativeMse = j.at("relative_mse").get<double>();
-    e.ssim = j.at("ssim").get<double>();
-    e.meanAbsoluteError = j.at("mae").get<double>();
-    e.maxAbsoluteError = j.at("max").get<double>();
-    e.psnr = j.at("psnr").is_null() ? std::numeric_limits<double>::infinity() : j.at("psnr").get<double>();
-    e.pixelsCompared = j.at("pixels").get<std::size_t>();
-    return e;
-}
-
-} // namespace
-
-Report readReport(const std::string& jsonFile) {
-    std::ifstream in(jsonFile);
-    if (!in) throw Error(jsonFile, std::nullopt, "cannot read the bench JSON");
-    try {
-        const nlohmann::json j = nlohmann::json::parse(in);
-        Report r;
-        r.machine = j.at("machine");
-        r.renderer = j.at("renderer");
-        r.date = j.at("date");
-        r.command = j.at("command");
-        r.loadStart = j.at("load_start");
-        r.loadEnd = j.at("load_end");
-        r.truthStride = j.at("truth_stride");
-        r.frames = j.at("frames");
-        r.seconds = j.at("seconds");
-        r.quick = j.at("quick");
-        for (const auto& x : j.value("runs", nlohmann::json::array())) {
-            RunResult run;
-            Config& c = run.config;
-            c.axis = x.at("axis");
-            c.value = x.at("value");
-            c.isDefault = x.at("is_default");
-            run.isBrute = x.at("is_brute");
-            // Files from before the method/backend keys: the sweep's rows were LightSkin or brute force on GL.
-            run.method = x.value("method", run.isBrute ? std::string("brute force") : std::string("LightSkin"));
-            run.backend = x.value("backend", std::string("GL"));
-            c.sparse = x.at("sparse_per_model");
-            c.stride = x.at("val_stride");
-            c.kCache = x.at("kcache");
-            const std::string channels = x.at("channels");
-            c.channels = channels == "diffuse" ? 1 : channels == "+glossy" ? 2 : 3;
-            c.width = x.at("width");
-            c.height = x.at("height");
-            c.adaptive = x.at("adaptive");
-            c.backend = run.backend;
-            run.vals = x.at("vals");
-            run.triangles = x.at("triangles");
-            run.covered = x.at("covered_pixels");
-            run.gpuMs = x.at("gpu_ms");
-            run.cpuMs = x.at("cpu_ms");
-            run.valsMs = x.at("val_generation_ms");
-            run.prepareMs = x.at("prepare_ms");
-            if (!x.at("brute_ms").is_null()) run.bruteMs = x.at("brute_ms").get<double>();
-            run.vsBrute = errorFromJson(x.at("vs_brute"));
-            run.vsTruth = errorFromJson(x.at("vs_truth"));
-            run.vsFineBrute = errorFromJson(x.value("vs_fine_brute", nlohmann::json()));
-            run.truthReceivers = x.at("truth_receivers");
-            if (x.contains("stages_ms"))
-                for (const auto& [name, ms] : x.at("stages_ms").items())
-                    run.stages.emplace_back(name, ms.get<double>());
-            r.runs.push_back(std::move(run));
-        }
-        for (const auto& x : j.value("temporal", nlohmann::json::array()))
-            r.temporal.push_back({x.at("sequence"), x.at("technique"), x.at("frames"), x.at("samples"), x.at("flicker"),
-                                  x.at("reference_flicker"), x.at("excess_flicker"),
-                                  x.value("method", x.at("technique").get<std::string>().starts_with("brute force")
-                                                        ? std::string("brute force")
-                                                        : std::string("LightSkin")),
-                                  x.value("backend", std::string("GL"))});
-        for (const auto& x : j.value("checks", nlohmann::json::array())) {
-            CheckResult c;
-            c.name = x.at("name");
-            c.passed = x.at("passed");
-            c.required = x.value("required", true);
-            c.detail = x.at("detail");
-            r.checks.push_back(c);
-        }
-        return r;
-    } catch (const nlohmann::json::exception& e) {
-        throw Error(jsonFile, std::nullopt, std::string("malformed bench JSON: ") + e.what());
-    }
 }
 
 void regenerateDocs(const Report& report, const std::string& docsFile) {

@@ -11,6 +11,7 @@
 // = 1, FMA = 2, div, sqrt, log, exp = 1; max/min/select not counted): gather 48 / 80 / 91
 // (diffuse / + glossy / + moments); occlusion (ls_occluderAmount) 57 for the diffuse target and
 // 17 more for the glossy one.
+#include <lightskin/bench/BenchReport.h>
 #include <lightskin/bench/BenchScene.h>
 #include <lightskin/bench/CpuBench.h>
 #include <lightskin/core/Error.h>
@@ -43,13 +44,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 double minimum(const std::vector<double>& v) { return v.empty() ? 0.0 : *std::min_element(v.begin(), v.end()); }
-
-std::string loadAverage() {
-    std::ifstream in("/proc/loadavg");
-    std::string one, five, fifteen;
-    in >> one >> five >> fifteen;
-    return one + " " + five + " " + fifteen;
-}
 
 double processCpuMs() {
     timespec t{};

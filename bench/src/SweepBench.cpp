@@ -72,50 +72,6 @@ double processCpuMs() {
     return 1e3 * double(t.tv_sec) + 1e-6 * double(t.tv_nsec);
 }
 
-std::string readFirstLine(const std::string& path, const std::string& key) {
-    std::ifstream in(path);
-    std::string line;
-    while (std::getline(in, line))
-        if (key.empty() || line.rfind(key, 0) == 0) {
-            const auto colon = line.find(':');
-            return key.empty() || colon == std::string::npos ? line : line.substr(colon + 2);
-        }
-    return "unknown";
-}
-
-std::string commandLine() {
-    std::ifstream in("/proc/self/cmdline", std::ios::binary);
-    std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()), out;
-    std::size_t start = 0;
-    bool first = true;
-    while (start < all.size()) {
-        const std::size_t end = std::min(all.find('\0', start), all.size());
-        std::string word = all.substr(start, end - start);
-        if (first) word = std::filesystem::path(word).filename().string();
-        out += (first ? "" : " ") + word;
-        first = false;
-        start = end + 1;
-    }
-    return out;
-}
-
-std::string utcNow() {
-    const std::time_t now = std::time(nullptr);
-    std::tm tm{};
-    gmtime_r(&now, &tm);
-    char buffer[64];
-    std::strftime(buffer, sizeof buffer, "%Y-%m-%d %H:%M UTC", &tm);
-    return buffer;
-}
-
-std::string loadAverage() {
-    std::string line = readFirstLine("/proc/loadavg", "");
-    std::istringstream words(line);
-    std::string a, b, c;
-    words >> a >> b >> c;
-    return a + " " + b + " " + c;
-}
-
 int parseInt(const std::string& s, const char* option) {
     try {
         std::size_t used = 0;
@@ -1182,9 +1138,7 @@ void runTable(const SweepBenchOptions& options, const TableSpec& spec, const std
     const auto start = Clock::now();
     auto context = gl::createHeadlessContext();
     const std::string header = "### " + title + "\n\n- Command: `" + commandLine() + "`\n- Date: " + utcNow() +
-                               "\n- Machine: " + readFirstLine("/proc/cpuinfo", "model name") + ", " +
-                               std::to_string(std::thread::hardware_concurrency()) +
-                               " threads; renderer: " + context->describe() +
+                               "\n- Machine: " + machineDescription() + "; renderer: " + context->describe() +
                                "\n- Load average (1/5/15 min) at start: " + loadAverage() + "\n";
     std::printf("%s", header.c_str());
     std::fflush(stdout);
@@ -1327,8 +1281,7 @@ int runSweep(const SweepBenchOptions& options) {
     Report report;
     report.command = commandLine();
     report.date = utcNow();
-    report.machine = readFirstLine("/proc/cpuinfo", "model name") + ", " +
-                     std::to_string(std::thread::hardware_concurrency()) + " threads";
+    report.machine = machineDescription();
     report.loadStart = loadAverage();
     report.truthStride = options.truthStride;
     report.frames = options.frames;

@@ -1,6 +1,8 @@
 #pragma once
 // Results of `lightskin bench` (SweepBench.h) and their outputs: CSV, JSON (the source of the plots,
-// BenchPlots.h) and the Markdown section regenerated into docs/BENCHMARKS.md between markers.
+// BenchPlots.h) and the Markdown section regenerated into docs/BENCHMARKS.md between markers. The
+// table benches (bench-gather, bench-cpu, bench-realdepth) write the same JSON (Report with their
+// rows in runs/temporal); its keys: docs/bench/SCHEMA.md.
 #include <lightskin/eval/ImageMetrics.h>
 #include <lightskin/gi/ImperfectVolumes.h>
 
@@ -40,6 +42,9 @@ struct RunResult {
     /// plots draw one series per pair, so a new technique or backend needs no plotting code.
     std::string method = "LightSkin";
     std::string backend = "GL";
+    /// Rows of one method and backend that differ in other knobs than the VAL count (bench-gather's
+    /// "sparse 1024, +occlusion"): one line each in the scaling plot. "" for the sweep's rows.
+    std::string series;
     std::size_t vals = 0;      ///< VALs the generator produced
     std::size_t covered = 0;   ///< output pixels covered by virtual content
     std::size_t triangles = 0; ///< of both virtual meshes
@@ -78,6 +83,7 @@ struct CheckResult {
 };
 
 struct Report {
+    std::string bench = "bench"; ///< the command: bench, bench-gather, bench-cpu, bench-realdepth (names the plots)
     std::string machine, renderer, date, command, loadStart, loadEnd;
     int truthStride = 0;
     int frames = 0;
@@ -88,12 +94,24 @@ struct Report {
     std::vector<CheckResult> checks;
 };
 
-/// Reads a bench.json back (to redraw the plot or regenerate the docs without re-running).
+/// The run's identity for a Report: the command line (program name without its folder), the UTC
+/// date, the CPU model with its thread count, the load average (1/5/15 min) now.
+std::string commandLine();
+std::string utcNow();
+std::string machineDescription();
+std::string loadAverage();
+
+/// Writes `report` as JSON (docs/bench/SCHEMA.md); throws lightskin::Error naming the file when it cannot.
+void writeJson(const Report& report, const std::string& file);
+/// Reads a bench JSON back (to redraw the plot or regenerate the docs without re-running).
 /// Throws lightskin::Error on a missing or malformed file.
 Report readReport(const std::string& jsonFile);
 /// Writes bench.csv, bench.json and bench.md into `dir` (created if missing), then the plots from the
 /// JSON (drawPlots, BenchPlots.h: skipped with a warning naming the fix when python3-matplotlib is missing).
 void writeOutputs(const Report& report, const std::string& dir);
+/// Writes `dir`/<report.bench>.json (created if missing), then its plots (drawPlots, as writeOutputs):
+/// the output of the table benches.
+void writeJsonAndPlots(const Report& report, const std::string& dir);
 /// The Markdown section (between the markers).
 std::string markdown(const Report& report);
 /// Replaces the text between `<!-- lightskin-bench:begin -->` and `<!-- lightskin-bench:end -->` in
