@@ -34,6 +34,8 @@ void addBenchCpuCommand(CLI::App& app, int& exitCode) {
         ->check(CLI::Range(1, 1000));
     command->add_option("--peak", options->peakGflops,
                         "The machine's FMA peak in GFLOP/s (build/bench/lightskin_bench_peak) for the % column");
+    command->add_option("--out", options->out,
+                        "Also write bench-cpu.json and its scaling plot (time against VAL count) into this folder");
     command->add_flag(
         "--no-gl", [options](std::int64_t) { options->gl = false; }, "Skip the GL path");
     command->callback([=, &exitCode] {

@@ -27,6 +27,8 @@ void addBenchGatherCommand(CLI::App& app, int& exitCode) {
     command->add_option("--repeat", options->repeat, "Frames per configuration (the minimum is reported)");
     command->add_flag(
         "--no-brute", [options](std::int64_t) { options->brute = false; }, "Skip the brute force");
+    command->add_option("--out", options->out,
+                        "Also write bench-gather.json and its scaling plot (time against VAL count) into this folder");
     command->add_flag("--compute", options->compute,
                       "Gather with the compute-shader variant instead of fragment passes");
     command->callback([=, &exitCode] {

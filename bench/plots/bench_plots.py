@@ -308,8 +308,8 @@ def scaling_plot(report, path, manifest, styles):
                       "linestyle": style, "points": len(xs), "label": label})
     ax.set_xlabel("VALs (log)")
     ax.set_ylabel("time per frame (ms, log)")
-    what = "the VAL-stride runs" if sweep else report.get("command") or report.get("bench")
-    ax.set_title(f"lightskin {report.get('bench', 'bench')}: time against VAL count ({what})\n"
+    what = " (the VAL-stride runs)" if sweep else ""  # the table benches' command is in their JSON
+    ax.set_title(f"lightskin {report.get('bench', 'bench')}: time against VAL count{what}\n"
                  f"{report.get('renderer', '')}", fontsize=9)
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     fig.tight_layout()

@@ -98,10 +98,39 @@ void readImage(std::uint32_t texture, std::vector<glm::vec4>& out) {
     glGetTextureImage(texture, 0, GL_RGBA, GL_FLOAT, GLsizei(out.size() * sizeof(glm::vec4)), out.data());
 }
 
+/// A JSON row of bench-cpu: wall time per frame (the minimum) as the row's time, CPU time beside it.
+RunResult timedRow(const Timing& t, const std::string& backend, const std::string& series, std::size_t vals, int sparse,
+                   int channels, int width, int height) {
+    RunResult r;
+    r.backend = backend;
+    r.series = series;
+    r.config.axis = "vals";
+    r.config.value = std::to_string(vals);
+    r.config.backend = backend;
+    r.config.sparse = sparse;
+    r.config.channels = channels;
+    r.config.width = width;
+    r.config.height = height;
+    r.vals = vals;
+    r.gpuMs = minimum(t.wall);
+    r.cpuMs = minimum(t.cpu);
+    for (const std::string& name : t.order) r.stages.emplace_back(name, minimum(t.stages.at(name)));
+    return r;
+}
+
 } // namespace
 
 void runCpuBench(const CpuBenchOptions& options) {
+    const auto started = Clock::now();
+    Report report;
+    report.bench = "bench-cpu";
+    report.command = commandLine();
+    report.date = utcNow();
+    report.machine = machineDescription();
+    report.loadStart = loadAverage();
+    report.frames = options.repeat;
     auto context = gl::createHeadlessContext();
+    report.renderer = context->describe();
     std::printf("renderer: %s\nload average at start: %s\n", context->describe().c_str(), loadAverage().c_str());
     std::printf("SIMD targets: dispatched %s; available", gi::cpuSimdTarget().c_str());
     for (const std::string& t : gi::cpuSimdTargets()) std::printf(" %s", t.c_str());
@@ -141,6 +170,7 @@ void runCpuBench(const CpuBenchOptions& options) {
                  {SetupSpec{"diffuse", false, false, 48.0, 0.0}, SetupSpec{"+glossy", true, false, 80.0, 0.0},
                   SetupSpec{"+occlusion", true, true, 91.0, 74.0}}) {
                 std::printf("  %s\n", setup.name);
+                const int channels = setup.occlusion ? 3 : setup.glossy ? 2 : 1;
                 gi::LightSkinSettings settings;
                 settings.glossy = setup.glossy;
                 settings.occlusion = setup.occlusion;
@@ -151,6 +181,8 @@ void runCpuBench(const CpuBenchOptions& options) {
                     const Timing t =
                         timeFrames(*gl, valSet, instances, gbuffer.view(), view, target.id(), options.repeat);
                     printTiming("GL (llvmpipe)", t);
+                    report.runs.push_back(timedRow(t, "GL", setup.name, vals.size(), sparse, channels,
+                                                   options.outputWidth, options.outputHeight));
                     const double gatherMs = minimum(t.stages.at("gather"));
                     std::printf("      GL gather %.3g interactions/s (timer query)\n",
                                 double(sparse) * double(vals.size()) / (gatherMs * 1e-3));
@@ -171,6 +203,11 @@ void runCpuBench(const CpuBenchOptions& options) {
                             timeFrames(*cpu, valSet, instances, gbuffer.view(), view, target.id(), options.repeat);
                         const std::string label = "CPU " + gi::cpuSimdTarget() + " " + std::to_string(threads) + " thr";
                         printTiming(label.c_str(), t);
+                        report.runs.push_back(timedRow(t, "CPU",
+                                                       std::string(setup.name) + ", " + std::to_string(threads) +
+                                                           " threads, " + gi::cpuSimdTarget(),
+                                                       vals.size(), sparse, channels, options.outputWidth,
+                                                       options.outputHeight));
                         const gi::CpuLightSkinStats& stats = cpu->lastStats();
                         // rates per CPU-second (robust to other processes' load) and by wall clock
                         const double interactions = double(stats.points) * double(stats.vals);
@@ -228,8 +265,11 @@ void runCpuBench(const CpuBenchOptions& options) {
             }
         }
     }
-    std::printf("\nload average at end: %s\n", loadAverage().c_str());
+    report.loadEnd = loadAverage();
+    std::printf("\nload average at end: %s\n", report.loadEnd.c_str());
     gl::DebugOutput::throwIfErrors("bench-cpu");
+    report.seconds = std::chrono::duration<double>(Clock::now() - started).count();
+    if (!options.out.empty()) writeJsonAndPlots(report, options.out);
 }
 
 } // namespace lightskin::bench

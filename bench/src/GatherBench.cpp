@@ -7,6 +7,7 @@
 // Scene: a sphere over a floor (two meshes, 2/3 of the sparse points on the sphere), lit by a
 // VAL "map" (a width x height grid of disc VALs on a wall and the ceiling, like a depth camera's
 // VAL map), seen by a camera at the output resolution.
+#include <lightskin/bench/BenchReport.h>
 #include <lightskin/bench/BenchScene.h>
 #include <lightskin/bench/GatherBench.h>
 #include <lightskin/core/Error.h>
@@ -39,7 +40,16 @@ double minimum(const std::vector<double>& v) { return *std::min_element(v.begin(
 } // namespace
 
 void runGatherBench(const GatherBenchOptions& options) {
+    const auto started = std::chrono::steady_clock::now();
+    Report report;
+    report.bench = "bench-gather";
+    report.command = commandLine();
+    report.date = utcNow();
+    report.machine = machineDescription();
+    report.loadStart = loadAverage();
+    report.frames = options.repeat;
     auto context = gl::createHeadlessContext();
+    report.renderer = context->describe();
     std::printf("renderer: %s\n", context->describe().c_str());
     bench::GatherScene scene = bench::gatherScene(options.outputWidth, options.outputHeight);
     const std::vector<TriangleMesh>& meshes = scene.meshes;
@@ -66,6 +76,15 @@ void runGatherBench(const GatherBenchOptions& options) {
             gl::Buffer::create(GLsizeiptr(vals.size() * sizeof(gi::VirtualAreaLight)), vals.data(), 0);
         const gi::ValSetView valSet{valBuffer.id(), std::uint32_t(vals.size())};
 
+        // The rows of the JSON: what the table below prints (one per setup; the brute force's own row).
+        RunResult row;
+        row.config.axis = "vals";
+        row.config.value = mapName;
+        row.config.width = options.outputWidth;
+        row.config.height = options.outputHeight;
+        row.vals = vals.size();
+        row.covered = covered;
+        row.triangles = meshes[0].triangleCount() + meshes[1].triangleCount();
         double bruteMs = 0.0;
         if (options.brute) {
             gi::BruteForceSettings bruteSettings;
@@ -84,6 +103,15 @@ void runGatherBench(const GatherBenchOptions& options) {
             }
             bruteMs = minimum(times);
             readImage(reference);
+            RunResult bruteRow = row;
+            bruteRow.method = "brute force";
+            bruteRow.isBrute = true;
+            bruteRow.config.channels = 1;
+            bruteRow.config.sparse = 0;
+            bruteRow.bruteMs = bruteMs;
+            bruteRow.gpuMs = bruteMs;
+            bruteRow.cpuMs = bruteMs;
+            report.runs.push_back(bruteRow);
             std::printf("\nVAL map %s (%zu VALs): brute force (diffuse) %.1f ms, %.3g interactions/s\n",
                         mapName.c_str(), vals.size(), bruteMs,
                         double(covered) * double(vals.size()) / (bruteMs * 1e-3));
@@ -127,6 +155,16 @@ void runGatherBench(const GatherBenchOptions& options) {
                     }
                     const double gatherMs = minimum(stageTimes["gather"]);
                     const double totalMs = minimum(totals);
+                    RunResult run = row;
+                    run.series = "sparse " + std::to_string(sparse) + ", K_cache " + std::to_string(kCache) + ", " +
+                                 setup.name + (options.compute ? ", compute" : "");
+                    run.config.sparse = sparse;
+                    run.config.kCache = kCache;
+                    run.config.channels = setup.occlusion ? 3 : setup.glossy ? 2 : 1;
+                    run.gpuMs = totalMs;
+                    for (const auto& s : stages) run.stages.emplace_back(s.name, minimum(stageTimes[s.name]));
+                    if (options.brute && !setup.glossy) run.bruteMs = bruteMs; // on the same (diffuse) inputs
+                    report.runs.push_back(std::move(run));
                     std::printf("  sparse %5d K_cache %4d %-10s total %8.2f ms |", sparse, kCache, setup.name, totalMs);
                     for (const auto& s : stages) std::printf(" %s %.2f", s.name.c_str(), minimum(stageTimes[s.name]));
                     std::printf(" | gather %.3g interactions/s",
@@ -150,6 +188,9 @@ void runGatherBench(const GatherBenchOptions& options) {
             }
     }
     gl::DebugOutput::throwIfErrors("bench-gather");
+    report.loadEnd = loadAverage();
+    report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    if (!options.out.empty()) writeJsonAndPlots(report, options.out);
 }
 
 } // namespace lightskin::bench

@@ -15,6 +15,7 @@
 // A benchmark, not a test: prints Markdown tables (and writes them with PNGs of the indirect light to
 // --out). tests/apps/RealDepthDataGLTest.cpp asserts the targets on every recording (exceptions named there).
 
+#include <lightskin/bench/BenchReport.h>
 #include <lightskin/bench/RealDepthBench.h>
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/Error.h>
@@ -33,6 +34,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -365,10 +367,51 @@ std::string percent(double f) {
     return b;
 }
 
+/// The flicker table as the bench JSON's temporal rows (BenchReport.h): per recording and sink one
+/// sequence, LightSkin and the brute force under each light model, the brute force the reference.
+std::vector<TemporalResult> temporalRows(const std::vector<CaseResult>& results) {
+    std::vector<TemporalResult> rows;
+    for (const CaseResult& r : results) {
+        if (!r.flickerMeasured) continue;
+        char sequence[160];
+        std::snprintf(sequence, sizeof sequence, "%s, sink %.0f mm", r.recording.c_str(), r.sink * 1e3);
+        TemporalResult brute{sequence,
+                             "brute force (" + r.model + " light model)",
+                             r.frames,
+                             r.flickerSamples,
+                             r.flickerBrute,
+                             r.flickerBrute,
+                             0.0,
+                             "brute force",
+                             "GL"};
+        TemporalResult lightSkin{sequence,
+                                 "LightSkin (" + r.model + " light model)",
+                                 r.frames,
+                                 r.flickerSamples,
+                                 r.flickerLightSkin,
+                                 r.flickerBrute,
+                                 r.excessFlicker,
+                                 "LightSkin",
+                                 "GL"};
+        rows.push_back(brute);
+        rows.push_back(lightSkin);
+    }
+    return rows;
+}
+
 } // namespace
 
 void runRealDepthBench(const RealDepthBenchOptions& options) {
+    const auto started = std::chrono::steady_clock::now();
+    Report report;
+    report.bench = "bench-realdepth";
+    report.command = commandLine();
+    report.date = utcNow();
+    report.machine = machineDescription();
+    report.loadStart = loadAverage();
+    report.frames = options.maxFrames;
     auto context = gl::createHeadlessContext();
+    report.renderer = context->describe();
     std::vector<LightModel> models;
     std::istringstream list(options.models);
     for (std::string m; std::getline(list, m, ',');) {
@@ -427,6 +470,11 @@ void runRealDepthBench(const RealDepthBenchOptions& options) {
     }
     std::printf("\n%s", md.str().c_str());
     std::ofstream(std::filesystem::path(options.out) / "realdepth.md") << md.str();
+    // The flicker comparison as JSON and its plot (the speckle table stays in realdepth.md).
+    report.temporal = temporalRows(results);
+    report.loadEnd = loadAverage();
+    report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    writeJsonAndPlots(report, options.out);
 }
 
 } // namespace lightskin::bench

@@ -15,9 +15,11 @@ struct CpuBenchOptions {
     int repeat = 5;
     double peakGflops = 0.0;
     bool gl = true;
+    std::string out; ///< folder for bench-cpu.json and its scaling plot ("" = print only)
 };
 
-/// The CPU backend (gi::CpuLightSkin) beside the GL path: stage times, interactions/s, share of the FMA peak.
+/// The CPU backend (gi::CpuLightSkin) beside the GL path: stage times, interactions/s, share of the FMA peak;
+/// with `out` also bench-cpu.json (BenchReport.h; wall times, one run per backend, setup and VAL map) and its plots.
 /// Needs no current GL context (creates its own headless one); throws lightskin::Error on bad input.
 void runCpuBench(const CpuBenchOptions& options);
 

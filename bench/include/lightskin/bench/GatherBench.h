@@ -14,10 +14,12 @@ struct GatherBenchOptions {
     int repeat = 3;
     bool brute = true;
     bool compute = false;
+    std::string out; ///< folder for bench-gather.json and its scaling plot ("" = print only)
 };
 
-/// LightSkin stage times (GL timer queries) per setup, speed-up over the brute force and its error; prints a Markdown
-/// table. Needs no current GL context (creates its own headless one); throws lightskin::Error on bad input.
+/// LightSkin stage times (GL timer queries) per setup, speed-up over the brute force and its error; prints them and,
+/// with `out`, writes them as bench-gather.json (BenchReport.h; one run per setup and VAL map) with its plots. Needs no
+/// current GL context (creates its own headless one); throws lightskin::Error on bad input.
 void runGatherBench(const GatherBenchOptions& options);
 
 } // namespace lightskin::bench
