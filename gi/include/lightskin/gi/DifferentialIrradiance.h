@@ -1,45 +1,10 @@
 #pragma once
 // Differential rendering (issue 13; Debevec 1998, Knecht et al. 2010): how the virtual objects
-// change the light on the real surfaces around them. The real surface seen in the registered
-// depth frame gets sparse receiver points (one per receiverStride^2 pixels, position and normal
-// as gi::ValGenerator makes them: back-projection, PCL AVERAGE_3D_GRADIENT normal over a
-// (2R+1)^2 window, the same edge test); at each receiver in the region the virtual objects can
-// affect, the irradiance is gathered twice, without and with the virtual objects:
-//
-//   E_without = sum_j E_j(x)                       + sum_{lights in room} E_l(x)
-//   E_with    = sum_j E_j(x) V_j(x) + sum_k E_k(x) + sum_{lights in room} E_l(x) V_l(x)
-//                                                  + sum_{virtual-only lights} E_l(x) V_l(x)
-//   dE        = E_with - E_without
-// with
-//  * E_j: VAL j of the real room (disc form factor, eq. 3/4 of LightSkin: ls_irradiance of
-//    gi/shaders/lightskin_math.glsl), V_j = 0 when the segment from x to the disc centre hits a
-//    virtual mesh (Embree ray, binary as the centre form factor): the indirect shadow;
-//  * E_k: the virtual surfaces as emitters: emittersPerObject discs per object, placed once
-//    (area-weighted, stratified) on its triangles, each of area A_obj / N and flux
-//    phi_k = rho_d,k E_k A_k, its irradiance E_k = direct light of the scene lights (with
-//    ray-traced shadows by the virtual meshes) + the room's VALs (unoccluded, cosine-clamped).
-//    Lambertian only (no specular bounce); no visibility between emitter and receiver beyond the
-//    two cosines (exact for convex objects, which cannot hide their own front faces);
-//  * E_l = I(omega) cos(theta) / d^2 of a scene light; "in room" lights model a light that is
-//    really there (the scene's copy of the room's light, as recordings/scenes/orbit.json): they
-//    are in the camera image already, so only their shadow by the virtual objects changes it;
-//    virtual-only lights add their (shadowed) light. A light that real geometry hides from x
-//    (a screen-space shadow ray through the depth frame: a sample of the segment 2 cm .. 0.5 m
-//    behind the seen surface) counts in neither E_with nor E_without: the objects cannot take
-//    away light that never arrived. Real geometry does not shadow the VALs (they are the surfaces
-//    the camera sees, mostly in front of the receivers).
-//
-// Region: a receiver is gathered when it lies within R_o of some object's bounding-sphere centre
-// or when its segment to a light crosses some object's bounding sphere (the direct shadow can
-// fall far away). R_o = r_o sqrt(1/eps - 1): beyond it the object (radius r_o) subtends a
-// coaxial-disc form factor r^2 / (r^2 + d^2) < eps of the receiver's hemisphere, so neither the
-// light it blocks nor the light it reflects can exceed eps of the brightest radiance around
-// (falloffFraction eps; 0.01 = one 8-bit code value at about mid grey). Pixels outside the region
-// keep dE = 0 and are reported as not affected, so they stay bit for bit as the camera saw them.
-//
-// Interpolation to pixels: bilinear over the 2x2 surrounding receivers that are valid, in the
-// region, and on the same surface (|z_receiver - z_pixel| <= maxDepthChange * z_pixel * (pixel
-// distance)), renormalised; no such receiver: the pixel is not affected.
+// change the light on the real surfaces around them. At sparse receivers of the depth frame the
+// irradiance is gathered without and with the virtual objects (their shadows of the room's VALs and
+// of the scene lights, their own bounce) and dE = E_with - E_without is interpolated to the pixels;
+// pixels outside the region the objects can affect stay bit for bit as the camera saw them. The
+// terms, the region bound and the interpolation: docs/LIGHTSKIN.md, "Differential irradiance".
 //
 // Units and frames: world metres; irradiance W/m^2 in the VALs' flux unit; images BGR like the
 // camera image. CPU, double precision per receiver, OpenCV's parallel_for over receiver rows.

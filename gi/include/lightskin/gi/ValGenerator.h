@@ -1,39 +1,12 @@
 #pragma once
 // Virtual area lights from a depth map (LightSkin section 5: "each captured pixel is an indirect
-// area light"). Every valid pixel of the (filtered) depth map, or every s-th pixel in each
-// direction, becomes one Lambertian disc VAL. GPU implementation (compute pass, packed output with
-// an atomic counter) plus a double-precision CPU reference whose normals come from PCL's
-// IntegralImageNormalEstimation.
-//
-// Per-pixel definition (GPU; the reference differs only in the normal and its validity):
-//  * Sampling: VAL-map pixel (i, j), map size floor(W/s) x floor(H/s), samples depth pixel
-//    c = (i*s + s/2, j*s + s/2) and stands for the s x s block starting at (i*s, j*s).
-//  * Valid depth: minDepth < z <= maxDepth (metres); 0, negative, NaN and +-inf are missing.
-//  * Normal: PCL's AVERAGE_3D_GRADIENT over the (2R+1)^2 window around c, telescoped to the window
-//    sides: g_x = sum_d P(c+(R,d)) - P(c+(-R,d)), g_y = sum_d P(c+(d,R)) - P(c+(d,-R)),
-//    n = normalize(g_y x g_x), flipped to face the camera. P = back-projection (camera frame).
-//  * Edge test (no VAL at depth edges): the window must lie inside the image, and every sample on
-//    the centre cross (c to c +- R along x and y) and on the window border must be valid and differ
-//    from the previous sample of its walk by at most maxDepthChange * z(c). Adjacent pixels of a
-//    real surface tilted by theta differ by about z * tan(theta) / f, so the default 0.03 (with
-//    f = 525 px) keeps surfaces up to ~86 degrees and cuts jumps of > 3 cm at 1 m.
-//    A VAL is also dropped when |g_y x g_x| is 0 or not finite.
-//  * Area: the exact differential area of the surface seen through the s x s block,
-//        a = (s z / fx) (s z / |fy|) * cos(alpha) / max(cos(theta), minCosine),
-//    alpha = angle between the view ray and the optical axis, theta = angle between the normal and
-//    the view ray. (The footprint divided by cos(theta) alone overestimates an off-axis pixel by
-//    1/cos(alpha): +22 % in a Kinect image corner; a fronto-parallel plane then sums to more than
-//    its area.) Clamp: where cos(theta) < minCosine (default 0.2, i.e. theta > 78.5 degrees) the
-//    area is underestimated by cos(theta)/minCosine instead of growing without bound as noisy
-//    normals approach grazing; a <= footprint * cos(alpha) / minCosine.
-//  * Flux: Lambertian emitter, phi = pi * L * a with radiance L = exposure * mean linear RGB of the
-//    block (sRGB decoded per pixel with the exact IEC 61966-2-1 curve, then averaged).
-//  * Position: world_T_camera * P at the block centre (i*s + (s-1)/2, j*s + (s-1)/2) with depth
-//    z(c) for odd s, the mean of the central 2x2 depths for even s (these must be valid and
-//    continuous too); area uses that depth. Normal: rotation of world_T_camera applied to n.
-// Invalid pixels produce no VAL at all (not a zero VAL): the gather's epsilon term would otherwise
-// pull averaged light positions toward them. The GPU output order is not deterministic (atomic
-// append); pixelIndexBuffer() says which depth pixel each VAL came from.
+// area light"): one Lambertian disc VAL per valid depth pixel, or per s x s block, on the GPU (compute
+// pass, atomic append: the output order is not deterministic, pixelIndexBuffer() names each VAL's depth
+// pixel) with a double-precision CPU reference (PCL normals). Invalid pixels make no VAL at all, not a
+// zero VAL: the gather's epsilon term would pull averaged light positions toward them.
+// Units and frames: depth in metres (valid: minDepth < z <= maxDepth; 0, NaN, inf missing); VAL position
+// and normal in the world frame (world_T_camera); area m^2; flux phi = pi L a, linear RGB. The sampling,
+// normal, edge test, area and flux: docs/LIGHTSKIN.md, "VALs from depth".
 
 #include <lightskin/core/CameraIntrinsics.h>
 #include <lightskin/core/Pose.h>

@@ -2,33 +2,8 @@
 // A frame-time budget ("model only what the scene requires"): picks the GI settings (technique,
 // sparse points per object, VAL stride, glossy and occlusion channels) that meet a budget in
 // milliseconds with the least expected error, from a cost model that online timing corrects.
-//
-// Costs (ms per frame): predicted = other + gi(c), `other` the measured rest of the frame (depth
-// filter, pose, VAL generation, shading, read-back, composite: the same for every choice to first
-// order), gi(c) the G-buffer + GI stage of configuration c:
-//   LightSkin:   k_ls * (S N (1 + g_ls glossy) + o S^2 occlusion + p P)   S = sparse points (all objects),
-//   brute force: k_bf * P N (1 + g_bf glossy)                             N = VALs, P = covered pixels,
-// with the prior constants of CostPrior (llvmpipe, docs/BENCHMARKS.md "GI gather" and the sweep).
-// Online: the first measured frame of a configuration replaces its prior by measured / model units,
-// later frames blend in with weight `smoothing`; a configuration never run uses the prior scaled by
-// the last measured ratio of its technique (so one measured LightSkin frame calibrates every LightSkin
-// configuration). Counts scale with the scene: N from the VALs the last frame made at its stride
-// (N(s) = N(s0) s0^2 / s^2), P from the pixels the virtual content covered.
-//
-// Error (relative MSE of the indirect light against the ray-traced truth, summed per source; the
-// priors of ErrorPrior, measured in docs/BENCHMARKS.md): interpolation from S sparse points
-// (LightSkin only; the brute force is exact per pixel), the VAL stride, missing visibility (brute
-// force, or occlusion off, when the scene can occlude), and a dropped glossy channel (when a
-// material is glossy). A host that measures errors (e.g. against the brute force) feeds them with
-// observeError(); they replace the prior of that configuration.
-//
-// What cannot change the image is never modelled: no glossy material -> glossy channel off; one
-// convex object -> occlusion off (no sparse point sees another above its horizon).
-//
-// Choice: among the configurations predicted to fit, the least error (ties: the cheaper). The
-// current configuration stays while it fits; another one is taken only when it fits with
-// `switchMargin` (hysteresis: switching sparse points rebuilds the meshes' sparse points). When
-// nothing fits: the cheapest. Deterministic: no clock inside (the caller measures and observes).
+// Deterministic: no clock inside (the caller measures and observes). The cost and error models,
+// the online update and the hysteresis: docs/PLUGIN.md, "Frame-time budget".
 
 #include <lightskin/gi/IndirectIllumination.h>
 #include <lightskin/render/Scene.h>

@@ -1,34 +1,9 @@
 #pragma once
 // A Kinect v1-like depth noise model, seeded and reproducible: the same (seed, frame, input)
-// gives the same output bit for bit, whatever the thread count or platform.
-//
-// The model, applied to exact depth in this order (parameters in DepthNoiseDescription):
-//  1. Projector shadow: the IR projector sits `baselineMetres` from the camera along the camera x
-//     axis (positive = +x). A pixel the projector cannot see is missing. Test: in each row the
-//     projector column u_p = u - fx * b / z must increase with u; a pixel whose u_p exceeds the
-//     smallest u_p of any pixel on its projector-ward side is behind an occluder (b > 0: the
-//     shadow falls on the -x side of foreground objects, of width fx * b * (1/z_near - 1/z_far) px).
-//  2. Grazing angles: with theta the angle between the surface normal and the ray to the camera,
-//     the pixel is dropped with probability rising linearly from 0 at grazingStartDegrees to 1 at
-//     grazingEndDegrees (the projected dots spread out and the correlation fails).
-//  3. Edge holes: a pixel with a 4-neighbour more than edgeJumpRelative * z away in depth is
-//     dropped with probability edgeDropoutProbability (the correlation window straddles the jump).
-//  4. Lateral noise (Nguyen, Izadi, Lovell, "Modeling Kinect Sensor Noise for Improved 3D
-//     Reconstruction and Tracking", 3DIMPVT 2012): sigma_L = 0.8 + 0.035 * theta / (pi/2 - theta)
-//     pixels of a 640-wide, f = sensorFocalPixels sensor (scaled to the output's fx). The pixel
-//     takes the depth at a position displaced by N(0, sigma_L) in u and v when that position lies
-//     across a depth jump: edges jitter, smooth surfaces are left to the axial term.
-//  5. Range: z outside [minRangeMetres, maxRangeMetres] is missing (Kinect v1: about 0.5-4 m).
-//  6. Axial noise and disparity quantisation: the Kinect measures disparity
-//     d = sensorFocalPixels * baseline / z in 1/disparitySubpixel pixel steps (1/8 px, Konolige and
-//     Mihelich, "Technical description of Kinect calibration", ROS wiki, 2011; Khoshelham and
-//     Elberink, Sensors 12(2), 2012). Nguyen et al.'s measured axial sigma_z(z) = 0.0012 +
-//     0.0019 (z - 0.4)^2 m (10-60 degrees) already contains the quantisation, so Gaussian noise of
-//     sigma_add = sqrt(max(0, sigma_z^2 - q^2 / 12)) is added to z (q = z^2 / (f b s), the
-//     quantisation step in depth) before d is rounded: the output's standard deviation on a plane
-//     is sigma_z(z) (within a few percent; see tests/synth/DepthNoiseTest.cpp).
-// Noise is independent per pixel (the real sensor's errors are correlated over its 9x9
-// correlation window; not modelled).
+// gives the same output bit for bit, whatever the thread count or platform. Applied to exact depth
+// (metres, camera frame; 0 = missing): projector shadow, grazing-angle and edge dropout, lateral
+// jitter at edges, range limits, axial noise with disparity quantisation (Nguyen et al. 2012). The
+// steps, their order and sources: docs/SYNTH.md, "The depth noise model, step by step".
 
 #include <lightskin/core/CameraIntrinsics.h>
 #include <lightskin/synth/SceneDescription.h>
