@@ -1,23 +1,9 @@
 #pragma once
 // VALs from virtual lights (LightSkin section 4.1, after Dachsbacher & Stamminger's reflective
 // shadow maps): the virtual content is rendered from each spot or point light; every covered RSM
-// texel becomes one Lambertian disc VAL with position, normal, flux and area, so virtual objects
-// bounce light onto each other (one bounce).
-//
-// Per texel t (light view, square frustum of half-angle beta, resolution n):
-//  * solid angle  omega_t = (2 tan(beta) / n)^2 cos^3(alpha_t), alpha_t = angle between the texel's
-//    centre ray and the light's axis (exact to first order in the texel size; the texels of one
-//    face sum to the face's solid angle).
-//  * flux         phi_t = rho_d * I * omega_t: the light's radiant intensity I (W/sr, RGB) hitting the
-//    first surface seen through t, reflected diffusely with the instance's diffuse albedo rho_d.
-//    (The surface orientation cancels: irradiance I cos/d^2 times true area omega d^2 / cos.)
-//  * area         paper: a_t = d^2 omega_t, "as if each VAL faced the light" (section 4.1), which
-//    keeps averaged VPL positions independent of the VAL density; or, with areaFacingLight = false,
-//    the true patch area d^2 omega_t / max(cos theta_l, minCosine) (theta_l: normal vs. light direction).
-//  * normal       the surface normal turned toward the light (back faces lit from behind reflect to
-//    the lit side); position the surface point.
-// Spot lights: one face with beta = the cone half-angle; texels outside the cone make no VAL.
-// Point lights: six 90-degree cube faces. Specular reflectance is not bounced (Lambertian VALs).
+// texel becomes one Lambertian disc VAL (world position and normal, flux in W, area in m^2), so
+// virtual objects bounce light onto each other (one bounce; specular reflectance is not bounced).
+// Per-texel solid angle, flux, area and normal: docs/LIGHTSKIN.md, "VALs from virtual lights".
 
 #include <lightskin/gi/IndirectIllumination.h>
 #include <lightskin/gi/VirtualAreaLight.h>

@@ -1,22 +1,10 @@
 #pragma once
-// Removes the depth VALs whose space the virtual content now occupies (issue 12). A depth VAL stands
-// for the real surface seen through its depth pixel. Where that pixel's camera ray meets a virtual
-// object, the real surface lies behind the object's front surface; if it also lies before the
-// object's back surface (plus a contact margin), it is inside the object or in contact with its far
-// side: in the augmented scene that surface is enclosed by (or pressed against) the object and sends
-// no light to the visible world, while as a VAL it would sit within millimetres of the object's
-// receivers, where the disc model (eq. 3) and the sparse gather are least accurate (speckle measured
-// in docs/BENCHMARKS.md, "Indirect light on real depth"). Such VALs get area 0 (invalid: every
-// consumer skips them); everything else, including real surfaces far behind the object that light its
-// back, is kept.
+// Removes the depth VALs whose space the virtual content now occupies (issue 12): a real surface
+// enclosed by or pressed against a virtual object sends no light to the visible world, and as a VAL
+// within millimetres of the object's receivers it is where the disc model is least accurate. Such
+// VALs get area 0 (every consumer skips them). The test and its Kinect-noise margin (metres along the
+// optical axis): docs/LIGHTSKIN.md, "VALs inside virtual content".
 //
-// Per VAL j at camera depth z_j (metres along the optical axis) whose pixel sees virtual content
-// between depths zFront and zBack (min and max over all virtual fragments on the ray):
-//     culled  <=>  zFront - 3 sigma(z_j)  <=  z_j  <=  zBack + r_j + 3 sigma(z_j)
-// sigma(z) = 0.0012 + 0.0019 (z - 0.4)^2 m, the Kinect v1 axial noise (Nguyen, Izadi, Lovell 2012):
-// within 3 sigma of the front surface a real point cannot be told from one just behind it; r_j =
-// sqrt(a_j / pi), the VAL's own radius: a disc whose centre is within its radius of the back surface
-// touches the object.
 // The test uses the VAL's key (ValGenerator::pixelIndexBuffer(): its depth pixel), so it needs depth
 // registered to the colour camera the view is rendered with, at the same resolution.
 

@@ -1,20 +1,7 @@
 #pragma once
 // Saves the OpenGL state that lightskin's GL code can change and restores it when the guard goes
-// out of scope, so that a host engine that owns the context finds its state as it left it.
-//
-// Covered (what lightskin's gi/render/mr code touches, plus the usual neighbours): draw and read
-// framebuffer, program, vertex array, the generic buffer bindings (array, pixel pack/unpack, SSBO,
-// UBO, atomic counter, copy, indirect), indexed SSBO/UBO/atomic-counter bindings 0..kIndexedBindings-1
-// (as far as the context has them)
-// with their ranges, texture bindings of every common target and the sampler on units
-// 0..kTextureUnits-1 plus the active unit, image units 0..kImageUnits-1, viewport, scissor box,
-// the enables (blend, depth test, cull face, scissor, stencil, polygon offset, sRGB framebuffer,
-// rasterizer discard, program point size), depth mask and function, blend functions, equations and
-// colour, colour mask, clear colour and depth, cull face and front face, polygon mode, and pixel
-// pack/unpack alignment, row length, skips.
-// Not covered: uniform values of host programs (lightskin never touches a host program), the
-// host's framebuffer attachments and draw buffers (lightskin only draws into them), and object
-// contents (lightskin only writes its own objects and the host target it is given).
+// out of scope, so that a host engine that owns the context finds its state as it left it. What is
+// covered and what is not (and why): docs/PLUGIN.md, "What the state guard saves".
 //
 // Needs a current GL 4.5 context for its whole life; not copyable. Costs ~200 glGet calls per
 // save and the matching restores, no allocation (4 microseconds on llvmpipe: docs/BENCHMARKS.md).

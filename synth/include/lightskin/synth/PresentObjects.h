@@ -1,26 +1,8 @@
 #pragma once
 // "The virtual objects really there" (issue 13): the ground truth a differential composite is
-// compared with. Given the synthetic room (SceneDescription, rendered exactly by SceneRenderer:
-// direct light + ambient, no interreflection) and a lightskin scene's virtual objects placed in
-// the room, recomputes each frame's radiance as if the objects stood in the room, in the same
-// one-bounce model (docs/SYNTH.md, "Objects present"):
-//
-//  * room pixel x (the camera ray meets the room before any object), albedo rho(x) unknown but
-//    cancelling, L(x) = rho/pi (E(x) + pi L_a) from the exact render:
-//      L_present(x) = L(x) (E_o(x) + pi L_a) / (E(x) + pi L_a) + rho(x)/pi E_b(x),
-//    E = sum over the room's light samples of I cos/d^2 with exact box visibility (as the
-//    renderer), E_o the same with the objects as occluders too (Embree rays), E_b the light the
-//    objects reflect onto x: emitter discs on the objects (area-weighted, emittersPerObject each)
-//    with flux rho_d (direct light with exact visibility + the room's one bounce) A, cosines only
-//    between emitter and x (exact for convex objects); rho/pi = L / (E + pi L_a);
-//  * object pixel y (the ray meets an object first; smooth vertex normals):
-//      L_present(y) = rho_d/pi (E_o(y) + E_room(y)) + rho_d L_a + sum_l f_s (k+2)/(2 pi) cos^k(gamma) E_o,l(y),
-//    E_room = the room's one bounce: the room rendered exactly into a cube map (roomCubeSize^2
-//    texels per face) from each object's bounding-sphere centre, every texel a disc of its
-//    radiance and true area, with Embree visibility against the objects from y.
-// Not modelled: the objects blocking ambient light, bounces between objects, light from the
-// objects' specular reflection onto the room. One sample per pixel centre (the room's own image
-// keeps its supersampling where no object changes it).
+// compared with. Recomputes each frame of the synthetic room as if a lightskin scene's virtual
+// objects stood in it, in the room's own one-bounce model (Embree visibility against the objects).
+// The formulas for room and object pixels and what is not modelled: docs/SYNTH.md, "Objects present".
 //
 // Frames: world metres, z up (SceneDescription). Needs a current GL 4.5 context in create() only.
 
