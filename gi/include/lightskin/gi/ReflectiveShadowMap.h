@@ -19,18 +19,18 @@ namespace lightskin::gi {
 struct VirtualLight {
     enum class Type { Spot, Point };
     Type type = Type::Spot;
-    glm::vec3 position{0.0f};              ///< world, metres
+    glm::vec3 position{0.0f};               ///< world, metres
     glm::vec3 direction{0.0f, 0.0f, -1.0f}; ///< spot axis (unit); ignored for point lights
-    float spotHalfAngle = 0.5f;            ///< radians, in (0, 1.5]: uniform intensity inside, none outside
-    glm::vec3 intensity{1.0f};             ///< radiant intensity I, W/sr, linear RGB
+    float spotHalfAngle = 0.5f;             ///< radians, in (0, 1.5]: uniform intensity inside, none outside
+    glm::vec3 intensity{1.0f};              ///< radiant intensity I, W/sr, linear RGB
 };
 
 /// Radiant power (W, RGB): I * 2 pi (1 - cos beta) for a spot, I * 4 pi for a point light.
 glm::dvec3 radiantPower(const VirtualLight& light);
 
 struct RsmSettings {
-    int resolution = 64;    ///< texels per side per face (VALs per spot light <= resolution^2)
-    int maxLights = 4;      ///< buffers hold maxLights * 6 * resolution^2 VALs
+    int resolution = 64; ///< texels per side per face (VALs per spot light <= resolution^2)
+    int maxLights = 4;   ///< buffers hold maxLights * 6 * resolution^2 VALs
     /// Light frustum, metres. Both 0 (default): per light from the bounding sphere of the instances
     /// (far = distance + radius, near = max(distance - radius, 1e-5 far)), so any scene scale works.
     float nearPlane = 0.0f;
@@ -47,9 +47,9 @@ public:
     ReflectiveShadowMap() = default;
     static ReflectiveShadowMap create(const RsmSettings& settings = {});
 
-    /// Renders every instance (MeshInstance::mesh must be set when the frustum is automatic) into each light's RSM and appends the VALs of all lights into one
-    /// packed set (reads the count back). Changes GL state: framebuffer, viewport, depth test, program.
-    /// Throws lightskin::Error for more lights than maxLights or an invalid light.
+    /// Renders every instance (MeshInstance::mesh must be set when the frustum is automatic) into each light's RSM and
+    /// appends the VALs of all lights into one packed set (reads the count back). Changes GL state: framebuffer,
+    /// viewport, depth test, program. Throws lightskin::Error for more lights than maxLights or an invalid light.
     ValSetView generate(std::span<const VirtualLight> lights, std::span<const MeshInstance> instances);
 
     ValSetView lastSet() const noexcept { return {vals_.id(), lastCount_}; }

@@ -87,7 +87,8 @@ public:
     /// run (1, 2, ...; kept when skipUnchangedInput skipped one); keys = pixelIndexBuffer(), key
     /// space width * height.
     ValSetView lastSet() const noexcept {
-        return {vals_.id(), lastCount_, generation_, pixelIndices_.id(), std::uint32_t(width_) * std::uint32_t(height_)};
+        return {vals_.id(), lastCount_, generation_, pixelIndices_.id(),
+                std::uint32_t(width_) * std::uint32_t(height_)};
     }
     /// Whether the last generate() skipped the pass (skipUnchangedInput and identical input).
     bool lastSkipped() const noexcept { return lastSkipped_; }

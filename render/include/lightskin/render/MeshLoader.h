@@ -21,8 +21,8 @@ namespace lightskin::render {
 inline constexpr float kCreaseAngleDegrees = 60.0f;
 
 struct MeshPart {
-    std::string name;     ///< the mesh's name in the file (may be empty)
-    TriangleMesh mesh;    ///< validated: finite, indices in range, normals unit length
+    std::string name;  ///< the mesh's name in the file (may be empty)
+    TriangleMesh mesh; ///< validated: finite, indices in range, normals unit length
     Material material;
     std::string materialName;
     glm::vec3 emission{0.0f}; ///< linear RGB emitted radiance as stored in the file (see above)
