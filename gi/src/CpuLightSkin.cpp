@@ -18,8 +18,8 @@
 #include <array>
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <ctime>
+#include <limits>
 #include <omp.h>
 
 namespace lightskin::gi {
@@ -359,6 +359,23 @@ double cpuFmaPeakGflops(double milliseconds) {
     double elapsed = 0.0;
     while ((elapsed = processCpuMs() - start) < milliseconds) flops += cpu::fmaChains(100000, &sink);
     return std::isfinite(sink) ? flops / (elapsed * 1e6) : 0.0;
+}
+void cpuLobePow(std::span<const float> cosGamma, std::span<const float> exponent, std::span<float> out) {
+    LIGHTSKIN_ASSERT(cosGamma.size() == exponent.size() && out.size() == cosGamma.size(),
+                     "lightskin::gi::cpuLobePow(): the spans differ in size");
+    // the kernel takes whole vectors: pad through small fixed chunks (test use, not per frame)
+    constexpr std::size_t kChunk = 1024;
+    static_assert(kChunk % cpu::kReceiverPadding == 0);
+    std::array<float, kChunk> c{}, k{}, o{};
+    for (std::size_t first = 0; first < out.size(); first += kChunk) {
+        const std::size_t n = std::min(kChunk, out.size() - first);
+        c.fill(0.0f);
+        k.fill(1.0f);
+        std::copy_n(cosGamma.begin() + std::ptrdiff_t(first), n, c.begin());
+        std::copy_n(exponent.begin() + std::ptrdiff_t(first), n, k.begin());
+        cpu::lobePow(c.data(), k.data(), o.data(), padReceivers(n));
+        std::copy_n(o.begin(), n, out.begin() + std::ptrdiff_t(first));
+    }
 }
 void setCpuSimdTarget(const std::string& name) {
     if (!cpu::restrictSimdTarget(name))

@@ -37,6 +37,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -106,6 +107,10 @@ std::string cpuSimdTarget();
 /// (12 independent FMA chains, 2 flops per FMA lane, as bench/PeakFlopsBenchmark.cpp), measured
 /// over about `milliseconds` of CPU time. Under load from other processes CPU time stays fair.
 double cpuFmaPeakGflops(double milliseconds = 50.0);
+/// For tests: the gather's Phong lobe cos^k (guard G3 of lightskin_math.glsl, the polynomial
+/// log2/exp2 of the dispatched kernels), out[i] for c = cosGamma[i] and k = exponent[i] >= 1:
+/// 0 where c <= 0 or k ln c < -80, c clamped to [1e-30, 1]. The spans have equal sizes.
+void cpuLobePow(std::span<const float> cosGamma, std::span<const float> exponent, std::span<float> out);
 /// The instruction sets this build has kernels for and this CPU supports, best first.
 std::vector<std::string> cpuSimdTargets();
 /// For benchmarks: makes the dispatch use only `name` (one of cpuSimdTargets(); "" = the best
