@@ -532,8 +532,14 @@ void CpuLightSkin::render(const ValSetView& lights, std::span<const MeshInstance
         glGetNamedBufferSubData(lights.buffer, 0, GLsizeiptr(lights.count) * GLsizeiptr(sizeof(VirtualAreaLight)),
                                 impl.staging.data());
     impl.readbackMs = millisecondsSince(start);
-    computeVpls(std::span<const VirtualAreaLight>(impl.staging.data(), lights.count), instances,
-                view.cameraPositionWorld);
+    renderCpuVals(std::span<const VirtualAreaLight>(impl.staging.data(), lights.count), instances, gbuffer, view,
+                  targetTexture);
+}
+
+void CpuLightSkin::renderCpuVals(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
+                                 const GBufferView& gbuffer, const ViewParameters& view, std::uint32_t targetTexture) {
+    Impl& impl = *impl_;
+    computeVpls(lights, instances, view.cameraPositionWorld);
 
     const auto uploadStart = Clock::now();
     if (impl.vertexCount > 0)

@@ -74,6 +74,10 @@ public:
     void prepare(std::span<const MeshInstance> instances) override;
     void render(const ValSetView& lights, std::span<const MeshInstance> instances, const GBufferView& gbuffer,
                 const ViewParameters& view, std::uint32_t targetTexture) override;
+    /// render() with the VALs already on the CPU (e.g. gi::CpuValGenerator's; not kept after the
+    /// call): no read-back of a GL buffer. Invalid VALs (area <= 0 or NaN) are skipped as in render().
+    void renderCpuVals(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
+                       const GBufferView& gbuffer, const ViewParameters& view, std::uint32_t targetTexture);
     /// upload, gather, normalisation, occlusion, interpolation: CPU wall clock; shading: GL timer.
     void lastStageTimes(std::vector<gl::StageTime>& out) const override;
 

@@ -47,6 +47,8 @@ public:
     /// The last set, and per VAL the depth pixel (v * width + u) it samples.
     std::span<const VirtualAreaLight> lastVals() const noexcept { return {vals_.data(), count_}; }
     std::span<const std::uint32_t> lastPixelIndices() const noexcept { return {pixelIndices_.data(), count_}; }
+    /// The last set for in-place culls that zero a VAL's area (gi::ValOccupancyCull::applyOnCpu).
+    std::span<VirtualAreaLight> mutableLastVals() noexcept { return {vals_.data(), count_}; }
 
     /// Exposure etc. may change per frame; stride and normalWindowRadius may not (buffer sizes).
     void setSettings(const ValGeneratorSettings& settings);
