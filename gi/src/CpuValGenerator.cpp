@@ -11,8 +11,10 @@
 #include <opencv2/core.hpp>
 
 #include <cmath>
-#include <omp.h>
 #include <string>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 namespace lightskin::gi {
 
@@ -125,6 +127,15 @@ bool valFromDepth(const PassInputs& in, glm::ivec2 valPixel, VirtualAreaLight& v
 
 } // namespace
 
+struct CpuValGenerator::Workers {
+    tbb::task_arena arena;
+};
+
+CpuValGenerator::CpuValGenerator() = default;
+CpuValGenerator::~CpuValGenerator() = default;
+CpuValGenerator::CpuValGenerator(CpuValGenerator&&) noexcept = default;
+CpuValGenerator& CpuValGenerator::operator=(CpuValGenerator&&) noexcept = default;
+
 CpuValGenerator CpuValGenerator::create(int depthWidth, int depthHeight, const ValGeneratorSettings& settings,
                                         int threads) {
     validate(settings);
@@ -139,7 +150,8 @@ CpuValGenerator CpuValGenerator::create(int depthWidth, int depthHeight, const V
     g.settings_ = settings;
     g.width_ = depthWidth;
     g.height_ = depthHeight;
-    g.threads_ = threads;
+    g.workers_ = std::make_unique<Workers>();
+    g.workers_->arena.initialize(threads > 0 ? threads : int(tbb::task_arena::automatic));
     const std::size_t cells =
         std::size_t(valMapWidth(depthWidth, settings)) * std::size_t(valMapHeight(depthHeight, settings));
     g.slots_.resize(cells);
@@ -192,14 +204,16 @@ std::span<const VirtualAreaLight> CpuValGenerator::generate(const cv::Mat& depth
     in.srgbToLinear = srgbToLinear_.data();
 
     const int mapW = valMapWidth(width_, settings_), mapH = valMapHeight(height_, settings_);
-    const int threads = threads_ > 0 ? threads_ : omp_get_max_threads();
     // Rows of the VAL map are independent; each cell has its own slot, packed in raster order below.
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 4)
-    for (int j = 0; j < mapH; ++j)
-        for (int i = 0; i < mapW; ++i) {
-            const std::size_t cell = std::size_t(j) * std::size_t(mapW) + std::size_t(i);
-            valid_[cell] = valFromDepth(in, {i, j}, slots_[cell], pixelIndices_[cell]) ? 1 : 0;
-        }
+    workers_->arena.execute([&] {
+        tbb::parallel_for(tbb::blocked_range<int>(0, mapH, 4), [&](const tbb::blocked_range<int>& rows) {
+            for (int j = rows.begin(); j < rows.end(); ++j)
+                for (int i = 0; i < mapW; ++i) {
+                    const std::size_t cell = std::size_t(j) * std::size_t(mapW) + std::size_t(i);
+                    valid_[cell] = valFromDepth(in, {i, j}, slots_[cell], pixelIndices_[cell]) ? 1 : 0;
+                }
+        });
+    });
     std::size_t n = 0;
     for (std::size_t cell = 0; cell < slots_.size(); ++cell)
         if (valid_[cell]) {

@@ -14,7 +14,7 @@
 //   3. occlusion (section 3.3, eq. 14): SIMD across sparse points over all occluder discs;
 //   5. per-pixel shading: the per-vertex VPLs are written to the GL buffer the GL path's shading
 //      pass reads (gather_shade.*), which runs unchanged on the GL context.
-// Threads (OpenMP) split the sparse points (gather, occlusion) and vertices (interpolation); a
+// Threads (a oneTBB arena) split the sparse points (gather, occlusion) and vertices (interpolation); a
 // point's sums never depend on which thread computes it, so every result is bit-for-bit
 // independent of the thread count.
 //
@@ -45,7 +45,7 @@ namespace lightskin::gi {
 
 struct CpuLightSkinSettings {
     LightSkinSettings lightSkin; ///< the technique's switches (see the file comment for which apply)
-    /// Worker threads for stages 1-4; 0 = all hardware threads (OpenMP's default). Speed only:
+    /// Worker threads for stages 1-4; 0 = all hardware threads (oneTBB's default). Speed only:
     /// the results do not depend on it.
     int threads = 0;
 };

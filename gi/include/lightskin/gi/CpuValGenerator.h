@@ -21,6 +21,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -30,8 +31,11 @@ namespace lightskin::gi {
 /// allocate (except a 16-bit depth map's float copy, sized at create()).
 class CpuValGenerator {
 public:
-    CpuValGenerator() = default;
-    /// Sizes the buffers for depth maps of depthWidth x depthHeight; `threads` OpenMP threads
+    CpuValGenerator();
+    ~CpuValGenerator();
+    CpuValGenerator(CpuValGenerator&&) noexcept;
+    CpuValGenerator& operator=(CpuValGenerator&&) noexcept;
+    /// Sizes the buffers for depth maps of depthWidth x depthHeight; `threads` worker threads
     /// (0 = all hardware threads; speed only, the output does not depend on it). Throws
     /// lightskin::Error on bad settings, sizes or thread count.
     static CpuValGenerator create(int depthWidth, int depthHeight, const ValGeneratorSettings& settings = {},
@@ -56,7 +60,9 @@ public:
 
 private:
     ValGeneratorSettings settings_;
-    int width_ = 0, height_ = 0, threads_ = 0;
+    int width_ = 0, height_ = 0;
+    struct Workers; // the thread pool (oneTBB arena)
+    std::unique_ptr<Workers> workers_;
     std::size_t count_ = 0;
     std::vector<VirtualAreaLight> slots_, vals_; // per VAL-map pixel; packed
     std::vector<std::uint8_t> valid_;            // per VAL-map pixel
