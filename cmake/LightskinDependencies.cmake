@@ -31,6 +31,9 @@ find_package(assimp REQUIRED)
 # CPU backend of the GI core (gi::CpuLightSkin): portable SIMD with runtime dispatch, threads.
 find_package(hwy REQUIRED)
 find_package(OpenMP REQUIRED COMPONENTS CXX)
+# The CPU backend's thread pool (oneTBB: idle workers sleep; libgomp's spin between regions cost
+# 30 % of the replay's CPU, docs/BENCHMARKS.md). OpenMP stays available to the gi module.
+find_package(TBB REQUIRED)
 
 if(LIGHTSKIN_BUILD_TESTS)
   find_package(GTest REQUIRED)

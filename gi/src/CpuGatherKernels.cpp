@@ -9,7 +9,8 @@
 //  * 1/sqrt is the CPU's reciprocal-square-root estimate plus one Newton step (relative error
 //    ~1e-7 after the step: 2^-14 estimate on AVX-512, 2^-12 on SSE/AVX, squared by the step);
 //  * fused multiply-adds where the GL path rounds twice; M_j w_j = (flux / pi) g with flux / pi
-//    precomputed per VAL; log and exp are Highway's (a few ulp).
+//    precomputed per VAL; the lobe's c (k + 1) applied once per block of kSumBlock VALs;
+//  * cos^k by polynomial log2 and exp2 (LobePow below, error bound there).
 // An invalid VAL never reaches these kernels (dropped when the arrays are built).
 #include "CpuGatherKernels.h"
 
@@ -43,104 +44,188 @@ HWY_INLINE V Dot(V ax, V ay, V az, V bx, V by, V bz) { return hn::MulAdd(az, bz,
 // gather_sum_block.glsl: block sums from zero, then running + block).
 HWY_INLINE void AddBlock(D d, float* sum, V block) { hn::StoreU(hn::Add(hn::LoadU(d, sum), block), d, sum); }
 
+// cos^k = 2^(k log2 c) (guard G3) without a division or Highway's Log/Exp, for c in
+// [kTinyCos, 1] and k >= 1 (callers clamp c; the lobe is 0 below kMinLogPow as in ls_pow):
+//  * log2 c = e + log2(1 + x): e and m = 1 + x in [sqrt(1/2), sqrt(2)) from the float's bits
+//    (x = m - 1 is exact, Sterbenz), ln(1 + x) = x - x^2/2 + x^3 P(x) with Cephes' logf
+//    polynomial (minimax on that interval, 9 terms);
+//  * 2^y for y in [kMinLogPow / ln 2, 0] = [-115.4, 0]: n = nearest integer, f = y - n in
+//    [-1/2, 1/2] (exact), 2^f = 1 + f Q(f) with Cephes' exp2f polynomial (6 terms), 2^n added to
+//    the exponent bits: 2^n >= 2^-116 is a normal float, so no subnormal path.
+// Error: the computed y has relative error <= eps_y = 3.7e-7 (the polynomial's 7.6e-8 and 5
+// roundings), i.e. an absolute error <= eps_y |y|, and 2^y then a relative error <= ln 2 eps_y |y| +
+// eps_2, eps_2 = 2.9e-7 (exp2's polynomial and 2 roundings). ln 2 |y| = k |ln c| <= 80 where the lobe
+// is not 0, and <= 7 where the lobe exceeds 1e-3 of its peak (error <= 2.9e-6 there, whatever k).
+// Derivation and check on every SIMD target: tests/gi/gather/CpuLobePowTest.cpp (kEpsY, kEps2).
+HWY_INLINE V Log2(D d, V c) {
+    const hn::RebindToSigned<D> di;
+    const auto bits = hn::BitCast(di, c);
+    // e = floor(log2(c / sqrt(1/2))); m = c / 2^e in [sqrt(1/2), sqrt(2))
+    const auto e = hn::ShiftRight<23>(hn::Sub(bits, hn::Set(di, 0x3F3504F3)));
+    const V m = hn::BitCast(d, hn::Sub(bits, hn::ShiftLeft<23>(e)));
+    const V x = hn::Sub(m, hn::Set(d, 1.0f));
+    V p = hn::Set(d, 7.0376836292e-2f);
+    p = hn::MulAdd(p, x, hn::Set(d, -1.1514610310e-1f));
+    p = hn::MulAdd(p, x, hn::Set(d, 1.1676998740e-1f));
+    p = hn::MulAdd(p, x, hn::Set(d, -1.2420140846e-1f));
+    p = hn::MulAdd(p, x, hn::Set(d, 1.4249322787e-1f));
+    p = hn::MulAdd(p, x, hn::Set(d, -1.6668057665e-1f));
+    p = hn::MulAdd(p, x, hn::Set(d, 2.0000714765e-1f));
+    p = hn::MulAdd(p, x, hn::Set(d, -2.4999993993e-1f));
+    p = hn::MulAdd(p, x, hn::Set(d, 3.3333331174e-1f));
+    const V x2 = hn::Mul(x, x);
+    const V ln = hn::MulAdd(hn::Mul(x, x2), p, hn::NegMulAdd(x2, hn::Set(d, 0.5f), x)); // ln(1 + x)
+    return hn::MulAdd(ln, hn::Set(d, 1.44269504088896341f), hn::ConvertTo(d, e));
+}
+
+// 2^y for y in [-126, 0] (callers clamp).
+HWY_INLINE V Exp2(D d, V y) {
+    const hn::RebindToSigned<D> di;
+    const auto n = hn::NearestInt(y);
+    const V f = hn::Sub(y, hn::ConvertTo(d, n));
+    V q = hn::Set(d, 1.535336188319500e-4f);
+    q = hn::MulAdd(q, f, hn::Set(d, 1.339887440266574e-3f));
+    q = hn::MulAdd(q, f, hn::Set(d, 9.618437357674640e-3f));
+    q = hn::MulAdd(q, f, hn::Set(d, 5.550332471162809e-2f));
+    q = hn::MulAdd(q, f, hn::Set(d, 2.402264791363012e-1f));
+    q = hn::MulAdd(q, f, hn::Set(d, 6.931472028550421e-1f));
+    const V p = hn::MulAdd(q, f, hn::Set(d, 1.0f)); // 2^f in [0.70, 1.42]
+    return hn::BitCast(d, hn::Add(hn::BitCast(di, p), hn::ShiftLeft<23>(n)));
+}
+
+// The Phong lobe cos^k of ls_pow (G3) for lanes where `c` is the clamped-able mirror cosine:
+// 0 where c <= 0 or k ln c < kMinLogPow, else 2^(k log2 c).
+HWY_INLINE V LobePow(D d, V c, V k) {
+    namespace m = refmath;
+    const V minLog2Pow = hn::Set(d, float(m::kMinLogPow / 0.69314718055994530942));
+    const V y = hn::Mul(k, Log2(d, hn::Min(hn::Max(c, hn::Set(d, float(m::kTinyCos))), hn::Set(d, 1.0f))));
+    const auto lit = hn::And(hn::Gt(c, hn::Zero(d)), hn::Ge(y, minLog2Pow));
+    return hn::IfThenElseZero(lit, Exp2(d, hn::Max(y, minLog2Pow)));
+}
+
+// Lanes per vector at most, over all targets this file is compiled for (scratch sizes).
+constexpr std::size_t kMaxLanes = HWY_LANES(float);
+
 template <bool kGlossy, bool kMoments>
 HWY_NOINLINE void GatherGroup(const ValArrays& vals, std::uint32_t valBegin, std::uint32_t valEnd,
                               const ReceiverArrays& r, std::size_t i, float* sums, std::size_t stride) {
     namespace m = refmath;
     const D d;
+    const std::size_t lanes = hn::Lanes(d);
     const V zero = hn::Zero(d);
     const V tiny = hn::Set(d, float(m::kTinyLength2));
-    const V tinyCos = hn::Set(d, float(m::kTinyCos));
-    const V minLogPow = hn::Set(d, float(m::kMinLogPow));
-    const V one = hn::Set(d, 1.0f);
     const V x = hn::LoadU(d, &r.px[i]), y = hn::LoadU(d, &r.py[i]), z = hn::LoadU(d, &r.pz[i]);
-    const V nx = hn::LoadU(d, &r.nx[i]), ny = hn::LoadU(d, &r.ny[i]), nz = hn::LoadU(d, &r.nz[i]);
-    const V ex = hn::LoadU(d, &r.ex[i]), ey = hn::LoadU(d, &r.ey[i]), ez = hn::LoadU(d, &r.ez[i]);
-    const V nde = hn::LoadU(d, &r.nde[i]), k = hn::LoadU(d, &r.k[i]), ck = hn::LoadU(d, &r.ck[i]);
+    // Per block of kSumBlock VALs, the glossy pass's inputs (mirror cosine, zeroed where the lobe
+    // is 0 by facing; g; w): a second loop over the block then needs only the glossy sums in
+    // registers. One loop with all 20 sums spilled them to the stack (perf annotate: 134 stack
+    // accesses in the loop). The split changes no value; c (k + 1) now scales the block's glossy
+    // radiance sums once instead of every term (rounding only).
+    HWY_ALIGN float blockCos[kGlossy ? kSumBlock * kMaxLanes : 1];
+    HWY_ALIGN float blockG[kGlossy ? kSumBlock * kMaxLanes : 1];
+    HWY_ALIGN float blockW[kGlossy ? kSumBlock * kMaxLanes : 1];
     for (std::uint32_t first = valBegin; first < valEnd; first += kSumBlock) {
-        V eR = zero, eG = zero, eB = zero, r2D = zero, oDx = zero, oDy = zero, oDz = zero, wDs = zero;
-        V gR = zero, gG = zero, gB = zero, r2S = zero, oSx = zero, oSy = zero, oSz = zero, wSs = zero;
-        V mx = zero, my = zero, mz = zero, mS = zero;
-        for (std::uint32_t j = first; j < first + kSumBlock; ++j) {
-            // eq. 3 geometry (ls_discTerms) with guards G1, G2
-            const V ox = hn::Sub(hn::Set(d, vals.px[j]), x);
-            const V oy = hn::Sub(hn::Set(d, vals.py[j]), y);
-            const V oz = hn::Sub(hn::Set(d, vals.pz[j]), z);
-            const V r2 = hn::Set(d, vals.r2[j]);
-            const V d2 = Dot(ox, oy, oz, ox, oy, oz);
-            const V invLength = InverseSqrt(d, hn::Max(hn::Add(d2, hn::Set(d, vals.cr2[j])), tiny));
-            const V tx = hn::Mul(ox, invLength), ty = hn::Mul(oy, invLength), tz = hn::Mul(oz, invLength);
-            const V ndl = Dot(nx, ny, nz, tx, ty, tz);
-            const V cosI = hn::Max(ndl, zero);
-            const V cosJ = hn::Max(
-                hn::Neg(Dot(hn::Set(d, vals.nx[j]), hn::Set(d, vals.ny[j]), hn::Set(d, vals.nz[j]), tx, ty, tz)), zero);
-            const V g = hn::Div(cosJ, hn::Max(hn::Add(r2, d2), tiny));
-            const V w = hn::Mul(r2, g);      // eq. 3
-            const V wD = hn::Mul(w, cosI);   // eq. 7 weight (eps_l folded later)
-            const V gCos = hn::Mul(g, cosI); // E = (flux / pi) g cos(theta_i), eq. 4
-            eR = hn::MulAdd(hn::Set(d, vals.fr[j]), gCos, eR);
-            eG = hn::MulAdd(hn::Set(d, vals.fg[j]), gCos, eG);
-            eB = hn::MulAdd(hn::Set(d, vals.fb[j]), gCos, eB);
-            r2D = hn::MulAdd(r2, wD, r2D);
-            oDx = hn::MulAdd(ox, wD, oDx);
-            oDy = hn::MulAdd(oy, wD, oDy);
-            oDz = hn::MulAdd(oz, wD, oDz);
-            wDs = hn::Add(wDs, wD);
-            if constexpr (kGlossy) {
-                // eq. 5: cos(gamma) = mirror . e = 2 (n.l)(n.e) - l.e; cos^k with guard G3
-                const V cosGamma = hn::MulSub(hn::Add(ndl, ndl), nde, Dot(tx, ty, tz, ex, ey, ez));
-                const auto facing = hn::And(hn::Gt(cosGamma, zero), hn::Gt(cosI, zero));
-                // A lane with lobe 0 adds exactly 0 to every glossy sum (finite terms times 0; a
-                // sum is never -0), so skipping a VAL that no lane's lobe sees leaves the sums
-                // bit-identical and saves the log and exp. Log's subnormal path is not needed:
-                // its argument is >= kTinyCos = 1e-30, a normal float.
-                if (!hn::AllFalse(d, facing)) {
-                    const V e = hn::Mul(k, hn::impl::Log<D, V, false>(d, hn::Min(hn::Max(cosGamma, tinyCos), one)));
-                    const auto lit = hn::And(facing, hn::Ge(e, minLogPow));
-                    const V lobe = hn::IfThenElseZero(lit, hn::Exp(d, hn::Max(e, minLogPow)));
-                    const V gLobe = hn::Mul(g, hn::Mul(ck, lobe));
+        bool anyFacing = false;
+        {
+            const V nx = hn::LoadU(d, &r.nx[i]), ny = hn::LoadU(d, &r.ny[i]), nz = hn::LoadU(d, &r.nz[i]);
+            V eR = zero, eG = zero, eB = zero, r2D = zero, oDx = zero, oDy = zero, oDz = zero, wDs = zero;
+            V mx = zero, my = zero, mz = zero;
+            for (std::uint32_t j = first; j < first + kSumBlock; ++j) {
+                // eq. 3 geometry (ls_discTerms) with guards G1, G2
+                const V ox = hn::Sub(hn::Set(d, vals.px[j]), x);
+                const V oy = hn::Sub(hn::Set(d, vals.py[j]), y);
+                const V oz = hn::Sub(hn::Set(d, vals.pz[j]), z);
+                const V r2 = hn::Set(d, vals.r2[j]);
+                const V d2 = Dot(ox, oy, oz, ox, oy, oz);
+                const V invLength = InverseSqrt(d, hn::Max(hn::Add(d2, hn::Set(d, vals.cr2[j])), tiny));
+                const V tx = hn::Mul(ox, invLength), ty = hn::Mul(oy, invLength), tz = hn::Mul(oz, invLength);
+                const V ndl = Dot(nx, ny, nz, tx, ty, tz);
+                const V cosI = hn::Max(ndl, zero);
+                const V cosJ = hn::Max(
+                    hn::Neg(Dot(hn::Set(d, vals.nx[j]), hn::Set(d, vals.ny[j]), hn::Set(d, vals.nz[j]), tx, ty, tz)),
+                    zero);
+                const V g = hn::Div(cosJ, hn::Max(hn::Add(r2, d2), tiny));
+                const V w = hn::Mul(r2, g);      // eq. 3
+                const V wD = hn::Mul(w, cosI);   // eq. 7 weight (eps_l folded later)
+                const V gCos = hn::Mul(g, cosI); // E = (flux / pi) g cos(theta_i), eq. 4
+                eR = hn::MulAdd(hn::Set(d, vals.fr[j]), gCos, eR);
+                eG = hn::MulAdd(hn::Set(d, vals.fg[j]), gCos, eG);
+                eB = hn::MulAdd(hn::Set(d, vals.fb[j]), gCos, eB);
+                r2D = hn::MulAdd(r2, wD, r2D);
+                oDx = hn::MulAdd(ox, wD, oDx);
+                oDy = hn::MulAdd(oy, wD, oDy);
+                oDz = hn::MulAdd(oz, wD, oDz);
+                wDs = hn::Add(wDs, wD);
+                if constexpr (kMoments) {
+                    mx = hn::MulAdd(hn::Mul(ox, ox), wD, mx);
+                    my = hn::MulAdd(hn::Mul(oy, oy), wD, my);
+                    mz = hn::MulAdd(hn::Mul(oz, oz), wD, mz);
+                }
+                if constexpr (kGlossy) {
+                    // eq. 5: cos(gamma) = mirror . e = 2 (n.l)(n.e) - l.e
+                    const V ex = hn::LoadU(d, &r.ex[i]), ey = hn::LoadU(d, &r.ey[i]), ez = hn::LoadU(d, &r.ez[i]);
+                    const V cosGamma =
+                        hn::MulSub(hn::Add(ndl, ndl), hn::LoadU(d, &r.nde[i]), Dot(tx, ty, tz, ex, ey, ez));
+                    const auto facing = hn::And(hn::Gt(cosGamma, zero), hn::Gt(cosI, zero));
+                    anyFacing = anyFacing || !hn::AllFalse(d, facing);
+                    const std::size_t at = (j - first) * lanes;
+                    hn::Store(hn::IfThenElseZero(facing, cosGamma), d, blockCos + at);
+                    hn::Store(g, d, blockG + at);
+                    hn::Store(w, d, blockW + at);
+                }
+            }
+            float* s = sums + i;
+            AddBlock(d, s + 0 * stride, eR);
+            AddBlock(d, s + 1 * stride, eG);
+            AddBlock(d, s + 2 * stride, eB);
+            AddBlock(d, s + 3 * stride, r2D);
+            AddBlock(d, s + 4 * stride, oDx);
+            AddBlock(d, s + 5 * stride, oDy);
+            AddBlock(d, s + 6 * stride, oDz);
+            AddBlock(d, s + 7 * stride, wDs);
+            if constexpr (kMoments) {
+                AddBlock(d, s + 16 * stride, mx);
+                AddBlock(d, s + 17 * stride, my);
+                AddBlock(d, s + 18 * stride, mz);
+            }
+        }
+        if constexpr (kGlossy) {
+            // A lane with lobe 0 adds exactly +0 to every glossy sum (finite terms times 0; a sum
+            // is never -0), so a block (or VAL) that no lane's lobe sees leaves the sums unchanged.
+            V gR = zero, gG = zero, gB = zero, r2S = zero, oSx = zero, oSy = zero, oSz = zero, wSs = zero, mS = zero;
+            if (anyFacing) {
+                const V k = hn::LoadU(d, &r.k[i]);
+                for (std::uint32_t j = first; j < first + kSumBlock; ++j) {
+                    const std::size_t at = (j - first) * lanes;
+                    const V c = hn::Load(d, blockCos + at);
+                    if (hn::AllFalse(d, hn::Gt(c, zero))) continue;
+                    const V lobe = LobePow(d, c, k);
+                    const V gLobe = hn::Mul(hn::Load(d, blockG + at), lobe); // c (k + 1) applied per block
                     gR = hn::MulAdd(hn::Set(d, vals.fr[j]), gLobe, gR);
                     gG = hn::MulAdd(hn::Set(d, vals.fg[j]), gLobe, gG);
                     gB = hn::MulAdd(hn::Set(d, vals.fb[j]), gLobe, gB);
-                    const V wS = hn::Mul(w, lobe);
-                    r2S = hn::MulAdd(r2, wS, r2S);
+                    const V wS = hn::Mul(hn::Load(d, blockW + at), lobe);
+                    const V ox = hn::Sub(hn::Set(d, vals.px[j]), x);
+                    const V oy = hn::Sub(hn::Set(d, vals.py[j]), y);
+                    const V oz = hn::Sub(hn::Set(d, vals.pz[j]), z);
+                    r2S = hn::MulAdd(hn::Set(d, vals.r2[j]), wS, r2S);
                     oSx = hn::MulAdd(ox, wS, oSx);
                     oSy = hn::MulAdd(oy, wS, oSy);
                     oSz = hn::MulAdd(oz, wS, oSz);
                     wSs = hn::Add(wSs, wS);
-                    if constexpr (kMoments) mS = hn::MulAdd(d2, wS, mS);
+                    if constexpr (kMoments) mS = hn::MulAdd(Dot(ox, oy, oz, ox, oy, oz), wS, mS);
                 }
             }
-            if constexpr (kMoments) {
-                mx = hn::MulAdd(hn::Mul(ox, ox), wD, mx);
-                my = hn::MulAdd(hn::Mul(oy, oy), wD, my);
-                mz = hn::MulAdd(hn::Mul(oz, oz), wD, mz);
-            }
-        }
-        float* s = sums + i;
-        AddBlock(d, s + 0 * stride, eR);
-        AddBlock(d, s + 1 * stride, eG);
-        AddBlock(d, s + 2 * stride, eB);
-        AddBlock(d, s + 3 * stride, r2D);
-        AddBlock(d, s + 4 * stride, oDx);
-        AddBlock(d, s + 5 * stride, oDy);
-        AddBlock(d, s + 6 * stride, oDz);
-        AddBlock(d, s + 7 * stride, wDs);
-        if constexpr (kGlossy) {
-            AddBlock(d, s + 8 * stride, gR);
-            AddBlock(d, s + 9 * stride, gG);
-            AddBlock(d, s + 10 * stride, gB);
+            const V ck = hn::LoadU(d, &r.ck[i]);
+            float* s = sums + i;
+            AddBlock(d, s + 8 * stride, hn::Mul(ck, gR));
+            AddBlock(d, s + 9 * stride, hn::Mul(ck, gG));
+            AddBlock(d, s + 10 * stride, hn::Mul(ck, gB));
             AddBlock(d, s + 11 * stride, r2S);
             AddBlock(d, s + 12 * stride, oSx);
             AddBlock(d, s + 13 * stride, oSy);
             AddBlock(d, s + 14 * stride, oSz);
             AddBlock(d, s + 15 * stride, wSs);
-        }
-        if constexpr (kMoments) {
-            AddBlock(d, s + 16 * stride, mx);
-            AddBlock(d, s + 17 * stride, my);
-            AddBlock(d, s + 18 * stride, mz);
-            if constexpr (kGlossy) AddBlock(d, s + 19 * stride, mS);
+            if constexpr (kMoments) AddBlock(d, s + 19 * stride, mS);
         }
     }
 }
@@ -229,6 +314,12 @@ void OcclusionImpl(const OcclusionReceivers& receivers, std::size_t receiverBegi
     }
 }
 
+void LobePowImpl(const float* c, const float* k, float* out, std::size_t count) {
+    const D d;
+    for (std::size_t i = 0; i < count; i += hn::Lanes(d))
+        hn::StoreU(LobePow(d, hn::LoadU(d, c + i), hn::LoadU(d, k + i)), d, out + i);
+}
+
 const char* TargetNameImpl() { return hwy::TargetName(HWY_TARGET); }
 
 // 12 independent FMA chains (enough to cover FMA latency x throughput on current x86 cores),
@@ -260,6 +351,7 @@ namespace lightskin::gi::cpu {
 HWY_EXPORT(GatherImpl);
 HWY_EXPORT(OcclusionImpl);
 HWY_EXPORT(TargetNameImpl);
+HWY_EXPORT(LobePowImpl);
 HWY_EXPORT(FmaChainsImpl);
 
 void ValArrays::reserve(std::size_t capacity) {
@@ -295,6 +387,10 @@ void gather(const ValArrays& vals, std::uint32_t valBegin, std::uint32_t valEnd,
 void occlusion(const OcclusionReceivers& receivers, std::size_t receiverBegin, std::size_t receiverEnd,
                const Occluders& occluders, bool glossy, float* outD, float* outS) {
     HWY_DYNAMIC_DISPATCH(OcclusionImpl)(receivers, receiverBegin, receiverEnd, occluders, glossy, outD, outS);
+}
+
+void lobePow(const float* cosGamma, const float* exponent, float* out, std::size_t count) {
+    HWY_DYNAMIC_DISPATCH(LobePowImpl)(cosGamma, exponent, out, count);
 }
 
 std::string simdTargetName() { return HWY_DYNAMIC_DISPATCH(TargetNameImpl)(); }

@@ -79,6 +79,11 @@ struct Occluders {
 void occlusion(const OcclusionReceivers& receivers, std::size_t receiverBegin, std::size_t receiverEnd,
                const Occluders& occluders, bool glossy, float* outD, float* outS);
 
+/// The gather's Phong lobe (guard G3 of lightskin_math.glsl): out[i] = cos^k for c = cosGamma[i],
+/// k = exponent[i] >= 1; 0 where c <= 0 or k ln c < kMinLogPow. count: a multiple of
+/// kReceiverPadding. For tests of its error bound (CpuGatherKernels.cpp, LobePow).
+void lobePow(const float* cosGamma, const float* exponent, float* out, std::size_t count);
+
 /// Name of the instruction set the dispatch chose (e.g. "AVX3", "AVX2", "SSE4").
 std::string simdTargetName();
 /// `steps` x 12 independent vector FMA chains at the dispatched width; returns the flops done

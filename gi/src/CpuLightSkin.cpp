@@ -18,9 +18,11 @@
 #include <array>
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <ctime>
-#include <omp.h>
+#include <limits>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 namespace lightskin::gi {
 
@@ -49,19 +51,40 @@ std::size_t padReceivers(std::size_t n) {
 constexpr std::uint32_t kValTile = 2048;
 static_assert(kValTile % cpu::kSumBlock == 0);
 
-/// Runs body(begin, end) on `threads` OpenMP threads over [0, count) split into contiguous,
-/// kReceiverPadding-aligned ranges. The split only decides who computes a receiver, never how.
+/// Runs body(begin, end) in `arena` over [0, count) split into one contiguous,
+/// kReceiverPadding-aligned range per thread of the arena. The split only decides who computes a
+/// receiver, never how. oneTBB, not OpenMP: libgomp's idle workers spin between parallel regions
+/// (OMP_WAIT_POLICY defaults to active) and took 30 % of the replay's CPU time from llvmpipe and the
+/// tracker on 2 cores (docs/BENCHMARKS.md, "SIMD and thread libraries").
 template <class Body>
-void parallelRanges(int threads, std::size_t count, const Body& body) {
+void parallelRanges(tbb::task_arena& arena, std::size_t count, const Body& body) {
     const std::size_t groups = count / cpu::kReceiverPadding;
-#pragma omp parallel num_threads(threads)
-    {
-        const std::size_t t = std::size_t(omp_get_thread_num());
-        const std::size_t n = std::size_t(omp_get_num_threads());
-        const std::size_t begin = groups * t / n * cpu::kReceiverPadding;
-        const std::size_t end = groups * (t + 1) / n * cpu::kReceiverPadding;
-        if (begin < end) body(begin, end);
-    }
+    const std::size_t n = std::size_t(arena.max_concurrency());
+    arena.execute([&] {
+        tbb::parallel_for(
+            tbb::blocked_range<std::size_t>(0, n, 1),
+            [&](const tbb::blocked_range<std::size_t>& threads) {
+                for (std::size_t t = threads.begin(); t < threads.end(); ++t) {
+                    const std::size_t begin = groups * t / n * cpu::kReceiverPadding;
+                    const std::size_t end = groups * (t + 1) / n * cpu::kReceiverPadding;
+                    if (begin < end) body(begin, end);
+                }
+            },
+            tbb::static_partitioner());
+    });
+}
+
+/// body(i) for i in [begin, end) in `arena`, in contiguous chunks (each i independent).
+template <class Body>
+void parallelFor(tbb::task_arena& arena, std::size_t begin, std::size_t end, const Body& body) {
+    arena.execute([&] {
+        tbb::parallel_for(
+            tbb::blocked_range<std::size_t>(begin, end),
+            [&](const tbb::blocked_range<std::size_t>& r) {
+                for (std::size_t i = r.begin(); i < r.end(); ++i) body(i);
+            },
+            tbb::static_partitioner());
+    });
 }
 
 } // namespace
@@ -101,7 +124,12 @@ struct CpuLightSkin::Impl {
     bool glossy = true, occlusion = true;
     double readbackMs = 0.0; // render(): the VAL read-back, counted in the upload stage
 
-    int threadCount() const { return settings.threads > 0 ? settings.threads : omp_get_max_threads(); }
+    std::unique_ptr<tbb::task_arena> arena; // settings.threads workers (0: one per hardware thread)
+    int threadCount() const { return arena->max_concurrency(); }
+    void createArena() {
+        arena = std::make_unique<tbb::task_arena>(settings.threads > 0 ? settings.threads
+                                                                       : int(tbb::task_arena::automatic));
+    }
 
     void reserveVals(std::size_t count) {
         const std::size_t padded = (count + cpu::kSumBlock - 1) / cpu::kSumBlock * cpu::kSumBlock;
@@ -193,7 +221,7 @@ struct CpuLightSkin::Impl {
         std::fill(sums.begin(), sums.end(), 0.0f);
         const cpu::GatherParameters parameters{glossy, moments()};
         const std::size_t stride = receivers.padded;
-        parallelRanges(threadCount(), receivers.padded, [&](std::size_t begin, std::size_t end) {
+        parallelRanges(*arena, receivers.padded, [&](std::size_t begin, std::size_t end) {
             for (std::uint32_t first = 0; first < vals.padded; first += kValTile)
                 cpu::gather(vals, first, std::min(first + kValTile, vals.padded), receivers, begin, end, parameters,
                             sums.data(), stride);
@@ -235,19 +263,20 @@ struct CpuLightSkin::Impl {
 
     /// Stage 2 (eq. 8-11) and the occlusion targets of stage 3, per point.
     void renormalise(const glm::dvec3& eye) {
-        const std::int64_t n = std::int64_t(pointCount);
         // ~0.1 us per point: threads pay off only for many points (a fork/join costs ~10 us idle,
         // a scheduler time slice when the cores are oversubscribed)
-#pragma omp parallel for num_threads(threadCount()) schedule(static) if (n > 8192)
-        for (std::int64_t ii = 0; ii < n; ++ii) {
-            const std::size_t i = std::size_t(ii);
+        const auto point = [&](std::size_t i) {
             const PointSums p = pointSums(i);
             const glm::dvec3 x = pointPosition[i], nx = pointNormal[i];
             vplD[i] = m::ls_renormaliseDiffuse(p.L, p.offset, p.W, p.r2, p.moment, x, nx,
                                                settings.lightSkin.extendedVplHorizon ? 1.0 : 0.0);
             vplS[i] = m::ls_renormaliseGlossy(p.Ls, p.offsetS, p.Ws, p.r2s, p.momentS, x, nx, m::ls_toEye(x, eye),
                                               pointExponent[i]);
-        }
+        };
+        if (pointCount > 8192)
+            parallelFor(*arena, 0, pointCount, point);
+        else
+            for (std::size_t i = 0; i < pointCount; ++i) point(i);
     }
 
     /// Stage 3 (section 3.3, eq. 14): targets per point (double), the occluder sums (SIMD).
@@ -278,7 +307,7 @@ struct CpuLightSkin::Impl {
             const float radius = float(pointOccluderRadius[i]);
             occluders.r2[i] = radius * radius;
         }
-        parallelRanges(threadCount(), r.padded, [&](std::size_t begin, std::size_t end) {
+        parallelRanges(*arena, r.padded, [&](std::size_t begin, std::size_t end) {
             cpu::occlusion(r, begin, end, occluders, glossy, occlusionD.data(), occlusionS.data());
         });
     }
@@ -288,12 +317,10 @@ struct CpuLightSkin::Impl {
         for (std::size_t mesh = 0; mesh < instances.size(); ++mesh) {
             const glm::dmat4 transform(instances[mesh].world_T_model);
             const glm::dmat3 normalMatrix = glm::transpose(glm::inverse(glm::dmat3(transform)));
-            const std::int64_t first = std::int64_t(vertexOffsets[mesh]);
-            const std::int64_t end = first + std::int64_t(instances[mesh].mesh->vertexCount());
+            const std::size_t first = vertexOffsets[mesh];
+            const std::size_t end = first + instances[mesh].mesh->vertexCount();
             const bool horizon = settings.lightSkin.extendedVplHorizon;
-#pragma omp parallel for num_threads(threadCount()) schedule(static)
-            for (std::int64_t vv = first; vv < end; ++vv) {
-                const std::size_t v = std::size_t(vv);
+            parallelFor(*arena, first, end, [&](std::size_t v) {
                 const glm::dvec3 p(transform * glm::dvec4(modelVertexPositions[v], 1.0));
                 const glm::dvec3 nv = glm::normalize(normalMatrix * modelVertexNormals[v]);
                 double dist[kVertexNeighbours], cosN[kVertexNeighbours];
@@ -330,7 +357,7 @@ struct CpuLightSkin::Impl {
                 out[1] = glm::vec4(diffusePosition);
                 out[2] = glm::vec4(glossyRadiance);
                 out[3] = glm::vec4(glossyPosition);
-            }
+            });
         }
     }
 
@@ -360,6 +387,23 @@ double cpuFmaPeakGflops(double milliseconds) {
     while ((elapsed = processCpuMs() - start) < milliseconds) flops += cpu::fmaChains(100000, &sink);
     return std::isfinite(sink) ? flops / (elapsed * 1e6) : 0.0;
 }
+void cpuLobePow(std::span<const float> cosGamma, std::span<const float> exponent, std::span<float> out) {
+    LIGHTSKIN_ASSERT(cosGamma.size() == exponent.size() && out.size() == cosGamma.size(),
+                     "lightskin::gi::cpuLobePow(): the spans differ in size");
+    // the kernel takes whole vectors: pad through small fixed chunks (test use, not per frame)
+    constexpr std::size_t kChunk = 1024;
+    static_assert(kChunk % cpu::kReceiverPadding == 0);
+    std::array<float, kChunk> c{}, k{}, o{};
+    for (std::size_t first = 0; first < out.size(); first += kChunk) {
+        const std::size_t n = std::min(kChunk, out.size() - first);
+        c.fill(0.0f);
+        k.fill(1.0f);
+        std::copy_n(cosGamma.begin() + std::ptrdiff_t(first), n, c.begin());
+        std::copy_n(exponent.begin() + std::ptrdiff_t(first), n, k.begin());
+        cpu::lobePow(c.data(), k.data(), o.data(), padReceivers(n));
+        std::copy_n(o.begin(), n, out.begin() + std::ptrdiff_t(first));
+    }
+}
 void setCpuSimdTarget(const std::string& name) {
     if (!cpu::restrictSimdTarget(name))
         throw Error("SIMD target", std::nullopt, "'" + name + "' is not one this build and CPU support");
@@ -373,6 +417,7 @@ std::unique_ptr<CpuLightSkin> CpuLightSkin::create(const CpuLightSkinSettings& s
     std::unique_ptr<CpuLightSkin> technique(new CpuLightSkin());
     Impl& impl = *technique->impl_;
     impl.settings = settings;
+    impl.createArena();
     impl.provider = std::move(provider);
     impl.shade =
         impl.library.buildProgram({{GL_VERTEX_SHADER, "gather_shade.vert"}, {GL_FRAGMENT_SHADER, "gather_shade.frag"}});
@@ -388,7 +433,9 @@ void CpuLightSkin::setSettings(const CpuLightSkinSettings& settings) {
     if (settings.threads < 0)
         throw Error("CpuLightSkinSettings.threads", std::nullopt,
                     "must be >= 0, got " + std::to_string(settings.threads));
+    const bool threadsChanged = settings.threads != impl_->settings.threads;
     impl_->settings = settings;
+    if (threadsChanged) impl_->createArena();
 }
 const CpuLightSkinStats& CpuLightSkin::lastStats() const noexcept { return impl_->stats; }
 const std::vector<std::uint32_t>& CpuLightSkin::vertexOffsets() const noexcept { return impl_->vertexOffsets; }
@@ -515,8 +562,14 @@ void CpuLightSkin::render(const ValSetView& lights, std::span<const MeshInstance
         glGetNamedBufferSubData(lights.buffer, 0, GLsizeiptr(lights.count) * GLsizeiptr(sizeof(VirtualAreaLight)),
                                 impl.staging.data());
     impl.readbackMs = millisecondsSince(start);
-    computeVpls(std::span<const VirtualAreaLight>(impl.staging.data(), lights.count), instances,
-                view.cameraPositionWorld);
+    renderCpuVals(std::span<const VirtualAreaLight>(impl.staging.data(), lights.count), instances, gbuffer, view,
+                  targetTexture);
+}
+
+void CpuLightSkin::renderCpuVals(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
+                                 const GBufferView& gbuffer, const ViewParameters& view, std::uint32_t targetTexture) {
+    Impl& impl = *impl_;
+    computeVpls(lights, instances, view.cameraPositionWorld);
 
     const auto uploadStart = Clock::now();
     if (impl.vertexCount > 0)

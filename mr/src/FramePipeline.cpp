@@ -4,6 +4,7 @@
 #include <lightskin/eval/ColourSpace.h>
 #include <lightskin/gi/BruteForceIllumination.h>
 #include <lightskin/gi/CpuLightSkin.h>
+#include <lightskin/gi/CpuValGenerator.h>
 #include <lightskin/gi/DifferentialIrradiance.h>
 #include <lightskin/gi/ImperfectVolumes.h>
 #include <lightskin/gi/LightSkinIllumination.h>
@@ -311,6 +312,9 @@ struct FramePipeline::State {
     std::unique_ptr<gi::IndirectIllumination> technique;
     std::optional<tracking::PoseTracker> tracker;
     std::optional<gi::ValGenerator> vals;
+    // The CPU backend's VALs, generated on the CPU (no GL pass, no read-back); created on first use.
+    std::optional<gi::CpuValGenerator> cpuVals;
+    std::span<const gi::VirtualAreaLight> cpuValSet;
     std::optional<gi::ValOccupancyCull> occupancy; // gi.robustRealDepth
     bool valsUsable = false;
     // gi.virtualBounce with lights: RSM VALs merged after the depth VALs (all sized at creation).
@@ -436,7 +440,10 @@ void FramePipeline::setGiSettings(const render::GiSettings& settings) {
 void FramePipeline::applyDifferential(const RgbdFrame& frame, const Pose& world_T_camera,
                                       const gi::ValSetView& depthVals, FrameOutput& out) {
     State& s = *state_;
-    gi::downloadValsInto(depthVals, s.depthValsOnCpu);
+    if (depthVals.buffer == 0 && depthVals.count > 0) // generated on the CPU (no allocation once grown)
+        s.depthValsOnCpu.assign(s.cpuValSet.begin(), s.cpuValSet.end());
+    else
+        gi::downloadValsInto(depthVals, s.depthValsOnCpu);
     s.differential->compute(s.depthMetres, frame.colourIntrinsics, world_T_camera, s.depthValsOnCpu,
                             s.differentialLights, s.differentialImages);
     render::applyDifferentialInto(frame.colour, s.differentialImages, s.scene->exposureStops, s.cameraWithDifferential);
@@ -514,7 +521,30 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     const bool runDifferential = options_.differential && s.differential && haveDepth && s.vals;
     render::Renderer& r = *renderer_;
     bool gbufferReady = false;
-    if (haveDepth && (runGi || runDifferential) && s.vals) {
+    // The CPU backend takes its VALs from the CPU generator unless a GL consumer of the VAL buffer
+    // runs this frame (occupancy cull, RSM merge, brute-force views, the VAL overlay).
+    auto* cpuTechnique = runGi ? dynamic_cast<gi::CpuLightSkin*>(s.technique.get()) : nullptr;
+    const bool valsOnCpu = cpuTechnique && !s.rsm && !options_.referenceIndirect &&
+                           options_.overlay != Overlay::ErrorVsBruteForce && options_.overlay != Overlay::Vals;
+    s.cpuValSet = {};
+    if (haveDepth && valsOnCpu && s.vals) {
+        gi::ValGeneratorSettings settings = s.vals->settings();
+        settings.skipUnchangedInput = false;
+        if (!s.cpuVals || s.cpuVals->settings().stride != settings.stride)
+            s.cpuVals = gi::CpuValGenerator::create(frame.colour.cols, frame.colour.rows, settings,
+                                                    cpuTechnique->settings().threads);
+        else
+            s.cpuVals->setSettings(settings);
+        s.cpuValSet = s.cpuVals->generate(s.depthMetres, 1.0, frame.colour, frame.colourIntrinsics, world_T_camera);
+        valSet = gi::ValSetView{0, std::uint32_t(s.cpuValSet.size()), 0, 0, 0};
+        out.valCount = valSet.count;
+        if (gi_.robustRealDepth && s.occupancy) { // as below, on the CPU set
+            r.renderGBuffer(world_T_camera);
+            gbufferReady = true;
+            s.occupancy->applyOnCpu(s.cpuVals->mutableLastVals(), s.cpuVals->lastPixelIndices(), r.instances(),
+                                    r.viewParameters().clip_T_world, world_T_camera.inverse().matrixFloat());
+        }
+    } else if (haveDepth && (runGi || runDifferential) && s.vals) {
         valSet = s.vals->generate(s.depthMetres, 1.0, frame.colour, frame.colourIntrinsics, world_T_camera);
         out.valCount = valSet.count;
         if (gi_.robustRealDepth && s.occupancy) {
@@ -574,7 +604,11 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     t = Clock::now();
     if (!gbufferReady) r.renderGBuffer(world_T_camera);
     if (runGi) {
-        s.technique->render(valSet, r.instances(), r.gbuffer(), r.viewParameters(), r.indirectTarget());
+        if (cpuTechnique && valSet.buffer == 0)
+            cpuTechnique->renderCpuVals(s.cpuValSet, r.instances(), r.gbuffer(), r.viewParameters(),
+                                        r.indirectTarget());
+        else
+            s.technique->render(valSet, r.instances(), r.gbuffer(), r.viewParameters(), r.indirectTarget());
         if (const auto* lightSkin = dynamic_cast<const gi::LightSkinIllumination*>(s.technique.get());
             lightSkin && lightSkin->settings().adaptive) {
             out.giReused = lightSkin->lastChoice().reused ? 1 : 0;

@@ -69,6 +69,8 @@ struct ContactRun {
     cv::Mat brute, bruteCulled, lightSkin, position, normal; // image rows (flipped from GL)
     std::vector<gi::VirtualAreaLight> vals;
     std::uint32_t culled = 0;
+    std::vector<gi::VirtualAreaLight> valsCulledGl, valsCulledCpu; // the CPU backend's cull (issue 18)
+    std::uint32_t culledCpu = 0;
 };
 
 ContactRun render(double sink) {
@@ -116,6 +118,10 @@ ContactRun render(double sink) {
     auto cull = gi::ValOccupancyCull::create(kWidth, kHeight);
     cull.apply(set, instances, clip, pose.inverse().matrixFloat());
     run.culled = cull.culledCount();
+    run.valsCulledGl = generator.downloadVals();
+    run.valsCulledCpu = run.vals;
+    const std::vector<std::uint32_t> keys = generator.downloadPixelIndices();
+    run.culledCpu = cull.applyOnCpu(run.valsCulledCpu, keys, instances, clip, pose.inverse().matrixFloat());
     brute->render(set, instances, gbuffer.view(), view, target.id());
     gl::readTextureRgba32fInto(target, run.bruteCulled);
 
@@ -141,6 +147,12 @@ TEST_P(NearContactGLTest, BruteForceOnProductionValsMatchesRayTracedTruth) {
     if (sink > 0.0) {
         EXPECT_GT(run.culled, 0u);
     }
+    // The CPU cull (ValOccupancyCull::applyOnCpu) makes the GL cull's decisions: the same float
+    // operations on the same range target, thresholds far from these planes' depths (no ties).
+    EXPECT_EQ(run.culledCpu, run.culled);
+    ASSERT_EQ(run.valsCulledCpu.size(), run.valsCulledGl.size());
+    for (std::size_t j = 0; j < run.valsCulledGl.size(); ++j)
+        EXPECT_EQ(run.valsCulledCpu[j].area == 0.0f, run.valsCulledGl[j].area == 0.0f) << "VAL " << j;
 
     // The largest VAL radius on the floor and wall in view sets the near-field scale.
     double maxRadius = 0.0;

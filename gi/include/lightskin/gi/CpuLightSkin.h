@@ -14,7 +14,7 @@
 //   3. occlusion (section 3.3, eq. 14): SIMD across sparse points over all occluder discs;
 //   5. per-pixel shading: the per-vertex VPLs are written to the GL buffer the GL path's shading
 //      pass reads (gather_shade.*), which runs unchanged on the GL context.
-// Threads (OpenMP) split the sparse points (gather, occlusion) and vertices (interpolation); a
+// Threads (a oneTBB arena) split the sparse points (gather, occlusion) and vertices (interpolation); a
 // point's sums never depend on which thread computes it, so every result is bit-for-bit
 // independent of the thread count.
 //
@@ -37,6 +37,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -44,7 +45,7 @@ namespace lightskin::gi {
 
 struct CpuLightSkinSettings {
     LightSkinSettings lightSkin; ///< the technique's switches (see the file comment for which apply)
-    /// Worker threads for stages 1-4; 0 = all hardware threads (OpenMP's default). Speed only:
+    /// Worker threads for stages 1-4; 0 = all hardware threads (oneTBB's default). Speed only:
     /// the results do not depend on it.
     int threads = 0;
 };
@@ -73,6 +74,10 @@ public:
     void prepare(std::span<const MeshInstance> instances) override;
     void render(const ValSetView& lights, std::span<const MeshInstance> instances, const GBufferView& gbuffer,
                 const ViewParameters& view, std::uint32_t targetTexture) override;
+    /// render() with the VALs already on the CPU (e.g. gi::CpuValGenerator's; not kept after the
+    /// call): no read-back of a GL buffer. Invalid VALs (area <= 0 or NaN) are skipped as in render().
+    void renderCpuVals(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
+                       const GBufferView& gbuffer, const ViewParameters& view, std::uint32_t targetTexture);
     /// upload, gather, normalisation, occlusion, interpolation: CPU wall clock; shading: GL timer.
     void lastStageTimes(std::vector<gl::StageTime>& out) const override;
 
@@ -106,6 +111,10 @@ std::string cpuSimdTarget();
 /// (12 independent FMA chains, 2 flops per FMA lane, as bench/PeakFlopsBenchmark.cpp), measured
 /// over about `milliseconds` of CPU time. Under load from other processes CPU time stays fair.
 double cpuFmaPeakGflops(double milliseconds = 50.0);
+/// For tests: the gather's Phong lobe cos^k (guard G3 of lightskin_math.glsl, the polynomial
+/// log2/exp2 of the dispatched kernels), out[i] for c = cosGamma[i] and k = exponent[i] >= 1:
+/// 0 where c <= 0 or k ln c < -80, c clamped to [1e-30, 1]. The spans have equal sizes.
+void cpuLobePow(std::span<const float> cosGamma, std::span<const float> exponent, std::span<float> out);
 /// The instruction sets this build has kernels for and this CPU supports, best first.
 std::vector<std::string> cpuSimdTargets();
 /// For benchmarks: makes the dispatch use only `name` (one of cpuSimdTargets(); "" = the best

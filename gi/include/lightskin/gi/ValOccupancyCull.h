@@ -16,6 +16,7 @@
 
 #include <cstdint>
 #include <span>
+#include <vector>
 
 namespace lightskin::gi {
 
@@ -39,6 +40,12 @@ public:
     void apply(const ValSetView& vals, std::span<const MeshInstance> instances, const glm::mat4& clip_T_world,
                const glm::mat4& camera_T_world);
 
+    /// The same cull for VALs on the CPU (gi::CpuValGenerator's, for the CPU backend): renders the
+    /// depth range on GL, reads it back (8 bytes per pixel) and sets area = 0 in `vals` with the
+    /// cull pass's float operations. keys[i]: the depth pixel of vals[i]. Returns the count culled.
+    std::uint32_t applyOnCpu(std::span<VirtualAreaLight> vals, std::span<const std::uint32_t> keys,
+                             std::span<const MeshInstance> instances, const glm::mat4& clip_T_world,
+                             const glm::mat4& camera_T_world);
     /// VALs culled by the last apply() (reads one uint back: a GPU sync; tests and logging).
     std::uint32_t culledCount() const;
 
@@ -48,6 +55,10 @@ private:
     gl::Texture rangeTexture_;
     gl::Framebuffer framebuffer_;
     gl::Buffer counter_;
+    std::vector<float> rangeOnCpu_; // applyOnCpu(): the range target read back, sized on first use
+
+    void renderRange(std::span<const MeshInstance> instances, const glm::mat4& clip_T_world,
+                     const glm::mat4& camera_T_world);
 };
 
 } // namespace lightskin::gi
