@@ -50,9 +50,18 @@ struct TrackOptions {
 };
 
 void runTrack(const TrackOptions& options, int& exitCode) {
-    // The library checks these too, under its own names; here the message names the option.
-    if (options.upsample < 1 || options.upsample > 4)
-        throw Error("--upsample", std::nullopt, "must be 1, 2, 3 or 4, got " + std::to_string(options.upsample));
+    // The library checks these too, under their JSON names; here the message names the option.
+    tracking::TrackerSettings settings;
+    settings.detector.quadDecimate = options.decimate;
+    settings.detector.upsample = options.upsample;
+    settings.detector.threads = options.threads;
+    if (options.worldPath.empty()) settings.detector.family = options.family;
+    if (const auto problem = tracking::findDetectorSettingProblem(settings.detector)) {
+        const std::string option = problem->key == "quadDecimate" ? "--decimate"
+                                   : problem->key == "family"     ? "--family"
+                                                                  : "--" + problem->key;
+        throw Error(option, std::nullopt, problem->cause);
+    }
     if (!(options.maxCornerStd > 0.0))
         throw Error("--max-corner-std", std::nullopt,
                     "must be > 0 pixels (inf switches the check off), got " + std::to_string(options.maxCornerStd));
@@ -68,10 +77,6 @@ void runTrack(const TrackOptions& options, int& exitCode) {
         for (std::size_t i = 0; i < options.images.size(); ++i)
             if (!std::filesystem::is_regular_file(options.images[i]))
                 throw Error(options.images[i], static_cast<std::int64_t>(i), "no such image file");
-    tracking::TrackerSettings settings;
-    settings.detector.quadDecimate = options.decimate;
-    settings.detector.upsample = options.upsample;
-    settings.detector.threads = options.threads;
     settings.maxWorldCornerStdPx = options.maxCornerStd;
     settings.filter.enabled = !options.noFilter;
     tracking::PoseTracker tracker = tracking::PoseTracker::create(std::move(world), settings);

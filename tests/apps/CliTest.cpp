@@ -364,6 +364,51 @@ TEST(Cli, SceneErrorsComeFirstAndNameTheKey) {
             "--pose tracking", "/tracking/file: tag world");
 }
 
+// Point 5: detector settings and an inline tag world read like every other scene error: "<scene file>:
+// <JSON pointer>: <cause>" (before: "<file> /tracking/detector: /quadDecimat: ..." and the library's
+// "quad_decimate: must be in [1, 16]" with no file at all), found before anything is written.
+TEST(Cli, DetectorAndTagWorldErrorsReadLikeSceneErrors) {
+    const Fixture f("cli_detector_errors");
+    const fs::path out = f.scratch / "out", path = f.scratch / "bad-scene.json";
+    const auto errorLine = [&](const std::string& tracking) {
+        std::ofstream(path) << R"({"version": 1, "objects": [{"mesh": "cube.obj"}], "gi": {"technique": "none"},
+                                    "tracking": )" +
+                                   tracking + "}";
+        const CliRun r = runCli("replay " + f.recording.string() + " --scene " + path.string() + " --out " +
+                                    out.string() + " --pose tracking",
+                                f.scratch);
+        EXPECT_EQ(r.exitCode, 1) << tracking;
+        EXPECT_FALSE(fs::exists(out)) << listing(out);
+        return r.errLines().empty() ? std::string() : r.errLines().back();
+    };
+    const std::string file = "lightskin: error: " + path.string() + ": ";
+    const std::string tag = R"("tag": {"id": 0, "size": 0.1})";
+    // The scene's own format, for comparison: the same file, then the JSON pointer, then the cause.
+    EXPECT_EQ(errorLine("{" + tag + R"(, "useDepth": 3})"), file + "/tracking/useDepth: expected true or false, got 3");
+    EXPECT_EQ(errorLine("{" + tag + R"(, "detector": {"quadDecimate": -2}})"),
+              file + "/tracking/detector/quadDecimate: expected a number in [1, 16], got -2");
+    EXPECT_EQ(
+        errorLine("{" + tag + R"(, "detector": {"quadDecimat": 1}})")
+            .rfind(file + "/tracking/detector/quadDecimat: unknown key; expected one of: family, quadDecimate", 0),
+        0u);
+    EXPECT_EQ(errorLine("{" + tag + R"(, "detector": {"refineEdges": "yes"}})"),
+              file + "/tracking/detector/refineEdges: expected true or false, got \"yes\"");
+    EXPECT_EQ(errorLine(R"({"tag": {"id": 0, "size": -0.1}})"),
+              file + "/tracking/tag/size: expected the black-border edge length in metres, between 0.001 and 100, "
+                     "got -0.1");
+    EXPECT_EQ(errorLine(R"({"tags": [{"id": 0, "size": 0.1, "positon": [0, 0, 0]}]})"),
+              file + "/tracking/tags/0/positon: unknown key; expected one of: id, size, position, orientation");
+    // A tag world in a file of its own: that file, and the pointer within it.
+    const fs::path world = f.scratch / "world.json";
+    std::ofstream(world) << R"({"tags": [{"id": "zero", "size": 0.1}]})";
+    EXPECT_EQ(errorLine(R"({"file": "world.json"})"),
+              "lightskin: error: " + world.string() + ": /tags/0/id: expected an integer tag id, got \"zero\"");
+    // track's own options name the option.
+    const CliRun track = runCli("track --tag-id 0 --tag-size 0.1 --decimate -1 missing.png", f.scratch);
+    EXPECT_EQ(track.exitCode, 1);
+    expectOneErrorLine(track, "--decimate: expected a number in [1, 16], got -1");
+}
+
 // Point 7: a bad index line is reported with its line in the file (the JSON parser counts from 1 on
 // every line it is given), before anything is written.
 TEST(Cli, ABadIndexLineIsNamedByItsLineInTheFile) {
