@@ -85,6 +85,15 @@ void checkOutputFolder(const fs::path& folder, bool overwrite, std::string_view 
         return;
     }
     const fs::path parent = nearestExisting(folder);
+    // A name longer than the file system allows fails only at mkdir (ENAMETOOLONG): refuse it now,
+    // before anything is written.
+    const long nameMax = ::pathconf(parent.c_str(), _PC_NAME_MAX);
+    for (const fs::path& part : fs::absolute(folder).lexically_normal())
+        if (nameMax > 0 && part.native().size() > static_cast<std::size_t>(nameMax))
+            throw Error(name, std::nullopt,
+                        "cannot create the output folder: the name '" + part.native().substr(0, 16) + "...' has " +
+                            std::to_string(part.native().size()) + " characters, more than the " +
+                            std::to_string(nameMax) + " the file system allows");
     if (!fs::is_directory(parent, ec))
         throw Error(name, std::nullopt, "cannot create the output folder: " + parent.string() + " is not a folder");
     if (::access(parent.c_str(), W_OK | X_OK) != 0)

@@ -69,12 +69,13 @@ struct CliRun {
     }
 };
 
-/// Runs `lightskin <arguments>` in `cwd` (default: the scratch folder).
-CliRun runCli(const std::string& arguments, const fs::path& scratch, const fs::path& cwd = {}) {
+/// Runs `lightskin <arguments>` in `cwd` (default: the scratch folder), through `wrapper` (e.g. setpriv).
+CliRun runCli(const std::string& arguments, const fs::path& scratch, const fs::path& cwd = {},
+              const std::string& wrapper = {}) {
     const fs::path out = scratch / "stdout.txt", err = scratch / "stderr.txt";
     CliRun r;
-    r.exitCode = test::runShell("cd " + (cwd.empty() ? scratch : cwd).string() + " && " + program() + " " + arguments +
-                                " > " + out.string() + " 2> " + err.string() + " < /dev/null");
+    r.exitCode = test::runShell("cd " + (cwd.empty() ? scratch : cwd).string() + " && " + wrapper + program() + " " +
+                                arguments + " > " + out.string() + " 2> " + err.string() + " < /dev/null");
     r.out = test::readText(out);
     r.err = test::readText(err);
     return r;
@@ -213,15 +214,29 @@ TEST(Cli, OutputFolderThatIsAFileIsAClearError) {
         expectOneErrorLine(inside, file.string() + " is not a folder");
         EXPECT_EQ(test::readText(file), "x");
     }
-    if (::geteuid() != 0) { // root writes into read-only folders: nothing to refuse then
-        const fs::path locked = f.scratch / "locked";
-        fs::create_directories(locked);
-        fs::permissions(locked, fs::perms::owner_read | fs::perms::owner_exec);
-        const CliRun r = runCli(f.replay(locked / "out"), f.scratch);
-        fs::permissions(locked, fs::perms::owner_all);
-        EXPECT_EQ(r.exitCode, 1);
-        expectOneErrorLine(r, "is not writable");
+    // A folder without write permission. Root writes into any folder, and CI runs as root: there the
+    // program runs as the unprivileged user nobody (setpriv), for whom the folder is read-only.
+    const fs::path locked = f.scratch / "locked";
+    fs::create_directories(locked);
+    fs::permissions(locked, fs::perms::owner_read | fs::perms::owner_exec | fs::perms::group_read |
+                                fs::perms::group_exec | fs::perms::others_read | fs::perms::others_exec);
+    const bool root = ::geteuid() == 0;
+    if (root) {
+        ASSERT_EQ(test::runShell("command -v setpriv > /dev/null"), 0) << "setpriv (util-linux) is needed as root";
     }
+    const CliRun r = runCli(f.replay(locked / "out"), f.scratch, {},
+                            root ? "setpriv --reuid=nobody --regid=nogroup --clear-groups " : "");
+    fs::permissions(locked, fs::perms::owner_all);
+    EXPECT_EQ(r.exitCode, 1);
+    expectOneErrorLine(r, locked.string() + " is not writable");
+    EXPECT_EQ(listing(locked), "");
+    // A name longer than the file system's limit (255 bytes on ext4, tmpfs, overlayfs) fails for root
+    // too; it is refused before anything is written, not at mkdir.
+    const fs::path tooLong = f.scratch / "fresh" / std::string(300, 'n');
+    const CliRun longName = runCli(f.replay(tooLong), f.scratch);
+    EXPECT_EQ(longName.exitCode, 1);
+    expectOneErrorLine(longName, "has 300 characters, more than the 255 the file system allows");
+    EXPECT_FALSE(fs::exists(f.scratch / "fresh"));
 }
 
 // The output-folder rule on every command that writes a folder: a used one is refused (naming
