@@ -8,6 +8,7 @@
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/gl/Context.h>
+#include <lightskin/synth/PresentObjects.h>
 #include <lightskin/synth/SynthRecording.h>
 
 #include <chrono>
@@ -68,6 +69,9 @@ void addSynthCommand(CLI::App& app, int& exitCode) {
         if (!arguments->fakenect.empty() && (scene.intrinsics.width != 640 || scene.intrinsics.height != 480))
             throw Error(arguments->scene, std::nullopt,
                         "--fakenect needs a 640x480 camera (fakenect's only resolution)");
+
+        // Read before anything is written (the recording reads it again once the folder is made).
+        if (!arguments->objectsPresent.empty()) (void)synth::loadPresentObjects(arguments->objectsPresent);
 
         auto context = gl::createHeadlessContext();
         synth::SynthRecordingOptions options;

@@ -3,8 +3,7 @@
 // general rules on every subcommand (docs/CLI.md). Set LIGHTSKIN_TEST_PROGRAM to run them against
 // another build (e.g. main's, to see them fail there).
 #include "TestPaths.h"
-
-#include <lightskin/capture/Recording.h>
+#include "WallRecording.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -20,34 +19,15 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr int kWidth = 64, kHeight = 48, kFrames = 6;
-
 std::string program() {
     const char* other = std::getenv("LIGHTSKIN_TEST_PROGRAM");
     return other != nullptr ? other : LIGHTSKIN_PROGRAM;
 }
 
-/// A 6-frame 64x48 recording with ground truth (a wall with a box; PNG colour).
+/// The shared 6-frame 64x48 wall recording (tests/support/WallRecording.h), one flat colour.
 fs::path writeRecording(const fs::path& folder) {
-    capture::RecordingInfo info;
-    info.deviceName = "cli test";
-    info.colourIntrinsics = {kWidth, kHeight, 60.0, 60.0, 31.5, 23.5, {}};
-    info.depthIntrinsics = info.colourIntrinsics;
-    info.depthScaleMetres = 0.001;
-    auto writer = capture::RecordingWriter::create(folder, info);
-    for (int i = 0; i < kFrames; ++i) {
-        RgbdFrame frame;
-        frame.colourIntrinsics = frame.depthIntrinsics = info.colourIntrinsics;
-        frame.depth = cv::Mat(kHeight, kWidth, CV_16UC1, cv::Scalar(1500));
-        frame.depth.colRange(0, kWidth / 3).setTo(800);
-        frame.colour = cv::Mat(kHeight, kWidth, CV_8UC3, cv::Scalar(40, 90, 160));
-        frame.colourTimestampSeconds = frame.depthTimestampSeconds = i / 30.0;
-        frame.groundTruth_world_T_camera =
-            Pose(glm::angleAxis(glm::pi<double>(), glm::dvec3(1, 0, 0)), {0.01 * i, 0.0, 1.0});
-        writer.write(frame);
-    }
-    writer.finish();
-    return folder;
+    return test::writeWallRecording(
+        folder, [](int, int) { return cv::Vec3b(40, 90, 160); }, "cli test");
 }
 
 // A cube lit by a point light, no GI technique: the fastest scene that renders virtual content.
@@ -422,6 +402,32 @@ TEST(Cli, DetectorAndTagWorldErrorsReadLikeSceneErrors) {
     const CliRun track = runCli("track --tag-id 0 --tag-size 0.1 --decimate -1 missing.png", f.scratch);
     EXPECT_EQ(track.exitCode, 1);
     expectOneErrorLine(track, "--decimate: expected a number in [1, 16], got -1");
+}
+
+// The validate-before-write rule for synth's --objects-present (a lightskin scene read only after the
+// recording had been started before: a missing or broken one left a half-written folder behind).
+TEST(Cli, SynthReadsObjectsPresentBeforeWritingAnything) {
+    const Fixture f("cli_synth_objects_present");
+    const fs::path out = f.scratch / "out";
+    const std::string synth = "synth " + (test::sourceDir() / "recordings" / "scenes-synth" / "orbit.json").string() +
+                              " --max-frames 1 --out " + out.string() + " --objects-present ";
+    const CliRun missing = runCli(synth + (f.scratch / "no-such-scene.json").string(), f.scratch);
+    EXPECT_EQ(missing.exitCode, 1);
+    expectOneErrorLine(missing, "no-such-scene.json");
+    EXPECT_FALSE(fs::exists(out)) << listing(out);
+
+    std::ofstream(f.scratch / "garbage.obj") << "this is not a mesh\n\x01\x02\n";
+    std::ofstream(f.scratch / "garbage-scene.json")
+        << R"({"version": 1, "objects": [{"mesh": "garbage.obj"}], "gi": {"technique": "none"}})";
+    const CliRun garbage = runCli(synth + (f.scratch / "garbage-scene.json").string(), f.scratch);
+    EXPECT_EQ(garbage.exitCode, 1);
+    expectOneErrorLine(garbage, "garbage.obj");
+    EXPECT_FALSE(fs::exists(out)) << listing(out);
+
+    // The valid scene beside it is accepted (the refusals above are about the file, not the option).
+    const CliRun good = runCli(synth + f.scene.string(), f.scratch);
+    EXPECT_EQ(good.exitCode, 0) << good.err;
+    EXPECT_TRUE(fs::exists(out / "synth" / "present" / "000000.png")) << listing(out);
 }
 
 // Point 7: a bad index line is reported with its line in the file (the JSON parser counts from 1 on
