@@ -3,6 +3,7 @@
 // (docs/SYNTH.md). Headless: OpenGL 4.5 through EGL, no GPU needed.
 #include "CliSupport.h"
 #include "Commands.h"
+#include "ToolCommands.h"
 
 #include <lightskin/capture/Fakenect.h>
 #include <lightskin/capture/FrameSource.h>
@@ -32,8 +33,7 @@ struct SynthArguments {
 };
 
 void addSynthCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand(
-        "synth", "Render a synthetic RGB-D recording with exact ground truth from a scene description");
+    auto* command = app.add_subcommand("synth", toolDescription("synth"));
     auto arguments = std::make_shared<SynthArguments>();
     command->add_option("scene", arguments->scene, "Scene description (JSON, docs/SYNTH.md)")->required();
     command->add_option("--out", arguments->out, "Folder to write the recording to: new or empty (see --overwrite)")

@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <unistd.h>
 
@@ -290,6 +291,46 @@ TEST(Cli, OptionsMeanOneThingEverywhere) {
         runCli("bench-static --frames 1 --width 32 --height 24 --sparse 32 --tolerances 0.1", f.scratch);
     EXPECT_EQ(bench.exitCode, 0) << bench.err;
     EXPECT_EQ(bench.err.find("bunny"), std::string::npos) << bench.err;
+}
+
+/// The "  name   description" lines of a --help's subcommand list, by name.
+std::map<std::string, std::string> commandDescriptions(const std::string& help) {
+    std::map<std::string, std::string> descriptions;
+    std::istringstream lines(help);
+    bool inList = false;
+    for (std::string line; std::getline(lines, line);) {
+        if (line.rfind("Subcommands:", 0) == 0) inList = true;
+        if (!inList || line.rfind("  ", 0) != 0) continue;
+        const std::size_t nameEnd = line.find(' ', 2), text = line.find_first_not_of(' ', nameEnd);
+        if (nameEnd != std::string::npos && text != std::string::npos)
+            descriptions[line.substr(2, nameEnd - 2)] = line.substr(text);
+    }
+    return descriptions;
+}
+
+// Point 7 (top-level help): every tool command forwarded to lightskin-tools is described by the words its
+// own program uses (one table, ToolCommands.h), not by a generic "Developer tool" line.
+TEST(Cli, TopLevelHelpDescribesEachToolCommandAsTheToolDoes) {
+    const fs::path scratch = test::scratchDir("cli_tool_help");
+    const CliRun top = runCli("--help", scratch);
+    ASSERT_EQ(top.exitCode, 0);
+    const fs::path tools = fs::path(program()).parent_path() / "lightskin-tools";
+    ASSERT_EQ(test::runShell(tools.string() + " --help > " + (scratch / "tools.txt").string()), 0);
+    const auto ours = commandDescriptions(top.out), theirs = commandDescriptions(test::readText(scratch / "tools.txt"));
+    ASSERT_GE(theirs.size(), 9u) << test::readText(scratch / "tools.txt"); // synth and the 8 bench commands
+    for (const auto& [name, description] : theirs) {
+        SCOPED_TRACE(name);
+        ASSERT_TRUE(ours.contains(name)) << "lightskin does not forward it:\n" << top.out;
+        EXPECT_EQ(ours.at(name), description);
+        EXPECT_EQ(description.find("Developer tool in"), std::string::npos);
+    }
+    // The forwarded ones are marked as a group of their own, and only they.
+    EXPECT_NE(top.out.find("Developer tools (the program lightskin-tools"), std::string::npos) << top.out;
+    for (const auto& [name, description] : ours) {
+        if (!theirs.contains(name)) {
+            EXPECT_EQ(name.rfind("bench", 0), std::string::npos) << name;
+        }
+    }
 }
 
 // Point 7: labels say what happened.
