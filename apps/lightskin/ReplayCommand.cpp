@@ -135,7 +135,7 @@ std::set<std::int64_t> parseFrameList(const std::string& text) {
 
 class Progress {
 public:
-    Progress(std::optional<std::int64_t> total) : total_(total), tty_(isatty(STDERR_FILENO) != 0), start_(Clock::now()) {}
+    Progress(std::optional<std::int64_t> total) : total_(total), tty_(stderrIsTerminal()), start_(Clock::now()) {}
     void update(std::int64_t done, bool last = false) {
         const double seconds = std::chrono::duration<double>(Clock::now() - start_).count();
         const double fps = seconds > 0 ? double(done) / seconds : 0.0;

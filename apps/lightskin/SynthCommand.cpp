@@ -78,7 +78,7 @@ void addSynthCommand(CLI::App& app, int& exitCode) {
         options.maxFrames = arguments->maxFrames;
         options.presentObjects = arguments->objectsPresent;
         // Progress about once a second (every 5 s into a file or pipe) with the time left.
-        const bool tty = isatty(STDERR_FILENO) != 0;
+        const bool tty = stderrIsTerminal();
         const auto started = std::chrono::steady_clock::now();
         auto lastPrint = started - std::chrono::hours(1);
         options.progress = [tty, started, lastPrint](int written, int total) mutable {

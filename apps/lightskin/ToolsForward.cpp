@@ -2,6 +2,7 @@
 // `lightskin-tools` beside this one, so that the main job need not build them (apps/CMakeLists.txt).
 // These subcommands run it with this process's own arguments (execv: same process, exit code and
 // output), so every documented command line works unchanged and `lightskin --help` lists them.
+#include "CliSupport.h"
 #include "Commands.h"
 #include "ToolCommands.h"
 
@@ -30,7 +31,7 @@ namespace {
     // argv[0] stays this program's, so the tool's --help and errors read "lightskin bench ...".
     std::vector<char*> arguments(programArguments().begin(), programArguments().end());
     arguments.push_back(nullptr);
-    std::fflush(nullptr);
+    ThirdPartyOutputCapture::restoreDescriptorForExec();
     ::execv(program.c_str(), arguments.data());
     const int cause = errno; // execv returns only on failure
     throw Error(source, std::nullopt,

@@ -471,6 +471,40 @@ TEST(Cli, SynthReadsObjectsPresentBeforeWritingAnything) {
     EXPECT_TRUE(fs::exists(out / "synth" / "present" / "000000.png")) << listing(out);
 }
 
+// Third-party logs (issue 14): OpenNI2's (a corrupt .oni) and assimp's (a garbage mesh) reach our log
+// with their source, shown with -v, and never the terminal raw: stdout is clean, every stderr line is
+// ours (the log's "[level]" lines or the one error line).
+TEST(Cli, OpenNi2AndAssimpLogsGoIntoOurLogWithTheirSource) {
+    const Fixture f("cli_third_party_logs");
+    const auto expectOnlyOurLines = [](const CliRun& r) {
+        EXPECT_EQ(r.out, "");
+        for (const std::string& line : r.errLines())
+            EXPECT_TRUE(line.rfind("[", 0) == 0 || line.rfind("lightskin", 0) == 0) << "raw line: " << line;
+    };
+    // Not an .oni at all: OpenNI2 logs "Couldn't open device" at ERROR severity.
+    std::ofstream(f.scratch / "corrupt.oni") << std::string(4096, 'x');
+    const CliRun oni = runCli("info -v " + (f.scratch / "corrupt.oni").string(), f.scratch);
+    EXPECT_EQ(oni.exitCode, 1);
+    expectOneErrorLine(oni, "corrupt.oni: OpenNI2 cannot open the file");
+    expectOnlyOurLines(oni);
+    EXPECT_NE(oni.err.find("[debug] OpenNI2: ERROR OniContext: Couldn't open device"), std::string::npos) << oni.err;
+    const CliRun quiet = runCli("info " + (f.scratch / "corrupt.oni").string(), f.scratch);
+    EXPECT_EQ(quiet.errLines().size(), 1u) << quiet.err; // without -v: the error line only
+
+    // A garbage mesh: assimp's validation error, with its source.
+    std::ofstream(f.scratch / "garbage.obj") << "this is not a mesh\n\x01\x02\n";
+    std::ofstream(f.scratch / "garbage-scene.json")
+        << R"({"version": 1, "objects": [{"mesh": "garbage.obj"}], "gi": {"technique": "none"}})";
+    const CliRun mesh =
+        runCli("replay -v " + f.recording.string() + " --scene " + (f.scratch / "garbage-scene.json").string() +
+                   " --out " + (f.scratch / "out").string(),
+               f.scratch);
+    EXPECT_EQ(mesh.exitCode, 1);
+    expectOneErrorLine(mesh, "garbage.obj: not a readable .obj mesh");
+    expectOnlyOurLines(mesh);
+    EXPECT_NE(mesh.err.find("[debug] assimp: Error, "), std::string::npos) << mesh.err;
+}
+
 // Point 7: a bad index line is reported with its line in the file (the JSON parser counts from 1 on
 // every line it is given), before anything is written.
 TEST(Cli, ABadIndexLineIsNamedByItsLineInTheFile) {
