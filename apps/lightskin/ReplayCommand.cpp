@@ -41,6 +41,30 @@ namespace lightskin::apps {
 
 namespace {
 
+struct CompareLabels {
+    std::string left, right; ///< the halves' labels
+    std::string title;       ///< report.md's heading for the images
+    std::string folder;      ///< under --out: "compare" for the final view, "compare-<view>" for another
+};
+
+/// What the side-by-side images of `--view view` show (see where it is used).
+CompareLabels compareLabels(const std::string& view, const std::string& technique) {
+    if (view == "final")
+        return {"with GI (" + technique + ")", "without GI", "With GI / without GI (the paper's figure 4)", "compare"};
+    const std::string folder = "compare-" + view;
+    if (view == "direct" || view == "indirect" || view == "normals" || view == "albedo")
+        return {view + " view, with GI (" + technique + ")", view + " view, without GI",
+                "The " + view + " view with GI / without GI", folder};
+    const std::string what = view == "vals"           ? "VALs by flux"
+                             : view == "sparse"       ? "sparse points"
+                             : view == "error"        ? "error against brute force"
+                             : view == "vpl"          ? "per-vertex VPLs"
+                             : view == "differential" ? "differential shading"
+                                                      : view;
+    return {what + " over the composite", "composite without GI",
+            "The " + what + " drawn over the composite / the composite without GI", folder};
+}
+
 std::atomic<bool> interruptRequested{false};
 extern "C" void onReplayInterrupt(int) {
     interruptRequested = true;
@@ -308,7 +332,8 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     // Without a GI technique both halves of the comparison would be the same image.
     const bool compare = options.compare && pipeline->techniqueName() != "none";
     pipeline->options().compare = compare;
-    if (compare) std::filesystem::create_directories(out / "compare");
+    const std::string compareFolder = compareLabels(args.view, pipeline->techniqueName()).folder;
+    if (compare) std::filesystem::create_directories(out / compareFolder);
     if (args.linearOut) std::filesystem::create_directories(out / "linear");
     if (args.linearOut && pipeline->techniqueName() != "none") std::filesystem::create_directories(out / "linear-indirect");
 
@@ -328,10 +353,14 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     std::int64_t total = summary.framesInSource.value_or(-1);
     if (args.maxFrames && (total < 0 || *args.maxFrames < total)) total = *args.maxFrames;
 
-    // A debug view compares that view with and without GI, and says so.
-    const std::string viewName = args.view == "final" ? "" : args.view + " view, ";
-    const std::string withLabel = viewName + "with GI (" + pipeline->techniqueName() + ")",
-                      withoutLabel = viewName + "without GI";
+    // The labels, the report's heading and the folder say what the halves show: a shading view
+    // compares that view with and without GI; an overlay (VALs, sparse points, ...) is drawn over the
+    // composite, beside the composite without GI, and is not "with GI" (the VALs do not depend on it).
+    const CompareLabels labels = compareLabels(args.view, pipeline->techniqueName());
+    const std::string &withLabel = labels.left, &withoutLabel = labels.right;
+    summary.compareLeft = labels.left;
+    summary.compareRight = labels.right;
+    summary.compareTitle = labels.title;
     interruptRequested = false;
     const auto previous = std::signal(SIGINT, onReplayInterrupt);
     std::vector<ReportFrame> frames;
@@ -410,7 +439,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
                 rf.image = std::string("frames/") + name;
                 writePng(out / rf.image, output.withGi);
                 if (compare) {
-                    rf.compareImage = std::string("compare/") + name;
+                    rf.compareImage = compareFolder + "/" + name;
                     writePng(out / rf.compareImage, sideBySide);
                 }
                 if (args.linearOut) {

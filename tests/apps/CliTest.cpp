@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include <cstdlib>
 #include <cstring>
@@ -503,6 +505,68 @@ TEST(Cli, OpenNi2AndAssimpLogsGoIntoOurLogWithTheirSource) {
     expectOneErrorLine(mesh, "garbage.obj: not a readable .obj mesh");
     expectOnlyOurLines(mesh);
     EXPECT_NE(mesh.err.find("[debug] assimp: Error, "), std::string::npos) << mesh.err;
+}
+
+// Point 7: with --view vals the comparison shows the VALs over the composite beside the composite
+// without GI: neither its labels, nor the report's heading, nor its folder call it "with GI".
+TEST(Cli, ValsViewComparisonSaysWhatItShows) {
+    const Fixture f("cli_vals_view");
+    const fs::path scene = f.scratch / "gi-scene.json";
+    std::ofstream(scene) << R"({"version": 1,
+      "objects": [{"mesh": "cube.obj", "transform": {"translation": [-0.05, 0, -0.3], "scale": 0.2}}],
+      "lights": [{"type": "point", "position": [0.3, 0.2, 1.0], "power": 5}],
+      "gi": {"technique": "lightskin", "sparsePoints": 64, "valStride": 2}})";
+    const auto replay = [&](const std::string& view) {
+        const fs::path out = f.scratch / ("out-" + view);
+        const CliRun r = runCli("replay " + f.recording.string() + " --scene " + scene.string() + " --out " +
+                                    out.string() + " --max-frames 1 --no-video --view " + view,
+                                f.scratch);
+        EXPECT_EQ(r.exitCode, 0) << r.err;
+        return out;
+    };
+    const fs::path vals = replay("vals");
+    const nlohmann::json report = nlohmann::json::parse(test::readText(vals / "report.json"));
+    EXPECT_EQ(report["compareLabels"], nlohmann::json({"VALs by flux over the composite", "composite without GI"}));
+    EXPECT_EQ(report["frames"][0]["compareImage"], "compare-vals/000000.png");
+    EXPECT_TRUE(fs::exists(vals / "compare-vals" / "000000.png")) << listing(vals);
+    EXPECT_FALSE(fs::exists(vals / "compare")) << listing(vals);
+    const std::string md = test::readText(vals / "report.md");
+    EXPECT_EQ(md.find("With GI"), std::string::npos) << md;
+    EXPECT_EQ(md.find("with GI"), std::string::npos) << md;
+    EXPECT_NE(md.find("## The VALs by flux drawn over the composite / the composite without GI"), std::string::npos)
+        << md;
+    // The final view keeps the paper's wording, in compare/.
+    const fs::path final = replay("final");
+    const nlohmann::json finalReport = nlohmann::json::parse(test::readText(final / "report.json"));
+    EXPECT_EQ(finalReport["compareLabels"], nlohmann::json({"with GI (lightskin)", "without GI"}));
+    EXPECT_EQ(finalReport["frames"][0]["compareImage"], "compare/000000.png");
+    EXPECT_NE(test::readText(final / "report.md").find("## With GI / without GI"), std::string::npos);
+}
+
+// Point 7: a live snapshot is the rendered image without the status line burnt in. The recording is
+// one flat colour and the scene's only object is behind the camera (world z towards the camera, camera
+// at z = 1 m): the composite is the camera image, so every pixel of the snapshot must be that colour;
+// the status line's white-on-black text would change hundreds of pixels in the bottom rows.
+TEST(Cli, LiveSnapshotHasNoStatusLine) {
+    const Fixture f("cli_live_snapshot");
+    const fs::path scene = f.scratch / "behind.json", snapshot = f.scratch / "snapshot.png";
+    std::ofstream(scene) << R"({"version": 1,
+      "objects": [{"mesh": "cube.obj", "transform": {"translation": [0, 0, 3], "scale": 0.2}}],
+      "lights": [{"type": "point", "position": [0.3, 0.2, 1.0], "power": 5}], "gi": {"technique": "none"}})";
+    const CliRun r =
+        runCli("live --headless --fast --pose ground-truth --max-frames 3 --snapshot-after 1 --device " +
+                   f.recording.string() + " --scene " + scene.string() + " --snapshot " + snapshot.string(),
+               f.scratch);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.err.find("live: frame 1:"), std::string::npos) << "the status line exists: " << r.err;
+    const cv::Mat image = cv::imread(snapshot.string(), cv::IMREAD_COLOR);
+    ASSERT_EQ(image.size(), cv::Size(test::kWallWidth, test::kWallHeight));
+    cv::Mat differs;
+    cv::absdiff(image, cv::Scalar(40, 90, 160), differs);
+    // 8-bit camera colour composited unchanged: at most 1 level of rounding through linear light.
+    double largest = 0.0;
+    cv::minMaxLoc(differs.reshape(1), nullptr, &largest);
+    EXPECT_LE(largest, 1.0);
 }
 
 // Point 7: a bad index line is reported with its line in the file (the JSON parser counts from 1 on
