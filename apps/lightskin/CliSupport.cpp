@@ -42,6 +42,18 @@ CLI::Validator atLeast(std::int64_t minimum) {
         "INT>=" + std::to_string(minimum));
 }
 
+CLI::Validator oneOf(std::vector<std::string> words) {
+    return CLI::Validator(
+        [words = std::move(words)](std::string& text) -> std::string {
+            for (const std::string& word : words)
+                if (text == word) return {};
+            std::string list;
+            for (const std::string& word : words) list += (list.empty() ? "" : ", ") + word;
+            return "expected one of: " + list + "; got '" + text + "'";
+        },
+        "");
+}
+
 namespace {
 
 std::string errnoText(int error) { return std::error_code(error, std::generic_category()).message(); }

@@ -16,6 +16,7 @@
 #include <string>
 #include <string_view>
 #include <thread>
+#include <vector>
 
 namespace lightskin::apps {
 
@@ -24,6 +25,10 @@ CLI::Option* addOverwriteFlag(CLI::App* command, bool& overwrite);
 
 /// Validator for counts and indices: an integer >= `minimum` ("expected an integer >= 1, got -1").
 CLI::Validator atLeast(std::int64_t minimum);
+
+/// Validator for a word from a fixed list, checked while the command line is parsed (exit 64):
+/// "expected one of: gl, cpu; got 'gpu'". Shows nothing in --help (the option's text lists the words).
+CLI::Validator oneOf(std::vector<std::string> words);
 
 /// Throws lightskin::Error (naming `option` and `folder`) unless `folder` can become this command's
 /// output folder: it does not exist and its nearest existing parent is a writable folder, or it is

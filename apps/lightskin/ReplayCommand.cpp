@@ -147,9 +147,16 @@ std::set<std::int64_t> parseFrameList(const std::string& text) {
                 if (used != dash) throw std::invalid_argument(item);
                 const std::string rest = item.substr(dash + 1);
                 const long long b = std::stoll(rest, &used);
-                if (used != rest.size() || a < 0 || b < a || b - a > 10'000'000) throw std::invalid_argument(item);
+                if (used != rest.size() || a < 0) throw std::invalid_argument(item);
+                if (b < a)
+                    throw Error("--write-frames", std::nullopt,
+                                "the range '" + item + "' runs backwards; write it as " + std::to_string(b) + "-" +
+                                    std::to_string(a));
+                if (b - a > 10'000'000) throw std::invalid_argument(item);
                 for (long long v = a; v <= b; ++v) frames.insert(v);
             }
+        } catch (const Error&) {
+            throw;
         } catch (const std::exception&) {
             throw Error("--write-frames", std::nullopt, "expected 'all' or indices and ranges like 0,5,10-20; cannot read '" + item + "'");
         }
@@ -520,11 +527,14 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
     command->add_option("--write-frames", args->writeFrames, "Frames to write as PNG: all, or indices and ranges like 0,5,10-20");
     command->add_option("--frames", args->writeFrames, "Deprecated spelling of --write-frames")->group("");
     command->add_option("--max-frames", args->maxFrames, "Stop after this many frames (>= 1; default: all)")->check(atLeast(1));
-    command->add_option("--pose", args->pose, "ground-truth | tracking | fixed (default: ground truth when the recording has it, else tracking)");
+    command->add_option("--pose", args->pose, "ground-truth | tracking | fixed (default: ground truth when the recording has it, else tracking)")
+        ->check(oneOf({"ground-truth", "tracking", "fixed"}));
     command->add_option("--view", args->view,
                         "Debug view: final | direct | indirect | normals | albedo | vals (VALs by flux) | sparse "
                         "(sparse points) | error (vs brute force) | vpl (interpolated vertex VPLs) | differential "
-                        "(change of the real light by the virtual objects)");
+                        "(change of the real light by the virtual objects)")
+        ->check(oneOf({"final", "direct", "indirect", "normals", "albedo", "vals", "sparse", "error", "vpl",
+                       "differential"}));
     command->add_flag("--no-video", args->noVideo, "Do not write a video");
     command->add_option("--video-format", args->videoFormat, "auto (MP4, falling back to MJPG AVI) | mp4 | avi")
         ->check(CLI::IsMember({"auto", "mp4", "avi"}));
@@ -544,7 +554,8 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
         "stride and channels that meet it (docs/PLUGIN.md); report.json lists the choice per frame");
     command->add_option(
         "--backend", args->backend,
-        "LightSkin's stages 0-4 on gl (default: the scene's gi.backend) or cpu (SIMD + threads; shading stays on GL)");
+        "LightSkin's stages 0-4 on gl (default: the scene's gi.backend) or cpu (SIMD + threads; shading stays on GL)")
+        ->check(oneOf({"gl", "cpu"}));
     command->add_flag(
         "--raw-depth", args->rawDepth,
         "Do not register unregistered depth (.oni, fakenect, raw recordings) to colour in software: shows what "

@@ -28,6 +28,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -67,8 +68,14 @@ void runTrack(const TrackOptions& options, int& exitCode) {
                     "must be > 0 pixels (inf switches the check off), got " + std::to_string(options.maxCornerStd));
     tracking::TagWorld world = [&] {
         if (!options.worldPath.empty()) return tracking::TagWorld::load(options.worldPath);
-        if (options.tagId < 0 || !(options.tagSize > 0.0))
+        if (options.tagId < 0 && options.tagSize == 0.0)
             throw Error("track", std::nullopt, "give --world <config.json> or --tag-id and --tag-size (metres)");
+        if (options.tagId < 0) throw Error("--tag-id", std::nullopt, "expected a tag id >= 0 with --tag-size");
+        if (!(options.tagSize > 0.0))
+            throw Error(
+                "--tag-size", std::nullopt,
+                "expected the tag's black-border edge length in metres (> 0) with --tag-id, got " +
+                    (options.tagSize == 0.0 ? std::string("none") : (std::ostringstream() << options.tagSize).str()));
         return tracking::TagWorld::singleTag(options.tagId, options.tagSize, options.family);
     }();
     // Every image is there before the first line is printed (a missing one is a bad command, not a lost frame).

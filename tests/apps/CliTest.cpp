@@ -569,6 +569,35 @@ TEST(Cli, LiveSnapshotHasNoStatusLine) {
     EXPECT_LE(largest, 1.0);
 }
 
+// A new user's walk (issue 14): bad values are named with the option and what was expected; words from a
+// fixed list are checked while the command line is parsed (exit 64, before the scene or GL is touched).
+TEST(Cli, BadOptionValuesNameTheOptionAndWhatWasExpected) {
+    const Fixture f("cli_bad_values");
+    const fs::path out = f.scratch / "out";
+    const auto refused = [&](const std::string& arguments, int code, const std::string& says) {
+        SCOPED_TRACE(arguments);
+        const CliRun r = runCli(arguments, f.scratch);
+        EXPECT_EQ(r.exitCode, code);
+        expectOneErrorLine(r, says);
+        EXPECT_EQ(r.err.find("[info] OpenGL context"), std::string::npos) << "found only after GL started: " << r.err;
+        EXPECT_EQ(r.out, "");
+        EXPECT_FALSE(fs::exists(out)) << listing(out);
+    };
+    refused(f.replay(out, "--pose bogus"), 64, "--pose: expected one of: ground-truth, tracking, fixed; got 'bogus'");
+    refused(f.replay(out, "--view bogus"), 64, "--view: expected one of: final, direct, indirect");
+    refused(f.replay(out, "--backend gpu"), 64, "--backend: expected one of: gl, cpu; got 'gpu'");
+    refused("live --headless --device " + f.recording.string() + " --scene " + f.scene.string() + " --pose x", 64,
+            "--pose: expected one of: ground-truth, tracking, fixed; got 'x'");
+    refused(f.replay(out, "--write-frames 5-2"), 1, "--write-frames: the range '5-2' runs backwards; write it as 2-5");
+    refused("track --tag-id 0 --tag-size -1 x.png", 1,
+            "--tag-size: expected the tag's black-border edge length in metres (> 0) with --tag-id, got -1");
+    refused("track --tag-size 0.1 x.png", 1, "--tag-id: expected a tag id >= 0 with --tag-size");
+    const fs::path file = f.scratch / "a-file";
+    std::ofstream(file) << "x";
+    refused("doctor --out " + (file / "triangle.png").string(), 1, file.string() + ": is not a folder");
+    refused("doctor --out " + f.scratch.string(), 1, "is a folder (--out needs a PNG file name)");
+}
+
 // Point 7: a bad index line is reported with its line in the file (the JSON parser counts from 1 on
 // every line it is given), before anything is written.
 TEST(Cli, ABadIndexLineIsNamedByItsLineInTheFile) {
