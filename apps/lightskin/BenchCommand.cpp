@@ -1,6 +1,7 @@
 // `lightskin bench`: argument parsing only; the benchmark is lightskin::bench (SweepBench.h).
 #include "CliSupport.h"
 #include "Commands.h"
+#include "ToolCommands.h"
 
 #include <lightskin/bench/SweepBench.h>
 
@@ -13,8 +14,7 @@ namespace lightskin::apps {
 namespace {
 
 void addBenchCommand(CLI::App& app, int& exitCode) {
-    auto* command =
-        app.add_subcommand("bench", "Sweep the LightSkin knobs: time and error against brute force and ground truth");
+    auto* command = app.add_subcommand("bench", toolDescription("bench"));
     auto o = std::make_shared<bench::SweepBenchOptions>();
     command->add_flag("--quick", o->quick,
                       "CI smoke run (< 2 min): small sweep, checks that error falls with sparse points and VALs");

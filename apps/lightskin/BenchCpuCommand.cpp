@@ -1,5 +1,6 @@
 // `lightskin bench-cpu`: argument parsing only; the benchmark is lightskin::bench (CpuBench.h).
 #include "Commands.h"
+#include "ToolCommands.h"
 
 #include <lightskin/bench/CpuBench.h>
 #include <lightskin/bench/OptionLists.h>
@@ -15,8 +16,7 @@ namespace lightskin::apps {
 namespace {
 
 void addBenchCpuCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand(
-        "bench-cpu", "Time the CPU LightSkin backend beside the GL path (stages, interactions/s, % of peak)");
+    auto* command = app.add_subcommand("bench-cpu", toolDescription("bench-cpu"));
     auto options = std::make_shared<bench::CpuBenchOptions>();
     auto sparse = std::make_shared<std::string>("1024");
     auto maps = std::make_shared<std::string>("160x120");

@@ -1,5 +1,6 @@
 // `lightskin bench-cull`: argument parsing only; the benchmark is lightskin::bench (CullBench.h).
 #include "Commands.h"
+#include "ToolCommands.h"
 
 #include <lightskin/bench/CullBench.h>
 #include <lightskin/bench/OptionLists.h>
@@ -14,8 +15,7 @@ namespace lightskin::apps {
 namespace {
 
 void addBenchCullCommand(CLI::App& app, int& exitCode) {
-    auto* command =
-        app.add_subcommand("bench-cull", "Time the adaptive VAL cull: stable compaction against atomic append");
+    auto* command = app.add_subcommand("bench-cull", toolDescription("bench-cull"));
     auto options = std::make_shared<bench::CullBenchOptions>();
     auto counts = std::make_shared<std::string>("16384,65536,524288");
     command->add_option("--vals", *counts, "Comma-separated VAL counts");

@@ -1,6 +1,7 @@
 // `lightskin bench-embed`: argument parsing only; the benchmark is lightskin::bench (EmbedBench.h).
 #include "CliSupport.h"
 #include "Commands.h"
+#include "ToolCommands.h"
 
 #include <lightskin/bench/EmbedBench.h>
 #include <lightskin/core/Error.h>
@@ -13,9 +14,7 @@ namespace lightskin::apps {
 namespace {
 
 void addBenchEmbedCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand(
-        "bench-embed",
-        "Benchmark: session overheads for embedding hosts (render, GL state guard) and the frame budget's choices");
+    auto* command = app.add_subcommand("bench-embed", toolDescription("bench-embed"));
     auto o = std::make_shared<bench::EmbedBenchOptions>();
     command->add_option(
         "--recording", o->recording,

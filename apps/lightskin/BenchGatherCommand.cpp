@@ -1,5 +1,6 @@
 // `lightskin bench-gather`: argument parsing only; the benchmark is lightskin::bench (GatherBench.h).
 #include "Commands.h"
+#include "ToolCommands.h"
 
 #include <lightskin/bench/GatherBench.h>
 #include <lightskin/bench/OptionLists.h>
@@ -14,7 +15,7 @@ namespace lightskin::apps {
 namespace {
 
 void addBenchGatherCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand("bench-gather", "Time the LightSkin stages and compare with the brute force");
+    auto* command = app.add_subcommand("bench-gather", toolDescription("bench-gather"));
     auto options = std::make_shared<bench::GatherBenchOptions>();
     auto sparse = std::make_shared<std::string>("1024");
     auto maps = std::make_shared<std::string>("160x120");

@@ -1,5 +1,6 @@
 // `lightskin bench-lights`: argument parsing only; the benchmark is lightskin::bench (LightsBench.h).
 #include "Commands.h"
+#include "ToolCommands.h"
 
 #include <lightskin/bench/LightsBench.h>
 
@@ -11,7 +12,7 @@ namespace lightskin::apps {
 namespace {
 
 void addBenchLightsCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand("bench-lights", "Time VAL generation, RSM VALs and sparse-point preparation");
+    auto* command = app.add_subcommand("bench-lights", toolDescription("bench-lights"));
     auto options = std::make_shared<bench::LightsBenchOptions>();
     command->add_option("--repeat", options->repeat, "Timed repetitions per case (median reported)")
         ->check(CLI::Range(1, 1000));

@@ -1,6 +1,7 @@
 // `lightskin bench-realdepth`: argument parsing only; the benchmark is lightskin::bench (RealDepthBench.h).
 #include "CliSupport.h"
 #include "Commands.h"
+#include "ToolCommands.h"
 
 #include <lightskin/bench/RealDepthBench.h>
 
@@ -12,8 +13,7 @@ namespace lightskin::apps {
 namespace {
 
 void addBenchRealDepthCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand(
-        "bench-realdepth", "Speckle and flicker of the indirect light on real recordings, old vs robust light model");
+    auto* command = app.add_subcommand("bench-realdepth", toolDescription("bench-realdepth"));
     auto options = std::make_shared<bench::RealDepthBenchOptions>();
     command->add_option("--data", options->data,
                         "Folder of the bundled recordings (relative paths of the default: beside the program or the "

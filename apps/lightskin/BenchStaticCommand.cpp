@@ -1,6 +1,7 @@
 // `lightskin bench-static`: argument parsing only; the benchmark is lightskin::bench (StaticBench.h).
 #include "CliSupport.h"
 #include "Commands.h"
+#include "ToolCommands.h"
 
 #include <lightskin/bench/StaticBench.h>
 
@@ -12,9 +13,7 @@ namespace lightskin::apps {
 namespace {
 
 void addBenchStaticCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand(
-        "bench-static",
-        "Adaptive mode, static content: reuse vs full recomputation on still frames (exact, Kinect noise, real)");
+    auto* command = app.add_subcommand("bench-static", toolDescription("bench-static"));
     auto o = std::make_shared<bench::StaticBenchOptions>();
     command->add_option("--frames", o->frames, "Frames per stream after one warm-up frame");
     command->add_option("--stride", o->stride, "VAL stride");

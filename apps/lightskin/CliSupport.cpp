@@ -3,11 +3,13 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
 
+#include <atomic>
 #include <cerrno>
 #include <cstring>
 #include <fcntl.h>
 #include <iostream>
 #include <mutex>
+#include <poll.h>
 #include <streambuf>
 #include <system_error>
 #include <unistd.h>
@@ -38,6 +40,18 @@ CLI::Validator atLeast(std::int64_t minimum) {
             return {};
         },
         "INT>=" + std::to_string(minimum));
+}
+
+CLI::Validator oneOf(std::vector<std::string> words) {
+    return CLI::Validator(
+        [words = std::move(words)](std::string& text) -> std::string {
+            for (const std::string& word : words)
+                if (text == word) return {};
+            std::string list;
+            for (const std::string& word : words) list += (list.empty() ? "" : ", ") + word;
+            return "expected one of: " + list + "; got '" + text + "'";
+        },
+        "");
 }
 
 namespace {
@@ -85,6 +99,15 @@ void checkOutputFolder(const fs::path& folder, bool overwrite, std::string_view 
         return;
     }
     const fs::path parent = nearestExisting(folder);
+    // A name longer than the file system allows fails only at mkdir (ENAMETOOLONG): refuse it now,
+    // before anything is written.
+    const long nameMax = ::pathconf(parent.c_str(), _PC_NAME_MAX);
+    for (const fs::path& part : fs::absolute(folder).lexically_normal())
+        if (nameMax > 0 && part.native().size() > static_cast<std::size_t>(nameMax))
+            throw Error(name, std::nullopt,
+                        "cannot create the output folder: the name '" + part.native().substr(0, 16) + "...' has " +
+                            std::to_string(part.native().size()) + " characters, more than the " +
+                            std::to_string(nameMax) + " the file system allows");
     if (!fs::is_directory(parent, ec))
         throw Error(name, std::nullopt, "cannot create the output folder: " + parent.string() + " is not a folder");
     if (::access(parent.c_str(), W_OK | X_OK) != 0)
@@ -155,6 +178,10 @@ std::string_view ThirdPartyOutputCapture::sourceOf(std::string_view line) {
 
 namespace {
 
+/// Where the user's terminal (or file) is: descriptor 2 until the capture moves it to a copy and
+/// puts a pipe on descriptor 2.
+std::atomic<int> terminalFd{STDERR_FILENO};
+
 /// The filter behind `stderr` and std::cerr. Decides at each line start whether the line is a
 /// library's (captured until its newline, then logged) or ours (written through at once, so
 /// progress lines and an assertion message before abort() are never held back).
@@ -176,7 +203,7 @@ public:
                 if (newline != nullptr) lines.push_back(std::exchange(captured_, {}));
             } else {
                 for (std::size_t done = 0; done < take;) {
-                    const ssize_t n = ::write(STDERR_FILENO, data + done, take - done);
+                    const ssize_t n = ::write(terminalFd.load(), data + done, take - done);
                     if (n <= 0 && errno != EINTR) break;
                     if (n > 0) done += std::size_t(n);
                 }
@@ -210,6 +237,14 @@ StderrFilter& filter() {
     return instance;
 }
 
+/// The filter of what reaches descriptor 2 directly (write(2, ...) in a library): its own line state,
+/// so that its partial lines never mix with those of `stderr`. Never destroyed: the reader thread may
+/// still run while static objects are destroyed after exit().
+StderrFilter& descriptorFilter() {
+    static StderrFilter* instance = new StderrFilter;
+    return *instance;
+}
+
 ssize_t filterWrite(void*, const char* data, std::size_t size) {
     filter().write(data, size);
     return static_cast<ssize_t>(size);
@@ -231,7 +266,53 @@ protected:
 
 } // namespace
 
+bool stderrIsTerminal() { return ::isatty(terminalFd.load()) != 0; }
+
+void ThirdPartyOutputCapture::restoreDescriptorForExec() {
+    std::fflush(nullptr);
+    const int terminal = terminalFd.load();
+    if (terminal != STDERR_FILENO) ::dup2(terminal, STDERR_FILENO);
+}
+
+void ThirdPartyOutputCapture::readDescriptor() {
+    char buffer[4096];
+    for (;;) {
+        pollfd ready{pipeRead_, POLLIN, 0};
+        const int events = ::poll(&ready, 1, 50);
+        if (events > 0) {
+            const ssize_t n = ::read(pipeRead_, buffer, sizeof buffer);
+            if (n > 0) {
+                descriptorFilter().write(buffer, static_cast<std::size_t>(n));
+                continue;
+            }
+            if (n < 0 && errno == EINTR) continue;
+            break; // every writer closed it (0), or an error
+        }
+        if (events < 0 && errno == EINTR) continue;
+        // Stop only once nothing is left: a child that inherited descriptor 2 may keep the pipe open.
+        if (stopping_.load()) break;
+    }
+}
+
 ThirdPartyOutputCapture::ThirdPartyOutputCapture() {
+    // Descriptor 2 itself: libraries that write(2, ...) or fprintf to their own copy of it.
+    int pipe[2] = {-1, -1};
+    const int terminal = ::fcntl(STDERR_FILENO, F_DUPFD_CLOEXEC, 3);
+    if (terminal >= 0 && ::pipe2(pipe, O_CLOEXEC) == 0) {
+        std::fflush(stderr);
+        if (::dup2(pipe[1], STDERR_FILENO) >= 0) {
+            terminalFd = terminal;
+            pipeRead_ = pipe[0];
+            reader_ = std::thread([this] { readDescriptor(); });
+        } else {
+            ::close(pipe[0]);
+            ::close(terminal);
+        }
+        ::close(pipe[1]);
+    } else if (terminal >= 0) {
+        ::close(terminal);
+    }
+
     static FilterStreambuf cerrBuffer;
     std::FILE* filtered = ::fopencookie(nullptr, "w", cookie_io_functions_t{nullptr, &filterWrite, nullptr, nullptr});
     if (filtered == nullptr) return;
@@ -246,6 +327,19 @@ ThirdPartyOutputCapture::ThirdPartyOutputCapture() {
 }
 
 ThirdPartyOutputCapture::~ThirdPartyOutputCapture() {
+    if (reader_.joinable()) {
+        // Descriptor 2 back to the terminal closes the pipe's last writer (ours): the reader drains
+        // what is left and ends.
+        std::fflush(nullptr);
+        const int terminal = terminalFd.load();
+        ::dup2(terminal, STDERR_FILENO);
+        terminalFd = STDERR_FILENO;
+        ::close(terminal);
+        stopping_ = true;
+        reader_.join();
+        ::close(pipeRead_);
+        descriptorFilter().finish();
+    }
     if (originalCerr_ != nullptr) std::cerr.rdbuf(originalCerr_);
     filter().finish();
 }

@@ -10,10 +10,13 @@
 
 #include <CLI/CLI.hpp>
 
+#include <atomic>
 #include <cstdio>
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <thread>
+#include <vector>
 
 namespace lightskin::apps {
 
@@ -22,6 +25,10 @@ CLI::Option* addOverwriteFlag(CLI::App* command, bool& overwrite);
 
 /// Validator for counts and indices: an integer >= `minimum` ("expected an integer >= 1, got -1").
 CLI::Validator atLeast(std::int64_t minimum);
+
+/// Validator for a word from a fixed list, checked while the command line is parsed (exit 64):
+/// "expected one of: gl, cpu; got 'gpu'". Shows nothing in --help (the option's text lists the words).
+CLI::Validator oneOf(std::vector<std::string> words);
 
 /// Throws lightskin::Error (naming `option` and `folder`) unless `folder` can become this command's
 /// output folder: it does not exist and its nearest existing parent is a writable folder, or it is
@@ -53,13 +60,15 @@ void resolveShippedData(CLI::App* command, std::vector<ShippedData> data);
 /// `replacement` and returns true. Deprecated spellings are hidden from --help (docs/CLI.md lists them).
 bool warnIfDeprecatedUsed(const CLI::App& command, const std::string& old, const std::string& replacement);
 
-/// While alive, C's `stderr` and std::cerr go through a filter: a line that starts like a
-/// third-party library's message ("libpng error: ...", OpenCV's "[ WARN:...", "imread_(...)",
-/// OpenNI2, assimp, Mesa) is logged through lightskin::log at debug level with that source named
-/// ("libpng: libpng error: ..."; shown with -v), every other line (our own messages, the log itself)
-/// goes to descriptor 2 at once, unchanged. Libraries that write to descriptor 2 directly are not
-/// filtered. One instance, in main(); `stderr` keeps the filter until the process ends (spdlog's sink
-/// holds it), the destructor logs an unfinished captured line.
+/// While alive, everything written to standard error goes through a filter: C's `stderr`, std::cerr
+/// and descriptor 2 itself (libraries that write(2, ...) directly: a pipe on descriptor 2, read by a
+/// thread). A line that starts like a third-party library's message ("libpng error: ...", OpenCV's
+/// "[ WARN:...", "imread_(...)", OpenNI2, assimp, Mesa) is logged through lightskin::log at debug level
+/// with that source named ("libpng: libpng error: ..."; shown with -v); every other line (our own
+/// messages, the log itself) goes to the terminal's descriptor at once, unchanged (lines written to
+/// descriptor 2 directly arrive through the thread, a moment later). One instance, in main(); `stderr`
+/// keeps the filter until the process ends (spdlog's sink holds it), the destructor puts descriptor 2
+/// back, drains the pipe and logs an unfinished captured line.
 class ThirdPartyOutputCapture {
 public:
     ThirdPartyOutputCapture();
@@ -70,9 +79,22 @@ public:
     /// The library a line is attributed to, or empty for our own output (exposed for tests).
     static std::string_view sourceOf(std::string_view line);
 
+    /// Puts the terminal back on descriptor 2 for a program this process exec()s (nothing reads the
+    /// pipe after exec).
+    static void restoreDescriptorForExec();
+
 private:
+    void readDescriptor();
+
     std::FILE* originalStderr_ = nullptr;
     std::streambuf* originalCerr_ = nullptr;
+    int pipeRead_ = -1;
+    std::atomic<bool> stopping_{false};
+    std::thread reader_;
 };
+
+/// Whether standard error is a terminal (progress lines that rewrite themselves): the terminal's
+/// descriptor, not descriptor 2, which ThirdPartyOutputCapture replaces by a pipe.
+bool stderrIsTerminal();
 
 } // namespace lightskin::apps

@@ -1,5 +1,6 @@
 // `lightskin doctor`: checks that this machine can run lightskin (headless OpenGL 4.5 core,
 // compute shaders, framebuffer readback) and writes a self-test image.
+#include "CliSupport.h"
 #include "Commands.h"
 
 #include <lightskin/core/Error.h>
@@ -13,6 +14,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <numeric>
+#include <unistd.h>
 #include <vector>
 
 namespace lightskin::apps {
@@ -23,6 +25,20 @@ void addDoctorCommand(CLI::App& app, int& exitCode) {
     auto output = std::make_shared<std::string>();
     command->add_option("--out", *output, "Write the self-test triangle as a PNG to this path");
     command->callback([output, &exitCode] {
+        // --out is checked before the checks run: a path that cannot be written fails at once.
+        if (!output->empty()) {
+            const std::filesystem::path path(*output);
+            const std::filesystem::path folder = path.has_parent_path() ? path.parent_path() : ".";
+            std::error_code ec;
+            if (!std::filesystem::exists(folder, ec))
+                checkOutputFolder(folder, false, "--out"); // can it be made (nothing written)?
+            else if (!std::filesystem::is_directory(folder, ec))
+                throw Error(folder.string(), std::nullopt, "is not a folder (--out needs a PNG path in a folder)");
+            else if (::access(folder.c_str(), W_OK | X_OK) != 0)
+                throw Error(folder.string(), std::nullopt, "folder is not writable (--out)");
+            if (std::filesystem::is_directory(path))
+                throw Error(path.string(), std::nullopt, "is a folder (--out needs a PNG file name)");
+        }
         auto context = gl::createHeadlessContext();
         std::printf("renderer: %s\n", context->describe().c_str());
 
@@ -42,7 +58,8 @@ void addDoctorCommand(CLI::App& app, int& exitCode) {
             if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
             cv::Mat bgra;
             cv::cvtColor(image, bgra, cv::COLOR_RGBA2BGRA);
-            if (!cv::imwrite(path.string(), bgra)) throw Error(path.string(), std::nullopt, "could not write the image");
+            if (!cv::imwrite(path.string(), bgra))
+                throw Error(path.string(), std::nullopt, "could not write the image");
             std::printf("wrote %s\n", path.string().c_str());
         }
         exitCode = sumOk && triangleOk ? 0 : 1;

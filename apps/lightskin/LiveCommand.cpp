@@ -261,7 +261,8 @@ void addLiveCommand(CLI::App& app, int& exitCode) {
     auto args = std::make_shared<LiveArgs>();
     command->add_option("--device", args->device, "freenect (Kinect v1), freenect://<n>, openni2://[uri], a .oni file, a recording or TUM folder");
     command->add_option("--scene", args->scene, "Scene file (docs/SCENE_FORMAT.md)")->required();
-    command->add_option("--pose", args->pose, "ground-truth | tracking | fixed (default: ground truth when the input has it, else tracking)");
+    command->add_option("--pose", args->pose, "ground-truth | tracking | fixed (default: ground truth when the input has it, else tracking)")
+        ->check(oneOf({"ground-truth", "tracking", "fixed"}));
     command->add_flag("--headless", args->headless, "No window: render through EGL (tests, no display)");
     command->add_flag("--loop", args->loop, "Start file input again at its end");
     command->add_flag("--fast", args->fast, "File input as fast as possible instead of at the recorded speed");

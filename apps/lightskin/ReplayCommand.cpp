@@ -41,6 +41,30 @@ namespace lightskin::apps {
 
 namespace {
 
+struct CompareLabels {
+    std::string left, right; ///< the halves' labels
+    std::string title;       ///< report.md's heading for the images
+    std::string folder;      ///< under --out: "compare" for the final view, "compare-<view>" for another
+};
+
+/// What the side-by-side images of `--view view` show (see where it is used).
+CompareLabels compareLabels(const std::string& view, const std::string& technique) {
+    if (view == "final")
+        return {"with GI (" + technique + ")", "without GI", "With GI / without GI (the paper's figure 4)", "compare"};
+    const std::string folder = "compare-" + view;
+    if (view == "direct" || view == "indirect" || view == "normals" || view == "albedo")
+        return {view + " view, with GI (" + technique + ")", view + " view, without GI",
+                "The " + view + " view with GI / without GI", folder};
+    const std::string what = view == "vals"           ? "VALs by flux"
+                             : view == "sparse"       ? "sparse points"
+                             : view == "error"        ? "error against brute force"
+                             : view == "vpl"          ? "per-vertex VPLs"
+                             : view == "differential" ? "differential shading"
+                                                      : view;
+    return {what + " over the composite", "composite without GI",
+            "The " + what + " drawn over the composite / the composite without GI", folder};
+}
+
 std::atomic<bool> interruptRequested{false};
 extern "C" void onReplayInterrupt(int) {
     interruptRequested = true;
@@ -123,9 +147,16 @@ std::set<std::int64_t> parseFrameList(const std::string& text) {
                 if (used != dash) throw std::invalid_argument(item);
                 const std::string rest = item.substr(dash + 1);
                 const long long b = std::stoll(rest, &used);
-                if (used != rest.size() || a < 0 || b < a || b - a > 10'000'000) throw std::invalid_argument(item);
+                if (used != rest.size() || a < 0) throw std::invalid_argument(item);
+                if (b < a)
+                    throw Error("--write-frames", std::nullopt,
+                                "the range '" + item + "' runs backwards; write it as " + std::to_string(b) + "-" +
+                                    std::to_string(a));
+                if (b - a > 10'000'000) throw std::invalid_argument(item);
                 for (long long v = a; v <= b; ++v) frames.insert(v);
             }
+        } catch (const Error&) {
+            throw;
         } catch (const std::exception&) {
             throw Error("--write-frames", std::nullopt, "expected 'all' or indices and ranges like 0,5,10-20; cannot read '" + item + "'");
         }
@@ -135,7 +166,7 @@ std::set<std::int64_t> parseFrameList(const std::string& text) {
 
 class Progress {
 public:
-    Progress(std::optional<std::int64_t> total) : total_(total), tty_(isatty(STDERR_FILENO) != 0), start_(Clock::now()) {}
+    Progress(std::optional<std::int64_t> total) : total_(total), tty_(stderrIsTerminal()), start_(Clock::now()) {}
     void update(std::int64_t done, bool last = false) {
         const double seconds = std::chrono::duration<double>(Clock::now() - start_).count();
         const double fps = seconds > 0 ? double(done) / seconds : 0.0;
@@ -308,7 +339,8 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     // Without a GI technique both halves of the comparison would be the same image.
     const bool compare = options.compare && pipeline->techniqueName() != "none";
     pipeline->options().compare = compare;
-    if (compare) std::filesystem::create_directories(out / "compare");
+    const std::string compareFolder = compareLabels(args.view, pipeline->techniqueName()).folder;
+    if (compare) std::filesystem::create_directories(out / compareFolder);
     if (args.linearOut) std::filesystem::create_directories(out / "linear");
     if (args.linearOut && pipeline->techniqueName() != "none") std::filesystem::create_directories(out / "linear-indirect");
 
@@ -328,10 +360,14 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     std::int64_t total = summary.framesInSource.value_or(-1);
     if (args.maxFrames && (total < 0 || *args.maxFrames < total)) total = *args.maxFrames;
 
-    // A debug view compares that view with and without GI, and says so.
-    const std::string viewName = args.view == "final" ? "" : args.view + " view, ";
-    const std::string withLabel = viewName + "with GI (" + pipeline->techniqueName() + ")",
-                      withoutLabel = viewName + "without GI";
+    // The labels, the report's heading and the folder say what the halves show: a shading view
+    // compares that view with and without GI; an overlay (VALs, sparse points, ...) is drawn over the
+    // composite, beside the composite without GI, and is not "with GI" (the VALs do not depend on it).
+    const CompareLabels labels = compareLabels(args.view, pipeline->techniqueName());
+    const std::string &withLabel = labels.left, &withoutLabel = labels.right;
+    summary.compareLeft = labels.left;
+    summary.compareRight = labels.right;
+    summary.compareTitle = labels.title;
     interruptRequested = false;
     const auto previous = std::signal(SIGINT, onReplayInterrupt);
     std::vector<ReportFrame> frames;
@@ -410,7 +446,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
                 rf.image = std::string("frames/") + name;
                 writePng(out / rf.image, output.withGi);
                 if (compare) {
-                    rf.compareImage = std::string("compare/") + name;
+                    rf.compareImage = compareFolder + "/" + name;
                     writePng(out / rf.compareImage, sideBySide);
                 }
                 if (args.linearOut) {
@@ -491,11 +527,14 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
     command->add_option("--write-frames", args->writeFrames, "Frames to write as PNG: all, or indices and ranges like 0,5,10-20");
     command->add_option("--frames", args->writeFrames, "Deprecated spelling of --write-frames")->group("");
     command->add_option("--max-frames", args->maxFrames, "Stop after this many frames (>= 1; default: all)")->check(atLeast(1));
-    command->add_option("--pose", args->pose, "ground-truth | tracking | fixed (default: ground truth when the recording has it, else tracking)");
+    command->add_option("--pose", args->pose, "ground-truth | tracking | fixed (default: ground truth when the recording has it, else tracking)")
+        ->check(oneOf({"ground-truth", "tracking", "fixed"}));
     command->add_option("--view", args->view,
                         "Debug view: final | direct | indirect | normals | albedo | vals (VALs by flux) | sparse "
                         "(sparse points) | error (vs brute force) | vpl (interpolated vertex VPLs) | differential "
-                        "(change of the real light by the virtual objects)");
+                        "(change of the real light by the virtual objects)")
+        ->check(oneOf({"final", "direct", "indirect", "normals", "albedo", "vals", "sparse", "error", "vpl",
+                       "differential"}));
     command->add_flag("--no-video", args->noVideo, "Do not write a video");
     command->add_option("--video-format", args->videoFormat, "auto (MP4, falling back to MJPG AVI) | mp4 | avi")
         ->check(CLI::IsMember({"auto", "mp4", "avi"}));
@@ -515,7 +554,8 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
         "stride and channels that meet it (docs/PLUGIN.md); report.json lists the choice per frame");
     command->add_option(
         "--backend", args->backend,
-        "LightSkin's stages 0-4 on gl (default: the scene's gi.backend) or cpu (SIMD + threads; shading stays on GL)");
+        "LightSkin's stages 0-4 on gl (default: the scene's gi.backend) or cpu (SIMD + threads; shading stays on GL)")
+        ->check(oneOf({"gl", "cpu"}));
     command->add_flag(
         "--raw-depth", args->rawDepth,
         "Do not register unregistered depth (.oni, fakenect, raw recordings) to colour in software: shows what "

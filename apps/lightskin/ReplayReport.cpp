@@ -110,6 +110,7 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
     root["renderer"] = s.renderer;
     root["technique"] = s.technique;
     root["poseMode"] = s.poseMode;
+    if (!s.compareLeft.empty()) root["compareLabels"] = {s.compareLeft, s.compareRight};
     root["command"] = s.command;
     root["framesRead"] = s.framesRead;
     root["framesInSource"] = s.framesInSource ? nlohmann::json(*s.framesInSource) : nlohmann::json(nullptr);
@@ -291,7 +292,7 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
     for (const auto& name : gpuStages) md += "| " + name + " | GPU | " + fixed(gpuSum[name] / n, 2) + " |\n";
     md += "| total | CPU wall | " + fixed(totalSum / n, 2) + " |\n\n";
 
-    md += "## With GI / without GI (the paper's figure 4)\n\n";
+    md += "## " + s.compareTitle + "\n\n";
     int shown = 0;
     for (const ReportFrame& f : frames) {
         if (f.compareImage.empty() && f.image.empty()) continue;

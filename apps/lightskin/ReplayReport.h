@@ -54,6 +54,9 @@ struct ReportFrame {
 
 struct ReportSummary {
     std::string recording, scene, renderer, technique, poseMode, video, videoCodec, command;
+    /// What the side-by-side images show, left and right (their labels), and the report's heading for
+    /// them: "with GI" only when the left half is the composite with GI (--view final).
+    std::string compareLeft, compareRight, compareTitle = "With GI / without GI (the paper's figure 4)";
     std::int64_t framesRead = 0;
     std::optional<std::int64_t> framesInSource;
     bool interrupted = false;

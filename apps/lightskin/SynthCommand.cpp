@@ -3,11 +3,13 @@
 // (docs/SYNTH.md). Headless: OpenGL 4.5 through EGL, no GPU needed.
 #include "CliSupport.h"
 #include "Commands.h"
+#include "ToolCommands.h"
 
 #include <lightskin/capture/Fakenect.h>
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/gl/Context.h>
+#include <lightskin/synth/PresentObjects.h>
 #include <lightskin/synth/SynthRecording.h>
 
 #include <chrono>
@@ -31,8 +33,7 @@ struct SynthArguments {
 };
 
 void addSynthCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand(
-        "synth", "Render a synthetic RGB-D recording with exact ground truth from a scene description");
+    auto* command = app.add_subcommand("synth", toolDescription("synth"));
     auto arguments = std::make_shared<SynthArguments>();
     command->add_option("scene", arguments->scene, "Scene description (JSON, docs/SYNTH.md)")->required();
     command->add_option("--out", arguments->out, "Folder to write the recording to: new or empty (see --overwrite)")
@@ -69,12 +70,15 @@ void addSynthCommand(CLI::App& app, int& exitCode) {
             throw Error(arguments->scene, std::nullopt,
                         "--fakenect needs a 640x480 camera (fakenect's only resolution)");
 
+        // Read before anything is written (the recording reads it again once the folder is made).
+        if (!arguments->objectsPresent.empty()) (void)synth::loadPresentObjects(arguments->objectsPresent);
+
         auto context = gl::createHeadlessContext();
         synth::SynthRecordingOptions options;
         options.maxFrames = arguments->maxFrames;
         options.presentObjects = arguments->objectsPresent;
         // Progress about once a second (every 5 s into a file or pipe) with the time left.
-        const bool tty = isatty(STDERR_FILENO) != 0;
+        const bool tty = stderrIsTerminal();
         const auto started = std::chrono::steady_clock::now();
         auto lastPrint = started - std::chrono::hours(1);
         options.progress = [tty, started, lastPrint](int written, int total) mutable {

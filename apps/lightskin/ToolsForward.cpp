@@ -2,7 +2,9 @@
 // `lightskin-tools` beside this one, so that the main job need not build them (apps/CMakeLists.txt).
 // These subcommands run it with this process's own arguments (execv: same process, exit code and
 // output), so every documented command line works unchanged and `lightskin --help` lists them.
+#include "CliSupport.h"
 #include "Commands.h"
+#include "ToolCommands.h"
 
 #include <lightskin/core/Error.h>
 
@@ -10,7 +12,6 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <sstream>
 #include <string>
 #include <unistd.h>
 #include <vector>
@@ -30,7 +31,7 @@ namespace {
     // argv[0] stays this program's, so the tool's --help and errors read "lightskin bench ...".
     std::vector<char*> arguments(programArguments().begin(), programArguments().end());
     arguments.push_back(nullptr);
-    std::fflush(nullptr);
+    ThirdPartyOutputCapture::restoreDescriptorForExec();
     ::execv(program.c_str(), arguments.data());
     const int cause = errno; // execv returns only on failure
     throw Error(source, std::nullopt,
@@ -42,11 +43,10 @@ namespace {
 }
 
 void addToolsCommands(CLI::App& app, int& /*exitCode*/) {
-    std::istringstream names(LIGHTSKIN_TOOLS_COMMANDS);
-    for (std::string name; std::getline(names, name, ',');) {
-        auto* command = app.add_subcommand(name, "Developer tool in " LIGHTSKIN_TOOLS_PROGRAM
-                                                 " (synthetic recordings, benchmarks); `lightskin " +
-                                                     name + " --help` for its options");
+    for (const ToolCommand& tool : kToolCommands) {
+        const std::string name(tool.name);
+        auto* command = app.add_subcommand(name, std::string(tool.description));
+        command->group("Developer tools (the program " LIGHTSKIN_TOOLS_PROGRAM ", run by this one)");
         // Everything after the name belongs to the tool, --help included; the tool parses it.
         // (fallthrough off: main() turns it on for every command, which would hand --help to `lightskin`).
         command->prefix_command();

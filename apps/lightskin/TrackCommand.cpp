@@ -28,6 +28,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -50,16 +51,31 @@ struct TrackOptions {
 };
 
 void runTrack(const TrackOptions& options, int& exitCode) {
-    // The library checks these too, under its own names; here the message names the option.
-    if (options.upsample < 1 || options.upsample > 4)
-        throw Error("--upsample", std::nullopt, "must be 1, 2, 3 or 4, got " + std::to_string(options.upsample));
+    // The library checks these too, under their JSON names; here the message names the option.
+    tracking::TrackerSettings settings;
+    settings.detector.quadDecimate = options.decimate;
+    settings.detector.upsample = options.upsample;
+    settings.detector.threads = options.threads;
+    if (options.worldPath.empty()) settings.detector.family = options.family;
+    if (const auto problem = tracking::findDetectorSettingProblem(settings.detector)) {
+        const std::string option = problem->key == "quadDecimate" ? "--decimate"
+                                   : problem->key == "family"     ? "--family"
+                                                                  : "--" + problem->key;
+        throw Error(option, std::nullopt, problem->cause);
+    }
     if (!(options.maxCornerStd > 0.0))
         throw Error("--max-corner-std", std::nullopt,
                     "must be > 0 pixels (inf switches the check off), got " + std::to_string(options.maxCornerStd));
     tracking::TagWorld world = [&] {
         if (!options.worldPath.empty()) return tracking::TagWorld::load(options.worldPath);
-        if (options.tagId < 0 || !(options.tagSize > 0.0))
+        if (options.tagId < 0 && options.tagSize == 0.0)
             throw Error("track", std::nullopt, "give --world <config.json> or --tag-id and --tag-size (metres)");
+        if (options.tagId < 0) throw Error("--tag-id", std::nullopt, "expected a tag id >= 0 with --tag-size");
+        if (!(options.tagSize > 0.0))
+            throw Error(
+                "--tag-size", std::nullopt,
+                "expected the tag's black-border edge length in metres (> 0) with --tag-id, got " +
+                    (options.tagSize == 0.0 ? std::string("none") : (std::ostringstream() << options.tagSize).str()));
         return tracking::TagWorld::singleTag(options.tagId, options.tagSize, options.family);
     }();
     // Every image is there before the first line is printed (a missing one is a bad command, not a lost frame).
@@ -68,10 +84,6 @@ void runTrack(const TrackOptions& options, int& exitCode) {
         for (std::size_t i = 0; i < options.images.size(); ++i)
             if (!std::filesystem::is_regular_file(options.images[i]))
                 throw Error(options.images[i], static_cast<std::int64_t>(i), "no such image file");
-    tracking::TrackerSettings settings;
-    settings.detector.quadDecimate = options.decimate;
-    settings.detector.upsample = options.upsample;
-    settings.detector.threads = options.threads;
     settings.maxWorldCornerStdPx = options.maxCornerStd;
     settings.filter.enabled = !options.noFilter;
     tracking::PoseTracker tracker = tracking::PoseTracker::create(std::move(world), settings);

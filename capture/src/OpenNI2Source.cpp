@@ -24,31 +24,109 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <mutex>
+#include <sstream>
+#include <string>
 #include <thread>
+#include <vector>
 
 namespace lightskin::capture::detail {
 
 namespace {
 
 /// OpenNI::initialize/shutdown are process-global: reference-count them across sources.
+///
+/// OpenNI2's own log (no callback API: a console writer that printf()s onto stdout, or a file) goes to
+/// a file in a private temporary folder, never the console (an OpenNI.ini may switch that on); its
+/// warnings and errors are forwarded into our log at debug level with their source ("OpenNI2: ERROR
+/// OniContext: Couldn't open device ..."; shown with -v) when a device fails to open and when the last
+/// source closes: not per frame.
 class OpenNIRuntime {
 public:
     static void acquire(const std::string& uri) {
         std::lock_guard lock(mutex());
-        if (count()++ == 0 && openni::OpenNI::initialize() != openni::STATUS_OK) {
-            --count();
-            throw Error(uri, std::nullopt,
-                        std::string("OpenNI2 initialisation failed: ") + openni::OpenNI::getExtendedError());
+        if (count()++ == 0) {
+            if (openni::OpenNI::initialize() != openni::STATUS_OK) {
+                --count();
+                throw Error(uri, std::nullopt,
+                            std::string("OpenNI2 initialisation failed: ") + openni::OpenNI::getExtendedError());
+            }
+            routeLogToFile();
         }
         sanitizer::keepLoadedModulesMapped(); // OpenNI2/Drivers/*.so, for LeakSanitizer's report at exit
     }
     static void release() {
         std::lock_guard lock(mutex());
-        if (--count() == 0) openni::OpenNI::shutdown();
+        forwardLogLocked();
+        if (--count() == 0) {
+            openni::OpenNI::shutdown();
+            std::error_code ignored;
+            if (!logFolder().empty()) std::filesystem::remove_all(logFolder(), ignored);
+            logFolder().clear();
+            logFile().clear();
+        }
+    }
+    /// Forwards what OpenNI2 logged since the last call (see the class comment).
+    static void forwardLog() {
+        std::lock_guard lock(mutex());
+        forwardLogLocked();
     }
 
 private:
+    static void routeLogToFile() {
+        std::string pattern = (std::filesystem::temp_directory_path() / "lightskin-openni2-XXXXXX").string();
+        if (::mkdtemp(pattern.data()) == nullptr) { // no log then, but never the console
+            openni::OpenNI::setLogConsoleOutput(false);
+            return;
+        }
+        logFolder() = pattern;
+        openni::OpenNI::setLogConsoleOutput(false);
+        openni::OpenNI::setLogOutputFolder(pattern.c_str());
+        openni::OpenNI::setLogMinSeverity(2); // 0 verbose, 1 info, 2 warning, 3 error
+        openni::OpenNI::setLogFileOutput(true);
+        char name[4096] = {};
+        if (openni::OpenNI::getLogFileName(name, sizeof name) == openni::STATUS_OK) logFile() = name;
+        logOffset() = 0;
+    }
+    static void forwardLogLocked() {
+        if (logFile().empty()) return;
+        std::ifstream file(logFile(), std::ios::binary);
+        file.seekg(static_cast<std::streamoff>(logOffset()));
+        std::string line;
+        while (std::getline(file, line)) {
+            if (file.eof()) break; // an unfinished last line: read it once it is complete
+            logOffset() += line.size() + 1;
+            // "<time>\t<SEVERITY>\t<mask>\t<file>\t<line>\t<message>" (XnLog's file format)
+            std::vector<std::string> fields;
+            std::istringstream parts(line);
+            for (std::string field; std::getline(parts, field, '\t');) fields.push_back(field);
+            if (fields.size() < 6) continue;
+            const auto trim = [](std::string text) {
+                while (!text.empty() && (text.back() == ' ' || text.back() == '\r')) text.pop_back();
+                return text;
+            };
+            const std::string severity = trim(fields[1]);
+            if (severity == "VERBOSE" || severity == "INFO") continue; // the log's own header lines
+            std::string message = trim(fields[5]);
+            for (std::size_t i = 6; i < fields.size(); ++i) message += " " + trim(fields[i]);
+            log::debug("OpenNI2: " + severity + " " + trim(fields[2]) + ": " + message);
+        }
+    }
+    static std::filesystem::path& logFolder() {
+        static std::filesystem::path folder;
+        return folder;
+    }
+    static std::string& logFile() {
+        static std::string name;
+        return name;
+    }
+    static std::size_t& logOffset() {
+        static std::size_t offset = 0;
+        return offset;
+    }
     static std::mutex& mutex() {
         static std::mutex m;
         return m;
@@ -114,7 +192,13 @@ public:
         const std::string& uri = info_.uri;
         file_ = file;
         if (device_.open(file ? uri.c_str() : (uri.empty() ? openni::ANY_DEVICE : uri.c_str())) != openni::STATUS_OK) {
-            const std::string detail = openni::OpenNI::getExtendedError();
+            // OpenNI2's text is "\tDeviceOpen: Couldn't open device '...'\n\n": one line, no tabs.
+            std::string detail = openni::OpenNI::getExtendedError();
+            for (char& c : detail)
+                if (c == '\t' || c == '\n' || c == '\r') c = ' ';
+            detail.erase(0, detail.find_first_not_of(' '));
+            detail.erase(detail.find_last_not_of(' ') + 1);
+            OpenNIRuntime::forwardLog();
             throw Error(file ? uri : "openni2://" + uri, std::nullopt,
                         std::string(file ? "OpenNI2 cannot open the file (truncated, header only or not an .oni?)"
                                          : "OpenNI2 cannot open the device (not connected, no driver, or in use?)") +

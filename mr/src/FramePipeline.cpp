@@ -58,7 +58,7 @@ tracking::PoseTracker trackerFromScene(const render::Scene& scene) {
                                           "without tags use --pose fixed (the world is the camera frame) or --pose ground-truth");
     tracking::TrackerSettings settings;
     if (tracking.contains("detector")) {
-        settings.detector = tracking::detectorSettingsFromJson(tracking["detector"].dump(), source + " /tracking/detector");
+        settings.detector = tracking::detectorSettingsFromJson(tracking["detector"].dump(), source, "/tracking/detector");
         tracking.erase("detector");
     }
     if (tracking.contains("useDepth")) {
@@ -75,7 +75,7 @@ tracking::PoseTracker trackerFromScene(const render::Scene& scene) {
             throw Error(source, std::nullopt, "/tracking/file: tag world '" + world.string() + "' does not exist");
         return tracking::PoseTracker::create(tracking::TagWorld::load(world), settings);
     }
-    return tracking::PoseTracker::create(tracking::TagWorld::fromJson(tracking.dump(), source + " /tracking"), settings);
+    return tracking::PoseTracker::create(tracking::TagWorld::fromJson(tracking.dump(), source, "/tracking"), settings);
 }
 
 } // namespace

@@ -2,11 +2,12 @@
 #include <lightskin/core/Log.h>
 #include <lightskin/render/MeshLoader.h>
 
+#include <assimp/DefaultLogger.hpp>
 #include <assimp/Importer.hpp>
+#include <assimp/LogStream.hpp>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
-
 #include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
 
@@ -14,8 +15,9 @@
 #include <cctype>
 #include <cmath>
 #include <fstream>
-#include <sstream>
 #include <limits>
+#include <mutex>
+#include <sstream>
 #include <string>
 
 namespace lightskin::render {
@@ -136,7 +138,8 @@ void checkPlyAsciiBody(std::istream& body, const std::vector<PlyElement>& elemen
 std::size_t plyTypeSize(const std::string& type) {
     if (type == "char" || type == "uchar" || type == "int8" || type == "uint8") return 1;
     if (type == "short" || type == "ushort" || type == "int16" || type == "uint16") return 2;
-    if (type == "int" || type == "uint" || type == "float" || type == "int32" || type == "uint32" || type == "float32") return 4;
+    if (type == "int" || type == "uint" || type == "float" || type == "int32" || type == "uint32" || type == "float32")
+        return 4;
     if (type == "double" || type == "float64") return 8;
     return 0;
 }
@@ -359,7 +362,33 @@ DegenerateRepair removeDegenerateTriangles(TriangleMesh& mesh) {
     return repair;
 }
 
+namespace {
+
+/// assimp's log messages ("Error, T0: ...") into ours at debug level with their source ("assimp: ..."),
+/// shown with -v: never on the terminal raw, and kept where a user who asks can see them.
+class AssimpToLightskinLog final : public Assimp::LogStream {
+public:
+    void write(const char* message) override {
+        std::string_view text(message);
+        while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.remove_suffix(1);
+        if (!text.empty()) log::debug("assimp: " + std::string(text));
+    }
+};
+
+void routeAssimpLogOnce() {
+    static std::once_flag once;
+    std::call_once(once, [] {
+        // No file, no debugger stream: only ours. Info is the importer's "Load <file>" chatter.
+        Assimp::DefaultLogger::create(nullptr, Assimp::Logger::NORMAL, 0);
+        Assimp::DefaultLogger::get()->attachStream(new AssimpToLightskinLog, // the logger owns it
+                                                   Assimp::Logger::Warn | Assimp::Logger::Err);
+    });
+}
+
+} // namespace
+
 LoadedModel loadModel(const std::filesystem::path& path) {
+    routeAssimpLogOnce();
     const std::string source = path.string();
     std::error_code ec;
     if (!std::filesystem::is_regular_file(path, ec)) throw Error(source, std::nullopt, "mesh file does not exist");
@@ -380,8 +409,8 @@ LoadedModel loadModel(const std::filesystem::path& path) {
     const aiScene* scene = importer.ReadFile(source, aiProcess_PreTransformVertices | aiProcess_ValidateDataStructure);
     if (scene == nullptr) // assimp's words ("aiScene::mNumMeshes is 0") follow ours
         throw Error(source, std::nullopt,
-                    "not a readable " + path.extension().string() + " mesh (no triangles could be read; assimp: " +
-                        importer.GetErrorString() + ")");
+                    "not a readable " + path.extension().string() +
+                        " mesh (no triangles could be read; assimp: " + importer.GetErrorString() + ")");
     if ((scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE) != 0 || scene->mNumMeshes == 0)
         throw Error(source, std::nullopt, "file contains no triangle meshes");
 
@@ -391,12 +420,14 @@ LoadedModel loadModel(const std::filesystem::path& path) {
             hasPolygons = scene->mMeshes[m]->mFaces[f].mNumIndices > 3;
     if (hasPolygons) {
         scene = importer.ApplyPostProcessing(aiProcess_Triangulate);
-        if (scene == nullptr) throw Error(source, std::nullopt, std::string("cannot triangulate: ") + importer.GetErrorString());
+        if (scene == nullptr)
+            throw Error(source, std::nullopt, std::string("cannot triangulate: ") + importer.GetErrorString());
     }
     std::vector<bool> hadNormals(scene->mNumMeshes);
     for (unsigned m = 0; m < scene->mNumMeshes; ++m) hadNormals[m] = scene->mMeshes[m]->HasNormals();
     scene = importer.ApplyPostProcessing(aiProcess_GenSmoothNormals | aiProcess_JoinIdenticalVertices);
-    if (scene == nullptr) throw Error(source, std::nullopt, std::string("cannot process mesh: ") + importer.GetErrorString());
+    if (scene == nullptr)
+        throw Error(source, std::nullopt, std::string("cannot process mesh: ") + importer.GetErrorString());
 
     LoadedModel model;
     model.path = path;
@@ -405,7 +436,8 @@ LoadedModel loadModel(const std::filesystem::path& path) {
         const aiMesh& in = *scene->mMeshes[m];
         MeshPart part;
         part.name = in.mName.C_Str();
-        const std::string where = source + " (mesh " + std::to_string(m) + (part.name.empty() ? "" : " '" + part.name + "'") + ")";
+        const std::string where =
+            source + " (mesh " + std::to_string(m) + (part.name.empty() ? "" : " '" + part.name + "'") + ")";
         TriangleMesh& mesh = part.mesh;
         mesh.positions.resize(in.mNumVertices);
         mesh.normals.resize(in.mNumVertices);
@@ -415,14 +447,17 @@ LoadedModel loadModel(const std::filesystem::path& path) {
             mesh.positions[v] = {in.mVertices[v].x, in.mVertices[v].y, in.mVertices[v].z};
             const aiVector3D n = in.HasNormals() ? in.mNormals[v] : aiVector3D(0.0f, 0.0f, 0.0f);
             if (hadNormals[m] && !finite(n))
-                throw Error(where, std::nullopt, "vertex " + std::to_string(v) + " has a non-finite normal in the file");
+                throw Error(where, std::nullopt,
+                            "vertex " + std::to_string(v) + " has a non-finite normal in the file");
             mesh.normals[v] = {n.x, n.y, n.z};
         }
         if (in.HasTextureCoords(0)) {
             mesh.texcoords.resize(in.mNumVertices);
             for (unsigned v = 0; v < in.mNumVertices; ++v) {
                 const aiVector3D t = in.mTextureCoords[0][v];
-                if (!finite(t)) throw Error(where, std::nullopt, "vertex " + std::to_string(v) + " has non-finite texture coordinates");
+                if (!finite(t))
+                    throw Error(where, std::nullopt,
+                                "vertex " + std::to_string(v) + " has non-finite texture coordinates");
                 mesh.texcoords[v] = {t.x, t.y};
             }
         }
@@ -432,9 +467,9 @@ LoadedModel loadModel(const std::filesystem::path& path) {
             if (face.mNumIndices != 3) continue; // points/lines left in a mixed mesh
             for (unsigned k = 0; k < 3; ++k) {
                 if (face.mIndices[k] >= in.mNumVertices)
-                    throw Error(where, std::nullopt, "triangle " + std::to_string(f) + " refers to vertex " +
-                                                         std::to_string(face.mIndices[k]) + " of " +
-                                                         std::to_string(in.mNumVertices));
+                    throw Error(where, std::nullopt,
+                                "triangle " + std::to_string(f) + " refers to vertex " +
+                                    std::to_string(face.mIndices[k]) + " of " + std::to_string(in.mNumVertices));
                 mesh.indices.push_back(face.mIndices[k]);
             }
         }
@@ -456,7 +491,8 @@ LoadedModel loadModel(const std::filesystem::path& path) {
             }
         }
         if (in.mMaterialIndex < scene->mNumMaterials)
-            part.material = convertMaterial(*scene->mMaterials[in.mMaterialIndex], folder, part.materialName, part.emission);
+            part.material =
+                convertMaterial(*scene->mMaterials[in.mMaterialIndex], folder, part.materialName, part.emission);
         mesh.validate(where);
         model.parts.push_back(std::move(part));
     }
@@ -464,8 +500,9 @@ LoadedModel loadModel(const std::filesystem::path& path) {
 
     const MeshLoadReport& r = model.report;
     if (r.droppedDegenerateTriangles > 0 || r.partsWithGeneratedNormals > 0)
-        log::info(source + ": dropped " + std::to_string(r.droppedDegenerateTriangles) + " degenerate triangles, generated normals for " +
-                  std::to_string(r.partsWithGeneratedNormals) + " part(s)");
+        log::info(source + ": dropped " + std::to_string(r.droppedDegenerateTriangles) +
+                  " degenerate triangles, generated normals for " + std::to_string(r.partsWithGeneratedNormals) +
+                  " part(s)");
     return model;
 }
 

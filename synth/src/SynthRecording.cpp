@@ -50,6 +50,10 @@ std::int64_t writeSynthRecording(const SceneDescription& scene, const std::strin
                                  const std::filesystem::path& folder, const SynthRecordingOptions& options,
                                  const TagBitmapSource& tags) {
     Generator generator = Generator::create(scene, tags);
+    // Every input is read before the first file is written: a bad objects scene leaves no half recording.
+    std::optional<PresentObjects> present;
+    if (!options.presentObjects.empty())
+        present = PresentObjects::create(scene, loadPresentObjects(options.presentObjects), tags);
     capture::RecordingInfo info;
     info.deviceName = "lightskin synth: " + scene.name;
     info.colourIntrinsics = info.depthIntrinsics = scene.intrinsics;
@@ -64,11 +68,10 @@ std::int64_t writeSynthRecording(const SceneDescription& scene, const std::strin
                             (channel[0] == 'r' && scene.writeRadiance);
         if (wanted) std::filesystem::create_directories(folder / "synth" / channel, error);
     }
-    if (error) throw Error((folder / "synth").string(), std::nullopt, "could not create the folder: " + error.message());
+    if (error)
+        throw Error((folder / "synth").string(), std::nullopt, "could not create the folder: " + error.message());
     writeText(folder / "synth" / "scene.json", sceneText);
-    std::optional<PresentObjects> present;
-    if (!options.presentObjects.empty()) {
-        present = PresentObjects::create(scene, loadPresentObjects(options.presentObjects), tags);
+    if (present) {
         std::filesystem::create_directories(folder / "synth" / "present", error);
         if (error)
             throw Error((folder / "synth" / "present").string(), std::nullopt,
@@ -78,8 +81,11 @@ std::int64_t writeSynthRecording(const SceneDescription& scene, const std::strin
     Json tagList = Json::array();
     for (const TagDescription& tag : scene.tags) {
         Json corners = Json::array();
-        for (const glm::dvec3& corner : SceneRenderer::tagCornersWorld(tag)) corners.push_back({corner.x, corner.y, corner.z});
-        tagList.push_back({{"family", tag.family}, {"id", tag.id}, {"sizeMetres", tag.sizeMetres},
+        for (const glm::dvec3& corner : SceneRenderer::tagCornersWorld(tag))
+            corners.push_back({corner.x, corner.y, corner.z});
+        tagList.push_back({{"family", tag.family},
+                           {"id", tag.id},
+                           {"sizeMetres", tag.sizeMetres},
                            {"world_T_tag", poseJson(tag.placement.world_T_face())},
                            {"cornersWorld", corners}});
     }
@@ -102,21 +108,24 @@ std::int64_t writeSynthRecording(const SceneDescription& scene, const std::strin
 
     // The same tags as a tracking world (tracking/TagWorld.h), so replay can track against the
     // scene's own world frame. One family per world file: written when all tags share one.
-    if (!scene.tags.empty() &&
-        std::all_of(scene.tags.begin(), scene.tags.end(), [&](const TagDescription& t) { return t.family == scene.tags[0].family; })) {
+    if (!scene.tags.empty() && std::all_of(scene.tags.begin(), scene.tags.end(),
+                                           [&](const TagDescription& t) { return t.family == scene.tags[0].family; })) {
         Json worldTags = Json::array();
         for (const TagDescription& tag : scene.tags) {
             const Pose world_T_tag = tag.placement.world_T_face();
             const glm::dquat& q = world_T_tag.rotation();
             const glm::dvec3& t = world_T_tag.translation();
-            worldTags.push_back({{"id", tag.id}, {"size", tag.sizeMetres}, {"position", {t.x, t.y, t.z}},
+            worldTags.push_back({{"id", tag.id},
+                                 {"size", tag.sizeMetres},
+                                 {"position", {t.x, t.y, t.z}},
                                  {"orientation", {q.w, q.x, q.y, q.z}}});
         }
         writeText(folder / "synth" / "tag-world.json",
                   Json{{"family", scene.tags[0].family}, {"tags", worldTags}}.dump(2) + "\n");
     }
 
-    const int total = options.maxFrames > 0 ? std::min(options.maxFrames, generator.frameCount()) : generator.frameCount();
+    const int total =
+        options.maxFrames > 0 ? std::min(options.maxFrames, generator.frameCount()) : generator.frameCount();
     SynthFrame frame;
     cv::Mat presentRadiance, presentColour;
     for (int index = 0; index < total; ++index) {

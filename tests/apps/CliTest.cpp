@@ -3,15 +3,17 @@
 // general rules on every subcommand (docs/CLI.md). Set LIGHTSKIN_TEST_PROGRAM to run them against
 // another build (e.g. main's, to see them fail there).
 #include "TestPaths.h"
-
-#include <lightskin/capture/Recording.h>
+#include "WallRecording.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <unistd.h>
 
@@ -20,34 +22,15 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr int kWidth = 64, kHeight = 48, kFrames = 6;
-
 std::string program() {
     const char* other = std::getenv("LIGHTSKIN_TEST_PROGRAM");
     return other != nullptr ? other : LIGHTSKIN_PROGRAM;
 }
 
-/// A 6-frame 64x48 recording with ground truth (a wall with a box; PNG colour).
+/// The shared 6-frame 64x48 wall recording (tests/support/WallRecording.h), one flat colour.
 fs::path writeRecording(const fs::path& folder) {
-    capture::RecordingInfo info;
-    info.deviceName = "cli test";
-    info.colourIntrinsics = {kWidth, kHeight, 60.0, 60.0, 31.5, 23.5, {}};
-    info.depthIntrinsics = info.colourIntrinsics;
-    info.depthScaleMetres = 0.001;
-    auto writer = capture::RecordingWriter::create(folder, info);
-    for (int i = 0; i < kFrames; ++i) {
-        RgbdFrame frame;
-        frame.colourIntrinsics = frame.depthIntrinsics = info.colourIntrinsics;
-        frame.depth = cv::Mat(kHeight, kWidth, CV_16UC1, cv::Scalar(1500));
-        frame.depth.colRange(0, kWidth / 3).setTo(800);
-        frame.colour = cv::Mat(kHeight, kWidth, CV_8UC3, cv::Scalar(40, 90, 160));
-        frame.colourTimestampSeconds = frame.depthTimestampSeconds = i / 30.0;
-        frame.groundTruth_world_T_camera =
-            Pose(glm::angleAxis(glm::pi<double>(), glm::dvec3(1, 0, 0)), {0.01 * i, 0.0, 1.0});
-        writer.write(frame);
-    }
-    writer.finish();
-    return folder;
+    return test::writeWallRecording(
+        folder, [](int, int) { return cv::Vec3b(40, 90, 160); }, "cli test");
 }
 
 // A cube lit by a point light, no GI technique: the fastest scene that renders virtual content.
@@ -69,12 +52,13 @@ struct CliRun {
     }
 };
 
-/// Runs `lightskin <arguments>` in `cwd` (default: the scratch folder).
-CliRun runCli(const std::string& arguments, const fs::path& scratch, const fs::path& cwd = {}) {
+/// Runs `lightskin <arguments>` in `cwd` (default: the scratch folder), through `wrapper` (e.g. setpriv).
+CliRun runCli(const std::string& arguments, const fs::path& scratch, const fs::path& cwd = {},
+              const std::string& wrapper = {}) {
     const fs::path out = scratch / "stdout.txt", err = scratch / "stderr.txt";
     CliRun r;
-    r.exitCode = test::runShell("cd " + (cwd.empty() ? scratch : cwd).string() + " && " + program() + " " + arguments +
-                                " > " + out.string() + " 2> " + err.string() + " < /dev/null");
+    r.exitCode = test::runShell("cd " + (cwd.empty() ? scratch : cwd).string() + " && " + wrapper + program() + " " +
+                                arguments + " > " + out.string() + " 2> " + err.string() + " < /dev/null");
     r.out = test::readText(out);
     r.err = test::readText(err);
     return r;
@@ -213,15 +197,29 @@ TEST(Cli, OutputFolderThatIsAFileIsAClearError) {
         expectOneErrorLine(inside, file.string() + " is not a folder");
         EXPECT_EQ(test::readText(file), "x");
     }
-    if (::geteuid() != 0) { // root writes into read-only folders: nothing to refuse then
-        const fs::path locked = f.scratch / "locked";
-        fs::create_directories(locked);
-        fs::permissions(locked, fs::perms::owner_read | fs::perms::owner_exec);
-        const CliRun r = runCli(f.replay(locked / "out"), f.scratch);
-        fs::permissions(locked, fs::perms::owner_all);
-        EXPECT_EQ(r.exitCode, 1);
-        expectOneErrorLine(r, "is not writable");
+    // A folder without write permission. Root writes into any folder, and CI runs as root: there the
+    // program runs as the unprivileged user nobody (setpriv), for whom the folder is read-only.
+    const fs::path locked = f.scratch / "locked";
+    fs::create_directories(locked);
+    fs::permissions(locked, fs::perms::owner_read | fs::perms::owner_exec | fs::perms::group_read |
+                                fs::perms::group_exec | fs::perms::others_read | fs::perms::others_exec);
+    const bool root = ::geteuid() == 0;
+    if (root) {
+        ASSERT_EQ(test::runShell("command -v setpriv > /dev/null"), 0) << "setpriv (util-linux) is needed as root";
     }
+    const CliRun r = runCli(f.replay(locked / "out"), f.scratch, {},
+                            root ? "setpriv --reuid=nobody --regid=nogroup --clear-groups " : "");
+    fs::permissions(locked, fs::perms::owner_all);
+    EXPECT_EQ(r.exitCode, 1);
+    expectOneErrorLine(r, locked.string() + " is not writable");
+    EXPECT_EQ(listing(locked), "");
+    // A name longer than the file system's limit (255 bytes on ext4, tmpfs, overlayfs) fails for root
+    // too; it is refused before anything is written, not at mkdir.
+    const fs::path tooLong = f.scratch / "fresh" / std::string(300, 'n');
+    const CliRun longName = runCli(f.replay(tooLong), f.scratch);
+    EXPECT_EQ(longName.exitCode, 1);
+    expectOneErrorLine(longName, "has 300 characters, more than the 255 the file system allows");
+    EXPECT_FALSE(fs::exists(f.scratch / "fresh"));
 }
 
 // The output-folder rule on every command that writes a folder: a used one is refused (naming
@@ -297,6 +295,46 @@ TEST(Cli, OptionsMeanOneThingEverywhere) {
     EXPECT_EQ(bench.err.find("bunny"), std::string::npos) << bench.err;
 }
 
+/// The "  name   description" lines of a --help's subcommand list, by name.
+std::map<std::string, std::string> commandDescriptions(const std::string& help) {
+    std::map<std::string, std::string> descriptions;
+    std::istringstream lines(help);
+    bool inList = false;
+    for (std::string line; std::getline(lines, line);) {
+        if (line.rfind("Subcommands:", 0) == 0) inList = true;
+        if (!inList || line.rfind("  ", 0) != 0) continue;
+        const std::size_t nameEnd = line.find(' ', 2), text = line.find_first_not_of(' ', nameEnd);
+        if (nameEnd != std::string::npos && text != std::string::npos)
+            descriptions[line.substr(2, nameEnd - 2)] = line.substr(text);
+    }
+    return descriptions;
+}
+
+// Point 7 (top-level help): every tool command forwarded to lightskin-tools is described by the words its
+// own program uses (one table, ToolCommands.h), not by a generic "Developer tool" line.
+TEST(Cli, TopLevelHelpDescribesEachToolCommandAsTheToolDoes) {
+    const fs::path scratch = test::scratchDir("cli_tool_help");
+    const CliRun top = runCli("--help", scratch);
+    ASSERT_EQ(top.exitCode, 0);
+    const fs::path tools = fs::path(program()).parent_path() / "lightskin-tools";
+    ASSERT_EQ(test::runShell(tools.string() + " --help > " + (scratch / "tools.txt").string()), 0);
+    const auto ours = commandDescriptions(top.out), theirs = commandDescriptions(test::readText(scratch / "tools.txt"));
+    ASSERT_GE(theirs.size(), 9u) << test::readText(scratch / "tools.txt"); // synth and the 8 bench commands
+    for (const auto& [name, description] : theirs) {
+        SCOPED_TRACE(name);
+        ASSERT_TRUE(ours.contains(name)) << "lightskin does not forward it:\n" << top.out;
+        EXPECT_EQ(ours.at(name), description);
+        EXPECT_EQ(description.find("Developer tool in"), std::string::npos);
+    }
+    // The forwarded ones are marked as a group of their own, and only they.
+    EXPECT_NE(top.out.find("Developer tools (the program lightskin-tools"), std::string::npos) << top.out;
+    for (const auto& [name, description] : ours) {
+        if (!theirs.contains(name)) {
+            EXPECT_EQ(name.rfind("bench", 0), std::string::npos) << name;
+        }
+    }
+}
+
 // Point 7: labels say what happened.
 TEST(Cli, LabelsSayWhatHappened) {
     const Fixture f("cli_labels");
@@ -362,6 +400,202 @@ TEST(Cli, SceneErrorsComeFirstAndNameTheKey) {
     refused(R"({"version": 1, "objects": [{"mesh": "cube.obj"}], "gi": {"technique": "none"},
                 "tracking": {"file": "no-such-world.json"}})",
             "--pose tracking", "/tracking/file: tag world");
+}
+
+// Point 5: detector settings and an inline tag world read like every other scene error: "<scene file>:
+// <JSON pointer>: <cause>" (before: "<file> /tracking/detector: /quadDecimat: ..." and the library's
+// "quad_decimate: must be in [1, 16]" with no file at all), found before anything is written.
+TEST(Cli, DetectorAndTagWorldErrorsReadLikeSceneErrors) {
+    const Fixture f("cli_detector_errors");
+    const fs::path out = f.scratch / "out", path = f.scratch / "bad-scene.json";
+    const auto errorLine = [&](const std::string& tracking) {
+        std::ofstream(path) << R"({"version": 1, "objects": [{"mesh": "cube.obj"}], "gi": {"technique": "none"},
+                                    "tracking": )" +
+                                   tracking + "}";
+        const CliRun r = runCli("replay " + f.recording.string() + " --scene " + path.string() + " --out " +
+                                    out.string() + " --pose tracking",
+                                f.scratch);
+        EXPECT_EQ(r.exitCode, 1) << tracking;
+        EXPECT_FALSE(fs::exists(out)) << listing(out);
+        return r.errLines().empty() ? std::string() : r.errLines().back();
+    };
+    const std::string file = "lightskin: error: " + path.string() + ": ";
+    const std::string tag = R"("tag": {"id": 0, "size": 0.1})";
+    // The scene's own format, for comparison: the same file, then the JSON pointer, then the cause.
+    EXPECT_EQ(errorLine("{" + tag + R"(, "useDepth": 3})"), file + "/tracking/useDepth: expected true or false, got 3");
+    EXPECT_EQ(errorLine("{" + tag + R"(, "detector": {"quadDecimate": -2}})"),
+              file + "/tracking/detector/quadDecimate: expected a number in [1, 16], got -2");
+    EXPECT_EQ(
+        errorLine("{" + tag + R"(, "detector": {"quadDecimat": 1}})")
+            .rfind(file + "/tracking/detector/quadDecimat: unknown key; expected one of: family, quadDecimate", 0),
+        0u);
+    EXPECT_EQ(errorLine("{" + tag + R"(, "detector": {"refineEdges": "yes"}})"),
+              file + "/tracking/detector/refineEdges: expected true or false, got \"yes\"");
+    EXPECT_EQ(errorLine(R"({"tag": {"id": 0, "size": -0.1}})"),
+              file + "/tracking/tag/size: expected the black-border edge length in metres, between 0.001 and 100, "
+                     "got -0.1");
+    EXPECT_EQ(errorLine(R"({"tags": [{"id": 0, "size": 0.1, "positon": [0, 0, 0]}]})"),
+              file + "/tracking/tags/0/positon: unknown key; expected one of: id, size, position, orientation");
+    // A tag world in a file of its own: that file, and the pointer within it.
+    const fs::path world = f.scratch / "world.json";
+    std::ofstream(world) << R"({"tags": [{"id": "zero", "size": 0.1}]})";
+    EXPECT_EQ(errorLine(R"({"file": "world.json"})"),
+              "lightskin: error: " + world.string() + ": /tags/0/id: expected an integer tag id, got \"zero\"");
+    // track's own options name the option.
+    const CliRun track = runCli("track --tag-id 0 --tag-size 0.1 --decimate -1 missing.png", f.scratch);
+    EXPECT_EQ(track.exitCode, 1);
+    expectOneErrorLine(track, "--decimate: expected a number in [1, 16], got -1");
+}
+
+// The validate-before-write rule for synth's --objects-present (a lightskin scene read only after the
+// recording had been started before: a missing or broken one left a half-written folder behind).
+TEST(Cli, SynthReadsObjectsPresentBeforeWritingAnything) {
+    const Fixture f("cli_synth_objects_present");
+    const fs::path out = f.scratch / "out";
+    const std::string synth = "synth " + (test::sourceDir() / "recordings" / "scenes-synth" / "orbit.json").string() +
+                              " --max-frames 1 --out " + out.string() + " --objects-present ";
+    const CliRun missing = runCli(synth + (f.scratch / "no-such-scene.json").string(), f.scratch);
+    EXPECT_EQ(missing.exitCode, 1);
+    expectOneErrorLine(missing, "no-such-scene.json");
+    EXPECT_FALSE(fs::exists(out)) << listing(out);
+
+    std::ofstream(f.scratch / "garbage.obj") << "this is not a mesh\n\x01\x02\n";
+    std::ofstream(f.scratch / "garbage-scene.json")
+        << R"({"version": 1, "objects": [{"mesh": "garbage.obj"}], "gi": {"technique": "none"}})";
+    const CliRun garbage = runCli(synth + (f.scratch / "garbage-scene.json").string(), f.scratch);
+    EXPECT_EQ(garbage.exitCode, 1);
+    expectOneErrorLine(garbage, "garbage.obj");
+    EXPECT_FALSE(fs::exists(out)) << listing(out);
+
+    // The valid scene beside it is accepted (the refusals above are about the file, not the option).
+    const CliRun good = runCli(synth + f.scene.string(), f.scratch);
+    EXPECT_EQ(good.exitCode, 0) << good.err;
+    EXPECT_TRUE(fs::exists(out / "synth" / "present" / "000000.png")) << listing(out);
+}
+
+// Third-party logs (issue 14): OpenNI2's (a corrupt .oni) and assimp's (a garbage mesh) reach our log
+// with their source, shown with -v, and never the terminal raw: stdout is clean, every stderr line is
+// ours (the log's "[level]" lines or the one error line).
+TEST(Cli, OpenNi2AndAssimpLogsGoIntoOurLogWithTheirSource) {
+    const Fixture f("cli_third_party_logs");
+    const auto expectOnlyOurLines = [](const CliRun& r) {
+        EXPECT_EQ(r.out, "");
+        for (const std::string& line : r.errLines())
+            EXPECT_TRUE(line.rfind("[", 0) == 0 || line.rfind("lightskin", 0) == 0) << "raw line: " << line;
+    };
+    // Not an .oni at all: OpenNI2 logs "Couldn't open device" at ERROR severity.
+    std::ofstream(f.scratch / "corrupt.oni") << std::string(4096, 'x');
+    const CliRun oni = runCli("info -v " + (f.scratch / "corrupt.oni").string(), f.scratch);
+    EXPECT_EQ(oni.exitCode, 1);
+    expectOneErrorLine(oni, "corrupt.oni: OpenNI2 cannot open the file");
+    expectOnlyOurLines(oni);
+    EXPECT_NE(oni.err.find("[debug] OpenNI2: ERROR OniContext: Couldn't open device"), std::string::npos) << oni.err;
+    const CliRun quiet = runCli("info " + (f.scratch / "corrupt.oni").string(), f.scratch);
+    EXPECT_EQ(quiet.errLines().size(), 1u) << quiet.err; // without -v: the error line only
+
+    // A garbage mesh: assimp's validation error, with its source.
+    std::ofstream(f.scratch / "garbage.obj") << "this is not a mesh\n\x01\x02\n";
+    std::ofstream(f.scratch / "garbage-scene.json")
+        << R"({"version": 1, "objects": [{"mesh": "garbage.obj"}], "gi": {"technique": "none"}})";
+    const CliRun mesh =
+        runCli("replay -v " + f.recording.string() + " --scene " + (f.scratch / "garbage-scene.json").string() +
+                   " --out " + (f.scratch / "out").string(),
+               f.scratch);
+    EXPECT_EQ(mesh.exitCode, 1);
+    expectOneErrorLine(mesh, "garbage.obj: not a readable .obj mesh");
+    expectOnlyOurLines(mesh);
+    EXPECT_NE(mesh.err.find("[debug] assimp: Error, "), std::string::npos) << mesh.err;
+}
+
+// Point 7: with --view vals the comparison shows the VALs over the composite beside the composite
+// without GI: neither its labels, nor the report's heading, nor its folder call it "with GI".
+TEST(Cli, ValsViewComparisonSaysWhatItShows) {
+    const Fixture f("cli_vals_view");
+    const fs::path scene = f.scratch / "gi-scene.json";
+    std::ofstream(scene) << R"({"version": 1,
+      "objects": [{"mesh": "cube.obj", "transform": {"translation": [-0.05, 0, -0.3], "scale": 0.2}}],
+      "lights": [{"type": "point", "position": [0.3, 0.2, 1.0], "power": 5}],
+      "gi": {"technique": "lightskin", "sparsePoints": 64, "valStride": 2}})";
+    const auto replay = [&](const std::string& view) {
+        const fs::path out = f.scratch / ("out-" + view);
+        const CliRun r = runCli("replay " + f.recording.string() + " --scene " + scene.string() + " --out " +
+                                    out.string() + " --max-frames 1 --no-video --view " + view,
+                                f.scratch);
+        EXPECT_EQ(r.exitCode, 0) << r.err;
+        return out;
+    };
+    const fs::path vals = replay("vals");
+    const nlohmann::json report = nlohmann::json::parse(test::readText(vals / "report.json"));
+    EXPECT_EQ(report["compareLabels"], nlohmann::json({"VALs by flux over the composite", "composite without GI"}));
+    EXPECT_EQ(report["frames"][0]["compareImage"], "compare-vals/000000.png");
+    EXPECT_TRUE(fs::exists(vals / "compare-vals" / "000000.png")) << listing(vals);
+    EXPECT_FALSE(fs::exists(vals / "compare")) << listing(vals);
+    const std::string md = test::readText(vals / "report.md");
+    EXPECT_EQ(md.find("With GI"), std::string::npos) << md;
+    EXPECT_EQ(md.find("with GI"), std::string::npos) << md;
+    EXPECT_NE(md.find("## The VALs by flux drawn over the composite / the composite without GI"), std::string::npos)
+        << md;
+    // The final view keeps the paper's wording, in compare/.
+    const fs::path final = replay("final");
+    const nlohmann::json finalReport = nlohmann::json::parse(test::readText(final / "report.json"));
+    EXPECT_EQ(finalReport["compareLabels"], nlohmann::json({"with GI (lightskin)", "without GI"}));
+    EXPECT_EQ(finalReport["frames"][0]["compareImage"], "compare/000000.png");
+    EXPECT_NE(test::readText(final / "report.md").find("## With GI / without GI"), std::string::npos);
+}
+
+// Point 7: a live snapshot is the rendered image without the status line burnt in. The recording is
+// one flat colour and the scene's only object is behind the camera (world z towards the camera, camera
+// at z = 1 m): the composite is the camera image, so every pixel of the snapshot must be that colour;
+// the status line's white-on-black text would change hundreds of pixels in the bottom rows.
+TEST(Cli, LiveSnapshotHasNoStatusLine) {
+    const Fixture f("cli_live_snapshot");
+    const fs::path scene = f.scratch / "behind.json", snapshot = f.scratch / "snapshot.png";
+    std::ofstream(scene) << R"({"version": 1,
+      "objects": [{"mesh": "cube.obj", "transform": {"translation": [0, 0, 3], "scale": 0.2}}],
+      "lights": [{"type": "point", "position": [0.3, 0.2, 1.0], "power": 5}], "gi": {"technique": "none"}})";
+    const CliRun r =
+        runCli("live --headless --fast --pose ground-truth --max-frames 3 --snapshot-after 1 --device " +
+                   f.recording.string() + " --scene " + scene.string() + " --snapshot " + snapshot.string(),
+               f.scratch);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.err.find("live: frame 1:"), std::string::npos) << "the status line exists: " << r.err;
+    const cv::Mat image = cv::imread(snapshot.string(), cv::IMREAD_COLOR);
+    ASSERT_EQ(image.size(), cv::Size(test::kWallWidth, test::kWallHeight));
+    cv::Mat differs;
+    cv::absdiff(image, cv::Scalar(40, 90, 160), differs);
+    // 8-bit camera colour composited unchanged: at most 1 level of rounding through linear light.
+    double largest = 0.0;
+    cv::minMaxLoc(differs.reshape(1), nullptr, &largest);
+    EXPECT_LE(largest, 1.0);
+}
+
+// A new user's walk (issue 14): bad values are named with the option and what was expected; words from a
+// fixed list are checked while the command line is parsed (exit 64, before the scene or GL is touched).
+TEST(Cli, BadOptionValuesNameTheOptionAndWhatWasExpected) {
+    const Fixture f("cli_bad_values");
+    const fs::path out = f.scratch / "out";
+    const auto refused = [&](const std::string& arguments, int code, const std::string& says) {
+        SCOPED_TRACE(arguments);
+        const CliRun r = runCli(arguments, f.scratch);
+        EXPECT_EQ(r.exitCode, code);
+        expectOneErrorLine(r, says);
+        EXPECT_EQ(r.err.find("[info] OpenGL context"), std::string::npos) << "found only after GL started: " << r.err;
+        EXPECT_EQ(r.out, "");
+        EXPECT_FALSE(fs::exists(out)) << listing(out);
+    };
+    refused(f.replay(out, "--pose bogus"), 64, "--pose: expected one of: ground-truth, tracking, fixed; got 'bogus'");
+    refused(f.replay(out, "--view bogus"), 64, "--view: expected one of: final, direct, indirect");
+    refused(f.replay(out, "--backend gpu"), 64, "--backend: expected one of: gl, cpu; got 'gpu'");
+    refused("live --headless --device " + f.recording.string() + " --scene " + f.scene.string() + " --pose x", 64,
+            "--pose: expected one of: ground-truth, tracking, fixed; got 'x'");
+    refused(f.replay(out, "--write-frames 5-2"), 1, "--write-frames: the range '5-2' runs backwards; write it as 2-5");
+    refused("track --tag-id 0 --tag-size -1 x.png", 1,
+            "--tag-size: expected the tag's black-border edge length in metres (> 0) with --tag-id, got -1");
+    refused("track --tag-size 0.1 x.png", 1, "--tag-id: expected a tag id >= 0 with --tag-size");
+    const fs::path file = f.scratch / "a-file";
+    std::ofstream(file) << "x";
+    refused("doctor --out " + (file / "triangle.png").string(), 1, file.string() + ": is not a folder");
+    refused("doctor --out " + f.scratch.string(), 1, "is a folder (--out needs a PNG file name)");
 }
 
 // Point 7: a bad index line is reported with its line in the file (the JSON parser counts from 1 on

@@ -1,5 +1,6 @@
 // End-to-end tests of `lightskin replay` (the built program, run as a user would).
 #include "TestPaths.h"
+#include "WallRecording.h"
 
 #include <lightskin/capture/Recording.h>
 #include <lightskin/eval/ColourSpace.h>
@@ -20,34 +21,12 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr int kWidth = 64, kHeight = 48, kFrames = 6;
+constexpr int kWidth = test::kWallWidth, kHeight = test::kWallHeight, kFrames = test::kWallFrames;
 
-/// A synthetic recording: a wall at 1.5 m with a box at 0.8 m in the left third; colour
-/// gradient; the camera translates along x, ground truth in every frame.
+/// The shared wall recording (tests/support/WallRecording.h) with a colour gradient.
 fs::path writeRecording(const fs::path& folder) {
-    capture::RecordingInfo info;
-    info.deviceName = "replay test";
-    info.colourIntrinsics = {kWidth, kHeight, 60.0, 60.0, 31.5, 23.5, {}};
-    info.depthIntrinsics = info.colourIntrinsics;
-    info.depthScaleMetres = 0.001;
-    auto writer = capture::RecordingWriter::create(folder, info);
-    for (int i = 0; i < kFrames; ++i) {
-        RgbdFrame frame;
-        frame.colourIntrinsics = frame.depthIntrinsics = info.colourIntrinsics;
-        frame.depth = cv::Mat(kHeight, kWidth, CV_16UC1, cv::Scalar(1500));
-        frame.depth.colRange(0, kWidth / 3).setTo(800);
-        frame.colour.create(kHeight, kWidth, CV_8UC3);
-        for (int v = 0; v < kHeight; ++v)
-            for (int u = 0; u < kWidth; ++u)
-                frame.colour.at<cv::Vec3b>(v, u) = cv::Vec3b(std::uint8_t(u * 3), std::uint8_t(v * 4), 120);
-        frame.colourTimestampSeconds = frame.depthTimestampSeconds = i / 30.0;
-        // Camera 1 m in front of the world origin looking at it: world z towards the camera.
-        frame.groundTruth_world_T_camera =
-            Pose(glm::angleAxis(glm::pi<double>(), glm::dvec3(1, 0, 0)), {0.01 * i, 0.0, 1.0});
-        writer.write(frame);
-    }
-    writer.finish();
-    return folder;
+    return test::writeWallRecording(
+        folder, [](int u, int v) { return cv::Vec3b(std::uint8_t(u * 3), std::uint8_t(v * 4), 120); }, "replay test");
 }
 
 fs::path writeScene(const fs::path& folder, const std::string& body) {
@@ -155,7 +134,8 @@ TEST(ReplayCommand, WritesEveryFrameAVideoWithTheFrameCountAndAReport) {
 
 TEST(ReplayCommand, FrameListChoosesThePngsButEveryFrameIsRead) {
     const fs::path scratch = test::scratchDir("replay_list");
-    const auto [recording, out, r] = replayTestRecording(scratch, kScene, " --write-frames 1,3-4 --no-video --pose fixed");
+    const auto [recording, out, r] =
+        replayTestRecording(scratch, kScene, " --write-frames 1,3-4 --no-video --pose fixed");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_EQ(countFiles(out / "frames", ".png"), 3u);
     EXPECT_TRUE(fs::exists(out / "frames" / "000003.png"));
@@ -328,7 +308,8 @@ TEST(ReplayCommand, BudgetReportsTheChosenSettingsPerFrame) {
     }
     // Without a budget: no such fields.
     const fs::path plain = test::scratchDir("replay_budget_off");
-    const auto [recording2, out2, r2] = replayTestRecording(plain, kGiScene, " --write-frames 0 --max-frames 1 --no-video");
+    const auto [recording2, out2, r2] =
+        replayTestRecording(plain, kGiScene, " --write-frames 0 --max-frames 1 --no-video");
     ASSERT_EQ(r2.exitCode, 0) << r2.err;
     EXPECT_FALSE(nlohmann::json::parse(test::readText(out2 / "report.json"))["frames"][0].contains("giSettings"));
     // A negative budget is an error naming the option.

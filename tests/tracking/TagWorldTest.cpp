@@ -75,43 +75,66 @@ TEST(TagWorldTest, LoadReadsAFileAndNamesMissingOnes) {
 TEST(TagWorldTest, DuplicateIdsNameBothEntries) {
     const std::string cause =
         errorOf(R"({"tags": [{"id": 1, "size": 0.1}, {"id": 4, "size": 0.1}, {"id": 1, "size": 0.2}]})");
-    EXPECT_NE(cause.find("tags[2].id"), std::string::npos) << cause;
-    EXPECT_NE(cause.find("duplicate tag id 1"), std::string::npos) << cause;
-    EXPECT_NE(cause.find("tags[0]"), std::string::npos) << cause;
+    EXPECT_EQ(cause.rfind("/tags/2/id: duplicate tag id 1", 0), 0u) << cause;
+    EXPECT_NE(cause.find("/tags/0"), std::string::npos) << cause;
 }
 
 TEST(TagWorldTest, BadSizesNameTheKey) {
     for (const char* size : {"0", "-0.1", "160", "0.0001", "\"big\"", "null"}) {
         const std::string cause =
             errorOf(std::string(R"({"tags": [{"id": 1, "size": 0.1}, {"id": 2, "size": )") + size + "}]}");
-        EXPECT_EQ(cause.rfind("tags[1].size", 0), 0u) << size << ": " << cause;
+        EXPECT_EQ(cause.rfind("/tags/1/size: expected ", 0), 0u) << size << ": " << cause;
     }
-    const std::string single = errorOf(R"({"tag": {"id": 1, "size": -1}})");
-    EXPECT_EQ(single.rfind("tag.size", 0), 0u) << single;
-    EXPECT_EQ(errorOf(R"({"tag": {"id": 1}})").rfind("tag.size: missing", 0), 0u);
+    // The value as written, not std::to_string's "160.000000".
+    EXPECT_EQ(errorOf(R"({"tag": {"id": 1, "size": 160}})"),
+              "/tag/size: expected the black-border edge length in metres, between 0.001 and 100, got 160");
+    EXPECT_EQ(errorOf(R"({"tag": {"id": 1}})").rfind("/tag/size: missing", 0), 0u);
 }
 
+// The scene file's format (render/src/Scene.cpp): "<pointer>: expected ..., got ..." or "<pointer>:
+// unknown key; expected one of: ...", so a tag world inside a scene reads like the rest of the scene.
 TEST(TagWorldTest, MalformedJsonAndWrongStructure) {
-    EXPECT_NE(errorOf(R"({"tag": {"id": 1, "size": 0.1})").find("malformed JSON"), std::string::npos);
-    EXPECT_NE(errorOf("").find("malformed JSON"), std::string::npos);
-    EXPECT_EQ(errorOf("[1, 2]").rfind("(root)", 0), 0u);
-    EXPECT_EQ(errorOf("{}").rfind("tag/tags", 0), 0u);
-    EXPECT_EQ(errorOf(R"({"tag": {"id": 1, "size": 0.1}, "tags": []})").rfind("tag/tags", 0), 0u);
-    EXPECT_EQ(errorOf(R"({"tags": []})").rfind("tags:", 0), 0u);
-    EXPECT_EQ(errorOf(R"({"tags": {"id": 1}})").rfind("tags:", 0), 0u);
-    EXPECT_EQ(errorOf(R"({"tags": [{"id": 1.5, "size": 0.1}]})").rfind("tags[0].id", 0), 0u);
+    EXPECT_EQ(errorOf(R"({"tag": {"id": 1, "size": 0.1})").rfind("not valid JSON", 0), 0u);
+    EXPECT_EQ(errorOf("").rfind("not valid JSON", 0), 0u);
+    EXPECT_EQ(errorOf("[1, 2]"), R"(/: expected an object with "tag" or "tags", got [1,2])");
+    EXPECT_EQ(errorOf("{}").rfind("/: expected exactly one of", 0), 0u);
+    EXPECT_EQ(errorOf(R"({"tag": {"id": 1, "size": 0.1}, "tags": []})").rfind("/tags: expected exactly one of", 0), 0u);
+    EXPECT_EQ(errorOf(R"({"tags": []})"), "/tags: expected at least one tag");
+    EXPECT_EQ(errorOf(R"({"tags": {"id": 1}})"), R"(/tags: expected an array of tags, got {"id":1})");
+    EXPECT_EQ(errorOf(R"({"tags": [{"id": 1.5, "size": 0.1}]})"), "/tags/0/id: expected an integer tag id, got 1.5");
+    EXPECT_EQ(errorOf(R"({"tags": [{"id": 1, "size": 0.1, "positon": [0, 0, 0]}]})"),
+              "/tags/0/positon: unknown key; expected one of: id, size, position, orientation");
+    EXPECT_EQ(errorOf(R"({"tags": [{"id": 1, "size": 0.1, "position": [0, 0]}]})"),
+              "/tags/0/position: expected an array of 3 numbers, got [0,0]");
+    EXPECT_EQ(errorOf(R"({"tags": [{"id": 1, "size": 0.1, "orientation": [1, 1, 0, 0]}]})")
+                  .rfind("/tags/0/orientation: expected a unit quaternion", 0),
+              0u);
     EXPECT_EQ(
-        errorOf(R"({"tags": [{"id": 1, "size": 0.1, "positon": [0, 0, 0]}]})").rfind("tags[0].positon: unknown key", 0),
+        errorOf(R"({"tag": {"id": 1, "size": 0.1, "position": [0, 0, 0]}})").rfind("/tag/position: unknown key", 0),
         0u);
-    EXPECT_EQ(errorOf(R"({"tags": [{"id": 1, "size": 0.1, "position": [0, 0]}]})").rfind("tags[0].position", 0), 0u);
-    EXPECT_EQ(
-        errorOf(R"({"tags": [{"id": 1, "size": 0.1, "orientation": [1, 1, 0, 0]}]})").rfind("tags[0].orientation", 0),
-        0u);
-    EXPECT_EQ(
-        errorOf(R"({"tag": {"id": 1, "size": 0.1, "position": [0, 0, 0]}})").rfind("tag.position: unknown key", 0), 0u);
-    EXPECT_EQ(errorOf(R"({"family": "tag99", "tag": {"id": 1, "size": 0.1}})").rfind("family", 0), 0u);
-    EXPECT_EQ(errorOf(R"({"tag": {"id": 587, "size": 0.1}})").rfind("tag.id", 0), 0u); // tag36h11 has 0..586
-    EXPECT_EQ(errorOf(R"({"tagz": 1})").rfind("tagz: unknown key", 0), 0u);
+    EXPECT_EQ(errorOf(R"({"family": 7, "tag": {"id": 1, "size": 0.1}})"), "/family: expected a tag family name, got 7");
+    EXPECT_EQ(errorOf(R"({"family": "tag99", "tag": {"id": 1, "size": 0.1}})").rfind("/family: ", 0), 0u);
+    EXPECT_EQ(errorOf(R"({"tag": {"id": 587, "size": 0.1}})"), // tag36h11 has 0..586
+              "/tag/id: expected an id of tag36h11 (0..586), got 587");
+    EXPECT_EQ(errorOf(R"({"tagz": 1})"), "/tagz: unknown key; expected one of: family, tag, tags");
+}
+
+// Inside a scene the world's keys are prefixed with where it sits ("/tracking"); the source stays the file.
+TEST(TagWorldTest, AWorldInsideAFileNamesItsFullPointer) {
+    try {
+        (void)TagWorld::fromJson(R"({"tags": [{"id": 1, "size": -3}]})", "scene.json", "/tracking");
+        FAIL();
+    } catch (const Error& error) {
+        EXPECT_EQ(std::string(error.what()),
+                  "scene.json: /tracking/tags/0/size: expected the black-border edge length in metres, between 0.001 "
+                  "and 100, got -3");
+    }
+    try {
+        (void)TagWorld::fromJson("[]", "scene.json", "/tracking");
+        FAIL();
+    } catch (const Error& error) {
+        EXPECT_EQ(error.cause(), R"(/tracking: expected an object with "tag" or "tags", got [])");
+    }
 }
 
 } // namespace

@@ -164,19 +164,8 @@ struct TagDetector::Impl {
 };
 
 TagDetector TagDetector::create(const DetectorSettings& settings) {
-    if (!(settings.quadDecimate >= 1.0f && settings.quadDecimate <= 16.0f))
-        throw Error("quad_decimate", std::nullopt, "must be in [1, 16], got " + std::to_string(settings.quadDecimate));
-    if (!(settings.quadSigma >= 0.0f && settings.quadSigma <= 10.0f))
-        throw Error("quad_sigma", std::nullopt, "must be in [0, 10], got " + std::to_string(settings.quadSigma));
-    if (settings.threads < 1 || settings.threads > 64)
-        throw Error("nthreads", std::nullopt, "must be in [1, 64], got " + std::to_string(settings.threads));
-    if (!(settings.decodeSharpening >= 0.0 && settings.decodeSharpening <= 10.0))
-        throw Error("decode_sharpening", std::nullopt,
-                    "must be in [0, 10], got " + std::to_string(settings.decodeSharpening));
-    if (settings.upsample < 1 || settings.upsample > 4)
-        throw Error("upsample", std::nullopt, "must be 1, 2, 3 or 4, got " + std::to_string(settings.upsample));
-    if (settings.maxHamming < 0 || settings.maxHamming > 2)
-        throw Error("max_hamming", std::nullopt, "must be 0, 1 or 2, got " + std::to_string(settings.maxHamming));
+    if (const auto problem = findDetectorSettingProblem(settings))
+        throw Error("detector settings", std::nullopt, "/" + problem->key + ": " + problem->cause);
 
     auto impl = std::make_unique<Impl>();
     impl->settings = settings;

@@ -13,6 +13,7 @@
 
 #include <array>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -68,10 +69,21 @@ struct DetectorSettings {
 
 /// Reads detector settings from a JSON object text (scene files' /tracking/detector), starting from
 /// `defaults`. Keys, all optional: family, quadDecimate, quadSigma, threads, refineEdges,
-/// decodeSharpening, refineCorners, maxHamming, minDecisionMargin, upsample. Unknown keys and wrong types
-/// throw lightskin::Error naming `sourceName` and the key; ranges are checked by TagDetector::create.
+/// decodeSharpening, refineCorners, maxHamming, minDecisionMargin, upsample. Unknown keys, wrong types and
+/// values out of range throw lightskin::Error in the scene file's format: source `sourceName` (the file),
+/// cause "<pointer>/<key>: expected ..., got ..." with `pointer` the object's JSON pointer in that file
+/// (e.g. "/tracking/detector"; empty for a file that holds only the settings).
 DetectorSettings detectorSettingsFromJson(const std::string& jsonObjectText, const std::string& sourceName,
-                                          const DetectorSettings& defaults = {});
+                                          const std::string& pointer = {}, const DetectorSettings& defaults = {});
+
+/// A setting the library cannot use: its JSON key (as detectorSettingsFromJson reads it) and the
+/// cause ("expected a number in [1, 16], got -2").
+struct DetectorSettingProblem {
+    std::string key;
+    std::string cause;
+};
+/// The first setting of `settings` out of its range (the ranges TagDetector::create accepts), or none.
+std::optional<DetectorSettingProblem> findDetectorSettingProblem(const DetectorSettings& settings);
 
 struct TagDetection {
     int id = -1;

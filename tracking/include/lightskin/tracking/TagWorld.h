@@ -33,13 +33,15 @@ class TagWorld {
 public:
     /// One tag at the world origin (world frame = tag frame). Throws lightskin::Error on a bad id/size.
     static TagWorld singleTag(int id, double sizeMetres, const std::string& family = "tag36h11");
-    /// Several tags; throws lightskin::Error naming `tags[i].<key>` on duplicate ids, sizes that are
+    /// Several tags; throws lightskin::Error naming `/tags/<i>/<key>` on duplicate ids, sizes that are
     /// not positive and finite, ids outside the family, or an empty list.
     static TagWorld bundle(std::vector<WorldTag> tags, const std::string& family = "tag36h11",
                            const std::string& sourceName = "tag bundle");
-    /// Parses the JSON described above. `sourceName` names the file in errors, which also name the
-    /// key (e.g. "tags[2].size: ...") for malformed JSON, missing or mistyped keys and bad values.
-    static TagWorld fromJson(const std::string& text, const std::string& sourceName);
+    /// Parses the JSON described above. Errors read like the scene file's: source `sourceName` (the
+    /// file), cause "<pointer><key>: expected ..., got ..." where <key> is the JSON pointer within the
+    /// world (e.g. "/tags/2/size") and `pointer` where the world sits in its file (a scene's
+    /// "/tracking"; empty for a tag-world file), for malformed JSON, missing or mistyped keys and bad values.
+    static TagWorld fromJson(const std::string& text, const std::string& sourceName, const std::string& pointer = {});
     /// Reads and parses a config file; throws lightskin::Error naming the file.
     static TagWorld load(const std::filesystem::path& path);
 
@@ -52,6 +54,7 @@ public:
 
 private:
     TagWorld() = default;
+    static TagWorld parse(const std::string& text, const std::string& sourceName);
     std::string family_;
     std::vector<WorldTag> tags_;
 };
