@@ -58,7 +58,8 @@ struct MultiscalePrt::Impl {
     std::vector<VirtualAreaLight> vals; // read-back, grown only when a frame brings more VALs
     std::vector<glm::vec3> entryIrradiance, exitIrradiance;
     std::vector<glm::vec4> exitUpload;
-    std::vector<gl::StageTime> stageTimes;
+    // CPU wall milliseconds of the last render(): read-back, entry irradiance, exit irradiance, shading pass.
+    std::vector<gl::StageTime> stageTimes{{"read-back", 0.0}, {"entry", 0.0}, {"exit", 0.0}, {"shade", 0.0}};
     float epsilon = 1e-6f;
 
     void addLightIrradiance() {
@@ -150,29 +151,29 @@ void MultiscalePrt::render(const ValSetView& lights, std::span<const MeshInstanc
     LIGHTSKIN_ASSERT(impl.prepared, "lightskin::gi::MultiscalePrt::render(): prepare() first");
     LIGHTSKIN_ASSERT(instances.size() + 1 == impl.data.exitOffsets.size(),
                      "lightskin::gi::MultiscalePrt::render(): the instances are not the prepared ones");
-    impl.stageTimes.clear();
     auto start = Clock::now();
     if (lights.count > impl.vals.size()) {
-        if (!impl.vals.empty())
-            log::info("multiscale-prt: VAL read-back buffer grows to " + std::to_string(lights.count));
-        impl.vals.resize(lights.count);
+        // Sized once to the producer's whole buffer (its capacity), so later frames do not reallocate.
+        GLint64 bytes = 0;
+        glGetNamedBufferParameteri64v(lights.buffer, GL_BUFFER_SIZE, &bytes);
+        impl.vals.resize(std::max<std::size_t>(lights.count, std::size_t(bytes) / sizeof(VirtualAreaLight)));
     }
     if (lights.count > 0)
         glGetNamedBufferSubData(lights.buffer, 0, GLsizeiptr(lights.count * sizeof(VirtualAreaLight)),
                                 impl.vals.data());
     const std::span<const VirtualAreaLight> vals(impl.vals.data(), lights.count);
-    impl.stageTimes.push_back({"prt val read-back", millisecondsSince(start)});
+    impl.stageTimes[0].milliseconds = millisecondsSince(start);
 
     start = Clock::now();
     prtEntryIrradianceInto(impl.data, vals, impl.entryIrradiance);
     impl.addLightIrradiance();
-    impl.stageTimes.push_back({"prt entry irradiance", millisecondsSince(start)});
+    impl.stageTimes[1].milliseconds = millisecondsSince(start);
 
     start = Clock::now();
     prtExitIrradianceInto(impl.data, vals, impl.entryIrradiance, impl.exitIrradiance);
     for (std::size_t x = 0; x < impl.exitIrradiance.size(); ++x)
         impl.exitUpload[x] = glm::vec4(impl.exitIrradiance[x], 0.0f);
-    impl.stageTimes.push_back({"prt exit irradiance", millisecondsSince(start)});
+    impl.stageTimes[2].milliseconds = millisecondsSince(start);
 
     start = Clock::now();
     if (!impl.exitUpload.empty())
@@ -202,7 +203,7 @@ void MultiscalePrt::render(const ValSetView& lights, std::span<const MeshInstanc
     }
     glBindVertexArray(0);
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
-    impl.stageTimes.push_back({"prt shade", millisecondsSince(start)});
+    impl.stageTimes[3].milliseconds = millisecondsSince(start);
 }
 
 void MultiscalePrt::lastStageTimes(std::vector<gl::StageTime>& out) const { out = impl_->stageTimes; }
