@@ -16,15 +16,17 @@
 namespace lightskin::test {
 namespace {
 
-template <class T> bool bitwiseEqual(const std::vector<T>& a, const std::vector<T>& b) {
+template <class T>
+bool bitwiseEqual(const std::vector<T>& a, const std::vector<T>& b) {
     return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
 }
 
 class PrtCache : public ::testing::Test {
 protected:
     void SetUp() override {
-        folder_ = std::filesystem::temp_directory_path() /
-                  ("lightskin_prt_cache_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+        folder_ =
+            std::filesystem::temp_directory_path() /
+            ("lightskin_prt_cache_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
         std::filesystem::remove_all(folder_);
         std::filesystem::create_directories(folder_);
         scene_ = prt::insideBox(2, glm::vec3(0.5f, 0.4f, 0.3f), false);
