@@ -138,11 +138,6 @@ void prtEntryIrradianceInto(const PrtData& data, std::span<const VirtualAreaLigh
 void prtExitIrradianceInto(const PrtData& data, std::span<const VirtualAreaLight> vals,
                            std::span<const glm::vec3> entryIrradiance, std::span<glm::vec3> exitIrradiance);
 
-/// Where an IndirectIllumination stage time of this technique went, CPU wall milliseconds of the last render().
-struct PrtFrameTimes {
-    double readBackMs = 0.0, entryMs = 0.0, exitMs = 0.0, shadeMs = 0.0;
-};
-
 class MultiscalePrt final : public IndirectIllumination {
 public:
     /// Needs a current GL 4.5 context (builds the shading program). Throws lightskin::Error on bad settings.
@@ -152,8 +147,13 @@ public:
     std::string_view name() const override { return "multiscale-prt"; }
     /// Loads the precompute from the cache or computes it (and writes the cache); sizes the per-frame buffers.
     void prepare(std::span<const MeshInstance> instances) override;
+    /// As IndirectIllumination::render(); an empty VAL set gives exactly 0 only without setLights() (the scene
+    /// lights' transfer between the objects does not depend on the VALs). The objects must be where prepare()
+    /// saw them. Reads the VALs back (count x 48 bytes).
     void render(const ValSetView& lights, std::span<const MeshInstance> instances, const GBufferView& gbuffer,
                 const ViewParameters& view, std::uint32_t targetTexture) override;
+    /// CPU wall milliseconds of the last render(): "read-back", "entry" (VALs and lights at the entry points),
+    /// "exit" (first bounce at the vertices + the compressed transfer), "shade" (issuing the GL pass).
     void lastStageTimes(std::vector<gl::StageTime>& out) const override;
 
     /// The scene's point/spot lights (their direct light at the entry points, with Embree shadows). Copied.
