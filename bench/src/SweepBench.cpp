@@ -496,6 +496,7 @@ RunResult runConfig(World& world, const SweepBenchOptions& options, const Config
         technique = gi::ImperfectVolumes::create(c.volumes);
     } else if (c.technique == "multiscale-prt") {
         r.method = "multiscale-prt"; // prepareMs holds its precompute (no cache in the bench)
+        r.backend = "CPU";           // its per-frame part runs on the CPU (the shading pass on GL)
         technique = gi::MultiscalePrt::create(c.prt);
     } else if (c.backend == "CPU")
         technique = gi::CpuLightSkin::create({settingsFor(c, set.count), 0}, world.provider(c.sparse));
