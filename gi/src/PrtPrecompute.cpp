@@ -240,6 +240,11 @@ PrtData precomputePrt(std::span<const MeshInstance> instances, const MultiscaleP
     std::vector<double> cumulative(triangles.size());
     double totalArea = 0.0;
     for (std::size_t t = 0; t < triangles.size(); ++t) cumulative[t] = totalArea += double(triangles[t].area);
+    if (triangles.empty()) { // no virtual content: nothing to transfer (render() writes zeros)
+        data.singularValueOffsets.push_back(0);
+        data.precomputeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        return data;
+    }
     if (!(totalArea > 0.0)) throw Error("gi.multiscalePrt", std::nullopt, "the virtual meshes have no area");
     std::vector<glm::vec3> entryAlbedo;
     {

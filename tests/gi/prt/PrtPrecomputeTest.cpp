@@ -170,6 +170,17 @@ TEST(PrtPca, ReconstructionErrorIsTheDiscardedSingularValues) {
     }
 }
 
+// No virtual content: an empty transfer that the run-time functions accept, not an error.
+TEST(PrtPrecompute, NoMeshesGiveAnEmptyTransfer) {
+    const gi::PrtData data = gi::precomputePrt({}, transferSettings());
+    EXPECT_EQ(data.exitCount(), 0u);
+    EXPECT_EQ(data.entryCount(), 0u);
+    EXPECT_EQ(data.clusterCount, 0u);
+    std::vector<glm::vec3> none;
+    gi::prtEntryIrradianceInto(data, {}, none);
+    gi::prtExitIrradianceInto(data, {}, none, none);
+}
+
 // Obscurances of a plane: no ray from its points hits anything, W = 1 exactly.
 TEST(PrtObscurance, PlaneIsOne) {
     PrtScene plane;
