@@ -36,6 +36,8 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
     command->add_option(
         "--volumes", o->volumes,
         "Imperfect-volumes rows, resolution:points-per-triangle:rays-per-voxel:bounces (comma-separated)");
+    command->add_option("--prt", o->prt,
+                        "Multi-scale PRT rows, entry-points:walks-per-entry:clusters:basis-vectors (comma-separated)");
     command->add_option("--backends", o->backends,
                         "LightSkin backends to sweep: gl,cpu (the CPU backend, gi.backend \"cpu\")");
     command->add_option("--default-sparse", o->defaults.sparse, "Default configuration: sparse points per model");

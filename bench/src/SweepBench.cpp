@@ -15,6 +15,7 @@
 #include <lightskin/gi/CpuLightSkin.h>
 #include <lightskin/gi/ImperfectVolumes.h>
 #include <lightskin/gi/LightSkinIllumination.h>
+#include <lightskin/gi/MultiscalePrt.h>
 #include <lightskin/gi/RayTracedGroundTruth.h>
 #include <lightskin/gi/SimpleGBuffer.h>
 #include <lightskin/gi/SparsePointSampler.h>
@@ -91,6 +92,7 @@ void applyQuick(SweepBenchOptions& o) {
     o.meshes = "";
     o.adaptive = "off,on";
     o.volumes = "16:12:36:1";
+    o.prt = "64:4:4:2";
     o.defaults.sparse = 256;
     o.defaults.stride = 4;
     o.defaults.channels = 1; // the checks compare like with like: brute force has no occlusion
@@ -448,6 +450,10 @@ RunResult runConfig(World& world, const SweepBenchOptions& options, const Config
     if (c.technique == "imperfect-volumes") {
         r.method = "imperfect volumes";
         technique = gi::ImperfectVolumes::create(c.volumes);
+    } else if (c.technique == "multiscale-prt") {
+        r.method = "multiscale-prt"; // prepareMs holds its precompute (no cache in the bench)
+        r.backend = "CPU";           // its per-frame part runs on the CPU (the shading pass on GL)
+        technique = gi::MultiscalePrt::create(c.prt);
     } else if (c.backend == "CPU")
         technique = gi::CpuLightSkin::create({settingsFor(c, set.count), 0}, world.provider(c.sparse));
     else
@@ -589,6 +595,17 @@ std::vector<Config> buildSweep(const SweepBenchOptions& o) {
         add("volumes", v, [s](Config& c) {
             c.technique = "imperfect-volumes";
             c.volumes = s;
+            c.channels = 1;
+        });
+    }
+    for (const std::string& v : splitList<std::string>(o.prt, [](const std::string& x) { return x; })) {
+        gi::MultiscalePrtSettings s;
+        if (std::sscanf(v.c_str(), "%d:%d:%d:%d", &s.entryPoints, &s.walksPerEntry, &s.clusters, &s.basisVectors) != 4)
+            throw Error("--prt", std::nullopt, "expected entries:walks:clusters:D, got '" + v + "'");
+        gi::validate(s);
+        add("prt", v, [s](Config& c) {
+            c.technique = "multiscale-prt";
+            c.prt = s;
             c.channels = 1;
         });
     }

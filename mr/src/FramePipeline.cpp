@@ -8,6 +8,7 @@
 #include <lightskin/gi/DifferentialIrradiance.h>
 #include <lightskin/gi/ImperfectVolumes.h>
 #include <lightskin/gi/LightSkinIllumination.h>
+#include <lightskin/gi/MultiscalePrt.h>
 #include <lightskin/gi/ValGenerator.h>
 #include <lightskin/gi/ValOccupancyCull.h>
 #include <lightskin/gi/ValSetMerger.h>
@@ -19,6 +20,7 @@
 #include <epoxy/gl.h>
 #include <glm/common.hpp>
 #include <glm/exponential.hpp>
+#include <glm/trigonometric.hpp>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -125,7 +127,25 @@ std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettin
         return gi::BruteForceIllumination::create(s);
     }
     if (settings.technique == "imperfect-volumes") return gi::ImperfectVolumes::create(settings.imperfectVolumes);
+    if (settings.technique == "multiscale-prt") return gi::MultiscalePrt::create(settings.multiscalePrt);
     return std::make_unique<render::NullIndirectIllumination>();
+}
+
+// The scene lights as multi-scale PRT's entry-point lights (their transfer between the virtual objects).
+std::vector<gi::PrtLight> prtLightsFromScene(const render::Scene& scene) {
+    std::vector<gi::PrtLight> out;
+    for (const render::SceneLight& light : scene.lights) {
+        gi::PrtLight l;
+        l.position = light.position;
+        l.power = light.power;
+        l.direction = light.direction;
+        if (light.type == render::LightType::Spot) {
+            l.cosInner = std::cos(glm::radians(light.coneAngleDegrees));
+            l.cosOuter = std::cos(glm::radians(light.coneAngleDegrees + light.coneFalloffDegrees));
+        }
+        out.push_back(l);
+    }
+    return out;
 }
 
 std::vector<gi::VirtualLight> virtualLightsFromScene(const render::Scene& scene) {
@@ -369,6 +389,9 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
     } else {
         log::warning(source.uri + ": depth is not registered to colour; no VALs and no occlusion by real geometry");
     }
+    if (scene.gi.virtualBounce && scene.gi.technique == "multiscale-prt")
+        log::warning("gi.virtualBounce with technique multiscale-prt: the lights' bounce between the virtual objects "
+                     "is counted twice (RSM VALs and the precomputed transfer); turn virtualBounce off");
     if (scene.gi.virtualBounce && scene.lights.empty()) log::info("gi.virtualBounce: the scene has no lights, nothing to bounce");
     if (scene.gi.virtualBounce && !scene.lights.empty()) {
         s.virtualLights = virtualLightsFromScene(scene);
@@ -434,6 +457,8 @@ void FramePipeline::setGiSettings(const render::GiSettings& settings) {
         s.lightSkin.adaptive = true; // channel choices only: the CPU backend has no static-content reuse
         cpu->setSettings(s);
     }
+    if (auto* prt = dynamic_cast<gi::MultiscalePrt*>(state_->technique.get()))
+        prt->setLights(prtLightsFromScene(*st.scene));
     state_->technique->prepare(renderer_->instances());
 }
 
@@ -745,6 +770,18 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
             for (const gl::StageTime& st : s.scratchTimes)
                 if (st.name == stage) addTime(out.cpuTimes, used, label, st.milliseconds);
     }
+    if (runGi && dynamic_cast<const gi::MultiscalePrt*>(s.technique.get())) {
+        // multi-scale PRT's per-frame part is CPU work (inside "gbuffer+gi"); its shading pass is timed as the
+        // CPU wall time of issuing it
+        static constexpr std::pair<const char*, const char*> kPrtStages[] = {{"read-back", "gi prt read-back"},
+                                                                             {"entry", "gi prt entry"},
+                                                                             {"exit", "gi prt exit"},
+                                                                             {"shade", "gi prt shade"}};
+        s.technique->lastStageTimes(s.scratchTimes);
+        for (const auto& [stage, label] : kPrtStages)
+            for (const gl::StageTime& st : s.scratchTimes)
+                if (st.name == stage) addTime(out.cpuTimes, used, label, st.milliseconds);
+    }
     out.cpuTimes.resize(used);
 
     r.lastStageTimes(out.gpuTimes);
@@ -752,7 +789,7 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
         s.rsmTimer.collect(s.rsmTimes);
         out.gpuTimes.insert(out.gpuTimes.end(), s.rsmTimes.begin(), s.rsmTimes.end());
     }
-    if (runGi) {
+    if (runGi && !dynamic_cast<const gi::MultiscalePrt*>(s.technique.get())) {
         s.technique->lastStageTimes(s.scratchTimes);
         for (const gl::StageTime& st : s.scratchTimes)
             if (!dynamic_cast<const gi::CpuLightSkin*>(s.technique.get()) || st.name == "shading")

@@ -222,17 +222,54 @@ gi::ImperfectVolumesSettings readImperfectVolumes(const Reader& r, const json& v
     return v;
 }
 
-GiSettings readGi(const Reader& r, const json& value, const std::string& p) {
+// Ranges as gi::validate(MultiscalePrtSettings) checks them. The cache folder is resolved against the
+// scene's folder; by default "prt-cache" beside the scene (none for a scene parsed from text).
+gi::MultiscalePrtSettings readMultiscalePrt(const Reader& r, const json& value, const std::string& p,
+                                            const std::filesystem::path& baseFolder) {
+    r.object(value, p);
+    r.allowOnly(value, p,
+                {"entryPoints", "walksPerEntry", "maxBounces", "clusters", "basisVectors", "obscuranceDistance",
+                 "obscuranceRays", "minConnectionDistance", "seed", "cache", "cacheDir"});
+    gi::MultiscalePrtSettings v;
+    if (value.contains("entryPoints")) v.entryPoints = r.integer(value["entryPoints"], p + "/entryPoints", 1, 65536);
+    if (value.contains("walksPerEntry"))
+        v.walksPerEntry = r.integer(value["walksPerEntry"], p + "/walksPerEntry", 1, 65536);
+    if (value.contains("maxBounces")) v.maxBounces = r.integer(value["maxBounces"], p + "/maxBounces", 0, 64);
+    if (value.contains("clusters")) v.clusters = r.integer(value["clusters"], p + "/clusters", 1, 65536);
+    if (value.contains("basisVectors")) v.basisVectors = r.integer(value["basisVectors"], p + "/basisVectors", 0, 64);
+    if (value.contains("obscuranceDistance"))
+        v.obscuranceDistance =
+            r.number(value["obscuranceDistance"], p + "/obscuranceDistance", 0.0f, 1e3f, "in [0, 1000] (metres)");
+    if (value.contains("obscuranceRays"))
+        v.obscuranceRays = r.integer(value["obscuranceRays"], p + "/obscuranceRays", 1, 4096);
+    if (value.contains("minConnectionDistance"))
+        v.minConnectionDistance =
+            r.number(value["minConnectionDistance"], p + "/minConnectionDistance", 0.0f, 10.0f, "in [0, 10] (metres)");
+    if (value.contains("seed")) v.seed = std::uint32_t(r.integer(value["seed"], p + "/seed", 0, 1 << 30));
+    const bool cache = value.contains("cache") ? r.boolean(value["cache"], p + "/cache") : true;
+    if (value.contains("cacheDir") && !cache)
+        r.fail(p + "/cacheDir", "no cacheDir with \"cache\": false", &value["cacheDir"]);
+    if (cache && !baseFolder.empty()) {
+        const std::string folder =
+            value.contains("cacheDir") ? r.string(value["cacheDir"], p + "/cacheDir") : std::string("prt-cache");
+        if (folder.empty()) r.fail(p + "/cacheDir", "a folder path (relative to the scene file)", &value["cacheDir"]);
+        v.cacheDirectory = (baseFolder / folder).lexically_normal();
+    }
+    return v;
+}
+
+GiSettings readGi(const Reader& r, const json& value, const std::string& p, const std::filesystem::path& baseFolder) {
     r.object(value, p);
     r.allowOnly(value, p,
                 {"technique", "backend", "sparsePoints", "valStride", "kCache", "diffuse", "glossy", "occlusion",
-                 "virtualBounce", "rsmResolution", "budgetMs", "robustRealDepth", "imperfectVolumes"});
+                 "virtualBounce", "rsmResolution", "budgetMs", "robustRealDepth", "imperfectVolumes", "multiscalePrt"});
     GiSettings g;
     if (value.contains("technique")) {
         g.technique = r.string(value["technique"], p + "/technique");
         if (g.technique != "lightskin" && g.technique != "brute-force" && g.technique != "imperfect-volumes" &&
-            g.technique != "none")
-            r.fail(p + "/technique", "\"lightskin\", \"brute-force\", \"imperfect-volumes\" or \"none\"",
+            g.technique != "multiscale-prt" && g.technique != "none")
+            r.fail(p + "/technique",
+                   "\"lightskin\", \"brute-force\", \"imperfect-volumes\", \"multiscale-prt\" or \"none\"",
                    &value["technique"]);
     }
     if (value.contains("backend")) {
@@ -263,6 +300,11 @@ GiSettings readGi(const Reader& r, const json& value, const std::string& p) {
                    nullptr);
         g.imperfectVolumes = readImperfectVolumes(r, value["imperfectVolumes"], p + "/imperfectVolumes");
     }
+    if (value.contains("multiscalePrt") && g.technique != "multiscale-prt")
+        r.fail(p + "/multiscalePrt", "gi.technique \"multiscale-prt\" (the key belongs to that technique)", nullptr);
+    // Read also when absent: the default cache folder depends on the scene's folder.
+    g.multiscalePrt = readMultiscalePrt(r, value.contains("multiscalePrt") ? value["multiscalePrt"] : json::object(),
+                                        p + "/multiscalePrt", baseFolder);
     return g;
 }
 
@@ -302,7 +344,7 @@ Scene parseScene(std::string_view text, const std::filesystem::path& baseFolder,
         if (lights.size() > 4) r.fail("/lights", "at most 4 lights (shadow map budget)", nullptr);
         for (std::size_t i = 0; i < lights.size(); ++i) scene.lights.push_back(readLight(r, lights[i], "/lights/" + std::to_string(i)));
     }
-    if (root.contains("gi")) scene.gi = readGi(r, root["gi"], "/gi");
+    scene.gi = readGi(r, root.contains("gi") ? root["gi"] : json::object(), "/gi", baseFolder);
     if (root.contains("tracking")) {
         r.object(root["tracking"], "/tracking");
         scene.trackingJson = root["tracking"].dump();

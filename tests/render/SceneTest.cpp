@@ -109,7 +109,8 @@ TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
         {head + R"("lights": [{"type": "point", "position": [0, 0]}]})",
          "/lights/0/position: expected an array of 3 numbers"},
         {head + R"("gi": {"technique": "magic"}})",
-         "/gi/technique: expected \"lightskin\", \"brute-force\", \"imperfect-volumes\" or \"none\""},
+         "/gi/technique: expected \"lightskin\", \"brute-force\", \"imperfect-volumes\", \"multiscale-prt\" or "
+         "\"none\""},
         {head + R"("gi": {"backend": "gpu"}})", "/gi/backend: expected \"gl\" or \"cpu\", got \"gpu\""},
         {head + R"("gi": {"technique": "brute-force", "backend": "cpu"}})",
          "/gi/backend: expected \"gl\" (the CPU backend exists for technique \"lightskin\" only)"},
@@ -167,6 +168,49 @@ TEST(Scene, ImperfectVolumesSettingsAreReadAndCheckedByKey) {
         {head + R"({"jitter": 1}}})", "/gi/imperfectVolumes/jitter: expected true or false"},
         {R"({"version": 1, "gi": {"imperfectVolumes": {}}})",
          "/gi/imperfectVolumes: expected gi.technique \"imperfect-volumes\""},
+    };
+    for (const auto& [text, expectedStart] : cases) {
+        const std::string cause = causeOf(text);
+        EXPECT_EQ(cause.rfind(expectedStart, 0), 0u) << "scene: " << text << "\ncause: " << cause;
+    }
+}
+
+TEST(Scene, MultiscalePrtSettingsAreReadAndCheckedByKey) {
+    const Scene defaults = parseScene(R"({"version": 1, "gi": {"technique": "multiscale-prt"}})", meshDir(), "t");
+    EXPECT_EQ(defaults.gi.multiscalePrt.entryPoints, 512);
+    EXPECT_EQ(defaults.gi.multiscalePrt.basisVectors, 8);
+    // The cache folder defaults to prt-cache beside the scene file.
+    EXPECT_EQ(defaults.gi.multiscalePrt.cacheDirectory, (meshDir() / "prt-cache").lexically_normal());
+    const Scene set = parseScene(R"({"version": 1, "gi": {"technique": "multiscale-prt", "multiscalePrt":
+        {"entryPoints": 64, "walksPerEntry": 4, "maxBounces": 3, "clusters": 5, "basisVectors": 2,
+         "obscuranceDistance": 0.1, "obscuranceRays": 16, "minConnectionDistance": 0.01, "seed": 7,
+         "cacheDir": "elsewhere"}}})",
+                                 meshDir(), "t");
+    const auto& v = set.gi.multiscalePrt;
+    EXPECT_EQ(v.entryPoints, 64);
+    EXPECT_EQ(v.walksPerEntry, 4);
+    EXPECT_EQ(v.maxBounces, 3);
+    EXPECT_EQ(v.clusters, 5);
+    EXPECT_EQ(v.basisVectors, 2);
+    EXPECT_FLOAT_EQ(v.obscuranceDistance, 0.1f);
+    EXPECT_EQ(v.obscuranceRays, 16);
+    EXPECT_FLOAT_EQ(v.minConnectionDistance, 0.01f);
+    EXPECT_EQ(v.seed, 7u);
+    EXPECT_EQ(v.cacheDirectory, (meshDir() / "elsewhere").lexically_normal());
+    const Scene off = parseScene(
+        R"({"version": 1, "gi": {"technique": "multiscale-prt", "multiscalePrt": {"cache": false}}})", meshDir(), "t");
+    EXPECT_TRUE(off.gi.multiscalePrt.cacheDirectory.empty());
+
+    const std::string head = R"({"version": 1, "gi": {"technique": "multiscale-prt", "multiscalePrt": )";
+    const std::pair<std::string, std::string> cases[] = {
+        {head + R"({"entryPoints": 0}}})", "/gi/multiscalePrt/entryPoints: expected an integer in [1, 65536]"},
+        {head + R"({"basisVectors": 65}}})", "/gi/multiscalePrt/basisVectors: expected an integer in [0, 64]"},
+        {head + R"({"obscuranceDistance": -1}}})",
+         "/gi/multiscalePrt/obscuranceDistance: expected a number in [0, 1000]"},
+        {head + R"({"atlas": true}}})", "/gi/multiscalePrt/atlas: unknown key"},
+        {head + R"({"cache": false, "cacheDir": "x"}}})", "/gi/multiscalePrt/cacheDir: expected no cacheDir"},
+        {R"({"version": 1, "gi": {"multiscalePrt": {}}})",
+         "/gi/multiscalePrt: expected gi.technique \"multiscale-prt\""},
     };
     for (const auto& [text, expectedStart] : cases) {
         const std::string cause = causeOf(text);

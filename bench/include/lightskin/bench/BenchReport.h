@@ -5,6 +5,7 @@
 // rows in runs/temporal); its keys: docs/bench/SCHEMA.md.
 #include <lightskin/eval/ImageMetrics.h>
 #include <lightskin/gi/ImperfectVolumes.h>
+#include <lightskin/gi/MultiscalePrt.h>
 
 #include <cstddef>
 #include <optional>
@@ -32,6 +33,8 @@ struct Config {
     /// resolution:points per triangle:rays per voxel:bounces; diffuse only, so channels = 1).
     std::string technique = "lightskin";
     gi::ImperfectVolumesSettings volumes;
+    /// "multiscale-prt" (issue 16): its knobs, axis "prt": value entries:walks:clusters:D; diffuse only.
+    gi::MultiscalePrtSettings prt;
 };
 
 const char* channelName(int channels);

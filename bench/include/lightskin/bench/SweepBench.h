@@ -23,6 +23,10 @@ struct SweepBenchOptions {
     std::string backends = "gl,cpu"; ///< backends of LightSkin to sweep: gl, cpu (gi::CpuLightSkin)
     /// Imperfect-volumes rows (resolution:points/triangle:rays/voxel:bounces); the first is the paper's.
     std::string volumes = "64:12:100:1,32:12:100:1,64:6:100:1,64:12:36:1,64:12:100:2";
+    /// Multi-scale PRT rows (entry points:walks per entry:clusters:D, issue 16). Their precompute (the rows'
+    /// prepare time) grows with entries x walks x exit vertices: the 20k-triangle sphere's ~10k vertices make
+    /// it seconds to minutes, so the default is two small rows.
+    std::string prt = "256:8:8:4,256:8:8:0";
     Config defaults;
     int frames = 3;
     int truthStride = 2;

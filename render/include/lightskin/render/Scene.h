@@ -12,6 +12,7 @@
 // except inside "tracking", which is passed to the tracking module as it is.
 
 #include <lightskin/gi/ImperfectVolumes.h>
+#include <lightskin/gi/MultiscalePrt.h>
 
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
@@ -56,7 +57,8 @@ struct SceneLight {
 };
 
 struct GiSettings {
-    std::string technique = "lightskin"; ///< "lightskin", "brute-force", "imperfect-volumes" or "none"
+    std::string technique =
+        "lightskin"; ///< "lightskin", "brute-force", "imperfect-volumes", "multiscale-prt" or "none"
     /// Where LightSkin's stages 0-4 run: "gl" (gi::LightSkinIllumination) or "cpu"
     /// (gi::CpuLightSkin: SIMD + threads on the CPU; shading stays on GL). Only for "lightskin".
     std::string backend = "gl";
@@ -79,6 +81,9 @@ struct GiSettings {
     bool robustRealDepth = true;
     /// Technique "imperfect-volumes" (gi/ImperfectVolumes.h): the "imperfectVolumes" object.
     gi::ImperfectVolumesSettings imperfectVolumes;
+    /// Technique "multiscale-prt" (gi/MultiscalePrt.h): the "multiscalePrt" object. Its cacheDirectory is
+    /// "prt-cache" beside the scene file unless the scene says otherwise (empty for scenes parsed from text).
+    gi::MultiscalePrtSettings multiscalePrt;
 };
 
 struct CompositeSettings {
