@@ -70,6 +70,9 @@ struct MeshBuffers {
 
 struct Uniforms { // explicit locations (gi/shaders/volumes_*.comp)
     static constexpr GLint origin = 0, voxelSize = 1, resolution = 2, first = 3;
+    // volumes_inject_mesh.comp's lights (arrays of kMaxVolumeLights locations each)
+    static constexpr GLint lightCount = 9, lightPosition = 10, lightDirection = 14, lightIntensity = 18, lightCos = 22,
+                           lightShadows = 26;
 };
 
 } // namespace
@@ -105,6 +108,8 @@ struct ImperfectVolumes::Impl {
     glm::vec3 origin{0.0f};
     float voxelSize = 1.0f;
     std::uint32_t voxelCount = 0;
+    std::vector<VolumeLight> lights; // setDirectLights(): at most kMaxVolumeLights
+    std::uint32_t shadowDistanceCubes = 0;
 
     void setGrid(const gl::Program& program) const {
         glProgramUniform3fv(program.id(), Uniforms::origin, 1, glm::value_ptr(origin));
@@ -112,6 +117,27 @@ struct ImperfectVolumes::Impl {
         glProgramUniform1i(program.id(), Uniforms::resolution, settings.resolution);
     }
     void fitGrid(std::span<const MeshInstance> instances);
+
+    // Uniforms 9-29 of volumes_inject_mesh.comp (its program in use) and the shadow cube maps.
+    void setLights() const {
+        glm::vec3 position[kMaxVolumeLights]{}, direction[kMaxVolumeLights]{}, intensity[kMaxVolumeLights]{};
+        glm::vec2 cosines[kMaxVolumeLights]{};
+        GLint shadows[kMaxVolumeLights]{};
+        for (std::size_t i = 0; i < lights.size(); ++i) {
+            position[i] = lights[i].position;
+            direction[i] = lights[i].direction;
+            intensity[i] = lights[i].intensity;
+            cosines[i] = {lights[i].cosOuter, lights[i].cosInner};
+            shadows[i] = lights[i].castsShadows && shadowDistanceCubes != 0 ? 1 : 0;
+        }
+        glUniform1i(Uniforms::lightCount, GLint(lights.size()));
+        glUniform3fv(Uniforms::lightPosition, kMaxVolumeLights, glm::value_ptr(position[0]));
+        glUniform3fv(Uniforms::lightDirection, kMaxVolumeLights, glm::value_ptr(direction[0]));
+        glUniform3fv(Uniforms::lightIntensity, kMaxVolumeLights, glm::value_ptr(intensity[0]));
+        glUniform2fv(Uniforms::lightCos, kMaxVolumeLights, glm::value_ptr(cosines[0]));
+        glUniform1iv(Uniforms::lightShadows, kMaxVolumeLights, shadows);
+        if (shadowDistanceCubes != 0) glBindTextureUnit(0, shadowDistanceCubes);
+    }
 };
 
 ImperfectVolumes::ImperfectVolumes()
@@ -268,6 +294,7 @@ void ImperfectVolumes::render(const ValSetView& lights, std::span<const MeshInst
             glUniform1ui(Uniforms::first, points);
             glUniformMatrix4fv(Uniforms::first + 3, 1, GL_FALSE, glm::value_ptr(instance.world_T_model));
             glUniform3fv(Uniforms::first + 4, 1, glm::value_ptr(instance.material.diffuseAlbedo));
+            impl.setLights();
             glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, mesh.positions.id());
             glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, mesh.normals.id());
             glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 8, mesh.indices.id());
@@ -367,6 +394,15 @@ void ImperfectVolumes::render(const ValSetView& lights, std::span<const MeshInst
     impl.timer.collect(impl.stageTimes);
 }
 
+void ImperfectVolumes::setDirectLights(std::span<const VolumeLight> lights, std::uint32_t shadowDistanceCubes) {
+    if (lights.size() > std::size_t(kMaxVolumeLights))
+        throw Error("imperfect volumes", std::nullopt,
+                    std::to_string(lights.size()) + " lights: at most " + std::to_string(kMaxVolumeLights) +
+                        " carry direct light into the volume");
+    impl_->lights.assign(lights.begin(), lights.end());
+    impl_->shadowDistanceCubes = shadowDistanceCubes;
+}
+
 void ImperfectVolumes::lastStageTimes(std::vector<gl::StageTime>& out) const { out = impl_->stageTimes; }
 
 glm::vec3 ImperfectVolumes::gridOrigin() const { return impl_->origin; }
@@ -377,6 +413,14 @@ std::vector<glm::vec4> ImperfectVolumes::downloadVoxelNormals() const {
     glGetNamedBufferSubData(impl_->voxels.id(), 0, GLsizeiptr(all.size() * sizeof(glm::vec4)), all.data());
     std::vector<glm::vec4> out(impl_->voxelCount);
     for (std::size_t i = 0; i < out.size(); ++i) out[i] = all[3 * i];
+    return out;
+}
+
+std::vector<glm::vec4> ImperfectVolumes::downloadVoxelDirect() const {
+    std::vector<glm::vec4> all(std::size_t(impl_->voxelCount) * 3);
+    glGetNamedBufferSubData(impl_->voxels.id(), 0, GLsizeiptr(all.size() * sizeof(glm::vec4)), all.data());
+    std::vector<glm::vec4> out(impl_->voxelCount);
+    for (std::size_t i = 0; i < out.size(); ++i) out[i] = all[3 * i + 1];
     return out;
 }
 

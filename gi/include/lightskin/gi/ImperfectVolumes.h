@@ -4,7 +4,8 @@
 //  1. a cubic grid (resolution^3 voxels) auto-fitted to the virtual content plus a margin for the
 //     real surfaces around it, or fixed;
 //  2. injection of points (section 3.1/3.2): pointsPerTriangle random points per virtual triangle
-//     (p(x) = 1/A; occupancy, normal, the material's diffuse albedo) and every VAL of the set (the
+//     (p(x) = 1/A; occupancy, normal, the material's diffuse albedo and, with setDirectLights(), their
+//     direct light from the scene's lights, shadowed as the renderer does it) and every VAL of the set (the
 //     depth frame's pixels, and the RSM VALs of the virtual content when the pipeline merges them:
 //     position, normal, exitant radiance flux / (pi area)); a voxel keeps the means;
 //  3. ray marching per voxel (section 3.3): raysPerVoxel stratified directions, one-voxel steps from
@@ -28,9 +29,26 @@
 
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <vector>
 
 namespace lightskin::gi {
+
+/// A scene light for the direct light of the injected mesh points (the paper's section 3.1: each
+/// point carries its direct light). The renderer's model (render/shaders/shade.frag): a point or
+/// spot light of radiant intensity I, the spot's smoothstep cone, optional cube-map shadows.
+/// A light may lie anywhere, inside or outside the volume: its light on a point is analytic.
+struct VolumeLight {
+    glm::vec3 position{0.0f};               ///< world, metres
+    glm::vec3 direction{0.0f, 0.0f, -1.0f}; ///< spot axis, unit, world; ignored for point lights
+    glm::vec3 intensity{0.0f};              ///< radiant intensity, W/sr, linear RGB (power / (4 pi))
+    float cosOuter = -2.0f;                 ///< spot: cos(cone + falloff); < -1.5: a point light
+    float cosInner = -1.0f;                 ///< spot: cos(cone); full intensity inside
+    bool castsShadows = false;              ///< look up the shadow cube map (layer 6 * index + face)
+};
+
+/// Lights setDirectLights() takes (the renderer's maximum too).
+constexpr int kMaxVolumeLights = 4;
 
 struct ImperfectVolumesSettings {
     int resolution = 64;           ///< voxels per side, 1..128 (paper: 64)
@@ -75,6 +93,17 @@ public:
                 const ViewParameters& view, std::uint32_t targetTexture) override;
     void lastStageTimes(std::vector<gl::StageTime>& out) const override;
 
+    /// The scene's lights for the direct light of the mesh points, from the next render() on
+    /// (copied; lights are static in the world in this project, so call it when the scene loads).
+    /// Each mesh point then emits rho_d / pi * sum_i I_i cone_i max(0, n . l_i) / d_i^2 * shadow_i
+    /// (W/(sr m^2)); without lights (the default) mesh points only occupy and reflect. Real VAL
+    /// points outside the grid are dropped (clipped); lights act from anywhere.
+    /// `shadowDistanceCubes`: optional GL name of an R32F cube-map array (6 layers per light, in the
+    /// order of `lights`) of the distance in metres from each light to the nearest virtual surface,
+    /// as render::Renderer::shadowMapTexture() holds it; 0 = unshadowed. Not owned: it must stay
+    /// valid while render() uses it. Throws lightskin::Error for more than kMaxVolumeLights lights.
+    void setDirectLights(std::span<const VolumeLight> lights, std::uint32_t shadowDistanceCubes = 0);
+
     /// The grid of the last render(): minimum corner (world metres) and voxel edge (metres).
     glm::vec3 gridOrigin() const;
     float voxelSize() const;
@@ -83,6 +112,8 @@ public:
     /// 0 for voxels that were not ray-marched).
     std::vector<glm::vec4> downloadVoxelNormals() const;
     std::vector<glm::vec4> downloadIncoming() const;
+    /// Per voxel the mean direct exitant radiance of its emitting points (W/(sr m^2), rgb; w unused).
+    std::vector<glm::vec4> downloadVoxelDirect() const;
 
 private:
     ImperfectVolumes();
