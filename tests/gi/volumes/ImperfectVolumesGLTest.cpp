@@ -534,6 +534,95 @@ TEST_F(ImperfectVolumesDirectLightGLTest, ValsOutsideTheGridAreClippedAndMoreTha
                 {"imperfect volumes", std::nullopt, "5 lights: at most 4 carry direct light into the volume"});
 }
 
+using ImperfectVolumesVisibleEffectsGLTest = GlTest;
+
+// Floor pixels of the Scene (normal +z, on the floor plane z = 0.03) by their horizontal distance
+// to the cube's footprint [-0.15, 0.15] x [-0.08, 0.22].
+struct FloorPixel {
+    int x, y;
+    double distanceToCube;
+};
+std::vector<FloorPixel> floorPixels(const Pixels& px) {
+    std::vector<FloorPixel> out;
+    for (int y = 0; y < Scene::kSize; ++y)
+        for (int x = 0; x < Scene::kSize; ++x) {
+            const cv::Vec4f pos = px.position.at<cv::Vec4f>(y, x), n = px.normal.at<cv::Vec4f>(y, x);
+            if (pos[3] <= 0.0f || n[2] < 0.99f || std::abs(pos[2] - 0.03f) > 1e-3f) continue;
+            const double dx = std::max({-0.15 - double(pos[0]), double(pos[0]) - 0.15, 0.0});
+            const double dy = std::max({-0.08 - double(pos[1]), double(pos[1]) - 0.22, 0.0});
+            out.push_back({x, y, std::hypot(dx, dy)});
+        }
+    return out;
+}
+
+TEST_F(ImperfectVolumesVisibleEffectsGLTest, AmbientOcclusionDarkensTheContactRegion) {
+    // Floor and cube only (no VALs), AO range 0.45 m. Far from the cube (>= 0.55 m: range plus the
+    // half-voxel shift of p') the floor sees its open hemisphere: L1 AO of a hemisphere step is
+    // exactly 1 (integral of 1/4 + mu/2 over mu in [0, 1] times 2 pi = pi), more where rays below the
+    // horizon leave past the floor's edge (the kernel is positive down to mu = -1/2). Within 0.1 m of
+    // the cube, the cube's side (0.3 m wide, 0.3 m high) covers a form factor >= 0.19 (a point at
+    // x = 0.15 m from the centre line of a perpendicular 2w x H rectangle: (1/pi)[atan(w/x) -
+    // x/sqrt(x^2+H^2) atan(w/sqrt(x^2+H^2))] with w = 0.15, H = 0.3), so the true AO <= 0.81 there;
+    // allowed 0.9 for the voxel terms (the SH comes from centres up to (1/2 + sqrt 3 / 2) s = 0.14 m
+    // from p, where the form factor falls to ~0.1).
+    Scene scene;
+    gi::ImperfectVolumesSettings s = fixedGrid(16);
+    s.ambientOcclusion = true;
+    s.aoRange = 0.45f;
+    auto technique = gi::ImperfectVolumes::create(s);
+    technique->prepare(scene.instances);
+    technique->render({}, scene.instances, scene.gbuffer.view(), {scene.clip_T_world, scene.eye}, scene.output.id());
+    const Pixels px = readPixels(scene);
+    double contactSum = 0.0, farMin = 2.0;
+    int contact = 0, far = 0;
+    for (const FloorPixel& f : floorPixels(px)) {
+        const double ao = double(px.output.at<cv::Vec4f>(f.y, f.x)[0]);
+        if (f.distanceToCube <= 0.1) {
+            contactSum += ao;
+            ++contact;
+        } else if (f.distanceToCube >= 0.55) {
+            farMin = std::min(farMin, ao);
+            ++far;
+        }
+    }
+    ASSERT_GT(contact, 10);
+    ASSERT_GT(far, 10);
+    EXPECT_GE(farMin, 1.0 - 1e-4); // float rounding of the SH sums (64 rays)
+    EXPECT_LT(contactSum / contact, 0.9);
+}
+
+TEST_F(ImperfectVolumesVisibleEffectsGLTest, SecondBounceAddsLightInTheConcaveCorner) {
+    // The second pass re-emits albedo / pi * E at every occupied voxel. That is not more light at
+    // every pixel: the L1 cosine kernel 1/4 + mu/2 is negative below mu = -1/2, where a receiver's
+    // voxels see the re-emission of its own surface underneath (the floor), which lowers E on open
+    // floor. In the concave corner (floor within 0.1 m of the cube) the cube's lit faces re-emit
+    // toward the floor from the front (mu > 0): there the second bounce must add light, required
+    // here 1e-3 relative (float rounding of the sums is 1e-5).
+    Scene scene;
+    gi::ImperfectVolumesSettings s = fixedGrid(16);
+    cv::Mat one, two;
+    for (int bounces : {1, 2}) {
+        s.bounces = bounces;
+        auto technique = gi::ImperfectVolumes::create(s);
+        technique->prepare(scene.instances);
+        technique->render(scene.valSet(), scene.instances, scene.gbuffer.view(), {scene.clip_T_world, scene.eye},
+                          scene.output.id());
+        gl::readTextureRgba32fInto(scene.output, bounces == 1 ? one : two);
+    }
+    const Pixels px = readPixels(scene);
+    double oneSum = 0.0, twoSum = 0.0;
+    int contact = 0;
+    for (const FloorPixel& f : floorPixels(px))
+        if (f.distanceToCube <= 0.1) {
+            oneSum += double(one.at<cv::Vec4f>(f.y, f.x)[0]);
+            twoSum += double(two.at<cv::Vec4f>(f.y, f.x)[0]);
+            ++contact;
+        }
+    ASSERT_GT(contact, 10);
+    EXPECT_GT(oneSum, 0.0);
+    EXPECT_GT(twoSum, oneSum * (1.0 + 1e-3)) << "one bounce " << oneSum << ", two " << twoSum;
+}
+
 using ImperfectVolumesSettingsTest = GlTest;
 
 TEST_F(ImperfectVolumesSettingsTest, BadSettingsNameTheField) {
