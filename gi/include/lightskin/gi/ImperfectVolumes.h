@@ -20,7 +20,10 @@
 // Only the voxels that a reconstruction reads (the eight around each covered pixel's p', and for
 // bounces around each occupied voxel's) are ray-marched: the others' SH is never used.
 //
-// GPU memory: 116 bytes per voxel (30 MB at 64^3, 243 MB at the maximum 128^3); 168 with temporalBlend.
+// GPU memory: 164 bytes per voxel (accumulation 48, voxel means 48, exitant 16, incoming SH 48, active
+// mask 4: 43 MB at 64^3, 344 MB at the maximum 128^3); 216 with temporalBlend. 128^3 is the maximum
+// because every buffer is one SSBO binding and GL_MAX_SHADER_STORAGE_BLOCK_SIZE is 128 MiB on llvmpipe:
+// at 256^3 the incoming SH alone (256^3 x 4 coefficients x 3 channels) is 805 MB in fp32, 403 MB in fp16.
 
 #include <lightskin/gi/IndirectIllumination.h>
 
