@@ -67,6 +67,10 @@ void main() {
     const vec3 normal = len > 0.0 ? wn / len : vec3(0.0);
     const vec3 position = (uWorldFromModel * vec4(p, 1.0)).xyz;
     const bool lit = uLightCount > 0;
+#ifdef VOLUMES_MARK_OCCUPANCY
+    const vec3 radiance = vec3(0.0); // the first pass only flags voxels
+#else
     const vec3 radiance = lit && len > 0.0 ? uAlbedo / kPi * directIrradiance(position, normal) : vec3(0.0);
+#endif
     injectPoint(position, normal, radiance, uAlbedo, lit);
 }

@@ -4,7 +4,8 @@
 // pixel compared, for one bounce, two bounces, ambient occlusion and with scene lights on the mesh
 // points. Direct light of a mesh point against the closed form (point and spot lights, inside and
 // outside the volume), shadowing by a cube map, VALs outside the grid clipped. Extremes: an empty
-// volume, an all-occupied one, a 1^3 and a 128^3 volume (the maximum; one ray), stage times, bad settings.
+// volume, an all-occupied one, a 1^3 and a 128^3 volume (one ray), a 256^3 volume (the maximum) against
+// the L1 AO of an open plane, stage times, bad settings.
 #include "../lights/TestMeshes.h"
 #include "ExpectError.h"
 #include "GlTestEnvironment.h"
@@ -262,7 +263,7 @@ TEST_F(ImperfectVolumesExtremeGLTest, AllOccupiedOneVoxelAndMaximumResolutionSta
     Scene scene;
     // All occupied: one VAL per voxel centre of a 4^3 (and 1^3) grid around the scene, radiance 1,
     // normals up and down (they cancel: seen from every side). Every ray hits a neighbour or leaves,
-    // so E <= pi and the output <= albedo. 128^3 (the maximum) with one ray: finite and >= 0.
+    // so E <= pi and the output <= albedo. 128^3 with one ray: finite and >= 0.
     for (const int resolution : {4, 1, 128}) {
         gi::ImperfectVolumesSettings s = fixedGrid(resolution);
         s.raysPerVoxel = resolution == 128 ? 1 : 16;
@@ -308,6 +309,71 @@ TEST_F(ImperfectVolumesExtremeGLTest, AllOccupiedOneVoxelAndMaximumResolutionSta
             for (const glm::vec4& n : normals) EXPECT_GT(n.w, 0.0f);
         }
     }
+}
+
+TEST_F(ImperfectVolumesExtremeGLTest, MaximumResolution256IsTheL1AmbientOcclusionOfAnOpenPlane) {
+    // 256^3 voxels of 1 mm (sparse storage: every buffer far below 128 MiB). A floor of triangle points
+    // fills the layer at z = 128.3 mm (2.1 M points, ~33 per voxel of its 250 x 250: a hole has
+    // probability e^-33). Receivers on the floor's middle, normal +z, AO range 0.1 m. The free voxels
+    // the reconstruction reads are one layer above the floor: every downward ray hits the floor layer
+    // (its samples descend by <= s per step, the first at <= 0.37 s into the layer, and at |z| >= 1/8
+    // (the lowest band of 64 stratified directions) it reaches the layer within 12 mm, inside the floor
+    // and the range), every upward ray is open. So the GPU must give exactly the L1 projection of the
+    // hemisphere step over the same directions, reconstructed with the cosine lobe (the reference's
+    // projectSh and shIrradiance), to float rounding (1e-5; the exact hemisphere would give 1).
+    TriangleMesh floor = planeGrid(0.25f, 64, 0.1283f);
+    for (glm::vec3& p : floor.positions) p += glm::vec3(0.128f, 0.128f, 0.0f);
+    gi::UploadedMesh uploaded = gi::UploadedMesh::create(floor);
+    gi::MeshInstance instance;
+    instance.mesh = &floor;
+    instance.gpu = uploaded.view();
+    gi::ImperfectVolumesSettings s;
+    s.autoFit = false;
+    s.origin = glm::vec3(0.0f);
+    s.size = 0.256f;
+    s.resolution = 256;
+    s.raysPerVoxel = 64;
+    s.pointsPerTriangle = 256;
+    s.ambientOcclusion = true;
+    s.aoRange = 0.1f;
+    constexpr int kReceivers = 4;
+    std::vector<glm::vec4> position(kReceivers), normal(kReceivers, glm::vec4(0, 0, 1, 0)),
+        albedo(kReceivers, glm::vec4(1.0f));
+    for (int r = 0; r < kReceivers; ++r)
+        position[std::size_t(r)] = {0.1204f + 0.0051f * float(r), 0.1311f - 0.0037f * float(r), 0.1283f, 1.0f};
+    gl::Texture positionTexture = gl::Texture::create2D(GL_RGBA32F, kReceivers, 1);
+    gl::Texture normalTexture = gl::Texture::create2D(GL_RGBA32F, kReceivers, 1);
+    gl::Texture albedoTexture = gl::Texture::create2D(GL_RGBA32F, kReceivers, 1);
+    gl::Texture output = gl::Texture::create2D(GL_RGBA32F, kReceivers, 1);
+    glTextureSubImage2D(positionTexture.id(), 0, 0, 0, kReceivers, 1, GL_RGBA, GL_FLOAT, position.data());
+    glTextureSubImage2D(normalTexture.id(), 0, 0, 0, kReceivers, 1, GL_RGBA, GL_FLOAT, normal.data());
+    glTextureSubImage2D(albedoTexture.id(), 0, 0, 0, kReceivers, 1, GL_RGBA, GL_FLOAT, albedo.data());
+    gi::GBufferView gbuffer;
+    gbuffer.worldPosition = positionTexture.id();
+    gbuffer.worldNormal = normalTexture.id();
+    gbuffer.diffuseAlbedo = albedoTexture.id();
+    gbuffer.width = kReceivers;
+    gbuffer.height = 1;
+    auto technique = gi::ImperfectVolumes::create(s);
+    technique->prepare(std::span(&instance, 1));
+    technique->render({}, std::span(&instance, 1), gbuffer, {}, output.id());
+    cv::Mat result;
+    gl::readTextureRgba32fInto(output, result);
+
+    // The floor layer: 250 x 250 voxels occupied (+ the edge's partial columns), within the slots.
+    const glm::uvec2 counts = technique->downloadVoxelCounts();
+    EXPECT_GE(counts.x, 250u * 250u);
+    EXPECT_LE(counts.x, 252u * 252u);
+    EXPECT_LE(counts.x, technique->slotCapacity());
+    EXPECT_GT(counts.y, 0u);
+    EXPECT_LE(counts.y, 8u * kReceivers);
+
+    const auto directions = vol::stratifiedDirections(s.raysPerVoxel);
+    const vol::Sh4 step = vol::projectSh([](const dvec3& d) { return d.z > 0.0 ? 1.0 : 0.0; }, directions);
+    const double expected = vol::shIrradiance(step, dvec3(0, 0, 1)) / kPi;
+    EXPECT_NEAR(expected, 1.0, 0.05); // the quadrature of a hemisphere step with 64 directions
+    for (int r = 0; r < kReceivers; ++r)
+        EXPECT_NEAR(double(result.at<cv::Vec4f>(0, r)[0]), expected, 1e-5) << "receiver " << r;
 }
 
 TEST_F(ImperfectVolumesExtremeGLTest, TemporalBlendIsAnExponentialAverageOfTheFrames) {
@@ -628,11 +694,11 @@ using ImperfectVolumesSettingsTest = GlTest;
 TEST_F(ImperfectVolumesSettingsTest, BadSettingsNameTheField) {
     gi::ImperfectVolumesSettings s;
     s.resolution = 0;
-    expectError([&] { gi::validate(s); }, {"gi.imperfectVolumes", std::nullopt, "resolution = 0 is outside [1, 128]"});
+    expectError([&] { gi::validate(s); }, {"gi.imperfectVolumes", std::nullopt, "resolution = 0 is outside [1, 256]"});
     s = {};
-    s.resolution = 256;
+    s.resolution = 257;
     expectError([&] { gi::validate(s); },
-                {"gi.imperfectVolumes", std::nullopt, "resolution = 256 is outside [1, 128]"});
+                {"gi.imperfectVolumes", std::nullopt, "resolution = 257 is outside [1, 256]"});
     s = {};
     s.bounces = 5;
     expectError([&] { gi::validate(s); }, {"gi.imperfectVolumes", std::nullopt, "bounces = 5 is outside [1, 4]"});

@@ -20,13 +20,17 @@
 // Only the voxels that a reconstruction reads (the eight around each covered pixel's p', and for
 // bounces around each occupied voxel's) are ray-marched: the others' SH is never used.
 //
-// GPU memory: 164 bytes per voxel (accumulation 48, voxel means 48, exitant 16, incoming SH 48, active
-// mask 4: 43 MB at 64^3, 344 MB at the maximum 128^3); 216 with temporalBlend. 128^3 is the maximum
-// because every buffer is one SSBO binding and GL_MAX_SHADER_STORAGE_BLOCK_SIZE is 128 MiB on llvmpipe:
-// at 256^3 the incoming SH alone (256^3 x 4 coefficients x 3 channels) is 805 MB in fp32, 403 MB in fp16.
+// GPU memory: sparse (gi/shaders/volumes_common.glsl): 4 bytes per voxel for each of two slot maps
+// (occupied, ray-marched), plus 112 bytes per occupied voxel (accumulation 48, means 48, exitant 16) and
+// 48 per ray-marched voxel (incoming L1 SH, 4 coefficients x 3 channels x fp32), each array capped at
+// the slots one storage buffer holds (GL_MAX_SHADER_STORAGE_BLOCK_SIZE, 128 MiB on llvmpipe: 2.8 M).
+// Up to 128^3 every voxel has a slot (a dense 256^3 SH array alone would be 805 MB in fp32, 403 MB in
+// fp16); at 256^3 the two maps take 128 MiB and the arrays grow with the surfaces. temporalBlend adds
+// a third map and a copy of the SH.
 
 #include <lightskin/gi/IndirectIllumination.h>
 
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
@@ -54,7 +58,7 @@ struct VolumeLight {
 constexpr int kMaxVolumeLights = 4;
 
 struct ImperfectVolumesSettings {
-    int resolution = 64;           ///< voxels per side, 1..128 (paper: 64)
+    int resolution = 64;           ///< voxels per side, 1..256 (paper: 64)
     int pointsPerTriangle = 12;    ///< random points per virtual triangle, 0..256 (paper: 12)
     int raysPerVoxel = 100;        ///< stratified directions per voxel, 1..4096 (paper: 100)
     int bounces = 1;               ///< ray-marching passes, 1..4 (1 = one indirect bounce)
@@ -117,6 +121,11 @@ public:
     std::vector<glm::vec4> downloadIncoming() const;
     /// Per voxel the mean direct exitant radiance of its emitting points (W/(sr m^2), rgb; w unused).
     std::vector<glm::vec4> downloadVoxelDirect() const;
+    /// Slots of the compact per-voxel storage: every voxel up to 128^3; at 256^3 the 2.8 M that one
+    /// storage buffer of 128 MiB holds on llvmpipe (occupied and ray-marched voxels beyond it are dropped).
+    std::uint32_t slotCapacity() const;
+    /// Occupied and ray-marched voxels of the last render() as requested (may exceed slotCapacity()).
+    glm::uvec2 downloadVoxelCounts() const;
 
 private:
     ImperfectVolumes();
