@@ -238,15 +238,21 @@ def pareto_plot(report, truth, path, manifest, styles):
         es = [p["e"] for p in points]
         ax.set_xlim(min(ts) / 2.5, max(ts) * 2.5)
         ax.set_ylim(min(es) / 2.5, max(es) * 2.5)
-    # Labels only where they carry information: the default (on each backend), the brute force and the Pareto front
-    # (the other points are identified by colour and the table in bench.md).
+    # Labels only where they carry information: the default (on each backend), the brute force, the Pareto front
+    # and the first row of every other technique (its paper's setting, e.g. imperfect volumes' 64^3/12/100); the
+    # other points are identified by colour and the table in bench.md.
     labelled = []
+    first_of_technique = {}
+    for p in points:
+        if p["key"][0] not in ("LightSkin", BRUTE):
+            first_of_technique.setdefault(p["key"][0], p)
     for p in points:
         r = p["run"]
         is_default = r.get("is_default") and not r.get("is_brute")
         # A row of the "backend" axis is the default configuration on another backend.
         other_backend_default = r.get("axis") == "backend"
-        if is_default or other_backend_default or r.get("is_brute") or any(p is q for q in front):
+        technique_first = any(p is q for q in first_of_technique.values())
+        if is_default or other_backend_default or r.get("is_brute") or technique_first or any(p is q for q in front):
             text = "default" if other_backend_default else r.get("label", "?")
             if p["key"] != ("LightSkin", "GL") and p["key"][0] != BRUTE:
                 text = f"{series_name(p['key'])}: {text}"  # the same knob label on several series

@@ -6,6 +6,11 @@
 
 const float kPi = 3.14159265358979;
 
+// Storage (gi/src/ImperfectVolumes.cpp): two dense maps of one uint per voxel, occupiedSlot
+// (binding 11) and activeSlot (binding 5), hold 0 or 1 + the voxel's index in the compact arrays
+// (accumulation, voxels and exitant per occupied voxel; incoming per ray-marched voxel), so the
+// memory follows the surfaces, not the volume (256^3 fits llvmpipe's 128 MiB per buffer).
+
 // One voxel after injection: mean normal (0 where the normals cancel) with w = 1 if occupied,
 // mean direct exitant radiance of its emitting points, mean albedo.
 struct Voxel {
@@ -24,6 +29,11 @@ struct RgbSh {
 layout(location = 0) uniform vec3 uGridOrigin; // minimum corner, world metres
 layout(location = 1) uniform float uVoxelSize; // metres
 layout(location = 2) uniform int uResolution;  // voxels per side
+
+uint voxelCount() { return uint(uResolution) * uint(uResolution) * uint(uResolution); }
+// Index of this invocation in a dispatch of 1D groups of 64 (every per-voxel pass) split into rows of
+// gl_NumWorkGroups.x groups (a dispatch dimension holds at most 65535 groups: 262144 at 256^3).
+uint linearIndex() { return gl_GlobalInvocationID.y * gl_NumWorkGroups.x * 64u + gl_GlobalInvocationID.x; }
 
 ivec3 voxelOf(vec3 p) { return ivec3(floor((p - uGridOrigin) / uVoxelSize)); }
 bool insideGrid(ivec3 v) { return all(greaterThanEqual(v, ivec3(0))) && all(lessThan(v, ivec3(uResolution))); }

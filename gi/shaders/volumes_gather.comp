@@ -11,7 +11,8 @@ layout(std430, binding = 1) readonly buffer Voxels { Voxel voxels[]; };
 layout(std430, binding = 2) readonly buffer Exitant { vec4 exitant[]; };
 layout(std430, binding = 3) buffer Incoming { RgbSh incoming[]; };
 layout(std430, binding = 4) readonly buffer Directions { vec4 directions[]; };
-layout(std430, binding = 5) readonly buffer Active { uint activeVoxels[]; };
+layout(std430, binding = 5) readonly buffer ActiveSlot { uint activeSlot[]; };
+layout(std430, binding = 11) readonly buffer OccupiedSlot { uint occupiedSlot[]; };
 layout(location = 3) uniform uint uRayBegin;
 layout(location = 4) uniform uint uRayEnd;
 layout(location = 5) uniform uint uRayCount;
@@ -19,17 +20,19 @@ layout(location = 6) uniform int uMaxSteps;     // enough steps to cross the gri
 layout(location = 7) uniform float uMaxDistance; // metres (AO range; huge for radiance)
 // Temporal mitigation (ImperfectVolumesSettings::jitter / temporalBlend): ray origins moved by this
 // sub-voxel offset (voxel units, per frame); on the last chunk of the last pass, the result blended
-// with the previous frame's where that voxel was marched then too.
+// with the previous frame's where that voxel was marched then too (its slot then: historySlot).
 layout(location = 8) uniform vec3 uOriginOffset;
 layout(location = 9) uniform float uHistoryWeight; // 0: no blending
 layout(std430, binding = 9) readonly buffer History { RgbSh history[]; };
-layout(std430, binding = 10) readonly buffer HistoryActive { uint historyActive[]; };
+layout(std430, binding = 10) readonly buffer HistorySlot { uint historySlot[]; };
 
 void main() {
-    const uint i = gl_GlobalInvocationID.x;
-    if (i >= uint(uResolution * uResolution * uResolution) || activeVoxels[i] == 0u) return;
+    const uint i = linearIndex();
+    if (i >= voxelCount()) return;
+    const uint slot = activeSlot[i];
+    if (slot == 0u) return;
     const vec3 centre = voxelCentre(voxelFromIndex(i)) + uOriginOffset * uVoxelSize;
-    RgbSh sum = uRayBegin == 0u ? RgbSh(vec4(0.0), vec4(0.0), vec4(0.0)) : incoming[i];
+    RgbSh sum = uRayBegin == 0u ? RgbSh(vec4(0.0), vec4(0.0), vec4(0.0)) : incoming[slot - 1u];
     for (uint r = uRayBegin; r < uRayEnd; ++r) {
         const vec3 d = directions[r].xyz;
         vec3 radiance = vec3(0.0);
@@ -38,11 +41,12 @@ void main() {
         for (int k = 0; k < uMaxSteps && t <= uMaxDistance; ++k, t += uVoxelSize) {
             const ivec3 v = voxelOf(centre + t * d);
             if (!insideGrid(v)) break;
-            const uint j = voxelIndex(v);
-            const vec4 no = voxels[j].normalOccupied;
-            if (no.w <= 0.0) continue;
+            const uint occupied = occupiedSlot[voxelIndex(v)];
+            if (occupied == 0u) continue;
+            const vec4 no = voxels[occupied - 1u].normalOccupied;
+            if (no.w <= 0.0) continue; // allocated but no point landed (float differences between the passes)
             hit = true;
-            if (dot(d, no.xyz) < 0.0 || dot(no.xyz, no.xyz) == 0.0) radiance = exitant[j].rgb;
+            if (dot(d, no.xyz) < 0.0 || dot(no.xyz, no.xyz) == 0.0) radiance = exitant[occupied - 1u].rgb;
             break;
         }
 #ifdef VOLUMES_VISIBILITY
@@ -58,12 +62,12 @@ void main() {
         sum.r *= weight;
         sum.g *= weight;
         sum.b *= weight;
-        if (uHistoryWeight > 0.0 && historyActive[i] != 0u) {
-            const RgbSh previous = history[i];
+        if (uHistoryWeight > 0.0 && historySlot[i] != 0u) {
+            const RgbSh previous = history[historySlot[i] - 1u];
             sum.r = mix(sum.r, previous.r, uHistoryWeight);
             sum.g = mix(sum.g, previous.g, uHistoryWeight);
             sum.b = mix(sum.b, previous.b, uHistoryWeight);
         }
     }
-    incoming[i] = sum;
+    incoming[slot - 1u] = sum;
 }

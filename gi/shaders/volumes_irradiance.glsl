@@ -1,5 +1,5 @@
-// Eq. 4/5 of imperfect volumes; include after declaring the readonly buffers voxels[] (Voxel) and
-// incoming[] (RgbSh) of volumes_common.glsl.
+// Eq. 4/5 of imperfect volumes; include after declaring the readonly buffers incoming[] (RgbSh),
+// occupiedSlot[] and activeSlot[] of volumes_common.glsl.
 #ifndef LIGHTSKIN_VOLUMES_IRRADIANCE_GLSL
 #define LIGHTSKIN_VOLUMES_IRRADIANCE_GLSL
 #include "volumes_common.glsl"
@@ -21,8 +21,11 @@ vec3 reconstructIrradiance(vec3 p, vec3 n) {
         const float w = len > 1e-6 * uVoxelSize ? max(0.0, dot(n, toCentre) / len) : 1.0;
         if (w <= 0.0) continue;
         const uint i = voxelIndex(v);
-        const RgbSh sh = incoming[i];
-        if (voxels[i].normalOccupied.w > 0.0) {
+        // Every voxel read here was marked (volumes_mark.comp); without a slot (beyond the capacity) it
+        // counts as not marched: 0.
+        const uint slot = activeSlot[i];
+        const RgbSh sh = slot != 0u ? incoming[slot - 1u] : RgbSh(vec4(0.0), vec4(0.0), vec4(0.0));
+        if (occupiedSlot[i] != 0u) {
             occupiedWeight += w;
             occupiedSum.r += w * sh.r;
             occupiedSum.g += w * sh.g;

@@ -11,15 +11,16 @@ layout(location = 3) uniform ivec2 uSize;
 #else
 layout(local_size_x = 64) in;
 layout(std430, binding = 1) readonly buffer Voxels { Voxel voxels[]; };
+layout(std430, binding = 11) readonly buffer OccupiedSlot { uint occupiedSlot[]; };
 #endif
-layout(std430, binding = 5) buffer Active { uint activeVoxels[]; };
+layout(std430, binding = 5) buffer ActiveSlot { uint activeSlot[]; }; // flagged here, allocated after
 
 void markAround(vec3 p, vec3 n) {
     const vec3 shifted = p + 0.5 * uVoxelSize * n;
     const ivec3 base = ivec3(floor((shifted - uGridOrigin) / uVoxelSize - 0.5));
     for (int corner = 0; corner < 8; ++corner) {
         const ivec3 v = base + ivec3(corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
-        if (insideGrid(v)) activeVoxels[voxelIndex(v)] = 1u;
+        if (insideGrid(v)) activeSlot[voxelIndex(v)] = 1u;
     }
 }
 
@@ -33,9 +34,9 @@ void main() {
     if (dot(n, n) <= 0.0) return;
     markAround(position.xyz, normalize(n));
 #else
-    const uint i = gl_GlobalInvocationID.x;
-    if (i >= uint(uResolution * uResolution * uResolution)) return;
-    const vec4 no = voxels[i].normalOccupied;
+    const uint i = linearIndex();
+    if (i >= voxelCount() || occupiedSlot[i] == 0u) return;
+    const vec4 no = voxels[occupiedSlot[i] - 1u].normalOccupied;
     if (no.w > 0.0 && dot(no.xyz, no.xyz) > 0.0) markAround(voxelCentre(voxelFromIndex(i)), no.xyz);
 #endif
 }

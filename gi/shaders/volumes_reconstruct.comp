@@ -8,8 +8,9 @@ layout(binding = 0) uniform sampler2D uPosition; // xyz world, w = 1 where cover
 layout(binding = 1) uniform sampler2D uNormal;
 layout(binding = 2) uniform sampler2D uAlbedo;
 layout(rgba32f, binding = 0) uniform writeonly image2D uTarget;
-layout(std430, binding = 1) readonly buffer Voxels { Voxel voxels[]; };
 layout(std430, binding = 3) readonly buffer Incoming { RgbSh incoming[]; };
+layout(std430, binding = 5) readonly buffer ActiveSlot { uint activeSlot[]; };
+layout(std430, binding = 11) readonly buffer OccupiedSlot { uint occupiedSlot[]; };
 #include "volumes_irradiance.glsl"
 layout(location = 3) uniform ivec2 uSize;
 

@@ -1,17 +1,19 @@
 #version 450 core
-// Per voxel: the means of the injected points (Voxel), the first exitant radiance (= direct) and
-// the active mask cleared.
+// Per occupied voxel: the means of the injected points (Voxel) and the first exitant radiance (= direct).
 #include "volumes_common.glsl"
 
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer Accumulation { uint accumulation[]; };
 layout(std430, binding = 1) writeonly buffer Voxels { Voxel voxels[]; };
 layout(std430, binding = 2) writeonly buffer Exitant { vec4 exitant[]; };
+layout(std430, binding = 11) readonly buffer OccupiedSlot { uint occupiedSlot[]; };
 
 void main() {
-    const uint i = gl_GlobalInvocationID.x;
-    if (i >= uint(uResolution * uResolution * uResolution)) return;
-    const uint base = 12u * i;
+    const uint i = linearIndex();
+    if (i >= voxelCount()) return;
+    const uint slot = occupiedSlot[i];
+    if (slot == 0u) return;
+    const uint base = 12u * (slot - 1u);
     const uint count = accumulation[base], emitters = accumulation[base + 1u];
     Voxel voxel = Voxel(vec4(0.0), vec4(0.0), vec4(0.0));
     if (count > 0u) {
@@ -25,6 +27,6 @@ void main() {
         voxel.direct = vec4(emitters > 0u ? radianceSum / float(emitters) : vec3(0.0), 0.0);
         voxel.albedo = vec4(albedoSum / float(count), 0.0);
     }
-    voxels[i] = voxel;
-    exitant[i] = voxel.direct;
+    voxels[slot - 1u] = voxel;
+    exitant[slot - 1u] = voxel.direct;
 }

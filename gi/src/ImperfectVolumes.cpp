@@ -18,7 +18,7 @@
 namespace lightskin::gi {
 namespace {
 
-constexpr int kMaxResolution = 128;
+constexpr int kMaxResolution = 256;
 constexpr GLuint kMaxGroups = 65535; // per dispatch dimension (GL 4.5 minimum)
 // Loop iterations per shader invocation that llvmpipe completes (it ends a loop after ~65,000).
 constexpr long kLoopBudget = 60000;
@@ -55,6 +55,14 @@ std::vector<glm::vec4> stratifiedDirections(int count) {
     return out;
 }
 
+// A per-voxel (or per-slot) pass over `items` invocations in groups of 64, split into rows of at
+// most kMaxGroups groups (the shaders' linearIndex()): 256^3 needs 262144 groups.
+void dispatchLinear(std::uint32_t items) {
+    const GLuint groups = std::max<GLuint>(1u, (items + 63u) / 64u);
+    const GLuint x = std::min(groups, kMaxGroups);
+    glDispatchCompute(x, (groups + x - 1u) / x, 1);
+}
+
 // PCG output hash (as the shaders' pcgHash): per-frame jitter values.
 std::uint32_t pcgHash(std::uint32_t value) {
     const std::uint32_t state = value * 747796405u + 2891336453u;
@@ -70,6 +78,9 @@ struct MeshBuffers {
 
 struct Uniforms { // explicit locations (gi/shaders/volumes_*.comp)
     static constexpr GLint origin = 0, voxelSize = 1, resolution = 2, first = 3;
+    // volumes_inject_mesh.comp's lights (arrays of kMaxVolumeLights locations each)
+    static constexpr GLint lightCount = 9, lightPosition = 10, lightDirection = 14, lightIntensity = 18, lightCos = 22,
+                           lightShadows = 26;
 };
 
 } // namespace
@@ -94,9 +105,13 @@ void validate(const ImperfectVolumesSettings& s) {
 struct ImperfectVolumes::Impl {
     ImperfectVolumesSettings settings;
     gl::ShaderLibrary library{embeddedShaders()};
+    gl::Program flagMesh, flagVals, allocateOccupied, allocateActive;
     gl::Program injectMesh, injectVals, resolve, markPixels, markVoxels, gather, bounce, reconstruct;
-    gl::Buffer accumulation, voxels, exitant, incoming, directions, active;
-    gl::Buffer history, historyActive; // temporalBlend: the previous frame's SH and active mask
+    // Sparse storage (volumes_common.glsl): dense slot maps, compact arrays of `capacity` slots.
+    gl::Buffer occupiedSlot, activeSlot, counters;
+    gl::Buffer accumulation, voxels, exitant, incoming, directions;
+    gl::Buffer history, historySlot; // temporalBlend: the previous frame's SH and its slot map
+    std::uint32_t capacity = 0;
     bool historyValid = false;
     std::uint32_t frame = 0;
     std::unordered_map<std::uint32_t, MeshBuffers> meshes;
@@ -105,6 +120,8 @@ struct ImperfectVolumes::Impl {
     glm::vec3 origin{0.0f};
     float voxelSize = 1.0f;
     std::uint32_t voxelCount = 0;
+    std::vector<VolumeLight> lights; // setDirectLights(): at most kMaxVolumeLights
+    std::uint32_t shadowDistanceCubes = 0;
 
     void setGrid(const gl::Program& program) const {
         glProgramUniform3fv(program.id(), Uniforms::origin, 1, glm::value_ptr(origin));
@@ -112,6 +129,37 @@ struct ImperfectVolumes::Impl {
         glProgramUniform1i(program.id(), Uniforms::resolution, settings.resolution);
     }
     void fitGrid(std::span<const MeshInstance> instances);
+    void injectPoints(std::span<const MeshInstance> instances, const ValSetView& vals, bool flag,
+                      std::uint32_t frameHash) const;
+    // Slots for the flagged voxels of the map bound at 5 (counter 0: occupied, 1: ray-marched).
+    void allocate(const gl::Program& program, GLuint counter) const {
+        program.use();
+        setGrid(program);
+        glUniform1ui(Uniforms::first, capacity);
+        glUniform1ui(Uniforms::first + 1, counter);
+        dispatchLinear(voxelCount);
+    }
+
+    // Uniforms 9-29 of volumes_inject_mesh.comp (its program in use) and the shadow cube maps.
+    void setLights() const {
+        glm::vec3 position[kMaxVolumeLights]{}, direction[kMaxVolumeLights]{}, intensity[kMaxVolumeLights]{};
+        glm::vec2 cosines[kMaxVolumeLights]{};
+        GLint shadows[kMaxVolumeLights]{};
+        for (std::size_t i = 0; i < lights.size(); ++i) {
+            position[i] = lights[i].position;
+            direction[i] = lights[i].direction;
+            intensity[i] = lights[i].intensity;
+            cosines[i] = {lights[i].cosOuter, lights[i].cosInner};
+            shadows[i] = lights[i].castsShadows && shadowDistanceCubes != 0 ? 1 : 0;
+        }
+        glUniform1i(Uniforms::lightCount, GLint(lights.size()));
+        glUniform3fv(Uniforms::lightPosition, kMaxVolumeLights, glm::value_ptr(position[0]));
+        glUniform3fv(Uniforms::lightDirection, kMaxVolumeLights, glm::value_ptr(direction[0]));
+        glUniform3fv(Uniforms::lightIntensity, kMaxVolumeLights, glm::value_ptr(intensity[0]));
+        glUniform2fv(Uniforms::lightCos, kMaxVolumeLights, glm::value_ptr(cosines[0]));
+        glUniform1iv(Uniforms::lightShadows, kMaxVolumeLights, shadows);
+        if (shadowDistanceCubes != 0) glBindTextureUnit(0, shadowDistanceCubes);
+    }
 };
 
 ImperfectVolumes::ImperfectVolumes()
@@ -125,6 +173,12 @@ std::unique_ptr<ImperfectVolumes> ImperfectVolumes::create(const ImperfectVolume
     impl.settings = settings;
     const std::vector<std::string> visibility =
         settings.ambientOcclusion ? std::vector<std::string>{"VOLUMES_VISIBILITY"} : std::vector<std::string>{};
+    const std::vector<std::string> flag{"VOLUMES_MARK_OCCUPANCY"};
+    impl.flagMesh = impl.library.buildProgram({{GL_COMPUTE_SHADER, "volumes_inject_mesh.comp"}}, flag);
+    impl.flagVals = impl.library.buildProgram({{GL_COMPUTE_SHADER, "volumes_inject_vals.comp"}}, flag);
+    const std::vector<std::string> clearSums{"VOLUMES_CLEAR_ACCUMULATION"};
+    impl.allocateOccupied = impl.library.buildProgram({{GL_COMPUTE_SHADER, "volumes_allocate.comp"}}, clearSums);
+    impl.allocateActive = impl.library.buildProgram({{GL_COMPUTE_SHADER, "volumes_allocate.comp"}});
     impl.injectMesh = impl.library.buildProgram({{GL_COMPUTE_SHADER, "volumes_inject_mesh.comp"}});
     impl.injectVals = impl.library.buildProgram({{GL_COMPUTE_SHADER, "volumes_inject_vals.comp"}});
     impl.resolve = impl.library.buildProgram({{GL_COMPUTE_SHADER, "volumes_resolve.comp"}});
@@ -137,15 +191,29 @@ std::unique_ptr<ImperfectVolumes> ImperfectVolumes::create(const ImperfectVolume
 
     const auto n = GLsizeiptr(settings.resolution);
     impl.voxelCount = std::uint32_t(n * n * n);
-    const GLsizeiptr voxels = GLsizeiptr(impl.voxelCount);
-    impl.accumulation = gl::Buffer::create(voxels * 12 * GLsizeiptr(sizeof(std::uint32_t)));
-    impl.voxels = gl::Buffer::create(voxels * 3 * GLsizeiptr(sizeof(glm::vec4)));
-    impl.exitant = gl::Buffer::create(voxels * GLsizeiptr(sizeof(glm::vec4)));
-    impl.incoming = gl::Buffer::create(voxels * 3 * GLsizeiptr(sizeof(glm::vec4)));
-    impl.active = gl::Buffer::create(voxels * GLsizeiptr(sizeof(std::uint32_t)));
-    const GLsizeiptr historyVoxels = settings.temporalBlend > 0.0f ? voxels : 1;
-    impl.history = gl::Buffer::create(historyVoxels * 3 * GLsizeiptr(sizeof(glm::vec4)));
-    impl.historyActive = gl::Buffer::create(historyVoxels * GLsizeiptr(sizeof(std::uint32_t)));
+    // Compact arrays: one slot per occupied (and per ray-marched) voxel, at most as many as one
+    // buffer binding holds (GL_MAX_SHADER_STORAGE_BLOCK_SIZE; 128 MiB on llvmpipe: 2.8 M slots of
+    // 48 bytes). Up to 128^3 that is every voxel; at 256^3 the surfaces must fit (counted per frame).
+    GLint64 maxBlock = 0;
+    glGetInteger64v(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &maxBlock);
+    const GLsizeiptr slotBytes = 12 * GLsizeiptr(sizeof(std::uint32_t)); // the largest: accumulation, SH
+    if (GLsizeiptr(impl.voxelCount) * GLsizeiptr(sizeof(std::uint32_t)) > maxBlock)
+        throw Error("gi.imperfectVolumes", std::nullopt,
+                    "resolution = " + std::to_string(settings.resolution) + ": the slot map needs " +
+                        std::to_string(impl.voxelCount * 4ull) + " bytes, more than one storage buffer holds here (" +
+                        std::to_string(maxBlock) + ")");
+    impl.capacity = std::uint32_t(std::min<GLint64>(GLint64(impl.voxelCount), maxBlock / slotBytes));
+    const GLsizeiptr voxels = GLsizeiptr(impl.voxelCount), slots = GLsizeiptr(impl.capacity);
+    impl.occupiedSlot = gl::Buffer::create(voxels * GLsizeiptr(sizeof(std::uint32_t)));
+    impl.activeSlot = gl::Buffer::create(voxels * GLsizeiptr(sizeof(std::uint32_t)));
+    impl.counters = gl::Buffer::create(2 * GLsizeiptr(sizeof(std::uint32_t)));
+    impl.accumulation = gl::Buffer::create(slots * slotBytes);
+    impl.voxels = gl::Buffer::create(slots * 3 * GLsizeiptr(sizeof(glm::vec4)));
+    impl.exitant = gl::Buffer::create(slots * GLsizeiptr(sizeof(glm::vec4)));
+    impl.incoming = gl::Buffer::create(slots * 3 * GLsizeiptr(sizeof(glm::vec4)));
+    const bool blend = settings.temporalBlend > 0.0f;
+    impl.history = gl::Buffer::create((blend ? slots : 1) * 3 * GLsizeiptr(sizeof(glm::vec4)));
+    impl.historySlot = gl::Buffer::create((blend ? voxels : 1) * GLsizeiptr(sizeof(std::uint32_t)));
     const std::vector<glm::vec4> dirs = stratifiedDirections(settings.raysPerVoxel);
     impl.directions = gl::Buffer::create(GLsizeiptr(dirs.size() * sizeof(glm::vec4)), dirs.data());
     impl.timer = gl::GpuStageTimer::create(4);
@@ -189,6 +257,50 @@ void ImperfectVolumes::prepare(std::span<const MeshInstance> instances) {
         buffers.indices =
             gl::Buffer::create(GLsizeiptr(mesh.indices.size() * sizeof(std::uint32_t)), mesh.indices.data());
         impl.meshes.emplace(instance.meshId, std::move(buffers));
+    }
+}
+
+void ImperfectVolumes::Impl::injectPoints(std::span<const MeshInstance> instances, const ValSetView& valSet, bool flag,
+                                          std::uint32_t frameHash) const {
+    if (settings.pointsPerTriangle > 0) {
+        const gl::Program& mesh = flag ? flagMesh : injectMesh;
+        mesh.use();
+        setGrid(mesh);
+        glUniform1ui(Uniforms::first + 1, std::uint32_t(settings.pointsPerTriangle));
+        glUniform1ui(Uniforms::first + 2, settings.seed ^ frameHash);
+        for (const MeshInstance& instance : instances) {
+            const auto it = meshes.find(instance.meshId);
+            LIGHTSKIN_ASSERT(it != meshes.end(),
+                             "lightskin::gi::ImperfectVolumes::render(): an instance's mesh was not prepared");
+            const MeshBuffers& buffers = it->second;
+            if (buffers.triangles == 0) continue;
+            const std::uint32_t points = buffers.triangles * std::uint32_t(settings.pointsPerTriangle);
+            glUniform1ui(Uniforms::first, points);
+            glUniformMatrix4fv(Uniforms::first + 3, 1, GL_FALSE, glm::value_ptr(instance.world_T_model));
+            glUniform3fv(Uniforms::first + 4, 1, glm::value_ptr(instance.material.diffuseAlbedo));
+            if (!flag) setLights();
+            glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, buffers.positions.id());
+            glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, buffers.normals.id());
+            glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 8, buffers.indices.id());
+            for (std::uint32_t offset = 0; offset < points; offset += kMaxGroups * 64u) {
+                glUniform1ui(Uniforms::first + 5, offset);
+                glDispatchCompute(std::min(kMaxGroups, (points - offset + 63u) / 64u), 1, 1);
+            }
+        }
+    }
+    if (valSet.count > 0) {
+        const gl::Program& program = flag ? flagVals : injectVals;
+        program.use();
+        setGrid(program);
+        glUniform1ui(Uniforms::first, valSet.count);
+        glUniform3fv(Uniforms::first + 1, 1, glm::value_ptr(glm::vec3(settings.realAlbedo)));
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, valSet.buffer);
+        for (std::uint32_t offset = 0; offset < valSet.count; offset += kMaxGroups * 64u) {
+            glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 6, valSet.buffer, GLintptr(offset) * 48,
+                              GLsizeiptr(std::min(valSet.count - offset, kMaxGroups * 64u)) * 48);
+            glUniform1ui(Uniforms::first, std::min(valSet.count - offset, kMaxGroups * 64u));
+            glDispatchCompute(std::min(kMaxGroups, (valSet.count - offset + 63u) / 64u), 1, 1);
+        }
     }
 }
 
@@ -242,65 +354,37 @@ void ImperfectVolumes::render(const ValSetView& lights, std::span<const MeshInst
                            16777216.0f -
                        0.5f
                  : glm::vec3(0.0f);
-    const GLuint voxelGroups = (impl.voxelCount + 63u) / 64u;
     const GLuint pixelGroupsX = GLuint(gbuffer.width + 7) / 8u, pixelGroupsY = GLuint(gbuffer.height + 7) / 8u;
     const std::uint32_t zero = 0;
 
     impl.timer.beginFrame();
     impl.timer.begin("inject");
-    glClearNamedBufferData(impl.accumulation.id(), GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT, &zero);
-    glClearNamedBufferData(impl.active.id(), GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT, &zero);
-    glClearNamedBufferData(impl.incoming.id(), GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT, &zero);
+    glClearNamedBufferData(impl.occupiedSlot.id(), GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT, &zero);
+    glClearNamedBufferData(impl.activeSlot.id(), GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT, &zero);
+    glClearNamedBufferData(impl.counters.id(), GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT, &zero);
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, impl.accumulation.id());
-    if (s.pointsPerTriangle > 0) {
-        impl.injectMesh.use();
-        impl.setGrid(impl.injectMesh);
-        glUniform1ui(Uniforms::first + 1, std::uint32_t(s.pointsPerTriangle));
-        glUniform1ui(Uniforms::first + 2, s.seed ^ frameHash);
-        for (const MeshInstance& instance : instances) {
-            const auto it = impl.meshes.find(instance.meshId);
-            LIGHTSKIN_ASSERT(it != impl.meshes.end(),
-                             "lightskin::gi::ImperfectVolumes::render(): an instance's mesh was not prepared");
-            const MeshBuffers& mesh = it->second;
-            if (mesh.triangles == 0) continue;
-            const std::uint32_t points = mesh.triangles * std::uint32_t(s.pointsPerTriangle);
-            glUniform1ui(Uniforms::first, points);
-            glUniformMatrix4fv(Uniforms::first + 3, 1, GL_FALSE, glm::value_ptr(instance.world_T_model));
-            glUniform3fv(Uniforms::first + 4, 1, glm::value_ptr(instance.material.diffuseAlbedo));
-            glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, mesh.positions.id());
-            glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, mesh.normals.id());
-            glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 8, mesh.indices.id());
-            for (std::uint32_t offset = 0; offset < points; offset += kMaxGroups * 64u) {
-                glUniform1ui(Uniforms::first + 5, offset);
-                glDispatchCompute(std::min(kMaxGroups, (points - offset + 63u) / 64u), 1, 1);
-            }
-        }
-    }
-    if (lights.count > 0) {
-        impl.injectVals.use();
-        impl.setGrid(impl.injectVals);
-        glUniform1ui(Uniforms::first, lights.count);
-        glUniform3fv(Uniforms::first + 1, 1, glm::value_ptr(glm::vec3(s.realAlbedo)));
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, lights.buffer);
-        for (std::uint32_t offset = 0; offset < lights.count; offset += kMaxGroups * 64u) {
-            glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 6, lights.buffer, GLintptr(offset) * 48,
-                              GLsizeiptr(std::min(lights.count - offset, kMaxGroups * 64u)) * 48);
-            glUniform1ui(Uniforms::first, std::min(lights.count - offset, kMaxGroups * 64u));
-            glDispatchCompute(std::min(kMaxGroups, (lights.count - offset + 63u) / 64u), 1, 1);
-        }
-    }
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 11, impl.occupiedSlot.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 12, impl.counters.id());
+    // Two passes over the same points: flag their voxels, give each flagged voxel a slot (its sums
+    // zeroed), then add the points to their slots.
+    impl.injectPoints(instances, lights, true, frameHash);
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, impl.occupiedSlot.id());
+    impl.allocate(impl.allocateOccupied, 0);
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    impl.injectPoints(instances, lights, false, frameHash);
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
     impl.resolve.use();
     glProgramUniform1i(impl.resolve.id(), Uniforms::resolution, s.resolution);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, impl.voxels.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, impl.exitant.id());
-    glDispatchCompute(voxelGroups, 1, 1);
+    dispatchLinear(impl.voxelCount);
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
     impl.timer.end();
 
     impl.timer.begin("ray march");
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, impl.active.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, impl.activeSlot.id());
     impl.markPixels.use();
     impl.setGrid(impl.markPixels);
     glUniform2i(Uniforms::first, gbuffer.width, gbuffer.height);
@@ -311,8 +395,10 @@ void ImperfectVolumes::render(const ValSetView& lights, std::span<const MeshInst
     if (passes > 1) {
         impl.markVoxels.use();
         impl.setGrid(impl.markVoxels);
-        glDispatchCompute(voxelGroups, 1, 1);
+        dispatchLinear(impl.voxelCount);
     }
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    impl.allocate(impl.allocateActive, 1);
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, impl.incoming.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, impl.directions.id());
@@ -325,7 +411,7 @@ void ImperfectVolumes::render(const ValSetView& lights, std::span<const MeshInst
         if (pass > 0) {
             impl.bounce.use();
             impl.setGrid(impl.bounce);
-            glDispatchCompute(voxelGroups, 1, 1);
+            dispatchLinear(impl.voxelCount);
             glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
         }
         impl.gather.use();
@@ -336,21 +422,21 @@ void ImperfectVolumes::render(const ValSetView& lights, std::span<const MeshInst
         glUniform3fv(Uniforms::first + 5, 1, glm::value_ptr(originOffset));
         glUniform1f(Uniforms::first + 6, blend && pass == passes - 1 ? s.temporalBlend : 0.0f);
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 9, impl.history.id());
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 10, impl.historyActive.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 10, impl.historySlot.id());
         for (std::uint32_t begin = 0; begin < std::uint32_t(s.raysPerVoxel); begin += raysPerPass) {
             glUniform1ui(Uniforms::first, begin);
             glUniform1ui(Uniforms::first + 1, std::min(begin + raysPerPass, std::uint32_t(s.raysPerVoxel)));
-            glDispatchCompute(voxelGroups, 1, 1);
+            dispatchLinear(impl.voxelCount);
             glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
         }
     }
     impl.timer.end();
 
     if (s.temporalBlend > 0.0f) {
-        const GLsizeiptr n = GLsizeiptr(impl.voxelCount);
-        glCopyNamedBufferSubData(impl.incoming.id(), impl.history.id(), 0, 0, n * 3 * GLsizeiptr(sizeof(glm::vec4)));
-        glCopyNamedBufferSubData(impl.active.id(), impl.historyActive.id(), 0, 0,
-                                 n * GLsizeiptr(sizeof(std::uint32_t)));
+        glCopyNamedBufferSubData(impl.incoming.id(), impl.history.id(), 0, 0,
+                                 GLsizeiptr(impl.capacity) * 3 * GLsizeiptr(sizeof(glm::vec4)));
+        glCopyNamedBufferSubData(impl.activeSlot.id(), impl.historySlot.id(), 0, 0,
+                                 GLsizeiptr(impl.voxelCount) * GLsizeiptr(sizeof(std::uint32_t)));
         impl.historyValid = true;
     }
     impl.timer.begin("reconstruct");
@@ -367,23 +453,59 @@ void ImperfectVolumes::render(const ValSetView& lights, std::span<const MeshInst
     impl.timer.collect(impl.stageTimes);
 }
 
+void ImperfectVolumes::setDirectLights(std::span<const VolumeLight> lights, std::uint32_t shadowDistanceCubes) {
+    if (lights.size() > std::size_t(kMaxVolumeLights))
+        throw Error("imperfect volumes", std::nullopt,
+                    std::to_string(lights.size()) + " lights: at most " + std::to_string(kMaxVolumeLights) +
+                        " carry direct light into the volume");
+    impl_->lights.assign(lights.begin(), lights.end());
+    impl_->shadowDistanceCubes = shadowDistanceCubes;
+}
+
 void ImperfectVolumes::lastStageTimes(std::vector<gl::StageTime>& out) const { out = impl_->stageTimes; }
 
 glm::vec3 ImperfectVolumes::gridOrigin() const { return impl_->origin; }
 float ImperfectVolumes::voxelSize() const { return impl_->voxelSize; }
 
-std::vector<glm::vec4> ImperfectVolumes::downloadVoxelNormals() const {
-    std::vector<glm::vec4> all(std::size_t(impl_->voxelCount) * 3);
-    glGetNamedBufferSubData(impl_->voxels.id(), 0, GLsizeiptr(all.size() * sizeof(glm::vec4)), all.data());
-    std::vector<glm::vec4> out(impl_->voxelCount);
-    for (std::size_t i = 0; i < out.size(); ++i) out[i] = all[3 * i];
+namespace {
+// Dense per-voxel copy of a compact array of `perSlot` vec4 (element `element` of each) through a slot map.
+std::vector<glm::vec4> expandSlots(const gl::Buffer& map, const gl::Buffer& compact, std::uint32_t voxelCount,
+                                   std::uint32_t capacity, std::size_t perSlot, std::size_t element) {
+    std::vector<std::uint32_t> slots(voxelCount);
+    glGetNamedBufferSubData(map.id(), 0, GLsizeiptr(slots.size() * sizeof(std::uint32_t)), slots.data());
+    std::vector<glm::vec4> all(std::size_t(capacity) * perSlot);
+    glGetNamedBufferSubData(compact.id(), 0, GLsizeiptr(all.size() * sizeof(glm::vec4)), all.data());
+    std::vector<glm::vec4> out(std::size_t(voxelCount) * (element == perSlot ? perSlot : 1), glm::vec4(0.0f));
+    for (std::size_t i = 0; i < slots.size(); ++i) {
+        if (slots[i] == 0) continue;
+        const std::size_t slot = slots[i] - 1u;
+        if (element == perSlot)
+            for (std::size_t k = 0; k < perSlot; ++k) out[i * perSlot + k] = all[slot * perSlot + k];
+        else
+            out[i] = all[slot * perSlot + element];
+    }
     return out;
+}
+} // namespace
+
+std::vector<glm::vec4> ImperfectVolumes::downloadVoxelNormals() const {
+    return expandSlots(impl_->occupiedSlot, impl_->voxels, impl_->voxelCount, impl_->capacity, 3, 0);
+}
+
+std::vector<glm::vec4> ImperfectVolumes::downloadVoxelDirect() const {
+    return expandSlots(impl_->occupiedSlot, impl_->voxels, impl_->voxelCount, impl_->capacity, 3, 1);
 }
 
 std::vector<glm::vec4> ImperfectVolumes::downloadIncoming() const {
-    std::vector<glm::vec4> out(std::size_t(impl_->voxelCount) * 3);
-    glGetNamedBufferSubData(impl_->incoming.id(), 0, GLsizeiptr(out.size() * sizeof(glm::vec4)), out.data());
-    return out;
+    return expandSlots(impl_->activeSlot, impl_->incoming, impl_->voxelCount, impl_->capacity, 3, 3);
+}
+
+std::uint32_t ImperfectVolumes::slotCapacity() const { return impl_->capacity; }
+
+glm::uvec2 ImperfectVolumes::downloadVoxelCounts() const {
+    glm::uvec2 counts(0u);
+    glGetNamedBufferSubData(impl_->counters.id(), 0, GLsizeiptr(sizeof(counts)), &counts);
+    return counts;
 }
 
 } // namespace lightskin::gi

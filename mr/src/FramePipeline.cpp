@@ -163,6 +163,27 @@ std::vector<gi::VirtualLight> virtualLightsFromScene(const render::Scene& scene)
     return lights;
 }
 
+namespace {
+// The renderer's light model (Renderer::shade) for the direct light of imperfect volumes' mesh points.
+std::vector<gi::VolumeLight> volumeLightsFromScene(const render::Scene& scene) {
+    std::vector<gi::VolumeLight> lights;
+    for (const render::SceneLight& l : scene.lights) {
+        gi::VolumeLight v;
+        v.position = l.position;
+        v.direction = l.direction;
+        v.intensity = l.power / float(4.0 * std::numbers::pi);
+        if (l.type == render::LightType::Spot) {
+            v.cosInner = std::cos(glm::radians(l.coneAngleDegrees));
+            v.cosOuter =
+                std::cos(glm::radians(std::min(89.9f, l.coneAngleDegrees + std::max(l.coneFalloffDegrees, 0.01f))));
+        }
+        v.castsShadows = l.castsShadows;
+        lights.push_back(v);
+    }
+    return lights;
+}
+} // namespace
+
 void parseView(const std::string& text, render::DebugView& view, Overlay& overlay) {
     overlay = Overlay::None;
     view = render::DebugView::Final;
@@ -445,6 +466,10 @@ void FramePipeline::setGiSettings(const render::GiSettings& settings) {
     }
     gi_ = settings;
     state_->technique = createTechnique(settings, *renderer_);
+    // Imperfect volumes: the mesh points carry the scene lights' direct light, shadowed by the
+    // renderer's own shadow maps (lights are static: set once per technique).
+    if (auto* volumes = dynamic_cast<gi::ImperfectVolumes*>(state_->technique.get()); volumes)
+        volumes->setDirectLights(volumeLightsFromScene(*st.scene), renderer_->shadowMapTexture());
     if (auto* lightSkin = dynamic_cast<gi::LightSkinIllumination*>(state_->technique.get()); lightSkin && options_.adaptive) {
         gi::LightSkinSettings s = lightSkin->settings();
         s.adaptive = true;

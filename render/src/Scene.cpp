@@ -193,7 +193,7 @@ gi::ImperfectVolumesSettings readImperfectVolumes(const Reader& r, const json& v
                 {"resolution", "pointsPerTriangle", "raysPerVoxel", "bounces", "ambientOcclusion", "aoRange", "margin",
                  "origin", "size", "realAlbedo", "seed", "jitter", "temporalBlend"});
     gi::ImperfectVolumesSettings v;
-    if (value.contains("resolution")) v.resolution = r.integer(value["resolution"], p + "/resolution", 1, 128);
+    if (value.contains("resolution")) v.resolution = r.integer(value["resolution"], p + "/resolution", 1, 256);
     if (value.contains("pointsPerTriangle"))
         v.pointsPerTriangle = r.integer(value["pointsPerTriangle"], p + "/pointsPerTriangle", 0, 256);
     if (value.contains("raysPerVoxel")) v.raysPerVoxel = r.integer(value["raysPerVoxel"], p + "/raysPerVoxel", 1, 4096);

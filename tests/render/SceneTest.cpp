@@ -158,7 +158,7 @@ TEST(Scene, ImperfectVolumesSettingsAreReadAndCheckedByKey) {
 
     const std::string head = R"({"version": 1, "gi": {"technique": "imperfect-volumes", "imperfectVolumes": )";
     const std::pair<std::string, std::string> cases[] = {
-        {head + R"({"resolution": 256}}})", "/gi/imperfectVolumes/resolution: expected an integer in [1, 128]"},
+        {head + R"({"resolution": 257}}})", "/gi/imperfectVolumes/resolution: expected an integer in [1, 256]"},
         {head + R"({"bounces": 0}}})", "/gi/imperfectVolumes/bounces: expected an integer in [1, 4]"},
         {head + R"({"raysPerVoxel": "many"}}})", "/gi/imperfectVolumes/raysPerVoxel: expected an integer"},
         {head + R"({"origin": [0, 0, 0]}}})", "/gi/imperfectVolumes/size: expected both \"origin\" and \"size\""},

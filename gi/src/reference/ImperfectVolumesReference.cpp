@@ -133,6 +133,39 @@ std::vector<SurfacePoint> sampleTriangles(const TriangleMesh& mesh, const glm::d
     return out;
 }
 
+glm::dvec3 directIrradiance(const glm::dvec3& position, const glm::dvec3& normal, std::span<const SceneLight> lights,
+                            const LightVisibility& visible) {
+    glm::dvec3 e(0.0);
+    for (std::size_t i = 0; i < lights.size(); ++i) {
+        const SceneLight& light = lights[i];
+        const glm::dvec3 toLight = light.position - position;
+        const double d2 = glm::dot(toLight, toLight);
+        if (!(d2 > 0.0)) continue;
+        const glm::dvec3 l = toLight / std::sqrt(d2);
+        const double cosTheta = glm::dot(normal, l);
+        if (cosTheta <= 0.0) continue;
+        double cone = 1.0;
+        if (light.cosOuter > -1.5) {
+            const double t = std::clamp(
+                (glm::dot(-l, light.direction) - light.cosOuter) / (light.cosInner - light.cosOuter), 0.0, 1.0);
+            cone = t * t * (3.0 - 2.0 * t);
+        }
+        if (cone <= 0.0 || (visible && !visible(i, position))) continue;
+        e += light.intensity * (cone * cosTheta / d2);
+    }
+    return e;
+}
+
+void addDirectLight(std::span<SurfacePoint> points, std::span<const SceneLight> lights,
+                    const LightVisibility& visible) {
+    for (SurfacePoint& p : points) {
+        p.radiance = glm::length(p.normal) > 0.0
+                         ? p.albedo / kPi * directIrradiance(p.position, p.normal, lights, visible)
+                         : glm::dvec3(0.0);
+        p.emits = true;
+    }
+}
+
 Volume::Volume(const Grid& g)
     : grid(g)
     , count(g.voxelCount(), 0u)

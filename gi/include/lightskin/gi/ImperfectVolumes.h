@@ -4,7 +4,8 @@
 //  1. a cubic grid (resolution^3 voxels) auto-fitted to the virtual content plus a margin for the
 //     real surfaces around it, or fixed;
 //  2. injection of points (section 3.1/3.2): pointsPerTriangle random points per virtual triangle
-//     (p(x) = 1/A; occupancy, normal, the material's diffuse albedo) and every VAL of the set (the
+//     (p(x) = 1/A; occupancy, normal, the material's diffuse albedo and, with setDirectLights(), their
+//     direct light from the scene's lights, shadowed as the renderer does it) and every VAL of the set (the
 //     depth frame's pixels, and the RSM VALs of the virtual content when the pipeline merges them:
 //     position, normal, exitant radiance flux / (pi area)); a voxel keeps the means;
 //  3. ray marching per voxel (section 3.3): raysPerVoxel stratified directions, one-voxel steps from
@@ -19,21 +20,45 @@
 // Only the voxels that a reconstruction reads (the eight around each covered pixel's p', and for
 // bounces around each occupied voxel's) are ray-marched: the others' SH is never used.
 //
-// GPU memory: 116 bytes per voxel (30 MB at 64^3, 243 MB at the maximum 128^3); 168 with temporalBlend.
+// GPU memory: sparse (gi/shaders/volumes_common.glsl): 4 bytes per voxel for each of two slot maps
+// (occupied, ray-marched), plus 112 bytes per occupied voxel (accumulation 48, means 48, exitant 16) and
+// 48 per ray-marched voxel (incoming L1 SH, 4 coefficients x 3 channels x fp32), each array capped at
+// the slots one storage buffer holds (GL_MAX_SHADER_STORAGE_BLOCK_SIZE, 128 MiB on llvmpipe: 2.8 M).
+// Up to 128^3 every voxel has a slot (a dense 256^3 SH array alone would be 805 MB in fp32, 403 MB in
+// fp16); at 256^3 the two maps take 128 MiB and the arrays grow with the surfaces. temporalBlend adds
+// a third map and a copy of the SH.
 
 #include <lightskin/gi/IndirectIllumination.h>
 
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <vector>
 
 namespace lightskin::gi {
 
+/// A scene light for the direct light of the injected mesh points (the paper's section 3.1: each
+/// point carries its direct light). The renderer's model (render/shaders/shade.frag): a point or
+/// spot light of radiant intensity I, the spot's smoothstep cone, optional cube-map shadows.
+/// A light may lie anywhere, inside or outside the volume: its light on a point is analytic.
+struct VolumeLight {
+    glm::vec3 position{0.0f};               ///< world, metres
+    glm::vec3 direction{0.0f, 0.0f, -1.0f}; ///< spot axis, unit, world; ignored for point lights
+    glm::vec3 intensity{0.0f};              ///< radiant intensity, W/sr, linear RGB (power / (4 pi))
+    float cosOuter = -2.0f;                 ///< spot: cos(cone + falloff); < -1.5: a point light
+    float cosInner = -1.0f;                 ///< spot: cos(cone); full intensity inside
+    bool castsShadows = false;              ///< look up the shadow cube map (layer 6 * index + face)
+};
+
+/// Lights setDirectLights() takes (the renderer's maximum too).
+constexpr int kMaxVolumeLights = 4;
+
 struct ImperfectVolumesSettings {
-    int resolution = 64;           ///< voxels per side, 1..128 (paper: 64)
+    int resolution = 64;           ///< voxels per side, 1..256 (paper: 64)
     int pointsPerTriangle = 12;    ///< random points per virtual triangle, 0..256 (paper: 12)
     int raysPerVoxel = 100;        ///< stratified directions per voxel, 1..4096 (paper: 100)
     int bounces = 1;               ///< ray-marching passes, 1..4 (1 = one indirect bounce)
@@ -75,6 +100,17 @@ public:
                 const ViewParameters& view, std::uint32_t targetTexture) override;
     void lastStageTimes(std::vector<gl::StageTime>& out) const override;
 
+    /// The scene's lights for the direct light of the mesh points, from the next render() on
+    /// (copied; lights are static in the world in this project, so call it when the scene loads).
+    /// Each mesh point then emits rho_d / pi * sum_i I_i cone_i max(0, n . l_i) / d_i^2 * shadow_i
+    /// (W/(sr m^2)); without lights (the default) mesh points only occupy and reflect. Real VAL
+    /// points outside the grid are dropped (clipped); lights act from anywhere.
+    /// `shadowDistanceCubes`: optional GL name of an R32F cube-map array (6 layers per light, in the
+    /// order of `lights`) of the distance in metres from each light to the nearest virtual surface,
+    /// as render::Renderer::shadowMapTexture() holds it; 0 = unshadowed. Not owned: it must stay
+    /// valid while render() uses it. Throws lightskin::Error for more than kMaxVolumeLights lights.
+    void setDirectLights(std::span<const VolumeLight> lights, std::uint32_t shadowDistanceCubes = 0);
+
     /// The grid of the last render(): minimum corner (world metres) and voxel edge (metres).
     glm::vec3 gridOrigin() const;
     float voxelSize() const;
@@ -83,6 +119,13 @@ public:
     /// 0 for voxels that were not ray-marched).
     std::vector<glm::vec4> downloadVoxelNormals() const;
     std::vector<glm::vec4> downloadIncoming() const;
+    /// Per voxel the mean direct exitant radiance of its emitting points (W/(sr m^2), rgb; w unused).
+    std::vector<glm::vec4> downloadVoxelDirect() const;
+    /// Slots of the compact per-voxel storage: every voxel up to 128^3; at 256^3 the 2.8 M that one
+    /// storage buffer of 128 MiB holds on llvmpipe (occupied and ray-marched voxels beyond it are dropped).
+    std::uint32_t slotCapacity() const;
+    /// Occupied and ray-marched voxels of the last render() as requested (may exceed slotCapacity()).
+    glm::uvec2 downloadVoxelCounts() const;
 
 private:
     ImperfectVolumes();

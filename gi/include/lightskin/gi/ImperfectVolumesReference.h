@@ -96,6 +96,25 @@ double unitFromHash(std::uint32_t hash);
 std::vector<SurfacePoint> sampleTriangles(const TriangleMesh& mesh, const glm::dmat4& world_T_model, int perTriangle,
                                           const glm::dvec3& albedo, std::uint32_t seed);
 
+/// A point or spot light as the renderer models it (render/shaders/shade.frag, its diffuse term).
+struct SceneLight {
+    glm::dvec3 position{0.0};             ///< world, metres
+    glm::dvec3 direction{0.0, 0.0, -1.0}; ///< spot axis, unit
+    glm::dvec3 intensity{0.0};            ///< W/sr, RGB
+    double cosOuter = -2.0;               ///< spot: cos(cone + falloff); < -1.5: point light
+    double cosInner = -1.0;               ///< spot: cos(cone)
+};
+/// Whether light `index` reaches `position` (a shadow test); empty: always.
+using LightVisibility = std::function<bool(std::size_t index, const glm::dvec3& position)>;
+
+/// Direct irradiance (W/m^2, RGB) at a point of normal n: sum_i I_i cone_i max(0, n . l_i) / d_i^2
+/// over the visible lights, cone = smoothstep(cosOuter, cosInner, -l . axis) for spots.
+glm::dvec3 directIrradiance(const glm::dvec3& position, const glm::dvec3& normal, std::span<const SceneLight> lights,
+                            const LightVisibility& visible = {});
+/// Section 3.1's "each point carries its direct light": every point emits albedo / pi * E_direct.
+void addDirectLight(std::span<SurfacePoint> points, std::span<const SceneLight> lights,
+                    const LightVisibility& visible = {});
+
 /// Voxel contents: sums over the injected points.
 struct Volume {
     Grid grid;

@@ -86,6 +86,9 @@ public:
     gi::ViewParameters viewParameters() const noexcept { return view_; }
     /// The RGBA32F texture techniques write indirect radiance into (cleared to 0 by renderGBuffer()).
     std::uint32_t indirectTarget() const noexcept { return indirect_.id(); }
+    /// The shadow maps of the scene's lights (R32F cube-map array, layer 6 * light + face: distance in
+    /// metres from the light to the nearest virtual surface), rendered by setScene(); owned here.
+    std::uint32_t shadowMapTexture() const noexcept { return shadowCubes_.id(); }
 
     /// Direct light + (optionally) the indirect target, tone mapped, into the output textures.
     void shade(const ShadeOptions& options);
