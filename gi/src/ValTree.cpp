@@ -1,0 +1,178 @@
+// The VAL cluster tree's builder (ValTree.h). Statistics are combined in double for both node types
+// and rounded outward (boxes) or down (r2Min) when stored as float, so that the float bound of
+// val_tree_math.glsl still holds for every member VAL.
+#include <lightskin/core/Error.h>
+#include <lightskin/gi/ValTree.h>
+
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace lightskin::gi {
+namespace {
+
+using glm::dvec3;
+
+bool valid(const VirtualAreaLight& l) { return l.area > 0.0f; } // false for NaN, like ls_gatherSample
+
+double channelSum(const dvec3& v) { return v.x + v.y + v.z; }
+
+double angleBetween(const dvec3& a, const dvec3& b) { return std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0)); }
+
+float roundDown(double v) {
+    const float f = float(v);
+    return double(f) > v ? std::nextafter(f, -INFINITY) : f;
+}
+float roundUp(double v) {
+    const float f = float(v);
+    return double(f) < v ? std::nextafter(f, INFINITY) : f;
+}
+
+template <class Real>
+ValClusterT<Real> store(const ValClusterD& d) {
+    if constexpr (std::is_same_v<Real, double>) {
+        return d;
+    } else {
+        ValCluster f;
+        f.position = glm::vec3(d.position);
+        f.r2Mean = float(d.r2Mean);
+        f.axis = glm::vec3(d.axis);
+        f.normalScale = float(d.normalScale);
+        f.flux = glm::vec3(d.flux);
+        f.r2Sum = float(d.r2Sum);
+        f.boxMin = glm::vec3(roundDown(d.boxMin.x), roundDown(d.boxMin.y), roundDown(d.boxMin.z));
+        f.boxMax = glm::vec3(roundUp(d.boxMax.x), roundUp(d.boxMax.y), roundUp(d.boxMax.z));
+        // the float axis differs from the double one by ~1e-7 rad: covered by the shader's slack
+        f.coneAngle = roundUp(d.coneAngle);
+        f.r2Min = roundDown(d.r2Min);
+        f.variance = glm::vec3(d.variance);
+        f.count = float(d.count);
+        f.child0 = d.child0;
+        f.child1 = d.child1;
+        return f;
+    }
+}
+
+ValClusterD leaf(const VirtualAreaLight& l, std::uint32_t index) {
+    ValClusterD c;
+    c.position = dvec3(l.position);
+    const double r2 = double(l.area) / std::numbers::pi;
+    c.r2Mean = r2;
+    c.r2Sum = r2;
+    c.r2Min = r2;
+    const dvec3 n(l.normal);
+    const double length = glm::length(n);
+    // a zero normal emits nothing (cos(theta_j) = 0); any axis with scale 0 says the same
+    c.axis = length > 0.0 ? n / length : dvec3(0, 0, 1);
+    c.normalScale = length > 0.0 ? 1.0 : 0.0;
+    c.coneAngle = length > 0.0 ? 0.0 : std::numbers::pi;
+    c.flux = dvec3(l.flux);
+    c.boxMin = c.position;
+    c.boxMax = c.position;
+    c.variance = dvec3(0.0);
+    c.count = 1.0;
+    c.child0 = index;
+    c.child1 = kValTreeLeaf;
+    return c;
+}
+
+ValClusterD combine(const ValClusterD& a, const ValClusterD& b) {
+    ValClusterD c;
+    c.flux = a.flux + b.flux;
+    const double phiA = channelSum(a.flux), phiB = channelSum(b.flux);
+    // flux weights; black clusters (no flux, so no light either) fall back to counts for the geometry
+    const bool byFlux = phiA + phiB > 0.0;
+    const double wa = byFlux ? phiA : a.count, wb = byFlux ? phiB : b.count;
+    const double w = wa + wb;
+    c.position = (wa * a.position + wb * b.position) / w;
+    const dvec3 da = a.position - c.position, db = b.position - c.position;
+    c.variance = (wa * (a.variance + da * da) + wb * (b.variance + db * db)) / w; // parallel axis theorem
+    const dvec3 normalSum = wa * a.normalScale * a.axis + wb * b.normalScale * b.axis;
+    const double length = glm::length(normalSum);
+    c.normalScale = std::min(length / w, 1.0);
+    if (length > 0.0) {
+        c.axis = normalSum / length;
+        c.coneAngle = std::min(std::numbers::pi, std::max(angleBetween(c.axis, a.axis) + a.coneAngle,
+                                                          angleBetween(c.axis, b.axis) + b.coneAngle));
+    } else {
+        c.axis = dvec3(0, 0, 1);
+        c.coneAngle = std::numbers::pi;
+    }
+    c.r2Sum = a.r2Sum + b.r2Sum;
+    c.r2Mean = c.r2Sum > 0.0 ? (a.r2Mean * a.r2Sum + b.r2Mean * b.r2Sum) / c.r2Sum : 0.0;
+    c.r2Min = std::min(a.r2Min, b.r2Min);
+    c.r2Mean = std::max(c.r2Mean, c.r2Min); // a mean of equal values may round below them; the bound needs >=
+    c.boxMin = glm::min(a.boxMin, b.boxMin);
+    c.boxMax = glm::max(a.boxMax, b.boxMax);
+    c.count = a.count + b.count;
+    return c;
+}
+
+template <class Real>
+struct Builder {
+    std::span<const VirtualAreaLight> vals;
+    ValTreeT<Real>& tree;
+    std::uint32_t next = 0;
+
+    // Builds the node for scratchOrder[first, last) at the next free index; returns its double statistics.
+    ValClusterD build(std::size_t first, std::size_t last, int level) {
+        tree.depth = std::max(tree.depth, level);
+        const std::uint32_t index = next++;
+        std::vector<std::uint32_t>& order = tree.scratchOrder;
+        if (last - first == 1) {
+            const ValClusterD c = leaf(vals[order[first]], order[first]);
+            tree.nodes[index] = store<Real>(c);
+            return c;
+        }
+        glm::vec3 lo = vals[order[first]].position, hi = lo;
+        for (std::size_t i = first + 1; i < last; ++i) {
+            lo = glm::min(lo, vals[order[i]].position);
+            hi = glm::max(hi, vals[order[i]].position);
+        }
+        const glm::vec3 extent = hi - lo;
+        const int axis = extent.x >= extent.y && extent.x >= extent.z ? 0 : (extent.y >= extent.z ? 1 : 2);
+        const std::size_t middle = first + (last - first) / 2;
+        const auto begin = order.begin();
+        // ties broken by index: the tree does not depend on the standard library's nth_element
+        std::nth_element(begin + std::ptrdiff_t(first), begin + std::ptrdiff_t(middle), begin + std::ptrdiff_t(last),
+                         [&](std::uint32_t i, std::uint32_t j) {
+                             const float pi = vals[i].position[axis], pj = vals[j].position[axis];
+                             return pi < pj || (pi == pj && i < j);
+                         });
+        const std::uint32_t child0 = next;
+        const ValClusterD a = build(first, middle, level + 1);
+        const std::uint32_t child1 = next;
+        const ValClusterD b = build(middle, last, level + 1);
+        ValClusterD c = combine(a, b);
+        c.child0 = child0;
+        c.child1 = child1;
+        tree.nodes[index] = store<Real>(c);
+        return c;
+    }
+};
+
+} // namespace
+
+template <class Real>
+void buildValTreeInto(std::span<const VirtualAreaLight> vals, ValTreeT<Real>& tree) {
+    tree.scratchOrder.clear();
+    for (std::size_t i = 0; i < vals.size(); ++i)
+        if (valid(vals[i])) tree.scratchOrder.push_back(std::uint32_t(i));
+    LIGHTSKIN_ASSERT(vals.size() < kValTreeLeaf, "lightskin::gi::buildValTreeInto(): too many VALs");
+    const std::size_t n = tree.scratchOrder.size();
+    tree.depth = 0;
+    tree.nodes.resize(n == 0 ? 0 : 2 * n - 1);
+    if (n == 0) return;
+    Builder<Real> builder{vals, tree};
+    builder.build(0, n, 1);
+    LIGHTSKIN_ASSERT(builder.next == tree.nodes.size(), "lightskin::gi::buildValTreeInto(): node count");
+    LIGHTSKIN_ASSERT(tree.depth <= kValTreeMaxDepth, "lightskin::gi::buildValTreeInto(): tree too deep");
+}
+
+template void buildValTreeInto<float>(std::span<const VirtualAreaLight>, ValTreeT<float>&);
+template void buildValTreeInto<double>(std::span<const VirtualAreaLight>, ValTreeT<double>&);
+
+} // namespace lightskin::gi
