@@ -21,8 +21,9 @@
 // cos(theta_j) <= cosJMax over the box and the cone; so 0 <= sum_j E_j <= U = Phi G / pi with
 // G = cosJMax cosIMax / (r2Min + dMin^2). The approximation satisfies the same bounds (p lies in the
 // box, a in the cone, r2Mean >= r2Min, s <= 1), so |approx - exact| <= U per channel. The glossy
-// channel: the lobe cos^k(gamma) <= 1 and is gated by cos(theta_i) > 0: U_s = c_k Phi G_s / pi with
-// G_s = cosJMax [cosIMax > 0] / (r2Min + dMin^2).
+// channel: the lobe cos^k(gamma) <= lobeMax = cos^k of the smallest angle between the mirrored eye
+// direction and the cone of directions to the box (1 when x lies in the box's bounding sphere), gated by
+// cos(theta_i) > 0: U_s = c_k Phi G_s / pi with G_s = cosJMax lobeMax [cosIMax > 0] / (r2Min + dMin^2).
 //   cosIMax: 0 when the whole box lies on or below the receiver's tangent plane (exact: max over the
 //   box corners of n.(l - x) <= 0), else min(1, that max / dMin, cos(max(angle(n, c - x) - beta, 0)))
 //   with beta the half angle of the cone of directions from x to the box's bounding sphere (c, R);
@@ -38,8 +39,9 @@
 const real kTreeAngleSlack = 1.0e-3; // rad, > float acos error near 1 (sqrt(2 * 6e-8) = 3.5e-4)
 const real kHalfPi = 1.57079632679489661923;
 
-// rvec2(G, G_s) of the bound above: U_d = Phi G / pi, U_s = c_k Phi G_s / pi.
-LS_FN rvec2 vt_clusterBound(rvec3 x, rvec3 n, rvec3 lo, rvec3 hi, rvec3 axis, real coneAngle, real r2Min) {
+// rvec2(G, G_s) of the bound above: U_d = Phi G / pi, U_s = c_k Phi G_s / pi. toEye, k: as ls_gatherSample.
+LS_FN rvec2 vt_clusterBound(rvec3 x, rvec3 n, rvec3 lo, rvec3 hi, rvec3 axis, real coneAngle, real r2Min,
+                            rvec3 toEye, real k) {
     const rvec3 c = 0.5 * (lo + hi);
     const rvec3 h = 0.5 * (hi - lo);
     const rvec3 v = c - x;
@@ -52,6 +54,7 @@ LS_FN rvec2 vt_clusterBound(rvec3 x, rvec3 n, rvec3 lo, rvec3 hi, rvec3 axis, re
     const real dc2 = dot(v, v);
     real cosIMax = 1.0;
     real cosJMax = 1.0;
+    real lobeMax = 1.0;
     if (dc2 > r2) {
         const real dc = sqrt(dc2);
         const rvec3 u = v / dc;
@@ -60,10 +63,14 @@ LS_FN rvec2 vt_clusterBound(rvec3 x, rvec3 n, rvec3 lo, rvec3 hi, rvec3 axis, re
         cosIMax = angleI > 0.0 ? max(cos(angleI), 0.0) : 1.0;
         const real angleJ = acos(clamp(-dot(axis, u), -1.0, 1.0)) - beta - coneAngle - kTreeAngleSlack;
         cosJMax = angleJ > 0.0 ? (angleJ < kHalfPi ? cos(angleJ) : 0.0) : 1.0;
+        // cos(gamma) = mirror(toLight) . toEye = toLight . mirror(toEye): the lobe's axis is the mirrored eye
+        const rvec3 mirrorEye = 2.0 * dot(n, toEye) * n - toEye;
+        const real angleS = acos(clamp(dot(mirrorEye, u), -1.0, 1.0)) - beta - kTreeAngleSlack;
+        lobeMax = angleS > 0.0 ? ls_cosPow(cos(min(angleS, kHalfPi)), k) : 1.0;
     }
     if (d2Min > 0.0) cosIMax = min(cosIMax, planeMax / sqrt(d2Min));
     const real inv = 1.0 / max(r2Min + d2Min, kTinyLength2);
-    return rvec2(cosJMax * cosIMax * inv, cosJMax * inv);
+    return rvec2(cosJMax * cosIMax * inv, cosJMax * lobeMax * inv);
 }
 
 // The cluster as one light (see the file comment); moments get the spread through `variance`

@@ -39,8 +39,10 @@ bool within(const glm::dvec3& bound, double threshold, const glm::dvec3& estimat
 
 } // namespace
 
-CutBound clusterErrorBound(const ValClusterD& c, const Receiver& x, const GatherParameters& parameters) {
-    const glm::dvec2 g = m::vt_clusterBound(x.position, x.normal, c.boxMin, c.boxMax, c.axis, c.coneAngle, c.r2Min);
+CutBound clusterErrorBound(const ValClusterD& c, const Receiver& x, const glm::dvec3& eye,
+                           const GatherParameters& parameters) {
+    const glm::dvec2 g = m::vt_clusterBound(x.position, x.normal, c.boxMin, c.boxMax, c.axis, c.coneAngle, c.r2Min,
+                                            m::ls_toEye(x.position, eye), x.exponent);
     const double ck = parameters.cParameter * (x.exponent + 1.0);
     return {c.flux * (g.x / m::kPi), parameters.glossy ? c.flux * (ck * g.y / m::kPi) : glm::dvec3(0.0)};
 }
@@ -110,8 +112,8 @@ void gatherWithCutInto(const ValTreeD& tree, std::span<const VirtualAreaLight> l
                 ++totals.leaves;
                 continue;
             }
-            const glm::dvec2 g =
-                m::vt_clusterBound(x.position, x.normal, c.boxMin, c.boxMax, c.axis, c.coneAngle, c.r2Min);
+            const glm::dvec2 g = m::vt_clusterBound(x.position, x.normal, c.boxMin, c.boxMax, c.axis, c.coneAngle,
+                                                    c.r2Min, toEye, x.exponent);
             const glm::dvec3 boundD = c.flux * (g.x / m::kPi);
             const glm::dvec3 boundS = c.flux * (ck * g.y / m::kPi);
             const glm::dvec3 estimateD = s.irradiance + glm::max(pendingD, glm::dvec3(0.0)) + current.irradiance;

@@ -276,7 +276,7 @@ TEST(ValTreeCut, BoundHoldsForEveryCluster) {
                 }
                 if (members.size() < 2) continue;
                 const auto& c = tree.nodes[node];
-                const ref::CutBound u = ref::clusterErrorBound(c, scene.receivers[r], {});
+                const ref::CutBound u = ref::clusterErrorBound(c, scene.receivers[r], kEye, {});
                 ref::gatherInto(members, one, kEye, {}, exact);
                 const ref::GatherSums approx = ref::clusterAsOneLight(c, scene.receivers[r], kEye, {});
                 for (int ch = 0; ch < 3; ++ch) {

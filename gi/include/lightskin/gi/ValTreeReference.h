@@ -35,7 +35,8 @@ struct CutStatistics {
 
 /// The bound U of one cluster at one receiver (val_tree_math.glsl): sum_j E_j and the cluster's
 /// approximation both lie in [0, U] per channel. `glossy` as GatherParameters::glossy.
-CutBound clusterErrorBound(const ValClusterD& cluster, const Receiver& receiver, const GatherParameters& parameters);
+CutBound clusterErrorBound(const ValClusterD& cluster, const Receiver& receiver, const glm::dvec3& eye,
+                           const GatherParameters& parameters);
 
 /// The eq.-7 sums of a cluster taken as one light at a receiver (what a cut adds for it).
 GatherSums clusterAsOneLight(const ValClusterD& cluster, const Receiver& receiver, const glm::dvec3& eye,
