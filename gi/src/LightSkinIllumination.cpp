@@ -12,6 +12,7 @@
 #include <lightskin/gl/ShaderLibrary.h>
 
 #include "GatherShaders.h"
+#include "ValTreeGather.h"
 
 #include <glm/gtc/type_ptr.hpp>
 #include <glm/mat3x3.hpp>
@@ -85,6 +86,7 @@ struct LightSkinIllumination::Impl {
     GatherProgram gather[2][2];
     gl::Program gatherCompute[2][2];
     gl::Program renormalise, occlusion[2], interpolate, shade, valSums;
+    detail::ValTreeGather treeGather; // valTreeThreshold > 0 (issue 17)
     gl::Program cullCount, cullScan, cullScatter, cullAppend; // adaptive VAL culling (gather_cull.glsl)
     gl::Buffer valSumsBuffer; // 2 vec4: (sum l, sum r^2), (sum l^2, count) over all valid VALs
     gl::VertexArray emptyVertexArray;
@@ -162,6 +164,7 @@ struct LightSkinIllumination::Impl {
         cullScatter = library.buildProgram({{GL_COMPUTE_SHADER, "gather_cull_scatter.comp"}});
         cullAppend = library.buildProgram({{GL_COMPUTE_SHADER, "gather_cull_append.comp"}});
         valSums = library.buildProgram({{GL_COMPUTE_SHADER, "gather_val_sums.comp"}});
+        treeGather.buildPrograms(library);
         staticScatter = library.buildProgram({{GL_COMPUTE_SHADER, "gather_static_scatter.comp"}});
         staticBound = library.buildProgram({{GL_COMPUTE_SHADER, "gather_static_bound.comp"}});
         staticSum = library.buildProgram({{GL_COMPUTE_SHADER, "gather_static_sum.comp"}});
@@ -757,7 +760,20 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     glBindVertexArray(impl.emptyVertexArray.id());
     glBindTextureUnit(8, impl.pointPosition.id());
     glBindTextureUnit(9, impl.pointNormal.id());
-    if (count > 0 && s.computeGather) {
+    choice.valTreeNodes = 0;
+    choice.valTreeCutPerPoint = choice.valTreeVisitedPerPoint = 0.0f;
+    if (count > 0 && s.valTreeThreshold > 0.0f) {
+        std::array<std::uint32_t, kGatherTargets> targets{};
+        for (int i = 0; i < kGatherTargets; ++i) targets[std::size_t(i)] = impl.gatherTargets[std::size_t(i)].id();
+        impl.treeGather.run(impl.vals.buffer().id(), count, impl.pointCount, impl.pointPosition.id(),
+                            impl.pointNormal.id(), targets, view.cameraPositionWorld, s.cParameter, choice.glossy,
+                            moments, s.valTreeThreshold, s.valTreeStepsPerDispatch);
+        const detail::ValTreeGatherStats& t = impl.treeGather.stats();
+        choice.valTreeNodes = t.nodes;
+        const double points = std::max(1.0, double(impl.pointCount));
+        choice.valTreeCutPerPoint = float(double(t.taken) / points);
+        choice.valTreeVisitedPerPoint = float(double(t.visited) / points);
+    } else if (count > 0 && s.computeGather) {
         const gl::Program& p = impl.gatherCompute[choice.glossy ? 1 : 0][moments ? 1 : 0];
         p.use();
         glUniform1i(p.uniformLocation("uPointCount"), int(impl.pointCount));

@@ -21,7 +21,6 @@
 
 namespace lightskin::gi {
 
-
 /// How the static-content tolerance mode judges a changed VAL set (see the file comment).
 enum class StaticChangeTest {
     Bound,  ///< guaranteed bound over all sparse points; needs ValSetView::keys
@@ -33,10 +32,10 @@ struct LightSkinSettings {
     /// alignment), at most GL_MAX_UNIFORM_BLOCK_SIZE / 48. Larger: fewer passes, longer loops.
     /// Speed only: the results do not depend on it (fixed 16-VAL summation blocks).
     int kCache = 128;
-    bool glossy = true;     ///< the paper's setup 2 (diffuse + glossy)
-    bool occlusion = true;  ///< the paper's setup 3 (+ occlusion)
+    bool glossy = true;                                       ///< the paper's setup 2 (diffuse + glossy)
+    bool occlusion = true;                                    ///< the paper's setup 3 (+ occlusion)
     float cParameter = float(1.0 / (2.0 * std::numbers::pi)); ///< c of c_k = c (k+1), 1/sr
-    float epsilonL = 1e-20f;  ///< eps_l of eq. 7
+    float epsilonL = 1e-20f;                                  ///< eps_l of eq. 7
     /// Occluders per occlusion pass (keeps each shader loop far below llvmpipe's ~65k limit).
     int occluderChunk = 4096;
     /// Width of the one-texel-per-sparse-point textures.
@@ -60,6 +59,14 @@ struct LightSkinSettings {
     /// VALs per compute dispatch (compute variant; each thread loops over them), rounded down
     /// to a multiple of 64 (one shared-memory tile); clamped to [64, 32768].
     int computeValsPerDispatch = 16384;
+    /// Issue 17: gather with a cut through a VAL tree (ValTree.h): at each sparse point a cluster of VALs
+    /// is taken as one light when the bound on the error of doing so is <= valTreeThreshold x the point's
+    /// running estimate (gi/shaders/val_tree_math.glsl); else its children are examined. 0 = the flat
+    /// gather over every VAL (exact; the default). Larger: fewer lights per point, larger error
+    /// (docs/BENCHMARKS.md "VAL tree"). Replaces computeGather's and the fragment passes' gather when > 0.
+    float valTreeThreshold = 0.0f;
+    /// Tree gather: walk iterations per thread and dispatch (llvmpipe ends loops after ~65k); [64, 32768].
+    int valTreeStepsPerDispatch = 16384;
     /// VAL capacity reserved in prepare(); grows (once, logged) if a frame brings more.
     std::uint32_t valCapacity = 1u << 16;
     /// With `adaptive`: reuse the VPLs of the last full computation for static content (see the
@@ -88,13 +95,17 @@ struct LightSkinSettings {
 struct LightSkinChoice {
     bool glossy = true;
     bool occlusion = true;
-    std::uint32_t valsIn = 0;      ///< VALs handed to render()
+    std::uint32_t valsIn = 0;       ///< VALs handed to render()
     std::uint32_t valsGathered = 0; ///< after culling
     /// Static content: this frame reused the VPLs of the last full computation (only shading ran).
     bool reused = false;
     /// Tolerance mode: the change measure of the last check relative to max L'_d (Bound:
     /// sum_j B_j; Probes: max change at the probes); -1 if no check ran this frame.
     float staticChangeBound = -1.0f;
+    /// Tree gather (valTreeThreshold > 0): nodes of the VAL tree, and per sparse point the lights taken
+    /// (the cut size) and the nodes visited; 0 for the flat gather.
+    std::uint32_t valTreeNodes = 0;
+    float valTreeCutPerPoint = 0.0f, valTreeVisitedPerPoint = 0.0f;
     std::string reason;
 };
 
@@ -125,10 +136,10 @@ public:
 
     /// Readbacks for tests (slow; not for per-frame use). Each vector has one entry per sparse
     /// point (or vertex) and four vec4 per entry, in the layout documented in LightSkinIllumination.cpp.
-    void readGatherSums(std::vector<glm::vec4>& out) const;   ///< 5 vec4 per point
-    void readSparseVpls(std::vector<glm::vec4>& out) const;   ///< 4 vec4 per point (before occlusion)
-    void readOcclusion(std::vector<glm::vec4>& out) const;    ///< 1 vec4 per point: x = o_d, y = o_s (unclamped sums)
-    void readVertexVpls(std::vector<glm::vec4>& out) const;   ///< 4 vec4 per vertex
+    void readGatherSums(std::vector<glm::vec4>& out) const; ///< 5 vec4 per point
+    void readSparseVpls(std::vector<glm::vec4>& out) const; ///< 4 vec4 per point (before occlusion)
+    void readOcclusion(std::vector<glm::vec4>& out) const;  ///< 1 vec4 per point: x = o_d, y = o_s (unclamped sums)
+    void readVertexVpls(std::vector<glm::vec4>& out) const; ///< 4 vec4 per vertex
     /// The VALs the last full computation gathered (with `adaptive`: those kept by the cull), in
     /// gather order (with `stableCull`: their input order).
     void readGatheredVals(std::vector<VirtualAreaLight>& out) const;
