@@ -501,6 +501,9 @@ std::unique_ptr<LightSkinIllumination> LightSkinIllumination::create(const Light
                                                                      SparsePointProvider provider) {
     LIGHTSKIN_ASSERT(bool(provider), "lightskin::gi::LightSkinIllumination::create(): a sparse point provider is required");
     detail::ValChunkBuffer::validateKCache(settings.kCache, "LightSkinSettings.kCache");
+    if (!(settings.valTreeThreshold >= 0.0f && std::isfinite(settings.valTreeThreshold)))
+        throw Error("LightSkinSettings.valTreeThreshold", std::nullopt,
+                    "must be finite and >= 0, got " + std::to_string(settings.valTreeThreshold));
     std::unique_ptr<LightSkinIllumination> technique(new LightSkinIllumination());
     Impl& impl = *technique->impl_;
     impl.settings = settings;
@@ -524,6 +527,9 @@ const std::vector<std::uint32_t>& LightSkinIllumination::vertexOffsets() const n
 
 void LightSkinIllumination::setSettings(const LightSkinSettings& settings) {
     detail::ValChunkBuffer::validateKCache(settings.kCache, "LightSkinSettings.kCache");
+    if (!(settings.valTreeThreshold >= 0.0f && std::isfinite(settings.valTreeThreshold)))
+        throw Error("LightSkinSettings.valTreeThreshold", std::nullopt,
+                    "must be finite and >= 0, got " + std::to_string(settings.valTreeThreshold));
     const bool rebuild = settings.kCache != impl_->settings.kCache;
     impl_->settings = settings;
     impl_->last.valid = false; // any setting may change stages 0-4

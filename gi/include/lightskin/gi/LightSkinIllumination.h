@@ -21,6 +21,7 @@
 
 namespace lightskin::gi {
 
+
 /// How the static-content tolerance mode judges a changed VAL set (see the file comment).
 enum class StaticChangeTest {
     Bound,  ///< guaranteed bound over all sparse points; needs ValSetView::keys
@@ -32,10 +33,10 @@ struct LightSkinSettings {
     /// alignment), at most GL_MAX_UNIFORM_BLOCK_SIZE / 48. Larger: fewer passes, longer loops.
     /// Speed only: the results do not depend on it (fixed 16-VAL summation blocks).
     int kCache = 128;
-    bool glossy = true;                                       ///< the paper's setup 2 (diffuse + glossy)
-    bool occlusion = true;                                    ///< the paper's setup 3 (+ occlusion)
+    bool glossy = true;     ///< the paper's setup 2 (diffuse + glossy)
+    bool occlusion = true;  ///< the paper's setup 3 (+ occlusion)
     float cParameter = float(1.0 / (2.0 * std::numbers::pi)); ///< c of c_k = c (k+1), 1/sr
-    float epsilonL = 1e-20f;                                  ///< eps_l of eq. 7
+    float epsilonL = 1e-20f;  ///< eps_l of eq. 7
     /// Occluders per occlusion pass (keeps each shader loop far below llvmpipe's ~65k limit).
     int occluderChunk = 4096;
     /// Width of the one-texel-per-sparse-point textures.
@@ -95,7 +96,7 @@ struct LightSkinSettings {
 struct LightSkinChoice {
     bool glossy = true;
     bool occlusion = true;
-    std::uint32_t valsIn = 0;       ///< VALs handed to render()
+    std::uint32_t valsIn = 0;      ///< VALs handed to render()
     std::uint32_t valsGathered = 0; ///< after culling
     /// Static content: this frame reused the VPLs of the last full computation (only shading ran).
     bool reused = false;
@@ -136,10 +137,10 @@ public:
 
     /// Readbacks for tests (slow; not for per-frame use). Each vector has one entry per sparse
     /// point (or vertex) and four vec4 per entry, in the layout documented in LightSkinIllumination.cpp.
-    void readGatherSums(std::vector<glm::vec4>& out) const; ///< 5 vec4 per point
-    void readSparseVpls(std::vector<glm::vec4>& out) const; ///< 4 vec4 per point (before occlusion)
-    void readOcclusion(std::vector<glm::vec4>& out) const;  ///< 1 vec4 per point: x = o_d, y = o_s (unclamped sums)
-    void readVertexVpls(std::vector<glm::vec4>& out) const; ///< 4 vec4 per vertex
+    void readGatherSums(std::vector<glm::vec4>& out) const;   ///< 5 vec4 per point
+    void readSparseVpls(std::vector<glm::vec4>& out) const;   ///< 4 vec4 per point (before occlusion)
+    void readOcclusion(std::vector<glm::vec4>& out) const;    ///< 1 vec4 per point: x = o_d, y = o_s (unclamped sums)
+    void readVertexVpls(std::vector<glm::vec4>& out) const;   ///< 4 vec4 per vertex
     /// The VALs the last full computation gathered (with `adaptive`: those kept by the cull), in
     /// gather order (with `stableCull`: their input order).
     void readGatheredVals(std::vector<VirtualAreaLight>& out) const;
