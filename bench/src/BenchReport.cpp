@@ -241,6 +241,7 @@ void writeOutputs(const Report& report, const std::string& dir) {
                                   {"height", c.height},
                                   {"triangles", r.triangles},
                                   {"adaptive", c.adaptive},
+                                  {"val_tree_threshold", c.valTree},
                                   {"covered_pixels", r.covered},
                                   {"gpu_ms", r.gpuMs},
                                   {"cpu_ms", r.cpuMs},
@@ -327,6 +328,7 @@ Report readReport(const std::string& jsonFile) {
             c.width = x.at("width");
             c.height = x.at("height");
             c.adaptive = x.at("adaptive");
+            c.valTree = x.value("val_tree_threshold", 0.0f);
             c.backend = run.backend;
             run.vals = x.at("vals");
             run.triangles = x.at("triangles");

@@ -6,6 +6,7 @@
 #include "GlTestEnvironment.h"
 #include "GpuRig.h"
 
+#include <lightskin/gi/CpuLightSkin.h>
 #include <lightskin/gi/LightSkinIllumination.h>
 #include <lightskin/gi/LightSkinReference.h>
 #include <lightskin/gi/ValTree.h>
@@ -141,6 +142,43 @@ TEST_F(ValTreeGLTest, CutMatchesTheDoubleWalkAndStaysNearTheFlatGather) {
         "vs flat %.3f\n",
         double(tree.choice.valTreeCutPerPoint), double(tree.choice.valTreeVisitedPerPoint), scene.vals.size(),
         errorTree / norm, errorFlat / norm, worstWeight);
+}
+
+// The CPU backend runs the reference's walk (gi/src/reference/ValTreeWalk.h) in double on the same
+// points and stores float sums: equal to the reference cut up to that one rounding (6e-8 relative;
+// 1e-6 leaves room for the float world transform of the points), at any thread count.
+TEST_F(ValTreeGLTest, CpuBackendTakesTheReferenceCut) {
+    RoomScene scene;
+    const float threshold = 0.05f;
+    gi::CpuLightSkinSettings settings;
+    settings.lightSkin.valTreeThreshold = threshold;
+    std::vector<std::vector<glm::vec4>> sums;
+    for (int threads : {1, 2}) {
+        settings.threads = threads;
+        auto cpu = gi::CpuLightSkin::create(settings, scene.provider());
+        cpu->prepare(scene.instances);
+        cpu->computeVpls(scene.vals, scene.instances, scene.eye);
+        sums.emplace_back();
+        cpu->readGatherSums(sums.back());
+        EXPECT_GT(cpu->lastStats().valTreeCutPerPoint, 0.0);
+        EXPECT_LT(cpu->lastStats().valTreeCutPerPoint, 0.25 * double(scene.vals.size()));
+        scene.receivers = ref::receiversFromSparsePoints(scene.sparsePoints(0), scene.instances[0].world_T_model, 20.0);
+    }
+    EXPECT_EQ(sums[0], sums[1]) << "the thread count must not change the sums";
+    gi::ValTreeD treeD;
+    gi::buildValTreeInto(scene.vals, treeD);
+    std::vector<ref::GatherSums> cutRef;
+    ref::GatherParameters parameters;
+    parameters.epsilonL = 0.0;
+    ref::gatherWithCutInto(treeD, scene.vals, scene.receivers, glm::dvec3(scene.eye), parameters, threshold, cutRef);
+    ASSERT_EQ(sums[0].size(), 5 * cutRef.size());
+    for (std::size_t i = 0; i < cutRef.size(); ++i)
+        for (int c = 0; c < 3; ++c) {
+            EXPECT_NEAR(double(sums[0][5 * i][c]), cutRef[i].irradiance[c], 1e-6 * cutRef[i].irradiance[c] + 1e-30)
+                << "point " << i;
+            EXPECT_NEAR(double(sums[0][5 * i + 2][c]), cutRef[i].glossy[c], 1e-6 * cutRef[i].glossy[c] + 1e-30)
+                << "point " << i;
+        }
 }
 
 } // namespace

@@ -14,6 +14,10 @@ struct GatherBenchOptions {
     int repeat = 3;
     bool brute = true;
     bool compute = false;
+    /// LightSkinSettings::valTreeThreshold values (issue 17, `--tree`); 0 = the flat gather.
+    std::vector<float> treeThresholds{0.0f};
+    /// Only the "diffuse" setup (`--diffuse-only`): the one compared with the brute force.
+    bool diffuseOnly = false;
 };
 
 /// LightSkin stage times (GL timer queries) per setup, speed-up over the brute force and its error; prints a Markdown

@@ -78,7 +78,7 @@ struct GiSettings {
     /// on by default; false = the model before it, for measurement (`lightskin bench-realdepth`).
     bool robustRealDepth = true;
     /// LightSkin's gather with a cut through the VAL tree (issue 17; gi::LightSkinSettings::valTreeThreshold,
-    /// GL backend): 0 = the flat gather over every VAL (the default).
+    /// both backends): 0 = the flat gather over every VAL (the default).
     float valTreeThreshold = 0.0f;
     /// Technique "imperfect-volumes" (gi/ImperfectVolumes.h): the "imperfectVolumes" object.
     gi::ImperfectVolumesSettings imperfectVolumes;
