@@ -32,7 +32,8 @@ void addBenchGatherCommand(CLI::App& app, int& exitCode) {
                       "Gather with the compute-shader variant instead of fragment passes");
     command->add_option("--tree", *tree,
                         "Comma-separated LightSkinSettings::valTreeThreshold values (0 = flat gather; issue 17)");
-    command->add_flag("--diffuse-only", options->diffuseOnly, "Only the diffuse setup (the one compared with the brute force)");
+    command->add_flag("--diffuse-only", options->diffuseOnly,
+                      "Only the diffuse setup (the one compared with the brute force)");
     command->callback([=, &exitCode] {
         options->treeThresholds = bench::splitList<float>(*tree, [](const std::string& s) { return std::stof(s); });
         options->sparse = bench::splitList<int>(*sparse, [](const std::string& s) { return std::stoi(s); });

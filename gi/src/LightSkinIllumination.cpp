@@ -767,7 +767,7 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     glBindTextureUnit(8, impl.pointPosition.id());
     glBindTextureUnit(9, impl.pointNormal.id());
     choice.valTreeNodes = 0;
-    choice.valTreeCutPerPoint = choice.valTreeVisitedPerPoint = 0.0f;
+    choice.valTreeCutPerPoint = choice.valTreeVisitedPerPoint = choice.valTreeBuildMs = 0.0f;
     if (count > 0 && s.valTreeThreshold > 0.0f) {
         std::array<std::uint32_t, kGatherTargets> targets{};
         for (int i = 0; i < kGatherTargets; ++i) targets[std::size_t(i)] = impl.gatherTargets[std::size_t(i)].id();
@@ -776,6 +776,7 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
                             moments, s.valTreeThreshold, s.valTreeStepsPerDispatch);
         const detail::ValTreeGatherStats& t = impl.treeGather.stats();
         choice.valTreeNodes = t.nodes;
+        choice.valTreeBuildMs = float(t.buildMs);
         const double points = std::max(1.0, double(impl.pointCount));
         choice.valTreeCutPerPoint = float(double(t.taken) / points);
         choice.valTreeVisitedPerPoint = float(double(t.visited) / points);

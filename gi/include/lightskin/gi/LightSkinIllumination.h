@@ -107,6 +107,7 @@ struct LightSkinChoice {
     /// (the cut size) and the nodes visited; 0 for the flat gather.
     std::uint32_t valTreeNodes = 0;
     float valTreeCutPerPoint = 0.0f, valTreeVisitedPerPoint = 0.0f;
+    float valTreeBuildMs = 0.0f; ///< CPU wall time of the VAL read-back, tree build and upload
     std::string reason;
 };
 
