@@ -32,6 +32,8 @@ void addBenchGatherCommand(CLI::App& app, int& exitCode) {
                       "Gather with the compute-shader variant instead of fragment passes");
     command->add_option("--tree", *tree,
                         "Comma-separated LightSkinSettings::valTreeThreshold values (0 = flat gather; issue 17)");
+    command->add_flag("--tree-bvh", options->treeBvh,
+                      "With --tree > 0: also the BVH beside the VAL map's quadtree, side by side");
     command->add_flag("--diffuse-only", options->diffuseOnly,
                       "Only the diffuse setup (the one compared with the brute force)");
     command->callback([=, &exitCode] {

@@ -768,15 +768,22 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     glBindTextureUnit(9, impl.pointNormal.id());
     choice.valTreeNodes = 0;
     choice.valTreeCutPerPoint = choice.valTreeVisitedPerPoint = choice.valTreeBuildMs = 0.0f;
+    choice.valTreeQuadtree = false;
     if (count > 0 && s.valTreeThreshold > 0.0f) {
         std::array<std::uint32_t, kGatherTargets> targets{};
         for (int i = 0; i < kGatherTargets; ++i) targets[std::size_t(i)] = impl.gatherTargets[std::size_t(i)].id();
-        impl.treeGather.run(impl.vals.buffer().id(), count, impl.pointCount, impl.pointPosition.id(),
+        // VALs keyed by image pixels (ValGenerator): the image's quadtree over the whole set, whose keys
+        // the cull would drop (the cut takes far clusters whole, which is the cull's job); else the BVH.
+        const bool image = lights.keys != 0 && lights.keyWidth > 0 && lights.keyCount % lights.keyWidth == 0;
+        impl.treeGather.run(image ? lights.buffer : impl.vals.buffer().id(), image ? lights.count : count,
+                            image ? lights.keys : 0u, image ? lights.keyWidth : 0u, lights.keyCount, impl.pointCount,
+                            impl.pointPosition.id(),
                             impl.pointNormal.id(), targets, view.cameraPositionWorld, s.cParameter, choice.glossy,
                             moments, s.valTreeThreshold, s.valTreeStepsPerDispatch);
         const detail::ValTreeGatherStats& t = impl.treeGather.stats();
         choice.valTreeNodes = t.nodes;
         choice.valTreeBuildMs = float(t.buildMs);
+        choice.valTreeQuadtree = t.quadtree;
         const double points = std::max(1.0, double(impl.pointCount));
         choice.valTreeCutPerPoint = float(double(t.taken) / points);
         choice.valTreeVisitedPerPoint = float(double(t.visited) / points);

@@ -10,6 +10,8 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <string>
+#include <utility>
 
 namespace lightskin::gi {
 namespace {
@@ -154,6 +156,13 @@ struct Builder {
     }
 };
 
+// A node as stored: the quadtree builder keeps its node index and subtree depth in the padding.
+template <class Real>
+ValClusterT<Real> storeNode(ValClusterD c) {
+    c.padding0 = c.padding1 = 0;
+    return store<Real>(c);
+}
+
 } // namespace
 
 template <class Real>
@@ -172,7 +181,133 @@ void buildValTreeInto(std::span<const VirtualAreaLight> vals, ValTreeT<Real>& tr
     LIGHTSKIN_ASSERT(tree.depth <= kValTreeMaxDepth, "lightskin::gi::buildValTreeInto(): tree too deep");
 }
 
+template <class Real>
+void buildValQuadtreeInto(std::span<const VirtualAreaLight> vals, std::span<const std::uint32_t> keys,
+                          std::uint32_t width, std::uint32_t height, ValTreeT<Real>& tree) {
+    LIGHTSKIN_ASSERT(keys.size() == vals.size(), "lightskin::gi::buildValQuadtreeInto(): one key per VAL");
+    LIGHTSKIN_ASSERT(vals.size() < kValTreeLeaf, "lightskin::gi::buildValQuadtreeInto(): too many VALs");
+    const std::size_t pixels = std::size_t(width) * std::size_t(height);
+    LIGHTSKIN_ASSERT(pixels < 0x7FFFFFFFu, "lightskin::gi::buildValQuadtreeInto(): image too large");
+    // Level 0: the image; a cell holds the index of its VAL's cluster in scratchLevel[0], or -1.
+    std::vector<std::int32_t>& pixelCells = tree.scratchCells[0];
+    pixelCells.assign(pixels, -1);
+    std::vector<std::uint32_t>& order = tree.scratchOrder;
+    order.clear();
+    for (std::size_t i = 0; i < vals.size(); ++i) {
+        if (!valid(vals[i])) continue;
+        const std::uint32_t key = keys[i];
+        if (key >= pixels)
+            throw Error("VAL keys", std::nullopt,
+                        "VAL " + std::to_string(i) + " has pixel key " + std::to_string(key) + ", outside the " +
+                            std::to_string(width) + "x" + std::to_string(height) + " image");
+        if (pixelCells[key] >= 0)
+            throw Error("VAL keys", std::nullopt,
+                        "VALs " + std::to_string(order[std::size_t(pixelCells[key])]) + " and " + std::to_string(i) +
+                            " share pixel " + std::to_string(key));
+        pixelCells[key] = std::int32_t(order.size());
+        order.push_back(std::uint32_t(i));
+    }
+    const std::size_t n = order.size();
+    tree.depth = 0;
+    tree.nodes.resize(n == 0 ? 0 : 2 * n - 1);
+    if (n == 0) return;
+    // Nodes are numbered in creation order c (leaves first, the root last) and stored at last - c, so
+    // that the root is node 0 as the walk expects.
+    const auto last = std::uint32_t(tree.nodes.size() - 1);
+    std::vector<ValClusterD>& leaves = tree.scratchLevel[0];
+    leaves.resize(n);
+#pragma omp parallel for schedule(static)
+    for (std::int64_t k = 0; k < std::int64_t(n); ++k) {
+        const std::uint32_t i = order[std::size_t(k)];
+        ValClusterD c = leaf(vals[i], i);
+        c.padding0 = last - std::uint32_t(k); // node index
+        c.padding1 = 1;                       // subtree depth
+        leaves[std::size_t(k)] = c;
+        tree.nodes[c.padding0] = storeNode<Real>(c);
+    }
+    std::uint32_t created = std::uint32_t(n);
+    std::uint32_t w = width, h = height;
+    int current = 0;
+    bool alongU = true;
+    std::vector<std::uint32_t>& rows = tree.scratchRows;
+    while (w > 1 || h > 1) {
+        // pair neighbours along u and v in turn (2x2 -> 1 every two levels); a side of 1 stops pairing
+        const bool pairU = (alongU && w > 1) || h == 1;
+        alongU = !pairU;
+        const std::uint32_t nw = pairU ? (w + 1) / 2 : w, nh = pairU ? h : (h + 1) / 2;
+        const std::vector<std::int32_t>& inCells = tree.scratchCells[current];
+        const std::vector<ValClusterD>& in = tree.scratchLevel[current];
+        std::vector<std::int32_t>& outCells = tree.scratchCells[1 - current];
+        std::vector<ValClusterD>& out = tree.scratchLevel[1 - current];
+        outCells.resize(std::size_t(nw) * nh);
+        const auto children = [&](std::uint32_t x, std::uint32_t y) {
+            const std::size_t a = pairU ? std::size_t(y) * w + 2 * x : std::size_t(2 * y) * w + x;
+            const bool hasB = pairU ? 2 * x + 1 < w : 2 * y + 1 < h;
+            const std::int32_t b = hasB ? inCells[pairU ? a + 1 : a + w] : -1;
+            return std::pair<std::int32_t, std::int32_t>(inCells[a], b);
+        };
+        // Pass 1 (rows in parallel): non-empty cells and new nodes per row; then their row offsets.
+        rows.assign(2 * (std::size_t(nh) + 1), 0u);
+#pragma omp parallel for schedule(static)
+        for (std::int64_t yy = 0; yy < std::int64_t(nh); ++yy) {
+            const auto y = std::uint32_t(yy);
+            std::uint32_t nonEmpty = 0, pairs = 0;
+            for (std::uint32_t x = 0; x < nw; ++x) {
+                const auto [a, b] = children(x, y);
+                nonEmpty += (a >= 0 || b >= 0) ? 1u : 0u;
+                pairs += (a >= 0 && b >= 0) ? 1u : 0u;
+            }
+            rows[2 * std::size_t(y) + 2] = nonEmpty;
+            rows[2 * std::size_t(y) + 3] = pairs;
+        }
+        for (std::size_t y = 0; y < nh; ++y) {
+            rows[2 * y + 2] += rows[2 * y];
+            rows[2 * y + 3] += rows[2 * y + 1];
+        }
+        out.resize(rows[2 * std::size_t(nh)]);
+        // Pass 2: a cell with one child carries it up unchanged; with two, a new node.
+#pragma omp parallel for schedule(static)
+        for (std::int64_t yy = 0; yy < std::int64_t(nh); ++yy) {
+            const auto y = std::uint32_t(yy);
+            std::uint32_t slot = rows[2 * std::size_t(y)], pair = created + rows[2 * std::size_t(y) + 1];
+            for (std::uint32_t x = 0; x < nw; ++x) {
+                const auto [a, b] = children(x, y);
+                std::int32_t& cell = outCells[std::size_t(y) * nw + x];
+                if (a < 0 && b < 0) {
+                    cell = -1;
+                    continue;
+                }
+                if (a < 0 || b < 0) {
+                    out[slot] = in[std::size_t(a < 0 ? b : a)];
+                } else {
+                    const ValClusterD &ca = in[std::size_t(a)], &cb = in[std::size_t(b)];
+                    ValClusterD c = combine(ca, cb);
+                    c.child0 = ca.padding0;
+                    c.child1 = cb.padding0;
+                    c.padding0 = last - pair++;
+                    c.padding1 = std::max(ca.padding1, cb.padding1) + 1;
+                    tree.nodes[c.padding0] = storeNode<Real>(c);
+                    out[slot] = c;
+                }
+                cell = std::int32_t(slot++);
+            }
+        }
+        created += rows[2 * std::size_t(nh) + 1];
+        w = nw;
+        h = nh;
+        current = 1 - current;
+    }
+    LIGHTSKIN_ASSERT(created == tree.nodes.size() && tree.scratchLevel[current].size() == 1,
+                     "lightskin::gi::buildValQuadtreeInto(): node count");
+    tree.depth = int(tree.scratchLevel[current][0].padding1);
+    LIGHTSKIN_ASSERT(tree.depth <= kValTreeMaxDepth, "lightskin::gi::buildValQuadtreeInto(): tree too deep");
+}
+
 template void buildValTreeInto<float>(std::span<const VirtualAreaLight>, ValTreeT<float>&);
 template void buildValTreeInto<double>(std::span<const VirtualAreaLight>, ValTreeT<double>&);
+template void buildValQuadtreeInto<float>(std::span<const VirtualAreaLight>, std::span<const std::uint32_t>,
+                                          std::uint32_t, std::uint32_t, ValTreeT<float>&);
+template void buildValQuadtreeInto<double>(std::span<const VirtualAreaLight>, std::span<const std::uint32_t>,
+                                           std::uint32_t, std::uint32_t, ValTreeT<double>&);
 
 } // namespace lightskin::gi

@@ -40,16 +40,24 @@ void ValTreeGather::reserve(std::uint32_t valCount, std::uint32_t pointCount) {
     }
 }
 
-void ValTreeGather::run(std::uint32_t valBuffer, std::uint32_t count, std::uint32_t pointCount,
-                        std::uint32_t pointPosition, std::uint32_t pointNormal,
-                        const std::array<std::uint32_t, 5>& targets, const glm::vec3& eye, float c, bool glossy,
-                        bool moments, float threshold, int stepsPerDispatch) {
+void ValTreeGather::run(std::uint32_t valBuffer, std::uint32_t count, std::uint32_t keyBuffer, std::uint32_t keyWidth,
+                        std::uint32_t keyCount, std::uint32_t pointCount, std::uint32_t pointPosition,
+                        std::uint32_t pointNormal, const std::array<std::uint32_t, 5>& targets, const glm::vec3& eye,
+                        float c, bool glossy, bool moments, float threshold, int stepsPerDispatch) {
     LIGHTSKIN_ASSERT(threshold > 0.0f, "lightskin::gi::detail::ValTreeGather::run(): threshold must be > 0");
     stats_ = ValTreeGatherStats{};
     const auto start = std::chrono::steady_clock::now();
     vals_.resize(count);
     if (count > 0) glGetNamedBufferSubData(valBuffer, 0, GLsizeiptr(count) * GLsizeiptr(kValBytes), vals_.data());
-    buildValTreeInto(std::span<const VirtualAreaLight>(vals_), tree_);
+    stats_.quadtree = keyBuffer != 0 && keyWidth > 0;
+    if (stats_.quadtree) {
+        keys_.resize(count);
+        if (count > 0) glGetNamedBufferSubData(keyBuffer, 0, GLsizeiptr(count) * 4, keys_.data());
+        buildValQuadtreeInto(std::span<const VirtualAreaLight>(vals_), std::span<const std::uint32_t>(keys_), keyWidth,
+                             keyCount / keyWidth, tree_);
+    } else {
+        buildValTreeInto(std::span<const VirtualAreaLight>(vals_), tree_);
+    }
     stats_.nodes = std::uint32_t(tree_.nodes.size());
     reserve(count, pointCount);
     if (!tree_.nodes.empty()) nodes_.upload(0, GLsizeiptr(tree_.nodes.size() * sizeof(ValCluster)), tree_.nodes.data());

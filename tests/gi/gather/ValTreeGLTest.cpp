@@ -49,15 +49,25 @@ struct RoomScene : GpuRig {
         addVals(squareEmitter({-1.0f, 0, 0.5f}, {1, 0, 0}, 3.0f, 48, glm::vec3(0.9f, 0.1f, 0.1f)));
         addVals(squareEmitter({0, 1.5f, 0.5f}, {0, -1, 0}, 3.0f, 48, glm::vec3(0.05f, 0.3f, 0.05f)));
         buffer = gl::Buffer::create(GLsizeiptr(vals.size() * sizeof(gi::VirtualAreaLight)), vals.data());
+        // pixel keys: the three 48 x 48 squares stacked into a 48 x 144 image (row-major, as ValGenerator's)
+        for (std::size_t i = 0; i < vals.size(); ++i) keys.push_back(std::uint32_t(i));
+        keyBuffer = gl::Buffer::create(GLsizeiptr(keys.size() * sizeof(std::uint32_t)), keys.data());
     }
-    GatherRun run(float threshold, int steps) {
+    static constexpr std::uint32_t kKeyWidth = 48;
+    std::vector<std::uint32_t> keys;
+    gl::Buffer keyBuffer;
+    // quadtree: the set carries its pixel keys, so the GL path builds the image quadtree instead of the BVH
+    GatherRun run(float threshold, int steps, bool quadtree = false) {
         gi::LightSkinSettings s;
         s.valTreeThreshold = threshold;
         s.valTreeStepsPerDispatch = steps;
         auto technique = this->technique(s);
         const gi::ViewParameters v = view();
         gbuffer.render(instances, v.clip_T_world);
-        technique->render({buffer.id(), std::uint32_t(vals.size())}, instances, gbuffer.view(), v, output.id());
+        const auto count = std::uint32_t(vals.size());
+        const gi::ValSetView set = quadtree ? gi::ValSetView{buffer.id(), count, 0, keyBuffer.id(), count, kKeyWidth}
+                                            : gi::ValSetView{buffer.id(), count};
+        technique->render(set, instances, gbuffer.view(), v, output.id());
         GatherRun r;
         technique->readGatherSums(r.sums);
         r.choice = technique->lastChoice();
@@ -67,11 +77,12 @@ struct RoomScene : GpuRig {
     std::vector<ref::Receiver> receivers;
 };
 
-TEST_F(ValTreeGLTest, CutMatchesTheDoubleWalkAndStaysNearTheFlatGather) {
+void cutMatchesTheDoubleWalk(bool quadtree) {
     RoomScene scene;
     const float threshold = 0.05f;
     // 64 steps per dispatch: every point needs several dispatches (checked below), so resuming is tested
-    const GatherRun tree = scene.run(threshold, 64);
+    const GatherRun tree = scene.run(threshold, 64, quadtree);
+    EXPECT_EQ(tree.choice.valTreeQuadtree, quadtree);
     const GatherRun flat = scene.run(0.0f, 64);
     ASSERT_EQ(tree.sums.size(), 5 * scene.receivers.size());
     EXPECT_GT(tree.choice.valTreeVisitedPerPoint, 3.0f * 64.0f);
@@ -80,7 +91,11 @@ TEST_F(ValTreeGLTest, CutMatchesTheDoubleWalkAndStaysNearTheFlatGather) {
     EXPECT_EQ(flat.choice.valTreeNodes, 0u);
 
     gi::ValTreeD treeD;
-    gi::buildValTreeInto(scene.vals, treeD);
+    if (quadtree)
+        gi::buildValQuadtreeInto(scene.vals, scene.keys, RoomScene::kKeyWidth,
+                                 std::uint32_t(scene.vals.size()) / RoomScene::kKeyWidth, treeD);
+    else
+        gi::buildValTreeInto(scene.vals, treeD);
     const glm::dvec3 eye(scene.eye);
     ref::GatherParameters parameters;
     parameters.epsilonL = 0.0; // the GPU adds the eps_l terms in the renormalisation
@@ -143,6 +158,10 @@ TEST_F(ValTreeGLTest, CutMatchesTheDoubleWalkAndStaysNearTheFlatGather) {
         double(tree.choice.valTreeCutPerPoint), double(tree.choice.valTreeVisitedPerPoint), scene.vals.size(),
         errorTree / norm, errorFlat / norm, worstWeight);
 }
+
+TEST_F(ValTreeGLTest, CutMatchesTheDoubleWalkAndStaysNearTheFlatGather) { cutMatchesTheDoubleWalk(false); }
+// the same with the image quadtree of the VALs' pixel keys (ValSetView::keyWidth)
+TEST_F(ValTreeGLTest, QuadtreeCutMatchesTheDoubleWalkAndStaysNearTheFlatGather) { cutMatchesTheDoubleWalk(true); }
 
 // The CPU backend runs the reference's walk (gi/src/reference/ValTreeWalk.h) in double on the same
 // points and stores float sums: equal to the reference cut up to that one rounding (6e-8 relative;

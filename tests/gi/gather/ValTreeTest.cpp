@@ -3,6 +3,7 @@
 // of a cut against its certified bound on every scene, and the extremes of the issue.
 #include "GatherTestScenes.h"
 
+#include <lightskin/core/Error.h>
 #include <lightskin/gi/LightSkinReference.h>
 #include <lightskin/gi/ValTree.h>
 #include <lightskin/gi/ValTreeReference.h>
@@ -99,19 +100,74 @@ std::vector<Scene> scenes() { return {room(), cloud(), contact(), bothSides(), f
 
 const dvec3 kEye(0.5, -2.0, 1.0);
 
+// Pixel keys for a scene's VALs (ValSetView::keys), as an orthographic depth camera looking along z
+// would give them: columns by x rank, rows by y rank within a column, so that neighbouring pixels hold
+// nearby VALs (the premise of the image quadtree). Every 8th row stays empty (invalid depth pixels
+// leave holes), so the quadtree meets empty cells, single-child carries and a non-power-of-two image.
+struct ImageKeys {
+    std::vector<std::uint32_t> keys;
+    std::uint32_t width = 0, height = 0;
+};
+ImageKeys imageKeys(const std::vector<gi::VirtualAreaLight>& vals) {
+    const std::size_t n = vals.size();
+    ImageKeys image;
+    image.keys.resize(n);
+    const auto rows = std::size_t(std::ceil(std::sqrt(double(n))));
+    image.width = std::uint32_t((n + rows - 1) / rows);
+    image.height = std::uint32_t(rows + rows / 7);
+    std::vector<std::size_t> order(n);
+    for (std::size_t i = 0; i < n; ++i) order[i] = i;
+    const auto by = [&](int axis) {
+        return [&vals, axis](std::size_t a, std::size_t b) {
+            return vals[a].position[axis] < vals[b].position[axis] ||
+                   (vals[a].position[axis] == vals[b].position[axis] && a < b);
+        };
+    };
+    std::sort(order.begin(), order.end(), by(0));
+    for (std::size_t first = 0; first < n; first += rows) {
+        const auto begin = order.begin() + std::ptrdiff_t(first);
+        const auto end = order.begin() + std::ptrdiff_t(std::min(n, first + rows));
+        std::sort(begin, end, by(1));
+        for (auto it = begin; it != end; ++it) {
+            const std::size_t row = std::size_t(it - begin);
+            image.keys[*it] = std::uint32_t((row + row / 7) * image.width + first / rows);
+        }
+    }
+    return image;
+}
+
+// The two builders of ValTree.h; every property below must hold for both.
+enum class Builder { Bvh, Quadtree };
+template <class Real>
+void buildTree(const std::vector<gi::VirtualAreaLight>& vals, Builder builder, gi::ValTreeT<Real>& tree) {
+    if (builder == Builder::Bvh) {
+        gi::buildValTreeInto(vals, tree);
+    } else {
+        const ImageKeys image = imageKeys(vals);
+        gi::buildValQuadtreeInto(vals, image.keys, image.width, image.height, tree);
+    }
+}
+
 // Relative difference with an absolute floor `scale` (the receiver's own magnitude).
 double relative(double a, double b, double scale) { return std::abs(a - b) / std::max(scale, 1e-300); }
 
-TEST(ValTree, ClustersHoldTheirVals) {
+void clustersHoldTheirVals(Builder builder) {
     for (const Scene& scene : scenes()) {
         gi::ValTreeD tree;
-        gi::buildValTreeInto(scene.vals, tree);
+        buildTree(scene.vals, builder, tree);
         gi::ValTree treeF;
-        gi::buildValTreeInto(scene.vals, treeF);
+        buildTree(scene.vals, builder, treeF);
         ASSERT_EQ(tree.nodes.size(), 2 * scene.vals.size() - 1) << scene.name;
         ASSERT_EQ(treeF.nodes.size(), tree.nodes.size()) << scene.name;
-        // median split: depth ceil(log2 n) + 1 exactly
-        EXPECT_EQ(tree.depth, int(std::ceil(std::log2(double(scene.vals.size())))) + 1) << scene.name;
+        if (builder == Builder::Bvh) { // median split: depth ceil(log2 n) + 1 exactly
+            EXPECT_EQ(tree.depth, int(std::ceil(std::log2(double(scene.vals.size())))) + 1) << scene.name;
+        } else { // one binary level per halving of a side, plus the leaves; carries add none
+            const ImageKeys image = imageKeys(scene.vals);
+            EXPECT_LE(tree.depth, int(std::ceil(std::log2(double(image.width)))) +
+                                      int(std::ceil(std::log2(double(image.height)))) + 1)
+                << scene.name;
+            EXPECT_GE(tree.depth, int(std::ceil(std::log2(double(scene.vals.size())))) + 1) << scene.name;
+        }
         // The root against totals summed here; every node against its member VALs (walked here).
         dvec3 flux(0.0);
         for (const auto& l : scene.vals) flux += dvec3(l.flux);
@@ -175,10 +231,10 @@ TEST(ValTree, InvalidValsAreLeftOutAndEmptySetsGiveEmptyTrees) {
 // order of the additions: double rounding, n * 1.1e-16 relative for n VALs (<= 12288: 1.4e-12) of the
 // sum of magnitudes; all terms are >= 0 except the offsets, bounded by the weights times the scene's
 // extent (4 m), so 1e-11 of that scale covers it.
-TEST(ValTreeCut, ThresholdZeroIsTheFlatGather) {
+void thresholdZeroIsTheFlatGather(Builder builder) {
     for (const Scene& scene : scenes()) {
         gi::ValTreeD tree;
-        gi::buildValTreeInto(scene.vals, tree);
+        buildTree(scene.vals, builder, tree);
         std::vector<ref::GatherSums> flat, cut;
         std::vector<ref::CutBound> bounds;
         ref::GatherParameters parameters;
@@ -212,10 +268,10 @@ TEST(ValTreeCut, ThresholdZeroIsTheFlatGather) {
 
 // Every cut's error against the flat gather is below its certified bound (sum of U over taken
 // clusters), per channel, for L'_d and L'_s; plus double rounding of both sums (1e-11 relative, as above).
-TEST(ValTreeCut, ErrorStaysBelowTheCertifiedBound) {
+void errorStaysBelowTheCertifiedBound(Builder builder) {
     for (const Scene& scene : scenes()) {
         gi::ValTreeD tree;
-        gi::buildValTreeInto(scene.vals, tree);
+        buildTree(scene.vals, builder, tree);
         std::vector<ref::GatherSums> flat, cut;
         std::vector<ref::CutBound> bounds;
         ref::gatherInto(scene.vals, scene.receivers, kEye, {}, flat);
@@ -253,10 +309,10 @@ TEST(ValTreeCut, ErrorStaysBelowTheCertifiedBound) {
 // whole). A bound that leaves out a term (the slack, beta, the cone angle, r2Min) fails here.
 // 1e-12: double rounding of the sums over <= 12288 VALs (1.4e-12 relative would be the worst case of
 // n eps; the sums are of positive terms, whose relative error is far below it).
-TEST(ValTreeCut, BoundHoldsForEveryCluster) {
+void boundHoldsForEveryCluster(Builder builder) {
     for (const Scene& scene : scenes()) {
         gi::ValTreeD tree;
-        gi::buildValTreeInto(scene.vals, tree);
+        buildTree(scene.vals, builder, tree);
         std::vector<gi::VirtualAreaLight> members;
         std::vector<ref::GatherSums> exact;
         int tight = 0, checked = 0;
@@ -298,6 +354,90 @@ TEST(ValTreeCut, BoundHoldsForEveryCluster) {
         if (scene.name != "contact") {
             EXPECT_GT(tight, 0) << scene.name << " (" << checked << " clusters)";
         }
+    }
+}
+
+TEST(ValTree, ClustersHoldTheirVals) { clustersHoldTheirVals(Builder::Bvh); }
+TEST(ValQuadtree, ClustersHoldTheirVals) { clustersHoldTheirVals(Builder::Quadtree); }
+TEST(ValTreeCut, ThresholdZeroIsTheFlatGather) { thresholdZeroIsTheFlatGather(Builder::Bvh); }
+TEST(ValQuadtreeCut, ThresholdZeroIsTheFlatGather) { thresholdZeroIsTheFlatGather(Builder::Quadtree); }
+TEST(ValTreeCut, ErrorStaysBelowTheCertifiedBound) { errorStaysBelowTheCertifiedBound(Builder::Bvh); }
+TEST(ValQuadtreeCut, ErrorStaysBelowTheCertifiedBound) { errorStaysBelowTheCertifiedBound(Builder::Quadtree); }
+TEST(ValTreeCut, BoundHoldsForEveryCluster) { boundHoldsForEveryCluster(Builder::Bvh); }
+TEST(ValQuadtreeCut, BoundHoldsForEveryCluster) { boundHoldsForEveryCluster(Builder::Quadtree); }
+
+// Every pixel of the image visited: the quadtree of a full W x H grid of VALs (keys = pixel order) is
+// a complete image pyramid; each node's members form one axis-aligned block of pixels of the size its
+// level says (2^a x 2^b, cut by the image border), so a builder that pairs the wrong neighbours fails.
+TEST(ValQuadtree, NodesAreImageBlocks) {
+    const std::uint32_t width = 13, height = 6; // not powers of two: border cells carry single children
+    std::vector<gi::VirtualAreaLight> vals;
+    std::vector<std::uint32_t> keys;
+    for (std::uint32_t v = 0; v < height; ++v)
+        for (std::uint32_t u = 0; u < width; ++u) {
+            // the pixel at (u, v) sits at (u, v, 0) in the world, so members can be checked by position
+            vals.push_back(disc({float(u), float(v), 0.0f}, {0, 0, 1}, 0.01f, vec3(1.0f)));
+            keys.push_back(v * width + u);
+        }
+    // a shuffled VAL order (ValGenerator appends through an atomic counter): the tree must not depend on it
+    std::vector<std::size_t> perm(vals.size());
+    for (std::size_t i = 0; i < perm.size(); ++i) perm[i] = (i * 37) % perm.size(); // 37 coprime to 78
+    std::vector<gi::VirtualAreaLight> shuffled;
+    std::vector<std::uint32_t> shuffledKeys;
+    for (std::size_t i : perm) {
+        shuffled.push_back(vals[i]);
+        shuffledKeys.push_back(keys[i]);
+    }
+    gi::ValTreeD tree;
+    gi::buildValQuadtreeInto(shuffled, shuffledKeys, width, height, tree);
+    ASSERT_EQ(tree.nodes.size(), 2 * vals.size() - 1);
+    EXPECT_EQ(tree.depth, 4 + 3 + 1); // ceil(log2 13) + ceil(log2 6) + 1
+    for (std::size_t node = 0; node < tree.nodes.size(); ++node) {
+        const auto& c = tree.nodes[node];
+        if (c.child1 == gi::kValTreeLeaf) continue;
+        // the two children: disjoint blocks that touch along u or v (neighbours in the image)
+        const auto &a = tree.nodes[c.child0], &b = tree.nodes[c.child1];
+        EXPECT_GT(c.child0, node); // children after their parent (reversed creation order)
+        EXPECT_GT(c.child1, node);
+        const bool alongU = a.boxMin.y == b.boxMin.y && a.boxMax.y == b.boxMax.y && b.boxMin.x == a.boxMax.x + 1.0;
+        const bool alongV = a.boxMin.x == b.boxMin.x && a.boxMax.x == b.boxMax.x && b.boxMin.y == a.boxMax.y + 1.0;
+        EXPECT_TRUE(alongU || alongV) << "node " << node;
+        // a full block: the box holds exactly `count` pixels
+        const dvec3 extent = c.boxMax - c.boxMin + dvec3(1.0);
+        EXPECT_EQ(extent.x * extent.y, c.count) << "node " << node;
+        // the block is aligned to its size (Morton): a block of 2^k pixels along u starts at a multiple of 2^k
+        const double sizeU = std::exp2(std::ceil(std::log2(extent.x)));
+        const double sizeV = std::exp2(std::ceil(std::log2(extent.y)));
+        EXPECT_EQ(std::fmod(c.boxMin.x, sizeU), 0.0) << "node " << node;
+        EXPECT_EQ(std::fmod(c.boxMin.y, sizeV), 0.0) << "node " << node;
+    }
+}
+
+TEST(ValQuadtree, EmptyAndInvalidPixelsAddNoNodes) {
+    std::vector<gi::VirtualAreaLight> vals(4, disc({0, 0, 1}, {0, 0, -1}, 0.01f, vec3(1.0f)));
+    vals[1].area = 0.0f;
+    vals[2].area = std::nanf("");
+    const std::vector<std::uint32_t> keys{5, 6, 7, 40};
+    gi::ValTreeD tree;
+    gi::buildValQuadtreeInto(vals, keys, 8, 8, tree);
+    ASSERT_EQ(tree.nodes.size(), 3u); // VALs 0 and 3: one pair, the rest of the 64 pixels carry nothing
+    EXPECT_EQ(tree.nodes[0].count, 2.0);
+    EXPECT_EQ(tree.depth, 2);
+    gi::buildValQuadtreeInto(std::span(vals).subspan(1, 2), std::span(keys).subspan(1, 2), 8, 8, tree);
+    EXPECT_TRUE(tree.nodes.empty());
+    EXPECT_EQ(tree.depth, 0);
+}
+
+TEST(ValQuadtree, BadKeysAreClearErrors) {
+    const std::vector<gi::VirtualAreaLight> vals(2, disc({0, 0, 1}, {0, 0, -1}, 0.01f, vec3(1.0f)));
+    gi::ValTree tree;
+    const std::vector<std::uint32_t> outside{0, 64}, shared{3, 3};
+    EXPECT_THROW(gi::buildValQuadtreeInto(vals, outside, 8, 8, tree), Error);
+    try {
+        gi::buildValQuadtreeInto(vals, shared, 8, 8, tree);
+        ADD_FAILURE() << "two VALs in one pixel must throw";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("share pixel 3"), std::string::npos) << e.what();
     }
 }
 

@@ -18,6 +18,9 @@ struct GatherBenchOptions {
     std::vector<float> treeThresholds{0.0f};
     /// Only the "diffuse" setup (`--diffuse-only`): the one compared with the brute force.
     bool diffuseOnly = false;
+    /// With a threshold > 0, also the BVH over the same VALs beside the VAL map's quadtree
+    /// (`--tree-bvh`; without it the VAL map's pixel keys give the quadtree only).
+    bool treeBvh = false;
 };
 
 /// LightSkin stage times (GL timer queries) per setup, speed-up over the brute force and its error; prints a Markdown

@@ -107,7 +107,8 @@ struct LightSkinChoice {
     /// (the cut size) and the nodes visited; 0 for the flat gather.
     std::uint32_t valTreeNodes = 0;
     float valTreeCutPerPoint = 0.0f, valTreeVisitedPerPoint = 0.0f;
-    float valTreeBuildMs = 0.0f; ///< CPU wall time of the VAL read-back, tree build and upload
+    float valTreeBuildMs = 0.0f;  ///< CPU wall time of the VAL read-back, tree build and upload
+    bool valTreeQuadtree = false; ///< the tree was the image quadtree (VALs with pixel keys), else the BVH
     std::string reason;
 };
 

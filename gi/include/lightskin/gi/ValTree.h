@@ -8,8 +8,12 @@
 // leaf is one valid VAL (index into the input span). Invalid VALs (area <= 0 or NaN: they add exactly 0
 // to the flat gather) are left out; an empty or all-invalid set gives an empty tree.
 // Units and frames as VirtualAreaLight: world metres, m^2, linear RGB W; angles in radians.
-// Built on the CPU (a BVH over positions, median split of the longest axis of the centroid box);
-// depth <= ceil(log2 n) + 1, so a traversal stack of kValTreeMaxDepth entries always suffices.
+// Two builders, one layout: buildValTreeInto (any VAL set, e.g. RSM or merged: a BVH over positions,
+// median split of the longest axis of the centroid box, O(n log n), depth <= ceil(log2 n) + 1) and
+// buildValQuadtreeInto (VALs from the pixels of an image, e.g. the depth image: its quadtree, O(pixels),
+// no sorting, depth <= ceil(log2 W) + ceil(log2 H) + 1). A traversal stack of kValTreeMaxDepth entries
+// always suffices. Node order: the BVH's is depth-first pre-order; the quadtree's is reversed creation
+// order (children always after their parent); the walk only follows child indices.
 
 #include <lightskin/gi/VirtualAreaLight.h>
 
@@ -58,6 +62,10 @@ struct ValTreeT {
     std::vector<ValClusterT<Real>> nodes;    ///< nodes[0] = root; empty when no VAL is valid
     int depth = 0;                           ///< levels (a single leaf: 1)
     std::vector<std::uint32_t> scratchOrder; ///< builder scratch
+    // quadtree builder scratch: one image level's cells (-1 = empty) and its non-empty clusters
+    std::vector<std::int32_t> scratchCells[2];
+    std::vector<ValClusterT<double>> scratchLevel[2];
+    std::vector<std::uint32_t> scratchRows;
 };
 using ValTree = ValTreeT<float>;
 using ValTreeD = ValTreeT<double>;
@@ -66,7 +74,22 @@ using ValTreeD = ValTreeT<double>;
 template <class Real>
 void buildValTreeInto(std::span<const VirtualAreaLight> vals, ValTreeT<Real>& tree);
 
+/// Builds the quadtree of VALs that come from the pixels of a width x height image into `tree`:
+/// keys[i] = v * width + u names VAL i's pixel (ValSetView::keys, e.g. ValGenerator's depth pixel
+/// index). Image levels pair neighbouring pixels alternately along u and v (two binary levels per 2x2
+/// quadtree level, Morton order, so nodes keep two children); a cluster with one non-empty child IS
+/// that child, so empty and invalid pixels add no nodes: 2 n - 1 nodes for n valid VALs, as the BVH.
+/// O(width * height + n), levels in parallel (OpenMP). Throws Error("VAL keys", ...) when a valid VAL's
+/// key is outside the image or two valid VALs share a pixel; keys.size() must equal vals.size().
+template <class Real>
+void buildValQuadtreeInto(std::span<const VirtualAreaLight> vals, std::span<const std::uint32_t> keys,
+                          std::uint32_t width, std::uint32_t height, ValTreeT<Real>& tree);
+
 extern template void buildValTreeInto<float>(std::span<const VirtualAreaLight>, ValTreeT<float>&);
 extern template void buildValTreeInto<double>(std::span<const VirtualAreaLight>, ValTreeT<double>&);
+extern template void buildValQuadtreeInto<float>(std::span<const VirtualAreaLight>, std::span<const std::uint32_t>,
+                                                 std::uint32_t, std::uint32_t, ValTreeT<float>&);
+extern template void buildValQuadtreeInto<double>(std::span<const VirtualAreaLight>, std::span<const std::uint32_t>,
+                                                  std::uint32_t, std::uint32_t, ValTreeT<double>&);
 
 } // namespace lightskin::gi
