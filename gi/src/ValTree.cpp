@@ -216,7 +216,6 @@ void buildValQuadtreeInto(std::span<const VirtualAreaLight> vals, std::span<cons
     const auto last = std::uint32_t(tree.nodes.size() - 1);
     std::vector<ValClusterD>& leaves = tree.scratchLevel[0];
     leaves.resize(n);
-#pragma omp parallel for schedule(static)
     for (std::int64_t k = 0; k < std::int64_t(n); ++k) {
         const std::uint32_t i = order[std::size_t(k)];
         ValClusterD c = leaf(vals[i], i);
@@ -246,9 +245,11 @@ void buildValQuadtreeInto(std::span<const VirtualAreaLight> vals, std::span<cons
             const std::int32_t b = hasB ? inCells[pairU ? a + 1 : a + w] : -1;
             return std::pair<std::int32_t, std::int32_t>(inCells[a], b);
         };
-        // Pass 1 (rows in parallel): non-empty cells and new nodes per row; then their row offsets.
+        // Pass 1: non-empty cells and new nodes per row, then their row offsets; pass 2 fills the rows
+        // independently. One thread: OpenMP over the rows (3 barriers per level, ~20 levels) measured
+        // 675 ms instead of 3 ms at 19k VALs, 1056 instead of 247 ms at 518k, on the loaded 2-core machine
+        // (docs/BENCHMARKS.md "VAL tree"); the passes are kept so that rows can go parallel on a free one.
         rows.assign(2 * (std::size_t(nh) + 1), 0u);
-#pragma omp parallel for schedule(static)
         for (std::int64_t yy = 0; yy < std::int64_t(nh); ++yy) {
             const auto y = std::uint32_t(yy);
             std::uint32_t nonEmpty = 0, pairs = 0;
@@ -266,7 +267,6 @@ void buildValQuadtreeInto(std::span<const VirtualAreaLight> vals, std::span<cons
         }
         out.resize(rows[2 * std::size_t(nh)]);
         // Pass 2: a cell with one child carries it up unchanged; with two, a new node.
-#pragma omp parallel for schedule(static)
         for (std::int64_t yy = 0; yy < std::int64_t(nh); ++yy) {
             const auto y = std::uint32_t(yy);
             std::uint32_t slot = rows[2 * std::size_t(y)], pair = created + rows[2 * std::size_t(y) + 1];

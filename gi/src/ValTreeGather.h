@@ -1,7 +1,7 @@
 #pragma once
 // The GL path's gather with a cut through the VAL tree (issue 17; gi/shaders/gather_tree.comp): builds
 // the tree of the gathered VALs on the CPU from a read-back of their GL buffer: for VALs keyed by image
-// pixels the image's quadtree (O(pixels), OpenMP), else the BVH. On the CPU, not in a compute pass, because
+// pixels the image's quadtree (O(pixels)), else the BVH. On the CPU, not in a compute pass, because
 // the cone angles are combined with acos in double and rounded outward so that the float bound stays
 // certified (GLSL has no double acos). Then it uploads the nodes and runs the walk in dispatches of
 // bounded length until every sparse point is done. Writes the same five gather targets as the flat

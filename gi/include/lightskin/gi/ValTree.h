@@ -79,7 +79,7 @@ void buildValTreeInto(std::span<const VirtualAreaLight> vals, ValTreeT<Real>& tr
 /// index). Image levels pair neighbouring pixels alternately along u and v (two binary levels per 2x2
 /// quadtree level, Morton order, so nodes keep two children); a cluster with one non-empty child IS
 /// that child, so empty and invalid pixels add no nodes: 2 n - 1 nodes for n valid VALs, as the BVH.
-/// O(width * height + n), levels in parallel (OpenMP). Throws Error("VAL keys", ...) when a valid VAL's
+/// O(width * height + n), one thread. Throws Error("VAL keys", ...) when a valid VAL's
 /// key is outside the image or two valid VALs share a pixel; keys.size() must equal vals.size().
 template <class Real>
 void buildValQuadtreeInto(std::span<const VirtualAreaLight> vals, std::span<const std::uint32_t> keys,
