@@ -38,6 +38,9 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
         "Imperfect-volumes rows, resolution:points-per-triangle:rays-per-voxel:bounces (comma-separated)");
     command->add_option("--prt", o->prt,
                         "Multi-scale PRT rows, entry-points:walks-per-entry:clusters:basis-vectors (comma-separated)");
+    command->add_option(
+        "--trees", o->trees,
+        "Comma-separated valTreeThreshold values (gather with a cut, issue 17; axis \"tree\"; \"\" = none)");
     command->add_option("--backends", o->backends,
                         "LightSkin backends to sweep: gl,cpu (the CPU backend, gi.backend \"cpu\")");
     command->add_option("--default-sparse", o->defaults.sparse, "Default configuration: sparse points per model");

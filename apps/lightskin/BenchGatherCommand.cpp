@@ -20,6 +20,7 @@ void addBenchGatherCommand(CLI::App& app, int& exitCode) {
     auto sparse = std::make_shared<std::string>("1024");
     auto maps = std::make_shared<std::string>("160x120");
     auto kCache = std::make_shared<std::string>("128");
+    auto tree = std::make_shared<std::string>("0");
     command->add_option("--width", options->outputWidth, "Output width (pixels)");
     command->add_option("--height", options->outputHeight, "Output height (pixels)");
     command->add_option("--sparse", *sparse, "Comma-separated sparse point counts (total of both meshes)");
@@ -32,7 +33,14 @@ void addBenchGatherCommand(CLI::App& app, int& exitCode) {
                         "Also write bench-gather.json and its scaling plot (time against VAL count) into this folder");
     command->add_flag("--compute", options->compute,
                       "Gather with the compute-shader variant instead of fragment passes");
+    command->add_option("--tree", *tree,
+                        "Comma-separated LightSkinSettings::valTreeThreshold values (0 = flat gather; issue 17)");
+    command->add_flag("--tree-bvh", options->treeBvh,
+                      "With --tree > 0: also the BVH beside the VAL map's quadtree, side by side");
+    command->add_flag("--diffuse-only", options->diffuseOnly,
+                      "Only the diffuse setup (the one compared with the brute force)");
     command->callback([=, &exitCode] {
+        options->treeThresholds = bench::splitList<float>(*tree, [](const std::string& s) { return std::stof(s); });
         options->sparse = bench::splitList<int>(*sparse, [](const std::string& s) { return std::stoi(s); });
         options->kCache = bench::splitList<int>(*kCache, [](const std::string& s) { return std::stoi(s); });
         options->valMaps = bench::splitList<std::string>(*maps, [](const std::string& s) { return s; });

@@ -74,7 +74,14 @@ void runGatherBench(const GatherBenchOptions& options) {
         const auto vals = bench::valMap(mapWidth, mapHeight);
         const gl::Buffer valBuffer =
             gl::Buffer::create(GLsizeiptr(vals.size() * sizeof(gi::VirtualAreaLight)), vals.data(), 0);
+        // the VAL map's pixel keys (row-major, as ValGenerator's): the tree gather builds its quadtree
+        std::vector<std::uint32_t> keys(vals.size());
+        for (std::size_t i = 0; i < keys.size(); ++i) keys[i] = std::uint32_t(i);
+        const gl::Buffer keyBuffer =
+            gl::Buffer::create(GLsizeiptr(keys.size() * sizeof(std::uint32_t)), keys.data(), 0);
         const gi::ValSetView valSet{valBuffer.id(), std::uint32_t(vals.size())};
+        const gi::ValSetView keyedSet{valBuffer.id(), std::uint32_t(vals.size()), 0,
+                                      keyBuffer.id(), std::uint32_t(vals.size()), std::uint32_t(mapWidth)};
 
         // The rows of the JSON: what the table below prints (one per setup; the brute force's own row).
         RunResult row;
@@ -130,61 +137,98 @@ void runGatherBench(const GatherBenchOptions& options) {
                     const char* name;
                     bool glossy, occlusion;
                 };
-                for (const SetupSpec setup : {SetupSpec{"diffuse", false, false}, SetupSpec{"+glossy", true, false},
-                                              SetupSpec{"+occlusion", true, true}}) {
-                    gi::LightSkinSettings settings;
-                    settings.kCache = kCache;
-                    settings.glossy = setup.glossy;
-                    settings.occlusion = setup.occlusion;
-                    settings.valCapacity = std::uint32_t(vals.size());
-                    settings.computeGather = options.compute;
-                    auto technique = gi::LightSkinIllumination::create(settings, provider);
-                    technique->prepare(instances);
-                    std::map<std::string, std::vector<double>> stageTimes;
-                    std::vector<gl::StageTime> stages;
-                    std::vector<double> totals;
-                    for (int r = 0; r < options.repeat; ++r) {
-                        technique->render(valSet, instances, gbuffer.view(), view, target.id());
-                        technique->lastStageTimes(stages);
-                        double total = 0.0;
-                        for (const auto& s : stages) {
-                            stageTimes[s.name].push_back(s.milliseconds);
-                            total += s.milliseconds;
-                        }
-                        totals.push_back(total);
-                    }
-                    const double gatherMs = minimum(stageTimes["gather"]);
-                    const double totalMs = minimum(totals);
-                    RunResult run = row;
-                    run.series = "sparse " + std::to_string(sparse) + ", K_cache " + std::to_string(kCache) + ", " +
-                                 setup.name + (options.compute ? ", compute" : "");
-                    run.config.sparse = sparse;
-                    run.config.kCache = kCache;
-                    run.config.channels = setup.occlusion ? 3 : setup.glossy ? 2 : 1;
-                    run.gpuMs = totalMs;
-                    for (const auto& s : stages) run.stages.emplace_back(s.name, minimum(stageTimes[s.name]));
-                    if (options.brute && !setup.glossy) run.bruteMs = bruteMs; // on the same (diffuse) inputs
-                    report.runs.push_back(std::move(run));
-                    std::printf("  sparse %5d K_cache %4d %-10s total %8.2f ms |", sparse, kCache, setup.name, totalMs);
-                    for (const auto& s : stages) std::printf(" %s %.2f", s.name.c_str(), minimum(stageTimes[s.name]));
-                    std::printf(" | gather %.3g interactions/s",
-                                double(sparse) * double(vals.size()) / (gatherMs * 1e-3));
-                    if (options.brute && !setup.glossy) {
-                        readImage(image);
-                        double sumAbs = 0.0, sumRef = 0.0, sum = 0.0;
-                        for (std::size_t i = 0; i < image.size(); ++i)
-                            for (int c = 0; c < 3; ++c) {
-                                sumAbs += double(std::abs(image[i][c] - reference[i][c]));
-                                sumRef += double(reference[i][c]);
-                                sum += double(image[i][c]);
+                for (const float threshold : options.treeThresholds)
+                    for (const bool bvh : {false, true})
+                        for (const SetupSpec setup :
+                             {SetupSpec{"diffuse", false, false}, SetupSpec{"+glossy", true, false},
+                              SetupSpec{"+occlusion", true, true}}) {
+                            if (options.diffuseOnly && setup.glossy) continue;
+                            if (bvh && (threshold <= 0.0f || !options.treeBvh)) continue;
+                            const gi::ValSetView& lightSet = threshold > 0.0f && !bvh ? keyedSet : valSet;
+                            gi::LightSkinSettings settings;
+                            settings.valTreeThreshold = threshold;
+                            settings.kCache = kCache;
+                            settings.glossy = setup.glossy;
+                            settings.occlusion = setup.occlusion;
+                            settings.valCapacity = std::uint32_t(vals.size());
+                            settings.computeGather = options.compute;
+                            auto technique = gi::LightSkinIllumination::create(settings, provider);
+                            technique->prepare(instances);
+                            std::map<std::string, std::vector<double>> stageTimes;
+                            std::vector<gl::StageTime> stages;
+                            std::vector<double> totals, walls;
+                            for (int r = 0; r < options.repeat; ++r) {
+                                glFinish();
+                                const auto start = std::chrono::steady_clock::now();
+                                technique->render(lightSet, instances, gbuffer.view(), view, target.id());
+                                glFinish();
+                                // wall clock too: the tree gather's dispatch loop and CPU build are not one timed draw
+                                walls.push_back(
+                                    std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                                        .count());
+                                technique->lastStageTimes(stages);
+                                double total = 0.0;
+                                for (const auto& s : stages) {
+                                    stageTimes[s.name].push_back(s.milliseconds);
+                                    total += s.milliseconds;
+                                }
+                                totals.push_back(total);
                             }
-                        std::printf(
-                            " | speed-up over brute force %.1fx, mean abs error %.2f%% of the mean, total %+.2f%%",
-                            bruteMs / totalMs, 100.0 * sumAbs / sumRef, 100.0 * (sum / sumRef - 1.0));
-                    }
-                    std::printf("\n");
-                    std::fflush(stdout);
-                }
+                            const double gatherMs = minimum(stageTimes["gather"]);
+                            // the tree gather's GPU timer misses its CPU build: take the larger of the two totals
+                            const double totalMs = std::max(minimum(totals), minimum(walls));
+                            RunResult run = row;
+                            run.series = "sparse " + std::to_string(sparse) + ", K_cache " + std::to_string(kCache) +
+                                         ", " + setup.name + (options.compute ? ", compute" : "") +
+                                         (threshold > 0.0f ? (bvh ? ", tree (BVH) " : ", tree ") +
+                                                                 std::to_string(threshold)
+                                                           : std::string());
+                            run.config.sparse = sparse;
+                            run.config.kCache = kCache;
+                            run.config.valTree = threshold;
+                            run.config.channels = setup.occlusion ? 3 : setup.glossy ? 2 : 1;
+                            run.gpuMs = totalMs;
+                            for (const auto& s : stages) run.stages.emplace_back(s.name, minimum(stageTimes[s.name]));
+                            if (options.brute && !setup.glossy) run.bruteMs = bruteMs; // on the same (diffuse) inputs
+                            report.runs.push_back(std::move(run));
+                            std::printf("  sparse %5d K_cache %4d tree %-6g %-8s %-10s total %8.2f ms (wall %8.2f) |",
+                                        sparse, kCache, double(threshold),
+                                        threshold <= 0.0f                         ? "flat"
+                                        : technique->lastChoice().valTreeQuadtree ? "quadtree"
+                                                                                  : "bvh",
+                                        setup.name, totalMs, minimum(walls));
+                            if (threshold > 0.0f)
+                                std::printf(
+                                    " cut %.0f lights/point, %.0f nodes visited/point, read-back + build + upload "
+                                    "%.1f ms |",
+                                    double(technique->lastChoice().valTreeCutPerPoint),
+                                    double(technique->lastChoice().valTreeVisitedPerPoint),
+                                    double(technique->lastChoice().valTreeBuildMs));
+                            for (const auto& s : stages)
+                                std::printf(" %s %.2f", s.name.c_str(), minimum(stageTimes[s.name]));
+                            std::printf(" | gather %.3g interactions/s",
+                                        double(sparse) * double(vals.size()) / (gatherMs * 1e-3));
+                            if (options.brute && !setup.glossy) {
+                                readImage(image);
+                                double sumAbs = 0.0, sumRef = 0.0, sum = 0.0, sq = 0.0, sqRef = 0.0;
+                                for (std::size_t i = 0; i < image.size(); ++i)
+                                    for (int c = 0; c < 3; ++c) {
+                                        const double d = double(image[i][c] - reference[i][c]);
+                                        sumAbs += std::abs(d);
+                                        sq += d * d;
+                                        sqRef += double(reference[i][c]) * double(reference[i][c]);
+                                        sumRef += double(reference[i][c]);
+                                        sum += double(image[i][c]);
+                                    }
+                                std::printf(
+                                    " | speed-up over brute force %.1fx, mean abs error %.2f%% of the mean, total "
+                                    "%+.2f%%, relMSE %.3e",
+                                    bruteMs / totalMs, 100.0 * sumAbs / sumRef, 100.0 * (sum / sumRef - 1.0),
+                                    sqRef > 0.0 ? sq / sqRef : 0.0);
+                            }
+                            std::printf("\n");
+                            std::fflush(stdout);
+                        }
             }
     }
     gl::DebugOutput::throwIfErrors("bench-gather");

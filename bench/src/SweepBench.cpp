@@ -33,6 +33,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
@@ -93,6 +94,7 @@ void applyQuick(SweepBenchOptions& o) {
     o.adaptive = "off,on";
     o.volumes = "16:12:36:1";
     o.prt = "64:4:4:2";
+    o.trees = "0.1";
     o.defaults.sparse = 256;
     o.defaults.stride = 4;
     o.defaults.channels = 1; // the checks compare like with like: brute force has no occlusion
@@ -402,6 +404,7 @@ gi::LightSkinSettings settingsFor(const Config& c, std::uint32_t vals) {
     s.glossy = c.channels >= 2;
     s.occlusion = c.channels >= 3;
     s.adaptive = c.adaptive;
+    s.valTreeThreshold = c.valTree;
     s.valCapacity = std::max(1u, vals);
     return s;
 }
@@ -552,7 +555,7 @@ std::vector<Config> buildSweep(const SweepBenchOptions& o) {
         const bool same = probe.sparse == d.sparse && probe.stride == d.stride && probe.kCache == d.kCache &&
                           probe.channels == d.channels && probe.width == d.width && probe.height == d.height &&
                           probe.sphereTriangles == d.sphereTriangles && probe.adaptive == d.adaptive &&
-                          probe.backend == d.backend && probe.technique == d.technique;
+                          probe.backend == d.backend && probe.technique == d.technique && probe.valTree == d.valTree;
         if (!same) configs.push_back(c);
     };
     for (int s : splitList<int>(o.sparse, [](const std::string& x) { return parseInt(x, "--sparse"); }))
@@ -585,6 +588,13 @@ std::vector<Config> buildSweep(const SweepBenchOptions& o) {
         if (b != "gl" && b != "cpu") throw Error("--backends", std::nullopt, "expected gl or cpu, got '" + b + "'");
         const std::string name = b == "gl" ? "GL" : "CPU";
         add("backend", name, [name](Config& c) { c.backend = name; });
+    }
+    for (const std::string& t : splitList<std::string>(o.trees, [](const std::string& x) { return x; })) {
+        char* end = nullptr;
+        const float threshold = std::strtof(t.c_str(), &end);
+        if (end == t.c_str() || *end != '\0' || !(threshold >= 0.0f) || !std::isfinite(threshold))
+            throw Error("--trees", std::nullopt, "expected a threshold >= 0, got '" + t + "'");
+        add("tree", t, [threshold](Config& c) { c.valTree = threshold; });
     }
     for (const std::string& v : splitList<std::string>(o.volumes, [](const std::string& x) { return x; })) {
         gi::ImperfectVolumesSettings s;

@@ -2,6 +2,7 @@
 // bookkeeping are here; the SIMD kernels in CpuGatherKernels.cpp; every per-point formula is the
 // double instance of lightskin_math.glsl (reference/LightSkinMath.h).
 #include "CpuGatherKernels.h"
+#include "CpuValTreeGather.h"
 #include "GatherShaders.h"
 #include "reference/LightSkinMath.h"
 
@@ -123,6 +124,7 @@ struct CpuLightSkin::Impl {
     std::vector<glm::vec4> vertexVpls; // 4 vec4 per vertex, gather_vertex_vpl.glsl's layout
     bool glossy = true, occlusion = true;
     double readbackMs = 0.0; // render(): the VAL read-back, counted in the upload stage
+    cpu::ValTreeCut treeCut;  // LightSkinSettings::valTreeThreshold > 0 (issue 17)
 
     std::unique_ptr<tbb::task_arena> arena; // settings.threads workers (0: one per hardware thread)
     int threadCount() const { return arena->max_concurrency(); }
@@ -522,7 +524,18 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
 
     start = Clock::now();
     double cpu = processCpuMs();
-    impl.gather();
+    const double treeThreshold = double(impl.settings.lightSkin.valTreeThreshold);
+    if (treeThreshold > 0.0) {
+        impl.treeCut.gather(lights, std::span(impl.pointPosition).first(impl.pointCount),
+                            std::span(impl.pointNormal).first(impl.pointCount),
+                            std::span(impl.pointExponent).first(impl.pointCount), eye,
+                            double(impl.settings.lightSkin.cParameter), impl.glossy, impl.moments(), treeThreshold,
+                            impl.threadCount(), impl.sums.data(), impl.receivers.padded);
+        stats.valTreeCutPerPoint = double(impl.treeCut.stats().taken) / double(std::max<std::uint32_t>(impl.pointCount, 1));
+    } else {
+        impl.gather();
+        stats.valTreeCutPerPoint = 0.0;
+    }
     stats.gatherMs = millisecondsSince(start);
     stats.gatherCpuMs = processCpuMs() - cpu;
 

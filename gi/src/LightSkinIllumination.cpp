@@ -12,6 +12,7 @@
 #include <lightskin/gl/ShaderLibrary.h>
 
 #include "GatherShaders.h"
+#include "ValTreeGather.h"
 
 #include <glm/gtc/type_ptr.hpp>
 #include <glm/mat3x3.hpp>
@@ -85,6 +86,7 @@ struct LightSkinIllumination::Impl {
     GatherProgram gather[2][2];
     gl::Program gatherCompute[2][2];
     gl::Program renormalise, occlusion[2], interpolate, shade, valSums;
+    detail::ValTreeGather treeGather; // valTreeThreshold > 0 (issue 17)
     gl::Program cullCount, cullScan, cullScatter, cullAppend; // adaptive VAL culling (gather_cull.glsl)
     gl::Buffer valSumsBuffer; // 2 vec4: (sum l, sum r^2), (sum l^2, count) over all valid VALs
     gl::VertexArray emptyVertexArray;
@@ -162,6 +164,7 @@ struct LightSkinIllumination::Impl {
         cullScatter = library.buildProgram({{GL_COMPUTE_SHADER, "gather_cull_scatter.comp"}});
         cullAppend = library.buildProgram({{GL_COMPUTE_SHADER, "gather_cull_append.comp"}});
         valSums = library.buildProgram({{GL_COMPUTE_SHADER, "gather_val_sums.comp"}});
+        treeGather.buildPrograms(library);
         staticScatter = library.buildProgram({{GL_COMPUTE_SHADER, "gather_static_scatter.comp"}});
         staticBound = library.buildProgram({{GL_COMPUTE_SHADER, "gather_static_bound.comp"}});
         staticSum = library.buildProgram({{GL_COMPUTE_SHADER, "gather_static_sum.comp"}});
@@ -498,6 +501,9 @@ std::unique_ptr<LightSkinIllumination> LightSkinIllumination::create(const Light
                                                                      SparsePointProvider provider) {
     LIGHTSKIN_ASSERT(bool(provider), "lightskin::gi::LightSkinIllumination::create(): a sparse point provider is required");
     detail::ValChunkBuffer::validateKCache(settings.kCache, "LightSkinSettings.kCache");
+    if (!(settings.valTreeThreshold >= 0.0f && std::isfinite(settings.valTreeThreshold)))
+        throw Error("LightSkinSettings.valTreeThreshold", std::nullopt,
+                    "must be finite and >= 0, got " + std::to_string(settings.valTreeThreshold));
     std::unique_ptr<LightSkinIllumination> technique(new LightSkinIllumination());
     Impl& impl = *technique->impl_;
     impl.settings = settings;
@@ -521,6 +527,9 @@ const std::vector<std::uint32_t>& LightSkinIllumination::vertexOffsets() const n
 
 void LightSkinIllumination::setSettings(const LightSkinSettings& settings) {
     detail::ValChunkBuffer::validateKCache(settings.kCache, "LightSkinSettings.kCache");
+    if (!(settings.valTreeThreshold >= 0.0f && std::isfinite(settings.valTreeThreshold)))
+        throw Error("LightSkinSettings.valTreeThreshold", std::nullopt,
+                    "must be finite and >= 0, got " + std::to_string(settings.valTreeThreshold));
     const bool rebuild = settings.kCache != impl_->settings.kCache;
     impl_->settings = settings;
     impl_->last.valid = false; // any setting may change stages 0-4
@@ -757,7 +766,28 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     glBindVertexArray(impl.emptyVertexArray.id());
     glBindTextureUnit(8, impl.pointPosition.id());
     glBindTextureUnit(9, impl.pointNormal.id());
-    if (count > 0 && s.computeGather) {
+    choice.valTreeNodes = 0;
+    choice.valTreeCutPerPoint = choice.valTreeVisitedPerPoint = choice.valTreeBuildMs = 0.0f;
+    choice.valTreeQuadtree = false;
+    if (count > 0 && s.valTreeThreshold > 0.0f) {
+        std::array<std::uint32_t, kGatherTargets> targets{};
+        for (int i = 0; i < kGatherTargets; ++i) targets[std::size_t(i)] = impl.gatherTargets[std::size_t(i)].id();
+        // VALs keyed by image pixels (ValGenerator): the image's quadtree over the whole set, whose keys
+        // the cull would drop (the cut takes far clusters whole, which is the cull's job); else the BVH.
+        const bool image = lights.keys != 0 && lights.keyWidth > 0 && lights.keyCount % lights.keyWidth == 0;
+        impl.treeGather.run(image ? lights.buffer : impl.vals.buffer().id(), image ? lights.count : count,
+                            image ? lights.keys : 0u, image ? lights.keyWidth : 0u, lights.keyCount, impl.pointCount,
+                            impl.pointPosition.id(),
+                            impl.pointNormal.id(), targets, view.cameraPositionWorld, s.cParameter, choice.glossy,
+                            moments, s.valTreeThreshold, s.valTreeStepsPerDispatch);
+        const detail::ValTreeGatherStats& t = impl.treeGather.stats();
+        choice.valTreeNodes = t.nodes;
+        choice.valTreeBuildMs = float(t.buildMs);
+        choice.valTreeQuadtree = t.quadtree;
+        const double points = std::max(1.0, double(impl.pointCount));
+        choice.valTreeCutPerPoint = float(double(t.taken) / points);
+        choice.valTreeVisitedPerPoint = float(double(t.visited) / points);
+    } else if (count > 0 && s.computeGather) {
         const gl::Program& p = impl.gatherCompute[choice.glossy ? 1 : 0][moments ? 1 : 0];
         p.use();
         glUniform1i(p.uniformLocation("uPointCount"), int(impl.pointCount));

@@ -108,6 +108,7 @@ std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettin
         s.occlusion = settings.occlusion;
         s.vertexDistanceFloor = settings.robustRealDepth;
         s.extendedVplHorizon = settings.robustRealDepth;
+        s.valTreeThreshold = settings.valTreeThreshold;
         const gi::SparsePointProvider provider = [&renderer](const gi::MeshInstance& instance) {
             const gi::SparsePointSet* points = renderer.sparsePoints(instance.meshId);
             LIGHTSKIN_ASSERT(points != nullptr, "lightskin::mr::createTechnique(): the renderer prepared no sparse points");

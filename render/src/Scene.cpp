@@ -262,7 +262,8 @@ GiSettings readGi(const Reader& r, const json& value, const std::string& p, cons
     r.object(value, p);
     r.allowOnly(value, p,
                 {"technique", "backend", "sparsePoints", "valStride", "kCache", "diffuse", "glossy", "occlusion",
-                 "virtualBounce", "rsmResolution", "budgetMs", "robustRealDepth", "imperfectVolumes", "multiscalePrt"});
+                 "virtualBounce", "rsmResolution", "budgetMs", "robustRealDepth", "imperfectVolumes", "multiscalePrt",
+                 "valTreeThreshold"});
     GiSettings g;
     if (value.contains("technique")) {
         g.technique = r.string(value["technique"], p + "/technique");
@@ -294,6 +295,8 @@ GiSettings readGi(const Reader& r, const json& value, const std::string& p, cons
         g.budgetMs =
             double(r.number(value["budgetMs"], p + "/budgetMs", 0.001f, 1.0e6f, "in [0.001, 1e6] (milliseconds)"));
     if (value.contains("robustRealDepth")) g.robustRealDepth = r.boolean(value["robustRealDepth"], p + "/robustRealDepth");
+    if (value.contains("valTreeThreshold"))
+        g.valTreeThreshold = r.number(value["valTreeThreshold"], p + "/valTreeThreshold", 0.0f, 100.0f, "in [0, 100]");
     if (value.contains("imperfectVolumes")) {
         if (g.technique != "imperfect-volumes")
             r.fail(p + "/imperfectVolumes", "gi.technique \"imperfect-volumes\" (the key belongs to that technique)",

@@ -121,6 +121,7 @@ TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
         {head + R"("lights": [{"type": "point", "position": [0, 0, 1], "inRoom": 1}]})",
          "/lights/0/inRoom: expected true or false"},
         {head + R"("gi": {"robustRealDepth": 1}})", "/gi/robustRealDepth: expected true or false"},
+        {head + R"("gi": {"valTreeThreshold": -0.1}})", "/gi/valTreeThreshold: expected a number in [0, 100]"},
         {R"({"objects": []})", "/version: expected 1"},
         {R"([1, 2])", "/: expected an object"},
         {R"({"version": 1, )", "not valid JSON"},
@@ -234,6 +235,11 @@ TEST(Scene, DifferentialIsOnByDefaultAndLightsAreInTheRoom) {
 TEST(Scene, RobustRealDepthIsTheDefaultAndCanBeTurnedOff) {
     EXPECT_TRUE(parseScene(R"({"version": 1})", meshDir(), "t").gi.robustRealDepth);
     EXPECT_FALSE(parseScene(R"({"version": 1, "gi": {"robustRealDepth": false}})", meshDir(), "t").gi.robustRealDepth);
+}
+
+TEST(Scene, ValTreeThresholdIsOffByDefault) {
+    EXPECT_EQ(parseScene(R"({"version": 1})", meshDir(), "t").gi.valTreeThreshold, 0.0f);
+    EXPECT_EQ(parseScene(R"({"version": 1, "gi": {"valTreeThreshold": 0.05}})", meshDir(), "t").gi.valTreeThreshold, 0.05f);
 }
 
 TEST(Scene, MissingFileIsAnError) {

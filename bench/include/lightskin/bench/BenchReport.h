@@ -27,6 +27,8 @@ struct Config {
     int width = 640, height = 480;
     std::size_t sphereTriangles = 20000;
     bool adaptive = false;
+    /// LightSkinSettings::valTreeThreshold (issue 17; axis "tree"); 0 = the flat gather.
+    float valTree = 0.0f;
     std::string backend = "GL"; ///< LightSkin on "GL" or on the "CPU" backend (gi::CpuLightSkin)
     bool isDefault = false;
     /// "lightskin", or "imperfect-volumes" (issue 15; its knobs in `volumes`, axis "volumes": value

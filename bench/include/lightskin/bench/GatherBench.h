@@ -15,6 +15,13 @@ struct GatherBenchOptions {
     bool brute = true;
     bool compute = false;
     std::string out; ///< folder for bench-gather.json and its scaling plot ("" = print only)
+    /// LightSkinSettings::valTreeThreshold values (issue 17, `--tree`); 0 = the flat gather.
+    std::vector<float> treeThresholds{0.0f};
+    /// Only the "diffuse" setup (`--diffuse-only`): the one compared with the brute force.
+    bool diffuseOnly = false;
+    /// With a threshold > 0, also the BVH over the same VALs beside the VAL map's quadtree
+    /// (`--tree-bvh`; without it the VAL map's pixel keys give the quadtree only).
+    bool treeBvh = false;
 };
 
 /// LightSkin stage times (GL timer queries) per setup, speed-up over the brute force and its error; prints them and,

@@ -24,7 +24,7 @@
 //
 // Settings: of LightSkinSettings this backend uses glossy, occlusion, cParameter, epsilonL,
 // shadingPositionTolerance and adaptive (glossy off without f_s, occlusion off for one convex
-// object; both exact). The GL-specific knobs (kCache, computeGather, occluderChunk, ...) and the
+// object; both exact), and valTreeThreshold (issue 17: the gather with a cut, CpuValTreeGather.h). The GL-specific knobs (kCache, computeGather, occluderChunk, ...) and the
 // static-content reuse are ignored. Per-frame code does not allocate once the VAL capacity has
 // grown to the largest set seen.
 
@@ -62,6 +62,7 @@ struct CpuLightSkinStats {
     /// computeVpls(): under load from other processes wall time overstates the work, CPU time does not.
     double gatherCpuMs = 0.0, occlusionCpuMs = 0.0, stagesCpuMs = 0.0;
     std::string simdTarget; ///< the instruction set the runtime dispatch chose, e.g. "AVX3"
+    double valTreeCutPerPoint = 0.0; ///< valTreeThreshold > 0 (issue 17): lights taken per sparse point
 };
 
 class CpuLightSkin final : public IndirectIllumination {

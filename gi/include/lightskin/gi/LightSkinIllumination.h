@@ -60,6 +60,14 @@ struct LightSkinSettings {
     /// VALs per compute dispatch (compute variant; each thread loops over them), rounded down
     /// to a multiple of 64 (one shared-memory tile); clamped to [64, 32768].
     int computeValsPerDispatch = 16384;
+    /// Issue 17: gather with a cut through a VAL tree (ValTree.h): at each sparse point a cluster of VALs
+    /// is taken as one light when the bound on the error of doing so is <= valTreeThreshold x the point's
+    /// running estimate (gi/shaders/val_tree_math.glsl); else its children are examined. 0 = the flat
+    /// gather over every VAL (exact; the default). Larger: fewer lights per point, larger error
+    /// (docs/BENCHMARKS.md "VAL tree"). Replaces computeGather's and the fragment passes' gather when > 0.
+    float valTreeThreshold = 0.0f;
+    /// Tree gather: walk iterations per thread and dispatch (llvmpipe ends loops after ~65k); [64, 32768].
+    int valTreeStepsPerDispatch = 16384;
     /// VAL capacity reserved in prepare(); grows (once, logged) if a frame brings more.
     std::uint32_t valCapacity = 1u << 16;
     /// With `adaptive`: reuse the VPLs of the last full computation for static content (see the
@@ -95,6 +103,12 @@ struct LightSkinChoice {
     /// Tolerance mode: the change measure of the last check relative to max L'_d (Bound:
     /// sum_j B_j; Probes: max change at the probes); -1 if no check ran this frame.
     float staticChangeBound = -1.0f;
+    /// Tree gather (valTreeThreshold > 0): nodes of the VAL tree, and per sparse point the lights taken
+    /// (the cut size) and the nodes visited; 0 for the flat gather.
+    std::uint32_t valTreeNodes = 0;
+    float valTreeCutPerPoint = 0.0f, valTreeVisitedPerPoint = 0.0f;
+    float valTreeBuildMs = 0.0f;  ///< CPU wall time of the VAL read-back, tree build and upload
+    bool valTreeQuadtree = false; ///< the tree was the image quadtree (VALs with pixel keys), else the BVH
     std::string reason;
 };
 

@@ -85,10 +85,10 @@ public:
 
     /// The last generate()'s set (buffer owned by this generator). generation counts the passes
     /// run (1, 2, ...; kept when skipUnchangedInput skipped one); keys = pixelIndexBuffer(), key
-    /// space width * height.
+    /// space width * height, keyWidth = width (the depth image's quadtree).
     ValSetView lastSet() const noexcept {
         return {vals_.id(), lastCount_, generation_, pixelIndices_.id(),
-                std::uint32_t(width_) * std::uint32_t(height_)};
+                std::uint32_t(width_) * std::uint32_t(height_), std::uint32_t(width_)};
     }
     /// Whether the last generate() skipped the pass (skipUnchangedInput and identical input).
     bool lastSkipped() const noexcept { return lastSkipped_; }

@@ -40,6 +40,9 @@ struct ValSetView {
     std::uint64_t generation = 0;
     std::uint32_t keys = 0;
     std::uint32_t keyCount = 0;
+    /// When keys name pixels of an image (v * keyWidth + u, keyCount = keyWidth * height): its width,
+    /// so that a consumer can build the image's quadtree over the VALs (ValTree.h); 0 = not an image.
+    std::uint32_t keyWidth = 0;
 };
 
 } // namespace lightskin::gi

@@ -79,6 +79,9 @@ struct GiSettings {
     /// The light model for real depth (issue 12; docs/BENCHMARKS.md "Indirect light on real depth"):
     /// on by default; false = the model before it, for measurement (`lightskin bench-realdepth`).
     bool robustRealDepth = true;
+    /// LightSkin's gather with a cut through the VAL tree (issue 17; gi::LightSkinSettings::valTreeThreshold,
+    /// both backends): 0 = the flat gather over every VAL (the default).
+    float valTreeThreshold = 0.0f;
     /// Technique "imperfect-volumes" (gi/ImperfectVolumes.h): the "imperfectVolumes" object.
     gi::ImperfectVolumesSettings imperfectVolumes;
     /// Technique "multiscale-prt" (gi/MultiscalePrt.h): the "multiscalePrt" object. Its cacheDirectory is
