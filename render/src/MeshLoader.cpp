@@ -2,11 +2,12 @@
 #include <lightskin/core/Log.h>
 #include <lightskin/render/MeshLoader.h>
 
+#include <assimp/BaseImporter.h>
 #include <assimp/Importer.hpp>
+#include <assimp/importerdesc.h>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
-
 #include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
 
@@ -14,8 +15,8 @@
 #include <cctype>
 #include <cmath>
 #include <fstream>
-#include <sstream>
 #include <limits>
+#include <sstream>
 #include <string>
 
 namespace lightskin::render {
@@ -136,7 +137,8 @@ void checkPlyAsciiBody(std::istream& body, const std::vector<PlyElement>& elemen
 std::size_t plyTypeSize(const std::string& type) {
     if (type == "char" || type == "uchar" || type == "int8" || type == "uint8") return 1;
     if (type == "short" || type == "ushort" || type == "int16" || type == "uint16") return 2;
-    if (type == "int" || type == "uint" || type == "float" || type == "int32" || type == "uint32" || type == "float32") return 4;
+    if (type == "int" || type == "uint" || type == "float" || type == "int32" || type == "uint32" || type == "float32")
+        return 4;
     if (type == "double" || type == "float64") return 8;
     return 0;
 }
@@ -359,6 +361,27 @@ DegenerateRepair removeDegenerateTriangles(TriangleMesh& mesh) {
     return repair;
 }
 
+namespace {
+
+/// True if one of assimp's readers that list the file's extension recognises its content (the
+/// check assimp itself makes before falling back to trying every reader on the content).
+bool extensionReaderRecognises(const Assimp::Importer& importer, const std::filesystem::path& path) {
+    std::string extension = path.extension().string();
+    if (!extension.empty() && extension.front() == '.') extension.erase(0, 1);
+    for (char& c : extension) c = char(std::tolower(static_cast<unsigned char>(c)));
+    for (std::size_t i = 0; i < importer.GetImporterCount(); ++i) {
+        const aiImporterDesc* info = importer.GetImporterInfo(i);
+        const Assimp::BaseImporter* reader = importer.GetImporter(i);
+        if (info == nullptr || reader == nullptr || info->mFileExtensions == nullptr) continue;
+        std::istringstream listed(info->mFileExtensions);
+        for (std::string candidate; listed >> candidate;)
+            if (candidate == extension && reader->CanRead(path.string(), importer.GetIOHandler(), false)) return true;
+    }
+    return false;
+}
+
+} // namespace
+
 LoadedModel loadModel(const std::filesystem::path& path) {
     const std::string source = path.string();
     std::error_code ec;
@@ -373,6 +396,14 @@ LoadedModel loadModel(const std::filesystem::path& path) {
     if (path.extension() == ".ply" || path.extension() == ".PLY") checkPlyHeader(path);
     if (hasExtension(path, ".gltf")) checkGltfBuffers(path);
     if (hasExtension(path, ".obj")) checkObjMaterialLibraries(path);
+    // assimp takes the reader of the file's extension only when that reader recognises the content;
+    // otherwise it offers the content to every reader. So a .glb holding PLY text reached the PLY reader
+    // past checkPlyHeader above, and assimp hung on it (fuzz finding 10). Our checks above follow
+    // the extension, so a reader of that extension must also claim the file before assimp reads it.
+    if (!extensionReaderRecognises(importer, path))
+        throw Error(source, std::nullopt,
+                    "not a readable " + path.extension().string() + " mesh (assimp's " + path.extension().string() +
+                        " reader does not recognise the content)");
     // Debian's assimp 5.2.5 PLY importer flags triangle meshes as TRIANGLE|POLYGON; with that,
     // SortByPType crashes (SIGBUS) and Triangulate hits an ai_assert that aborts (no handler can
     // be installed). So: no SortByPType (points and lines are skipped below), and Triangulate
@@ -380,8 +411,8 @@ LoadedModel loadModel(const std::filesystem::path& path) {
     const aiScene* scene = importer.ReadFile(source, aiProcess_PreTransformVertices | aiProcess_ValidateDataStructure);
     if (scene == nullptr) // assimp's words ("aiScene::mNumMeshes is 0") follow ours
         throw Error(source, std::nullopt,
-                    "not a readable " + path.extension().string() + " mesh (no triangles could be read; assimp: " +
-                        importer.GetErrorString() + ")");
+                    "not a readable " + path.extension().string() +
+                        " mesh (no triangles could be read; assimp: " + importer.GetErrorString() + ")");
     if ((scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE) != 0 || scene->mNumMeshes == 0)
         throw Error(source, std::nullopt, "file contains no triangle meshes");
 
@@ -391,12 +422,14 @@ LoadedModel loadModel(const std::filesystem::path& path) {
             hasPolygons = scene->mMeshes[m]->mFaces[f].mNumIndices > 3;
     if (hasPolygons) {
         scene = importer.ApplyPostProcessing(aiProcess_Triangulate);
-        if (scene == nullptr) throw Error(source, std::nullopt, std::string("cannot triangulate: ") + importer.GetErrorString());
+        if (scene == nullptr)
+            throw Error(source, std::nullopt, std::string("cannot triangulate: ") + importer.GetErrorString());
     }
     std::vector<bool> hadNormals(scene->mNumMeshes);
     for (unsigned m = 0; m < scene->mNumMeshes; ++m) hadNormals[m] = scene->mMeshes[m]->HasNormals();
     scene = importer.ApplyPostProcessing(aiProcess_GenSmoothNormals | aiProcess_JoinIdenticalVertices);
-    if (scene == nullptr) throw Error(source, std::nullopt, std::string("cannot process mesh: ") + importer.GetErrorString());
+    if (scene == nullptr)
+        throw Error(source, std::nullopt, std::string("cannot process mesh: ") + importer.GetErrorString());
 
     LoadedModel model;
     model.path = path;
@@ -405,7 +438,8 @@ LoadedModel loadModel(const std::filesystem::path& path) {
         const aiMesh& in = *scene->mMeshes[m];
         MeshPart part;
         part.name = in.mName.C_Str();
-        const std::string where = source + " (mesh " + std::to_string(m) + (part.name.empty() ? "" : " '" + part.name + "'") + ")";
+        const std::string where =
+            source + " (mesh " + std::to_string(m) + (part.name.empty() ? "" : " '" + part.name + "'") + ")";
         TriangleMesh& mesh = part.mesh;
         mesh.positions.resize(in.mNumVertices);
         mesh.normals.resize(in.mNumVertices);
@@ -415,14 +449,17 @@ LoadedModel loadModel(const std::filesystem::path& path) {
             mesh.positions[v] = {in.mVertices[v].x, in.mVertices[v].y, in.mVertices[v].z};
             const aiVector3D n = in.HasNormals() ? in.mNormals[v] : aiVector3D(0.0f, 0.0f, 0.0f);
             if (hadNormals[m] && !finite(n))
-                throw Error(where, std::nullopt, "vertex " + std::to_string(v) + " has a non-finite normal in the file");
+                throw Error(where, std::nullopt,
+                            "vertex " + std::to_string(v) + " has a non-finite normal in the file");
             mesh.normals[v] = {n.x, n.y, n.z};
         }
         if (in.HasTextureCoords(0)) {
             mesh.texcoords.resize(in.mNumVertices);
             for (unsigned v = 0; v < in.mNumVertices; ++v) {
                 const aiVector3D t = in.mTextureCoords[0][v];
-                if (!finite(t)) throw Error(where, std::nullopt, "vertex " + std::to_string(v) + " has non-finite texture coordinates");
+                if (!finite(t))
+                    throw Error(where, std::nullopt,
+                                "vertex " + std::to_string(v) + " has non-finite texture coordinates");
                 mesh.texcoords[v] = {t.x, t.y};
             }
         }
@@ -432,9 +469,9 @@ LoadedModel loadModel(const std::filesystem::path& path) {
             if (face.mNumIndices != 3) continue; // points/lines left in a mixed mesh
             for (unsigned k = 0; k < 3; ++k) {
                 if (face.mIndices[k] >= in.mNumVertices)
-                    throw Error(where, std::nullopt, "triangle " + std::to_string(f) + " refers to vertex " +
-                                                         std::to_string(face.mIndices[k]) + " of " +
-                                                         std::to_string(in.mNumVertices));
+                    throw Error(where, std::nullopt,
+                                "triangle " + std::to_string(f) + " refers to vertex " +
+                                    std::to_string(face.mIndices[k]) + " of " + std::to_string(in.mNumVertices));
                 mesh.indices.push_back(face.mIndices[k]);
             }
         }
@@ -456,7 +493,8 @@ LoadedModel loadModel(const std::filesystem::path& path) {
             }
         }
         if (in.mMaterialIndex < scene->mNumMaterials)
-            part.material = convertMaterial(*scene->mMaterials[in.mMaterialIndex], folder, part.materialName, part.emission);
+            part.material =
+                convertMaterial(*scene->mMaterials[in.mMaterialIndex], folder, part.materialName, part.emission);
         mesh.validate(where);
         model.parts.push_back(std::move(part));
     }
@@ -464,8 +502,9 @@ LoadedModel loadModel(const std::filesystem::path& path) {
 
     const MeshLoadReport& r = model.report;
     if (r.droppedDegenerateTriangles > 0 || r.partsWithGeneratedNormals > 0)
-        log::info(source + ": dropped " + std::to_string(r.droppedDegenerateTriangles) + " degenerate triangles, generated normals for " +
-                  std::to_string(r.partsWithGeneratedNormals) + " part(s)");
+        log::info(source + ": dropped " + std::to_string(r.droppedDegenerateTriangles) +
+                  " degenerate triangles, generated normals for " + std::to_string(r.partsWithGeneratedNormals) +
+                  " part(s)");
     return model;
 }
 
