@@ -216,6 +216,16 @@ TEST(MeshLoader, MissingMaterialLibraryOrCorruptGltfBufferIsAnError) {
     // An OBJ whose mtllib is absent (assimp alone would use a default grey material and log a line).
     std::ofstream(dir / "no_mtl.obj") << "mtllib absent.mtl\nusemtl red\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
     expectCause(dir / "no_mtl.obj", "material library 'absent.mtl' (mtllib) does not exist");
+    // Fuzz finding 11: NUL bytes in a comment line hid what followed them from our check, and assimp's
+    // MTL reader (which ends lines at NULs) crashed on it.
+    std::ofstream(dir / "absent.mtl", std::ios::binary) << std::string("# comment\0 Kd 1 1 1\nnewmtl red\n", 31);
+    try {
+        loadModel(dir / "no_mtl.obj");
+        ADD_FAILURE() << "a material library with NUL bytes loaded";
+    } catch (const Error& error) { // named like the other library errors: the library file and its line
+        EXPECT_EQ(error.source(), (dir / "absent.mtl").string());
+        EXPECT_NE(error.cause().find("line 1: NUL byte in a text file"), std::string::npos) << error.what();
+    }
     // The same OBJ with the library present loads, with the library's colour.
     std::ofstream(dir / "absent.mtl") << "newmtl red\nKd 0.3 0.6 0.1\n";
     const auto withMtl = loadModel(dir / "no_mtl.obj");
