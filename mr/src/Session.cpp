@@ -1,4 +1,5 @@
 #include <lightskin/core/Error.h>
+#include <lightskin/core/LeakCheck.h>
 #include <lightskin/core/Log.h>
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/gl/ShaderLibrary.h>
@@ -62,6 +63,11 @@ Session::~Session() {
 std::unique_ptr<Session> Session::createWith(const SessionOptions& options, const SceneInput& input,
                                              const capture::FrameSourceInfo& info) {
     const gl::StateGuard guard;
+    // The host created and made current its own context, so its GL driver is loaded but was never
+    // pinned by our context code: in ASan builds keep it mapped, or LeakSanitizer cannot scan the
+    // driver's memory at exit after the host's (or Mesa's atexit) eglTerminate unloads it, and
+    // reports what only the driver referenced as leaked. A no-op in other builds.
+    sanitizer::keepLoadedModulesMapped();
     std::unique_ptr<Session> s(new Session());
     s->options_ = options;
     s->camera_ = info.colourIntrinsics;

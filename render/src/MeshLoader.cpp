@@ -2,9 +2,11 @@
 #include <lightskin/core/Log.h>
 #include <lightskin/render/MeshLoader.h>
 
+#include <assimp/BaseImporter.h>
 #include <assimp/DefaultLogger.hpp>
 #include <assimp/Importer.hpp>
 #include <assimp/LogStream.hpp>
+#include <assimp/importerdesc.h>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -279,6 +281,12 @@ void checkMaterialLibrary(const std::filesystem::path& path) {
     std::ifstream file(path, std::ios::binary);
     std::string line;
     for (std::int64_t number = 1; std::getline(file, line); ++number) {
+        // assimp's MTL reader ends a line (and a comment) at a NUL byte, we at the newline: a comment
+        // holding NULs hid material properties from this check and assimp crashed on them (SEGV, fuzz
+        // finding 11). A text file has no NUL bytes.
+        if (line.find('\0') != std::string::npos)
+            throw Error(path.string(), std::nullopt,
+                        "line " + std::to_string(number) + ": NUL byte in a text file (not a material library)");
         std::istringstream words(line);
         std::string keyword;
         if (!(words >> keyword) || keyword[0] == '#') continue;
@@ -385,6 +393,23 @@ void routeAssimpLogOnce() {
     });
 }
 
+/// True if one of assimp's readers that list the file's extension recognises its content (the
+/// check assimp itself makes before falling back to trying every reader on the content).
+bool extensionReaderRecognises(const Assimp::Importer& importer, const std::filesystem::path& path) {
+    std::string extension = path.extension().string();
+    if (!extension.empty() && extension.front() == '.') extension.erase(0, 1);
+    for (char& c : extension) c = char(std::tolower(static_cast<unsigned char>(c)));
+    for (std::size_t i = 0; i < importer.GetImporterCount(); ++i) {
+        const aiImporterDesc* info = importer.GetImporterInfo(i);
+        const Assimp::BaseImporter* reader = importer.GetImporter(i);
+        if (info == nullptr || reader == nullptr || info->mFileExtensions == nullptr) continue;
+        std::istringstream listed(info->mFileExtensions);
+        for (std::string candidate; listed >> candidate;)
+            if (candidate == extension && reader->CanRead(path.string(), importer.GetIOHandler(), false)) return true;
+    }
+    return false;
+}
+
 } // namespace
 
 LoadedModel loadModel(const std::filesystem::path& path) {
@@ -402,6 +427,14 @@ LoadedModel loadModel(const std::filesystem::path& path) {
     if (path.extension() == ".ply" || path.extension() == ".PLY") checkPlyHeader(path);
     if (hasExtension(path, ".gltf")) checkGltfBuffers(path);
     if (hasExtension(path, ".obj")) checkObjMaterialLibraries(path);
+    // assimp takes the reader of the file's extension only when that reader recognises the content;
+    // otherwise it offers the content to every reader. So a .glb holding PLY text reached the PLY reader
+    // past checkPlyHeader above, and assimp hung on it (fuzz finding 10). Our checks above follow
+    // the extension, so a reader of that extension must also claim the file before assimp reads it.
+    if (!extensionReaderRecognises(importer, path))
+        throw Error(source, std::nullopt,
+                    "not a readable " + path.extension().string() + " mesh (assimp's " + path.extension().string() +
+                        " reader does not recognise the content)");
     // Debian's assimp 5.2.5 PLY importer flags triangle meshes as TRIANGLE|POLYGON; with that,
     // SortByPType crashes (SIGBUS) and Triangulate hits an ai_assert that aborts (no handler can
     // be installed). So: no SortByPType (points and lines are skipped below), and Triangulate

@@ -16,6 +16,7 @@
 #include <cmath>
 #include <fstream>
 #include <unistd.h>
+#include <vector>
 
 namespace lightskin::test {
 namespace {
@@ -168,20 +169,16 @@ TEST(OniSourceTest, UnregisteredDepthIsRegisteredInSoftwareByDefault) {
     EXPECT_EQ(info.depthIntrinsics.fx, info.colourIntrinsics.fx);
     EXPECT_FALSE(info.calibrationSource.empty());
 
-    auto raw = capture::openFrameSource(oniPath(), unregistered());
-    const capture::DepthRegistrar registrar = capture::DepthRegistrar::create(*info.softwareRegistration);
+    // One player at a time: with two .oni players open at once, OpenNI2's second player skipped a
+    // colour frame (index 5 -> 7 between two reads) in every run of the TSan build on a loaded machine
+    // (docs/TESTING.md, "ThreadSanitizer"), so the two sources fell out of step. Each source alone
+    // delivers every frame, which is what this test compares.
+    std::vector<cv::Mat> registeredDepth;
     RgbdFrame a, b;
-    cv::Mat expected;
-    int frames = 0;
     const void* buffer = nullptr;
     while (registered->next(a)) {
-        ASSERT_TRUE(raw->next(b));
         EXPECT_EQ(a.registration, DepthRegistration::RegisteredToColour);
         EXPECT_NO_THROW(a.validate("oni registered"));
-        registrar.registerInto(b.depth, b.depthScaleMetres, expected);
-        EXPECT_EQ(cv::norm(a.depth, expected, cv::NORM_INF), 0.0) << "frame " << frames;
-        // Not the raw image: the 2.5 cm baseline moves the content by 525 * 0.025 / z > 3 px below 4 m.
-        EXPECT_GT(cv::norm(a.depth, b.depth, cv::NORM_L1), 0.0);
         // Holes stay holes and most of the image has depth (the raw frames have > 50%, test above;
         // the colour camera's wider field of view (f 525 vs 575.8) leaves a margin of about
         // 1 - (525/575.8)^2 = 17% unseen by the depth camera).
@@ -191,9 +188,26 @@ TEST(OniSourceTest, UnregisteredDepthIsRegisteredInSoftwareByDefault) {
             EXPECT_EQ(static_cast<const void*>(a.depth.data), buffer);
         }
         buffer = a.depth.data;
+        registeredDepth.push_back(a.depth.clone());
+    }
+    EXPECT_EQ(registeredDepth.size(), 12u);
+    EXPECT_EQ(registered->framesDropped(), 0);
+    const capture::DepthRegistrar registrar = capture::DepthRegistrar::create(*info.softwareRegistration);
+    registered.reset();
+
+    auto raw = capture::openFrameSource(oniPath(), unregistered());
+    cv::Mat expected;
+    std::size_t frames = 0;
+    while (raw->next(b)) {
+        ASSERT_LT(frames, registeredDepth.size()) << "the raw source delivers more frames";
+        registrar.registerInto(b.depth, b.depthScaleMetres, expected);
+        EXPECT_EQ(cv::norm(registeredDepth[frames], expected, cv::NORM_INF), 0.0) << "frame " << frames;
+        // Not the raw image: the 2.5 cm baseline moves the content by 525 * 0.025 / z > 3 px below 4 m.
+        EXPECT_GT(cv::norm(registeredDepth[frames], b.depth, cv::NORM_L1), 0.0) << "frame " << frames;
         ++frames;
     }
-    EXPECT_EQ(frames, 12);
+    EXPECT_EQ(frames, registeredDepth.size());
+    EXPECT_EQ(raw->framesDropped(), 0);
 }
 
 TEST(OniSourceTest, HeaderOnlyOrTruncatedFilesAreErrors) {

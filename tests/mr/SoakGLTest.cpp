@@ -40,6 +40,23 @@ namespace {
 
 constexpr GLuint kMaxGlName = 65536;
 
+// Under AddressSanitizer resident memory is not a leak signal: freed blocks wait in ASan's quarantine
+// (256 MB by default) before they are reused, and shadow memory is committed as new addresses are
+// touched, so RSS grows by design until the quarantine is full (the first ASan run failed only this
+// criterion). There LeakSanitizer checks every heap block at exit instead; descriptors and GL objects
+// are still required to stay flat.
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kResidentMemoryIsMeaningful = false;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr bool kResidentMemoryIsMeaningful = false;
+#else
+constexpr bool kResidentMemoryIsMeaningful = true;
+#endif
+#else
+constexpr bool kResidentMemoryIsMeaningful = true;
+#endif
+
 struct Sample {
     std::int64_t frame = 0;
     double rssBytes = 0.0;
@@ -137,10 +154,14 @@ TEST(SoakGLTest, ResidentMemoryDescriptorsAndGlObjectsStayFlat) {
                 static_cast<long long>(frames), width, height, static_cast<long long>(base.frame), base.rssBytes / 1e6,
                 base.openFds, base.glObjects);
     EXPECT_GT(base.glObjects, 10.0) << "the scan must see the pipeline's GL objects";
+    if (!kResidentMemoryIsMeaningful)
+        std::printf("soak: AddressSanitizer build: resident memory printed, not checked (quarantine)\n");
     for (const Sample& s : samples) {
         std::printf("  frame %6lld: RSS %.1f MB (%+.2f %%), %g fds, %g GL objects\n", static_cast<long long>(s.frame),
                     s.rssBytes / 1e6, 100.0 * (s.rssBytes / base.rssBytes - 1.0), s.openFds, s.glObjects);
-        EXPECT_TRUE(within(s.rssBytes, base.rssBytes, 0.05)) << "RSS at frame " << s.frame;
+        if (kResidentMemoryIsMeaningful) {
+            EXPECT_TRUE(within(s.rssBytes, base.rssBytes, 0.05)) << "RSS at frame " << s.frame;
+        }
         EXPECT_TRUE(within(s.openFds, base.openFds, 0.05)) << "open descriptors at frame " << s.frame;
         EXPECT_TRUE(within(s.glObjects, base.glObjects, 0.05)) << "GL objects at frame " << s.frame;
     }

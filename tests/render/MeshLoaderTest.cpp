@@ -1,14 +1,14 @@
+#include "TestPaths.h"
+
 #include <lightskin/core/Error.h>
 #include <lightskin/render/MeshLoader.h>
 
-#include "TestPaths.h"
-
-#include <gtest/gtest.h>
-
 #include <glm/geometric.hpp>
+#include <gtest/gtest.h>
 
 #include <cmath>
 #include <fstream>
+#include <utility>
 
 using lightskin::Error;
 using lightskin::TriangleMesh;
@@ -94,7 +94,8 @@ TEST(MeshLoader, CubeWithoutNormalsKeepsFlatFacesThanksToTheCreaseAngle) {
         const glm::vec3 faceNormal = glm::normalize(glm::cross(b - a, c - a));
         // Outward (counter-clockwise) faces of a cube centred at the origin point away from it.
         EXPECT_GT(glm::dot(faceNormal, (a + b + c) / 3.0f), 0.0f);
-        for (int k = 0; k < 3; ++k) EXPECT_NEAR(glm::dot(mesh.normals[mesh.indices[t + std::size_t(k)]], faceNormal), 1.0f, 1e-5f);
+        for (int k = 0; k < 3; ++k)
+            EXPECT_NEAR(glm::dot(mesh.normals[mesh.indices[t + std::size_t(k)]], faceNormal), 1.0f, 1e-5f);
     }
 }
 
@@ -168,6 +169,23 @@ TEST(MeshLoader, BadFilesGiveErrorsNamingTheFileAndCause) {
     EXPECT_NE(mtl.find("line 1: 'Kd' before the first 'newmtl'"), std::string::npos) << mtl;
     const std::string shortBody = errorOf(dir / "ascii_counts_exceed_body.ply");
     EXPECT_NE(shortBody.find("ASCII PLY is truncated or its element counts are wrong"), std::string::npos) << shortBody;
+    // Fuzz finding 10: content of another format than the extension says went to the reader assimp
+    // sniffed (PLY text in a .glb reached the PLY reader past checkPlyHeader, and assimp hung).
+    const auto scratch = lightskin::test::scratchDir("mesh_content");
+    const std::string ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                            "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                            "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    for (const auto& [name, cause] :
+         {std::pair<std::string, std::string>{"ply_text.glb", "reader does not recognise the content"},
+          {"ply_text.obj", "reader does not recognise the content"},
+          {"ply_text.gltf", "malformed glTF JSON"}}) {
+        std::ofstream(scratch / name) << ply;
+        const std::string wrong = errorOf(scratch / name);
+        EXPECT_NE(wrong.find(name), std::string::npos) << wrong;
+        EXPECT_NE(wrong.find(cause), std::string::npos) << wrong;
+    }
+    std::ofstream(scratch / "ply_text.ply") << ply; // the same bytes under their own extension load
+    EXPECT_EQ(lightskin::render::loadModel(scratch / "ply_text.ply").triangleCount(), 1u);
 }
 
 TEST(MeshLoader, RemoveDegenerateTrianglesOnAHandMadeMesh) {
@@ -198,6 +216,16 @@ TEST(MeshLoader, MissingMaterialLibraryOrCorruptGltfBufferIsAnError) {
     // An OBJ whose mtllib is absent (assimp alone would use a default grey material and log a line).
     std::ofstream(dir / "no_mtl.obj") << "mtllib absent.mtl\nusemtl red\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
     expectCause(dir / "no_mtl.obj", "material library 'absent.mtl' (mtllib) does not exist");
+    // Fuzz finding 11: NUL bytes in a comment line hid what followed them from our check, and assimp's
+    // MTL reader (which ends lines at NULs) crashed on it.
+    std::ofstream(dir / "absent.mtl", std::ios::binary) << std::string("# comment\0 Kd 1 1 1\nnewmtl red\n", 31);
+    try {
+        loadModel(dir / "no_mtl.obj");
+        ADD_FAILURE() << "a material library with NUL bytes loaded";
+    } catch (const Error& error) { // named like the other library errors: the library file and its line
+        EXPECT_EQ(error.source(), (dir / "absent.mtl").string());
+        EXPECT_NE(error.cause().find("line 1: NUL byte in a text file"), std::string::npos) << error.what();
+    }
     // The same OBJ with the library present loads, with the library's colour.
     std::ofstream(dir / "absent.mtl") << "newmtl red\nKd 0.3 0.6 0.1\n";
     const auto withMtl = loadModel(dir / "no_mtl.obj");
