@@ -31,6 +31,7 @@
 #include <glm/gtc/quaternion.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -55,7 +56,11 @@ struct RealCase {
     std::string recording; ///< relative to --data (tests/data)
     mr::PoseMode pose;
     Anchor bunny, cube;
-    bool movingCamera; ///< the recording has a pose per frame: flicker is meaningful
+    bool flicker; ///< a sequence with poses that hold (ground truth, or a camera at rest): flicker is meaningful
+    /// Plane fit: window points within this depth of the anchor's (metres). 3 cm keeps neighbouring
+    /// objects out; a floor seen at a grazing angle changes depth by ~2 cm per pixel row at 2 m.
+    double fitDepthWindow = 0.03;
+    int frames = 5; ///< frames measured (fewer with --max-frames)
 };
 
 /// The bundled registered real recordings. Anchors: free table or floor next to other real objects
@@ -68,6 +73,10 @@ std::vector<RealCase> realCases() {
         // fr3/long_office_household (one frame): the bunny on the floor between the two chairs, the
         // cube on the floor right of the yellow chair (~2 m from the camera)
         {"tum-fr3-office", "tum-fr3-office", mr::PoseMode::Fixed, {300, 440}, {580, 420}, false},
+        // The real Kinect v1 .oni (12 frames, camera at rest, depth registered in software): both objects
+        // on the living-room floor ~2.2 m away, in front of the office chair (recordings/scenes/oni_room.json's
+        // floor patch). A camera at rest still flickers: the VALs follow the depth noise frame to frame.
+        {"oni-kinect-v1", "oni-kinect-v1/3dj_test.oni", mr::PoseMode::Fixed, {330, 440}, {250, 445}, true, 0.15, 12},
     };
 }
 
@@ -120,22 +129,30 @@ struct SurfacePoint {
     glm::dvec3 normal;   ///< camera frame, unit, facing the camera
 };
 
-/// Plane through the depth around pixel (u, v) of frame 0: points of a 31x31 window within 3 cm of
-/// the anchor's depth, normal = the smallest principal axis (cv::PCA), facing the camera.
-SurfacePoint fitSurface(const RgbdFrame& frame, const Anchor& a, const std::string& name) {
+/// Plane through the depth around pixel (u, v) of frame 0: points of a 31x31 window within depthWindow
+/// of the anchor's depth, normal = the smallest principal axis (cv::PCA), facing the camera.
+SurfacePoint fitSurface(const RgbdFrame& frame, const Anchor& a, double depthWindow, const std::string& name) {
     const CameraIntrinsics& k = frame.depthIntrinsics;
     const auto depthAt = [&](int u, int v) {
         return frame.depth.type() == CV_16UC1 ? double(frame.depth.at<std::uint16_t>(v, u)) * frame.depthScaleMetres
                                               : double(frame.depth.at<float>(v, u));
     };
-    const double z0 = depthAt(a.u, a.v);
-    if (!(z0 > 0.0)) throw Error(name, 0, "anchor pixel has no depth");
+    // The anchor's depth: the median of the valid depth in its 5x5 window (software-registered depth
+    // has single-pixel holes where depth pixels did not land).
+    std::vector<double> near;
+    for (int v = a.v - 2; v <= a.v + 2; ++v)
+        for (int u = a.u - 2; u <= a.u + 2; ++u)
+            if (u >= 0 && v >= 0 && u < frame.depth.cols && v < frame.depth.rows && depthAt(u, v) > 0.0)
+                near.push_back(depthAt(u, v));
+    if (near.size() < 5) throw Error(name, 0, "the anchor pixel's 5x5 window has almost no depth");
+    std::nth_element(near.begin(), near.begin() + std::ptrdiff_t(near.size() / 2), near.end());
+    const double z0 = near[near.size() / 2];
     std::vector<cv::Vec3d> points;
     for (int v = a.v - 15; v <= a.v + 15; ++v)
         for (int u = a.u - 15; u <= a.u + 15; ++u) {
             if (u < 0 || v < 0 || u >= frame.depth.cols || v >= frame.depth.rows) continue;
             const double z = depthAt(u, v);
-            if (z > 0.0 && std::abs(z - z0) < 0.03) {
+            if (z > 0.0 && std::abs(z - z0) < depthWindow) {
                 const glm::dvec3 p = k.backProject(u, v, z);
                 points.emplace_back(p.x, p.y, p.z);
             }
@@ -231,6 +248,40 @@ void sampleTracked(const std::vector<glm::dvec3>& points, const CameraIntrinsics
     }
 }
 
+/// --maps: the luminance of an indirect image as raw float32, rows top to bottom (for analysis scripts).
+void writeRawLuminance(const std::filesystem::path& path, const cv::Mat& linearBgr) {
+    cv::Mat y;
+    eval::luminanceInto(linearBgr, y);
+    std::ofstream file(path, std::ios::binary);
+    for (int v = 0; v < y.rows; ++v)
+        file.write(reinterpret_cast<const char*>(y.ptr<float>(v)), std::streamsize(sizeof(float)) * y.cols);
+    if (!file) throw Error(path.string(), std::nullopt, "cannot write");
+}
+
+/// --maps: one CSV line per speckle pixel (either technique) with both techniques' luminance and the
+/// 5x5 median, the G-buffer normal and depth, to find where speckle comes from.
+void dumpSpecklePixels(std::ofstream& csv, std::int64_t frameIndex, const mr::FrameOutput& out, const cv::Mat& mapLs,
+                       const cv::Mat& mapBf) {
+    cv::Mat yLs, yBf, mLs, mBf;
+    eval::luminanceInto(out.linearIndirect, yLs);
+    eval::luminanceInto(out.linearIndirectReference, yBf);
+    cv::Mat finiteLs = yLs.clone(), finiteBf = yBf.clone();
+    cv::patchNaNs(finiteLs, 0.0);
+    cv::patchNaNs(finiteBf, 0.0);
+    cv::medianBlur(finiteLs, mLs, 5);
+    cv::medianBlur(finiteBf, mBf, 5);
+    for (int v = 0; v < mapLs.rows; ++v)
+        for (int u = 0; u < mapLs.cols; ++u)
+            for (const bool lightSkin : {true, false}) {
+                if ((lightSkin ? mapLs : mapBf).at<std::uint8_t>(v, u) != 255) continue;
+                const cv::Vec3f n = out.virtualNormals.at<cv::Vec3f>(v, u);
+                csv << frameIndex << ',' << u << ',' << v << ',' << (lightSkin ? "lightskin" : "bruteforce") << ','
+                    << (lightSkin ? yLs : yBf).at<float>(v, u) << ',' << (lightSkin ? mLs : mBf).at<float>(v, u) << ','
+                    << (lightSkin ? yBf : yLs).at<float>(v, u) << ',' << n[0] << ',' << n[1] << ',' << n[2] << ','
+                    << out.virtualDepthMetres.at<float>(v, u) << '\n';
+            }
+}
+
 CaseResult runCase(const RealCase& c, const LightModel& model, double sink, const RealDepthBenchOptions& options) {
     const std::filesystem::path recording = std::filesystem::path(options.data) / c.recording;
     render::Scene scene = render::loadScene(options.scene);
@@ -248,7 +299,7 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
     const float scales[2] = {1.5f, 0.12f};
     glm::dvec3 bunnyPoint{0.0}, bunnyNormal{0.0};
     for (std::size_t i = 0; i < 2 && i < scene.objects.size(); ++i) {
-        const SurfacePoint s = fitSurface(first, anchors[i], recording.string());
+        const SurfacePoint s = fitSurface(first, anchors[i], c.fitDepthWindow, recording.string());
         const glm::dvec3 p = world_T_camera0.transformPoint(s.position);
         const glm::dvec3 n = glm::normalize(world_T_camera0.rotation() * s.normal);
         scene.objects[i].world_T_model = placeOnSurface(meshBounds(scene.objects[i].mesh), scales[i], p, n, sink);
@@ -287,7 +338,16 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
     cv::Mat smooth, mapLs, mapBf;
     const std::filesystem::path imageFolder = std::filesystem::path(options.out) / "images";
     std::filesystem::create_directories(imageFolder);
-    while (r.frames < options.maxFrames && source->next(frame)) {
+    std::ofstream speckleCsv;
+    if (options.maps) {
+        char name[160];
+        std::snprintf(name, sizeof name, "%s_%s_sink%.0fmm_speckle_pixels.csv", c.name.c_str(), model.name.c_str(),
+                      sink * 1e3);
+        speckleCsv.open(imageFolder / name);
+        if (!speckleCsv) throw Error((imageFolder / name).string(), std::nullopt, "cannot write");
+        speckleCsv << "frame,u,v,technique,Y,median5x5,Y_other_technique,normal_x,normal_y,normal_z,depth_m\n";
+    }
+    while (r.frames < std::min(c.frames, options.maxFrames) && source->next(frame)) {
         pipeline->process(frame, out);
         if (!out.world_T_camera || out.linearIndirect.empty() || out.linearIndirectReference.empty())
             throw Error(recording.string(), frame.index, "no pose or no GI in this frame");
@@ -296,11 +356,22 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
         // kSmoothAngle, depth within 2 %; eval::smoothSurfaceMaskInto).
         eval::smoothSurfaceMaskInto(out.coverage, out.virtualNormals, out.virtualDepthMetres, kSmoothAngleDegrees, 0.02,
                                     smooth);
-        const bool maps = options.maps && r.frames == 0;
+        const bool maps = options.maps;
         const eval::SpeckleStats ls =
             eval::measureSpeckle(out.linearIndirect, out.coverage, maps ? &mapLs : nullptr, smooth);
         const eval::SpeckleStats bf =
             eval::measureSpeckle(out.linearIndirectReference, out.coverage, maps ? &mapBf : nullptr, smooth);
+        if (maps) {
+            dumpSpecklePixels(speckleCsv, frame.index, out, mapLs, mapBf);
+            char name[200];
+            std::snprintf(name, sizeof name, "%s_%s_sink%.0fmm_frame%lld", c.name.c_str(), model.name.c_str(),
+                          sink * 1e3, static_cast<long long>(frame.index));
+            writeRawLuminance(imageFolder / (std::string(name) + "_lightskin_Y.f32"), out.linearIndirect);
+            writeRawLuminance(imageFolder / (std::string(name) + "_bruteforce_Y.f32"), out.linearIndirectReference);
+            cv::Mat measured;
+            cv::hconcat(mapLs, mapBf, measured);
+            cv::imwrite((imageFolder / (std::string(name) + "_speckle_map.png")).string(), measured);
+        }
         accumulate(r.lightSkin.speckle, ls);
         accumulate(r.brute.speckle, bf);
         r.lightSkin.totalLight += coveredLuminance(out.linearIndirect, out.coverage);
@@ -317,7 +388,7 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
                 cv::imwrite((imageFolder / (std::string(name) + "speckle_map.png")).string(), both);
             }
         }
-        if (c.movingCamera) {
+        if (c.flicker) {
             sampleTracked(points, frame.colourIntrinsics, *out.world_T_camera, out.coverage, out.virtualDepthMetres,
                           out.linearIndirect, seriesLs);
             sampleTracked(points, frame.colourIntrinsics, *out.world_T_camera, out.coverage, out.virtualDepthMetres,
@@ -325,7 +396,7 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
         }
         ++r.frames;
     }
-    if (c.movingCamera && r.frames >= 2) {
+    if (c.flicker && r.frames >= 2) {
         double level = 0.0;
         std::size_t levelCount = 0;
         for (float v : seriesBf)
