@@ -146,7 +146,9 @@ SurfacePoint fitSurface(const RgbdFrame& frame, const Anchor& a, double depthWin
                 near.push_back(depthAt(u, v));
     if (near.size() < 5) throw Error(name, 0, "the anchor pixel's 5x5 window has almost no depth");
     std::nth_element(near.begin(), near.begin() + std::ptrdiff_t(near.size() / 2), near.end());
-    const double z0 = near[near.size() / 2];
+    // The anchor pixel's own depth where it has one (the placements of the earlier tables and of
+    // tests/apps/RealDepthDataGLTest.cpp), else the median of its window.
+    const double z0 = depthAt(a.u, a.v) > 0.0 ? depthAt(a.u, a.v) : near[near.size() / 2];
     std::vector<cv::Vec3d> points;
     for (int v = a.v - 15; v <= a.v + 15; ++v)
         for (int u = a.u - 15; u <= a.u + 15; ++u) {
@@ -188,8 +190,9 @@ glm::mat4 placeOnSurface(const Bounds& b, float scale, const glm::dvec3& pointWo
 constexpr double kSmoothAngleDegrees = 30.0;
 
 struct TechniqueStats {
-    eval::SpeckleStats speckle; ///< summed over frames
-    double totalLight = 0.0;    ///< sum of luminance over covered pixels, all frames
+    eval::SpeckleStats speckle;       ///< summed over frames
+    eval::SpeckleStats speckleMedian; ///< the median-only definition (before the smooth-profile test)
+    double totalLight = 0.0;          ///< sum of luminance over covered pixels, all frames
 };
 
 struct CaseResult {
@@ -260,7 +263,7 @@ void writeRawLuminance(const std::filesystem::path& path, const cv::Mat& linearB
 
 /// --maps: one CSV line per speckle pixel (either technique) with both techniques' luminance and the
 /// 5x5 median, the G-buffer normal and depth, to find where speckle comes from.
-void dumpSpecklePixels(std::ofstream& csv, std::int64_t frameIndex, const mr::FrameOutput& out, const cv::Mat& mapLs,
+void dumpSpecklePixels(std::ofstream& csv, const RgbdFrame& frame, const mr::FrameOutput& out, const cv::Mat& mapLs,
                        const cv::Mat& mapBf) {
     cv::Mat yLs, yBf, mLs, mBf;
     eval::luminanceInto(out.linearIndirect, yLs);
@@ -275,11 +278,44 @@ void dumpSpecklePixels(std::ofstream& csv, std::int64_t frameIndex, const mr::Fr
             for (const bool lightSkin : {true, false}) {
                 if ((lightSkin ? mapLs : mapBf).at<std::uint8_t>(v, u) != 255) continue;
                 const cv::Vec3f n = out.virtualNormals.at<cv::Vec3f>(v, u);
-                csv << frameIndex << ',' << u << ',' << v << ',' << (lightSkin ? "lightskin" : "bruteforce") << ','
+                const double real = frame.depth.type() == CV_16UC1
+                                        ? double(frame.depth.at<std::uint16_t>(v, u)) * frame.depthScaleMetres
+                                        : double(frame.depth.at<float>(v, u));
+                csv << frame.index << ',' << u << ',' << v << ',' << (lightSkin ? "lightskin" : "bruteforce") << ','
                     << (lightSkin ? yLs : yBf).at<float>(v, u) << ',' << (lightSkin ? mLs : mBf).at<float>(v, u) << ','
                     << (lightSkin ? yBf : yLs).at<float>(v, u) << ',' << n[0] << ',' << n[1] << ',' << n[2] << ','
-                    << out.virtualDepthMetres.at<float>(v, u) << '\n';
+                    << out.virtualDepthMetres.at<float>(v, u) << ',' << real << '\n';
             }
+}
+
+/// --maps: the 20 tracked points with the largest excess change (LightSkin's change minus the brute
+/// force's, between consecutive frames), with both series, to find where flicker comes from.
+void dumpWorstFlicker(const std::filesystem::path& folder, const std::string& name, double sink,
+                      const std::vector<glm::dvec3>& points, int frames, const std::vector<float>& ls,
+                      const std::vector<float>& bf) {
+    std::vector<std::pair<double, std::size_t>> worst;
+    for (std::size_t p = 0; p < points.size(); ++p) {
+        double largest = 0.0;
+        for (int f = 1; f < frames; ++f) {
+            const std::size_t i0 = std::size_t(f - 1) * points.size() + p, i1 = i0 + points.size();
+            const double d = (double(ls[i1]) - double(ls[i0])) - (double(bf[i1]) - double(bf[i0]));
+            if (std::isfinite(d)) largest = std::max(largest, std::abs(d));
+        }
+        worst.emplace_back(largest, p);
+    }
+    std::sort(worst.rbegin(), worst.rend());
+    char file[200];
+    std::snprintf(file, sizeof file, "%s_sink%.0fmm_worst_flicker.csv", name.c_str(), sink * 1e3);
+    std::ofstream csv(folder / file);
+    csv << "point,x,y,z,largest_excess_change,frame,lightskin,bruteforce\n";
+    for (std::size_t k = 0; k < std::min<std::size_t>(20, worst.size()); ++k) {
+        const std::size_t p = worst[k].second;
+        for (int f = 0; f < frames; ++f) {
+            const std::size_t i = std::size_t(f) * points.size() + p;
+            csv << p << ',' << points[p].x << ',' << points[p].y << ',' << points[p].z << ',' << worst[k].first << ','
+                << f << ',' << ls[i] << ',' << bf[i] << '\n';
+        }
+    }
 }
 
 CaseResult runCase(const RealCase& c, const LightModel& model, double sink, const RealDepthBenchOptions& options) {
@@ -345,7 +381,8 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
                       sink * 1e3);
         speckleCsv.open(imageFolder / name);
         if (!speckleCsv) throw Error((imageFolder / name).string(), std::nullopt, "cannot write");
-        speckleCsv << "frame,u,v,technique,Y,median5x5,Y_other_technique,normal_x,normal_y,normal_z,depth_m\n";
+        speckleCsv
+            << "frame,u,v,technique,Y,median5x5,Y_other_technique,normal_x,normal_y,normal_z,depth_m,real_depth_m\n";
     }
     while (r.frames < std::min(c.frames, options.maxFrames) && source->next(frame)) {
         pipeline->process(frame, out);
@@ -362,7 +399,7 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
         const eval::SpeckleStats bf =
             eval::measureSpeckle(out.linearIndirectReference, out.coverage, maps ? &mapBf : nullptr, smooth);
         if (maps) {
-            dumpSpecklePixels(speckleCsv, frame.index, out, mapLs, mapBf);
+            dumpSpecklePixels(speckleCsv, frame, out, mapLs, mapBf);
             char name[200];
             std::snprintf(name, sizeof name, "%s_%s_sink%.0fmm_frame%lld", c.name.c_str(), model.name.c_str(),
                           sink * 1e3, static_cast<long long>(frame.index));
@@ -374,6 +411,10 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
         }
         accumulate(r.lightSkin.speckle, ls);
         accumulate(r.brute.speckle, bf);
+        accumulate(r.lightSkin.speckleMedian,
+                   eval::measureSpeckle(out.linearIndirect, out.coverage, nullptr, smooth, false));
+        accumulate(r.brute.speckleMedian,
+                   eval::measureSpeckle(out.linearIndirectReference, out.coverage, nullptr, smooth, false));
         r.lightSkin.totalLight += coveredLuminance(out.linearIndirect, out.coverage);
         r.brute.totalLight += coveredLuminance(out.linearIndirectReference, out.coverage);
         if (r.frames == 0) {
@@ -421,6 +462,8 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
             r.flickerSamples = samples;
             return samples ? std::sqrt(sum / double(samples)) / level : 0.0;
         };
+        if (options.maps)
+            dumpWorstFlicker(imageFolder, c.name + "_" + model.name, sink, points, r.frames, seriesLs, seriesBf);
         r.flickerMeasured = true;
         r.flickerBrute = flickerOf(seriesBf, nullptr);
         r.flickerLightSkin = flickerOf(seriesLs, nullptr);
@@ -468,21 +511,24 @@ void runRealDepthBench(const RealDepthBenchOptions& options) {
     std::ostringstream md;
     md << "| recording | sink | light model | frames | VALs/frame | speckle LightSkin | speckle brute force | black / "
           "blown (LS) | "
-          "black / blown (BF) | total light LS vs old | total light BF vs old "
-          "|\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+          "black / blown (BF) | total light LS vs old | total light BF vs old | median-only speckle LS / BF "
+          "|\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const CaseResult& r : results) {
         const CaseResult* old = nullptr;
         for (const CaseResult& o : results)
             if (o.recording == r.recording && o.sink == r.sink && o.model == "old") old = &o;
         char row[512];
-        std::snprintf(
-            row, sizeof row, "| %s | %.0f mm | %s | %d | %.0f | %s | %s | %zu / %zu | %zu / %zu | %s | %s |\n",
-            r.recording.c_str(), r.sink * 1e3, r.model.c_str(), r.frames,
-            double(r.vals) / double(std::max(1, r.frames)), percent(r.lightSkin.speckle.speckleFraction()).c_str(),
-            percent(r.brute.speckle.speckleFraction()).c_str(), r.lightSkin.speckle.blackPixels,
-            r.lightSkin.speckle.blownPixels, r.brute.speckle.blackPixels, r.brute.speckle.blownPixels,
-            old ? percent(r.lightSkin.totalLight / old->lightSkin.totalLight - 1.0).c_str() : "-",
-            old ? percent(r.brute.totalLight / old->brute.totalLight - 1.0).c_str() : "-");
+        std::snprintf(row, sizeof row,
+                      "| %s | %.0f mm | %s | %d | %.0f | %s | %s | %zu / %zu | %zu / %zu | %s | %s | %s / %s |\n",
+                      r.recording.c_str(), r.sink * 1e3, r.model.c_str(), r.frames,
+                      double(r.vals) / double(std::max(1, r.frames)),
+                      percent(r.lightSkin.speckle.speckleFraction()).c_str(),
+                      percent(r.brute.speckle.speckleFraction()).c_str(), r.lightSkin.speckle.blackPixels,
+                      r.lightSkin.speckle.blownPixels, r.brute.speckle.blackPixels, r.brute.speckle.blownPixels,
+                      old ? percent(r.lightSkin.totalLight / old->lightSkin.totalLight - 1.0).c_str() : "-",
+                      old ? percent(r.brute.totalLight / old->brute.totalLight - 1.0).c_str() : "-",
+                      percent(r.lightSkin.speckleMedian.speckleFraction()).c_str(),
+                      percent(r.brute.speckleMedian.speckleFraction()).c_str());
         md << row;
     }
     md << "\n| recording | sink | light model | frames | samples | flicker brute force | flicker LightSkin | excess "
