@@ -32,8 +32,8 @@ void addBenchRealDepthCommand(CLI::App& app, int& exitCode) {
                         "Comma-separated recordings (tum-fr2-desk, icl-nuim, pcl-kinect-tiff, tum-fr3-office, "
                         "oni-kinect-v1; default all)");
     command->add_flag("--maps", options->maps,
-                      "Also write per frame the speckle maps, the luminance of both indirect images (raw float32) and "
-                      "a CSV of the speckle pixels");
+                      "Also write per frame the speckle maps and the luminance of both indirect images (raw float32), "
+                      "a CSV of the speckle pixels and one of the tracked points that flicker most");
     command->callback([options, &exitCode] {
         bench::runRealDepthBench(*options);
         exitCode = 0;
