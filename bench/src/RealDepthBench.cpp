@@ -8,8 +8,8 @@
 //   * speckle (eval::measureSpeckle) with its black and blown pixels,
 //   * the total indirect light (sum of luminance over covered pixels), to report the change against
 //     the old model,
-//   * flicker on sequences with a moving camera, defined as `lightskin bench`'s: RMS over tracked
-//     surface points (every k-th mesh vertex, visible in both frames) and consecutive frame pairs of the
+//   * flicker on sequences whose poses hold (ground truth, or the .oni's camera at rest), defined as
+//     `lightskin bench`'s: RMS over tracked surface points (every k-th mesh vertex, visible in both frames) and consecutive frame pairs of the
 //     change of the indirect light (mean of the channels), divided by the brute force's mean level;
 //     "excess" subtracts the brute force's own change per sample.
 // A benchmark, not a test: prints Markdown tables (and writes them with PNGs of the indirect light to
