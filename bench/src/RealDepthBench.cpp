@@ -9,9 +9,9 @@
 //   * the total indirect light (sum of luminance over covered pixels), to report the change against
 //     the old model,
 //   * flicker on sequences whose poses hold (ground truth, or the .oni's camera at rest), defined as
-//     `lightskin bench`'s: RMS over tracked surface points (every k-th mesh vertex, visible in both frames) and consecutive frame pairs of the
-//     change of the indirect light (mean of the channels), divided by the brute force's mean level;
-//     "excess" subtracts the brute force's own change per sample.
+//     `lightskin bench`'s: RMS over tracked surface points (every k-th mesh vertex, visible in both frames) and
+//     consecutive frame pairs of the change of the indirect light (mean of the channels), divided by the brute force's
+//     mean level; "excess" subtracts the brute force's own change per sample.
 // A benchmark, not a test: prints Markdown tables (and writes them with PNGs of the indirect light to
 // --out). tests/apps/RealDepthDataGLTest.cpp asserts the targets on every recording (exceptions named there).
 
@@ -85,6 +85,7 @@ std::vector<RealCase> realCases() {
 struct LightModel {
     std::string name;
     bool robust;
+    bool irradianceCap = true; ///< with robust: guard G10 (false: "robust-nocap")
 };
 
 struct Bounds {
@@ -322,6 +323,7 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
     const std::filesystem::path recording = std::filesystem::path(options.data) / c.recording;
     render::Scene scene = render::loadScene(options.scene);
     scene.gi.robustRealDepth = model.robust;
+    scene.gi.robustIrradianceCap = model.irradianceCap;
     // Frame 0: the surfaces the objects stand on, in the world frame of the case's pose mode.
     auto source = capture::openFrameSource(recording.string(), {});
     RgbdFrame first;
@@ -490,8 +492,10 @@ void runRealDepthBench(const RealDepthBenchOptions& options) {
             models.push_back({"old", false});
         else if (m == "robust")
             models.push_back({"robust", true});
+        else if (m == "robust-nocap")
+            models.push_back({"robust-nocap", true, false});
         else
-            throw Error("--models", std::nullopt, "unknown light model '" + m + "' (old, robust)");
+            throw Error("--models", std::nullopt, "unknown light model '" + m + "' (old, robust, robust-nocap)");
     }
     std::vector<CaseResult> results;
     for (const RealCase& c : realCases()) {

@@ -18,8 +18,8 @@
 #include <array>
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <ctime>
+#include <limits>
 #include <omp.h>
 
 namespace lightskin::gi {
@@ -94,6 +94,7 @@ struct CpuLightSkin::Impl {
     cpu::ReceiverArrays receivers;
     std::vector<float> sums; // kGatherSums x padded receivers
     std::vector<m::Vpl> vplD, vplS;
+    std::vector<double> gatheredPeakD; // G10: peak RGB channel of L'_d per sparse point, W/m^2
     cpu::OcclusionReceivers occlusionReceivers;
     cpu::Occluders occluders;
     std::vector<float> occlusionD, occlusionS;
@@ -243,6 +244,7 @@ struct CpuLightSkin::Impl {
             const std::size_t i = std::size_t(ii);
             const PointSums p = pointSums(i);
             const glm::dvec3 x = pointPosition[i], nx = pointNormal[i];
+            gatheredPeakD[i] = m::ls_peakChannel(p.L); // G10
             vplD[i] = m::ls_renormaliseDiffuse(p.L, p.offset, p.W, p.r2, p.moment, x, nx,
                                                settings.lightSkin.extendedVplHorizon ? 1.0 : 0.0);
             vplS[i] = m::ls_renormaliseGlossy(p.Ls, p.offsetS, p.Ws, p.r2s, p.momentS, x, nx, m::ls_toEye(x, eye),
@@ -291,6 +293,7 @@ struct CpuLightSkin::Impl {
             const std::int64_t first = std::int64_t(vertexOffsets[mesh]);
             const std::int64_t end = first + std::int64_t(instances[mesh].mesh->vertexCount());
             const bool horizon = settings.lightSkin.extendedVplHorizon;
+            const bool capOn = settings.lightSkin.vertexIrradianceCap;
 #pragma omp parallel for num_threads(threadCount()) schedule(static)
             for (std::int64_t vv = first; vv < end; ++vv) {
                 const std::size_t v = std::size_t(vv);
@@ -307,6 +310,7 @@ struct CpuLightSkin::Impl {
                 const m::VertexWeights weights = m::ls_vertexWeights(dist, cosN, unique);
                 glm::dvec4 diffuse(0.0), diffusePosition(0.0), glossyRadiance(0.0), glossyPosition(0.0);
                 double minDD = std::numeric_limits<double>::max(), minDS = minDD; // G8
+                double cap = 0.0;                                                 // G10
                 for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
                     const double w = weights.w[j];
                     if (w == 0.0) continue;
@@ -316,6 +320,7 @@ struct CpuLightSkin::Impl {
                     minDS = std::min(minDS, glm::dot(os, os) + vplS[s].r2);
                     const double keepD = occlusion ? 1.0 - std::clamp(double(occlusionD[s]), 0.0, 1.0) : 1.0;
                     const double keepS = occlusion ? 1.0 - std::clamp(double(occlusionS[s]), 0.0, 1.0) : 1.0;
+                    cap = std::max(cap, gatheredPeakD[s] * keepD); // G10
                     diffuse += w * glm::dvec4(vplD[s].radiance * keepD, vplD[s].r2);
                     diffusePosition += w * glm::dvec4(vplD[s].position, horizon ? vplD[s].sphereRadius : 0.0); // G9
                     glossyRadiance += w * glm::dvec4(vplS[s].radiance * keepS, vplS[s].r2);
@@ -329,7 +334,7 @@ struct CpuLightSkin::Impl {
                 out[0] = glm::vec4(diffuse);
                 out[1] = glm::vec4(diffusePosition);
                 out[2] = glm::vec4(glossyRadiance);
-                out[3] = glm::vec4(glossyPosition);
+                out[3] = glm::vec4(glm::dvec3(glossyPosition), capOn ? cap : -1.0);
             }
         }
     }
@@ -440,6 +445,7 @@ void CpuLightSkin::prepare(std::span<const MeshInstance> instances) {
     impl.receivers.resize(padded);
     impl.sums.assign(cpu::kGatherSums * padded, 0.0f);
     impl.vplD.assign(impl.pointCount, m::Vpl{});
+    impl.gatheredPeakD.assign(impl.pointCount, 0.0);
     impl.vplS.assign(impl.pointCount, m::Vpl{});
     impl.occlusionReceivers.resize(padded);
     impl.occluders.resize(impl.pointCount);

@@ -262,6 +262,54 @@ TEST(GatherReference, VertexVplIsNeverNearerThanTheNearestGatheredVpl) {
     EXPECT_EQ(far[0].diffuse.r2, 0.0);
 }
 
+// G10 (issue 12): one sparse point x at the origin facing +z, one VAL 1 m away, 2 cm above its
+// plane, facing it: x sees the light at cos_x = 0.02, so eq. 11 divides by 0.02. A vertex at x whose
+// normal is tilted 60 deg toward the light shades L'' cos_v / D = E cos_v / cos_x ~ 43 E without the
+// cap; with it, at most the peak channel of what x gathered (colour kept). At x's own normal eq. 10
+// reproduces E (eq. 11), so there the cap does not bind. E is eq. 3-4's closed form for one disc,
+// written here: M r^2 cos_l cos_i / (r^2 + d^2) per channel, M = flux / area.
+TEST(GatherReference, VertexIrradianceCapBoundsTheShadedLightByTheGatheredPeak) {
+    const dvec3 l(1.0, 0.0, 0.02);
+    const double area = 1e-4, d2 = glm::dot(l, l), r2 = area / std::numbers::pi;
+    const dvec3 flux(1.0, 2.0, 3.0);
+    const double cosL = 1.0 / std::sqrt(d2), cosI = 0.02 / std::sqrt(d2); // normal (-1, 0, 0); x's normal +z
+    const dvec3 e = flux / area * (r2 * cosL * cosI / (r2 + d2));
+    std::vector<ref::Receiver> sparse(1);
+    std::vector<ref::GatherSums> sums;
+    ref::gatherInto(std::vector<gi::VirtualAreaLight>{disc(glm::vec3(l), {-1, 0, 0}, float(area), glm::vec3(flux))},
+                    sparse, dvec3(0, 0, 5), ref::GatherParameters{}, sums);
+    std::vector<ref::VplPair> vpls;
+    ref::renormaliseInto(sums, sparse, dvec3(0, 0, 5), vpls);
+    // float inputs (the VAL's position, area and flux are floats): 1e-6 relative
+    EXPECT_NEAR(vpls[0].diffuseCap, e.z, 1e-6 * e.z) << "the sparse point's cap input is its gathered peak";
+    using List = std::array<std::uint32_t, 8>;
+    const dvec3 tilted(std::sin(std::numbers::pi / 3.0), 0.0, 0.5);
+    const std::vector<dvec3> positions{dvec3(0.0), dvec3(0.0)};
+    const std::vector<dvec3> normals{tilted, dvec3(0, 0, 1)};
+    const std::vector<List> neighbours{List{}, List{}};
+    std::vector<ref::VplPair> capped, uncapped;
+    ref::interpolateVerticesInto(positions, normals, neighbours, sparse, vpls, capped, true);
+    ref::interpolateVerticesInto(positions, normals, neighbours, sparse, vpls, uncapped, false);
+    EXPECT_DOUBLE_EQ(capped[0].diffuseCap, vpls[0].diffuseCap);
+    EXPECT_LT(uncapped[0].diffuseCap, 0.0);
+    // rho_d = pi: shade() returns the irradiance itself
+    const auto irradianceAt = [](const ref::VplPair& v, const dvec3& n) {
+        return ref::shade(v, ref::Surface{dvec3(0.0), n, dvec3(std::numbers::pi), dvec3(0.0), 1.0}, dvec3(0, 0, 5));
+    };
+    const dvec3 amplified = irradianceAt(uncapped[0], tilted);
+    EXPECT_GT(amplified.z, 10.0 * e.z) << "without the cap, renormalisation amplifies (cos_v / cos_x ~ 43)";
+    const dvec3 bounded = irradianceAt(capped[0], tilted);
+    EXPECT_NEAR(bounded.z, e.z, 1e-6 * e.z) << "capped at the gathered peak";
+    EXPECT_NEAR(bounded.x / bounded.z, 1.0 / 3.0, 1e-12) << "colour kept";
+    // At the sparse point's own normal eq. 10 reproduces E: the cap does not bind (G4 not reached).
+    const dvec3 own = irradianceAt(capped[1], dvec3(0, 0, 1));
+    EXPECT_NEAR(own.x, e.x, 1e-6 * e.x);
+    EXPECT_NEAR(own.z, e.z, 1e-6 * e.z);
+    // The occluded share o scales the cap like the light.
+    ref::applyOcclusion(std::vector<glm::dvec2>{glm::dvec2(0.25, 0.0)}, vpls);
+    EXPECT_NEAR(vpls[0].diffuseCap, 0.75 * e.z, 1e-6 * e.z);
+}
+
 // Numerical extremes on the reference: finite, non-negative, bounded by sum M_j, guards exact.
 struct Extreme {
     const char* name;

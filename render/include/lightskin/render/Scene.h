@@ -77,6 +77,9 @@ struct GiSettings {
     /// The light model for real depth (issue 12; docs/BENCHMARKS.md "Indirect light on real depth"):
     /// on by default; false = the model before it, for measurement (`lightskin bench-realdepth`).
     bool robustRealDepth = true;
+    /// Not a scene key: with robustRealDepth, false drops only its vertex irradiance cap (guard G10)
+    /// for measurement (`lightskin bench-realdepth --models robust-nocap`).
+    bool robustIrradianceCap = true;
     /// Technique "imperfect-volumes" (gi/ImperfectVolumes.h): the "imperfectVolumes" object.
     gi::ImperfectVolumesSettings imperfectVolumes;
 };
