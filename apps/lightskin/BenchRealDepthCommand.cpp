@@ -24,13 +24,18 @@ void addBenchRealDepthCommand(CLI::App& app, int& exitCode) {
     resolveShippedData(
         command, {{"--data", &options->data, "bundled recordings"}, {"--scene", &options->scene, "template scene"}});
     command->add_option("--out", options->out, "Output folder (tables, PNGs of the first frame's indirect light)");
-    command->add_option("--models", options->models, "Comma-separated light models: old, robust");
-    command->add_option("--sink", options->sinks, "Depths the objects are sunk into the surface, metres");
-    command->add_option("--max-frames", options->maxFrames, "Frames per recording");
     command->add_option(
-        "--recordings", options->recordings,
-        "Comma-separated recordings (tum-fr2-desk, icl-nuim, pcl-kinect-tiff, tum-fr3-office; default all)");
-    command->add_flag("--maps", options->maps, "Also write the speckle maps of each recording's first frame");
+        "--models", options->models,
+        "Comma-separated light models: old, robust, robust-nocap (robust without the vertex irradiance cap G10)");
+    command->add_option("--sink", options->sinks, "Depths the objects are sunk into the surface, metres");
+    command->add_option("--max-frames", options->maxFrames,
+                        "Cap on the frames per recording (each has its own count: ICL-NUIM 5, the .oni all)");
+    command->add_option("--recordings", options->recordings,
+                        "Comma-separated recordings (tum-fr2-desk, icl-nuim, pcl-kinect-tiff, tum-fr3-office, "
+                        "oni-kinect-v1; default all)");
+    command->add_flag("--maps", options->maps,
+                      "Also write per frame the speckle maps and the luminance of both indirect images (raw float32), "
+                      "a CSV of the speckle pixels and one of the tracked points that flicker most");
     command->callback([options, &exitCode] {
         bench::runRealDepthBench(*options);
         exitCode = 0;

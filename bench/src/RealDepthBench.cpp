@@ -8,10 +8,10 @@
 //   * speckle (eval::measureSpeckle) with its black and blown pixels,
 //   * the total indirect light (sum of luminance over covered pixels), to report the change against
 //     the old model,
-//   * flicker on sequences with a moving camera, defined as `lightskin bench`'s: RMS over tracked
-//     surface points (every k-th mesh vertex, visible in both frames) and consecutive frame pairs of the
-//     change of the indirect light (mean of the channels), divided by the brute force's mean level;
-//     "excess" subtracts the brute force's own change per sample.
+//   * flicker on sequences whose poses hold (ground truth, or the .oni's camera at rest), defined as
+//     `lightskin bench`'s: RMS over tracked surface points (every k-th mesh vertex, visible in both frames) and
+//     consecutive frame pairs of the change of the indirect light (mean of the channels), divided by the brute force's
+//     mean level; "excess" subtracts the brute force's own change per sample.
 // A benchmark, not a test: prints Markdown tables (and writes them with PNGs of the indirect light to
 // --out). tests/apps/RealDepthDataGLTest.cpp asserts the targets on every recording (exceptions named there).
 
@@ -32,6 +32,7 @@
 #include <glm/gtc/quaternion.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -57,7 +58,11 @@ struct RealCase {
     std::string recording; ///< relative to --data (tests/data)
     mr::PoseMode pose;
     Anchor bunny, cube;
-    bool movingCamera; ///< the recording has a pose per frame: flicker is meaningful
+    bool flicker; ///< a sequence with poses that hold (ground truth, or a camera at rest): flicker is meaningful
+    /// Plane fit: window points within this depth of the anchor's (metres). 3 cm keeps neighbouring
+    /// objects out; a floor seen at a grazing angle changes depth by ~2 cm per pixel row at 2 m.
+    double fitDepthWindow = 0.03;
+    int frames = 5; ///< frames measured (fewer with --max-frames)
 };
 
 /// The bundled registered real recordings. Anchors: free table or floor next to other real objects
@@ -70,6 +75,10 @@ std::vector<RealCase> realCases() {
         // fr3/long_office_household (one frame): the bunny on the floor between the two chairs, the
         // cube on the floor right of the yellow chair (~2 m from the camera)
         {"tum-fr3-office", "tum-fr3-office", mr::PoseMode::Fixed, {300, 440}, {580, 420}, false},
+        // The real Kinect v1 .oni (12 frames, camera at rest, depth registered in software): both objects
+        // on the living-room floor ~2.2 m away, in front of the office chair (recordings/scenes/oni_room.json's
+        // floor patch). A camera at rest still flickers: the VALs follow the depth noise frame to frame.
+        {"oni-kinect-v1", "oni-kinect-v1/3dj_test.oni", mr::PoseMode::Fixed, {330, 440}, {250, 445}, true, 0.15, 12},
     };
 }
 
@@ -78,6 +87,7 @@ std::vector<RealCase> realCases() {
 struct LightModel {
     std::string name;
     bool robust;
+    bool irradianceCap = true; ///< with robust: guard G10 (false: "robust-nocap")
 };
 
 struct Bounds {
@@ -122,22 +132,32 @@ struct SurfacePoint {
     glm::dvec3 normal;   ///< camera frame, unit, facing the camera
 };
 
-/// Plane through the depth around pixel (u, v) of frame 0: points of a 31x31 window within 3 cm of
-/// the anchor's depth, normal = the smallest principal axis (cv::PCA), facing the camera.
-SurfacePoint fitSurface(const RgbdFrame& frame, const Anchor& a, const std::string& name) {
+/// Plane through the depth around pixel (u, v) of frame 0: points of a 31x31 window within depthWindow
+/// of the anchor's depth, normal = the smallest principal axis (cv::PCA), facing the camera.
+SurfacePoint fitSurface(const RgbdFrame& frame, const Anchor& a, double depthWindow, const std::string& name) {
     const CameraIntrinsics& k = frame.depthIntrinsics;
     const auto depthAt = [&](int u, int v) {
         return frame.depth.type() == CV_16UC1 ? double(frame.depth.at<std::uint16_t>(v, u)) * frame.depthScaleMetres
                                               : double(frame.depth.at<float>(v, u));
     };
-    const double z0 = depthAt(a.u, a.v);
-    if (!(z0 > 0.0)) throw Error(name, 0, "anchor pixel has no depth");
+    // The anchor's depth: the median of the valid depth in its 5x5 window (software-registered depth
+    // has single-pixel holes where depth pixels did not land).
+    std::vector<double> near;
+    for (int v = a.v - 2; v <= a.v + 2; ++v)
+        for (int u = a.u - 2; u <= a.u + 2; ++u)
+            if (u >= 0 && v >= 0 && u < frame.depth.cols && v < frame.depth.rows && depthAt(u, v) > 0.0)
+                near.push_back(depthAt(u, v));
+    if (near.size() < 5) throw Error(name, 0, "the anchor pixel's 5x5 window has almost no depth");
+    std::nth_element(near.begin(), near.begin() + std::ptrdiff_t(near.size() / 2), near.end());
+    // The anchor pixel's own depth where it has one (the placements of the earlier tables and of
+    // tests/apps/RealDepthDataGLTest.cpp), else the median of its window.
+    const double z0 = depthAt(a.u, a.v) > 0.0 ? depthAt(a.u, a.v) : near[near.size() / 2];
     std::vector<cv::Vec3d> points;
     for (int v = a.v - 15; v <= a.v + 15; ++v)
         for (int u = a.u - 15; u <= a.u + 15; ++u) {
             if (u < 0 || v < 0 || u >= frame.depth.cols || v >= frame.depth.rows) continue;
             const double z = depthAt(u, v);
-            if (z > 0.0 && std::abs(z - z0) < 0.03) {
+            if (z > 0.0 && std::abs(z - z0) < depthWindow) {
                 const glm::dvec3 p = k.backProject(u, v, z);
                 points.emplace_back(p.x, p.y, p.z);
             }
@@ -173,8 +193,9 @@ glm::mat4 placeOnSurface(const Bounds& b, float scale, const glm::dvec3& pointWo
 constexpr double kSmoothAngleDegrees = 30.0;
 
 struct TechniqueStats {
-    eval::SpeckleStats speckle; ///< summed over frames
-    double totalLight = 0.0;    ///< sum of luminance over covered pixels, all frames
+    eval::SpeckleStats speckle;       ///< summed over frames
+    eval::SpeckleStats speckleMedian; ///< the median-only definition (before the smooth-profile test)
+    double totalLight = 0.0;          ///< sum of luminance over covered pixels, all frames
 };
 
 struct CaseResult {
@@ -233,10 +254,78 @@ void sampleTracked(const std::vector<glm::dvec3>& points, const CameraIntrinsics
     }
 }
 
+/// --maps: the luminance of an indirect image as raw float32, rows top to bottom (for analysis scripts).
+void writeRawLuminance(const std::filesystem::path& path, const cv::Mat& linearBgr) {
+    cv::Mat y;
+    eval::luminanceInto(linearBgr, y);
+    std::ofstream file(path, std::ios::binary);
+    for (int v = 0; v < y.rows; ++v)
+        file.write(reinterpret_cast<const char*>(y.ptr<float>(v)), std::streamsize(sizeof(float)) * y.cols);
+    if (!file) throw Error(path.string(), std::nullopt, "cannot write");
+}
+
+/// --maps: one CSV line per speckle pixel (either technique) with both techniques' luminance and the
+/// 5x5 median, the G-buffer normal and depth, to find where speckle comes from.
+void dumpSpecklePixels(std::ofstream& csv, const RgbdFrame& frame, const mr::FrameOutput& out, const cv::Mat& mapLs,
+                       const cv::Mat& mapBf) {
+    cv::Mat yLs, yBf, mLs, mBf;
+    eval::luminanceInto(out.linearIndirect, yLs);
+    eval::luminanceInto(out.linearIndirectReference, yBf);
+    cv::Mat finiteLs = yLs.clone(), finiteBf = yBf.clone();
+    cv::patchNaNs(finiteLs, 0.0);
+    cv::patchNaNs(finiteBf, 0.0);
+    cv::medianBlur(finiteLs, mLs, 5);
+    cv::medianBlur(finiteBf, mBf, 5);
+    for (int v = 0; v < mapLs.rows; ++v)
+        for (int u = 0; u < mapLs.cols; ++u)
+            for (const bool lightSkin : {true, false}) {
+                if ((lightSkin ? mapLs : mapBf).at<std::uint8_t>(v, u) != 255) continue;
+                const cv::Vec3f n = out.virtualNormals.at<cv::Vec3f>(v, u);
+                const double real = frame.depth.type() == CV_16UC1
+                                        ? double(frame.depth.at<std::uint16_t>(v, u)) * frame.depthScaleMetres
+                                        : double(frame.depth.at<float>(v, u));
+                csv << frame.index << ',' << u << ',' << v << ',' << (lightSkin ? "lightskin" : "bruteforce") << ','
+                    << (lightSkin ? yLs : yBf).at<float>(v, u) << ',' << (lightSkin ? mLs : mBf).at<float>(v, u) << ','
+                    << (lightSkin ? yBf : yLs).at<float>(v, u) << ',' << n[0] << ',' << n[1] << ',' << n[2] << ','
+                    << out.virtualDepthMetres.at<float>(v, u) << ',' << real << '\n';
+            }
+}
+
+/// --maps: the 20 tracked points with the largest excess change (LightSkin's change minus the brute
+/// force's, between consecutive frames), with both series, to find where flicker comes from.
+void dumpWorstFlicker(const std::filesystem::path& folder, const std::string& name, double sink,
+                      const std::vector<glm::dvec3>& points, int frames, const std::vector<float>& ls,
+                      const std::vector<float>& bf) {
+    std::vector<std::pair<double, std::size_t>> worst;
+    for (std::size_t p = 0; p < points.size(); ++p) {
+        double largest = 0.0;
+        for (int f = 1; f < frames; ++f) {
+            const std::size_t i0 = std::size_t(f - 1) * points.size() + p, i1 = i0 + points.size();
+            const double d = (double(ls[i1]) - double(ls[i0])) - (double(bf[i1]) - double(bf[i0]));
+            if (std::isfinite(d)) largest = std::max(largest, std::abs(d));
+        }
+        worst.emplace_back(largest, p);
+    }
+    std::sort(worst.rbegin(), worst.rend());
+    char file[200];
+    std::snprintf(file, sizeof file, "%s_sink%.0fmm_worst_flicker.csv", name.c_str(), sink * 1e3);
+    std::ofstream csv(folder / file);
+    csv << "point,x,y,z,largest_excess_change,frame,lightskin,bruteforce\n";
+    for (std::size_t k = 0; k < std::min<std::size_t>(20, worst.size()); ++k) {
+        const std::size_t p = worst[k].second;
+        for (int f = 0; f < frames; ++f) {
+            const std::size_t i = std::size_t(f) * points.size() + p;
+            csv << p << ',' << points[p].x << ',' << points[p].y << ',' << points[p].z << ',' << worst[k].first << ','
+                << f << ',' << ls[i] << ',' << bf[i] << '\n';
+        }
+    }
+}
+
 CaseResult runCase(const RealCase& c, const LightModel& model, double sink, const RealDepthBenchOptions& options) {
     const std::filesystem::path recording = std::filesystem::path(options.data) / c.recording;
     render::Scene scene = render::loadScene(options.scene);
     scene.gi.robustRealDepth = model.robust;
+    scene.gi.robustIrradianceCap = model.irradianceCap;
     // Frame 0: the surfaces the objects stand on, in the world frame of the case's pose mode.
     auto source = capture::openFrameSource(recording.string(), {});
     RgbdFrame first;
@@ -250,7 +339,7 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
     const float scales[2] = {1.5f, 0.12f};
     glm::dvec3 bunnyPoint{0.0}, bunnyNormal{0.0};
     for (std::size_t i = 0; i < 2 && i < scene.objects.size(); ++i) {
-        const SurfacePoint s = fitSurface(first, anchors[i], recording.string());
+        const SurfacePoint s = fitSurface(first, anchors[i], c.fitDepthWindow, recording.string());
         const glm::dvec3 p = world_T_camera0.transformPoint(s.position);
         const glm::dvec3 n = glm::normalize(world_T_camera0.rotation() * s.normal);
         scene.objects[i].world_T_model = placeOnSurface(meshBounds(scene.objects[i].mesh), scales[i], p, n, sink);
@@ -289,7 +378,17 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
     cv::Mat smooth, mapLs, mapBf;
     const std::filesystem::path imageFolder = std::filesystem::path(options.out) / "images";
     std::filesystem::create_directories(imageFolder);
-    while (r.frames < options.maxFrames && source->next(frame)) {
+    std::ofstream speckleCsv;
+    if (options.maps) {
+        char name[160];
+        std::snprintf(name, sizeof name, "%s_%s_sink%.0fmm_speckle_pixels.csv", c.name.c_str(), model.name.c_str(),
+                      sink * 1e3);
+        speckleCsv.open(imageFolder / name);
+        if (!speckleCsv) throw Error((imageFolder / name).string(), std::nullopt, "cannot write");
+        speckleCsv
+            << "frame,u,v,technique,Y,median5x5,Y_other_technique,normal_x,normal_y,normal_z,depth_m,real_depth_m\n";
+    }
+    while (r.frames < std::min(c.frames, options.maxFrames) && source->next(frame)) {
         pipeline->process(frame, out);
         if (!out.world_T_camera || out.linearIndirect.empty() || out.linearIndirectReference.empty())
             throw Error(recording.string(), frame.index, "no pose or no GI in this frame");
@@ -298,13 +397,28 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
         // kSmoothAngle, depth within 2 %; eval::smoothSurfaceMaskInto).
         eval::smoothSurfaceMaskInto(out.coverage, out.virtualNormals, out.virtualDepthMetres, kSmoothAngleDegrees, 0.02,
                                     smooth);
-        const bool maps = options.maps && r.frames == 0;
+        const bool maps = options.maps;
         const eval::SpeckleStats ls =
             eval::measureSpeckle(out.linearIndirect, out.coverage, maps ? &mapLs : nullptr, smooth);
         const eval::SpeckleStats bf =
             eval::measureSpeckle(out.linearIndirectReference, out.coverage, maps ? &mapBf : nullptr, smooth);
+        if (maps) {
+            dumpSpecklePixels(speckleCsv, frame, out, mapLs, mapBf);
+            char name[200];
+            std::snprintf(name, sizeof name, "%s_%s_sink%.0fmm_frame%lld", c.name.c_str(), model.name.c_str(),
+                          sink * 1e3, static_cast<long long>(frame.index));
+            writeRawLuminance(imageFolder / (std::string(name) + "_lightskin_Y.f32"), out.linearIndirect);
+            writeRawLuminance(imageFolder / (std::string(name) + "_bruteforce_Y.f32"), out.linearIndirectReference);
+            cv::Mat measured;
+            cv::hconcat(mapLs, mapBf, measured);
+            cv::imwrite((imageFolder / (std::string(name) + "_speckle_map.png")).string(), measured);
+        }
         accumulate(r.lightSkin.speckle, ls);
         accumulate(r.brute.speckle, bf);
+        accumulate(r.lightSkin.speckleMedian,
+                   eval::measureSpeckle(out.linearIndirect, out.coverage, nullptr, smooth, false));
+        accumulate(r.brute.speckleMedian,
+                   eval::measureSpeckle(out.linearIndirectReference, out.coverage, nullptr, smooth, false));
         r.lightSkin.totalLight += coveredLuminance(out.linearIndirect, out.coverage);
         r.brute.totalLight += coveredLuminance(out.linearIndirectReference, out.coverage);
         if (r.frames == 0) {
@@ -319,7 +433,7 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
                 cv::imwrite((imageFolder / (std::string(name) + "speckle_map.png")).string(), both);
             }
         }
-        if (c.movingCamera) {
+        if (c.flicker) {
             sampleTracked(points, frame.colourIntrinsics, *out.world_T_camera, out.coverage, out.virtualDepthMetres,
                           out.linearIndirect, seriesLs);
             sampleTracked(points, frame.colourIntrinsics, *out.world_T_camera, out.coverage, out.virtualDepthMetres,
@@ -327,7 +441,7 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
         }
         ++r.frames;
     }
-    if (c.movingCamera && r.frames >= 2) {
+    if (c.flicker && r.frames >= 2) {
         double level = 0.0;
         std::size_t levelCount = 0;
         for (float v : seriesBf)
@@ -352,6 +466,8 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
             r.flickerSamples = samples;
             return samples ? std::sqrt(sum / double(samples)) / level : 0.0;
         };
+        if (options.maps)
+            dumpWorstFlicker(imageFolder, c.name + "_" + model.name, sink, points, r.frames, seriesLs, seriesBf);
         r.flickerMeasured = true;
         r.flickerBrute = flickerOf(seriesBf, nullptr);
         r.flickerLightSkin = flickerOf(seriesLs, nullptr);
@@ -419,8 +535,10 @@ void runRealDepthBench(const RealDepthBenchOptions& options) {
             models.push_back({"old", false});
         else if (m == "robust")
             models.push_back({"robust", true});
+        else if (m == "robust-nocap")
+            models.push_back({"robust-nocap", true, false});
         else
-            throw Error("--models", std::nullopt, "unknown light model '" + m + "' (old, robust)");
+            throw Error("--models", std::nullopt, "unknown light model '" + m + "' (old, robust, robust-nocap)");
     }
     std::vector<CaseResult> results;
     for (const RealCase& c : realCases()) {
@@ -440,21 +558,24 @@ void runRealDepthBench(const RealDepthBenchOptions& options) {
     std::ostringstream md;
     md << "| recording | sink | light model | frames | VALs/frame | speckle LightSkin | speckle brute force | black / "
           "blown (LS) | "
-          "black / blown (BF) | total light LS vs old | total light BF vs old "
-          "|\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+          "black / blown (BF) | total light LS vs old | total light BF vs old | median-only speckle LS / BF "
+          "|\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const CaseResult& r : results) {
         const CaseResult* old = nullptr;
         for (const CaseResult& o : results)
             if (o.recording == r.recording && o.sink == r.sink && o.model == "old") old = &o;
         char row[512];
-        std::snprintf(
-            row, sizeof row, "| %s | %.0f mm | %s | %d | %.0f | %s | %s | %zu / %zu | %zu / %zu | %s | %s |\n",
-            r.recording.c_str(), r.sink * 1e3, r.model.c_str(), r.frames,
-            double(r.vals) / double(std::max(1, r.frames)), percent(r.lightSkin.speckle.speckleFraction()).c_str(),
-            percent(r.brute.speckle.speckleFraction()).c_str(), r.lightSkin.speckle.blackPixels,
-            r.lightSkin.speckle.blownPixels, r.brute.speckle.blackPixels, r.brute.speckle.blownPixels,
-            old ? percent(r.lightSkin.totalLight / old->lightSkin.totalLight - 1.0).c_str() : "-",
-            old ? percent(r.brute.totalLight / old->brute.totalLight - 1.0).c_str() : "-");
+        std::snprintf(row, sizeof row,
+                      "| %s | %.0f mm | %s | %d | %.0f | %s | %s | %zu / %zu | %zu / %zu | %s | %s | %s / %s |\n",
+                      r.recording.c_str(), r.sink * 1e3, r.model.c_str(), r.frames,
+                      double(r.vals) / double(std::max(1, r.frames)),
+                      percent(r.lightSkin.speckle.speckleFraction()).c_str(),
+                      percent(r.brute.speckle.speckleFraction()).c_str(), r.lightSkin.speckle.blackPixels,
+                      r.lightSkin.speckle.blownPixels, r.brute.speckle.blackPixels, r.brute.speckle.blownPixels,
+                      old ? percent(r.lightSkin.totalLight / old->lightSkin.totalLight - 1.0).c_str() : "-",
+                      old ? percent(r.brute.totalLight / old->brute.totalLight - 1.0).c_str() : "-",
+                      percent(r.lightSkin.speckleMedian.speckleFraction()).c_str(),
+                      percent(r.brute.speckleMedian.speckleFraction()).c_str());
         md << row;
     }
     md << "\n| recording | sink | light model | frames | samples | flicker brute force | flicker LightSkin | excess "

@@ -49,7 +49,36 @@ void smoothSurfaceMaskInto(const cv::Mat& coverage, const cv::Mat& normals, cons
         }
 }
 
-SpeckleStats measureSpeckle(const cv::Mat& linearBgr, const cv::Mat& coverage, cv::Mat* map, const cv::Mat& smooth) {
+namespace {
+
+/// |value - reference| within half the floored reference: the measure's one tolerance.
+bool near(double value, double reference, double floor) {
+    return std::abs(value - reference) <= 0.5 * std::max(reference, floor);
+}
+
+/// Whether the pixel lies on a smooth profile (Speckle.h): along one of the four directions e it is
+/// on the straight lines through its +-1 and its +-2 neighbours, and across e it is not an extremum
+/// of its two +-1 neighbours. The caller guarantees a covered 5x5 window.
+bool onSmoothProfile(const cv::Mat& y, int u, int v, double floor) {
+    const auto at = [&](int du, int dv) { return double(y.at<float>(v + dv, u + du)); };
+    const double value = at(0, 0);
+    static constexpr int kDirections[4][2] = {{1, 0}, {0, 1}, {1, 1}, {1, -1}};
+    for (const auto& e : kDirections) {
+        const int du = e[0], dv = e[1];
+        const double line1 = 0.5 * (at(-du, -dv) + at(du, dv)),
+                     line2 = 0.5 * (at(-2 * du, -2 * dv) + at(2 * du, 2 * dv));
+        if (!near(value, line1, floor) || !near(value, line2, floor)) continue;
+        const double a = at(dv, -du), b = at(-dv, du); // the +-1 neighbours across e
+        const double lo = std::min(a, b), hi = std::max(a, b);
+        if (value >= lo - 0.5 * std::max(lo, floor) && value <= hi + 0.5 * std::max(hi, floor)) return true;
+    }
+    return false;
+}
+
+} // namespace
+
+SpeckleStats measureSpeckle(const cv::Mat& linearBgr, const cv::Mat& coverage, cv::Mat* map, const cv::Mat& smooth,
+                            bool smoothProfiles) {
     if (linearBgr.type() != CV_32FC3 || coverage.type() != CV_8UC1 || linearBgr.size() != coverage.size())
         throw Error("measureSpeckle", std::nullopt,
                     "expected a CV_32FC3 image and a CV_8UC1 coverage mask of the same size");
@@ -105,6 +134,7 @@ SpeckleStats measureSpeckle(const cv::Mat& linearBgr, const cv::Mat& coverage, c
             }
             const double scale = std::max(m, floor);
             if (std::abs(value - m) <= 0.5 * scale) continue;
+            if (smoothProfiles && onSmoothProfile(finiteY, u, v, floor)) continue;
             mark();
             ++s.specklePixels;
             if (m >= litLevel && value < 0.1 * m) ++s.blackPixels;

@@ -21,12 +21,14 @@ layout(binding = 1) uniform sampler2D uPositionD;
 layout(binding = 2) uniform sampler2D uGlossy;
 layout(binding = 3) uniform sampler2D uPositionS;
 layout(binding = 4) uniform sampler2D uOcclusion;
+layout(binding = 5) uniform sampler2D uGathered; // L'_d of eq. 7 (the gather's first target), for G10
 uniform mat4 uWorldFromModel;
 uniform mat3 uNormalFromModel;
 uniform uint uFirstVertex;
 uniform uint uVertexCount;
 uniform int uApplyOcclusion;
 uniform float uHorizonSpread; // G9: 0 = shade point VPLs (the diffuse S_o radius not handed on)
+uniform int uIrradianceCap;   // G10: 1 = cap the shaded diffuse irradiance (glossyPosition.w)
 
 void main() {
     const uint local = gl_GlobalInvocationID.x;
@@ -53,6 +55,7 @@ void main() {
     result.glossy = vec4(0.0);
     result.glossyPosition = vec4(0.0);
     float minDD = 3.0e38, minDS = 3.0e38; // G8
+    float cap = 0.0;                      // G10
     for (int j = 0; j < kNeighbours; ++j) {
         const float w = weights.w[j];
         if (w == 0.0) continue;
@@ -65,6 +68,7 @@ void main() {
         if (uApplyOcclusion != 0) keep = vec2(1.0) - clamp(texelFetch(uOcclusion, texel, 0).xy, 0.0, 1.0);
         const vec4 d = texelFetch(uDiffuse, texel, 0);
         const vec4 g = texelFetch(uGlossy, texel, 0);
+        cap = max(cap, ls_peakChannel(texelFetch(uGathered, texel, 0).rgb) * keep.x); // G10
         result.diffuse += w * vec4(d.rgb * keep.x, d.w);
         result.diffusePosition += w * texelFetch(uPositionD, texel, 0) * vec4(1.0, 1.0, 1.0, uHorizonSpread);
         result.glossy += w * vec4(g.rgb * keep.y, g.w);
@@ -72,5 +76,6 @@ void main() {
     }
     result.diffuse.w = ls_vertexR2Floor(result.diffuse.w, p, result.diffusePosition.xyz, minDD);
     result.glossy.w = ls_vertexR2Floor(result.glossy.w, p, result.glossyPosition.xyz, minDS);
+    result.glossyPosition.w = uIrradianceCap != 0 ? cap : -1.0;
     vertexVpls[v] = result;
 }

@@ -15,7 +15,7 @@ layout(location = 0) in vec3 vWorld;
 layout(location = 1) in vec4 vDiffuse;
 layout(location = 2) in vec4 vDiffusePosition;
 layout(location = 3) in vec4 vGlossy;
-layout(location = 4) in vec3 vGlossyPosition;
+layout(location = 4) in vec4 vGlossyPosition; // l'''_s, G10 cap (< 0: none)
 layout(location = 0) out vec4 outRadiance;
 
 void main() {
@@ -32,12 +32,12 @@ void main() {
     d.r2 = vDiffuse.w;
     d.position = vDiffusePosition.xyz;
     d.sphereRadius = vDiffusePosition.w; // G9 (0 without it)
-    vec3 radiance = rhoD * ls_applyDiffuse(d, position.xyz, n) / kPi;
+    vec3 radiance = rhoD * ls_capIrradiance(ls_applyDiffuse(d, position.xyz, n), vGlossyPosition.w) / kPi;
     if (uGlossy != 0) {
         Vpl s;
         s.radiance = vGlossy.rgb;
         s.r2 = vGlossy.w;
-        s.position = vGlossyPosition;
+        s.position = vGlossyPosition.xyz;
         s.sphereRadius = 0.0;
         radiance += specular.rgb * ls_applyGlossy(s, position.xyz, n, ls_toEye(position.xyz, uEye), specular.a);
     }

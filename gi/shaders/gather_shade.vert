@@ -13,7 +13,7 @@ layout(location = 0) out vec3 vWorld;
 layout(location = 1) out vec4 vDiffuse;
 layout(location = 2) out vec4 vDiffusePosition; // l'''_d, S_o radius (G9)
 layout(location = 3) out vec4 vGlossy;
-layout(location = 4) out vec3 vGlossyPosition;
+layout(location = 4) out vec4 vGlossyPosition; // l'''_s, G10 cap
 
 void main() {
     const VertexVpl vpl = vertexVpls[uFirstVertex + uint(gl_VertexID)];
@@ -22,6 +22,6 @@ void main() {
     vDiffuse = vpl.diffuse;
     vDiffusePosition = vpl.diffusePosition;
     vGlossy = vpl.glossy;
-    vGlossyPosition = vpl.glossyPosition.xyz;
+    vGlossyPosition = vpl.glossyPosition;
     gl_Position = uClipFromWorld * world;
 }

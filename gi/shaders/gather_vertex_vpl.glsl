@@ -5,6 +5,6 @@ struct VertexVpl {
     vec4 diffuse;         // L'''_d.rgb, rbar^2_d
     vec4 diffusePosition; // l'''_d.xyz, S_o radius (guard G9; 0 without it)
     vec4 glossy;          // L'''_s.rgb, rbar^2_s
-    vec4 glossyPosition;  // l'''_s.xyz, unused
+    vec4 glossyPosition;  // l'''_s.xyz, G10 diffuse irradiance cap (W/m^2, < 0: none)
 };
 #endif

@@ -118,6 +118,7 @@ struct CpuLightSkin::Impl {
     cpu::ReceiverArrays receivers;
     std::vector<float> sums; // kGatherSums x padded receivers
     std::vector<m::Vpl> vplD, vplS;
+    std::vector<double> gatheredPeakD; // G10: peak RGB channel of L'_d per sparse point, W/m^2
     cpu::OcclusionReceivers occlusionReceivers;
     cpu::Occluders occluders;
     std::vector<float> occlusionD, occlusionS;
@@ -270,6 +271,7 @@ struct CpuLightSkin::Impl {
         const auto point = [&](std::size_t i) {
             const PointSums p = pointSums(i);
             const glm::dvec3 x = pointPosition[i], nx = pointNormal[i];
+            gatheredPeakD[i] = m::ls_peakChannel(p.L); // G10
             vplD[i] = m::ls_renormaliseDiffuse(p.L, p.offset, p.W, p.r2, p.moment, x, nx,
                                                settings.lightSkin.extendedVplHorizon ? 1.0 : 0.0);
             vplS[i] = m::ls_renormaliseGlossy(p.Ls, p.offsetS, p.Ws, p.r2s, p.momentS, x, nx, m::ls_toEye(x, eye),
@@ -322,6 +324,7 @@ struct CpuLightSkin::Impl {
             const std::size_t first = vertexOffsets[mesh];
             const std::size_t end = first + instances[mesh].mesh->vertexCount();
             const bool horizon = settings.lightSkin.extendedVplHorizon;
+            const bool capOn = settings.lightSkin.vertexIrradianceCap;
             parallelFor(*arena, first, end, [&](std::size_t v) {
                 const glm::dvec3 p(transform * glm::dvec4(modelVertexPositions[v], 1.0));
                 const glm::dvec3 nv = glm::normalize(normalMatrix * modelVertexNormals[v]);
@@ -336,6 +339,7 @@ struct CpuLightSkin::Impl {
                 const m::VertexWeights weights = m::ls_vertexWeights(dist, cosN, unique);
                 glm::dvec4 diffuse(0.0), diffusePosition(0.0), glossyRadiance(0.0), glossyPosition(0.0);
                 double minDD = std::numeric_limits<double>::max(), minDS = minDD; // G8
+                double cap = 0.0;                                                 // G10
                 for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
                     const double w = weights.w[j];
                     if (w == 0.0) continue;
@@ -345,6 +349,7 @@ struct CpuLightSkin::Impl {
                     minDS = std::min(minDS, glm::dot(os, os) + vplS[s].r2);
                     const double keepD = occlusion ? 1.0 - std::clamp(double(occlusionD[s]), 0.0, 1.0) : 1.0;
                     const double keepS = occlusion ? 1.0 - std::clamp(double(occlusionS[s]), 0.0, 1.0) : 1.0;
+                    cap = std::max(cap, gatheredPeakD[s] * keepD); // G10
                     diffuse += w * glm::dvec4(vplD[s].radiance * keepD, vplD[s].r2);
                     diffusePosition += w * glm::dvec4(vplD[s].position, horizon ? vplD[s].sphereRadius : 0.0); // G9
                     glossyRadiance += w * glm::dvec4(vplS[s].radiance * keepS, vplS[s].r2);
@@ -358,7 +363,7 @@ struct CpuLightSkin::Impl {
                 out[0] = glm::vec4(diffuse);
                 out[1] = glm::vec4(diffusePosition);
                 out[2] = glm::vec4(glossyRadiance);
-                out[3] = glm::vec4(glossyPosition);
+                out[3] = glm::vec4(glm::dvec3(glossyPosition), capOn ? cap : -1.0);
             });
         }
     }
@@ -489,6 +494,7 @@ void CpuLightSkin::prepare(std::span<const MeshInstance> instances) {
     impl.receivers.resize(padded);
     impl.sums.assign(cpu::kGatherSums * padded, 0.0f);
     impl.vplD.assign(impl.pointCount, m::Vpl{});
+    impl.gatheredPeakD.assign(impl.pointCount, 0.0);
     impl.vplS.assign(impl.pointCount, m::Vpl{});
     impl.occlusionReceivers.resize(padded);
     impl.occluders.resize(impl.pointCount);

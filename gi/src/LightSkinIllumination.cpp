@@ -883,10 +883,12 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     impl.interpolate.use();
     for (int i = 0; i < kVplTargets; ++i) glBindTextureUnit(GLuint(i), impl.vplTargets[std::size_t(i)].id());
     glBindTextureUnit(4, impl.occlusionTarget.id());
+    glBindTextureUnit(5, impl.gatherTargets[0].id()); // L'_d (G10)
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, impl.vertexInputs.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, impl.vertexVpls.id());
     glUniform1i(impl.interpolate.uniformLocation("uApplyOcclusion"), choice.occlusion ? 1 : 0);
     glUniform1f(impl.interpolate.uniformLocation("uHorizonSpread"), s.extendedVplHorizon ? 1.0f : 0.0f);
+    glUniform1i(impl.interpolate.uniformLocation("uIrradianceCap"), s.vertexIrradianceCap ? 1 : 0);
     for (std::size_t m = 0; m < instances.size(); ++m) {
         const glm::mat3 normalMatrix = glm::transpose(glm::inverse(glm::mat3(instances[m].world_T_model)));
         const std::uint32_t vertices = std::uint32_t(instances[m].mesh->vertexCount());

@@ -109,6 +109,7 @@ std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettin
         s.vertexDistanceFloor = settings.robustRealDepth;
         s.extendedVplHorizon = settings.robustRealDepth;
         s.valTreeThreshold = settings.valTreeThreshold;
+        s.vertexIrradianceCap = settings.robustRealDepth && settings.robustIrradianceCap;
         const gi::SparsePointProvider provider = [&renderer](const gi::MeshInstance& instance) {
             const gi::SparsePointSet* points = renderer.sparsePoints(instance.meshId);
             LIGHTSKIN_ASSERT(points != nullptr, "lightskin::mr::createTechnique(): the renderer prepared no sparse points");

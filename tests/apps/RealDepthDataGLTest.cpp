@@ -26,6 +26,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -33,14 +34,26 @@ using namespace lightskin;
 
 namespace {
 
-/// Unit normal (facing the camera) and a point of the plane through frame 0's depth in a 31x31 window.
-std::pair<glm::dvec3, glm::dvec3> fitPlane(const RgbdFrame& frame, int u0, int v0) {
+/// Unit normal (facing the camera) and a point of the plane through frame 0's depth in a 31x31 window:
+/// points within `depthWindow` of the anchor's depth (the anchor pixel's, or where it has none the
+/// median of its 5x5 window, as the bench).
+std::pair<glm::dvec3, glm::dvec3> fitPlane(const RgbdFrame& frame, int u0, int v0, double depthWindow) {
     std::vector<cv::Vec3d> points;
-    const double z0 = double(frame.depth.at<std::uint16_t>(v0, u0)) * frame.depthScaleMetres;
+    const auto depthAt = [&](int u, int v) {
+        return double(frame.depth.at<std::uint16_t>(v, u)) * frame.depthScaleMetres;
+    };
+    std::vector<double> near;
+    for (int v = v0 - 2; v <= v0 + 2; ++v)
+        for (int u = u0 - 2; u <= u0 + 2; ++u)
+            if (depthAt(u, v) > 0.0) near.push_back(depthAt(u, v));
+    EXPECT_GE(near.size(), 5u) << "anchor (" << u0 << ", " << v0 << ") has almost no depth around it";
+    if (near.empty()) return {};
+    std::nth_element(near.begin(), near.begin() + std::ptrdiff_t(near.size() / 2), near.end());
+    const double z0 = depthAt(u0, v0) > 0.0 ? depthAt(u0, v0) : near[near.size() / 2];
     for (int v = v0 - 15; v <= v0 + 15; ++v)
         for (int u = u0 - 15; u <= u0 + 15; ++u) {
-            const double z = double(frame.depth.at<std::uint16_t>(v, u)) * frame.depthScaleMetres;
-            if (z > 0.0 && std::abs(z - z0) < 0.03) {
+            const double z = depthAt(u, v);
+            if (z > 0.0 && std::abs(z - z0) < depthWindow) {
                 const glm::dvec3 p = frame.depthIntrinsics.backProject(u, v, z);
                 points.emplace_back(p.x, p.y, p.z);
             }
@@ -67,6 +80,7 @@ struct RealCase {
     /// pixels, coverage and light are asserted for that technique.
     bool lightSkinSpeckleTarget, bruteForceSpeckleTarget, bruteForceBlackTarget;
     bool lightSkinBlownTarget = true;
+    double fitDepthWindow = 0.03; ///< the bench's: 15 cm for the .oni's floor seen at a grazing angle
 };
 
 void PrintTo(const RealCase& c, std::ostream* os) { *os << c.name; }
@@ -94,7 +108,7 @@ TEST_P(RealDepthDataGLTest, ObjectsOnRealSurfacesMeetTheSpeckleTargets) {
     const float scales[2] = {1.5f, 0.12f};
     glm::dvec3 bunnyPoint{0.0}, bunnyNormal{0.0};
     for (int i = 0; i < 2; ++i) {
-        const auto [nCamera, pCamera] = fitPlane(first, c.anchors[i][0], c.anchors[i][1]);
+        const auto [nCamera, pCamera] = fitPlane(first, c.anchors[i][0], c.anchors[i][1], c.fitDepthWindow);
         const glm::dvec3 n = glm::normalize(world_T_camera.rotation() * nCamera),
                          surface = world_T_camera.transformPoint(pCamera), p = surface - c.sinkMetres * n;
         const glm::quat q(glm::vec3(0.0f, 1.0f, 0.0f), glm::vec3(n));
@@ -148,23 +162,30 @@ TEST_P(RealDepthDataGLTest, ObjectsOnRealSurfacesMeetTheSpeckleTargets) {
     EXPECT_EQ(frames, c.frames);
 }
 
-// Frames: all of TUM fr2 (2), the PCL TIFF (1) and TUM fr3 (1); 3 of ICL-NUIM's 5 (moving camera).
+// Frames: all of TUM fr2 (2), the PCL TIFF (1) and TUM fr3 (1); 3 of ICL-NUIM's 5 (moving camera), 3
+// of the .oni's 11 (camera at rest).
 // TUM fr2 runs sunk only (resting measures the same or lower in the bench), to keep the suite short.
 // Fields: name, folder, pose, anchors, sink, frames, LightSkin speckle target, brute-force speckle
 // target, brute-force black-pixel target.
 // clang-format off
 INSTANTIATE_TEST_SUITE_P(BundledRecordings, RealDepthDataGLTest, ::testing::Values(
     RealCase{"icl_nuim", "icl-nuim-open3d", mr::PoseMode::GroundTruth, {{250, 390}, {460, 430}}, 0.0, 3, true, true, true},
+    // Sunk 1 cm (issue 12 part 3's remaining ICL-NUIM case: 0.52 % LightSkin by the median-only definition).
+    RealCase{"icl_nuim_sunk_1cm", "icl-nuim-open3d", mr::PoseMode::GroundTruth, {{250, 390}, {460, 430}}, 0.01, 3, true, true, true},
     RealCase{"tum_fr2_desk_sunk_1cm", "tum-fr2-desk", mr::PoseMode::Fixed, {{300, 365}, {150, 335}}, 0.01, 2, true, true, true},
     RealCase{"pcl_kinect_tiff", "pcl-kinect-tiff", mr::PoseMode::Fixed, {{250, 380}, {520, 380}}, 0.0, 1, true, true, true},
     // Sunk 1 cm: the brute force keeps one black pixel, beside a bright spot 2 px away on the
-    // bunny's upper side (a near-field VAL of the VAL set, not analysed further), and LightSkin one
-    // blown pixel on the bunny's underside facing the carpet 1 cm above it, where its VPL changes
-    // within 2 px (the bench's run of the same case measures 0: it depends on the light's placement).
+    // bunny's upper side (a near-field VAL of the VAL set; the near-field clamp of issue 12 is not
+    // implemented yet), and LightSkin one blown pixel on the bunny's underside facing the carpet 1 cm
+    // above it, where its VPL changes within 2 px (the bench's run of the same case measures 0).
     RealCase{"pcl_kinect_tiff_sunk_1cm", "pcl-kinect-tiff", mr::PoseMode::Fixed, {{250, 380}, {520, 380}}, 0.01, 1, true, true, false, false},
-    // fr3: the objects stand ~2 m from the camera (~1800 measured pixels); the brute force measures
-    // 1.7 % speckle there, all of it steep smooth falloffs over 1-2 px (docs/BENCHMARKS.md).
-    RealCase{"tum_fr3_office", "tum-fr3-office", mr::PoseMode::Fixed, {{300, 440}, {580, 420}}, 0.0, 1, true, false, true}),
+    // fr3: the objects stand ~2 m from the camera (~1800 measured pixels, a 5x5 window spans ~2 cm of
+    // the bunny, twice its triangles' size); the brute force measures 0.77 % speckle there (1.7 % by the
+    // median-only definition): valleys and kinks of the true light on the VAL set at the mesh's own
+    // scale, 1-2 px wide (docs/BENCHMARKS.md), not yet told apart from blotches.
+    RealCase{"tum_fr3_office", "tum-fr3-office", mr::PoseMode::Fixed, {{300, 440}, {580, 420}}, 0.0, 1, true, false, true},
+    // The real Kinect v1 .oni (depth registered in software), objects on the floor ~2.2 m away: 3 of its 11 frames.
+    RealCase{"oni_kinect_v1", "oni-kinect-v1/3dj_test.oni", mr::PoseMode::Fixed, {{330, 440}, {250, 445}}, 0.0, 3, true, true, true, true, 0.15}),
     [](const ::testing::TestParamInfo<RealCase>& p) { return std::string(p.param.name); });
 // clang-format on
 

@@ -74,6 +74,75 @@ TEST(SpeckleTest, InjectedIsolatedOutliersAreCountedExactly) {
     EXPECT_DOUBLE_EQ(s.speckleFraction(), 16.0 / double(interiorCount(coverage)));
 }
 
+/// Paints a k x k square of the smooth ramp at (u0, v0) (top left) with `factor` times the ramp.
+void paintBlotch(cv::Mat& image, int u0, int v0, int k, float factor) {
+    for (int v = v0; v < v0 + k; ++v)
+        for (int u = u0; u < u0 + k; ++u) image.at<cv::Vec3f>(v, u) *= factor;
+}
+
+TEST(SpeckleTest, InjectedBlotchesAndStreaksAreCountedWhole) {
+    // On the smooth ramp (background b): 2x2 and 3x3 blotches, bright (4 b) and black (0), and a 1 px
+    // wide black streak 5 px long, each > 6 px from the others so every 5x5 window holds at most one.
+    // Every pixel of them is speckle by the definition (Speckle.h): the median of its window is the
+    // background (at most 9 of 25 pixels differ), and no direction explains it: along each of the four
+    // directions a +-1 or +-2 pair holds background on at least one side, so the line through it
+    // predicts >= (4 b + b) / 2 = 2.5 b against 4 b, or <= b / 2 against 0 (both > 50 % off; a
+    // bright blotch needs > 3 b for the mixed pair); across the streak both neighbours are b.
+    cv::Mat image = smoothRamp();
+    paintBlotch(image, 18, 18, 2, 4.0f);
+    paintBlotch(image, 26, 18, 2, 0.0f);
+    paintBlotch(image, 36, 18, 3, 4.0f);
+    paintBlotch(image, 18, 28, 3, 0.0f);
+    for (int u = 28; u < 33; ++u) image.at<cv::Vec3f>(30, u) = cv::Vec3f::all(0.0f);
+    const eval::SpeckleStats s = eval::measureSpeckle(image, discCoverage());
+    EXPECT_EQ(s.specklePixels, 4u + 4u + 9u + 9u + 5u);
+    EXPECT_EQ(s.blackPixels, 4u + 9u + 5u);
+    EXPECT_EQ(s.blownPixels, 0u);
+}
+
+TEST(SpeckleTest, SteepSmoothFalloffsAreNotSpeckle) {
+    // Smooth images whose 5x5 median is far from the centre pixel: a lit disc of radius 14 px whose
+    // edge falls from 1 to ~0 within ~4 px (logistic, 1 px scale: neighbours across the edge differ
+    // by up to 2.7x), and steep linear ramps (0 -> 6.4 across 64 px, i.e. 0.1 per px, from 0.05)
+    // in four orientations. Along its contour (a straight line at 2 px scale) every pixel lies on
+    // the line through its neighbours, and across it between them, so nothing is speckle.
+    cv::Mat image(kSize, kSize, CV_32FC3);
+    for (int v = 0; v < kSize; ++v)
+        for (int u = 0; u < kSize; ++u) {
+            const double r = std::hypot(u - 32.0, v - 32.0);
+            image.at<cv::Vec3f>(v, u) = cv::Vec3f::all(float(1.0 / (1.0 + std::exp(r - 14.0))));
+        }
+    const cv::Mat all(kSize, kSize, CV_8UC1, cv::Scalar(1));
+    const eval::SpeckleStats disc = eval::measureSpeckle(image, all);
+    EXPECT_EQ(disc.specklePixels, 0u) << disc.describe();
+    EXPECT_GT(disc.meanLuminance, 0.1); // lit: ~pi 14^2 / 60^2 of the interior
+    for (const auto& [du, dv] : {std::pair{1, 0}, {0, 1}, {1, 1}, {1, -1}}) {
+        for (int v = 0; v < kSize; ++v)
+            for (int u = 0; u < kSize; ++u)
+                image.at<cv::Vec3f>(v, u) = cv::Vec3f::all(0.05f + 0.1f * float(du * u + dv * v + kSize));
+        const eval::SpeckleStats ramp = eval::measureSpeckle(image, all);
+        EXPECT_EQ(ramp.specklePixels, 0u) << du << "," << dv << ": " << ramp.describe();
+    }
+    // The lit quadrant of two such edges (smooth, a curved contour at its corner): the median alone
+    // flags its corner (2 pixels: the case that tells the two definitions apart); along a diagonal
+    // every pixel there still lies on the lines through its neighbours, so the refined measure
+    // flags none.
+    for (int v = 0; v < kSize; ++v)
+        for (int u = 0; u < kSize; ++u)
+            image.at<cv::Vec3f>(v, u) =
+                cv::Vec3f::all(float(1.0 / ((1.0 + std::exp(32.0 - u)) * (1.0 + std::exp(32.0 - v)))));
+    EXPECT_GT(eval::measureSpeckle(image, all, nullptr, cv::Mat(), false).specklePixels, 0u);
+    EXPECT_EQ(eval::measureSpeckle(image, all).specklePixels, 0u);
+    // The same disc with one pixel of its edge zeroed and one doubled is found (2 pixels).
+    for (int v = 0; v < kSize; ++v)
+        for (int u = 0; u < kSize; ++u)
+            image.at<cv::Vec3f>(v, u) =
+                cv::Vec3f::all(float(1.0 / (1.0 + std::exp(std::hypot(u - 32.0, v - 32.0) - 14.0))));
+    image.at<cv::Vec3f>(32, 32 + 13) = cv::Vec3f::all(0.0f); // on the edge: 0.73 -> 0
+    image.at<cv::Vec3f>(32 - 12, 32) *= 2.0f;                // inside the edge: 0.88 -> 1.76
+    EXPECT_EQ(eval::measureSpeckle(image, all).specklePixels, 2u);
+}
+
 TEST(SpeckleTest, ThresholdIsFiftyPercentOfTheMedian) {
     // Uniform 1.0; one pixel at 1.45 (45 % off: not speckle), one at 1.55 and one at 0.45 (55 %: speckle).
     cv::Mat image(kSize, kSize, CV_32FC3, cv::Scalar::all(1.0));

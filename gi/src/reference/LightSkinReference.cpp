@@ -1,9 +1,9 @@
 // Double-precision reference of the LightSkin stages: loops and bookkeeping only; every formula
 // comes from lightskin_math.glsl through LightSkinMath.h.
+#include "LightSkinMath.h"
+
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/LightSkinReference.h>
-
-#include "LightSkinMath.h"
 
 #include <glm/mat3x3.hpp>
 #include <glm/matrix.hpp>
@@ -48,8 +48,8 @@ std::vector<Receiver> receiversFromSparsePoints(const SparsePointSet& points, co
     return out;
 }
 
-void gatherInto(std::span<const VirtualAreaLight> lights, std::span<const Receiver> receivers,
-                const glm::dvec3& eye, const GatherParameters& parameters, std::vector<GatherSums>& out) {
+void gatherInto(std::span<const VirtualAreaLight> lights, std::span<const Receiver> receivers, const glm::dvec3& eye,
+                const GatherParameters& parameters, std::vector<GatherSums>& out) {
     out.assign(receivers.size(), GatherSums{});
     for (std::size_t i = 0; i < receivers.size(); ++i) {
         const Receiver& x = receivers[i];
@@ -85,6 +85,7 @@ void renormaliseInto(std::span<const GatherSums> sums, std::span<const Receiver>
         const Receiver& x = receivers[i];
         out[i].diffuse = fromMath(
             m::ls_renormaliseDiffuse(s.irradiance, s.offsetD, s.weightD, s.r2D, s.momentD, x.position, x.normal, 1.0));
+        out[i].diffuseCap = m::ls_peakChannel(s.irradiance); // G10
         out[i].glossy = fromMath(m::ls_renormaliseGlossy(s.glossy, s.offsetS, s.weightS, s.r2S, s.momentS, x.position,
                                                          x.normal, m::ls_toEye(x.position, eye), x.exponent));
     }
@@ -97,10 +98,10 @@ void occlusionInto(std::span<const Receiver> receivers, std::span<const VplPair>
         const Receiver& x = receivers[i];
         const glm::dvec3 t = m::ls_tangent(x.normal);
         const glm::dvec3 b = m::ls_binormal(x.normal);
-        const m::OcclusionTarget targetD = m::ls_occlusionTarget(x.position, x.normal, t, b, vpls[i].diffuse.position,
-                                                                 vpls[i].diffuse.sphereRadius);
-        const m::OcclusionTarget targetS = m::ls_occlusionTarget(x.position, x.normal, t, b, vpls[i].glossy.position,
-                                                                 vpls[i].glossy.sphereRadius);
+        const m::OcclusionTarget targetD =
+            m::ls_occlusionTarget(x.position, x.normal, t, b, vpls[i].diffuse.position, vpls[i].diffuse.sphereRadius);
+        const m::OcclusionTarget targetS =
+            m::ls_occlusionTarget(x.position, x.normal, t, b, vpls[i].glossy.position, vpls[i].glossy.sphereRadius);
         glm::dvec2 sum(0.0);
         for (const Receiver& y : receivers) {
             sum.x += m::ls_occluderAmount(targetD, x.position, x.normal, t, b, y.position, y.normal, y.occluderRadius);
@@ -114,6 +115,7 @@ void applyOcclusion(std::span<const glm::dvec2> occlusion, std::vector<VplPair>&
     LIGHTSKIN_ASSERT(occlusion.size() == vpls.size(), "one occlusion value per VPL pair");
     for (std::size_t i = 0; i < vpls.size(); ++i) {
         vpls[i].diffuse.radiance *= 1.0 - occlusion[i].x;
+        vpls[i].diffuseCap *= 1.0 - occlusion[i].x;
         vpls[i].glossy.radiance *= 1.0 - occlusion[i].y;
     }
 }
@@ -121,7 +123,7 @@ void applyOcclusion(std::span<const glm::dvec2> occlusion, std::vector<VplPair>&
 void interpolateVerticesInto(std::span<const glm::dvec3> vertexPositions, std::span<const glm::dvec3> vertexNormals,
                              std::span<const std::array<std::uint32_t, kVertexNeighbours>> neighbours,
                              std::span<const Receiver> sparseReceivers, std::span<const VplPair> sparse,
-                             std::vector<VplPair>& out) {
+                             std::vector<VplPair>& out, bool irradianceCap) {
     LIGHTSKIN_ASSERT(vertexPositions.size() == vertexNormals.size() && vertexPositions.size() == neighbours.size(),
                      "one normal and one neighbour list per vertex");
     out.resize(vertexPositions.size());
@@ -139,6 +141,7 @@ void interpolateVerticesInto(std::span<const glm::dvec3> vertexPositions, std::s
         const m::VertexWeights weights = m::ls_vertexWeights(dist, cosN, unique);
         VplPair r{};
         double minDD = std::numeric_limits<double>::max(), minDS = std::numeric_limits<double>::max(); // G8
+        double cap = 0.0;                                                                              // G10
         for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
             const double w = weights.w[j];
             if (w == 0.0) continue;
@@ -146,6 +149,7 @@ void interpolateVerticesInto(std::span<const glm::dvec3> vertexPositions, std::s
             const glm::dvec3 x = sparseReceivers[neighbours[v][j]].position;
             minDD = std::min(minDD, glm::dot(s.diffuse.position - x, s.diffuse.position - x) + s.diffuse.r2);
             minDS = std::min(minDS, glm::dot(s.glossy.position - x, s.glossy.position - x) + s.glossy.r2);
+            cap = s.diffuseCap < 0.0 || cap < 0.0 ? -1.0 : std::max(cap, s.diffuseCap); // G10 (< 0: unknown)
             r.diffuse.radiance += w * s.diffuse.radiance;
             r.diffuse.r2 += w * s.diffuse.r2;
             r.diffuse.position += w * s.diffuse.position;
@@ -156,12 +160,14 @@ void interpolateVerticesInto(std::span<const glm::dvec3> vertexPositions, std::s
         }
         r.diffuse.r2 = m::ls_vertexR2Floor(r.diffuse.r2, vertexPositions[v], r.diffuse.position, minDD);
         r.glossy.r2 = m::ls_vertexR2Floor(r.glossy.r2, vertexPositions[v], r.glossy.position, minDS);
+        r.diffuseCap = irradianceCap ? cap : -1.0;
         out[v] = r;
     }
 }
 
 glm::dvec3 shade(const VplPair& vpl, const Surface& surface, const glm::dvec3& eye) {
-    const glm::dvec3 diffuse = m::ls_applyDiffuse(toMath(vpl.diffuse), surface.position, surface.normal);
+    const glm::dvec3 diffuse =
+        m::ls_capIrradiance(m::ls_applyDiffuse(toMath(vpl.diffuse), surface.position, surface.normal), vpl.diffuseCap);
     const glm::dvec3 glossy = m::ls_applyGlossy(toMath(vpl.glossy), surface.position, surface.normal,
                                                 m::ls_toEye(surface.position, eye), surface.exponent);
     return surface.diffuseAlbedo * diffuse / m::kPi + surface.specular * glossy;
@@ -174,9 +180,9 @@ glm::dvec3 bruteForce(std::span<const VirtualAreaLight> lights, const Surface& s
     const glm::dvec3 fs = parameters.glossy ? surface.specular : glm::dvec3(0.0);
     glm::dvec3 sum(0.0);
     for (const VirtualAreaLight& l : lights) {
-        const m::GatherSample g = m::ls_gatherSample(surface.position, surface.normal, d3(l.position), d3(l.normal),
-                                                     double(l.area), d3(l.flux), toEye, surface.exponent, ck,
-                                                     parameters.epsilonL);
+        const m::GatherSample g =
+            m::ls_gatherSample(surface.position, surface.normal, d3(l.position), d3(l.normal), double(l.area),
+                               d3(l.flux), toEye, surface.exponent, ck, parameters.epsilonL);
         sum += m::ls_bruteForceRadiance(g, surface.diffuseAlbedo, fs);
     }
     return sum;

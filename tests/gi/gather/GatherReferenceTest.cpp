@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <numbers>
 
 namespace lightskin::test {
@@ -35,6 +36,55 @@ TEST(GatherReference, SingleCoaxialDiscGivesTheExactDiscFormFactor) {
         const double e = ref::irradiance(std::span(&l, 1), dvec3(0.0), dvec3(0, 0, 1));
         EXPECT_NEAR(e / exitance(l), r2 / (r2 + h * h), 1e-6 * r2 / (r2 + h * h)) << "h = " << h;
     }
+}
+
+// Exact form factor from a differential area parallel to (and facing) a disc of radius r, at
+// height h above the disc's plane and lateral offset s from its axis (Howell's catalogue, B-13).
+double parallelDiscFormFactor(double r, double h, double s) {
+    const double a = h * h + s * s + r * r;
+    return 0.5 * (1.0 - (h * h + s * s - r * r) / std::sqrt(a * a - 4.0 * r * r * s * s));
+}
+
+// Issue 12 part 4 (near field: a VAL nearer to a receiver than its own size). The candidate clamp
+// "bound the form factor by the disc's exact on-axis form factor r^2 / (r^2 + h^2)" can never bind
+// for eq. 3: w cos(theta_i) = r^2 cos(theta_j) cos(theta_i) / (r^2 + d^2) <= r^2 / (r^2 + d^2) <=
+// r^2 / (r^2 + h^2) because h <= d. What eq. 3 gets wrong in the near field is the other way round:
+// beside the disc's rim, close to its plane, cos(theta_j) = h / d -> 0 while the exact form factor
+// stays near 1/2 (half the disc fills half the receiver view): a hole in the light next to a
+// near-field VAL, the black brute-force pixel of docs/BENCHMARKS.md. Both asserted here, against
+// the closed form (not against the shared math).
+TEST(GatherReference, NearFieldDiscIsBoundedByTheOnAxisFormFactorAndUnderestimatedBesideItsRim) {
+    const double area = 1e-4, r = std::sqrt(area / kPi); // a VAL of 1 cm^2 (stride 4 at ~1.3 m)
+    const auto l = disc({0, 0, 0}, {0, 0, 1}, float(area), {1, 1, 1});
+    const double m = exitance(l);
+    std::uint32_t state = 12345u; // a small LCG: random receivers within 2 r, random normals
+    const auto uniform = [&state] {
+        state = state * 1664525u + 1013904223u;
+        return double(state >> 8) / double(1u << 24);
+    };
+    int lit = 0;
+    for (int i = 0; i < 2000; ++i) {
+        const dvec3 x(r * (4.0 * uniform() - 2.0), r * (4.0 * uniform() - 2.0), r * 2.0 * uniform() + 1e-6);
+        const dvec3 n = glm::normalize(dvec3(2.0 * uniform() - 1.0, 2.0 * uniform() - 1.0, -uniform()));
+        const double f = ref::irradiance(std::span(&l, 1), x, n) / m;
+        // float VAL storage (6e-8 relative) bounds the rounding of the comparison
+        EXPECT_LE(f, r * r / (r * r + x.z * x.z) * (1.0 + 1e-6)) << "receiver " << x.x << "," << x.y << "," << x.z;
+        lit += f > 0.0;
+    }
+    EXPECT_GT(lit, 500); // about half the normals face the disc: not a pass on all-zero output
+    // On the axis, facing the disc: eq. 3 is the exact form factor (the closed form above at s = 0).
+    for (double h : {0.1 * r, r, 3.0 * r}) {
+        const double f = ref::irradiance(std::span(&l, 1), dvec3(0, 0, h), dvec3(0, 0, -1)) / m;
+        EXPECT_NEAR(f, parallelDiscFormFactor(r, h, 0.0), 1e-6) << "h = " << h / r << " r";
+    }
+    // Facing the disc, 0.1 r above its plane, over its rim (s = r): exact 0.475, eq. 3 gives
+    // r^2 (h/d)^2 / (r^2 + d^2) = 0.0049 (d^2 = 1.01 r^2), i.e. < 2 % of it.
+    const double h = 0.1 * r;
+    const double exact = parallelDiscFormFactor(r, h, r);
+    const double model = ref::irradiance(std::span(&l, 1), dvec3(r, 0, h), dvec3(0, 0, -1)) / m;
+    EXPECT_NEAR(exact, 0.475, 0.001);
+    EXPECT_NEAR(model, 0.01 / 1.01 / 2.01, 1e-4);
+    EXPECT_LT(model, 0.02 * exact);
 }
 
 TEST(GatherReference, FinelyDiscretisedDiscConvergesToTheDiscFormFactor) {
@@ -210,6 +260,54 @@ TEST(GatherReference, VertexVplIsNeverNearerThanTheNearestGatheredVpl) {
     ref::interpolateVerticesInto(std::vector<dvec3>{dvec3(0.09, 0, 0)}, std::vector<dvec3>{normals[0]},
                                  std::vector<List>{List{0, 0, 0, 0, 0, 0, 0, 0}}, sparse, vpls, far);
     EXPECT_EQ(far[0].diffuse.r2, 0.0);
+}
+
+// G10 (issue 12): one sparse point x at the origin facing +z, one VAL 1 m away, 2 cm above its
+// plane, facing it: x sees the light at cos_x = 0.02, so eq. 11 divides by 0.02. A vertex at x whose
+// normal is tilted 60 deg toward the light shades L'' cos_v / D = E cos_v / cos_x ~ 43 E without the
+// cap; with it, at most the peak channel of what x gathered (colour kept). At x's own normal eq. 10
+// reproduces E (eq. 11), so there the cap does not bind. E is eq. 3-4's closed form for one disc,
+// written here: M r^2 cos_l cos_i / (r^2 + d^2) per channel, M = flux / area.
+TEST(GatherReference, VertexIrradianceCapBoundsTheShadedLightByTheGatheredPeak) {
+    const dvec3 l(1.0, 0.0, 0.02);
+    const double area = 1e-4, d2 = glm::dot(l, l), r2 = area / std::numbers::pi;
+    const dvec3 flux(1.0, 2.0, 3.0);
+    const double cosL = 1.0 / std::sqrt(d2), cosI = 0.02 / std::sqrt(d2); // normal (-1, 0, 0); x's normal +z
+    const dvec3 e = flux / area * (r2 * cosL * cosI / (r2 + d2));
+    std::vector<ref::Receiver> sparse(1);
+    std::vector<ref::GatherSums> sums;
+    ref::gatherInto(std::vector<gi::VirtualAreaLight>{disc(glm::vec3(l), {-1, 0, 0}, float(area), glm::vec3(flux))},
+                    sparse, dvec3(0, 0, 5), ref::GatherParameters{}, sums);
+    std::vector<ref::VplPair> vpls;
+    ref::renormaliseInto(sums, sparse, dvec3(0, 0, 5), vpls);
+    // float inputs (the VAL's position, area and flux are floats): 1e-6 relative
+    EXPECT_NEAR(vpls[0].diffuseCap, e.z, 1e-6 * e.z) << "the sparse point's cap input is its gathered peak";
+    using List = std::array<std::uint32_t, 8>;
+    const dvec3 tilted(std::sin(std::numbers::pi / 3.0), 0.0, 0.5);
+    const std::vector<dvec3> positions{dvec3(0.0), dvec3(0.0)};
+    const std::vector<dvec3> normals{tilted, dvec3(0, 0, 1)};
+    const std::vector<List> neighbours{List{}, List{}};
+    std::vector<ref::VplPair> capped, uncapped;
+    ref::interpolateVerticesInto(positions, normals, neighbours, sparse, vpls, capped, true);
+    ref::interpolateVerticesInto(positions, normals, neighbours, sparse, vpls, uncapped, false);
+    EXPECT_DOUBLE_EQ(capped[0].diffuseCap, vpls[0].diffuseCap);
+    EXPECT_LT(uncapped[0].diffuseCap, 0.0);
+    // rho_d = pi: shade() returns the irradiance itself
+    const auto irradianceAt = [](const ref::VplPair& v, const dvec3& n) {
+        return ref::shade(v, ref::Surface{dvec3(0.0), n, dvec3(std::numbers::pi), dvec3(0.0), 1.0}, dvec3(0, 0, 5));
+    };
+    const dvec3 amplified = irradianceAt(uncapped[0], tilted);
+    EXPECT_GT(amplified.z, 10.0 * e.z) << "without the cap, renormalisation amplifies (cos_v / cos_x ~ 43)";
+    const dvec3 bounded = irradianceAt(capped[0], tilted);
+    EXPECT_NEAR(bounded.z, e.z, 1e-6 * e.z) << "capped at the gathered peak";
+    EXPECT_NEAR(bounded.x / bounded.z, 1.0 / 3.0, 1e-12) << "colour kept";
+    // At the sparse point's own normal eq. 10 reproduces E: the cap does not bind (G4 not reached).
+    const dvec3 own = irradianceAt(capped[1], dvec3(0, 0, 1));
+    EXPECT_NEAR(own.x, e.x, 1e-6 * e.x);
+    EXPECT_NEAR(own.z, e.z, 1e-6 * e.z);
+    // The occluded share o scales the cap like the light.
+    ref::applyOcclusion(std::vector<glm::dvec2>{glm::dvec2(0.25, 0.0)}, vpls);
+    EXPECT_NEAR(vpls[0].diffuseCap, 0.75 * e.z, 1e-6 * e.z);
 }
 
 // Numerical extremes on the reference: finite, non-negative, bounded by sum M_j, guards exact.

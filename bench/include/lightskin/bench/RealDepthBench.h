@@ -12,7 +12,7 @@ struct RealDepthBenchOptions {
     std::string out = "bench-realdepth-out";
     std::string models = "old,robust";
     std::vector<double> sinks{0.0, 0.01};
-    int maxFrames = 5;
+    int maxFrames = 12; ///< cap on each recording's own frame count (5, the .oni 12)
     bool maps = false;
     std::string recordings; ///< comma-separated case names; empty = all
 };

@@ -7,18 +7,32 @@
 //  * Interior: covered pixels whose whole 5x5 neighbourhood is covered (the coverage mask eroded by
 //    2 px), so object borders, where the median mixes in background, never count.
 //  * m = the median of Y over the 5x5 neighbourhood (the pixel included).
-//  * Speckle pixel: |Y - m| > 0.5 max(m, floor), floor = 0.1 x the mean Y of the interior. The floor
+//  * Speckle pixel: |Y - m| > 0.5 max(m, floor), floor = 0.1 x the mean Y of the interior, and the
+//    pixel is not on a smooth profile (below). The floor
 //    restricts the measure to lit neighbourhoods: where m is below a tenth of the object's mean
 //    indirect level (shadowed sides, receivers facing away from all VALs) a 50 % change is a step
 //    of < 5 % of that level, and smooth but steep falloffs toward 0 there (cos(theta_i) -> 0 for
 //    every VAL) would count although nothing is blotchy. (With a floor of 0.01 the bench's real
 //    scenes measure 0.3-1.4 %, all of it in such regions; docs/BENCHMARKS.md.)
+//  * Smooth profile (issue 12: the median alone flags true light that falls steeply over 1-2 px where
+//    its contour curves, e.g. on an object 2 m away, TUM fr3): the pixel is explained by its
+//    neighbours if, along one of the four directions e (horizontal, vertical, both diagonals), it
+//    lies on the straight line through its +-1 neighbours and on the one through its +-2 neighbours
+//    (each within the same 50 % of the floored line value), and across e it is no extremum of its
+//    two +-1 neighbours (within 50 % of the nearer one, floored). Any straight ramp, however steep,
+//    and a falloff whose contour is straight at the 2 px scale are explained; an isolated outlier,
+//    a 1 px streak (an extremum across it), every pixel of a 2x2 blotch and every pixel of a 3x3
+//    blotch are not, because in each direction one of the two pairs reaches background on at least
+//    one side: at the median's own contrast (> 1.5x or < 0.5x the background) for outliers, streaks
+//    and 2x2 blotches; > 3x or < 1/3 for the edge pixels of a 3x3 blotch (a pair half in it), its
+//    centre at 1.5x / 0.5x. Proof by construction: tests/eval/SpeckleTest.cpp.
 //  * Speckle fraction = speckle pixels / interior pixels.
 //  * Black pixel (subset): Y < 0.1 m in a lit neighbourhood (m >= 0.1 x mean Y): a hole in the light.
 //  * Blown pixel (subset): Y > 10 max(m, floor): a spike. Non-finite Y counts as blown and speckle.
 // A median (not a mean) of 25 samples tolerates up to 12 outliers, so a speckle pixel is one that
 // differs from the bulk of its neighbourhood, and an isolated outlier in a smooth image is found
-// exactly once. A smooth image (|grad Y| * 2 px < 0.5 m everywhere) has speckle 0.
+// exactly once. A smooth image (|grad Y| * 2 px < 0.5 m everywhere) has speckle 0, and so has any
+// image that is linear along one direction at every pixel.
 
 #include <opencv2/core/mat.hpp>
 
@@ -42,10 +56,11 @@ struct SpeckleStats {
 /// Measures `linearBgr` (CV_32FC3, linear, any scale) inside `coverage` (CV_8UC1 of the same size,
 /// != 0 = virtual content). `map` (optional): CV_8UC1, 0 outside the interior, 64 interior, 255
 /// speckle (for looking at where it is). `smooth` (optional, CV_8UC1, e.g. smoothSurfaceMaskInto()):
-/// the interior is further restricted to pixels where it is != 0. Throws lightskin::Error on other
-/// types or sizes.
+/// the interior is further restricted to pixels where it is != 0. `smoothProfiles` false: the
+/// median test alone (the definition before the smooth-profile refinement, for comparison). Throws
+/// lightskin::Error on other types or sizes.
 SpeckleStats measureSpeckle(const cv::Mat& linearBgr, const cv::Mat& coverage, cv::Mat* map = nullptr,
-                            const cv::Mat& smooth = cv::Mat());
+                            const cv::Mat& smooth = cv::Mat(), bool smoothProfiles = true);
 
 /// The part of `coverage` where the true indirect light can be expected to be smooth at the 5x5
 /// scale of the measure: covered pixels whose 5x5 neighbourhood is one continuous surface patch:

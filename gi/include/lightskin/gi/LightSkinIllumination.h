@@ -90,6 +90,11 @@ struct LightSkinSettings {
     /// moments of the gather (gathered when this or `occlusion` is on). false = point VPLs (the model
     /// before it).
     bool extendedVplHorizon = true;
+    /// Guard G10 of lightskin_math.glsl (issue 12): a pixel's diffuse irradiance is capped at the
+    /// largest irradiance its vertices' sparse points gathered (W/m^2, peak RGB channel, times their
+    /// unoccluded share), so eq. 11's division by a grazing cos cannot amplify light at the vertex.
+    /// false = no cap (the model before it).
+    bool vertexIrradianceCap = true;
 };
 
 /// What the adaptive mode chose for the last frame.

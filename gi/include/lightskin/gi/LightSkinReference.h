@@ -71,6 +71,10 @@ struct Vpl {
 struct VplPair {
     Vpl diffuse;
     Vpl glossy;
+    /// Sparse points: the peak RGB channel of the gathered L'_d (eq. 7, W/m^2), scaled by (1 - o) like
+    /// the radiance. Vertices (guard G10): the cap of the shaded diffuse irradiance, the largest of
+    /// their contributing sparse points' values; < 0 = no cap (also when a contributing point's is < 0).
+    double diffuseCap = -1.0;
 };
 
 /// eq. 8-11 per receiver.
@@ -84,11 +88,12 @@ void occlusionInto(std::span<const Receiver> receivers, std::span<const VplPair>
 /// L'' *= (1 - o) for both channels.
 void applyOcclusion(std::span<const glm::dvec2> occlusion, std::vector<VplPair>& vpls);
 
-/// eq. 12-13: per vertex (world positions/normals) from its 8 neighbours (indices into `sparse`).
+/// eq. 12-13: per vertex (world positions/normals) from its 8 neighbours (indices into `sparse`);
+/// with `irradianceCap` each vertex's diffuseCap is set (guard G10, LightSkinSettings::vertexIrradianceCap).
 void interpolateVerticesInto(std::span<const glm::dvec3> vertexPositions, std::span<const glm::dvec3> vertexNormals,
                              std::span<const std::array<std::uint32_t, kVertexNeighbours>> neighbours,
                              std::span<const Receiver> sparseReceivers, std::span<const VplPair> sparse,
-                             std::vector<VplPair>& out);
+                             std::vector<VplPair>& out, bool irradianceCap = true);
 
 /// Material of a shaded pixel.
 struct Surface {

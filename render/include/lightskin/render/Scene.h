@@ -82,6 +82,9 @@ struct GiSettings {
     /// LightSkin's gather with a cut through the VAL tree (issue 17; gi::LightSkinSettings::valTreeThreshold,
     /// both backends): 0 = the flat gather over every VAL (the default).
     float valTreeThreshold = 0.0f;
+    /// Not a scene key: with robustRealDepth, false drops only its vertex irradiance cap (guard G10)
+    /// for measurement (`lightskin bench-realdepth --models robust-nocap`).
+    bool robustIrradianceCap = true;
     /// Technique "imperfect-volumes" (gi/ImperfectVolumes.h): the "imperfectVolumes" object.
     gi::ImperfectVolumesSettings imperfectVolumes;
     /// Technique "multiscale-prt" (gi/MultiscalePrt.h): the "multiscalePrt" object. Its cacheDirectory is
