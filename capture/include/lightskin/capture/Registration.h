@@ -1,30 +1,12 @@
 #pragma once
-// Software depth-to-colour registration: reprojects a depth image taken by the depth (IR) camera
-// into the colour camera, for sources whose depth is not registered by the device (.oni files
-// recorded without registration, fakenect dumps, libfreenect's raw disparity mode, OpenNI2
-// devices that cannot register, recordings stored unregistered).
-//
-//   auto registrar = capture::DepthRegistrar::create(calibration);    // once: allocates its tables
-//   registrar.registerInto(rawDepth, frame.depthScaleMetres, registered); // per frame: no allocation
-//
-// Every valid depth pixel (u,v) at z is back-projected with the depth intrinsics (distortion
-// undone), moved into the colour camera with colour_T_depth, projected with the colour intrinsics
-// (distortion applied) and written to the nearest colour pixel. Collisions keep the nearest depth
-// (z-buffer: the surface the colour camera sees). Colour pixels that no depth pixel reaches stay 0
-// (holes stay holes: nothing is interpolated), including the real scene's occlusion shadows.
-// Where the colour camera samples the surface more densely than the depth camera (a colour focal
-// length above the depth one, or surfaces seen at a grazing angle by the depth camera only) the
-// splatting leaves cracks of single pixels; for a Kinect v1 (colour f 525 < depth f 576) it does not.
-//
-// Why not cv::rgbd::registerDepth (OpenCV contrib 4.6, Debian 12), which computes the same thing:
-// on the .oni's frames both give the same 194,062 valid pixels, all within 1 mm of each other, but
-// it assigns a new output matrix on every call (a 600 KB allocation per VGA frame, even into a
-// preallocated buffer; the per-frame code here must not allocate), ignores the depth camera's
-// distortion, and is not faster: 2.76 ms against 2.39 ms CPU time per 640x480 frame, measured side
-// by side (docs/BENCHMARKS.md, "Capture: depth-to-colour registration", capture/bench/RegistrationBenchmark.cpp).
-//
-// Units: depth in raw sensor units on both sides (metres = value * depthScaleMetres); the
-// registered value is the depth along the colour camera's optical axis.
+// Software depth-to-colour registration: reprojects a depth image of the depth (IR) camera into the colour
+// camera, for sources whose depth the device did not register (.oni without registration, fakenect, raw
+// disparity, unregistered recordings). Collisions keep the nearest depth; colour pixels no depth pixel reaches
+// stay 0 (nothing is interpolated). Not cv::rgbd::registerDepth: it allocates per call and ignores the depth
+// distortion. create() allocates its tables once; registerInto() does not allocate.
+// Units: depth in raw sensor units on both sides (metres = value * depthScaleMetres); the registered value is
+// the depth along the colour camera's optical axis. The method, its limits and the comparison with OpenCV:
+// docs/ARCHITECTURE.md, "Depth-to-colour registration".
 
 #include <lightskin/core/CameraIntrinsics.h>
 #include <lightskin/core/Pose.h>

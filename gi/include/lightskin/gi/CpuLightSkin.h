@@ -1,32 +1,11 @@
 #pragma once
-// LightSkin (Lensing & Broll, sections 3-4) with stages 0-4 on the CPU (issue 18): for machines
-// without a GPU, where OpenGL runs on Mesa's llvmpipe and the fragment-pass gather reaches a
-// small fraction of the cores' FMA peak. Per frame:
-//   0. upload: the VAL set is read back from its GL buffer (48 B per VAL) into structure-of-arrays
-//      form; invalid VALs (area <= 0 or NaN, which add exactly 0) are dropped;
-//   1. gather (eq. 3-5, 7): SIMD across sparse points (one lane per point, Google Highway with
-//      runtime dispatch to the best instruction set of the CPU), VALs in tiles that stay in L2,
-//      summed per lane in list order in fixed blocks of 16 VALs like the GL path
-//      (gather_sum_block.glsl);
-//   2. renormalisation (eq. 8-11), 4. interpolation (eq. 12-13) and the occlusion targets:
-//      O(points + vertices) work, evaluated with the double-precision instance of
-//      gi/shaders/lightskin_math.glsl itself (the formulas and guards, e.g. kMinRenormCos, exist once);
-//   3. occlusion (section 3.3, eq. 14): SIMD across sparse points over all occluder discs;
-//   5. per-pixel shading: the per-vertex VPLs are written to the GL buffer the GL path's shading
-//      pass reads (gather_shade.*), which runs unchanged on the GL context.
-// Threads (a oneTBB arena) split the sparse points (gather, occlusion) and vertices (interpolation); a
-// point's sums never depend on which thread computes it, so every result is bit-for-bit
-// independent of the thread count.
-//
-// Units and frames as LightSkinIllumination (see lightskin_math.glsl): world metres, VAL flux W,
-// output radiance W/(sr m^2). The float gather differs from the double reference by summation
-// and approximation rounding only (bounds in tests/gi/gather/CpuLightSkinGLTest.cpp).
-//
-// Settings: of LightSkinSettings this backend uses glossy, occlusion, cParameter, epsilonL,
-// shadingPositionTolerance and adaptive (glossy off without f_s, occlusion off for one convex
-// object; both exact), and valTreeThreshold (issue 17: the gather with a cut, CpuValTreeGather.h). The GL-specific knobs (kCache, computeGather, occluderChunk, ...) and the
-// static-content reuse are ignored. Per-frame code does not allocate once the VAL capacity has
-// grown to the largest set seen.
+// LightSkin (Lensing & Broll, sections 3-4) with stages 0-4 on the CPU (issue 18): for machines without a GPU,
+// where the GL gather on llvmpipe reaches a small fraction of the cores' FMA peak. The gather and occlusion are
+// SIMD across sparse points (Google Highway), threads (oneTBB) split points and vertices; the per-pixel shading
+// stays the GL path's. Results are bit-for-bit independent of the thread count.
+// Units and frames as LightSkinIllumination (world metres, VAL flux W, output radiance W/(sr m^2)). Needs the GL
+// context current for upload and shading; per-frame code does not allocate once the VAL capacity has grown to
+// the largest set seen. Stages, settings used and ignored, rounding: docs/LIGHTSKIN.md, "The CPU backend".
 
 #include <lightskin/gi/IndirectIllumination.h>
 #include <lightskin/gi/LightSkinIllumination.h>
@@ -61,7 +40,7 @@ struct CpuLightSkinStats {
     /// Process CPU time (all threads) of the gather, the occlusion stage and stages 0-4 of
     /// computeVpls(): under load from other processes wall time overstates the work, CPU time does not.
     double gatherCpuMs = 0.0, occlusionCpuMs = 0.0, stagesCpuMs = 0.0;
-    std::string simdTarget; ///< the instruction set the runtime dispatch chose, e.g. "AVX3"
+    std::string simdTarget;          ///< the instruction set the runtime dispatch chose, e.g. "AVX3"
     double valTreeCutPerPoint = 0.0; ///< valTreeThreshold > 0 (issue 17): lights taken per sparse point
 };
 

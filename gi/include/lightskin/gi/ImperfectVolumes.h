@@ -1,32 +1,10 @@
 #pragma once
-// Imperfect volumes (Mavridis & Papaioannou, GRAPP 2011; issue 15), the second indirect-illumination
-// technique behind gi::IndirectIllumination. Per frame, on the GPU (compute shaders, gi/shaders/volumes_*):
-//  1. a cubic grid (resolution^3 voxels) auto-fitted to the virtual content plus a margin for the
-//     real surfaces around it, or fixed;
-//  2. injection of points (section 3.1/3.2): pointsPerTriangle random points per virtual triangle
-//     (p(x) = 1/A; occupancy, normal, the material's diffuse albedo and, with setDirectLights(), their
-//     direct light from the scene's lights, shadowed as the renderer does it) and every VAL of the set (the
-//     depth frame's pixels, and the RSM VALs of the virtual content when the pipeline merges them:
-//     position, normal, exitant radiance flux / (pi area)); a voxel keeps the means;
-//  3. ray marching per voxel (section 3.3): raysPerVoxel stratified directions, one-voxel steps from
-//     the voxel's bounding sphere (sqrt(3)/2 s) to the first occupied voxel or the grid's border,
-//     projected to L1 SH (eq. 3); `bounces` passes (each occupied voxel re-emits direct + albedo / pi
-//     * E between passes); or ambient occlusion (visibility only, within aoRange);
-//  4. reconstruction per G-buffer pixel (eq. 4/5): the point moved s/2 along its normal, the eight
-//     nearest voxels weighted by the clamped cosine, irradiance E = SH . cosine lobe; the target gets
-//     rho_d / pi * E (W/(sr m^2), the diffuse indirect radiance toward the camera) or, in AO mode, the
-//     ambient occlusion in [0, 1] (dimensionless) in rgb.
-// Model choices shared with the double-precision reference: gi/include/lightskin/gi/ImperfectVolumesReference.h.
-// Only the voxels that a reconstruction reads (the eight around each covered pixel's p', and for
-// bounces around each occupied voxel's) are ray-marched: the others' SH is never used.
-//
-// GPU memory: sparse (gi/shaders/volumes_common.glsl): 4 bytes per voxel for each of two slot maps
-// (occupied, ray-marched), plus 112 bytes per occupied voxel (accumulation 48, means 48, exitant 16) and
-// 48 per ray-marched voxel (incoming L1 SH, 4 coefficients x 3 channels x fp32), each array capped at
-// the slots one storage buffer holds (GL_MAX_SHADER_STORAGE_BLOCK_SIZE, 128 MiB on llvmpipe: 2.8 M).
-// Up to 128^3 every voxel has a slot (a dense 256^3 SH array alone would be 805 MB in fp32, 403 MB in
-// fp16); at 256^3 the two maps take 128 MiB and the arrays grow with the surfaces. temporalBlend adds
-// a third map and a copy of the SH.
+// Imperfect volumes (Mavridis & Papaioannou, GRAPP 2011; issue 15), the second indirect-illumination technique
+// behind gi::IndirectIllumination: a voxel grid of the virtual triangles' points and the VALs, ray-marched into
+// L1 SH per voxel (one or more bounces, or ambient occlusion), reconstructed per G-buffer pixel. Compute shaders
+// gi/shaders/volumes_*; model choices shared with ImperfectVolumesReference.h. Output: rho_d / pi * E in
+// W/(sr m^2) (world metres), or AO in [0, 1]. Needs a current GL 4.5 context; GPU memory is sparse (slot maps).
+// Stages, sparse memory and its sizes: docs/LIGHTSKIN.md, "Imperfect volumes".
 
 #include <lightskin/gi/IndirectIllumination.h>
 

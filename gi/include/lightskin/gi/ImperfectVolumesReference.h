@@ -1,27 +1,10 @@
 #pragma once
-// Double-precision CPU reference of every stage of imperfect volumes (Mavridis & Papaioannou,
-// GRAPP 2011; paper 003): 2nd-order spherical harmonics (4 coefficients, eq. 1-3) and the cosine
-// lobe (eq. 4, Ramamoorthi & Hanrahan), the voxel grid, point sampling of triangles (p(x) = 1/A,
-// section 3.1), injection of surface points, ray marching with one-voxel steps from outside the
-// voxel's bounding sphere (section 3.3), ping-pong bounces, and the per-pixel reconstruction of
-// eq. 4/5 (section 3.4). Written from the paper, independently of the shaders
-// (gi/shaders/volumes_*.comp), so that the GL tests compare two implementations.
-//
-// Model choices the paper leaves open (the GL implementation makes the same ones):
-//  * A voxel stores the mean of its points' normals, albedos and exitant radiances (radiance only
-//    over points that carry one). A ray hitting an occupied voxel sees its radiance only from the
-//    front: d . n_v < 0 with n_v the normalised mean normal; a voxel whose normals cancel
-//    (|mean| < 0.5, e.g. both sides of a thin object) is seen from every side.
-//  * Reconstruction (eq. 5) weighs the eight voxel centres nearest to p' = p + s/2 n (the
-//    trilinear cell around p') by max(0, cos) of the direction from p' to each centre, skipping
-//    occupied voxels (their incoming radiance is biased by self-intersection, section 3.3) unless
-//    only occupied ones have weight. The paper uses "the six nearest voxels" for speed; the full
-//    cell always holds a free voxel in front of a wall, edge or corner voxel, so bounces off
-//    closed surfaces are not biased by the occupied voxels' self-intersections.
-//  * Irradiance from the L1 SH is clamped at 0 (SH ringing can make it slightly negative).
-//
-// Units: world frame, metres; radiance W/(sr m^2) linear RGB (a VAL's exitant radiance is
-// flux / (pi area)); irradiance W/m^2. Slow by design, for tests.
+// Double-precision CPU reference of every stage of imperfect volumes (Mavridis & Papaioannou, GRAPP 2011;
+// paper 003: L1 SH, grid, point sampling, injection, ray marching, bounces, reconstruction of eq. 4/5), written
+// from the paper independently of gi/shaders/volumes_*.comp, so that the GL tests compare two implementations.
+// The model choices the paper leaves open (shared by both): docs/LIGHTSKIN.md, "Imperfect volumes".
+// Units: world frame, metres; radiance W/(sr m^2) linear RGB (a VAL's exitant radiance is flux / (pi area));
+// irradiance W/m^2. Slow by design, for tests.
 
 #include <lightskin/core/TriangleMesh.h>
 #include <lightskin/gi/VirtualAreaLight.h>

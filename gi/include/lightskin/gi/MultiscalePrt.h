@@ -1,54 +1,13 @@
 #pragma once
-// Multi-scale precomputed radiance transfer (Umenhoffer, Szirmay-Kalos et al., "Global Illumination in Games
-// with Multi-scale PRT"; issue 16), the third indirect-illumination technique behind gi::IndirectIllumination.
-// The virtual content is rigid and placed once (quasi-static): its own light transport is precomputed in
-// prepare(), the lighting (the frame's VALs and the scene lights) changes every frame.
-//
-// Precompute (CPU, Embree for visibility, gi/src/PrtPrecompute.cpp):
-//  * exit points = the meshes' vertices (world placement at prepare()). Vertices instead of the paper's
-//    texture-atlas texels: the renderer already interpolates per-vertex attributes over the triangles
-//    (LightSkin's shading does the same), the meshes have no unique atlas parameterisation (the OBJ/PLY
-//    inputs have no or overlapping UVs), and the transfer's size scales with the vertex count, which the
-//    scene author controls. Cost: the large-scale term is only as smooth as the tessellation.
-//  * entry points: entryPoints samples, uniform by area over all virtual triangles (p(x) = 1 / A_total),
-//    each standing for A_total / entryPoints of surface (sec. 7.1, the uniform variant).
-//  * transfer T_e[x] (sec. 7.2): irradiance at exit x per unit irradiance at entry e, RGB, by walksPerEntry
-//    random walks: the walk starts at e with flux rho(e) A_total / (entryPoints walksPerEntry), leaves by
-//    cosine sampling (the Lambertian BRDF's importance sampling), continues at each hit with Russian roulette
-//    (survival = max albedo, the flux multiplied by rho / survival); every visited point is a virtual point
-//    light connected to each exit point it sees (Embree shadow ray), irradiance phi cos_y cos_x / (pi d^2).
-//    Connections shorter than obscuranceDistance are skipped: the medium scale (obscurances) handles them.
-//  * clustered PCA (sec. 7.3): k-means of the entry points on (position / scene diagonal, normal), then per
-//    cluster the mean map and the D principal maps (Eigen's SVD of the centred transfer rows); per entry its D
-//    coordinates.
-//  * spectral obscurances per exit point and per entry point (sec. 8), R, G, B separately, obscuranceRays
-//    cosine-distributed rays up to obscuranceDistance: W = 1/pi [ int_open cos + int_closed rho(hit) / a cos ],
-//    a the area-weighted average albedo (0/0 -> 0). W = 1 when obscuranceDistance = 0.
-//  * small scale (sec. 9, AO from displacement/normal maps): off. The mesh loader keeps no normal, height or
-//    occlusion textures (core::Material has a diffuse texture only), so there is nothing to evaluate.
-//
-// Per frame (CPU; prepare's buffers reused, no allocation): the VALs are read back and
-//  * E_val(p) = sum_j L_e,j A_j cos_j cos_p / (d^2 + A_j / pi) (the disc form factor of LightSkin eq. 3 and of
-//    the paper's sec. 10) at every entry and exit point. Visibility is approximated by the receiving point's
-//    spectral obscurance: E_val(p) W(p) (W = 1: no occlusion by the virtual content; the paper multiplies the
-//    obscurance with the incoming light the same way);
-//  * entry irradiance I_e = W(e) E_val(e) + direct light of the point/spot lights with an exact Embree shadow
-//    ray (setLights());
-//  * exit irradiance (sec. 10): E(x) = W(x) E_val(x) + sum_c [ (sum_{e in c} I_e) M_c[x]
-//    + sum_d (sum_{e in c} I_e w_d^e) B_d^c[x] ], i.e. the first bounce of the room's light directly at the
-//    exit points plus the compressed virtual-to-virtual transfer (the scene lights' first bounce is the
-//    renderer's direct light, so only their transfer is added);
-//  * the target gets rho_d / pi * E per covered pixel: the meshes are re-rasterised with E as a per-vertex
-//    attribute (gi/shaders/prt_shade.*), fragments not at the G-buffer's position are discarded.
-// Why the CPU for the run time: the work is (entry + exit points) x VALs form factors plus a clusters x
-// (D + 1) x exits product, ~20 M multiply-adds for synth-orbit, which one OpenMP loop does in milliseconds;
-// on this machine the "GPU" is llvmpipe on the same two cores, so a compute shader would add a dispatch and
-// a read-back without adding hardware. The VAL read-back is the price (48 bytes per VAL).
-//
-// Precompute cache (gi/src/PrtCache.cpp): a binary file <cacheDirectory>/prt-<key>.bin, key = a 64-bit hash
-// of the meshes (positions, normals, indices), their placement, materials and the precompute settings. A
-// missing, truncated, corrupt or mismatching file logs a warning naming the file and the cause and the data
-// are recomputed (and the file rewritten).
+// Multi-scale precomputed radiance transfer (Umenhoffer, Szirmay-Kalos et al., "Global Illumination in Games with
+// Multi-scale PRT"; issue 16), the third indirect-illumination technique behind gi::IndirectIllumination. The
+// virtual content is rigid and placed once: its own multi-bounce transfer (entry points -> mesh vertices, random
+// walks with Embree visibility, compressed by clustered PCA) and spectral obscurances are precomputed in prepare()
+// and cached on disk (a bad cache file is recomputed with a warning naming it); per frame the VALs' and the scene
+// lights' irradiance at entry and exit points is evaluated on the CPU (on llvmpipe a compute shader adds no
+// hardware) and the meshes are re-rasterised with it. World metres; output rho_d / pi * E in W/(sr m^2). Needs a
+// current GL 4.5 context; per-frame code reuses prepare()'s buffers. Precompute, per-frame formulas, cache key:
+// docs/LIGHTSKIN.md, "Multi-scale PRT".
 
 #include <lightskin/gi/IndirectIllumination.h>
 

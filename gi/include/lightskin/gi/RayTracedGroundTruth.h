@@ -1,33 +1,10 @@
 #pragma once
-// Ground truth for the LightSkin approximations: one-bounce indirect light at receiver points from
-// the same VAL discs, with exact ray-traced visibility against the virtual meshes (Embree 3),
-// accumulated in double precision. Measures what the occlusion approximation (section 3.3) and the
-// sparse interpolation cost.
-//
-// Each VAL j is a Lambertian disc of radius r = sqrt(a / pi), radiance L_e = phi / (pi a) on its
-// normal's side. At a receiver x with normal n_x:
-//   E(x) = sum_j  integral over disc j of  L_e,j cos(theta_j) cos(theta_i) / |x - y|^2 V(x, y) dA_y
-// (cosines clamped at 0: parts of a disc below the receiver's horizon or seen from behind add
-// nothing). Two quadratures (GroundTruthSettings):
-//  * stratified (rings x sectors > 1): the disc is cut into rings x sectors cells of equal area
-//    (ring boundaries r sqrt(k / rings)), each evaluated at its area-centre with its own shadow ray.
-//    Converges to the exact integral; error O(1 / cells) where the integrand is smooth, and about
-//    (boundary cells / cells) of a disc's contribution where a shadow edge crosses it.
-//  * centre (rings = sectors = 1): the paper's disc form factor, L_e pi r^2 cos(theta_j) cos(theta_i)
-//    / (r^2 + d^2) (eq. 3; exact for a coaxial facing disc), times the visibility of the disc centre
-//    only: binary, so a half-hidden disc counts fully visible or fully hidden.
-// Outgoing radiance toward the viewer: the diffuse part rho_d / pi * E plus the glossy term of
-// the LightSkin core, eq. 5 of the paper: f_s c (k + 1) cos^k(gamma) per unit of incident
-// L_e cos(theta_j) dA / d^2 (no cos(theta_i) factor; samples below the receiver's horizon add
-// nothing), gamma between the mirror direction of the incident light and the view direction, c =
-// GroundTruthSettings::glossyC (LightSkinSettings::cParameter, default 1 / (2 pi)). The same model as
-// the technique's (lightskin_math.glsl), so LightSkin against this truth measures the sparse
-// interpolation and occlusion approximations, not a difference of reflectance models. (Before
-// issue 20 this was a normalised Phong lobe f_s (k + 2) / (2 pi) cos^k(gamma) cos(theta_i).)
-//
-// Shadow rays run from x toward the sample y over t in [eps, 1 - eps] * |y - x| (eps = rayEpsilon,
-// relative, so the test scales with the scene from millimetres to kilometres); surfaces nearer
-// than that to x or y are ignored (x and y themselves usually lie on surfaces).
+// Ground truth for the LightSkin approximations: one-bounce indirect light at receiver points from the same VAL
+// discs, with exact ray-traced visibility against the virtual meshes (Embree 3), in double precision. It uses
+// the technique's own reflectance model (lightskin_math.glsl, eq. 5), so LightSkin against it measures what the
+// occlusion approximation (section 3.3) and the sparse interpolation cost. World metres; VAL flux W; irradiance
+// W/m^2, radiance W/(sr m^2). The integral, the two quadratures and their error, the shadow-ray epsilon:
+// docs/LIGHTSKIN.md, "The ray-traced ground truth".
 
 #include <lightskin/core/Material.h>
 #include <lightskin/core/TriangleMesh.h>

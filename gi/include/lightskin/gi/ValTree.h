@@ -1,19 +1,12 @@
 #pragma once
-// A cluster tree over a VAL set (issue 17): each node stands for the VALs below it with their total
-// flux, a representative position and normal, a bounding box and a normal cone, so that a gather can
-// take a far or dim cluster as one light (a "cut", as in lightcuts) instead of all its VALs. The
-// approximation and the conservative bound on its error: gi/shaders/val_tree_math.glsl.
-//
-// Layout: node 0 is the root; nodes are in depth-first pre-order; an inner node has two children, a
-// leaf is one valid VAL (index into the input span). Invalid VALs (area <= 0 or NaN: they add exactly 0
-// to the flat gather) are left out; an empty or all-invalid set gives an empty tree.
-// Units and frames as VirtualAreaLight: world metres, m^2, linear RGB W; angles in radians.
-// Two builders, one layout: buildValTreeInto (any VAL set, e.g. RSM or merged: a BVH over positions,
-// median split of the longest axis of the centroid box, O(n log n), depth <= ceil(log2 n) + 1) and
-// buildValQuadtreeInto (VALs from the pixels of an image, e.g. the depth image: its quadtree, O(pixels),
-// no sorting, depth <= ceil(log2 W) + ceil(log2 H) + 1). A traversal stack of kValTreeMaxDepth entries
-// always suffices. Node order: the BVH's is depth-first pre-order; the quadtree's is reversed creation
-// order (children always after their parent); the walk only follows child indices.
+// A cluster tree over a VAL set (issue 17): each node stands for the VALs below it (total flux, representative
+// position and normal, bounding box, normal cone), so that a gather can take a far or dim cluster as one light (a
+// "cut", as in lightcuts). Approximation and error bound: gi/shaders/val_tree_math.glsl.
+// Layout: node 0 is the root, an inner node has two children (always after their parent), a leaf is one valid VAL
+// (index into the input span); invalid VALs (area <= 0 or NaN) are left out, so an empty or all-invalid set gives
+// an empty tree. A traversal stack of kValTreeMaxDepth entries always suffices. Units and frames as
+// VirtualAreaLight: world metres, m^2, linear RGB W; angles in radians. The two builders (BVH, depth-image
+// quadtree), their node order and cost: docs/LIGHTSKIN.md, "Gather with a cut through the VAL tree".
 
 #include <lightskin/gi/VirtualAreaLight.h>
 

@@ -1,18 +1,10 @@
 #pragma once
-// The pipeline as an engine embeds it: a Session owns a scene, a FramePipeline and (optionally) a
-// frame budget, takes frames from a capture::FrameSource or from the host's memory, and draws the
-// result into the host's framebuffer or texture.
-//
-//   auto session = mr::Session::create({}, mr::SceneInput::file("scene.json"), camera);  // GL current
-//   session->submit(hostFrame);                   // RGB + depth + pose of the host, host memory
-//   session->render({.framebuffer = myFbo});      // lit virtual objects over the host's image
-//
-// GL: every call that takes a GL context (create, submit/process/processNext, render, destruction)
-// needs the same GL 4.5 core context current on the calling thread; the host owns it. The session
-// leaves the GL state as it found it (gl::StateGuard lists what that covers). Threading: a session
-// is used by one thread at a time (the one whose context is current); sessions are independent.
-// Errors: lightskin::Error naming the file, frame or key and the cause; after an error in a frame
-// the session stays usable (the next frame starts from scratch).
+// The pipeline as an engine embeds it: a Session owns a scene, a FramePipeline and (optionally) a frame budget,
+// takes frames from a capture::FrameSource or the host's memory, and draws into the host's framebuffer or texture.
+// GL: create, submit/process/processNext, render and destruction need the same GL 4.5 core context current on the
+// calling thread (the host owns it); the GL state is left as found (gl::StateGuard). One thread at a time per
+// session. Errors: lightskin::Error naming the file, frame or key; the session stays usable after one.
+// Usage in ten lines, threading and errors: docs/PLUGIN.md.
 
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/mr/FrameBudget.h>

@@ -1,20 +1,11 @@
 #pragma once
-// Compositing the rendered virtual layers onto the colour camera image.
-//
-// Inputs per frame, all the colour camera's size:
-// - camera image: CV_8UC3 BGR, sRGB (RgbdFrame::colour);
-// - virtual colour: CV_8UC4 RGBA from Renderer::readOutputsInto (a = 255 covered, 0 not), rendered
-//   with the pinhole part of the colour intrinsics;
-// - virtual depth: CV_32FC1 camera-frame z in metres (0 = not covered);
-// - real depth: CV_32FC1 metres registered to the colour camera (the filtered depth), 0 = missing;
-//   may be empty (no occlusion by real geometry).
-// Distortion: when the colour intrinsics have distortion, the virtual layers are warped (nearest
-// neighbour, maps computed once in create()) so that they line up with the distorted camera image.
-//
-// Occlusion by real geometry with a soft band (see visibility()): the output pixel is
-//   out = round(camera * (1 - a) + virtual * a),  a = coverage * visibility(z_virtual, z_real).
-// Where a == 0 the camera pixel is copied unchanged, so with no virtual content the output equals
-// the input bit for bit.
+// Compositing the rendered virtual layers onto the colour camera image. Inputs per frame, all of the colour
+// camera's size: camera image CV_8UC3 BGR sRGB; virtual colour CV_8UC4 RGBA from Renderer::readOutputsInto
+// (a = 255 covered, 0 not; pinhole part of the intrinsics); virtual depth CV_32FC1 camera-frame z in metres
+// (0 = not covered); real depth CV_32FC1 metres registered to colour, 0 = missing (may be empty: no occlusion).
+// With distortion the virtual layers are warped (nearest neighbour, maps from create()).
+// out = round(camera * (1 - a) + virtual * a), a = coverage * visibility(z_virtual, z_real) (soft band, see
+// visibility()); where a == 0 the camera pixel is copied, so without virtual content output == input bit for bit.
 
 #include <lightskin/core/CameraIntrinsics.h>
 #include <lightskin/gi/DifferentialIrradiance.h>
@@ -63,19 +54,12 @@ private:
     cv::Mat warpedColour_, warpedDepth_, warpedLinear_;
 };
 
-/// Differential rendering on the camera image (Debevec 1998: I_final = I_camera + albedo * (E_with -
-/// E_without), as radiance: L_final = L_camera + rho / pi * dE). The real albedo is estimated per
-/// pixel and channel from the camera itself, assuming a Lambertian surface lit by E_without (the
-/// room's VALs plus the in-room lights, which is all the light the differential models):
-///   rho = clamp(pi * L_camera / E_without, 0, 1),  L_camera = p / 2^exposureStops,
-/// p the sRGB-decoded camera value; where E_without <= 0 the albedo is unknown and the pixel stays.
-/// Unclamped this is L_final = L_camera * E_with / E_without: the real surface darkens by exactly
-/// the fraction of its modelled light the objects block. The clamp keeps surfaces brighter than
-/// their modelled light (specular, light from outside the depth frame) from over-darkening.
-/// Only pixels with differential.affected != 0 and dE != 0 are rewritten (sRGB-encoded, rounded,
-/// clamped to [0, 1]); all others are copied bit for bit. `cameraBgr` CV_8UC3 sRGB; the
-/// differential images of its size; `out` CV_8UC3 (reallocated only when the size changes; must
-/// not alias the camera image).
+/// Differential rendering on the camera image (Debevec 1998): L_final = L_camera + rho / pi * dE, with the real
+/// albedo rho = clamp(pi * L_camera / E_without, 0, 1) estimated per pixel and channel from the camera
+/// (L_camera = the sRGB-decoded camera value / 2^exposureStops); pixels with E_without <= 0,
+/// differential.affected == 0 or dE == 0 are copied bit for bit. Why this estimate and the clamp: docs/LIGHTSKIN.md,
+/// "Differential irradiance". `cameraBgr` CV_8UC3 sRGB; the differential images of its size; `out` CV_8UC3 (reallocated
+/// only when the size changes; must not alias the camera image).
 void applyDifferentialInto(const cv::Mat& cameraBgr, const gi::DifferentialImages& differential, float exposureStops,
                            cv::Mat& out);
 

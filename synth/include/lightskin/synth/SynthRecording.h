@@ -1,22 +1,8 @@
 #pragma once
-// Writes a synthetic scene as a lightskin recording (capture/Recording.h, recordings/README.md)
-// with its exact extras beside it:
-//
-//   <folder>/lightskin-recording.json, frames.jsonl, colour/, depth/   the recording (capture's
-//        format): sRGB colour, 16-bit depth, intrinsics, exact groundTruth_world_T_camera per frame
-//   <folder>/synth/scene.json              the scene description it was made from (regenerate with
-//                                          `lightskin synth <folder>/synth/scene.json --out <new>`)
-//   <folder>/synth/ground-truth.json       exposure, depth scale, noise switch, the tags (family,
-//                                          id, size, world_T_tag, black-border corners in the world)
-//   <folder>/synth/tag-world.json          the tags as a tracking world (tracking/TagWorld.h format)
-//   <folder>/synth/normals/000000.tiff     optional, per frame: CV_32FC3 float TIFF (deflate,
-//   <folder>/synth/positions/000000.tiff   lossless), exact world normals / world positions (x,y,z
-//   <folder>/synth/radiance/000000.tiff    in channels 0,1,2), linear radiance (B,G,R) before exposure
-//   <folder>/synth/present/000000.png      optional (SynthRecordingOptions::presentObjects): the frame
-//                                          with a lightskin scene's virtual objects really in the room
-//                                          (PresentObjects.h), encoded like colour/; the ground truth
-//                                          of a differential composite (`lightskin replay` compares)
-//
+// Writes a synthetic scene as a lightskin recording (capture/Recording.h, recordings/README.md: sRGB colour,
+// 16-bit depth, intrinsics, exact groundTruth_world_T_camera per frame) with its exact extras in <folder>/synth/
+// (the scene description, ground truth and tags, optional float normals/positions/radiance TIFFs and
+// present-object frames). The files and their formats: docs/SYNTH.md, "Output layout".
 // Needs a current OpenGL 4.5 core context.
 
 #include <lightskin/synth/PresentObjects.h>

@@ -1,24 +1,12 @@
 #pragma once
 // Per-frame camera tracking: detection -> pose -> temporal filter, with an honest state.
-//
-// Output: world_T_camera of the COLOUR camera (camera frame x right, y down, z forward; world
-// frame from the TagWorld; metres).
-//
-// States:
-//   Tracking  this frame's tags gave an accepted pose (filtered).
-//   Held      no acceptable measurement this frame (no tag, reprojection error, possible flip, or a
-//             pose too poorly determined to place the world's tags: maxWorldCornerStdPx); the last
-//             pose is repeated (not extrapolated) for at most TrackerSettings::maxHeldFrames
-//             consecutive frames.
-//   Lost      no pose at all (world_T_camera is empty): before the first measurement, after
-//             maxHeldFrames frames without one, or after reset(). Rendering must not place
-//             virtual content with a pose from a Lost frame.
-// Flips: a single tag's two pose solutions (planar ambiguity, PoseEstimation.h) are chosen by
-// reprojection error when it separates them at all (ratio >= historyRatio; below
-// ambiguityRatio the view is still flagged ambiguous), otherwise by closeness to the previous pose. A measurement that
-// would move the orientation by more than maxJumpDegrees in one frame is rejected (Held) when it is ambiguous; when it
-// is unambiguous it is accepted, the filter restarts from it and `poseJumped` says so. The first frame after Lost with
-// an ambiguous view picks the lower error and sets `ambiguous`. So a flip is never silent.
+// Output: world_T_camera of the COLOUR camera (camera frame x right, y down, z forward; world frame from the
+// TagWorld; metres).
+// States: Tracking (this frame's tags gave an accepted, filtered pose); Held (no acceptable measurement: the last
+// pose repeated, not extrapolated, for at most TrackerSettings::maxHeldFrames frames); Lost (no pose, empty
+// world_T_camera: rendering must not place virtual content with it). A pose flip is never silent: it is rejected
+// (Held) or flagged (`poseJumped`, `ambiguous`). When each state is entered and how flips are resolved:
+// docs/ARCHITECTURE.md, "Tracking states and pose flips".
 
 #include <lightskin/core/CameraIntrinsics.h>
 #include <lightskin/core/RgbdFrame.h>
