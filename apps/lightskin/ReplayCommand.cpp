@@ -413,6 +413,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
             rf.vplNonFinite = output.vplNonFinite;
             rf.giReused = output.giReused;
             rf.giChangeMeasure = output.giChangeMeasure;
+            rf.volumeVoxelsDropped = output.volumeVoxelsDropped;
             rf.linearNanPixels = output.linearNanPixels;
             rf.linearInfPixels = output.linearInfPixels;
             if (havePresent) {

@@ -174,6 +174,7 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
         if (f.vplNonFinite >= 0) j["vplNonFinite"] = f.vplNonFinite;
         if (f.giReused >= 0) j["giReused"] = f.giReused == 1;
         if (f.giChangeMeasure >= 0.0f) j["giChangeMeasure"] = f.giChangeMeasure;
+        if (f.volumeVoxelsDropped >= 0) j["volumeVoxelsDropped"] = f.volumeVoxelsDropped;
         if (!f.giSettings.empty()) j["giSettings"] = f.giSettings;
         if (f.predictedMs >= 0.0) j["budgetPredictedMs"] = f.predictedMs;
         for (const auto& st : f.cpuTimes) j["cpuMs"][st.name] = st.milliseconds;

@@ -30,6 +30,7 @@ struct ReportFrame {
     double errorVsBruteForce = -1.0; ///< --view error: mean relative error of the technique's indirect light, else < 0
     int giReused = -1;               ///< --adaptive: 1 = static content, VPLs reused; 0 = recomputed; else < 0
     float giChangeMeasure = -1.0f;   ///< --adaptive with a tolerance: LightSkinChoice::staticChangeBound, else < 0
+    std::int64_t volumeVoxelsDropped = -1; ///< imperfect volumes: voxels dropped for want of slots, else < 0
     std::int64_t linearNanPixels = 0; ///< pixels of the linear composite with a NaN channel (mr::FrameOutput)
     std::int64_t linearInfPixels = 0; ///< ... with an infinite channel (and no NaN)
     std::string linearImage;          ///< --linear-out: linear composite written for this frame, or empty

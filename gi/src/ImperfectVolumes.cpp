@@ -1,6 +1,7 @@
 #include "LightsShaders.h"
 
 #include <lightskin/core/Error.h>
+#include <lightskin/core/Log.h>
 #include <lightskin/gi/ImperfectVolumes.h>
 #include <lightskin/gl/ShaderLibrary.h>
 
@@ -112,6 +113,8 @@ struct ImperfectVolumes::Impl {
     gl::Buffer accumulation, voxels, exitant, incoming, directions;
     gl::Buffer history, historySlot; // temporalBlend: the previous frame's SH and its slot map
     std::uint32_t capacity = 0;
+    glm::uvec2 dropped{0u};      // of the last render(): requested slots beyond capacity
+    bool overflowWarned = false; // one warning per technique object, not per frame
     bool historyValid = false;
     std::uint32_t frame = 0;
     std::unordered_map<std::uint32_t, MeshBuffers> meshes;
@@ -203,6 +206,7 @@ std::unique_ptr<ImperfectVolumes> ImperfectVolumes::create(const ImperfectVolume
                         std::to_string(impl.voxelCount * 4ull) + " bytes, more than one storage buffer holds here (" +
                         std::to_string(maxBlock) + ")");
     impl.capacity = std::uint32_t(std::min<GLint64>(GLint64(impl.voxelCount), maxBlock / slotBytes));
+    if (settings.maxSlots > 0) impl.capacity = std::min(impl.capacity, settings.maxSlots);
     const GLsizeiptr voxels = GLsizeiptr(impl.voxelCount), slots = GLsizeiptr(impl.capacity);
     impl.occupiedSlot = gl::Buffer::create(voxels * GLsizeiptr(sizeof(std::uint32_t)));
     impl.activeSlot = gl::Buffer::create(voxels * GLsizeiptr(sizeof(std::uint32_t)));
@@ -451,6 +455,24 @@ void ImperfectVolumes::render(const ValSetView& lights, std::span<const MeshInst
     glBindImageTexture(0, 0, 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA32F);
     impl.timer.end();
     impl.timer.collect(impl.stageTimes);
+
+    // Only a grid with more voxels than slots (256^3, or a maxSlots cap) can drop voxels: read the
+    // two counters back then, so smaller grids keep the frame free of this sync.
+    if (impl.capacity < impl.voxelCount) {
+        glm::uvec2 requested(0u);
+        glGetNamedBufferSubData(impl.counters.id(), 0, GLsizeiptr(sizeof(requested)), &requested);
+        impl.dropped = glm::uvec2(requested.x > impl.capacity ? requested.x - impl.capacity : 0u,
+                                  requested.y > impl.capacity ? requested.y - impl.capacity : 0u);
+        if ((impl.dropped.x > 0u || impl.dropped.y > 0u) && !impl.overflowWarned) {
+            impl.overflowWarned = true;
+            log::warning("imperfect volumes: " + std::to_string(s.resolution) +
+                         "^3 grid: " + std::to_string(impl.dropped.x) + " of " + std::to_string(requested.x) +
+                         " occupied and " + std::to_string(impl.dropped.y) + " of " + std::to_string(requested.y) +
+                         " ray-marched voxels dropped (" + std::to_string(impl.capacity) +
+                         " slots); their light is missing: use a smaller gi.imperfectVolumes resolution "
+                         "(this warning is given once)");
+        }
+    }
 }
 
 void ImperfectVolumes::setDirectLights(std::span<const VolumeLight> lights, std::uint32_t shadowDistanceCubes) {
@@ -501,6 +523,7 @@ std::vector<glm::vec4> ImperfectVolumes::downloadIncoming() const {
 }
 
 std::uint32_t ImperfectVolumes::slotCapacity() const { return impl_->capacity; }
+glm::uvec2 ImperfectVolumes::lastDroppedVoxels() const { return impl_->dropped; }
 
 glm::uvec2 ImperfectVolumes::downloadVoxelCounts() const {
     glm::uvec2 counts(0u);

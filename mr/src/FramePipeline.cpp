@@ -520,6 +520,7 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     out.vplNonFinite = -1;
     out.giReused = -1;
     out.giChangeMeasure = -1.0f;
+    out.volumeVoxelsDropped = -1;
     out.linearNanPixels = 0;
     out.linearInfPixels = 0;
     out.coveredPixels = 0;
@@ -665,6 +666,10 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
             lightSkin && lightSkin->settings().adaptive) {
             out.giReused = lightSkin->lastChoice().reused ? 1 : 0;
             out.giChangeMeasure = lightSkin->lastChoice().staticChangeBound;
+        }
+        if (const auto* volumes = dynamic_cast<const gi::ImperfectVolumes*>(s.technique.get()); volumes) {
+            const glm::uvec2 dropped = volumes->lastDroppedVoxels();
+            out.volumeVoxelsDropped = std::int64_t(dropped.x) + std::int64_t(dropped.y);
         }
     }
     addTime(out.cpuTimes, used, "gbuffer+gi", msSince(t));

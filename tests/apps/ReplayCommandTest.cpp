@@ -264,6 +264,25 @@ TEST(ReplayCommand, LinearOutWritesFloatImagesMatchingThePngs) {
     }
 }
 
+TEST(ReplayCommand, ImperfectVolumesReportTheirDroppedVoxels) {
+    // A 16^3 grid has a slot for every voxel: the report must carry the figure, and it must be 0
+    // (the overflow itself, and its one warning, are provoked in gi_volumes_gl_test).
+    const fs::path scratch = test::scratchDir("replay_volumes");
+    const std::string scene = R"({"version": 1,
+      "objects": [{"mesh": "cube.obj", "transform": {"translation": [-0.1, 0, -0.3], "scale": 0.15}, "material": {"diffuseAlbedo": 0.9}}],
+      "gi": {"technique": "imperfect-volumes", "valStride": 2,
+             "imperfectVolumes": {"resolution": 16, "raysPerVoxel": 16, "pointsPerTriangle": 4}}})";
+    const auto [recording, out, r] = replayTestRecording(scratch, scene, " --max-frames 2 --no-video --no-compare");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
+    ASSERT_EQ(report["frames"].size(), 2u);
+    for (const auto& frame : report["frames"]) {
+        ASSERT_TRUE(frame["giActive"].get<bool>()) << frame.dump();
+        EXPECT_EQ(frame["volumeVoxelsDropped"].get<int>(), 0) << frame.dump();
+    }
+    EXPECT_EQ(r.err.find("voxels dropped"), std::string::npos) << r.err;
+}
+
 TEST(ReplayCommand, VirtualBounceReportsRsmValsAndTime) {
     const fs::path scratch = test::scratchDir("replay_bounce");
     const std::string scene = R"({"version": 1,
@@ -280,6 +299,7 @@ TEST(ReplayCommand, VirtualBounceReportsRsmValsAndTime) {
         EXPECT_GT(frame["rsmVals"].get<int>(), 10) << frame.dump();
         EXPECT_LT(frame["rsmVals"].get<int>(), 6 * 32 * 32);
         EXPECT_EQ(frame["valsDropped"].get<int>(), 0);
+        EXPECT_FALSE(frame.contains("volumeVoxelsDropped")) << "an imperfect volumes figure in a LightSkin run";
         EXPECT_GT(frame["vals"].get<int>(), 100); // depth VALs still counted on their own
         EXPECT_GT(frame["cpuMs"]["rsm"].get<double>(), 0.0);
         EXPECT_GE(frame["gpuMs"]["rsm"].get<double>(), 0.0);

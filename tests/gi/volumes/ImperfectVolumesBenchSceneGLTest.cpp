@@ -4,11 +4,20 @@
 // from the voxel size and the ray count, as in ImperfectVolumesTruthGLTest: the position error of the
 // SH (voxel centres around p' = p + s/2 n, silhouettes grown by the hit voxels), the quadrature error of
 // eq. 3 at discontinuities, and against the exact irradiance also the L1 truncation of the cosine lobe.
+//
+// LightSkin (gi::LightSkinIllumination, default settings but glossy off: the volumes are diffuse, so
+// both are compared on the irradiance) runs on the same scene and VALs against the same Embree truth in
+// its disc model (discRings = 1, as gi_truth_gl_test), within the budget derived in
+// tests/gi/gather/LightSkinTruthGLTest.cpp (interpolation reach and horizon terms, + the blocked light
+// B since occlusion is on), asserted like there on the relative L1 error. Then the two techniques must
+// agree within the sum of their budgets (+ the difference of the two truths' disc and point models).
 #include "GlTestEnvironment.h"
 
 #include <lightskin/bench/BenchScene.h>
 #include <lightskin/gi/ImperfectVolumes.h>
+#include <lightskin/gi/LightSkinIllumination.h>
 #include <lightskin/gi/RayTracedGroundTruth.h>
+#include <lightskin/gi/SparsePointSampler.h>
 #include <lightskin/gl/Objects.h>
 #include <lightskin/gl/Readback.h>
 
@@ -16,8 +25,11 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
+#include <vector>
 
 namespace lightskin::test {
 namespace {
@@ -53,9 +65,33 @@ IncidentL1 incident(const gi::RayTracedGroundTruth& rt, std::span<const gi::Virt
     return out;
 }
 
+/// LightSkin's interpolation budget at one receiver as a fraction of its diffuse light: the diffuse
+/// part of interpolationBudget() in tests/gi/gather/LightSkinTruthGLTest.cpp (derivation there):
+/// parallax 3 (delta / r_eff)^2 plus the horizon term sin(Delta) of the lights within Delta of the
+/// horizon, capped at 1. `reach` = delta (metres), `normalTurn` = Delta (rad).
+double lightSkinDiffuseBudget(std::span<const gi::VirtualAreaLight> vals, const dvec3& p, const dvec3& n, double reach,
+                              double normalTurn) {
+    const double sinTurn = std::sin(std::min(normalTurn, 0.5 * kPi));
+    double irradiance = 0.0, inverseR2 = 0.0, horizon = 0.0;
+    for (const auto& v : vals) {
+        const dvec3 d = dvec3(v.position) - p;
+        const double r2 = glm::dot(d, d), dist = std::sqrt(r2);
+        const dvec3 toLight = d / dist;
+        const double cosE = std::max(0.0, -glm::dot(dvec3(v.normal), toLight));
+        const double cosI = glm::dot(n, toLight);
+        const double mw = double(v.flux.x + v.flux.y + v.flux.z) * cosE / (kPi * r2);
+        if (std::abs(cosI) < sinTurn) horizon += mw * sinTurn;
+        if (cosI <= 0.0) continue;
+        irradiance += mw * cosI;
+        inverseR2 += mw * cosI / r2;
+    }
+    if (!(irradiance > 0.0)) return 0.0;
+    return std::min(1.0, 3.0 * reach * reach * inverseR2 / irradiance + horizon / irradiance);
+}
+
 using ImperfectVolumesBenchSceneGLTest = GlTest;
 
-TEST_F(ImperfectVolumesBenchSceneGLTest, EveryPixelAndTheTotalLightWithinTheVoxelBudgetOfTheEmbreeTruth) {
+TEST_F(ImperfectVolumesBenchSceneGLTest, EveryPixelAndTheTotalLightWithinTheVoxelBudgetOfTheEmbreeTruthAndOfLightSkin) {
     constexpr int kWidth = 40, kHeight = 30, kResolution = 32, kRays = 4096;
     bench::GatherScene scene = bench::gatherScene(kWidth, kHeight);
     // 40 x 40 VALs on the wall (6 x 4 cm) and on the ceiling (6 x 6 cm): spaced below the voxel edge
@@ -85,10 +121,50 @@ TEST_F(ImperfectVolumesBenchSceneGLTest, EveryPixelAndTheTotalLightWithinTheVoxe
     gl::readTextureRgba32fInto(albedoTexture, albedo);
     (void)albedoTexture.release(); // the G-buffer owns it
 
+    // LightSkin with the project's sparse points (1024 per mesh, production sampler; the bench meshes
+    // are finer than the spacing, so no refinement is needed and the G-buffer's vertices stay valid).
+    gi::SparsePointSettings sparse;
+    gi::LightSkinSettings lightSkinSettings;
+    lightSkinSettings.glossy = false;
+    auto lightSkin = gi::LightSkinIllumination::create(lightSkinSettings, gi::samplingProvider(sparse));
+    lightSkin->prepare(scene.instances);
+    gl::Texture lightSkinOutput = gl::Texture::create2D(GL_RGBA32F, kWidth, kHeight);
+    lightSkin->render({valBuffer.id(), std::uint32_t(vals.size())}, scene.instances, scene.gbuffer.view(), scene.view,
+                      lightSkinOutput.id());
+    cv::Mat lightSkinResult;
+    gl::readTextureRgba32fInto(lightSkinOutput, lightSkinResult);
+    // The reach delta = sqrt(0.3 (1.6 h)^2 + e^2 / 3) and normal turn Delta = delta / R per mesh
+    // (LightSkinTruthGLTest's checkScene): the sphere (R = 0.4 m) and the floor (a plane).
+    std::vector<double> reach, normalTurn;
+    const double curvature[2] = {0.4, std::numeric_limits<double>::infinity()};
+    for (std::size_t m = 0; m < 2; ++m) {
+        const double d8 = 1.6 * gi::nominalSpacing(scene.meshes[m], sparse.pointCount);
+        const double e = gi::longestEdge(scene.meshes[m]);
+        reach.push_back(std::sqrt(0.3 * d8 * d8 + e * e / 3.0));
+        normalTurn.push_back(reach.back() / curvature[m]);
+    }
+
     std::vector<gi::GroundTruthMesh> truthMeshes;
     for (const auto& instance : scene.instances)
         truthMeshes.push_back({instance.mesh, glm::dmat4(instance.world_T_model)});
     const gi::RayTracedGroundTruth rt = gi::RayTracedGroundTruth::create(truthMeshes);
+    // LightSkin's truth: the same Embree scene in the core's disc model with disc-centre visibility.
+    std::vector<gi::GroundTruthReceiver> receivers;
+    for (int y = 0; y < kHeight; ++y)
+        for (int x = 0; x < kWidth; ++x) {
+            const cv::Vec4f pos = position.at<cv::Vec4f>(y, x);
+            if (pos[3] <= 0.0f) continue;
+            const cv::Vec4f nrm = normal.at<cv::Vec4f>(y, x);
+            gi::GroundTruthReceiver r;
+            r.position = dvec3(pos[0], pos[1], pos[2]);
+            r.normal = glm::normalize(dvec3(nrm[0], nrm[1], nrm[2]));
+            receivers.push_back(r);
+        }
+    std::vector<gi::GroundTruthResult> discTruth(receivers.size());
+    gi::GroundTruthSettings truthSettings;
+    truthSettings.discRings = truthSettings.discSectors = 1;
+    truthSettings.threads = 2;
+    rt.compute(vals, receivers, discTruth, truthSettings);
 
     const double s = double(settings.size) / kResolution;
     // Quadrature of eq. 3 with N stratified cells: only cells straddling a discontinuity are wrong,
@@ -101,6 +177,8 @@ TEST_F(ImperfectVolumesBenchSceneGLTest, EveryPixelAndTheTotalLightWithinTheVoxe
     const double quadrature = 5.0 * (4.0 * kPi / kRays * 0.75 * 0.5) * std::sqrt(straddling / 3.0);
     double totalVolume = 0.0, totalL1 = 0.0, totalExact = 0.0, totalBudget = 0.0, totalBand = 0.0;
     int covered = 0, informative = 0;
+    double lsTotal = 0.0, lsError = 0.0, lsAllowed = 0.0, discVisible = 0.0, discUnoccluded = 0.0, totalDisc = 0.0;
+    std::vector<double> volumeE, volumeBound, lightSkinE, lightSkinBound, truthGap, pixelLight;
     for (int y = 0; y < kHeight; ++y)
         for (int x = 0; x < kWidth; ++x) {
             const cv::Vec4f pos = position.at<cv::Vec4f>(y, x);
@@ -135,6 +213,26 @@ TEST_F(ImperfectVolumesBenchSceneGLTest, EveryPixelAndTheTotalLightWithinTheVoxe
                                             << " (voxel term " << voxel << ", quadrature " << quadrature << ")";
             EXPECT_NEAR(e, here.exact, budget + here.bandBound) << "pixel " << x << "," << y << ": against the truth";
             if (budget < here.l1) ++informative;
+            // LightSkin against its truth (receivers are in the same order as this loop's pixels).
+            const gi::GroundTruthResult& disc = discTruth[std::size_t(covered - 1)];
+            const std::size_t mesh = p.z > 0.075 ? 0 : 1; // the sphere's bottom is at z = 0.15, the floor at 0
+            const double eLs = kPi * double(lightSkinResult.at<cv::Vec4f>(y, x)[0]) / rho;
+            ASSERT_TRUE(std::isfinite(eLs));
+            const double fraction = lightSkinDiffuseBudget(vals, p, n, reach[mesh], normalTurn[mesh]);
+            const double blockedHere = disc.unoccludedIrradiance.x - disc.irradiance.x;
+            lsTotal += eLs;
+            lsError += std::abs(eLs - disc.irradiance.x);
+            lsAllowed += fraction * disc.irradiance.x;
+            discVisible += disc.irradiance.x;
+            discUnoccluded += disc.unoccludedIrradiance.x;
+            totalDisc += disc.irradiance.x;
+            volumeE.push_back(e);
+            volumeBound.push_back(budget);
+            lightSkinE.push_back(eLs);
+            lightSkinBound.push_back(fraction * disc.irradiance.x + blockedHere);
+            // The truths in between, computed exactly: the L1 band's (volumes) and the disc model's (LightSkin).
+            truthGap.push_back(std::abs(here.l1 - disc.irradiance.x));
+            pixelLight.push_back(here.exact);
             totalVolume += e;
             totalL1 += here.l1;
             totalExact += here.exact;
@@ -150,7 +248,36 @@ TEST_F(ImperfectVolumesBenchSceneGLTest, EveryPixelAndTheTotalLightWithinTheVoxe
     // a volume that lost its light (all-zero output) fails there.
     EXPECT_GT(informative, covered / 2) << informative << " of " << covered << " pixels with budget < E1";
     EXPECT_LT(totalBudget, totalL1);
+
+    // LightSkin against the truth, asserted as in gi_truth_gl_test: relative L1 within the summed
+    // interpolation budget plus the blocked fraction B (occlusion on: no worse than no occlusion).
+    ASSERT_EQ(std::size_t(covered), receivers.size());
+    ASSERT_GT(discVisible, 0.0);
+    const double blocked = 1.0 - discVisible / discUnoccluded;
+    const double lsBudget = lsAllowed / discVisible + blocked;
+    EXPECT_LE(lsError / discVisible, lsBudget) << "LightSkin relative L1 against the Embree truth";
+    EXPECT_LT(lsBudget, 1.0) << "LightSkin's budget must be informative (an all-zero image has relative L1 1)";
+    EXPECT_GT(lsTotal, 0.5 * discVisible) << "LightSkin must deliver the light, not zeros";
+    // The two techniques against each other: |V - LS| <= |V - E1| + |E1 - E_disc| + |E_disc - LS|
+    // (triangle inequality; E1 the truth's L1 irradiance the volumes approximate, E_disc the disc-model
+    // truth LightSkin approximates, their gap computed, not bounded), in total and on every pixel
+    // where both budgets are below the light (elsewhere a budget says nothing).
+    const double totalAllowed = totalBudget + std::abs(totalL1 - totalDisc) + lsBudget * discVisible;
+    EXPECT_NEAR(totalVolume, lsTotal, totalAllowed);
+    int compared = 0;
+    for (std::size_t i = 0; i < volumeE.size(); ++i) {
+        if (!(volumeBound[i] < pixelLight[i] && lightSkinBound[i] < pixelLight[i])) continue;
+        ++compared;
+        EXPECT_NEAR(volumeE[i], lightSkinE[i], volumeBound[i] + lightSkinBound[i] + truthGap[i])
+            << "pixel " << i << " of the covered ones: volumes against LightSkin";
+    }
+    EXPECT_GT(compared, covered / 4) << "the per-pixel comparison must cover a good part of the image";
+    std::printf("LightSkin: total E %.4g, truth %.4g, relative L1 %.4f (budget %.4f, blocked %.4f); "
+                "volumes vs LightSkin total %.4g vs %.4g (allowed %.4g), %d of %d pixels compared\n",
+                lsTotal, discVisible, lsError / discVisible, lsBudget, blocked, totalVolume, lsTotal, totalAllowed,
+                compared, covered);
     RecordProperty("total_volume", std::to_string(totalVolume));
+    RecordProperty("total_lightskin", std::to_string(lsTotal));
     RecordProperty("total_truth", std::to_string(totalExact));
     RecordProperty("total_budget", std::to_string(totalBudget));
     std::printf("total E: volume %.4g, truth L1 %.4g, truth %.4g, budget %.4g (+ band %.4g), %d pixels, %d "

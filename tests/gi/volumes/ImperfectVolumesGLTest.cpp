@@ -376,6 +376,74 @@ TEST_F(ImperfectVolumesExtremeGLTest, MaximumResolution256IsTheL1AmbientOcclusio
         EXPECT_NEAR(double(result.at<cv::Vec4f>(0, r)[0]), expected, 1e-5) << "receiver " << r;
 }
 
+TEST_F(ImperfectVolumesExtremeGLTest, VoxelsBeyondTheSlotsAreCountedAndWarnedOncePerRun) {
+    // The 256^3 overflow (more occupied voxels than one storage buffer's ~2.8 M slots) provoked
+    // cheaply: a 16^3 grid capped at 5 slots. A floor layer at z = 0.1283 fills one layer of 16 x 16
+    // voxels (256 > 5 requested), 4 receivers ask for their 8 voxels each (> 5). Both counters must
+    // report exactly requested - capacity as dropped, frame after frame, with one warning in all.
+    TriangleMesh floor = planeGrid(0.25f, 16, 0.1283f);
+    for (glm::vec3& p : floor.positions) p += glm::vec3(0.128f, 0.128f, 0.0f);
+    gi::UploadedMesh uploaded = gi::UploadedMesh::create(floor);
+    gi::MeshInstance instance;
+    instance.mesh = &floor;
+    instance.gpu = uploaded.view();
+    gi::ImperfectVolumesSettings s;
+    s.autoFit = false;
+    s.origin = glm::vec3(0.0f);
+    s.size = 0.256f;
+    s.resolution = 16;
+    s.raysPerVoxel = 16;
+    s.pointsPerTriangle = 16;
+    s.maxSlots = 5;
+    constexpr int kReceivers = 4;
+    std::vector<glm::vec4> position(kReceivers), normal(kReceivers, glm::vec4(0, 0, 1, 0)),
+        albedo(kReceivers, glm::vec4(1.0f));
+    for (int r = 0; r < kReceivers; ++r) position[std::size_t(r)] = {0.03f + 0.05f * float(r), 0.1311f, 0.1283f, 1.0f};
+    gl::Texture positionTexture = gl::Texture::create2D(GL_RGBA32F, kReceivers, 1);
+    gl::Texture normalTexture = gl::Texture::create2D(GL_RGBA32F, kReceivers, 1);
+    gl::Texture albedoTexture = gl::Texture::create2D(GL_RGBA32F, kReceivers, 1);
+    gl::Texture output = gl::Texture::create2D(GL_RGBA32F, kReceivers, 1);
+    glTextureSubImage2D(positionTexture.id(), 0, 0, 0, kReceivers, 1, GL_RGBA, GL_FLOAT, position.data());
+    glTextureSubImage2D(normalTexture.id(), 0, 0, 0, kReceivers, 1, GL_RGBA, GL_FLOAT, normal.data());
+    glTextureSubImage2D(albedoTexture.id(), 0, 0, 0, kReceivers, 1, GL_RGBA, GL_FLOAT, albedo.data());
+    gi::GBufferView gbuffer;
+    gbuffer.worldPosition = positionTexture.id();
+    gbuffer.worldNormal = normalTexture.id();
+    gbuffer.diffuseAlbedo = albedoTexture.id();
+    gbuffer.width = kReceivers;
+    gbuffer.height = 1;
+    auto technique = gi::ImperfectVolumes::create(s);
+    ASSERT_EQ(technique->slotCapacity(), 5u);
+    technique->prepare(std::span(&instance, 1));
+    testing::internal::CaptureStderr();
+    for (int frame = 0; frame < 3; ++frame) {
+        technique->render({}, std::span(&instance, 1), gbuffer, {}, output.id());
+        const glm::uvec2 requested = technique->downloadVoxelCounts();
+        const glm::uvec2 dropped = technique->lastDroppedVoxels();
+        EXPECT_GE(requested.x, 16u * 16u) << "frame " << frame;
+        EXPECT_GT(requested.y, 5u) << "frame " << frame;
+        EXPECT_EQ(dropped.x, requested.x - 5u) << "frame " << frame;
+        EXPECT_EQ(dropped.y, requested.y - 5u) << "frame " << frame;
+    }
+    const std::string log = testing::internal::GetCapturedStderr();
+    std::size_t warnings = 0;
+    for (std::size_t at = log.find("voxels dropped"); at != std::string::npos; at = log.find("voxels dropped", at + 1))
+        ++warnings;
+    EXPECT_EQ(warnings, 1u) << log;
+    EXPECT_NE(log.find("smaller gi.imperfectVolumes resolution"), std::string::npos) << log;
+    cv::Mat result;
+    gl::readTextureRgba32fInto(output, result);
+    for (int r = 0; r < kReceivers; ++r) EXPECT_TRUE(std::isfinite(result.at<cv::Vec4f>(0, r)[0])) << "receiver " << r;
+
+    // Without the cap the grid has a slot for every voxel: nothing dropped, no read-back needed.
+    s.maxSlots = 0;
+    auto uncapped = gi::ImperfectVolumes::create(s);
+    uncapped->prepare(std::span(&instance, 1));
+    uncapped->render({}, std::span(&instance, 1), gbuffer, {}, output.id());
+    EXPECT_EQ(uncapped->slotCapacity(), 16u * 16u * 16u);
+    EXPECT_EQ(uncapped->lastDroppedVoxels(), glm::uvec2(0u));
+}
+
 TEST_F(ImperfectVolumesExtremeGLTest, TemporalBlendIsAnExponentialAverageOfTheFrames) {
     // Static scene, h = 1/2: frames 1 and 2 equal the unblended output (frame 1 has no history,
     // frame 2 blends two equal frames); then every VAL's flux doubles: the light is linear in it, so

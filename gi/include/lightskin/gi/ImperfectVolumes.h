@@ -60,6 +60,9 @@ struct ImperfectVolumesSettings {
     /// exponential average over ~1 / (1 - h) frames, so the sampling positions average over the voxel.
     bool jitter = false;
     float temporalBlend = 0.0f; ///< h in [0, 0.95]; 0 = off
+    /// Cap on the compact slots (0: as many as one storage buffer holds, see slotCapacity()). Voxels
+    /// beyond it are dropped and counted (lastDroppedVoxels()); a cap lets tests provoke that cheaply.
+    std::uint32_t maxSlots = 0;
 };
 
 /// Throws lightskin::Error naming the field and the allowed range.
@@ -104,6 +107,11 @@ public:
     std::uint32_t slotCapacity() const;
     /// Occupied and ray-marched voxels of the last render() as requested (may exceed slotCapacity()).
     glm::uvec2 downloadVoxelCounts() const;
+    /// Occupied (x) and ray-marched (y) voxels the last render() dropped for want of slots; 0 when the
+    /// grid has a slot for every voxel. When any are dropped, render() logs one warning per technique
+    /// object naming the counts and the remedy (a smaller resolution); the counters are read back
+    /// (8 bytes, a sync) only when the grid has more voxels than slots.
+    glm::uvec2 lastDroppedVoxels() const;
 
 private:
     ImperfectVolumes();

@@ -145,6 +145,8 @@ struct FrameOutput {
     double totalMs = 0.0;
     int giReused = -1;                ///< adaptive LightSkin: 1 = VPLs reused (static content), 0 = recomputed, else -1
     float giChangeMeasure = -1.0f;    ///< adaptive LightSkin: LightSkinChoice::staticChangeBound
+    /// imperfect volumes: occupied + ray-marched voxels dropped for want of slots (256^3), else -1
+    std::int64_t volumeVoxelsDropped = -1;
     std::int64_t differentialReceivers = -1; ///< differential ran: receivers gathered (in the affected region), else -1
     std::int64_t differentialPixels = -1;    ///< differential ran: camera pixels in the affected region, else -1
 };
