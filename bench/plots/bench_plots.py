@@ -207,7 +207,7 @@ def pareto_plot(report, truth, path, manifest, styles):
     ax.yaxis.set_minor_formatter(LogFormatterSciNotation(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
     ax.grid(True, which="major", color="0.8")
     ax.grid(True, which="minor", color="0.93")
-    ax.set_xlabel("time per frame (ms, log): GPU timer sum (GL), wall time (CPU backend)")
+    ax.set_xlabel("time per frame (ms, log): stage-time sum; GL by timer queries, CPU stages by wall clock")
     ax.set_ylabel("relative MSE of the indirect light (log)")
     reference = "the ray-traced ground truth (Embree)" if truth else "the brute force on the same VALs"
     ax.set_title(f"lightskin bench: error against {reference} vs time\n{report.get('renderer', '')}", fontsize=10)
