@@ -1,7 +1,7 @@
 // Multi-scale PRT as an IndirectIllumination technique: prepare() loads or computes the transfer, render()
 // runs the per-frame CPU part and shades on GL. Design and formulas: gi/include/lightskin/gi/MultiscalePrt.h.
 #include "LightsShaders.h"
-#include "PrtRayScene.h"
+#include "PrtGeometry.h"
 
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
@@ -51,7 +51,7 @@ struct MultiscalePrt::Impl {
     gl::Framebuffer framebuffer;
     gl::Buffer exitBuffer; // vec4 per exit point
     PrtData data;
-    detail::PrtRayScene scene;
+    detail::PrtGeometry scene;
     bool prepared = false, fromCache = false;
     std::filesystem::path cacheFile;
     std::vector<PrtLight> lights;
@@ -102,8 +102,8 @@ std::unique_ptr<MultiscalePrt> MultiscalePrt::create(const MultiscalePrtSettings
 
 void MultiscalePrt::prepare(std::span<const MeshInstance> instances) {
     Impl& impl = *impl_;
-    impl.scene = detail::PrtRayScene::create(instances);
-    impl.epsilon = std::max(1e-6f, 1e-4f * impl.scene.diagonal());
+    impl.scene = detail::PrtGeometry::create(instances);
+    impl.epsilon = std::max(1e-6f, 1e-4f * impl.scene.diagonal);
     const std::uint64_t key = prtCacheKey(instances, impl.settings);
     impl.fromCache = false;
     impl.cacheFile.clear();
