@@ -1,7 +1,8 @@
 #pragma once
 // Ray queries against world-space triangle meshes: one Embree device, scene and BVH, built once from
 // a list of meshes and owned here (the differential's visibility, the ray-traced ground truth and
-// synth's objects-present truth share it; Embree stays out of the public headers).
+// synth's objects-present truth and multi-scale PRT's precompute share it; Embree stays out of the public
+// headers).
 #include <lightskin/core/TriangleMesh.h>
 
 #include <glm/mat4x4.hpp>
