@@ -355,6 +355,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     summary.technique = pipeline->techniqueName() +
                         (asked != pipeline->techniqueName() ? " (scene asked for " + asked + ", not available)" : "");
     summary.poseMode = mr::toString(poseMode);
+    summary.prtPrepare = pipeline->prtPrepareStats();
     summary.command = commandLine;
     summary.framesInSource = source->frameCount();
     std::int64_t total = summary.framesInSource.value_or(-1);

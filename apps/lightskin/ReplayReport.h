@@ -5,6 +5,7 @@
 #include <lightskin/mr/FramePipeline.h>
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -65,6 +66,8 @@ struct ReportSummary {
     /// or empty. report.json's "status" is "failed" then, else "interrupted" or "complete".
     std::string failure;
     double wallSeconds = 0.0;
+    /// Technique multiscale-prt: its prepare() (precompute or cache load) before the first frame, else nullopt.
+    std::optional<gi::PrtPrepareStats> prtPrepare;
 };
 
 /// Writes report.json and report.md into `folder`. Throws lightskin::Error when a file cannot be written.

@@ -1,7 +1,7 @@
 // Multi-scale PRT as an IndirectIllumination technique: prepare() loads or computes the transfer, render()
 // runs the per-frame CPU part and shades on GL. Design and formulas: gi/include/lightskin/gi/MultiscalePrt.h.
 #include "LightsShaders.h"
-#include "PrtRayScene.h"
+#include "PrtGeometry.h"
 
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
@@ -15,8 +15,10 @@
 
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <numbers>
 #include <string>
+#include <system_error>
 
 namespace lightskin::gi {
 namespace {
@@ -51,7 +53,7 @@ struct MultiscalePrt::Impl {
     gl::Framebuffer framebuffer;
     gl::Buffer exitBuffer; // vec4 per exit point
     PrtData data;
-    detail::PrtRayScene scene;
+    detail::PrtGeometry scene;
     bool prepared = false, fromCache = false;
     std::filesystem::path cacheFile;
     std::vector<PrtLight> lights;
@@ -61,6 +63,7 @@ struct MultiscalePrt::Impl {
     // CPU wall milliseconds of the last render(): read-back, entry irradiance, exit irradiance, shading pass.
     std::vector<gl::StageTime> stageTimes{{"read-back", 0.0}, {"entry", 0.0}, {"exit", 0.0}, {"shade", 0.0}};
     float epsilon = 1e-6f;
+    PrtPrepareStats stats;
 
     void addLightIrradiance() {
         for (const PrtLight& light : lights) {
@@ -102,8 +105,9 @@ std::unique_ptr<MultiscalePrt> MultiscalePrt::create(const MultiscalePrtSettings
 
 void MultiscalePrt::prepare(std::span<const MeshInstance> instances) {
     Impl& impl = *impl_;
-    impl.scene = detail::PrtRayScene::create(instances);
-    impl.epsilon = std::max(1e-6f, 1e-4f * impl.scene.diagonal());
+    const auto prepareStart = Clock::now();
+    impl.scene = detail::PrtGeometry::create(instances);
+    impl.epsilon = std::max(1e-6f, 1e-4f * impl.scene.diagonal);
     const std::uint64_t key = prtCacheKey(instances, impl.settings);
     impl.fromCache = false;
     impl.cacheFile.clear();
@@ -141,6 +145,17 @@ void MultiscalePrt::prepare(std::span<const MeshInstance> instances) {
     impl.exitBuffer =
         gl::Buffer::create(GLsizeiptr(std::max<std::size_t>(1, impl.data.exitCount()) * sizeof(glm::vec4)));
     impl.prepared = true;
+    impl.stats = PrtPrepareStats{};
+    impl.stats.loadedFromCache = impl.fromCache;
+    impl.stats.precomputeSeconds = impl.fromCache ? 0.0 : impl.data.precomputeSeconds;
+    impl.stats.memoryBytes = impl.data.byteSize();
+    impl.stats.cacheFile = impl.cacheFile;
+    std::error_code error; // a cache that could not be written reports 0 bytes (the warning above says why)
+    if (!impl.cacheFile.empty()) {
+        const std::uintmax_t bytes = std::filesystem::file_size(impl.cacheFile, error);
+        impl.stats.cacheFileBytes = error ? 0 : bytes;
+    }
+    impl.stats.prepareSeconds = millisecondsSince(prepareStart) / 1000.0;
 }
 
 void MultiscalePrt::setLights(std::span<const PrtLight> lights) { impl_->lights.assign(lights.begin(), lights.end()); }
@@ -210,6 +225,7 @@ void MultiscalePrt::lastStageTimes(std::vector<gl::StageTime>& out) const { out 
 const PrtData& MultiscalePrt::data() const { return impl_->data; }
 bool MultiscalePrt::loadedFromCache() const { return impl_->fromCache; }
 std::filesystem::path MultiscalePrt::cacheFile() const { return impl_->cacheFile; }
+PrtPrepareStats MultiscalePrt::lastPrepareStats() const { return impl_->stats; }
 std::span<const glm::vec3> MultiscalePrt::lastExitIrradiance() const { return impl_->exitIrradiance; }
 
 } // namespace lightskin::gi

@@ -1,6 +1,6 @@
 // Multi-scale PRT: the precompute (sec. 7 and 8 of the paper) and the per-frame CPU part (sec. 10).
 // Formulas and model choices: gi/include/lightskin/gi/MultiscalePrt.h.
-#include "PrtRayScene.h"
+#include "PrtGeometry.h"
 
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/MultiscalePrt.h>
@@ -75,7 +75,7 @@ struct Fnv {
 
 // Spectral obscurance (sec. 8) at p: cosine-distributed rays; a ray that hits within `distance` is closed and
 // adds rho(hit) / a (0 where a channel of the average albedo is 0), else open and adds 1.
-glm::vec3 obscurance(const detail::PrtRayScene& scene, const glm::vec3& p, const glm::vec3& n, float distance, int rays,
+glm::vec3 obscurance(const detail::PrtGeometry& scene, const glm::vec3& p, const glm::vec3& n, float distance, int rays,
                      float epsilon, const glm::vec3& averageAlbedo, std::uint64_t seed) {
     if (!(distance > 0.0f)) return glm::vec3(1.0f);
     std::mt19937_64 rng(seed);
@@ -215,10 +215,10 @@ PrtData precomputePrt(std::span<const MeshInstance> instances, const MultiscaleP
     const auto start = std::chrono::steady_clock::now();
     PrtData data;
     data.key = prtCacheKey(instances, s);
-    const detail::PrtRayScene scene = detail::PrtRayScene::create(instances);
-    const auto& triangles = scene.triangles();
-    const float epsilon = std::max(1e-6f, 1e-4f * scene.diagonal());
-    const glm::vec3 averageAlbedo = scene.averageAlbedo();
+    const detail::PrtGeometry scene = detail::PrtGeometry::create(instances);
+    const auto& triangles = scene.triangles;
+    const float epsilon = std::max(1e-6f, 1e-4f * scene.diagonal);
+    const glm::vec3 averageAlbedo = scene.averageAlbedo;
 
     // Exit points: the vertices, world frame.
     for (const MeshInstance& instance : instances) {
@@ -281,7 +281,7 @@ PrtData precomputePrt(std::span<const MeshInstance> instances, const MultiscaleP
     // Clusters of entry points.
     data.clusterCount = std::uint32_t(std::min<std::size_t>(std::size_t(s.clusters), entries));
     data.entryCluster =
-        clusterEntries(data.entryPositions, data.entryNormals, scene.diagonal(), data.clusterCount, mix(s.seed, 0xC1u));
+        clusterEntries(data.entryPositions, data.entryNormals, scene.diagonal, data.clusterCount, mix(s.seed, 0xC1u));
     const int D = int(std::min<std::size_t>(std::size_t(s.basisVectors), mapSize));
     data.basisVectors = D;
     data.clusterMaps.assign(std::size_t(data.clusterCount) * std::size_t(D + 1) * mapSize, 0.0f);

@@ -2,6 +2,7 @@
 #include <lightskin/gi/TriangleRayScene.h>
 
 #include <embree3/rtcore.h>
+#include <glm/geometric.hpp>
 
 #include <limits>
 #include <vector>
@@ -96,6 +97,14 @@ bool TriangleRayScene::occluded(const glm::dvec3& origin, const glm::dvec3& dire
     setRay(ray, origin, direction, tNear, tFar);
     rtcOccluded1(impl_->scene, &context, &ray);
     return ray.tfar == -std::numeric_limits<float>::infinity(); // Embree's mark of a hit
+}
+
+bool TriangleRayScene::segmentOccluded(const glm::dvec3& from, const glm::dvec3& to, double epsilon) const {
+    const glm::dvec3 d = to - from;
+    const double length = glm::length(d);
+    if (!(length > 2.0 * epsilon)) return false;
+    // A unit direction makes tNear / tFar the epsilon in metres, whatever the segment's length.
+    return occluded(from, d / length, epsilon, length - epsilon);
 }
 
 std::optional<RayHit> TriangleRayScene::intersect(const glm::dvec3& origin, const glm::dvec3& direction, double tNear,

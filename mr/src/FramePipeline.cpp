@@ -505,6 +505,12 @@ void FramePipeline::applyDifferential(const RgbdFrame& frame, const Pose& world_
 
 std::string FramePipeline::techniqueName() const { return std::string(state_->technique->name()); }
 
+std::optional<gi::PrtPrepareStats> FramePipeline::prtPrepareStats() const {
+    if (const auto* prt = dynamic_cast<const gi::MultiscalePrt*>(state_->technique.get()))
+        return prt->lastPrepareStats();
+    return std::nullopt;
+}
+
 void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     State& s = *state_;
     const auto frameStart = Clock::now();

@@ -309,6 +309,57 @@ TEST(ReplayCommand, VirtualBounceReportsRsmValsAndTime) {
     EXPECT_NE(md.find(" RSM VALs |"), std::string::npos);
 }
 
+TEST(ReplayCommand, MultiscalePrtReportsItsPrecomputeAndTheCacheLoadOnTheSecondRun) {
+    const fs::path scratch = test::scratchDir("replay_prt");
+    const std::string scene = R"({"version": 1,
+      "objects": [{"mesh": "cube.obj", "transform": {"translation": [-0.1, 0, -0.3], "scale": 0.15}, "material": {"diffuseAlbedo": 0.9}},
+                  {"mesh": "cube.obj", "transform": {"translation": [0.12, 0, -0.3], "scale": 0.1}, "material": {"diffuseAlbedo": 0.5}}],
+      "lights": [{"type": "point", "position": [0.0, 0.3, 0.0], "power": 5}],
+      "gi": {"technique": "multiscale-prt", "valStride": 2,
+             "multiscalePrt": {"entryPoints": 64, "walksPerEntry": 4, "clusters": 4, "basisVectors": 2}}})";
+    const std::string options = " --max-frames 1 --no-video --no-compare";
+    const auto [recording, out, r] = replayTestRecording(scratch, scene, options);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const auto precompute = [](const fs::path& folder) {
+        const nlohmann::json report = nlohmann::json::parse(test::readText(folder / "report.json"));
+        EXPECT_TRUE(report.contains("precompute")) << report.dump();
+        return report.value("precompute", nlohmann::json::object());
+    };
+    const nlohmann::json first = precompute(out);
+    ASSERT_TRUE(first.contains("cacheFile") && first["cacheFile"].is_string()) << first.dump();
+    EXPECT_EQ(first["technique"], "multiscale-prt");
+    EXPECT_FALSE(first["loadedFromCache"].get<bool>());
+    EXPECT_GT(first["precomputeMs"].get<double>(), 0.0);
+    // prepare() contains the precompute (plus the Embree scene and the cache write).
+    EXPECT_GE(first["prepareMs"].get<double>(), first["precomputeMs"].get<double>());
+    // The transfer holds at least the 64 entry points' positions and normals (2 x 12 bytes each).
+    EXPECT_GE(first["memoryBytes"].get<std::uint64_t>(), 64u * 24u);
+    // The size reported is the file's (the prt-cache folder beside the scene, the default).
+    const fs::path cacheFile = first["cacheFile"].get<std::string>();
+    EXPECT_EQ(cacheFile.parent_path(), scratch / "prt-cache");
+    ASSERT_TRUE(fs::exists(cacheFile));
+    EXPECT_GT(first["cacheFileBytes"].get<std::uint64_t>(), 0u);
+    EXPECT_EQ(first["cacheFileBytes"].get<std::uint64_t>(), fs::file_size(cacheFile));
+    EXPECT_NE(test::readText(out / "report.md").find("| multi-scale PRT precompute | computed in "), std::string::npos);
+
+    // The second run of the same scene loads the transfer: no precompute, the same file and data.
+    const fs::path out2 = scratch / "out2";
+    const RunResult r2 = runLightskin("replay " + recording.string() + " --scene " + (scratch / "scene.json").string() +
+                                          " --out " + out2.string() + options,
+                                      scratch);
+    ASSERT_EQ(r2.exitCode, 0) << r2.err;
+    const nlohmann::json second = precompute(out2);
+    EXPECT_TRUE(second.value("loadedFromCache", false)) << second.dump();
+    EXPECT_EQ(second.value("precomputeMs", -1.0), 0.0);
+    EXPECT_GE(second.value("prepareMs", -1.0), 0.0);
+    EXPECT_EQ(second["memoryBytes"], first["memoryBytes"]);
+    EXPECT_EQ(second["cacheFileBytes"], first["cacheFileBytes"]);
+    EXPECT_EQ(second["cacheFile"], first["cacheFile"]);
+    const std::string md = test::readText(out2 / "report.md");
+    EXPECT_NE(md.find("| multi-scale PRT precompute | loaded from the cache"), std::string::npos);
+    EXPECT_NE(md.find("| multi-scale PRT prepare (once; cache load) | CPU wall |"), std::string::npos);
+}
+
 TEST(ReplayCommand, BudgetReportsTheChosenSettingsPerFrame) {
     const fs::path scratch = test::scratchDir("replay_budget");
     // 1 ms cannot be met by anything: after the first frame (the scene's settings) the budget runs

@@ -1,7 +1,8 @@
 // gi::TriangleRayScene (the Embree scene shared by the differential, the ground truth and synth) against
 // closed forms: a unit right triangle in the plane z = 1, moved by world_T_model, hit by rays whose
 // parameter, barycentrics and triangle are known exactly; meshes without triangles are skipped without
-// shifting the mesh indices of the others; segment tests stop at tFar.
+// shifting the mesh indices of the others; segment tests stop at tFar; segmentOccluded cuts epsilon metres
+// off both ends.
 #include <lightskin/gi/TriangleRayScene.h>
 
 #include <glm/ext/matrix_transform.hpp>
@@ -70,4 +71,19 @@ TEST(TriangleRayScene, SegmentsAreOccludedOnlyWithinTheirParameterRange) {
     EXPECT_FALSE(scene.occluded(from, to - from, 1e-4, 0.49));          // stops short of the square
     EXPECT_FALSE(scene.occluded(from, to - from, 0.51, 1.0));           // starts past it
     EXPECT_FALSE(scene.occluded({2.0, 2.0, 0.0}, {0, 0, 2}, 0.0, 1.0)); // beside it
+}
+
+TEST(TriangleRayScene, SegmentOcclusionIgnoresTheEndSurfacesWithinEpsilonMetres) {
+    const TriangleMesh square = unitSquare();
+    const std::vector<RayMesh> meshes = {{&square, glm::translate(glm::dmat4(1.0), glm::dvec3(0, 0, 1))}};
+    const TriangleRayScene scene = TriangleRayScene::create(meshes, "test");
+    // Through the square (z = 1) from z = 0 to z = 3: blocked whatever the length (epsilon is metres).
+    EXPECT_TRUE(scene.segmentOccluded({0.5, 0.5, 0.0}, {0.5, 0.5, 3.0}, 1e-3));
+    // Ending on the square (0.5 mm short of it after the epsilon cut): the end point's own surface.
+    EXPECT_FALSE(scene.segmentOccluded({0.5, 0.5, 0.0}, {0.5, 0.5, 1.0}, 1e-3));
+    // Starting 0.5 mm above it and leaving: the epsilon (1 mm) skips it; a 0.1 mm epsilon does not.
+    EXPECT_FALSE(scene.segmentOccluded({0.5, 0.5, 1.0005}, {0.5, 0.5, 0.5}, 1e-3));
+    EXPECT_TRUE(scene.segmentOccluded({0.5, 0.5, 1.0005}, {0.5, 0.5, 0.5}, 1e-4));
+    // Not longer than 2 epsilon: nothing to test.
+    EXPECT_FALSE(scene.segmentOccluded({0.5, 0.5, 0.9995}, {0.5, 0.5, 1.0005}, 1e-3));
 }

@@ -97,6 +97,16 @@ void prtEntryIrradianceInto(const PrtData& data, std::span<const VirtualAreaLigh
 void prtExitIrradianceInto(const PrtData& data, std::span<const VirtualAreaLight> vals,
                            std::span<const glm::vec3> entryIrradiance, std::span<glm::vec3> exitIrradiance);
 
+/// What MultiscalePrt::prepare() cost, for reports (`lightskin replay`'s report.md / report.json).
+struct PrtPrepareStats {
+    bool loadedFromCache = false;
+    double prepareSeconds = 0.0;       ///< wall time of prepare(): Embree scene + cache load, or precompute + write
+    double precomputeSeconds = 0.0;    ///< wall time of the precompute alone; 0 when loaded from the cache
+    std::size_t memoryBytes = 0;       ///< PrtData::byteSize() of the transfer kept for the frames
+    std::uintmax_t cacheFileBytes = 0; ///< size of the cache file after prepare(); 0 without a cache (or unwritten)
+    std::filesystem::path cacheFile;   ///< empty without a cache directory
+};
+
 class MultiscalePrt final : public IndirectIllumination {
 public:
     /// Needs a current GL 4.5 context (builds the shading program). Throws lightskin::Error on bad settings.
@@ -121,6 +131,8 @@ public:
     const PrtData& data() const;
     bool loadedFromCache() const;
     std::filesystem::path cacheFile() const; ///< empty without a cache directory
+    /// The last prepare()'s cost (default values before the first).
+    PrtPrepareStats lastPrepareStats() const;
     /// Per-vertex exit irradiance of the last render() (W/m^2, RGB), exitOffsets order.
     std::span<const glm::vec3> lastExitIrradiance() const;
 

@@ -1,7 +1,8 @@
 #pragma once
 // Ray queries against world-space triangle meshes: one Embree device, scene and BVH, built once from
 // a list of meshes and owned here (the differential's visibility, the ray-traced ground truth and
-// synth's objects-present truth share it; Embree stays out of the public headers).
+// synth's objects-present truth and multi-scale PRT's precompute share it; Embree stays out of the public
+// headers).
 #include <lightskin/core/TriangleMesh.h>
 
 #include <glm/mat4x4.hpp>
@@ -49,6 +50,9 @@ public:
     /// Any triangle at origin + t * direction with t in [tNear, tFar]. `direction` need not be unit:
     /// direction = to - from with t in [eps, 1 - eps] tests a segment independent of its scale.
     bool occluded(const glm::dvec3& origin, const glm::dvec3& direction, double tNear, double tFar) const;
+    /// Any triangle on the segment from..to shortened by `epsilon` metres at both ends (so the surfaces
+    /// the end points lie on do not count); false when the segment is not longer than 2 * epsilon.
+    bool segmentOccluded(const glm::dvec3& from, const glm::dvec3& to, double epsilon) const;
     /// The closest hit with t in [tNear, tFar] (tFar may be infinite), or nullopt.
     std::optional<RayHit> intersect(const glm::dvec3& origin, const glm::dvec3& direction, double tNear,
                                     double tFar) const;

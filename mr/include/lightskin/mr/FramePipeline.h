@@ -9,6 +9,7 @@
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/RgbdFrame.h>
 #include <lightskin/gi/IndirectIllumination.h>
+#include <lightskin/gi/MultiscalePrt.h>
 #include <lightskin/gi/ReflectiveShadowMap.h>
 #include <lightskin/gl/GpuTimer.h>
 #include <lightskin/render/Compositor.h>
@@ -168,6 +169,8 @@ public:
     void setGiSettings(const render::GiSettings& settings);
     const render::GiSettings& giSettings() const noexcept { return gi_; }
     std::string techniqueName() const;
+    /// Technique multiscale-prt: its last prepare() (precompute or cache load), else nullopt.
+    std::optional<gi::PrtPrepareStats> prtPrepareStats() const;
     render::Renderer& renderer() noexcept { return *renderer_; }
 
 private:
