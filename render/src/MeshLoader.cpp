@@ -393,21 +393,29 @@ void routeAssimpLogOnce() {
     });
 }
 
-/// True if one of assimp's readers that list the file's extension recognises its content (the
-/// check assimp itself makes before falling back to trying every reader on the content).
+/// False only where assimp would offer the content to every reader: more than one reader lists the
+/// file's extension and none of them recognises the content. One reader for the extension is taken
+/// without a look at the content (assimp 5.2), and sniffing it here would refuse valid files:
+/// assimp's OBJ test looks for a keyword in the first 200 bytes only, so an OBJ that opens with a
+/// long comment failed it.
 bool extensionReaderRecognises(const Assimp::Importer& importer, const std::filesystem::path& path) {
     std::string extension = path.extension().string();
     if (!extension.empty() && extension.front() == '.') extension.erase(0, 1);
     for (char& c : extension) c = char(std::tolower(static_cast<unsigned char>(c)));
+    std::size_t listing = 0;
+    bool recognised = false;
     for (std::size_t i = 0; i < importer.GetImporterCount(); ++i) {
         const aiImporterDesc* info = importer.GetImporterInfo(i);
         const Assimp::BaseImporter* reader = importer.GetImporter(i);
         if (info == nullptr || reader == nullptr || info->mFileExtensions == nullptr) continue;
         std::istringstream listed(info->mFileExtensions);
         for (std::string candidate; listed >> candidate;)
-            if (candidate == extension && reader->CanRead(path.string(), importer.GetIOHandler(), false)) return true;
+            if (candidate == extension) {
+                ++listing;
+                recognised = recognised || reader->CanRead(path.string(), importer.GetIOHandler(), false);
+            }
     }
-    return false;
+    return listing == 1 || recognised;
 }
 
 } // namespace
@@ -427,10 +435,10 @@ LoadedModel loadModel(const std::filesystem::path& path) {
     if (path.extension() == ".ply" || path.extension() == ".PLY") checkPlyHeader(path);
     if (hasExtension(path, ".gltf")) checkGltfBuffers(path);
     if (hasExtension(path, ".obj")) checkObjMaterialLibraries(path);
-    // assimp takes the reader of the file's extension only when that reader recognises the content;
-    // otherwise it offers the content to every reader. So a .glb holding PLY text reached the PLY reader
-    // past checkPlyHeader above, and assimp hung on it (fuzz finding 10). Our checks above follow
-    // the extension, so a reader of that extension must also claim the file before assimp reads it.
+    // Where several readers list the extension (.glb: glTF 1 and 2), assimp takes one only if it
+    // recognises the content, else it offers the content to every reader. So a .glb holding PLY text
+    // reached the PLY reader past checkPlyHeader above, and assimp hung on it (fuzz finding 10). Our
+    // checks above follow the extension, so a reader of that extension must claim such a file first.
     if (!extensionReaderRecognises(importer, path))
         throw Error(source, std::nullopt,
                     "not a readable " + path.extension().string() + " mesh (assimp's " + path.extension().string() +
