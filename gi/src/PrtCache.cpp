@@ -59,6 +59,7 @@ struct Reader {
             return;
         }
         v.resize(std::size_t(count));
+        if (count == 0) return; // an empty vector's data() may be null, which memcpy must not get
         std::memcpy(v.data(), data + at, std::size_t(count) * sizeof(T));
         at += std::size_t(count) * sizeof(T);
     }
