@@ -15,6 +15,7 @@
 #include <limits>
 #include <sstream>
 #include <thread>
+#include <utility>
 
 namespace lightskin::bench {
 
@@ -103,6 +104,17 @@ std::string loadAverage() {
     std::string one, five, fifteen;
     in >> one >> five >> fifteen;
     return one + " " + five + " " + fifteen;
+}
+
+Report startReport(std::string bench, int frames) {
+    Report report;
+    report.bench = std::move(bench);
+    report.command = commandLine();
+    report.date = utcNow();
+    report.machine = machineDescription();
+    report.loadStart = loadAverage();
+    report.frames = frames;
+    return report;
 }
 
 const char* channelName(int channels) {

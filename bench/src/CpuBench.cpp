@@ -122,13 +122,7 @@ RunResult timedRow(const Timing& t, const std::string& backend, const std::strin
 
 void runCpuBench(const CpuBenchOptions& options) {
     const auto started = Clock::now();
-    Report report;
-    report.bench = "bench-cpu";
-    report.command = commandLine();
-    report.date = utcNow();
-    report.machine = machineDescription();
-    report.loadStart = loadAverage();
-    report.frames = options.repeat;
+    Report report = startReport("bench-cpu", options.repeat);
     auto context = gl::createHeadlessContext();
     report.renderer = context->describe();
     std::printf("renderer: %s\nload average at start: %s\n", context->describe().c_str(), loadAverage().c_str());

@@ -41,13 +41,7 @@ double minimum(const std::vector<double>& v) { return *std::min_element(v.begin(
 
 void runGatherBench(const GatherBenchOptions& options) {
     const auto started = std::chrono::steady_clock::now();
-    Report report;
-    report.bench = "bench-gather";
-    report.command = commandLine();
-    report.date = utcNow();
-    report.machine = machineDescription();
-    report.loadStart = loadAverage();
-    report.frames = options.repeat;
+    Report report = startReport("bench-gather", options.repeat);
     auto context = gl::createHeadlessContext();
     report.renderer = context->describe();
     std::printf("renderer: %s\n", context->describe().c_str());
@@ -178,11 +172,11 @@ void runGatherBench(const GatherBenchOptions& options) {
                             // the tree gather's GPU timer misses its CPU build: take the larger of the two totals
                             const double totalMs = std::max(minimum(totals), minimum(walls));
                             RunResult run = row;
-                            run.series = "sparse " + std::to_string(sparse) + ", K_cache " + std::to_string(kCache) +
-                                         ", " + setup.name + (options.compute ? ", compute" : "") +
-                                         (threshold > 0.0f ? (bvh ? ", tree (BVH) " : ", tree ") +
-                                                                 std::to_string(threshold)
-                                                           : std::string());
+                            run.series =
+                                "sparse " + std::to_string(sparse) + ", K_cache " + std::to_string(kCache) + ", " +
+                                setup.name + (options.compute ? ", compute" : "") +
+                                (threshold > 0.0f ? (bvh ? ", tree (BVH) " : ", tree ") + std::to_string(threshold)
+                                                  : std::string());
                             run.config.sparse = sparse;
                             run.config.kCache = kCache;
                             run.config.valTree = threshold;

@@ -519,13 +519,7 @@ std::vector<TemporalResult> temporalRows(const std::vector<CaseResult>& results)
 
 void runRealDepthBench(const RealDepthBenchOptions& options) {
     const auto started = std::chrono::steady_clock::now();
-    Report report;
-    report.bench = "bench-realdepth";
-    report.command = commandLine();
-    report.date = utcNow();
-    report.machine = machineDescription();
-    report.loadStart = loadAverage();
-    report.frames = options.maxFrames;
+    Report report = startReport("bench-realdepth", options.maxFrames);
     auto context = gl::createHeadlessContext();
     report.renderer = context->describe();
     std::vector<LightModel> models;

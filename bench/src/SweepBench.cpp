@@ -33,8 +33,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdlib>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -1305,13 +1305,8 @@ std::vector<std::pair<int, int>> parseSizes(const std::string& text, const char*
 int runSweep(const SweepBenchOptions& options) {
     int exitCode = 0;
     const auto start = Clock::now();
-    Report report;
-    report.command = commandLine();
-    report.date = utcNow();
-    report.machine = machineDescription();
-    report.loadStart = loadAverage();
+    Report report = startReport("bench", options.frames);
     report.truthStride = options.truthStride;
-    report.frames = options.frames;
     report.quick = options.quick;
     auto context = gl::createHeadlessContext();
     report.renderer = context->describe();

@@ -105,6 +105,8 @@ std::string commandLine();
 std::string utcNow();
 std::string machineDescription();
 std::string loadAverage();
+/// A Report stamped with the run's identity (above) and the load at its start, for the bench `bench`.
+Report startReport(std::string bench, int frames);
 
 /// Writes `report` as JSON (docs/bench/SCHEMA.md); throws lightskin::Error naming the file when it cannot.
 void writeJson(const Report& report, const std::string& file);
