@@ -12,6 +12,7 @@
 // B since occlusion is on), asserted like there on the relative L1 error. Then the two techniques must
 // agree within the sum of their budgets (+ the difference of the two truths' disc and point models).
 #include "GlTestEnvironment.h"
+#include "VolumesTestSupport.h"
 
 #include <lightskin/bench/BenchScene.h>
 #include <lightskin/gi/ImperfectVolumes.h>
@@ -37,32 +38,11 @@ namespace {
 using glm::dvec3;
 constexpr double kPi = std::numbers::pi;
 
-struct IncidentL1 {
-    double l1 = 0.0;        ///< integral of L_vis (1/4 + mu/2): the L1 irradiance of the truth's radiance
-    double exact = 0.0;     ///< integral of L_vis max(0, mu): the irradiance
-    double bandBound = 0.0; ///< integral of L_unoccluded |1/4 + mu/2 - max(0, mu)| >= |l1 - exact|
-};
-
-// Red channel. Small-disc solid angle A cos / d^2 per VAL (cells of <= 6 cm at >= 0.3 m from any
-// receiver: relative error O((r / d)^2) < 1 %, below the voxel terms); visibility by Embree.
+// Red channel. Small-disc solid angle per VAL (cells of <= 6 cm at >= 0.3 m from any receiver:
+// relative error O((r / d)^2) < 1 %, below the voxel terms); visibility by Embree from 0.1 mm above p.
 IncidentL1 incident(const gi::RayTracedGroundTruth& rt, std::span<const gi::VirtualAreaLight> vals, const dvec3& p,
                     const dvec3& n) {
-    IncidentL1 out;
-    for (const auto& val : vals) {
-        const dvec3 y(val.position), toY = y - p;
-        const double d2 = glm::dot(toY, toY), d = std::sqrt(d2);
-        const dvec3 w = toY / d;
-        const double cosJ = -glm::dot(dvec3(val.normal), w);
-        if (cosJ <= 0.0) continue;
-        const double radiance = double(val.flux.x) / (kPi * double(val.area));
-        const double omegaL = radiance * double(val.area) * cosJ / d2;
-        const double mu = glm::dot(n, w);
-        out.bandBound += omegaL * std::abs(0.25 + 0.5 * mu - std::max(0.0, mu));
-        if (rt.occluded(p + 1e-4 * n, y)) continue;
-        out.l1 += omegaL * (0.25 + 0.5 * mu);
-        out.exact += omegaL * std::max(0.0, mu);
-    }
-    return out;
+    return incidentL1(rt, vals, p, n, 1e-4);
 }
 
 /// LightSkin's interpolation budget at one receiver as a fraction of its diffuse light: the diffuse

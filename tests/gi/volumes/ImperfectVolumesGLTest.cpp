@@ -9,6 +9,7 @@
 #include "../lights/TestMeshes.h"
 #include "ExpectError.h"
 #include "GlTestEnvironment.h"
+#include "VolumesTestSupport.h"
 
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/ImperfectVolumes.h>
@@ -341,19 +342,9 @@ TEST_F(ImperfectVolumesExtremeGLTest, MaximumResolution256IsTheL1AmbientOcclusio
         albedo(kReceivers, glm::vec4(1.0f));
     for (int r = 0; r < kReceivers; ++r)
         position[std::size_t(r)] = {0.1204f + 0.0051f * float(r), 0.1311f - 0.0037f * float(r), 0.1283f, 1.0f};
-    gl::Texture positionTexture = gl::Texture::create2D(GL_RGBA32F, kReceivers, 1);
-    gl::Texture normalTexture = gl::Texture::create2D(GL_RGBA32F, kReceivers, 1);
-    gl::Texture albedoTexture = gl::Texture::create2D(GL_RGBA32F, kReceivers, 1);
-    gl::Texture output = gl::Texture::create2D(GL_RGBA32F, kReceivers, 1);
-    glTextureSubImage2D(positionTexture.id(), 0, 0, 0, kReceivers, 1, GL_RGBA, GL_FLOAT, position.data());
-    glTextureSubImage2D(normalTexture.id(), 0, 0, 0, kReceivers, 1, GL_RGBA, GL_FLOAT, normal.data());
-    glTextureSubImage2D(albedoTexture.id(), 0, 0, 0, kReceivers, 1, GL_RGBA, GL_FLOAT, albedo.data());
-    gi::GBufferView gbuffer;
-    gbuffer.worldPosition = positionTexture.id();
-    gbuffer.worldNormal = normalTexture.id();
-    gbuffer.diffuseAlbedo = albedoTexture.id();
-    gbuffer.width = kReceivers;
-    gbuffer.height = 1;
+    const ReceiverRow receivers = ReceiverRow::create(position, normal, albedo);
+    const gi::GBufferView gbuffer = receivers.view();
+    const gl::Texture& output = receivers.output;
     auto technique = gi::ImperfectVolumes::create(s);
     technique->prepare(std::span(&instance, 1));
     technique->render({}, std::span(&instance, 1), gbuffer, {}, output.id());
@@ -399,19 +390,9 @@ TEST_F(ImperfectVolumesExtremeGLTest, VoxelsBeyondTheSlotsAreCountedAndWarnedOnc
     std::vector<glm::vec4> position(kReceivers), normal(kReceivers, glm::vec4(0, 0, 1, 0)),
         albedo(kReceivers, glm::vec4(1.0f));
     for (int r = 0; r < kReceivers; ++r) position[std::size_t(r)] = {0.03f + 0.05f * float(r), 0.1311f, 0.1283f, 1.0f};
-    gl::Texture positionTexture = gl::Texture::create2D(GL_RGBA32F, kReceivers, 1);
-    gl::Texture normalTexture = gl::Texture::create2D(GL_RGBA32F, kReceivers, 1);
-    gl::Texture albedoTexture = gl::Texture::create2D(GL_RGBA32F, kReceivers, 1);
-    gl::Texture output = gl::Texture::create2D(GL_RGBA32F, kReceivers, 1);
-    glTextureSubImage2D(positionTexture.id(), 0, 0, 0, kReceivers, 1, GL_RGBA, GL_FLOAT, position.data());
-    glTextureSubImage2D(normalTexture.id(), 0, 0, 0, kReceivers, 1, GL_RGBA, GL_FLOAT, normal.data());
-    glTextureSubImage2D(albedoTexture.id(), 0, 0, 0, kReceivers, 1, GL_RGBA, GL_FLOAT, albedo.data());
-    gi::GBufferView gbuffer;
-    gbuffer.worldPosition = positionTexture.id();
-    gbuffer.worldNormal = normalTexture.id();
-    gbuffer.diffuseAlbedo = albedoTexture.id();
-    gbuffer.width = kReceivers;
-    gbuffer.height = 1;
+    const ReceiverRow receivers = ReceiverRow::create(position, normal, albedo);
+    const gi::GBufferView gbuffer = receivers.view();
+    const gl::Texture& output = receivers.output;
     auto technique = gi::ImperfectVolumes::create(s);
     ASSERT_EQ(technique->slotCapacity(), 5u);
     technique->prepare(std::span(&instance, 1));

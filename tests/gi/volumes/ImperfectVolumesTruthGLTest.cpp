@@ -6,6 +6,7 @@
 // truth's own irradiance lies within that budget plus the L1 band-limit bound.
 #include "../lights/TestMeshes.h"
 #include "GlTestEnvironment.h"
+#include "VolumesTestSupport.h"
 
 #include <lightskin/gi/ImperfectVolumes.h>
 #include <lightskin/gi/RayTracedGroundTruth.h>
@@ -27,32 +28,10 @@ namespace {
 using glm::dvec3;
 constexpr double kPi = std::numbers::pi;
 
-struct IncidentL1 {
-    double l1 = 0.0;        ///< integral of L_vis (1/4 + mu/2): the L1 irradiance
-    double exact = 0.0;     ///< integral of L_vis max(0, mu): the irradiance
-    double bandBound = 0.0; ///< integral of L_unoccluded |1/4 + mu/2 - max(0, mu)| >= |l1 - exact|
-};
-
-// Small-disc solid angle A cos(theta_j) / d^2 per VAL (discs of 6 cm at >= 1.2 m: relative error
-// O((r / d)^2) < 1e-3); the L1 kernel: pi Y00^2 + 2 pi / 3 Y1(w) . Y1(n) = 1/4 + (n . w) / 2.
+// Small-disc solid angle per VAL: discs of 6 cm at >= 1.2 m, relative error O((r / d)^2) < 1e-3.
 IncidentL1 incident(const gi::RayTracedGroundTruth& rt, std::span<const gi::VirtualAreaLight> vals, const dvec3& p,
                     const dvec3& n) {
-    IncidentL1 out;
-    for (const auto& val : vals) {
-        const dvec3 y(val.position), toY = y - p;
-        const double d2 = glm::dot(toY, toY), d = std::sqrt(d2);
-        const dvec3 w = toY / d;
-        const double cosJ = -glm::dot(dvec3(val.normal), w);
-        if (cosJ <= 0.0) continue;
-        const double radiance = double(val.flux.x) / (kPi * double(val.area));
-        const double omegaL = radiance * double(val.area) * cosJ / d2;
-        const double mu = glm::dot(n, w);
-        out.bandBound += omegaL * std::abs(0.25 + 0.5 * mu - std::max(0.0, mu));
-        if (rt.occluded(p, y)) continue;
-        out.l1 += omegaL * (0.25 + 0.5 * mu);
-        out.exact += omegaL * std::max(0.0, mu);
-    }
-    return out;
+    return incidentL1(rt, vals, p, n, 0.0);
 }
 
 using ImperfectVolumesTruthGLTest = GlTest;
@@ -87,19 +66,9 @@ TEST_F(ImperfectVolumesTruthGLTest, WithinTheVoxelAndRayBudgetOfTheEmbreeTruth) 
     std::vector<glm::vec4> position(kReceivers), normal(kReceivers, glm::vec4(0, 0, 1, 0)),
         albedo(kReceivers, glm::vec4(1.0f));
     for (int r = 0; r < kReceivers; ++r) position[std::size_t(r)] = {-0.6f + 0.05f * float(r), 0.03f, 0.2f, 1.0f};
-    gl::Texture positionTexture = gl::Texture::create2D(GL_RGBA32F, kReceivers, 1);
-    gl::Texture normalTexture = gl::Texture::create2D(GL_RGBA32F, kReceivers, 1);
-    gl::Texture albedoTexture = gl::Texture::create2D(GL_RGBA32F, kReceivers, 1);
-    gl::Texture output = gl::Texture::create2D(GL_RGBA32F, kReceivers, 1);
-    glTextureSubImage2D(positionTexture.id(), 0, 0, 0, kReceivers, 1, GL_RGBA, GL_FLOAT, position.data());
-    glTextureSubImage2D(normalTexture.id(), 0, 0, 0, kReceivers, 1, GL_RGBA, GL_FLOAT, normal.data());
-    glTextureSubImage2D(albedoTexture.id(), 0, 0, 0, kReceivers, 1, GL_RGBA, GL_FLOAT, albedo.data());
-    gi::GBufferView gbuffer;
-    gbuffer.worldPosition = positionTexture.id();
-    gbuffer.worldNormal = normalTexture.id();
-    gbuffer.diffuseAlbedo = albedoTexture.id();
-    gbuffer.width = kReceivers;
-    gbuffer.height = 1;
+    const ReceiverRow receivers = ReceiverRow::create(position, normal, albedo);
+    const gi::GBufferView gbuffer = receivers.view();
+    const gl::Texture& output = receivers.output;
 
     gi::ImperfectVolumesSettings settings;
     settings.autoFit = false;
