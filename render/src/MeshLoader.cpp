@@ -53,6 +53,10 @@ std::string textureFile(const aiMaterial& source, aiTextureType type, const char
     if (!std::filesystem::is_regular_file(path, error))
         throw Error(meshFile, std::nullopt,
                     "material '" + materialName + "': " + what + " '" + path.string() + "' does not exist");
+    int uvSet = 0; // glTF's texCoord: only set 0 is kept (TriangleMesh::texcoords)
+    if (source.Get(AI_MATKEY_UVWSRC(type, 0), uvSet) == AI_SUCCESS && uvSet != 0)
+        log::warning(meshFile + ": material '" + materialName + "': " + what + " reads texture coordinate set " +
+                     std::to_string(uvSet) + "; only set 0 is loaded, so it is sampled with set 0");
     return path.string();
 }
 

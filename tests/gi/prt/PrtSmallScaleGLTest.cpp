@@ -7,6 +7,7 @@
 //   1 where the map is flat;
 // - through the renderer: the direct light of the tile with maps is bitwise the one without, and the composite
 //   minus the direct light is the plain tile's indirect light times S;
+// - maps on a mesh without texture coordinates are off (S = 1);
 // - a map file that exists but is no image: prepare() fails naming it.
 #include "GlTestEnvironment.h"
 #include "TestPaths.h"
@@ -103,10 +104,11 @@ struct TileRig {
     glm::vec3 eye{0.5f, 0.5f, 1.2f};
     glm::mat4 clip_T_world{1.0f};
 
-    explicit TileRig(const std::string& file) {
+    explicit TileRig(const std::string& file, bool withTexcoords = true) {
         const render::LoadedModel model = render::loadModel(sourceDir() / kMeshes / file);
         EXPECT_EQ(model.parts.size(), 1u);
         mesh = model.parts[0].mesh;
+        if (!withTexcoords) mesh.texcoords.clear();
         instance.mesh = &mesh;
         instance.material = model.parts[0].material;
         instance.material.diffuseAlbedo = glm::vec3(0.9f, 0.6f, 0.3f);
@@ -319,6 +321,15 @@ TEST_F(PrtSmallScaleGLTest, RendererDirectLightIsUnchangedAndOnlyTheIndirectLigh
             ++checked;
         }
     EXPECT_GT(checked, kSize * kSize / 20);
+}
+
+TEST_F(PrtSmallScaleGLTest, MapsOnAMeshWithoutTextureCoordinatesAreOff) {
+    // Nothing tells where the map lies on such a mesh: S = 1 (with a warning), so the target is the plain one.
+    TileRig rig("ao_tile.gltf", false);
+    ASSERT_FALSE(rig.instance.material.occlusionTexture.empty());
+    const cv::Mat mapped = rig.render(rig.instance.material), plain = rig.render(withoutMaps(rig.instance.material));
+    EXPECT_GT(cv::countNonZero(plain.reshape(1) > 0.0f), kSize * kSize / 4) << "the tile is lit";
+    EXPECT_EQ(cv::countNonZero(mapped.reshape(1) != plain.reshape(1)), 0);
 }
 
 TEST_F(PrtSmallScaleGLTest, MapFileThatIsNoImageIsAnErrorNamingIt) {
