@@ -2,6 +2,7 @@
 // runs the per-frame CPU part and shades on GL. Design and formulas: gi/include/lightskin/gi/MultiscalePrt.h.
 #include "LightsShaders.h"
 #include "PrtGeometry.h"
+#include "PrtSmallScale.h"
 
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
@@ -29,7 +30,8 @@ double millisecondsSince(Clock::time_point start) {
 }
 
 struct Uniforms { // explicit locations (gi/shaders/prt_shade.*)
-    static constexpr GLint clipFromWorld = 0, worldFromModel = 1, firstVertex = 2, eye = 3, positionTolerance = 4;
+    static constexpr GLint clipFromWorld = 0, worldFromModel = 1, firstVertex = 2, eye = 3, positionTolerance = 4,
+                           smallScaleMode = 5, smallScaleFactor = 6;
 };
 
 // GLSL smoothstep, as render/shaders/shade.frag's spot cone.
@@ -54,6 +56,7 @@ struct MultiscalePrt::Impl {
     gl::Buffer exitBuffer; // vec4 per exit point
     PrtData data;
     detail::PrtGeometry scene;
+    detail::PrtSmallScale smallScale;
     bool prepared = false, fromCache = false;
     std::filesystem::path cacheFile;
     std::vector<PrtLight> lights;
@@ -107,6 +110,7 @@ void MultiscalePrt::prepare(std::span<const MeshInstance> instances) {
     Impl& impl = *impl_;
     const auto prepareStart = Clock::now();
     impl.scene = detail::PrtGeometry::create(instances);
+    impl.smallScale = detail::PrtSmallScale::create(instances);
     impl.epsilon = std::max(1e-6f, 1e-4f * impl.scene.diagonal);
     const std::uint64_t key = prtCacheKey(instances, impl.settings);
     impl.fromCache = false;
@@ -213,10 +217,15 @@ void MultiscalePrt::render(const ValSetView& lights, std::span<const MeshInstanc
         glProgramUniformMatrix4fv(program, Uniforms::worldFromModel, 1, GL_FALSE,
                                   glm::value_ptr(instances[m].world_T_model));
         glProgramUniform1ui(program, Uniforms::firstVertex, impl.data.exitOffsets[m]);
+        const detail::SmallScaleBinding& small = impl.smallScale.binding(m);
+        glProgramUniform1i(program, Uniforms::smallScaleMode, int(small.mode));
+        glProgramUniform1f(program, Uniforms::smallScaleFactor, small.factor);
+        glBindTextureUnit(3, small.texture);
         glBindVertexArray(instances[m].gpu.vertexArray);
         glDrawElements(GL_TRIANGLES, GLsizei(instances[m].gpu.indexCount), GL_UNSIGNED_INT, nullptr);
     }
     glBindVertexArray(0);
+    glBindTextureUnit(3, 0);
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
     impl.stageTimes[3].milliseconds = millisecondsSince(start);
 }

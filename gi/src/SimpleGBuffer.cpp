@@ -1,7 +1,7 @@
+#include "GatherShaders.h"
+
 #include <lightskin/gi/SimpleGBuffer.h>
 #include <lightskin/gl/ShaderLibrary.h>
-
-#include "GatherShaders.h"
 
 #include <glm/gtc/type_ptr.hpp>
 #include <glm/mat3x3.hpp>
@@ -25,6 +25,14 @@ UploadedMesh UploadedMesh::create(const TriangleMesh& mesh) {
         glEnableVertexArrayAttrib(vao, a);
         glVertexArrayAttribFormat(vao, a, 3, GL_FLOAT, GL_FALSE, 0);
         glVertexArrayAttribBinding(vao, a, a);
+    }
+    if (!mesh.texcoords.empty()) { // attribute 2 when present (multi-scale PRT's small-scale maps read it)
+        m.texcoords_ =
+            gl::Buffer::create(GLsizeiptr(mesh.texcoords.size() * sizeof(glm::vec2)), mesh.texcoords.data(), 0);
+        glVertexArrayVertexBuffer(vao, 2, m.texcoords_.id(), 0, sizeof(glm::vec2));
+        glEnableVertexArrayAttrib(vao, 2);
+        glVertexArrayAttribFormat(vao, 2, 2, GL_FLOAT, GL_FALSE, 0);
+        glVertexArrayAttribBinding(vao, 2, 2);
     }
     glVertexArrayElementBuffer(vao, m.indices_.id());
     m.view_ = GpuMeshView{vao, std::uint32_t(mesh.indices.size()), std::uint32_t(mesh.vertexCount())};
@@ -50,7 +58,8 @@ SimpleGBuffer SimpleGBuffer::create(int width, int height) {
     glNamedFramebufferDrawBuffers(g.framebuffer_.id(), 4, buffers);
     g.framebuffer_.checkComplete("SimpleGBuffer");
     const gl::ShaderLibrary library{embeddedShaders()};
-    g.program_ = library.buildProgram({{GL_VERTEX_SHADER, "gather_gbuffer.vert"}, {GL_FRAGMENT_SHADER, "gather_gbuffer.frag"}});
+    g.program_ =
+        library.buildProgram({{GL_VERTEX_SHADER, "gather_gbuffer.vert"}, {GL_FRAGMENT_SHADER, "gather_gbuffer.frag"}});
     return g;
 }
 
@@ -70,7 +79,8 @@ void SimpleGBuffer::render(std::span<const MeshInstance> instances, const glm::m
     glUniformMatrix4fv(program_.uniformLocation("uClipFromWorld"), 1, GL_FALSE, glm::value_ptr(clip_T_world));
     for (const MeshInstance& instance : instances) {
         const glm::mat3 normalMatrix = glm::transpose(glm::inverse(glm::mat3(instance.world_T_model)));
-        glUniformMatrix4fv(program_.uniformLocation("uWorldFromModel"), 1, GL_FALSE, glm::value_ptr(instance.world_T_model));
+        glUniformMatrix4fv(program_.uniformLocation("uWorldFromModel"), 1, GL_FALSE,
+                           glm::value_ptr(instance.world_T_model));
         glUniformMatrix3fv(program_.uniformLocation("uNormalFromModel"), 1, GL_FALSE, glm::value_ptr(normalMatrix));
         glUniform3fv(program_.uniformLocation("uAlbedo"), 1, glm::value_ptr(instance.material.diffuseAlbedo));
         const glm::vec4 specular(instance.material.specularAlbedo, instance.material.specularExponent);

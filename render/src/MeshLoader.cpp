@@ -4,8 +4,10 @@
 
 #include <assimp/BaseImporter.h>
 #include <assimp/DefaultLogger.hpp>
+#include <assimp/GltfMaterial.h>
 #include <assimp/Importer.hpp>
 #include <assimp/LogStream.hpp>
+#include <assimp/ObjMaterial.h>
 #include <assimp/importerdesc.h>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
@@ -30,8 +32,47 @@ bool finite(const aiVector3D& v) { return std::isfinite(v.x) && std::isfinite(v.
 
 glm::vec3 toVec3(const aiColor3D& c) { return {c.r, c.g, c.b}; }
 
+/// The file of `type`'s first texture, absolute; empty when there is none or it is embedded ('*n': not
+/// supported, logged). A referenced file that does not exist is an error naming the mesh file, the
+/// material and the texture: a missing map would silently change the light.
+std::string textureFile(const aiMaterial& source, aiTextureType type, const char* what,
+                        const std::filesystem::path& folder, const std::string& meshFile,
+                        const std::string& materialName) {
+    aiString texture;
+    if (source.GetTextureCount(type) == 0 || source.GetTexture(type, 0, &texture) != AI_SUCCESS) return {};
+    std::string file = texture.C_Str();
+    if (file.empty()) return {};
+    if (file[0] == '*') {
+        log::warning(meshFile + ": material '" + materialName + "': embedded " + what + " '" + file +
+                     "' ignored (only texture files are read)");
+        return {};
+    }
+    std::replace(file.begin(), file.end(), '\\', '/');
+    const std::filesystem::path path = (folder / file).lexically_normal();
+    std::error_code error;
+    if (!std::filesystem::is_regular_file(path, error))
+        throw Error(meshFile, std::nullopt,
+                    "material '" + materialName + "': " + what + " '" + path.string() + "' does not exist");
+    int uvSet = 0; // glTF's texCoord: only set 0 is kept (TriangleMesh::texcoords)
+    if (source.Get(AI_MATKEY_UVWSRC(type, 0), uvSet) == AI_SUCCESS && uvSet != 0)
+        log::warning(meshFile + ": material '" + materialName + "': " + what + " reads texture coordinate set " +
+                     std::to_string(uvSet) + "; only set 0 is loaded, so it is sampled with set 0");
+    return path.string();
+}
+
+/// A finite texture factor of `key` in [low, high] (glTF strength/scale, OBJ -bm), else `fallback` (logged).
+float textureFactor(const aiMaterial& source, const char* key, unsigned semantic, float fallback, float low, float high,
+                    const std::string& meshFile, const std::string& materialName) {
+    float value = fallback;
+    if (source.Get(key, semantic, 0, value) != AI_SUCCESS) return fallback;
+    if (std::isfinite(value) && value >= low && value <= high) return value;
+    log::warning(meshFile + ": material '" + materialName + "': " + key + " " + std::to_string(value) + " outside [" +
+                 std::to_string(low) + ", " + std::to_string(high) + "], " + std::to_string(fallback) + " used");
+    return fallback;
+}
+
 Material convertMaterial(const aiMaterial& source, const std::filesystem::path& folder, std::string& name,
-                         glm::vec3& emission) {
+                         glm::vec3& emission, const std::string& meshFile) {
     Material material;
     aiString aiName;
     if (source.Get(AI_MATKEY_NAME, aiName) == AI_SUCCESS) name = aiName.C_Str();
@@ -74,6 +115,29 @@ Material convertMaterial(const aiMaterial& source, const std::filesystem::path& 
             break;
         }
     }
+
+    // Small-scale maps (multi-scale PRT's small scale). assimp 5.2.5 hands glTF's occlusionTexture over as
+    // aiTextureType_LIGHTMAP with its strength in $tex.strength, normalTexture as aiTextureType_NORMALS with its
+    // scale in $tex.scale, and OBJ's norm as aiTextureType_NORMALS with -bm in $tex.bumpmult. A lightmap of
+    // other formats (FBX, 3DS) is baked light, not occlusion, so LIGHTMAP counts for glTF only.
+    const aiTextureType occlusionType = source.GetTextureCount(aiTextureType_AMBIENT_OCCLUSION) > 0
+                                            ? aiTextureType_AMBIENT_OCCLUSION
+                                        : isGltf ? aiTextureType_LIGHTMAP
+                                                 : aiTextureType_NONE;
+    if (occlusionType != aiTextureType_NONE) {
+        material.occlusionTexture = textureFile(source, occlusionType, "occlusion texture", folder, meshFile, name);
+        material.occlusionStrength =
+            textureFactor(source, _AI_MATKEY_GLTF_STRENGTH_BASE, occlusionType, 1.0f, 0.0f, 1.0f, meshFile, name);
+    }
+    material.normalTexture = textureFile(source, aiTextureType_NORMALS, "normal texture", folder, meshFile, name);
+    if (!material.normalTexture.empty()) {
+        const char* key = isGltf ? _AI_MATKEY_GLTF_SCALE_BASE : _AI_MATKEY_OBJ_BUMPMULT_BASE;
+        material.normalScale = textureFactor(source, key, aiTextureType_NORMALS, 1.0f, 0.0f, 100.0f, meshFile, name);
+    }
+    // OBJ's bump/map_Bump is a height map (aiTextureType_HEIGHT); the small scale reads occlusion and normal
+    // maps only (gi/include/lightskin/gi/MultiscalePrt.h says why), so say that it is not used.
+    if (source.GetTextureCount(aiTextureType_HEIGHT) > 0)
+        log::info(meshFile + ": material '" + name + "': height map (bump) not used");
     return material;
 }
 
@@ -532,8 +596,8 @@ LoadedModel loadModel(const std::filesystem::path& path) {
             }
         }
         if (in.mMaterialIndex < scene->mNumMaterials)
-            part.material =
-                convertMaterial(*scene->mMaterials[in.mMaterialIndex], folder, part.materialName, part.emission);
+            part.material = convertMaterial(*scene->mMaterials[in.mMaterialIndex], folder, part.materialName,
+                                            part.emission, source);
         mesh.validate(where);
         model.parts.push_back(std::move(part));
     }

@@ -5,6 +5,7 @@
 
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include <cmath>
 #include <fstream>
@@ -255,4 +256,86 @@ TEST(MeshLoader, MissingMaterialLibraryOrCorruptGltfBufferIsAnError) {
     EXPECT_EQ(triangle.triangleCount(), 1u);
     std::ofstream(dir / "tri.gltf", std::ios::trunc) << gltf.substr(0, gltf.size() / 2);
     expectCause(dir / "tri.gltf", "malformed glTF JSON");
+}
+
+// Issue 16 item 3: the small-scale maps of recordings/scenes/meshes/make_ao_tile.py's tiles. assimp 5.2.5 hands
+// glTF's occlusionTexture over as a lightmap and flips glTF's v (uv (0, 0) = the image's top-left) to v = 1 - v.
+TEST(MeshLoader, GltfOcclusionAndNormalMapsKeepTheirFilesStrengthAndScale) {
+    const auto meshes = lightskin::test::sourceDir() / "recordings/scenes/meshes";
+    const auto model = loadModel(meshes / "ao_tile.gltf");
+    ASSERT_EQ(model.parts.size(), 1u);
+    const lightskin::Material& material = model.parts[0].material;
+    EXPECT_EQ(model.parts[0].materialName, "ao_checker");
+    EXPECT_EQ(material.occlusionTexture, (meshes / "ao_tile_occlusion.png").lexically_normal().string());
+    EXPECT_EQ(material.occlusionStrength, 0.75f);
+    EXPECT_EQ(material.normalTexture, (meshes / "ao_tile_normal.png").lexically_normal().string());
+    EXPECT_EQ(material.normalScale, 1.0f);
+    const TriangleMesh& mesh = model.parts[0].mesh;
+    ASSERT_EQ(mesh.texcoords.size(), mesh.positions.size());
+    for (std::size_t v = 0; v < mesh.positions.size(); ++v) { // the file's uv = (x, 1 - y), flipped once by assimp
+        EXPECT_NEAR(mesh.texcoords[v].x, mesh.positions[v].x, 1e-6f);
+        EXPECT_NEAR(mesh.texcoords[v].y, mesh.positions[v].y, 1e-6f);
+    }
+    // The occlusion file holds what the script documents: R = 64 in the top-left 2 x 2 cell, a checker of 255
+    // and 128 elsewhere; G = 0, B = 255 (so a reader of another channel is caught downstream).
+    const cv::Mat bgr = cv::imread(material.occlusionTexture, cv::IMREAD_COLOR);
+    ASSERT_EQ(bgr.size(), cv::Size(8, 8));
+    for (int row = 0; row < 8; ++row)
+        for (int column = 0; column < 8; ++column) {
+            const cv::Vec3b texel = bgr.at<cv::Vec3b>(row, column);
+            const int expected = row < 2 && column < 2 ? 64 : (row / 2 + column / 2) % 2 == 0 ? 255 : 128;
+            EXPECT_EQ(int(texel[2]), expected) << row << ", " << column;
+            EXPECT_EQ(int(texel[1]), 0);
+            EXPECT_EQ(int(texel[0]), 255);
+        }
+
+    const auto normalOnly = loadModel(meshes / "normal_tile.gltf");
+    ASSERT_EQ(normalOnly.parts.size(), 1u);
+    EXPECT_TRUE(normalOnly.parts[0].material.occlusionTexture.empty());
+    EXPECT_EQ(normalOnly.parts[0].material.normalTexture, material.normalTexture);
+    EXPECT_EQ(normalOnly.parts[0].material.normalScale, 0.5f);
+    // Without maps the defaults stay (strength and scale 1, no files).
+    const auto plain = loadModel(dataPath("meshes/triangle.gltf"));
+    EXPECT_TRUE(plain.parts[0].material.occlusionTexture.empty());
+    EXPECT_TRUE(plain.parts[0].material.normalTexture.empty());
+    EXPECT_EQ(plain.parts[0].material.occlusionStrength, 1.0f);
+}
+
+TEST(MeshLoader, ObjNormalMapKeepsItsBumpMultiplierAndMissingMapsAreErrorsNamingFileAndMaterial) {
+    const auto dir = lightskin::test::scratchDir("mesh_small_scale_maps");
+    std::ofstream(dir / "tile.obj") << "mtllib tile.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n"
+                                       "usemtl bumpy\nf 1/1 2/2 3/3\n";
+    std::ofstream(dir / "tile.mtl") << "newmtl bumpy\nKd 0.5 0.5 0.5\nnorm -bm 0.25 normal.png\nmap_Bump height.png\n";
+    const auto expectCause = [](const std::filesystem::path& path, const std::string& cause) {
+        try {
+            loadModel(path);
+            ADD_FAILURE() << path << ": no error, expected '" << cause << "'";
+        } catch (const Error& error) {
+            EXPECT_EQ(error.source(), path.string());
+            EXPECT_NE(error.cause().find(cause), std::string::npos) << error.what();
+        }
+    };
+    expectCause(dir / "tile.obj",
+                "material 'bumpy': normal texture '" + (dir / "normal.png").string() + "' does not exist");
+    std::filesystem::copy_file(lightskin::test::sourceDir() / "recordings/scenes/meshes/ao_tile_normal.png",
+                               dir / "normal.png");
+    // The height map (map_Bump) is not used by the small scale (logged), so its absence is no error.
+    const auto model = loadModel(dir / "tile.obj");
+    ASSERT_EQ(model.parts.size(), 1u);
+    EXPECT_EQ(model.parts[0].material.normalTexture, (dir / "normal.png").string());
+    EXPECT_EQ(model.parts[0].material.normalScale, 0.25f);
+    EXPECT_TRUE(model.parts[0].material.occlusionTexture.empty());
+
+    // A glTF whose occlusion texture is missing: the tile with its image renamed.
+    std::string gltf =
+        lightskin::test::readText(lightskin::test::sourceDir() / "recordings/scenes/meshes/ao_tile.gltf");
+    const std::size_t at = gltf.find("ao_tile_occlusion.png");
+    ASSERT_NE(at, std::string::npos);
+    gltf.replace(at, std::string("ao_tile_occlusion.png").size(), "gone.png");
+    std::ofstream(dir / "ao_tile.gltf") << gltf;
+    std::filesystem::copy_file(lightskin::test::sourceDir() / "recordings/scenes/meshes/ao_tile.bin",
+                               dir / "ao_tile.bin");
+    std::filesystem::copy_file(dir / "normal.png", dir / "ao_tile_normal.png");
+    expectCause(dir / "ao_tile.gltf",
+                "material 'ao_checker': occlusion texture '" + (dir / "gone.png").string() + "' does not exist");
 }

@@ -1,6 +1,9 @@
 #pragma once
-// Small analytic scenes for the multi-scale PRT tests: quads subdivided into grids, boxes of them.
-// World = model space (identity placement), metres, counter-clockwise front faces.
+// Small analytic scenes for the multi-scale PRT tests: quads subdivided into grids (quadGrid of
+// ../lights/TestMeshes.h), boxes of them. World = model space (identity placement), metres, counter-clockwise
+// front faces.
+#include "../lights/TestMeshes.h"
+
 #include <lightskin/gi/IndirectIllumination.h>
 
 #include <glm/geometric.hpp>
@@ -10,23 +13,7 @@
 
 namespace lightskin::test::prt {
 
-/// origin + [0, 1]^2 spanned by u, v in cells x cells quads; normal = normalize(u x v).
-inline TriangleMesh quadGrid(glm::vec3 origin, glm::vec3 u, glm::vec3 v, int cells) {
-    TriangleMesh mesh;
-    const glm::vec3 n = glm::normalize(glm::cross(u, v));
-    for (int j = 0; j <= cells; ++j)
-        for (int i = 0; i <= cells; ++i) {
-            mesh.positions.push_back(origin + u * (float(i) / float(cells)) + v * (float(j) / float(cells)));
-            mesh.normals.push_back(n);
-        }
-    const auto at = [&](int i, int j) { return std::uint32_t(j * (cells + 1) + i); };
-    for (int j = 0; j < cells; ++j)
-        for (int i = 0; i < cells; ++i) {
-            mesh.indices.insert(mesh.indices.end(), {at(i, j), at(i + 1, j), at(i + 1, j + 1)});
-            mesh.indices.insert(mesh.indices.end(), {at(i, j), at(i + 1, j + 1), at(i, j + 1)});
-        }
-    return mesh;
-}
+using test::quadGrid; // the grid builder shared with the light-side tests (TestMeshes.h)
 
 /// Meshes with stable addresses and their instances.
 struct PrtScene {

@@ -8,6 +8,28 @@
 // hardware) and the meshes are re-rasterised with it. World metres; output rho_d / pi * E in W/(sr m^2). Needs a
 // current GL 4.5 context; per-frame code reuses prepare()'s buffers. Precompute, per-frame formulas, cache key:
 // docs/LIGHTSKIN.md, "Multi-scale PRT".
+//
+// Small scale (paper sec. 9 and 10): per pixel the indirect light is multiplied by an ambient-occlusion factor S of
+// the surface detail the mesh does not model, from the instance's Material (the mesh loader keeps glTF's
+// occlusionTexture and normalTexture, OBJ's norm); the renderer's direct light is never multiplied. Per instance:
+// - an occlusion map: S = 1 + occlusionStrength (R - 1), the glTF definition (it is what the author baked);
+// - else a normal map: S = (1 + cos alpha) / 2, alpha the angle between the mapped normal and the mean surface's
+//   normal (cos alpha = the normalised tangent-space z after glTF's xy scale). This is the paper's W(alpha, gamma,
+//   h) = (1 + h cos alpha + (1 - h) cos gamma) / 2 at h = 1 (the detail's top, its horizon the mean surface), and
+//   exact there: the cosine-weighted fraction of the tilted normal's hemisphere above the mean plane. The h < 1
+//   term needs a height map and the cone angle gamma of cone stepping (a cone map), which the inputs do not
+//   carry, so points in a groove are taken as open as the top: S errs toward 1 (too little occlusion). A flat
+//   normal map gives S = 1;
+// - else S = 1 (off); also for a mesh without texture coordinates (logged).
+// An occlusion map wins over a normal map of the same material: both describe the same detail, and multiplying
+// both would count its occlusion twice. S does not double-count the medium scale (the spectral obscurances W) in
+// the paper's sense of separating the scales by distance: W is traced against the mesh geometry from an offset
+// point on the mean surface over [epsilon, obscuranceDistance], so it cannot see detail that exists only in the
+// textures, and S covers only that detail (shorter than the mesh's edges, far below obscuranceDistance). The
+// contract on the asset: an occlusion map must hold the detail's own occlusion (as a baked normal map's high- vs
+// low-poly difference), not occlusion by the mesh's own large shapes, which W and the transfer already contain.
+// S multiplies E = W E_val + transfer as the paper multiplies its three textures: the product treats the detail's
+// and the mesh's occlusion as independent.
 
 #include <lightskin/gi/IndirectIllumination.h>
 

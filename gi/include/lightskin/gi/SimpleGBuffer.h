@@ -13,7 +13,8 @@
 
 namespace lightskin::gi {
 
-/// A TriangleMesh on the GPU in the GpuMeshView layout (attribute 0 position, 1 normal).
+/// A TriangleMesh on the GPU in the GpuMeshView layout (attribute 0 position, 1 normal, 2 texcoord when the mesh
+/// has them).
 class UploadedMesh {
 public:
     static UploadedMesh create(const TriangleMesh& mesh);
@@ -21,7 +22,7 @@ public:
 
 private:
     gl::VertexArray vertexArray_;
-    gl::Buffer positions_, normals_, indices_;
+    gl::Buffer positions_, normals_, texcoords_, indices_;
     GpuMeshView view_;
 };
 
