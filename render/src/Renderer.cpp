@@ -368,14 +368,35 @@ void Renderer::shade(const ShadeOptions& options) {
     timer_.end();
 }
 
+void Renderer::readShadedInto(const gl::Texture& texture, int cvType, unsigned format, unsigned type, cv::Mat& out) const {
+    // Outside the shaded rectangle shade() wrote zeros: read only the rectangle (llvmpipe converts every
+    // pixel it reads back), zero the rest, and flip the rows to top-first.
+    const int w = intrinsics_.width, h = intrinsics_.height;
+    out.create(h, w, cvType);
+    const glm::ivec4 r = coveredWindowRect_;
+    if (r.z <= 0 || r.w <= 0) {
+        out.setTo(cv::Scalar::all(0));
+        return;
+    }
+    if (r.z < w || r.w < h) out.setTo(cv::Scalar::all(0));
+    readbackScratch_.create(h, w, cvType); // once: a header of the rectangle's size over its memory below
+    cv::Mat rect(r.w, r.z, cvType, readbackScratch_.data);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glGetTextureSubImage(texture.id(), 0, r.x, r.y, 0, r.z, r.w, 1, format, type,
+                         GLsizei(rect.total() * rect.elemSize()), rect.data);
+    cv::flip(rect, out(cv::Rect(r.x, h - r.y - r.w, r.z, r.w)), 0);
+}
+
 void Renderer::readOutputsInto(cv::Mat& colourRgba, cv::Mat& depthMetres) const {
-    gl::readTextureRgba8Into(outputColour_, colourRgba);
-    gl::readTextureR32fInto(outputDepth_, depthMetres);
+    readShadedInto(outputColour_, CV_8UC4, GL_RGBA, GL_UNSIGNED_BYTE, colourRgba);
+    readShadedInto(outputDepth_, CV_32FC1, GL_RED, GL_FLOAT, depthMetres);
 }
 
 void Renderer::readIndirectInto(cv::Mat& out) const { gl::readTextureRgba32fInto(indirect_, out); }
 
-void Renderer::readLinearOutputInto(cv::Mat& out) const { gl::readTextureRgba32fInto(outputLinear_, out); }
+void Renderer::readLinearOutputInto(cv::Mat& out) const {
+    readShadedInto(outputLinear_, CV_32FC4, GL_RGBA, GL_FLOAT, out);
+}
 
 void Renderer::lastStageTimes(std::vector<gl::StageTime>& out) { timer_.collect(out); }
 

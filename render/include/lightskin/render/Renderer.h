@@ -128,6 +128,8 @@ private:
     /// GL window rectangle (x, y from the bottom left, width, height) that holds every pixel the objects can
     /// cover under clip_T_world; the whole viewport when a bounding-box corner is not in front of the near plane.
     glm::ivec4 coveredWindowRect(const glm::mat4& clip_T_world) const;
+    /// Reads an output of shade() (GL format/type) into `out` (top row first), only its shaded rectangle.
+    void readShadedInto(const gl::Texture& texture, int cvType, unsigned format, unsigned type, cv::Mat& out) const;
 
     struct Object;
     CameraIntrinsics intrinsics_;
@@ -151,6 +153,7 @@ private:
     gi::ViewParameters view_;
     glm::mat4 camera_T_world_{1.0f};
     glm::ivec4 coveredWindowRect_{0}; ///< of the last renderGBuffer(): shade() runs its shader only there
+    mutable cv::Mat readbackScratch_; ///< readShadedInto()'s rectangle, sized once
 };
 
 } // namespace lightskin::render
