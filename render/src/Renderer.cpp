@@ -303,8 +303,10 @@ glm::ivec4 Renderer::coveredWindowRect(const glm::mat4& clip_T_world) const {
     // The triangles lie in the boxes, so their pixels (centres inside a projected triangle) lie in the
     // projected corners' bounding rectangle; one pixel of margin covers float rounding of the projection.
     const auto clampTo = [](double v, int size) { return int(std::clamp(v, 0.0, double(size))); };
-    const int x0 = clampTo(std::floor(lo[0]) - 1.0, intrinsics_.width), x1 = clampTo(std::ceil(hi[0]) + 1.0, intrinsics_.width);
-    const int y0 = clampTo(std::floor(lo[1]) - 1.0, intrinsics_.height), y1 = clampTo(std::ceil(hi[1]) + 1.0, intrinsics_.height);
+    const int x0 = clampTo(std::floor(lo[0]) - 1.0, intrinsics_.width),
+              x1 = clampTo(std::ceil(hi[0]) + 1.0, intrinsics_.width);
+    const int y0 = clampTo(std::floor(lo[1]) - 1.0, intrinsics_.height),
+              y1 = clampTo(std::ceil(hi[1]) + 1.0, intrinsics_.height);
     return glm::ivec4(x0, y0, std::max(0, x1 - x0), std::max(0, y1 - y0));
 }
 
@@ -368,7 +370,8 @@ void Renderer::shade(const ShadeOptions& options) {
     timer_.end();
 }
 
-void Renderer::readShadedInto(const gl::Texture& texture, int cvType, unsigned format, unsigned type, cv::Mat& out) const {
+void Renderer::readShadedInto(const gl::Texture& texture, int cvType, unsigned format, unsigned type,
+                              cv::Mat& out) const {
     // Outside the shaded rectangle shade() wrote zeros: read only the rectangle (llvmpipe converts every
     // pixel it reads back), zero the rest, and flip the rows to top-first.
     const int w = intrinsics_.width, h = intrinsics_.height;

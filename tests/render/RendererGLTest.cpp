@@ -315,7 +315,8 @@ TEST_F(RendererGLTest, ShadingOnlyTheCoveredRectangleGivesTheSameOutputs) {
     auto limited = Renderer::create(kCamera), reference = Renderer::create(kCamera, wholeViewport);
     render::Scene scene;
     scene.objects.push_back(cubeInCameraFrame({0.05, 0.02, 1.0}, 0.2, glm::vec3(0.6f, 0.5f, 0.4f)));
-    scene.objects.push_back(cubeInCameraFrame({0.42, -0.1, 1.2}, 0.25, glm::vec3(0.3f, 0.5f, 0.7f))); // cut by the border
+    scene.objects.push_back(
+        cubeInCameraFrame({0.42, -0.1, 1.2}, 0.25, glm::vec3(0.3f, 0.5f, 0.7f))); // cut by the border
     scene.lights.push_back(pointLightInCameraFrame({0.0, -0.5, 0.3}, 20.0f));
     limited->setScene(scene);
     reference->setScene(scene);
