@@ -41,7 +41,8 @@ for ((r = 0; r < rounds; ++r)); do
         n=${frames[$rec]}
         read -r wallN cpuN < <(run "$binary" "$extra" "$rec" "$backend" "$n")
         read -r wall1 cpu1 < <(run "$binary" "$extra" "$rec" "$backend" 1)
-        echo "$name $rec $backend $(echo "($wallN - $wall1) * 1000 / ($n - 1)" | bc -l) $(echo "($cpuN - $cpu1) * 1000 / ($n - 1)" | bc -l)" >>"$work/samples"
+        awk -v id="$name $rec $backend" -v n="$n" -v wN="$wallN" -v w1="$wall1" -v cN="$cpuN" -v c1="$cpu1" \
+          'BEGIN { print id, (wN - w1) * 1000 / (n - 1), (cN - c1) * 1000 / (n - 1) }' >>"$work/samples"
       done
     done
   done
