@@ -74,7 +74,7 @@ extern "C" void onReplayInterrupt(int) {
 struct ReplayArgs {
     std::string recording, scene, out = "replay-out", writeFrames = "all", pose, view = "final", videoFormat = "auto";
     bool overwrite = false, window = false, noVideo = false, sideBySideVideo = false, noCompare = false;
-    bool adaptive = false, linearOut = false, rawDepth = false;
+    bool adaptive = false, linearOut = false, rawDepth = false, sequential = false;
     float staticTolerance = 0.0f;
     double budgetMs = 0.0; ///< --budget-ms (0: the scene's gi.budgetMs, if any)
     std::string staticTest = "probes";
@@ -306,6 +306,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     mr::SessionOptions sessionOptions;
     sessionOptions.pipeline = options;
     sessionOptions.budgetMs = args.budgetMs;
+    sessionOptions.prefetch = !args.sequential; // same images either way (mr::SessionOptions::prefetch)
     auto session = mr::Session::create(sessionOptions, mr::SceneInput::fromFile(scenePath), std::move(opened));
     capture::FrameSource* source = session->source();
     const render::Scene& scene = session->scene();
@@ -558,6 +559,9 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
         "--backend", args->backend,
         "LightSkin's stages 0-4 on gl (default: the scene's gi.backend) or cpu (SIMD + threads; shading stays on GL)")
         ->check(oneOf({"gl", "cpu"}));
+    command->add_flag("--sequential", args->sequential,
+                      "Read, depth-filter and track frame n+1 after frame n on one thread (default: on a worker thread "
+                      "while frame n renders; the images are the same)");
     command->add_flag(
         "--raw-depth", args->rawDepth,
         "Do not register unregistered depth (.oni, fakenect, raw recordings) to colour in software: shows what "

@@ -368,7 +368,8 @@ struct FramePipeline::State {
     std::vector<gl::StageTime> rsmTimes;
     render::Compositor compositor;
     capture::BilateralDepthFilter depthFilter; // KinectFusion defaults (capture/DepthFilter.h)
-    cv::Mat depthMetres, virtualColour, virtualDepth, virtualLinear, srgbToLinearTable;
+    PreparedFrame prepared;                    // process()'s own front (Session's prefetch brings its own)
+    cv::Mat virtualColour, virtualDepth, virtualLinear, srgbToLinearTable;
     std::unique_ptr<gi::IndirectIllumination> bruteForce; // error view only
     cv::Mat indirectTechnique, indirectReference, errorMap, normalsRgba;
     std::vector<glm::vec4> vertexVpls; // vpl view only
@@ -489,15 +490,15 @@ void FramePipeline::setGiSettings(const render::GiSettings& settings) {
     state_->technique->prepare(renderer_->instances());
 }
 
-void FramePipeline::applyDifferential(const RgbdFrame& frame, const Pose& world_T_camera,
+void FramePipeline::applyDifferential(const RgbdFrame& frame, const cv::Mat& depthMetres, const Pose& world_T_camera,
                                       const gi::ValSetView& depthVals, FrameOutput& out) {
     State& s = *state_;
     if (depthVals.buffer == 0 && depthVals.count > 0) // generated on the CPU (no allocation once grown)
         s.depthValsOnCpu.assign(s.cpuValSet.begin(), s.cpuValSet.end());
     else
         gi::downloadValsInto(depthVals, s.depthValsOnCpu);
-    s.differential->compute(s.depthMetres, frame.colourIntrinsics, world_T_camera, s.depthValsOnCpu,
-                            s.differentialLights, s.differentialImages);
+    s.differential->compute(depthMetres, frame.colourIntrinsics, world_T_camera, s.depthValsOnCpu, s.differentialLights,
+                            s.differentialImages);
     render::applyDifferentialInto(frame.colour, s.differentialImages, s.scene->exposureStops, s.cameraWithDifferential);
     out.differentialReceivers = s.differentialImages.receiversGathered;
     out.differentialPixels = cv::countNonZero(s.differentialImages.affected);
@@ -512,6 +513,40 @@ std::optional<gi::PrtPrepareStats> FramePipeline::prtPrepareStats() const {
 }
 
 void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
+    const auto frameStart = Clock::now();
+    prepare(frame, state_->prepared);
+    render(frame, state_->prepared, out);
+    out.totalMs = msSince(frameStart); // the front included
+}
+
+void FramePipeline::prepare(const RgbdFrame& frame, PreparedFrame& prepared) {
+    State& s = *state_;
+    // Depth in metres (CV_32FC1, 0 = missing), registered to colour.
+    auto t = Clock::now();
+    prepared.haveDepth = frame.hasDepth() && s.valsUsable && frame.depth.cols == frame.colour.cols &&
+                         frame.depth.rows == frame.colour.rows;
+    if (prepared.haveDepth) s.depthFilter.filterInto(frame.depth, frame.depthScaleMetres, prepared.depthMetres);
+    prepared.filterMs = msSince(t);
+
+    t = Clock::now();
+    switch (options_.poseMode) {
+    case PoseMode::GroundTruth:
+        prepared.tracking = tracking::PoseTracker::fromGroundTruth(frame);
+        break;
+    case PoseMode::Tracking:
+        s.tracker->trackInto(frame, prepared.tracking);
+        break;
+    case PoseMode::Fixed:
+        prepared.tracking = tracking::TrackingResult{};
+        prepared.tracking.frameIndex = frame.index;
+        prepared.tracking.state = tracking::TrackingState::Tracking;
+        prepared.tracking.world_T_camera = Pose();
+        break;
+    }
+    prepared.poseMs = msSince(t);
+}
+
+void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared, FrameOutput& out) {
     State& s = *state_;
     const auto frameStart = Clock::now();
     std::size_t used = 0;
@@ -534,27 +569,12 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     if (!out.linearIndirectReference.empty()) out.linearIndirectReference.setTo(cv::Scalar::all(0));
     if (!out.coverage.empty()) out.coverage.setTo(cv::Scalar::all(0));
 
-    // Depth in metres (CV_32FC1, 0 = missing), registered to colour.
-    auto t = Clock::now();
-    const bool haveDepth = frame.hasDepth() && s.valsUsable && frame.depth.cols == frame.colour.cols &&
-                           frame.depth.rows == frame.colour.rows;
-    if (haveDepth) s.depthFilter.filterInto(frame.depth, frame.depthScaleMetres, s.depthMetres);
-    addTime(out.cpuTimes, used, "depth filter", msSince(t));
-
-    // Pose.
-    t = Clock::now();
-    switch (options_.poseMode) {
-    case PoseMode::GroundTruth: out.tracking = tracking::PoseTracker::fromGroundTruth(frame); break;
-    case PoseMode::Tracking: s.tracker->trackInto(frame, out.tracking); break;
-    case PoseMode::Fixed:
-        out.tracking = tracking::TrackingResult{};
-        out.tracking.frameIndex = frame.index;
-        out.tracking.state = tracking::TrackingState::Tracking;
-        out.tracking.world_T_camera = Pose();
-        break;
-    }
+    const bool haveDepth = prepared.haveDepth;
+    const cv::Mat& depthMetres = prepared.depthMetres;
+    addTime(out.cpuTimes, used, "depth filter", prepared.filterMs);
+    out.tracking = prepared.tracking;
     out.world_T_camera = out.tracking.world_T_camera;
-    addTime(out.cpuTimes, used, "pose", msSince(t));
+    addTime(out.cpuTimes, used, "pose", prepared.poseMs);
 
     if (!out.world_T_camera) {
         // Lost: nothing virtual can be placed; the frame passes through unchanged.
@@ -574,7 +594,7 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     const Pose& world_T_camera = *out.world_T_camera;
 
     // VALs from the depth map.
-    t = Clock::now();
+    auto t = Clock::now();
     gi::ValSetView valSet;
     const bool runGi = options_.giEnabled && gi_.technique != "none";
     const bool runDifferential = options_.differential && s.differential && haveDepth && s.vals;
@@ -594,7 +614,7 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
                                                     cpuTechnique->settings().threads);
         else
             s.cpuVals->setSettings(settings);
-        s.cpuValSet = s.cpuVals->generate(s.depthMetres, 1.0, frame.colour, frame.colourIntrinsics, world_T_camera);
+        s.cpuValSet = s.cpuVals->generate(depthMetres, 1.0, frame.colour, frame.colourIntrinsics, world_T_camera);
         valSet = gi::ValSetView{0, std::uint32_t(s.cpuValSet.size()), 0, 0, 0};
         out.valCount = valSet.count;
         if (gi_.robustRealDepth && s.occupancy) { // as below, on the CPU set
@@ -604,7 +624,7 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
                                     r.viewParameters().clip_T_world, world_T_camera.inverse().matrixFloat());
         }
     } else if (haveDepth && (runGi || runDifferential) && s.vals) {
-        valSet = s.vals->generate(s.depthMetres, 1.0, frame.colour, frame.colourIntrinsics, world_T_camera);
+        valSet = s.vals->generate(depthMetres, 1.0, frame.colour, frame.colourIntrinsics, world_T_camera);
         out.valCount = valSet.count;
         if (gi_.robustRealDepth && s.occupancy) {
             // The VALs whose space the virtual content occupies (gi/ValOccupancyCull.h); needs the view.
@@ -621,7 +641,7 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     const cv::Mat* camera = &frame.colour;
     if (runDifferential) {
         t = Clock::now();
-        applyDifferential(frame, world_T_camera, valSet, out);
+        applyDifferential(frame, depthMetres, world_T_camera, valSet, out);
         camera = &s.cameraWithDifferential;
         addTime(out.cpuTimes, used, "differential", msSince(t));
     }
@@ -682,7 +702,7 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
 
     // Shade, read back, composite.
     t = Clock::now();
-    const cv::Mat realDepth = haveDepth ? s.depthMetres : cv::Mat();
+    const cv::Mat realDepth = haveDepth ? depthMetres : cv::Mat();
     render::ShadeOptions shade{.includeIndirect = runGi, .exposureStops = s.scene->exposureStops, .view = options_.view,
                                .linearOutput = options_.linearComposite};
     r.shade(shade);

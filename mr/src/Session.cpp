@@ -1,3 +1,5 @@
+#include "FramePrefetcher.h"
+
 #include <lightskin/core/Error.h>
 #include <lightskin/core/LeakCheck.h>
 #include <lightskin/core/Log.h>
@@ -54,6 +56,7 @@ struct Session::Gl {
 };
 
 Session::~Session() {
+    prefetch_.reset(); // its worker uses the source and the pipeline
     // The pipeline's and render()'s GL objects are deleted on the host's context: keep its bindings.
     const gl::StateGuard guard;
     gl_.reset();
@@ -133,7 +136,16 @@ std::unique_ptr<Session> Session::create(const SessionOptions& options, const Sc
 bool Session::processNext() {
     if (!source_)
         throw Error("session", std::nullopt, "processNext() needs a source-fed session (this one takes submit())");
+    if (options_.prefetch) {
+        if (!prefetch_) prefetch_ = std::make_unique<FramePrefetcher>(*source_, *pipeline_);
+        const FramePrefetcher::Slot* slot = prefetch_->next();
+        if (slot == nullptr) return false;
+        current_ = &slot->frame;
+        processWith(slot->frame, &slot->prepared);
+        return true;
+    }
     if (!source_->next(frame_)) return false;
+    current_ = &frame_;
     process(frame_);
     return true;
 }
@@ -165,11 +177,18 @@ void Session::submit(const HostFrame& host) {
     frame_.registration = DepthRegistration::RegisteredToColour;
     frame_.colour_T_depth = Pose();
     frame_.groundTruth_world_T_camera = host.world_T_camera;
+    current_ = &frame_;
     process(frame_);
     frame_.depth = cv::Mat(); // drop the header over host memory
 }
 
 void Session::process(const RgbdFrame& frame) {
+    LIGHTSKIN_ASSERT(!prefetch_,
+                     "lightskin::mr::Session::process(): the session prefetches its source (processNext() only)");
+    processWith(frame, nullptr);
+}
+
+void Session::processWith(const RgbdFrame& frame, const PreparedFrame* prepared) {
     if (!sameCamera(frame.colourIntrinsics, camera_))
         throw Error("frame", frame.index,
                     "colour intrinsics " + describeCamera(frame.colourIntrinsics) +
@@ -186,7 +205,10 @@ void Session::process(const RgbdFrame& frame) {
             applied_ = next;
         }
     }
-    pipeline_->process(frame, output_);
+    if (prepared != nullptr)
+        pipeline_->render(frame, *prepared, output_);
+    else
+        pipeline_->process(frame, output_);
     if (output_.world_T_camera) {
         const FrameStats stats{double(output_.valCount), applied_.valStride, double(output_.coveredPixels)};
         lastStats_ = stats;

@@ -11,6 +11,7 @@
 #include <lightskin/render/MeshLoader.h>
 #include <lightskin/render/Renderer.h>
 
+#include <glm/common.hpp>
 #include <glm/gtc/matrix_inverse.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
@@ -19,6 +20,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <optional>
 
@@ -29,6 +31,7 @@ struct Renderer::Object {
     GpuMesh gpu;
     Material material;
     glm::mat4 world_T_model{1.0f};
+    glm::vec3 modelMin{0.0f}, modelMax{0.0f}; ///< the mesh's bounding box, model frame
     gl::Texture texture; ///< empty when the material has none
     std::optional<gi::SparsePointSet> sparse;
 };
@@ -180,6 +183,13 @@ void Renderer::setScene(const Scene& scene, bool prepareSparsePoints) {
             }
             object->world_T_model = so.world_T_model;
             object->mesh = std::move(part.mesh);
+            if (!object->mesh.positions.empty()) {
+                object->modelMin = object->modelMax = object->mesh.positions.front();
+                for (const glm::vec3& position : object->mesh.positions) {
+                    object->modelMin = glm::min(object->modelMin, position);
+                    object->modelMax = glm::max(object->modelMax, position);
+                }
+            }
             object->gpu = GpuMesh::create(object->mesh, so.mesh.string());
             objects_.push_back(std::move(object));
         }
@@ -235,6 +245,8 @@ void Renderer::renderGBuffer(const Pose& world_T_camera) {
     const glm::mat4 clip_T_world(clipFromWorld(intrinsics_, world_T_camera, options_.nearMetres, options_.farMetres));
     camera_T_world_ = glm::mat4(world_T_camera.inverse().matrix());
     view_.clip_T_world = clip_T_world;
+    coveredWindowRect_ = options_.shadeCoveredRectOnly ? coveredWindowRect(clip_T_world)
+                                                       : glm::ivec4(0, 0, intrinsics_.width, intrinsics_.height);
     view_.cameraPositionWorld = glm::vec3(world_T_camera.translation());
 
     const float zero[4] = {0, 0, 0, 0};
@@ -264,6 +276,38 @@ void Renderer::renderGBuffer(const Pose& world_T_camera) {
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
     glDisable(GL_DEPTH_TEST);
     timer_.end();
+}
+
+glm::ivec4 Renderer::coveredWindowRect(const glm::mat4& clip_T_world) const {
+    const glm::ivec4 all(0, 0, intrinsics_.width, intrinsics_.height);
+    double lo[2] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
+    double hi[2] = {-lo[0], -lo[1]};
+    for (const auto& o : objects_) {
+        const glm::mat4 clip_T_model = clip_T_world * o->world_T_model;
+        for (int corner = 0; corner < 8; ++corner) {
+            const glm::vec3 p((corner & 1) != 0 ? o->modelMax.x : o->modelMin.x,
+                              (corner & 2) != 0 ? o->modelMax.y : o->modelMin.y,
+                              (corner & 4) != 0 ? o->modelMax.z : o->modelMin.z);
+            const glm::vec4 clip = clip_T_model * glm::vec4(p, 1.0f);
+            // A corner at or behind the near plane: the clipped box can reach any pixel.
+            if (!(double(clip.w) >= options_.nearMetres)) return all;
+            for (int axis = 0; axis < 2; ++axis) {
+                const double window = (double(clip[axis]) / double(clip.w) + 1.0) * 0.5 *
+                                      double(axis == 0 ? intrinsics_.width : intrinsics_.height);
+                lo[axis] = std::min(lo[axis], window);
+                hi[axis] = std::max(hi[axis], window);
+            }
+        }
+    }
+    if (objects_.empty()) return glm::ivec4(0);
+    // The triangles lie in the boxes, so their pixels (centres inside a projected triangle) lie in the
+    // projected corners' bounding rectangle; one pixel of margin covers float rounding of the projection.
+    const auto clampTo = [](double v, int size) { return int(std::clamp(v, 0.0, double(size))); };
+    const int x0 = clampTo(std::floor(lo[0]) - 1.0, intrinsics_.width),
+              x1 = clampTo(std::ceil(hi[0]) + 1.0, intrinsics_.width);
+    const int y0 = clampTo(std::floor(lo[1]) - 1.0, intrinsics_.height),
+              y1 = clampTo(std::ceil(hi[1]) + 1.0, intrinsics_.height);
+    return glm::ivec4(x0, y0, std::max(0, x1 - x0), std::max(0, y1 - y0));
 }
 
 void Renderer::shade(const ShadeOptions& options) {
@@ -309,22 +353,53 @@ void Renderer::shade(const ShadeOptions& options) {
     glViewport(0, 0, intrinsics_.width, intrinsics_.height);
     glDisable(GL_DEPTH_TEST);
     glDisable(GL_BLEND);
+    // Pixels no virtual content covers get shade.frag's output for them (all zero) from a clear, and the
+    // shader runs only in the rectangle the objects can cover (renderGBuffer): on llvmpipe every pixel of
+    // a full-screen pass costs, and the objects cover a small part of a camera frame. Same images.
+    glDisable(GL_SCISSOR_TEST);
+    const float zero[4] = {0, 0, 0, 0};
+    for (GLint i = 0; i < 3; ++i) glClearNamedFramebufferfv(outputFramebuffer_.id(), GL_COLOR, i, zero);
+    glEnable(GL_SCISSOR_TEST);
+    glScissor(coveredWindowRect_.x, coveredWindowRect_.y, coveredWindowRect_.z, coveredWindowRect_.w);
     shadeProgram_.use();
     glBindVertexArray(emptyVertexArray_.id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
+    glDisable(GL_SCISSOR_TEST);
     glBindVertexArray(0);
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
     timer_.end();
 }
 
+void Renderer::readShadedInto(const gl::Texture& texture, int cvType, unsigned format, unsigned type,
+                              cv::Mat& out) const {
+    // Outside the shaded rectangle shade() wrote zeros: read only the rectangle (llvmpipe converts every
+    // pixel it reads back), zero the rest, and flip the rows to top-first.
+    const int w = intrinsics_.width, h = intrinsics_.height;
+    out.create(h, w, cvType);
+    const glm::ivec4 r = coveredWindowRect_;
+    if (r.z <= 0 || r.w <= 0) {
+        out.setTo(cv::Scalar::all(0));
+        return;
+    }
+    if (r.z < w || r.w < h) out.setTo(cv::Scalar::all(0));
+    readbackScratch_.create(h, w, cvType); // once: a header of the rectangle's size over its memory below
+    cv::Mat rect(r.w, r.z, cvType, readbackScratch_.data);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glGetTextureSubImage(texture.id(), 0, r.x, r.y, 0, r.z, r.w, 1, format, type,
+                         GLsizei(rect.total() * rect.elemSize()), rect.data);
+    cv::flip(rect, out(cv::Rect(r.x, h - r.y - r.w, r.z, r.w)), 0);
+}
+
 void Renderer::readOutputsInto(cv::Mat& colourRgba, cv::Mat& depthMetres) const {
-    gl::readTextureRgba8Into(outputColour_, colourRgba);
-    gl::readTextureR32fInto(outputDepth_, depthMetres);
+    readShadedInto(outputColour_, CV_8UC4, GL_RGBA, GL_UNSIGNED_BYTE, colourRgba);
+    readShadedInto(outputDepth_, CV_32FC1, GL_RED, GL_FLOAT, depthMetres);
 }
 
 void Renderer::readIndirectInto(cv::Mat& out) const { gl::readTextureRgba32fInto(indirect_, out); }
 
-void Renderer::readLinearOutputInto(cv::Mat& out) const { gl::readTextureRgba32fInto(outputLinear_, out); }
+void Renderer::readLinearOutputInto(cv::Mat& out) const {
+    readShadedInto(outputLinear_, CV_32FC4, GL_RGBA, GL_FLOAT, out);
+}
 
 void Renderer::lastStageTimes(std::vector<gl::StageTime>& out) { timer_.collect(out); }
 

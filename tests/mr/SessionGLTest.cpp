@@ -449,4 +449,99 @@ TEST_F(SessionGLTest, FrameBudgetIsMetOnASteadyRecordingAfterWarmUp) {
     EXPECT_GT(InjectedCosts::giMs(sceneDefault, stats.back()) + kOtherMs, 2.0 * kBudgetMs);
 }
 
+// ---- Prefetch (SessionOptions::prefetch): frame n+1's capture, filter and pose on a worker ----
+
+/// The orbit scene on the CPU backend: its VALs come from the CPU generator in raster order and its
+/// gather is independent of the thread count, so two runs of a frame are bit-identical (unlike the GL
+/// path, see expectSameUpToRunToRun) and the prefetching run can be held to the sequential one exactly.
+mr::SceneInput orbitSceneOnCpu() {
+    mr::SceneInput scene = orbitScene();
+    const std::string key = "\"technique\": \"lightskin\",";
+    const auto at = scene.json.find(key);
+    EXPECT_NE(at, std::string::npos);
+    scene.json.insert(at + key.size(), " \"backend\": \"cpu\",");
+    // The tracker resolves its tag world against the scene file's folder, which an in-memory scene has not.
+    const std::string world = "../synth-orbit/synth/tag-world.json";
+    const auto worldAt = scene.json.find(world);
+    EXPECT_NE(worldAt, std::string::npos);
+    scene.json.replace(worldAt, world.size(), (recording() / "synth" / "tag-world.json").string());
+    return scene;
+}
+
+mr::SessionOptions trackingOptions(bool prefetch) {
+    mr::SessionOptions options;
+    options.pipeline.poseMode = mr::PoseMode::Tracking; // the tracker's temporal state makes the order matter
+    options.prefetch = prefetch;
+    return options;
+}
+
+TEST_F(SessionGLTest, PrefetchGivesTheSequentialImagesBitForBit) {
+    auto sequential = sourceSession(trackingOptions(false), orbitSceneOnCpu());
+    auto prefetching = sourceSession(trackingOptions(true), orbitSceneOnCpu());
+    constexpr int kFrames = 6; // tracking from the first frame, the filter's history, the worker's ring wrapped twice
+    int tracked = 0;
+    for (int f = 0; f < kFrames; ++f) {
+        ASSERT_TRUE(sequential->processNext());
+        ASSERT_TRUE(prefetching->processNext());
+        const mr::FrameOutput &a = sequential->output(), &b = prefetching->output();
+        ASSERT_EQ(prefetching->sourceFrame().index, f) << "the frame the output belongs to";
+        EXPECT_EQ(cv::norm(sequential->sourceFrame().colour, prefetching->sourceFrame().colour, cv::NORM_INF), 0.0);
+        ASSERT_EQ(a.world_T_camera.has_value(), b.world_T_camera.has_value()) << "frame " << f;
+        if (a.world_T_camera) {
+            ++tracked;
+            EXPECT_EQ(a.world_T_camera->matrix(), b.world_T_camera->matrix()) << "frame " << f;
+        }
+        EXPECT_EQ(a.tracking.state, b.tracking.state) << "frame " << f;
+        EXPECT_EQ(a.valCount, b.valCount) << "frame " << f;
+        ASSERT_EQ(a.withGi.size(), b.withGi.size());
+        EXPECT_EQ(cv::norm(a.withGi, b.withGi, cv::NORM_INF), 0.0) << "frame " << f << ": not bit for bit";
+        EXPECT_EQ(cv::norm(a.linearWithGi, b.linearWithGi, cv::NORM_INF), 0.0) << "frame " << f;
+        // Not a test of two empty images: GI lit the objects, and they cover part of the frame.
+        EXPECT_TRUE(b.giActive) << "frame " << f;
+        EXPECT_GT(b.coveredPixels, 100) << "frame " << f;
+    }
+    EXPECT_GE(tracked, kFrames - 1) << "the tags are seen in the recording's first frames";
+}
+
+/// The recording, with a read error at frame `failAt`.
+class FailingSource : public capture::FrameSource {
+public:
+    FailingSource(std::unique_ptr<capture::FrameSource> inner, std::int64_t failAt)
+        : FrameSource(inner->info(), inner->options())
+        , inner_(std::move(inner))
+        , failAt_(failAt) {}
+
+protected:
+    bool readNext(RgbdFrame& out) override {
+        if (inner_->framesDelivered() == failAt_) throw Error("fake.oni", failAt_, "truncated frame");
+        return inner_->next(out);
+    }
+
+private:
+    std::unique_ptr<capture::FrameSource> inner_;
+    std::int64_t failAt_;
+};
+
+TEST_F(SessionGLTest, PrefetchReportsASourceErrorAtItsFrame) {
+    constexpr std::int64_t kFailAt = 3;
+    auto session =
+        mr::Session::create(trackingOptions(true), orbitSceneOnCpu(),
+                            std::make_unique<FailingSource>(capture::openFrameSource(recording(), {}), kFailAt));
+    for (std::int64_t f = 0; f < kFailAt; ++f) {
+        ASSERT_TRUE(session->processNext()) << "frame " << f << " comes before the error";
+        EXPECT_EQ(session->sourceFrame().index, f);
+    }
+    for (int attempt = 0; attempt < 2; ++attempt) { // the worker stopped at the error: it stays
+        try {
+            session->processNext();
+            ADD_FAILURE() << "no error for the failing frame";
+        } catch (const Error& error) {
+            EXPECT_NE(std::string(error.what()).find("fake.oni"), std::string::npos) << error.what();
+            EXPECT_NE(std::string(error.what()).find("frame 3"), std::string::npos) << error.what();
+            EXPECT_NE(std::string(error.what()).find("truncated frame"), std::string::npos) << error.what();
+        }
+    }
+    EXPECT_EQ(session->report().frameIndex, kFailAt - 1) << "the last frame that rendered";
+}
+
 } // namespace

@@ -304,3 +304,55 @@ TEST_F(RendererGLTest, DiffuseTextureFromMtlIsSampledInSrgb) {
     // Grey 128 decoded to linear by the sRGB texture and encoded again by the tone mapping: 128 +- 1.
     EXPECT_NEAR(at(0.15, 0.15)[0], 128, 1);
 }
+
+// shade() runs only in the rectangle the objects' bounding boxes project to (RendererOptions::shadeCoveredRectOnly)
+// and clears the rest: the outputs must equal a whole-viewport shade bit for bit, in every output (colour, depth,
+// linear), also after the camera moves (nothing stale outside the new rectangle), with an object cut by the image
+// border, and with one reaching behind the near plane (then the rectangle is the whole viewport).
+TEST_F(RendererGLTest, ShadingOnlyTheCoveredRectangleGivesTheSameOutputs) {
+    render::RendererOptions wholeViewport;
+    wholeViewport.shadeCoveredRectOnly = false;
+    auto limited = Renderer::create(kCamera), reference = Renderer::create(kCamera, wholeViewport);
+    render::Scene scene;
+    scene.objects.push_back(cubeInCameraFrame({0.05, 0.02, 1.0}, 0.2, glm::vec3(0.6f, 0.5f, 0.4f)));
+    scene.objects.push_back(
+        cubeInCameraFrame({0.42, -0.1, 1.2}, 0.25, glm::vec3(0.3f, 0.5f, 0.7f))); // cut by the border
+    scene.lights.push_back(pointLightInCameraFrame({0.0, -0.5, 0.3}, 20.0f));
+    limited->setScene(scene);
+    reference->setScene(scene);
+    const auto moved = [](double x, double z) {
+        return kWorld_T_camera * Pose(glm::dquat(1.0, 0.0, 0.0, 0.0), glm::dvec3(x, 0.0, z));
+    };
+    struct View {
+        Pose world_T_camera;
+        bool wholeRect;
+    };
+    // 0.85 m forward: the first cube's near face (0.9 m ahead before) is 5 cm ahead, its corners behind the near
+    // plane (0.05 m) reach it -> the whole viewport.
+    const View views[] = {{kWorld_T_camera, false}, {moved(0.1, 0.0), false}, {moved(0.0, 0.85), true}};
+    for (std::size_t i = 0; i < std::size(views); ++i) {
+        cv::Mat colour[2], depth[2], linear[2];
+        Renderer* renderers[2] = {limited.get(), reference.get()};
+        for (int r = 0; r < 2; ++r) {
+            renderers[r]->renderGBuffer(views[i].world_T_camera);
+            renderers[r]->shade({.includeIndirect = false, .linearOutput = true});
+            renderers[r]->readOutputsInto(colour[r], depth[r]);
+            renderers[r]->readLinearOutputInto(linear[r]);
+        }
+        const glm::ivec4 rect = limited->shadedWindowRect();
+        const int covered = cv::countNonZero(depth[1] > 0.0f);
+        ASSERT_GT(covered, 20) << "view " << i << ": the objects must be in view";
+        EXPECT_EQ(cv::norm(colour[0], colour[1], cv::NORM_INF), 0.0) << "view " << i;
+        EXPECT_EQ(cv::norm(depth[0], depth[1], cv::NORM_INF), 0.0) << "view " << i;
+        EXPECT_EQ(cv::norm(linear[0], linear[1], cv::NORM_INF), 0.0) << "view " << i;
+        if (views[i].wholeRect) {
+            EXPECT_EQ(rect, glm::ivec4(0, 0, kCamera.width, kCamera.height)) << "view " << i;
+        } else {
+            // The shortcut is taken: the rectangle is a part of the frame, and holds every covered pixel
+            // (image row v is GL window row H-1-v).
+            EXPECT_LT(rect.z * rect.w, kCamera.width * kCamera.height * 3 / 4) << "view " << i;
+            const cv::Rect image(rect.x, kCamera.height - rect.y - rect.w, rect.z, rect.w);
+            EXPECT_EQ(cv::countNonZero(depth[1](image) > 0.0f), covered) << "view " << i;
+        }
+    }
+}

@@ -143,6 +143,8 @@ struct FrameOutput {
     std::int64_t vplNonFinite = -1; ///< vpl view only: vertices (of all) whose l'''_d or L'''_d is not finite, else -1
     std::vector<gl::StageTime> cpuTimes; ///< wall-clock per stage, ms (incl. waiting for the GPU)
     std::vector<gl::StageTime> gpuTimes; ///< GL timer queries, ms
+    /// Wall clock of process(), its front (filter, pose) included; of render() alone when the front ran
+    /// ahead on another thread (Session's prefetch), where it overlaps the previous frame.
     double totalMs = 0.0;
     int giReused = -1;                ///< adaptive LightSkin: 1 = VPLs reused (static content), 0 = recomputed, else -1
     float giChangeMeasure = -1.0f;    ///< adaptive LightSkin: LightSkinChoice::staticChangeBound
@@ -150,6 +152,16 @@ struct FrameOutput {
     std::int64_t volumeVoxelsDropped = -1;
     std::int64_t differentialReceivers = -1; ///< differential ran: receivers gathered (in the affected region), else -1
     std::int64_t differentialPixels = -1;    ///< differential ran: camera pixels in the affected region, else -1
+};
+
+/// The CPU-only front of a frame (FramePipeline::prepare): the filtered depth and the pose. It uses no
+/// GL, so frame n+1's front can run on another thread while frame n renders (Session's prefetch).
+/// Sized on first use and reused (no allocation per frame once the size is known).
+struct PreparedFrame {
+    cv::Mat depthMetres;    ///< CV_32FC1 bilateral-filtered depth in metres, 0 = missing (valid when haveDepth)
+    bool haveDepth = false; ///< the frame has depth registered to colour, of the colour image's size
+    tracking::TrackingResult tracking;   ///< the pose of the colour camera (PoseMode), world_T_camera empty = lost
+    double filterMs = 0.0, poseMs = 0.0; ///< wall clock of the two stages (FrameOutput::cpuTimes)
 };
 
 class FramePipeline {
@@ -160,7 +172,16 @@ public:
                                                  const PipelineOptions& options);
     ~FramePipeline();
 
+    /// One frame: prepare() then render(), on this thread.
     void process(const RgbdFrame& frame, FrameOutput& out);
+    /// The CPU-only front of `frame` (depth filter, pose) into `prepared`. Touches only the depth filter
+    /// and the tracker, no GL, so it may run on another thread while render() draws an earlier frame;
+    /// calls must come in frame order (the tracker's temporal filter), one at a time, and
+    /// options().poseMode must not change meanwhile.
+    void prepare(const RgbdFrame& frame, PreparedFrame& prepared);
+    /// The rest of `frame` (VALs, GI, shading, composite) from its prepare() result; needs the GL
+    /// context current. The output equals process()'s bit for bit.
+    void render(const RgbdFrame& frame, const PreparedFrame& prepared, FrameOutput& out);
 
     PipelineOptions& options() noexcept { return options_; }
     /// Rebuilds the GI technique with changed settings (live toggles of glossy/occlusion; the frame
@@ -178,8 +199,8 @@ private:
     void createValGenerator(int stride);
     /// The differential stage: receivers gathered from this frame's depth VALs, applied to the
     /// camera image (State::cameraWithDifferential), which the composites then use.
-    void applyDifferential(const RgbdFrame& frame, const Pose& world_T_camera, const gi::ValSetView& depthVals,
-                           FrameOutput& out);
+    void applyDifferential(const RgbdFrame& frame, const cv::Mat& depthMetres, const Pose& world_T_camera,
+                           const gi::ValSetView& depthVals, FrameOutput& out);
     struct State;
     std::unique_ptr<State> state_;
     std::unique_ptr<render::Renderer> renderer_;

@@ -102,7 +102,13 @@ struct SessionOptions {
     BudgetOptions budget; ///< its budgetMs is ignored (see above)
     /// Tests and calibration: the costs the budget observes per frame instead of the wall clock
     /// (default: G-buffer + GI stage and the rest of FrameOutput::cpuTimes).
-    std::function<StageCosts(const QualitySettings&, const FrameStats&, const FrameOutput&)> costMeter;
+    std::function<StageCosts(const QualitySettings&, const FrameStats&, const FrameOutput&)>
+        costMeter; /// Source-fed sessions: read frame n+1 and run its depth filter and pose on a worker thread while
+    /// processNext() renders frame n (FramePipeline::prepare; the images are the same bit for bit). The
+    /// worker reads one frame ahead of the caller, so a live camera's frame is up to one frame older; a
+    /// source error is reported at its frame, after which every processNext() reports it again.
+    /// pipeline.poseMode must not change while the session lives.
+    bool prefetch = false;
 };
 
 class Session {
@@ -137,7 +143,7 @@ public:
     /// The last frame's images (withGi: BGR composite) and all per-stage timings.
     const FrameOutput& output() const noexcept { return output_; }
     /// Source-fed sessions: the frame processNext() read last (as the source delivered it).
-    const RgbdFrame& sourceFrame() const noexcept { return frame_; }
+    const RgbdFrame& sourceFrame() const noexcept { return *current_; }
 
     const CameraIntrinsics& camera() const noexcept { return camera_; }
     /// GL clip_T_camera for this camera (render::clipFromCamera: OpenCV camera frame in, column-major).
@@ -156,6 +162,8 @@ public:
 
 private:
     Session() = default;
+    /// process() on the pipeline's front result `prepared` (nullptr: the pipeline runs the front itself).
+    void processWith(const RgbdFrame& frame, const PreparedFrame* prepared);
     static std::unique_ptr<Session> createWith(const SessionOptions& options, const SceneInput& scene,
                                                const capture::FrameSourceInfo& info);
     struct Gl;
@@ -169,6 +177,8 @@ private:
     QualitySettings applied_;
     std::optional<FrameStats> lastStats_;
     RgbdFrame frame_;
+    const RgbdFrame* current_ = &frame_;              // the frame of output_ (frame_, or a prefetch slot)
+    std::unique_ptr<class FramePrefetcher> prefetch_; // SessionOptions::prefetch, started by processNext()
     FrameOutput output_;
     FrameReport report_;
 };

@@ -28,6 +28,7 @@
 #include <lightskin/render/GpuMesh.h>
 #include <lightskin/render/Scene.h>
 
+#include <glm/vec4.hpp>
 #include <opencv2/core/mat.hpp>
 
 #include <memory>
@@ -57,6 +58,10 @@ struct RendererOptions {
     double nearMetres = 0.05;
     double farMetres = 20.0;
     int shadowMapSize = 256; ///< per cube face (llvmpipe: keep small)
+    /// shade() runs its shader only in the rectangle the objects' bounding boxes project to (shadedWindowRect())
+    /// and clears the rest to shade.frag's output for uncovered pixels (0): the same images, fewer pixels.
+    /// false: the whole viewport (tests compare the two).
+    bool shadeCoveredRectOnly = true;
 };
 
 class Renderer {
@@ -106,6 +111,11 @@ public:
     /// top row first; stale or undefined after a shade() without it).
     void readLinearOutputInto(cv::Mat& out) const;
 
+    /// The GL window rectangle (x, y from the bottom left, width, height; pixels) that shade() runs its
+    /// shader in, set by renderGBuffer(): every pixel the objects can cover; the whole viewport when an
+    /// object's bounding box reaches behind the near plane or RendererOptions::shadeCoveredRectOnly is off.
+    glm::ivec4 shadedWindowRect() const noexcept { return coveredWindowRect_; }
+
     /// GPU times of the last renderGBuffer()/shade() pair ("gbuffer", "shade").
     void lastStageTimes(std::vector<gl::StageTime>& out);
 
@@ -115,6 +125,11 @@ public:
 private:
     Renderer() = default;
     void renderShadowMaps();
+    /// GL window rectangle (x, y from the bottom left, width, height) that holds every pixel the objects can
+    /// cover under clip_T_world; the whole viewport when a bounding-box corner is not in front of the near plane.
+    glm::ivec4 coveredWindowRect(const glm::mat4& clip_T_world) const;
+    /// Reads an output of shade() (GL format/type) into `out` (top row first), only its shaded rectangle.
+    void readShadedInto(const gl::Texture& texture, int cvType, unsigned format, unsigned type, cv::Mat& out) const;
 
     struct Object;
     CameraIntrinsics intrinsics_;
@@ -137,6 +152,8 @@ private:
     gi::GBufferView gbufferView_;
     gi::ViewParameters view_;
     glm::mat4 camera_T_world_{1.0f};
+    glm::ivec4 coveredWindowRect_{0}; ///< of the last renderGBuffer(): shade() runs its shader only there
+    mutable cv::Mat readbackScratch_; ///< readShadedInto()'s rectangle, sized once
 };
 
 } // namespace lightskin::render
