@@ -58,7 +58,8 @@ struct MultiscalePrt::Impl {
     std::filesystem::path cacheFile;
     std::vector<PrtLight> lights;
     std::vector<VirtualAreaLight> vals; // read-back, grown only when a frame brings more VALs
-    std::vector<glm::vec3> entryIrradiance, exitIrradiance;
+    PrtGatherPlan gatherPlan;
+    std::vector<glm::vec3> entryIrradiance, exitIrradiance, gathered;
     std::vector<glm::vec4> exitUpload;
     // CPU wall milliseconds of the last render(): read-back, entry irradiance, exit irradiance, shading pass.
     std::vector<gl::StageTime> stageTimes{{"read-back", 0.0}, {"entry", 0.0}, {"exit", 0.0}, {"shade", 0.0}};
@@ -142,6 +143,11 @@ void MultiscalePrt::prepare(std::span<const MeshInstance> instances) {
     impl.entryIrradiance.assign(impl.data.entryCount(), glm::vec3(0.0f));
     impl.exitIrradiance.assign(impl.data.exitCount(), glm::vec3(0.0f));
     impl.exitUpload.assign(impl.data.exitCount(), glm::vec4(0.0f));
+    impl.gatherPlan = planPrtGather(impl.data, impl.settings.directGatherPoints, impl.settings.directNeighbours);
+    impl.gathered.assign(impl.gatherPlan.points.size(), glm::vec3(0.0f));
+    if (!impl.gatherPlan.exact())
+        log::info("multiscale-prt: the VALs' first bounce at " + std::to_string(impl.gatherPlan.points.size()) +
+                  " of " + std::to_string(impl.data.exitCount()) + " exit points, interpolated to the others");
     impl.exitBuffer =
         gl::Buffer::create(GLsizeiptr(std::max<std::size_t>(1, impl.data.exitCount()) * sizeof(glm::vec4)));
     impl.prepared = true;
@@ -185,7 +191,7 @@ void MultiscalePrt::render(const ValSetView& lights, std::span<const MeshInstanc
     impl.stageTimes[1].milliseconds = millisecondsSince(start);
 
     start = Clock::now();
-    prtExitIrradianceInto(impl.data, vals, impl.entryIrradiance, impl.exitIrradiance);
+    prtExitIrradianceInto(impl.data, impl.gatherPlan, vals, impl.entryIrradiance, impl.gathered, impl.exitIrradiance);
     for (std::size_t x = 0; x < impl.exitIrradiance.size(); ++x)
         impl.exitUpload[x] = glm::vec4(impl.exitIrradiance[x], 0.0f);
     impl.stageTimes[2].milliseconds = millisecondsSince(start);
@@ -227,5 +233,6 @@ bool MultiscalePrt::loadedFromCache() const { return impl_->fromCache; }
 std::filesystem::path MultiscalePrt::cacheFile() const { return impl_->cacheFile; }
 PrtPrepareStats MultiscalePrt::lastPrepareStats() const { return impl_->stats; }
 std::span<const glm::vec3> MultiscalePrt::lastExitIrradiance() const { return impl_->exitIrradiance; }
+const PrtGatherPlan& MultiscalePrt::gatherPlan() const { return impl_->gatherPlan; }
 
 } // namespace lightskin::gi

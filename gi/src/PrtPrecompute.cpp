@@ -170,6 +170,15 @@ void validate(const MultiscalePrtSettings& s) {
     checkRange("clusters", s.clusters, 1, 65536);
     checkRange("basisVectors", s.basisVectors, 0, 64);
     checkRange("obscuranceRays", s.obscuranceRays, 1, 4096);
+    checkRange("directGatherPoints", s.directGatherPoints, 0, 1 << 24);
+    checkRange("directNeighbours", s.directNeighbours, 1, 16);
+    if (!std::isfinite(s.entryLightFraction) || s.entryLightFraction < 0.0f || s.entryLightFraction > 0.99f)
+        throw Error("gi.multiscalePrt", std::nullopt,
+                    "entryLightFraction = " + std::to_string(s.entryLightFraction) +
+                        " is outside [0, 0.99] (1 would leave surfaces the test points miss without entry points)");
+    for (const glm::vec3& y : s.entryLightPoints)
+        if (!std::isfinite(y.x) || !std::isfinite(y.y) || !std::isfinite(y.z))
+            throw Error("gi.multiscalePrt", std::nullopt, "entryLightPoints holds a non-finite position");
     if (!std::isfinite(s.obscuranceDistance) || s.obscuranceDistance < 0.0f)
         throw Error("gi.multiscalePrt", std::nullopt, "obscuranceDistance must be a finite number >= 0 (metres)");
     if (!std::isfinite(s.minConnectionDistance) || s.minConnectionDistance < 0.0f)
