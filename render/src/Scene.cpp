@@ -1,8 +1,9 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/render/Scene.h>
 
-#include <glm/gtc/matrix_transform.hpp>
 #include <nlohmann/json.hpp>
+
+#include <glm/gtc/matrix_transform.hpp>
 
 #include <cmath>
 #include <fstream>
@@ -18,9 +19,7 @@ using nlohmann::json;
 /// Walks the JSON with the current pointer so every error names its key.
 class Reader {
 public:
-    Reader(std::string source, std::filesystem::path baseFolder)
-        : source_(std::move(source))
-        , base_(std::move(baseFolder)) {}
+    Reader(std::string source, std::filesystem::path baseFolder) : source_(std::move(source)), base_(std::move(baseFolder)) {}
 
     [[noreturn]] void fail(const std::string& pointer, const std::string& expected, const json* got) const {
         std::string cause = (pointer.empty() ? std::string("/") : pointer) + ": expected " + expected;
@@ -52,8 +51,7 @@ public:
     float number(const json& value, const std::string& pointer, float min, float max, const char* what) const {
         if (!value.is_number()) fail(pointer, std::string("a number ") + what, &value);
         const double v = value.get<double>();
-        if (!std::isfinite(v) || v < double(min) || v > double(max))
-            fail(pointer, std::string("a number ") + what, &value);
+        if (!std::isfinite(v) || v < double(min) || v > double(max)) fail(pointer, std::string("a number ") + what, &value);
         return float(v);
     }
 
@@ -114,15 +112,11 @@ MaterialOverride readMaterial(const Reader& r, const json& value, const std::str
     r.object(value, p);
     r.allowOnly(value, p, {"diffuseAlbedo", "specularAlbedo", "specularExponent", "diffuseTexture"});
     MaterialOverride m;
-    if (value.contains("diffuseAlbedo"))
-        m.diffuseAlbedo = r.colour(value["diffuseAlbedo"], p + "/diffuseAlbedo", 1.0f, "in [0, 1]");
-    if (value.contains("specularAlbedo"))
-        m.specularAlbedo = r.colour(value["specularAlbedo"], p + "/specularAlbedo", 1.0f, "in [0, 1]");
+    if (value.contains("diffuseAlbedo")) m.diffuseAlbedo = r.colour(value["diffuseAlbedo"], p + "/diffuseAlbedo", 1.0f, "in [0, 1]");
+    if (value.contains("specularAlbedo")) m.specularAlbedo = r.colour(value["specularAlbedo"], p + "/specularAlbedo", 1.0f, "in [0, 1]");
     if (value.contains("specularExponent"))
-        m.specularExponent =
-            r.number(value["specularExponent"], p + "/specularExponent", 1.0f, 1e6f, ">= 1 (Phong exponent k)");
-    if (value.contains("diffuseTexture"))
-        m.diffuseTexture = r.existingFile(value["diffuseTexture"], p + "/diffuseTexture", "texture");
+        m.specularExponent = r.number(value["specularExponent"], p + "/specularExponent", 1.0f, 1e6f, ">= 1 (Phong exponent k)");
+    if (value.contains("diffuseTexture")) m.diffuseTexture = r.existingFile(value["diffuseTexture"], p + "/diffuseTexture", "texture");
     return m;
 }
 
@@ -136,8 +130,7 @@ glm::mat4 readTransform(const Reader& r, const json& value, const std::string& p
         glm::mat4 out;
         for (int row = 0; row < 4; ++row)
             for (int col = 0; col < 4; ++col)
-                out[col][row] = r.number(m[std::size_t(row * 4 + col)], p + "/matrix/" + std::to_string(row * 4 + col),
-                                         -1e6f, 1e6f, "(finite)");
+                out[col][row] = r.number(m[std::size_t(row * 4 + col)], p + "/matrix/" + std::to_string(row * 4 + col), -1e6f, 1e6f, "(finite)");
         if (out[0][3] != 0.0f || out[1][3] != 0.0f || out[2][3] != 0.0f || out[3][3] != 1.0f)
             r.fail(p + "/matrix", "a last row of 0 0 0 1 (an affine transform)", &m);
         return out;
@@ -145,8 +138,7 @@ glm::mat4 readTransform(const Reader& r, const json& value, const std::string& p
     glm::vec3 t(0.0f), rot(0.0f);
     float s = 1.0f;
     if (value.contains("translation")) t = r.vec3(value["translation"], p + "/translation", -1e4f, 1e4f, "(metres)");
-    if (value.contains("rotationDegrees"))
-        rot = r.vec3(value["rotationDegrees"], p + "/rotationDegrees", -1e4f, 1e4f, "(degrees)");
+    if (value.contains("rotationDegrees")) rot = r.vec3(value["rotationDegrees"], p + "/rotationDegrees", -1e4f, 1e4f, "(degrees)");
     if (value.contains("scale")) s = r.number(value["scale"], p + "/scale", 1e-6f, 1e6f, "> 0 (uniform scale)");
     return composeTransform(t, rot, s);
 }
@@ -156,8 +148,7 @@ SceneObject readObject(const Reader& r, const json& value, const std::string& p,
     r.allowOnly(value, p, {"name", "mesh", "transform", "material"});
     SceneObject o;
     o.name = value.contains("name") ? r.string(value["name"], p + "/name") : "object" + std::to_string(index);
-    if (!value.contains("mesh"))
-        r.fail(p + "/mesh", "a mesh file path (OBJ, PLY or glTF; relative to the scene file)", nullptr);
+    if (!value.contains("mesh")) r.fail(p + "/mesh", "a mesh file path (OBJ, PLY or glTF; relative to the scene file)", nullptr);
     o.mesh = r.existingFile(value["mesh"], p + "/mesh", "mesh file");
     if (value.contains("transform")) o.world_T_model = readTransform(r, value["transform"], p + "/transform");
     if (value.contains("material")) o.material = readMaterial(r, value["material"], p + "/material");
@@ -171,12 +162,9 @@ SceneLight readLight(const Reader& r, const json& value, const std::string& p) {
         {"type", "position", "direction", "power", "coneAngleDegrees", "coneFalloffDegrees", "shadows", "inRoom"});
     SceneLight l;
     const std::string type = value.contains("type") ? r.string(value["type"], p + "/type") : "";
-    if (type == "point")
-        l.type = LightType::Point;
-    else if (type == "spot")
-        l.type = LightType::Spot;
-    else
-        r.fail(p + "/type", "\"point\" or \"spot\"", value.contains("type") ? &value["type"] : nullptr);
+    if (type == "point") l.type = LightType::Point;
+    else if (type == "spot") l.type = LightType::Spot;
+    else r.fail(p + "/type", "\"point\" or \"spot\"", value.contains("type") ? &value["type"] : nullptr);
     if (!value.contains("position")) r.fail(p + "/position", "[x, y, z] in metres (world frame)", nullptr);
     l.position = r.vec3(value["position"], p + "/position", -1e4f, 1e4f, "(metres)");
     if (value.contains("power")) l.power = r.colour(value["power"], p + "/power", 1e6f, ">= 0 (watts)");
@@ -186,15 +174,12 @@ SceneLight readLight(const Reader& r, const json& value, const std::string& p) {
         if (glm::length(d) < 1e-6f) r.fail(p + "/direction", "a non-zero direction", &value["direction"]);
         l.direction = glm::normalize(d);
         if (value.contains("coneAngleDegrees"))
-            l.coneAngleDegrees =
-                r.number(value["coneAngleDegrees"], p + "/coneAngleDegrees", 0.1f, 89.0f, "in [0.1, 89] degrees");
+            l.coneAngleDegrees = r.number(value["coneAngleDegrees"], p + "/coneAngleDegrees", 0.1f, 89.0f, "in [0.1, 89] degrees");
         if (value.contains("coneFalloffDegrees"))
-            l.coneFalloffDegrees =
-                r.number(value["coneFalloffDegrees"], p + "/coneFalloffDegrees", 0.0f, 45.0f, "in [0, 45] degrees");
+            l.coneFalloffDegrees = r.number(value["coneFalloffDegrees"], p + "/coneFalloffDegrees", 0.0f, 45.0f, "in [0, 45] degrees");
     } else {
         for (const char* key : {"direction", "coneAngleDegrees", "coneFalloffDegrees"})
-            if (value.contains(key))
-                r.fail(p + "/" + key, "no such key on a point light (only spot lights have it)", nullptr);
+            if (value.contains(key)) r.fail(p + "/" + key, "no such key on a point light (only spot lights have it)", nullptr);
     }
     if (value.contains("shadows")) l.castsShadows = r.boolean(value["shadows"], p + "/shadows");
     if (value.contains("inRoom")) l.inRoom = r.boolean(value["inRoom"], p + "/inRoom");
@@ -308,25 +293,21 @@ GiSettings readGi(const Reader& r, const json& value, const std::string& p, cons
             r.fail(p + "/backend", "\"gl\" (the CPU backend exists for technique \"lightskin\" only)",
                    &value["backend"]);
     }
-    if (value.contains("sparsePoints"))
-        g.sparsePoints = r.integer(value["sparsePoints"], p + "/sparsePoints", 16, 65536);
+    if (value.contains("sparsePoints")) g.sparsePoints = r.integer(value["sparsePoints"], p + "/sparsePoints", 16, 65536);
     if (value.contains("valStride")) g.valStride = r.integer(value["valStride"], p + "/valStride", 1, 64);
     if (value.contains("kCache")) {
         g.kCache = r.integer(value["kCache"], p + "/kCache", 16, 4096);
-        if (g.kCache % 16 != 0)
-            r.fail(p + "/kCache", "a multiple of 16 (uniform-buffer alignment) in [16, 4096]", &value["kCache"]);
+        if (g.kCache % 16 != 0) r.fail(p + "/kCache", "a multiple of 16 (uniform-buffer alignment) in [16, 4096]", &value["kCache"]);
     }
     if (value.contains("diffuse")) g.diffuse = r.boolean(value["diffuse"], p + "/diffuse");
     if (value.contains("glossy")) g.glossy = r.boolean(value["glossy"], p + "/glossy");
     if (value.contains("occlusion")) g.occlusion = r.boolean(value["occlusion"], p + "/occlusion");
     if (value.contains("virtualBounce")) g.virtualBounce = r.boolean(value["virtualBounce"], p + "/virtualBounce");
-    if (value.contains("rsmResolution"))
-        g.rsmResolution = r.integer(value["rsmResolution"], p + "/rsmResolution", 8, 256);
+    if (value.contains("rsmResolution")) g.rsmResolution = r.integer(value["rsmResolution"], p + "/rsmResolution", 8, 256);
     if (value.contains("budgetMs"))
         g.budgetMs =
             double(r.number(value["budgetMs"], p + "/budgetMs", 0.001f, 1.0e6f, "in [0.001, 1e6] (milliseconds)"));
-    if (value.contains("robustRealDepth"))
-        g.robustRealDepth = r.boolean(value["robustRealDepth"], p + "/robustRealDepth");
+    if (value.contains("robustRealDepth")) g.robustRealDepth = r.boolean(value["robustRealDepth"], p + "/robustRealDepth");
     if (value.contains("valTreeThreshold"))
         g.valTreeThreshold = r.number(value["valTreeThreshold"], p + "/valTreeThreshold", 0.0f, 100.0f, "in [0, 100]");
     if (value.contains("imperfectVolumes")) {
@@ -362,11 +343,9 @@ Scene parseScene(std::string_view text, const std::filesystem::path& baseFolder,
     }
     const Reader r(sourceName, baseFolder);
     r.object(root, "");
-    r.allowOnly(root, "",
-                {"version", "objects", "lights", "gi", "tracking", "exposureStops", "compositing", "description"});
+    r.allowOnly(root, "", {"version", "objects", "lights", "gi", "tracking", "exposureStops", "compositing", "description"});
     if (!root.contains("version") || !root["version"].is_number_integer() || root["version"].get<std::int64_t>() != 1)
-        r.fail("/version", "1 (the scene format version this build reads)",
-               root.contains("version") ? &root["version"] : nullptr);
+        r.fail("/version", "1 (the scene format version this build reads)", root.contains("version") ? &root["version"] : nullptr);
 
     Scene scene;
     if (root.contains("objects")) {
@@ -379,26 +358,22 @@ Scene parseScene(std::string_view text, const std::filesystem::path& baseFolder,
         const json& lights = root["lights"];
         if (!lights.is_array()) r.fail("/lights", "an array of lights", &lights);
         if (lights.size() > 4) r.fail("/lights", "at most 4 lights (shadow map budget)", nullptr);
-        for (std::size_t i = 0; i < lights.size(); ++i)
-            scene.lights.push_back(readLight(r, lights[i], "/lights/" + std::to_string(i)));
+        for (std::size_t i = 0; i < lights.size(); ++i) scene.lights.push_back(readLight(r, lights[i], "/lights/" + std::to_string(i)));
     }
     scene.gi = readGi(r, root.contains("gi") ? root["gi"] : json::object(), "/gi", baseFolder);
     if (root.contains("tracking")) {
         r.object(root["tracking"], "/tracking");
         scene.trackingJson = root["tracking"].dump();
     }
-    if (root.contains("exposureStops"))
-        scene.exposureStops = r.number(root["exposureStops"], "/exposureStops", -20.0f, 20.0f, "in [-20, 20] (stops)");
+    if (root.contains("exposureStops")) scene.exposureStops = r.number(root["exposureStops"], "/exposureStops", -20.0f, 20.0f, "in [-20, 20] (stops)");
     if (root.contains("compositing")) {
         const json& c = root["compositing"];
         r.object(c, "/compositing");
         r.allowOnly(c, "/compositing", {"softBandSigmas", "minSoftBandMetres", "differential"});
         if (c.contains("softBandSigmas"))
-            scene.compositing.softBandSigmas =
-                r.number(c["softBandSigmas"], "/compositing/softBandSigmas", 0.0f, 100.0f, "in [0, 100]");
+            scene.compositing.softBandSigmas = r.number(c["softBandSigmas"], "/compositing/softBandSigmas", 0.0f, 100.0f, "in [0, 100]");
         if (c.contains("minSoftBandMetres"))
-            scene.compositing.minSoftBandMetres =
-                r.number(c["minSoftBandMetres"], "/compositing/minSoftBandMetres", 0.0f, 1.0f, "in [0, 1] metres");
+            scene.compositing.minSoftBandMetres = r.number(c["minSoftBandMetres"], "/compositing/minSoftBandMetres", 0.0f, 1.0f, "in [0, 1] metres");
         if (c.contains("differential"))
             scene.compositing.differential = r.boolean(c["differential"], "/compositing/differential");
     }
