@@ -61,8 +61,10 @@ struct MultiscalePrt::Impl {
     PrtGatherPlan gatherPlan;
     std::vector<glm::vec3> entryIrradiance, exitIrradiance, gathered;
     std::vector<glm::vec4> exitUpload;
-    // CPU wall milliseconds of the last render(): read-back, entry irradiance, exit irradiance, shading pass.
-    std::vector<gl::StageTime> stageTimes{{"read-back", 0.0}, {"entry", 0.0}, {"exit", 0.0}, {"shade", 0.0}};
+    // CPU wall milliseconds of the last render(): read-back, the VALs and the scene lights at the entry points,
+    // exit irradiance, shading pass.
+    std::vector<gl::StageTime> stageTimes{
+        {"read-back", 0.0}, {"entry", 0.0}, {"lights", 0.0}, {"exit", 0.0}, {"shade", 0.0}};
     float epsilon = 1e-6f;
     PrtPrepareStats stats;
 
@@ -144,7 +146,7 @@ void MultiscalePrt::prepare(std::span<const MeshInstance> instances) {
     impl.exitIrradiance.assign(impl.data.exitCount(), glm::vec3(0.0f));
     impl.exitUpload.assign(impl.data.exitCount(), glm::vec4(0.0f));
     impl.gatherPlan = planPrtGather(impl.data, impl.settings.directGatherPoints, impl.settings.directNeighbours);
-    impl.gathered.assign(impl.gatherPlan.points.size(), glm::vec3(0.0f));
+    impl.gathered.assign(3 * impl.gatherPlan.points.size(), glm::vec3(0.0f));
     if (!impl.gatherPlan.exact())
         log::info("multiscale-prt: the VALs' first bounce at " + std::to_string(impl.gatherPlan.points.size()) +
                   " of " + std::to_string(impl.data.exitCount()) + " exit points, interpolated to the others");
@@ -187,14 +189,17 @@ void MultiscalePrt::render(const ValSetView& lights, std::span<const MeshInstanc
 
     start = Clock::now();
     prtEntryIrradianceInto(impl.data, vals, impl.entryIrradiance);
-    impl.addLightIrradiance();
     impl.stageTimes[1].milliseconds = millisecondsSince(start);
+
+    start = Clock::now();
+    impl.addLightIrradiance();
+    impl.stageTimes[2].milliseconds = millisecondsSince(start);
 
     start = Clock::now();
     prtExitIrradianceInto(impl.data, impl.gatherPlan, vals, impl.entryIrradiance, impl.gathered, impl.exitIrradiance);
     for (std::size_t x = 0; x < impl.exitIrradiance.size(); ++x)
         impl.exitUpload[x] = glm::vec4(impl.exitIrradiance[x], 0.0f);
-    impl.stageTimes[2].milliseconds = millisecondsSince(start);
+    impl.stageTimes[3].milliseconds = millisecondsSince(start);
 
     start = Clock::now();
     if (!impl.exitUpload.empty())
@@ -224,7 +229,7 @@ void MultiscalePrt::render(const ValSetView& lights, std::span<const MeshInstanc
     }
     glBindVertexArray(0);
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
-    impl.stageTimes[3].milliseconds = millisecondsSince(start);
+    impl.stageTimes[4].milliseconds = millisecondsSince(start);
 }
 
 void MultiscalePrt::lastStageTimes(std::vector<gl::StageTime>& out) const { out = impl_->stageTimes; }

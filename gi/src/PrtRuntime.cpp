@@ -58,6 +58,33 @@ glm::vec3 valIrradiance(const ValArrays& v, const glm::vec3& p, const glm::vec3&
     }
     return {r, g, b};
 }
+
+// The irradiance vectors of the VALs above p's tangent plane, one per channel: V_c = sum_j phi_j,c cos_j d_j /
+// (|d_j| (pi d_j^2 + A_j)) over the VALs with n . d_j > 0, so that E_c(p, n) = n . V_c exactly, and a nearby
+// exit with another normal n' gets max(0, n' . V_c) (first order in the normal; exact while the VALs above
+// both tangent planes are the same).
+void valIrradianceVectors(const ValArrays& v, const glm::vec3& p, const glm::vec3& n, glm::vec3* out) {
+    float rx = 0.0f, ry = 0.0f, rz = 0.0f, gx = 0.0f, gy = 0.0f, gz = 0.0f, bx = 0.0f, by = 0.0f, bz = 0.0f;
+    for (std::size_t j = 0; j < v.count; ++j) {
+        const float dx = v.px[j] - p.x, dy = v.py[j] - p.y, dz = v.pz[j] - p.z;
+        const float d2 = dx * dx + dy * dy + dz * dz;
+        const float above = n.x * dx + n.y * dy + n.z * dz > 0.0f ? 1.0f : 0.0f;
+        const float cosJ = std::max(0.0f, -(v.nx[j] * dx + v.ny[j] * dy + v.nz[j] * dz)); // times |d|
+        const float w = above * cosJ / std::max(d2 * (kPi * d2 + v.area[j]), 1e-30f);
+        const float wr = v.fr[j] * w, wg = v.fg[j] * w, wb = v.fb[j] * w;
+        rx += wr * dx, ry += wr * dy, rz += wr * dz;
+        gx += wg * dx, gy += wg * dy, gz += wg * dz;
+        bx += wb * dx, by += wb * dy, bz += wb * dz;
+    }
+    out[0] = {rx, ry, rz};
+    out[1] = {gx, gy, gz};
+    out[2] = {bx, by, bz};
+}
+
+glm::vec3 irradianceFromVectors(const glm::vec3* vectors, const glm::vec3& n) {
+    return {std::max(0.0f, glm::dot(n, vectors[0])), std::max(0.0f, glm::dot(n, vectors[1])),
+            std::max(0.0f, glm::dot(n, vectors[2]))};
+}
 } // namespace
 
 void prtEntryIrradianceInto(const PrtData& data, std::span<const VirtualAreaLight> vals,
@@ -212,24 +239,28 @@ void prtExitIrradianceInto(const PrtData& data, const PrtGatherPlan& plan, std::
                            std::span<glm::vec3> exitIrradiance) {
     const std::size_t exits = data.exitCount(), k = std::size_t(plan.neighbours);
     LIGHTSKIN_ASSERT(entryIrradiance.size() == data.entryCount() && exitIrradiance.size() == exits &&
-                         gathered.size() == plan.points.size() && (plan.exact() || plan.slot.size() == exits * k),
+                         gathered.size() == 3 * plan.points.size() && (plan.exact() || plan.slot.size() == exits * k),
                      "lightskin::gi::prtExitIrradianceInto(): one value per entry, exit and gather point of the plan");
     ValArrays& arrays = valArrays();
     arrays.fill(vals);
 #pragma omp parallel for schedule(static)
-    for (std::ptrdiff_t g = 0; g < std::ptrdiff_t(gathered.size()); ++g) {
+    for (std::ptrdiff_t g = 0; g < std::ptrdiff_t(plan.points.size()); ++g) {
         const std::size_t x = plan.points[std::size_t(g)];
-        gathered[std::size_t(g)] = valIrradiance(arrays, data.exitPositions[x], data.exitNormals[x]);
+        valIrradianceVectors(arrays, data.exitPositions[x], data.exitNormals[x], &gathered[3 * std::size_t(g)]);
     }
     if (plan.exact()) {
-        for (std::size_t g = 0; g < gathered.size(); ++g)
-            exitIrradiance[plan.points[g]] = data.exitObscurance[plan.points[g]] * gathered[g];
+        for (std::size_t g = 0; g < plan.points.size(); ++g) {
+            const std::size_t x = plan.points[g];
+            exitIrradiance[x] = data.exitObscurance[x] * irradianceFromVectors(&gathered[3 * g], data.exitNormals[x]);
+        }
     } else {
 #pragma omp parallel for schedule(static)
         for (std::ptrdiff_t xi = 0; xi < std::ptrdiff_t(exits); ++xi) {
             const std::size_t x = std::size_t(xi);
             glm::vec3 sum(0.0f);
-            for (std::size_t i = 0; i < k; ++i) sum += plan.weight[x * k + i] * gathered[plan.slot[x * k + i]];
+            for (std::size_t i = 0; i < k; ++i)
+                sum += plan.weight[x * k + i] *
+                       irradianceFromVectors(&gathered[3 * std::size_t(plan.slot[x * k + i])], data.exitNormals[x]);
             exitIrradiance[x] = data.exitObscurance[x] * sum; // obscurance per exit: it is not smooth
         }
     }

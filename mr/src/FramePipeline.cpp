@@ -813,6 +813,7 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
         // CPU wall time of issuing it
         static constexpr std::pair<const char*, const char*> kPrtStages[] = {{"read-back", "gi prt read-back"},
                                                                              {"entry", "gi prt entry"},
+                                                                             {"lights", "gi prt lights"},
                                                                              {"exit", "gi prt exit"},
                                                                              {"shade", "gi prt shade"}};
         s.technique->lastStageTimes(s.scratchTimes);

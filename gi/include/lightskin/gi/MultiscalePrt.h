@@ -114,10 +114,12 @@ void prtExitIrradianceInto(const PrtData& data, std::span<const VirtualAreaLight
                            std::span<const glm::vec3> entryIrradiance, std::span<glm::vec3> exitIrradiance);
 
 /// Where the per-frame first bounce of the VALs is evaluated (MultiscalePrtSettings::directGatherPoints) and
-/// how each exit point interpolates it: a convex combination of gathered values, so that at an exit the error
-/// is at most the largest difference between its irradiance and that of the gather points it uses.
+/// how each exit point interpolates it. A gather point g keeps per channel the irradiance vector V_g of the VALs
+/// above its tangent plane (E(g) = n_g . V_g); an exit x gets sum_i w_i max(0, n_x . V_gi), a convex
+/// combination, so that where the normals agree (a plane) its error is at most the largest difference between
+/// its irradiance and that of the gather points it uses, and a normal that differs is followed to first order.
 struct PrtGatherPlan {
-    std::vector<std::uint32_t> points; ///< exit indices evaluated exactly, ascending
+    std::vector<std::uint32_t> points; ///< exit indices evaluated exactly
     int neighbours = 0;                ///< k: slots per exit
     /// Per exit x, slots [x k, (x + 1) k): an index into `points` and its weight (weights sum to 1; unused
     /// slots have weight 0 and index 0).
@@ -130,8 +132,8 @@ struct PrtGatherPlan {
 /// Deterministic; O(exits x gather points).
 PrtGatherPlan planPrtGather(const PrtData& data, int gatherPoints, int neighbours);
 
-/// prtExitIrradianceInto() with the VALs evaluated at plan.points only (into `gathered`, one per gather point,
-/// caller-sized) and interpolated by the plan. No allocation.
+/// prtExitIrradianceInto() with the VALs evaluated at plan.points only (into `gathered`, caller-sized: three
+/// irradiance vectors, red, green, blue, per gather point, W/m^2) and interpolated by the plan. No allocation.
 void prtExitIrradianceInto(const PrtData& data, const PrtGatherPlan& plan, std::span<const VirtualAreaLight> vals,
                            std::span<const glm::vec3> entryIrradiance, std::span<glm::vec3> gathered,
                            std::span<glm::vec3> exitIrradiance);
@@ -160,9 +162,9 @@ public:
     /// saw them. Reads the VALs back (count x 48 bytes).
     void render(const ValSetView& lights, std::span<const MeshInstance> instances, const GBufferView& gbuffer,
                 const ViewParameters& view, std::uint32_t targetTexture) override;
-    /// CPU wall milliseconds of the last render(): "read-back", "entry" (VALs and lights at the entry points),
-    /// "exit" (first bounce at the gather points, interpolated to the vertices, + the compressed transfer), "shade"
-    /// (issuing the GL pass).
+    /// CPU wall milliseconds of the last render(): "read-back", "entry" (VALs at the entry points), "lights" (the scene
+    /// lights at the entry points, Embree shadow rays), "exit" (first bounce at the gather points, interpolated to the
+    /// vertices, + the compressed transfer), "shade" (issuing the GL pass).
     void lastStageTimes(std::vector<gl::StageTime>& out) const override;
 
     /// The scene's point/spot lights (their direct light at the entry points, with Embree shadows). Copied.
