@@ -69,9 +69,13 @@ struct MultiscalePrt::Impl {
     PrtPrepareStats stats;
 
     void addLightIrradiance() {
+        // A few thousand shadow rays take ~0.1 ms on one core; a parallel region's barrier on the loaded
+        // machine waited 10-50 ms in one frame of two (replay of orbit_prt.json, 512 rays), so only many go
+        // parallel.
+        const bool parallel = data.entryCount() * lights.size() > 16384;
         for (const PrtLight& light : lights) {
             const glm::vec3 intensity = light.power / (4.0f * std::numbers::pi_v<float>); // W/sr
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (parallel)
             for (std::ptrdiff_t e = 0; e < std::ptrdiff_t(data.entryCount()); ++e) {
                 const glm::vec3 p = data.entryPositions[std::size_t(e)], n = data.entryNormals[std::size_t(e)];
                 const glm::vec3 d = light.position - p;
