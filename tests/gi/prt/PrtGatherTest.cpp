@@ -135,6 +135,63 @@ TEST(PrtGather, PlaneStaysWithinTheLipschitzBoundOfTheExactFirstBounce) {
     std::printf("relative RMS error of the sparse gather %.3e; worst error / bound %.3f\n", relativeRms, worstRatio);
 }
 
+// A UV sphere of radius r around the origin, outward normals.
+TriangleMesh uvSphere(float radius, int rings, int segments) {
+    TriangleMesh mesh;
+    for (int i = 0; i <= rings; ++i)
+        for (int j = 0; j <= segments; ++j) {
+            const float theta = std::numbers::pi_v<float> * float(i) / float(rings);
+            const float phi = 2.0f * std::numbers::pi_v<float> * float(j) / float(segments);
+            const glm::vec3 n(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+            mesh.positions.push_back(radius * n);
+            mesh.normals.push_back(n);
+        }
+    const auto at = [&](int i, int j) { return std::uint32_t(i * (segments + 1) + j); };
+    for (int i = 0; i < rings; ++i)
+        for (int j = 0; j < segments; ++j) {
+            mesh.indices.insert(mesh.indices.end(), {at(i, j), at(i + 1, j), at(i + 1, j + 1)});
+            mesh.indices.insert(mesh.indices.end(), {at(i, j), at(i + 1, j + 1), at(i, j + 1)});
+        }
+    return mesh;
+}
+
+// Where the normal varies, the gather points' irradiance vectors follow it: a sphere of radius 0.1 m under one
+// VAL 10 m away. Over the sphere the vector V (phi cos_j d / (|d| (pi d^2 + A))) changes by at most ~3 r / R =
+// 3 % of |V| (1 / d^2 by (1 + r/R)^2 - 1 ~ 2 r / R, the direction by r / R), so |E^(x) - E(x)| <= 0.03 |V| +
+// rounding wherever x and its gather points see the VAL alike; near the terminator (n . d ~ 0) some of them do
+// not, so exits whose normal is within 30 degrees of it (the neighbour cone) are left out. Interpolating the
+// scalar irradiance instead errs by |V| (cos a_x - cos a_g), up to |V| sin 30 degrees / 2 between neighbours.
+TEST(PrtGather, IrradianceVectorsFollowTheNormalOnASphere) {
+    PrtScene scene;
+    scene.add(uvSphere(0.1f, 24, 48), glm::vec3(0.5f));
+    const gi::PrtData data = gi::precomputePrt(scene.instances, directOnly());
+    const std::size_t X = data.exitCount();
+    std::vector<gi::VirtualAreaLight> vals(1);
+    vals[0].position = glm::normalize(glm::vec3(1.0f, 0.5f, 0.3f)) * 10.0f;
+    vals[0].normal = -glm::normalize(vals[0].position);
+    vals[0].area = 0.01f;
+    vals[0].flux = {100.0f, 50.0f, 25.0f};
+    const std::vector<glm::vec3> noEntries(data.entryCount(), glm::vec3(0.0f));
+    std::vector<glm::vec3> exact(X), sparse(X);
+    gi::prtExitIrradianceInto(data, vals, noEntries, exact);
+    const gi::PrtGatherPlan plan = gi::planPrtGather(data, 64, 4);
+    ASSERT_FALSE(plan.exact());
+    ASSERT_LT(plan.points.size(), X / 4) << "interpolation must happen";
+    std::vector<glm::vec3> gathered(3 * plan.points.size());
+    gi::prtExitIrradianceInto(data, plan, vals, noEntries, gathered, sparse);
+    const glm::vec3 toLight = glm::normalize(vals[0].position);
+    double vectorLength = 0.0; // |V| red: the irradiance of a receiver facing the VAL, from the exact evaluation
+    for (std::size_t x = 0; x < X; ++x) vectorLength = std::max(vectorLength, double(exact[x].x));
+    ASSERT_GT(vectorLength, 0.0);
+    int checked = 0;
+    for (std::size_t x = 0; x < X; ++x) {
+        if (std::abs(glm::dot(data.exitNormals[x], toLight)) < 0.5f) continue; // within 30 degrees of the terminator
+        ++checked;
+        EXPECT_NEAR(sparse[x].x, exact[x].x, 0.03 * vectorLength + 1e-6 * vectorLength) << "exit " << x;
+    }
+    EXPECT_GT(checked, int(X) / 3);
+}
+
 // Neighbours never cross an instance or a crease (the box's faces are separate instances and meet at right
 // angles), weights are convex, every instance has a gather point, and a plan with at least as many gather
 // points as exits is the exact evaluation.
