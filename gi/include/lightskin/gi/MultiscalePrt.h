@@ -5,8 +5,8 @@
 // walks with Embree visibility, compressed by clustered PCA) and spectral obscurances are precomputed in prepare()
 // and cached on disk (a bad cache file is recomputed with a warning naming it); per frame the VALs' and the scene
 // lights' irradiance at the entry points and the VALs' at gather points among the exits (interpolated to the
-// others) is evaluated on the CPU (on llvmpipe a compute shader adds no
-// hardware) and the meshes are re-rasterised with it. World metres; output rho_d / pi * E in W/(sr m^2). Needs a
+// others) is evaluated on the CPU (on llvmpipe a compute shader adds no hardware) and the meshes are
+// re-rasterised with it. World metres; output rho_d / pi * E in W/(sr m^2). Needs a
 // current GL 4.5 context; per-frame code reuses prepare()'s buffers. Precompute, per-frame formulas, cache key:
 // docs/LIGHTSKIN.md, "Multi-scale PRT".
 
