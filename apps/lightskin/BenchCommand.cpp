@@ -37,7 +37,10 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
         "--volumes", o->volumes,
         "Imperfect-volumes rows, resolution:points-per-triangle:rays-per-voxel:bounces (comma-separated)");
     command->add_option("--prt", o->prt,
-                        "Multi-scale PRT rows, entry-points:walks-per-entry:clusters:basis-vectors (comma-separated)");
+                        "Multi-scale PRT rows, entry-points:walks-per-entry:clusters:basis-vectors[:gather-points] "
+                        "(comma-separated; gather points default 1024, 0 = the first bounce at every vertex)");
+    command->add_option("--cache-dir", o->prtCacheDir,
+                        "Multi-scale PRT's precompute cache folder (default none: every PRT row precomputes)");
     command->add_option(
         "--trees", o->trees,
         "Comma-separated valTreeThreshold values (gather with a cut, issue 17; axis \"tree\"; \"\" = none)");

@@ -80,6 +80,7 @@ struct ReplayArgs {
     std::string staticTest = "probes";
     std::string backend; ///< overrides the scene's gi.backend when set
     std::string differential = "scene";
+    std::string cacheDir; ///< --cache-dir: overrides the scene's multi-scale PRT cache folder when set
     std::optional<std::int64_t> maxFrames; ///< --max-frames (>= 1); all frames when unset
 };
 
@@ -307,10 +308,14 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     sessionOptions.pipeline = options;
     sessionOptions.budgetMs = args.budgetMs;
     sessionOptions.prefetch = !args.sequential; // same images either way (mr::SessionOptions::prefetch)
+    if (!args.cacheDir.empty()) sessionOptions.prtCacheDirectory = std::filesystem::path(args.cacheDir);
     auto session = mr::Session::create(sessionOptions, mr::SceneInput::fromFile(scenePath), std::move(opened));
     capture::FrameSource* source = session->source();
     const render::Scene& scene = session->scene();
     mr::FramePipeline* pipeline = &session->pipeline();
+    if (!args.cacheDir.empty() && scene.gi.technique != "multiscale-prt")
+        log::warning("--cache-dir: " + scenePath.string() + " has gi.technique \"" + scene.gi.technique +
+                     "\", which has no precompute to cache; ignored");
     if (!args.backend.empty()) {
         if (args.backend != "gl" && args.backend != "cpu")
             throw Error("--backend", std::nullopt, "expected gl or cpu, got '" + args.backend + "'");
@@ -562,6 +567,10 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
     command->add_flag("--sequential", args->sequential,
                       "Read, depth-filter and track frame n+1 after frame n on one thread (default: on a worker thread "
                       "while frame n renders; the images are the same)");
+    command->add_option("--cache-dir", args->cacheDir,
+                        "Multi-scale PRT's precompute cache folder (overrides the scene's gi.multiscalePrt cacheDir, "
+                        "relative to the working directory; a folder that cannot be written is a warning and the run "
+                        "goes on without writing the cache)");
     command->add_flag(
         "--raw-depth", args->rawDepth,
         "Do not register unregistered depth (.oni, fakenect, raw recordings) to colour in software: shows what "
@@ -582,7 +591,8 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
                                                                                           {"--out", args->out},
                                                                                           {"--write-frames", args->writeFrames == "all" ? "" : args->writeFrames},
                                                                                           {"--pose", args->pose},
-                                                                                          {"--backend", args->backend}})
+                                                                                          {"--backend", args->backend},
+                                                                                          {"--cache-dir", args->cacheDir}})
             if (!value.empty()) line += (name.empty() ? " " : " " + name + " ") + value;
         warnIfDeprecatedUsed(*command, "--frames", "--write-frames");
         exitCode = runReplay(*args, line);

@@ -454,7 +454,7 @@ RunResult runConfig(World& world, const SweepBenchOptions& options, const Config
         r.method = "imperfect volumes";
         technique = gi::ImperfectVolumes::create(c.volumes);
     } else if (c.technique == "multiscale-prt") {
-        r.method = "multiscale-prt"; // prepareMs holds its precompute (no cache in the bench)
+        r.method = "multiscale-prt"; // prepareMs: its precompute, or the cache load with --cache-dir
         r.backend = "CPU";           // its per-frame part runs on the CPU (the shading pass on GL)
         technique = gi::MultiscalePrt::create(c.prt);
     } else if (c.backend == "CPU")
@@ -610,8 +610,11 @@ std::vector<Config> buildSweep(const SweepBenchOptions& o) {
     }
     for (const std::string& v : splitList<std::string>(o.prt, [](const std::string& x) { return x; })) {
         gi::MultiscalePrtSettings s;
-        if (std::sscanf(v.c_str(), "%d:%d:%d:%d", &s.entryPoints, &s.walksPerEntry, &s.clusters, &s.basisVectors) != 4)
-            throw Error("--prt", std::nullopt, "expected entries:walks:clusters:D, got '" + v + "'");
+        const int fields = std::sscanf(v.c_str(), "%d:%d:%d:%d:%d", &s.entryPoints, &s.walksPerEntry, &s.clusters,
+                                       &s.basisVectors, &s.directGatherPoints);
+        if (fields != 4 && fields != 5)
+            throw Error("--prt", std::nullopt, "expected entries:walks:clusters:D[:gather-points], got '" + v + "'");
+        s.cacheDirectory = o.prtCacheDir;
         gi::validate(s);
         add("prt", v, [s](Config& c) {
             c.technique = "multiscale-prt";

@@ -61,17 +61,24 @@ struct MultiscalePrt::Impl {
     std::filesystem::path cacheFile;
     std::vector<PrtLight> lights;
     std::vector<VirtualAreaLight> vals; // read-back, grown only when a frame brings more VALs
-    std::vector<glm::vec3> entryIrradiance, exitIrradiance;
+    PrtGatherPlan gatherPlan;
+    std::vector<glm::vec3> entryIrradiance, exitIrradiance, gathered;
     std::vector<glm::vec4> exitUpload;
-    // CPU wall milliseconds of the last render(): read-back, entry irradiance, exit irradiance, shading pass.
-    std::vector<gl::StageTime> stageTimes{{"read-back", 0.0}, {"entry", 0.0}, {"exit", 0.0}, {"shade", 0.0}};
+    // CPU wall milliseconds of the last render(): read-back, the VALs and the scene lights at the entry points,
+    // exit irradiance, shading pass.
+    std::vector<gl::StageTime> stageTimes{
+        {"read-back", 0.0}, {"entry", 0.0}, {"lights", 0.0}, {"exit", 0.0}, {"shade", 0.0}};
     float epsilon = 1e-6f;
     PrtPrepareStats stats;
 
     void addLightIrradiance() {
+        // A few thousand shadow rays take ~0.1 ms on one core; a parallel region's barrier on the loaded
+        // machine waited 10-50 ms in one frame of two (replay of orbit_prt.json, 512 rays), so only many go
+        // parallel.
+        const bool parallel = data.entryCount() * lights.size() > 16384;
         for (const PrtLight& light : lights) {
             const glm::vec3 intensity = light.power / (4.0f * std::numbers::pi_v<float>); // W/sr
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (parallel)
             for (std::ptrdiff_t e = 0; e < std::ptrdiff_t(data.entryCount()); ++e) {
                 const glm::vec3 p = data.entryPositions[std::size_t(e)], n = data.entryNormals[std::size_t(e)];
                 const glm::vec3 d = light.position - p;
@@ -146,6 +153,11 @@ void MultiscalePrt::prepare(std::span<const MeshInstance> instances) {
     impl.entryIrradiance.assign(impl.data.entryCount(), glm::vec3(0.0f));
     impl.exitIrradiance.assign(impl.data.exitCount(), glm::vec3(0.0f));
     impl.exitUpload.assign(impl.data.exitCount(), glm::vec4(0.0f));
+    impl.gatherPlan = planPrtGather(impl.data, impl.settings.directGatherPoints, impl.settings.directNeighbours);
+    impl.gathered.assign(3 * impl.gatherPlan.points.size(), glm::vec3(0.0f));
+    if (!impl.gatherPlan.exact())
+        log::info("multiscale-prt: the VALs' first bounce at " + std::to_string(impl.gatherPlan.points.size()) +
+                  " of " + std::to_string(impl.data.exitCount()) + " exit points, interpolated to the others");
     impl.exitBuffer =
         gl::Buffer::create(GLsizeiptr(std::max<std::size_t>(1, impl.data.exitCount()) * sizeof(glm::vec4)));
     impl.prepared = true;
@@ -185,14 +197,17 @@ void MultiscalePrt::render(const ValSetView& lights, std::span<const MeshInstanc
 
     start = Clock::now();
     prtEntryIrradianceInto(impl.data, vals, impl.entryIrradiance);
-    impl.addLightIrradiance();
     impl.stageTimes[1].milliseconds = millisecondsSince(start);
 
     start = Clock::now();
-    prtExitIrradianceInto(impl.data, vals, impl.entryIrradiance, impl.exitIrradiance);
+    impl.addLightIrradiance();
+    impl.stageTimes[2].milliseconds = millisecondsSince(start);
+
+    start = Clock::now();
+    prtExitIrradianceInto(impl.data, impl.gatherPlan, vals, impl.entryIrradiance, impl.gathered, impl.exitIrradiance);
     for (std::size_t x = 0; x < impl.exitIrradiance.size(); ++x)
         impl.exitUpload[x] = glm::vec4(impl.exitIrradiance[x], 0.0f);
-    impl.stageTimes[2].milliseconds = millisecondsSince(start);
+    impl.stageTimes[3].milliseconds = millisecondsSince(start);
 
     start = Clock::now();
     if (!impl.exitUpload.empty())
@@ -227,7 +242,7 @@ void MultiscalePrt::render(const ValSetView& lights, std::span<const MeshInstanc
     glBindVertexArray(0);
     glBindTextureUnit(3, 0);
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
-    impl.stageTimes[3].milliseconds = millisecondsSince(start);
+    impl.stageTimes[4].milliseconds = millisecondsSince(start);
 }
 
 void MultiscalePrt::lastStageTimes(std::vector<gl::StageTime>& out) const { out = impl_->stageTimes; }
@@ -236,5 +251,6 @@ bool MultiscalePrt::loadedFromCache() const { return impl_->fromCache; }
 std::filesystem::path MultiscalePrt::cacheFile() const { return impl_->cacheFile; }
 PrtPrepareStats MultiscalePrt::lastPrepareStats() const { return impl_->stats; }
 std::span<const glm::vec3> MultiscalePrt::lastExitIrradiance() const { return impl_->exitIrradiance; }
+const PrtGatherPlan& MultiscalePrt::gatherPlan() const { return impl_->gatherPlan; }
 
 } // namespace lightskin::gi

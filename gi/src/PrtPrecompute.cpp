@@ -170,6 +170,15 @@ void validate(const MultiscalePrtSettings& s) {
     checkRange("clusters", s.clusters, 1, 65536);
     checkRange("basisVectors", s.basisVectors, 0, 64);
     checkRange("obscuranceRays", s.obscuranceRays, 1, 4096);
+    checkRange("directGatherPoints", s.directGatherPoints, 0, 1 << 24);
+    checkRange("directNeighbours", s.directNeighbours, 1, 16);
+    if (!std::isfinite(s.entryLightFraction) || s.entryLightFraction < 0.0f || s.entryLightFraction > 0.99f)
+        throw Error("gi.multiscalePrt", std::nullopt,
+                    "entryLightFraction = " + std::to_string(s.entryLightFraction) +
+                        " is outside [0, 0.99] (1 would leave surfaces the test points miss without entry points)");
+    for (const glm::vec3& y : s.entryLightPoints)
+        if (!std::isfinite(y.x) || !std::isfinite(y.y) || !std::isfinite(y.z))
+            throw Error("gi.multiscalePrt", std::nullopt, "entryLightPoints holds a non-finite position");
     if (!std::isfinite(s.obscuranceDistance) || s.obscuranceDistance < 0.0f)
         throw Error("gi.multiscalePrt", std::nullopt, "obscuranceDistance must be a finite number >= 0 (metres)");
     if (!std::isfinite(s.minConnectionDistance) || s.minConnectionDistance < 0.0f)
@@ -207,6 +216,10 @@ std::uint64_t prtCacheKey(std::span<const MeshInstance> instances, const Multisc
     h.pod(s.minConnectionDistance);
     h.pod(s.seed);
     h.pod(s.keepUncompressed);
+    if (s.entryLightFraction > 0.0f && !s.entryLightPoints.empty()) { // uniform keys stay as they were
+        h.pod(s.entryLightFraction);
+        h.bytes(s.entryLightPoints.data(), s.entryLightPoints.size() * sizeof(glm::vec3));
+    }
     return h.value;
 }
 
@@ -236,10 +249,42 @@ PrtData precomputePrt(std::span<const MeshInstance> instances, const MultiscaleP
     const std::size_t exits = data.exitPositions.size();
     const std::size_t mapSize = 3 * exits;
 
-    // Entry points: uniform by area (p(x) = 1 / A_total): a triangle by its area, then a uniform point in it.
-    std::vector<double> cumulative(triangles.size());
+    // Entry points (sec. 7.1): a triangle t with probability P_t, then a uniform point in it, so the density is
+    // p(x) = P_t / A_t. Uniform: P_t = A_t / A. Weighted: the mixture (1 - f) A_t / A + f w_t A_t / sum(w A), w_t
+    // the paper's d(e) at the centroid: sum over test points Y of cos(theta) / |Y - c|^2 v(Y, c).
     double totalArea = 0.0;
-    for (std::size_t t = 0; t < triangles.size(); ++t) cumulative[t] = totalArea += double(triangles[t].area);
+    for (const detail::PrtTriangle& tri : triangles) totalArea += double(tri.area);
+    std::vector<double> lightWeight(triangles.size(), 0.0);
+    double weightedArea = 0.0;
+    if (s.entryLightFraction > 0.0f && !s.entryLightPoints.empty()) {
+#pragma omp parallel for schedule(dynamic, 64)
+        for (std::ptrdiff_t ti = 0; ti < std::ptrdiff_t(triangles.size()); ++ti) {
+            const detail::PrtTriangle& tri = triangles[std::size_t(ti)];
+            const glm::vec3 centroid = (tri.a + tri.b + tri.c) / 3.0f;
+            double w = 0.0;
+            for (const glm::vec3& y : s.entryLightPoints) {
+                const glm::vec3 d = y - centroid;
+                const float d2 = glm::dot(d, d), cosine = glm::dot(tri.normal, d) / std::sqrt(d2);
+                if (!(d2 > 0.0f) || !(cosine > 0.0f)) continue;
+                if (scene.occluded(centroid + epsilon * tri.normal, y, epsilon)) continue;
+                w += double(cosine) / double(d2);
+            }
+            lightWeight[std::size_t(ti)] = w;
+        }
+        for (std::size_t t = 0; t < triangles.size(); ++t) weightedArea += lightWeight[t] * double(triangles[t].area);
+    }
+    // No test point sees the meshes: the weighted part has nothing to say, sample uniformly.
+    const double fraction = weightedArea > 0.0 ? double(s.entryLightFraction) : 0.0;
+    std::vector<double> cumulative(triangles.size());
+    double totalProbability = 0.0;
+    for (std::size_t t = 0; t < triangles.size(); ++t) {
+        const double area = double(triangles[t].area);
+        // Uniform: the areas themselves (bit for bit the sampling before the weighting existed).
+        const double probability =
+            fraction > 0.0 ? (1.0 - fraction) * area / totalArea + fraction * lightWeight[t] * area / weightedArea
+                           : area;
+        cumulative[t] = totalProbability += probability;
+    }
     if (triangles.empty()) { // no virtual content: nothing to transfer (render() writes zeros)
         data.singularValueOffsets.push_back(0);
         data.precomputeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -247,10 +292,11 @@ PrtData precomputePrt(std::span<const MeshInstance> instances, const MultiscaleP
     }
     if (!(totalArea > 0.0)) throw Error("gi.multiscalePrt", std::nullopt, "the virtual meshes have no area");
     std::vector<glm::vec3> entryAlbedo;
+    std::vector<double> entryInverseDensity; // 1 / p(x_e), m^2: the entry's share of the surface
     {
         std::mt19937_64 rng(mix(s.seed, 0xE17E));
         for (int e = 0; e < s.entryPoints; ++e) {
-            const double target = uniform(rng) * totalArea;
+            const double target = uniform(rng) * totalProbability;
             const std::size_t t = std::min<std::size_t>(
                 std::size_t(std::upper_bound(cumulative.begin(), cumulative.end(), target) - cumulative.begin()),
                 triangles.size() - 1);
@@ -260,6 +306,9 @@ PrtData precomputePrt(std::span<const MeshInstance> instances, const MultiscaleP
             data.entryPositions.push_back(tri.a + float(u) * (tri.b - tri.a) + float(v) * (tri.c - tri.a));
             data.entryNormals.push_back(tri.normal);
             entryAlbedo.push_back(instances[tri.instance].material.diffuseAlbedo);
+            const double probability = cumulative[t] - (t > 0 ? cumulative[t - 1] : 0.0);
+            entryInverseDensity.push_back(fraction > 0.0 ? double(tri.area) * totalProbability / probability
+                                                         : totalArea);
         }
     }
     const std::size_t entries = data.entryPositions.size();
@@ -291,7 +340,12 @@ PrtData precomputePrt(std::span<const MeshInstance> instances, const MultiscaleP
     // Connections shorter than the obscurance distance belong to the medium scale; else only the 1/d^2
     // singularity is cut.
     const float minDistance = s.obscuranceDistance > 0.0f ? s.obscuranceDistance : s.minConnectionDistance;
-    const double flux0 = totalArea / double(entries) / double(s.walksPerEntry); // unit irradiance * A / (E W)
+    // Unit irradiance times the entry's area share: 1 / (p(x_e) E W) (= A / (E W) when uniform), so that
+    // sum_e I(x_e) T_e estimates the integral of I over the surfaces without bias whatever p is (p > 0 wherever
+    // light can arrive: the uniform part of the mixture).
+    const auto flux0 = [&](std::size_t e) {
+        return entryInverseDensity[e] / double(entries) / double(s.walksPerEntry);
+    };
 
     // One entry's transfer map (3 X floats): its random walks, each visited point connected to the exits.
     const auto transferRow = [&](std::size_t e, float* row) {
@@ -314,7 +368,7 @@ PrtData precomputePrt(std::span<const MeshInstance> instances, const MultiscaleP
         };
         for (int w = 0; w < s.walksPerEntry; ++w) {
             glm::vec3 y = data.entryPositions[e], ny = data.entryNormals[e];
-            glm::dvec3 flux = glm::dvec3(entryAlbedo[e]) * flux0; // reflected by the entry's own BRDF
+            glm::dvec3 flux = glm::dvec3(entryAlbedo[e]) * flux0(e); // reflected by the entry's own BRDF
             connect(y, ny, flux);
             for (int bounce = 0; bounce < s.maxBounces; ++bounce) {
                 const glm::vec3 direction = cosineDirection(ny, rng);

@@ -833,6 +833,7 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
         // CPU wall time of issuing it
         static constexpr std::pair<const char*, const char*> kPrtStages[] = {{"read-back", "gi prt read-back"},
                                                                              {"entry", "gi prt entry"},
+                                                                             {"lights", "gi prt lights"},
                                                                              {"exit", "gi prt exit"},
                                                                              {"shade", "gi prt shade"}};
         s.technique->lastStageTimes(s.scratchTimes);

@@ -77,6 +77,8 @@ std::unique_ptr<Session> Session::createWith(const SessionOptions& options, cons
     s->scene_ = std::make_unique<render::Scene>(
         input.json.empty() ? render::loadScene(input.file)
                            : render::parseScene(input.json, input.baseFolder, "in-memory scene"));
+    if (options.prtCacheDirectory)
+        s->scene_->gi.multiscalePrt.cacheDirectory = options.prtCacheDirectory->lexically_normal();
     const double budgetMs = options.budgetMs > 0.0 ? options.budgetMs : s->scene_->gi.budgetMs;
     if (budgetMs > 0.0 && s->scene_->gi.technique == "none") {
         log::warning("frame budget: the scene's technique is \"none\"; no budget applies");

@@ -229,7 +229,8 @@ gi::MultiscalePrtSettings readMultiscalePrt(const Reader& r, const json& value, 
     r.object(value, p);
     r.allowOnly(value, p,
                 {"entryPoints", "walksPerEntry", "maxBounces", "clusters", "basisVectors", "obscuranceDistance",
-                 "obscuranceRays", "minConnectionDistance", "seed", "cache", "cacheDir"});
+                 "obscuranceRays", "minConnectionDistance", "seed", "cache", "cacheDir", "entryLightPoints",
+                 "entryLightFraction", "gatherPoints"});
     gi::MultiscalePrtSettings v;
     if (value.contains("entryPoints")) v.entryPoints = r.integer(value["entryPoints"], p + "/entryPoints", 1, 65536);
     if (value.contains("walksPerEntry"))
@@ -246,6 +247,18 @@ gi::MultiscalePrtSettings readMultiscalePrt(const Reader& r, const json& value, 
         v.minConnectionDistance =
             r.number(value["minConnectionDistance"], p + "/minConnectionDistance", 0.0f, 10.0f, "in [0, 10] (metres)");
     if (value.contains("seed")) v.seed = std::uint32_t(r.integer(value["seed"], p + "/seed", 0, 1 << 30));
+    if (value.contains("entryLightPoints")) {
+        const json& points = value["entryLightPoints"];
+        if (!points.is_array()) r.fail(p + "/entryLightPoints", "an array of [x, y, z] positions (metres)", &points);
+        for (std::size_t i = 0; i < points.size(); ++i)
+            v.entryLightPoints.push_back(
+                r.vec3(points[i], p + "/entryLightPoints/" + std::to_string(i), -1e4f, 1e4f, "(metres)"));
+    }
+    if (value.contains("entryLightFraction"))
+        v.entryLightFraction = r.number(value["entryLightFraction"], p + "/entryLightFraction", 0.0f, 0.99f,
+                                        "in [0, 0.99] (1 would leave surfaces without entry points)");
+    if (value.contains("gatherPoints"))
+        v.directGatherPoints = r.integer(value["gatherPoints"], p + "/gatherPoints", 0, 1 << 24);
     const bool cache = value.contains("cache") ? r.boolean(value["cache"], p + "/cache") : true;
     if (value.contains("cacheDir") && !cache)
         r.fail(p + "/cacheDir", "no cacheDir with \"cache\": false", &value["cacheDir"]);

@@ -360,6 +360,64 @@ TEST(ReplayCommand, MultiscalePrtReportsItsPrecomputeAndTheCacheLoadOnTheSecondR
     EXPECT_NE(md.find("| multi-scale PRT prepare (once; cache load) | CPU wall |"), std::string::npos);
 }
 
+// --cache-dir overrides the scene's cache folder (here its "cache": false too): the first run writes the
+// cache there, the second loads it from there; a folder that cannot be made (its parent is a file) is a
+// warning naming it, and the run still renders every frame without a cache file.
+TEST(ReplayCommand, CacheDirOverridesTheScenesPrtCacheFolderAndAnUnwritableOneIsAWarning) {
+    const fs::path scratch = test::scratchDir("replay_prt_cache_dir");
+    const std::string scene = R"({"version": 1,
+      "objects": [{"mesh": "cube.obj", "transform": {"translation": [-0.1, 0, -0.3], "scale": 0.15}, "material": {"diffuseAlbedo": 0.9}},
+                  {"mesh": "cube.obj", "transform": {"translation": [0.12, 0, -0.3], "scale": 0.1}, "material": {"diffuseAlbedo": 0.5}}],
+      "gi": {"technique": "multiscale-prt", "valStride": 2,
+             "multiscalePrt": {"entryPoints": 32, "walksPerEntry": 2, "clusters": 2, "basisVectors": 1, "cache": false}}})";
+    const fs::path cacheDir = scratch / "elsewhere" / "cache";
+    const std::string options = " --max-frames 1 --no-video --no-compare --cache-dir " + cacheDir.string();
+    const auto [recording, out, r] = replayTestRecording(scratch, scene, options);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const auto precompute = [](const fs::path& folder) {
+        const nlohmann::json report = nlohmann::json::parse(test::readText(folder / "report.json"));
+        EXPECT_TRUE(report.contains("precompute")) << report.dump();
+        return report.value("precompute", nlohmann::json::object());
+    };
+    const nlohmann::json first = precompute(out);
+    EXPECT_FALSE(first.value("loadedFromCache", true));
+    const fs::path cacheFile = first.value("cacheFile", std::string());
+    EXPECT_EQ(cacheFile.parent_path(), cacheDir.lexically_normal());
+    EXPECT_TRUE(fs::exists(cacheFile));
+    EXPECT_FALSE(fs::exists(scratch / "prt-cache")) << "the scene's default folder was used";
+    EXPECT_GT(first.value("cacheFileBytes", std::uint64_t(0)), 0u);
+
+    const std::string sceneFile = (scratch / "scene.json").string();
+    const RunResult second = runLightskin("replay " + recording.string() + " --scene " + sceneFile + " --out " +
+                                              (scratch / "out2").string() + options,
+                                          scratch);
+    ASSERT_EQ(second.exitCode, 0) << second.err;
+    EXPECT_TRUE(precompute(scratch / "out2").value("loadedFromCache", false));
+
+    std::ofstream(scratch / "a-file") << "not a folder";
+    const fs::path unwritable = scratch / "a-file" / "cache";
+    const RunResult third = runLightskin(
+        "replay " + recording.string() + " --scene " + sceneFile + " --out " + (scratch / "out3").string() +
+            " --max-frames 1 --no-video --no-compare --cache-dir " + unwritable.string(),
+        scratch);
+    ASSERT_EQ(third.exitCode, 0) << third.err;
+    EXPECT_NE(third.err.find("the cache was not written"), std::string::npos) << third.err;
+    EXPECT_NE(third.err.find(unwritable.string()), std::string::npos) << third.err;
+    const nlohmann::json report = nlohmann::json::parse(test::readText(scratch / "out3" / "report.json"));
+    EXPECT_EQ(report["frames"].size(), 1u);
+    EXPECT_FALSE(report["precompute"].value("loadedFromCache", true));
+    EXPECT_EQ(report["precompute"].value("cacheFileBytes", std::uint64_t(1)), 0u);
+
+    // Another technique has nothing to cache: a warning, not an error.
+    const RunResult fourth =
+        runLightskin("replay " + recording.string() + " --scene " +
+                         writeScene((fs::create_directories(scratch / "ls"), scratch / "ls"), kGiScene).string() +
+                         " --out " + (scratch / "out4").string() + options,
+                     scratch);
+    ASSERT_EQ(fourth.exitCode, 0) << fourth.err;
+    EXPECT_NE(fourth.err.find("--cache-dir"), std::string::npos) << fourth.err;
+}
+
 TEST(ReplayCommand, BudgetReportsTheChosenSettingsPerFrame) {
     const fs::path scratch = test::scratchDir("replay_budget");
     // 1 ms cannot be met by anything: after the first frame (the scene's settings) the budget runs

@@ -1,11 +1,10 @@
+#include "TestPaths.h"
+
 #include <lightskin/core/Error.h>
 #include <lightskin/render/Scene.h>
 
-#include "TestPaths.h"
-
-#include <gtest/gtest.h>
-
 #include <glm/gtc/matrix_transform.hpp>
+#include <gtest/gtest.h>
 
 #include <fstream>
 
@@ -185,7 +184,8 @@ TEST(Scene, MultiscalePrtSettingsAreReadAndCheckedByKey) {
     const Scene set = parseScene(R"({"version": 1, "gi": {"technique": "multiscale-prt", "multiscalePrt":
         {"entryPoints": 64, "walksPerEntry": 4, "maxBounces": 3, "clusters": 5, "basisVectors": 2,
          "obscuranceDistance": 0.1, "obscuranceRays": 16, "minConnectionDistance": 0.01, "seed": 7,
-         "cacheDir": "elsewhere"}}})",
+         "cacheDir": "elsewhere", "entryLightPoints": [[0, 2, 0], [1, 2.5, -1]], "entryLightFraction": 0.5,
+         "gatherPoints": 256}}})",
                                  meshDir(), "t");
     const auto& v = set.gi.multiscalePrt;
     EXPECT_EQ(v.entryPoints, 64);
@@ -198,6 +198,12 @@ TEST(Scene, MultiscalePrtSettingsAreReadAndCheckedByKey) {
     EXPECT_FLOAT_EQ(v.minConnectionDistance, 0.01f);
     EXPECT_EQ(v.seed, 7u);
     EXPECT_EQ(v.cacheDirectory, (meshDir() / "elsewhere").lexically_normal());
+    ASSERT_EQ(v.entryLightPoints.size(), 2u);
+    EXPECT_EQ(v.entryLightPoints[1], glm::vec3(1.0f, 2.5f, -1.0f));
+    EXPECT_FLOAT_EQ(v.entryLightFraction, 0.5f);
+    EXPECT_EQ(v.directGatherPoints, 256);
+    EXPECT_EQ(defaults.gi.multiscalePrt.directGatherPoints, 1024);
+    EXPECT_EQ(defaults.gi.multiscalePrt.entryLightFraction, 0.0f);
     const Scene off = parseScene(
         R"({"version": 1, "gi": {"technique": "multiscale-prt", "multiscalePrt": {"cache": false}}})", meshDir(), "t");
     EXPECT_TRUE(off.gi.multiscalePrt.cacheDirectory.empty());
@@ -209,6 +215,10 @@ TEST(Scene, MultiscalePrtSettingsAreReadAndCheckedByKey) {
         {head + R"({"obscuranceDistance": -1}}})",
          "/gi/multiscalePrt/obscuranceDistance: expected a number in [0, 1000]"},
         {head + R"({"atlas": true}}})", "/gi/multiscalePrt/atlas: unknown key"},
+        {head + R"({"entryLightFraction": 1}}})",
+         "/gi/multiscalePrt/entryLightFraction: expected a number in [0, 0.99]"},
+        {head + R"({"entryLightPoints": [[0, 1]]}}})", "/gi/multiscalePrt/entryLightPoints/0: expected"},
+        {head + R"({"gatherPoints": -1}}})", "/gi/multiscalePrt/gatherPoints: expected an integer"},
         {head + R"({"cache": false, "cacheDir": "x"}}})", "/gi/multiscalePrt/cacheDir: expected no cacheDir"},
         {R"({"version": 1, "gi": {"multiscalePrt": {}}})",
          "/gi/multiscalePrt: expected gi.technique \"multiscale-prt\""},
@@ -239,7 +249,8 @@ TEST(Scene, RobustRealDepthIsTheDefaultAndCanBeTurnedOff) {
 
 TEST(Scene, ValTreeThresholdIsOffByDefault) {
     EXPECT_EQ(parseScene(R"({"version": 1})", meshDir(), "t").gi.valTreeThreshold, 0.0f);
-    EXPECT_EQ(parseScene(R"({"version": 1, "gi": {"valTreeThreshold": 0.05}})", meshDir(), "t").gi.valTreeThreshold, 0.05f);
+    EXPECT_EQ(parseScene(R"({"version": 1, "gi": {"valTreeThreshold": 0.05}})", meshDir(), "t").gi.valTreeThreshold,
+              0.05f);
 }
 
 TEST(Scene, MissingFileIsAnError) {

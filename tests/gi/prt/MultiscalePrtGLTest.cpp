@@ -115,8 +115,9 @@ TEST_F(MultiscalePrtGLTest, TargetIsAlbedoOverPiTimesTheInterpolatedExitIrradian
     EXPECT_GT(maxValue, 0.0);
     std::vector<gl::StageTime> times;
     prt->lastStageTimes(times);
-    ASSERT_EQ(times.size(), 4u);
+    ASSERT_EQ(times.size(), 5u);
     EXPECT_EQ(times[1].name, "entry");
+    EXPECT_EQ(times[2].name, "lights");
 
     const cv::Mat dark = rig.render(*prt, 0);
     EXPECT_EQ(cv::countNonZero(dark.reshape(1) != 0.0f), 0) << "no VALs and no lights: exactly 0";

@@ -28,7 +28,11 @@ struct SweepBenchOptions {
     /// Multi-scale PRT rows (entry points:walks per entry:clusters:D, issue 16). Their precompute (the rows'
     /// prepare time) grows with entries x walks x exit vertices: the 20k-triangle sphere's ~10k vertices make
     /// it seconds to minutes, so the default is two small rows.
+    /// An optional fifth field sets the per-frame gather points (MultiscalePrtSettings::directGatherPoints,
+    /// default 1024; 0 = the first bounce at every vertex).
     std::string prt = "256:8:8:4,256:8:8:0";
+    /// Multi-scale PRT's precompute cache folder (empty = none: the rows' prepare time is the precompute).
+    std::string prtCacheDir;
     Config defaults;
     int frames = 3;
     int truthStride = 2;

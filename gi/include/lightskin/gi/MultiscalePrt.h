@@ -4,8 +4,9 @@
 // virtual content is rigid and placed once: its own multi-bounce transfer (entry points -> mesh vertices, random
 // walks with Embree visibility, compressed by clustered PCA) and spectral obscurances are precomputed in prepare()
 // and cached on disk (a bad cache file is recomputed with a warning naming it); per frame the VALs' and the scene
-// lights' irradiance at entry and exit points is evaluated on the CPU (on llvmpipe a compute shader adds no
-// hardware) and the meshes are re-rasterised with it. World metres; output rho_d / pi * E in W/(sr m^2). Needs a
+// lights' irradiance at the entry points and the VALs' at gather points among the exits (interpolated to the
+// others) is evaluated on the CPU (on llvmpipe a compute shader adds no hardware) and the meshes are
+// re-rasterised with it. World metres; output rho_d / pi * E in W/(sr m^2). Needs a
 // current GL 4.5 context; per-frame code reuses prepare()'s buffers. Precompute, per-frame formulas, cache key:
 // docs/LIGHTSKIN.md, "Multi-scale PRT".
 //
@@ -57,6 +58,22 @@ struct MultiscalePrtSettings {
     std::uint32_t seed = 1;
     std::filesystem::path cacheDirectory; ///< empty = no cache (always precompute)
     bool keepUncompressed = false;        ///< keep the entry x exit transfer (tests; entries x exits x 3 floats)
+    /// Entry-point density (sec. 7.1). Uniform by area (the default) when `entryLightPoints` is empty or
+    /// `entryLightFraction` is 0; else the mixture (1 - f) uniform + f d(e), d(e) the paper's density of first
+    /// hits from test points where the light is expected: sum_m cos(theta_e) / |Y_m - e|^2 v(Y_m, e),
+    /// evaluated with Embree visibility at each triangle's centroid (piecewise constant per triangle, so that
+    /// the pdf is known exactly). The transfer divides by that pdf, so it stays unbiased for any lighting while
+    /// f < 1; more entries land where the test points shine, fewer where the lighting will rarely arrive.
+    std::vector<glm::vec3> entryLightPoints; ///< world metres (e.g. above the objects: the room's upper half)
+    float entryLightFraction = 0.0f;         ///< f, 0..0.99 (0 = uniform; f < 1 keeps the pdf positive)
+    /// Per frame, not part of the cache key: the VALs' first bounce is evaluated exactly at this many exit
+    /// points (farthest-point sampling in position and normal, every instance at least one) and interpolated
+    /// to the others, where evaluating all VALs at every vertex cost most of the frame (docs/BENCHMARKS.md,
+    /// "Multi-scale PRT"). 0, or at least as many as there are exits, = every exit point exactly.
+    int directGatherPoints = 1024;
+    /// Gather points each exit interpolates (inverse squared distance, same instance, normals within 30
+    /// degrees; an exit with none becomes a gather point itself), 1..16.
+    int directNeighbours = 4;
 };
 
 /// Throws lightskin::Error naming the field and the allowed range.
@@ -119,6 +136,31 @@ void prtEntryIrradianceInto(const PrtData& data, std::span<const VirtualAreaLigh
 void prtExitIrradianceInto(const PrtData& data, std::span<const VirtualAreaLight> vals,
                            std::span<const glm::vec3> entryIrradiance, std::span<glm::vec3> exitIrradiance);
 
+/// Where the per-frame first bounce of the VALs is evaluated (MultiscalePrtSettings::directGatherPoints) and
+/// how each exit point interpolates it. A gather point g keeps per channel the irradiance vector V_g of the VALs
+/// above its tangent plane (E(g) = n_g . V_g); an exit x gets sum_i w_i max(0, n_x . V_gi), a convex
+/// combination, so that where the normals agree (a plane) its error is at most the largest difference between
+/// its irradiance and that of the gather points it uses, and a normal that differs is followed to first order.
+struct PrtGatherPlan {
+    std::vector<std::uint32_t> points; ///< exit indices evaluated exactly
+    int neighbours = 0;                ///< k: slots per exit
+    /// Per exit x, slots [x k, (x + 1) k): an index into `points` and its weight (weights sum to 1; unused
+    /// slots have weight 0 and index 0).
+    std::vector<std::uint32_t> slot;
+    std::vector<float> weight;
+    bool exact() const noexcept { return neighbours == 0; } ///< every exit is a gather point
+};
+
+/// Builds the plan for `gatherPoints` and `neighbours` (0 gather points, or at least the exit count: exact).
+/// Deterministic; O(exits x gather points).
+PrtGatherPlan planPrtGather(const PrtData& data, int gatherPoints, int neighbours);
+
+/// prtExitIrradianceInto() with the VALs evaluated at plan.points only (into `gathered`, caller-sized: three
+/// irradiance vectors, red, green, blue, per gather point, W/m^2) and interpolated by the plan. No allocation.
+void prtExitIrradianceInto(const PrtData& data, const PrtGatherPlan& plan, std::span<const VirtualAreaLight> vals,
+                           std::span<const glm::vec3> entryIrradiance, std::span<glm::vec3> gathered,
+                           std::span<glm::vec3> exitIrradiance);
+
 /// What MultiscalePrt::prepare() cost, for reports (`lightskin replay`'s report.md / report.json).
 struct PrtPrepareStats {
     bool loadedFromCache = false;
@@ -143,8 +185,9 @@ public:
     /// saw them. Reads the VALs back (count x 48 bytes).
     void render(const ValSetView& lights, std::span<const MeshInstance> instances, const GBufferView& gbuffer,
                 const ViewParameters& view, std::uint32_t targetTexture) override;
-    /// CPU wall milliseconds of the last render(): "read-back", "entry" (VALs and lights at the entry points),
-    /// "exit" (first bounce at the vertices + the compressed transfer), "shade" (issuing the GL pass).
+    /// CPU wall milliseconds of the last render(): "read-back", "entry" (VALs at the entry points), "lights" (the scene
+    /// lights at the entry points, Embree shadow rays), "exit" (first bounce at the gather points, interpolated to the
+    /// vertices, + the compressed transfer), "shade" (issuing the GL pass).
     void lastStageTimes(std::vector<gl::StageTime>& out) const override;
 
     /// The scene's point/spot lights (their direct light at the entry points, with Embree shadows). Copied.
@@ -157,6 +200,8 @@ public:
     PrtPrepareStats lastPrepareStats() const;
     /// Per-vertex exit irradiance of the last render() (W/m^2, RGB), exitOffsets order.
     std::span<const glm::vec3> lastExitIrradiance() const;
+    /// Where prepare() put the per-frame gather points (MultiscalePrtSettings::directGatherPoints).
+    const PrtGatherPlan& gatherPlan() const;
 
 private:
     MultiscalePrt();

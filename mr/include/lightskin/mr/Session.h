@@ -99,6 +99,9 @@ struct SessionOptions {
     }();
     /// Frame budget in ms (> 0 overrides the scene's gi.budgetMs; 0 = the scene's, if any).
     double budgetMs = 0.0;
+    /// Multi-scale PRT's precompute cache folder, overriding the scene's gi.multiscalePrt cacheDir (and its
+    /// "cache": false); relative paths are relative to the working directory. Unset = the scene's.
+    std::optional<std::filesystem::path> prtCacheDirectory;
     BudgetOptions budget; ///< its budgetMs is ignored (see above)
     /// Tests and calibration: the costs the budget observes per frame instead of the wall clock
     /// (default: G-buffer + GI stage and the rest of FrameOutput::cpuTimes).
