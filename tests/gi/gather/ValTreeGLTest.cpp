@@ -5,9 +5,11 @@
 #include "GatherTestScenes.h"
 #include "GlTestEnvironment.h"
 #include "GpuRig.h"
+#include "ValTreeScenes.h"
 
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/CpuLightSkin.h>
+#include <lightskin/gi/GpuValQuadtree.h>
 #include <lightskin/gi/LightSkinIllumination.h>
 #include <lightskin/gi/LightSkinReference.h>
 #include <lightskin/gi/ValTree.h>
@@ -92,12 +94,20 @@ void cutMatchesTheDoubleWalk(bool quadtree) {
     EXPECT_LT(tree.choice.valTreeCutPerPoint, 0.25f * float(scene.vals.size())) << "the cut must cut";
     EXPECT_EQ(flat.choice.valTreeNodes, 0u);
 
+    // the reference walks the tree the GL path walked: the GPU quadtree (its build is deterministic:
+    // each node is computed by one invocation from its children; ValTreeGpuBuildGLTest compares it
+    // with the CPU builder's) or the BVH
     gi::ValTreeD treeD;
-    if (quadtree)
-        gi::buildValQuadtreeInto(scene.vals, scene.keys, RoomScene::kKeyWidth,
-                                 std::uint32_t(scene.vals.size()) / RoomScene::kKeyWidth, treeD);
-    else
+    if (quadtree) {
+        gi::GpuValQuadtree builder = gi::GpuValQuadtree::create();
+        const auto count = std::uint32_t(scene.vals.size());
+        builder.build(gi::ValSetView{scene.buffer.id(), count, 0, scene.keyBuffer.id(), count, RoomScene::kKeyWidth});
+        std::vector<gi::ValCluster> nodes;
+        builder.readNodes(nodes);
+        treeD = widenValTree(nodes);
+    } else {
         gi::buildValTreeInto(scene.vals, treeD);
+    }
     const glm::dvec3 eye(scene.eye);
     ref::GatherParameters parameters;
     parameters.epsilonL = 0.0; // the GPU adds the eps_l terms in the renormalisation
@@ -162,7 +172,8 @@ void cutMatchesTheDoubleWalk(bool quadtree) {
 }
 
 TEST_F(ValTreeGLTest, CutMatchesTheDoubleWalkAndStaysNearTheFlatGather) { cutMatchesTheDoubleWalk(false); }
-// the same with the image quadtree of the VALs' pixel keys (ValSetView::keyWidth)
+// the same with the image quadtree of the VALs' pixel keys (ValSetView::keyWidth), built on the GPU
+// (GpuValQuadtree)
 TEST_F(ValTreeGLTest, QuadtreeCutMatchesTheDoubleWalkAndStaysNearTheFlatGather) { cutMatchesTheDoubleWalk(true); }
 
 // The CPU backend runs the reference's walk (gi/src/reference/ValTreeWalk.h) in double on the same
