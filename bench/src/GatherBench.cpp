@@ -182,7 +182,7 @@ void runGatherBench(const GatherBenchOptions& options) {
         row.covered = covered;
         row.triangles = meshes[0].triangleCount() + meshes[1].triangleCount();
         double bruteMs = 0.0;
-        std::vector<glm::vec4> subsetReference;
+        std::vector<glm::vec4> subsetReference, flatOnSubset;
         if (options.brute && options.bruteSubset > 0) {
             if (subset.pixels.empty()) subset = makeBruteSubset(gbuffer, positions, options.bruteSubset);
             gi::BruteForceSettings bruteSettings;
@@ -371,6 +371,17 @@ void runGatherBench(const GatherBenchOptions& options) {
                                 std::printf(" | speed-up over brute force %.1fx (estimate), relMSE %.3e +- %.1e on %zu "
                                             "pixels",
                                             bruteMs / totalMs, e.relMse, e.standardError, subset.pixels.size());
+                                // the flat gather's image on the same pixels: what the cut adds, paired (the
+                                // sampling error of the two relMSEs above is mostly shared)
+                                if (threshold <= 0.0f) {
+                                    flatOnSubset.resize(subset.pixels.size());
+                                    for (std::size_t k = 0; k < subset.pixels.size(); ++k)
+                                        flatOnSubset[k] = image[subset.pixels[k]];
+                                } else if (flatOnSubset.size() == subset.pixels.size()) {
+                                    const SubsetError f = subsetError(subset, image, flatOnSubset);
+                                    std::printf(", against the flat gather's image %.3e +- %.1e", f.relMse,
+                                                f.standardError);
+                                }
                             } else if (options.brute && !setup.glossy) {
                                 readImage(image);
                                 double sumAbs = 0.0, sumRef = 0.0, sum = 0.0, sq = 0.0, sqRef = 0.0;
