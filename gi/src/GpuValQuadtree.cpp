@@ -56,6 +56,7 @@ std::uint32_t GpuValQuadtree::build(const ValSetView& vals) {
 
     // level 0 (the image) in cells_[0]; the first pairing halves u, so cells_[1] needs ceil(w / 2) h
     const std::uint64_t pixels = std::uint64_t(width) * height;
+    LIGHTSKIN_ASSERT(pixels < kEmpty, "lightskin::gi::GpuValQuadtree::build(): image too large for uint keys");
     grow(cells_[0], cellCapacity_[0], pixels, kCellBytes, "cell buffer");
     grow(cells_[1], cellCapacity_[1], (std::uint64_t(width) + 1) / 2 * height, kCellBytes, "cell buffer");
     const std::uint32_t empty[2] = {kEmpty, kEmpty};
