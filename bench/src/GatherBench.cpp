@@ -77,7 +77,8 @@ BruteSubset makeBruteSubset(const gi::SimpleGBuffer& gbuffer, const std::vector<
     b.height = int((b.pixels.size() + kSubsetWidth - 1) / kSubsetWidth);
     const gi::GBufferView full = gbuffer.view();
     const auto pack = [&](std::uint32_t texture, bool empty) {
-        std::vector<glm::vec4> all(positions.size()), packed(std::size_t(b.width) * std::size_t(b.height), glm::vec4(0));
+        std::vector<glm::vec4> all(positions.size()),
+            packed(std::size_t(b.width) * std::size_t(b.height), glm::vec4(0));
         glGetTextureImage(texture, 0, GL_RGBA, GL_FLOAT, GLsizei(all.size() * sizeof(glm::vec4)), all.data());
         if (!empty)
             for (std::size_t k = 0; k < b.pixels.size(); ++k) packed[k] = all[b.pixels[k]];
@@ -152,7 +153,7 @@ void runGatherBench(const GatherBenchOptions& options) {
         glGetTextureImage(target.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(out.size() * sizeof(glm::vec4)), out.data());
     };
 
-    BruteSubset subset; // --brute-subset
+    BruteSubset subset;                            // --brute-subset
     std::optional<gi::GpuValQuadtree> gpuQuadtree; // created on first use
     gi::ValTree cpuQuadtree;
     std::vector<gi::VirtualAreaLight> valsBack;
@@ -252,7 +253,8 @@ void runGatherBench(const GatherBenchOptions& options) {
             std::printf("\nVAL map %s (%zu VALs)\n", mapName.c_str(), vals.size());
         }
 
-        if (std::any_of(options.treeThresholds.begin(), options.treeThresholds.end(), [](float t) { return t > 0.0f; })) {
+        if (std::any_of(options.treeThresholds.begin(), options.treeThresholds.end(),
+                        [](float t) { return t > 0.0f; })) {
             // The quadtree of the map's VALs built both ways, alternately, wall clock: on the GPU (as the
             // tree gather does; the build ends with a 16-byte read-back) and on the CPU as the gather did
             // before (VAL + key read-back, buildValQuadtreeInto, node upload).
@@ -356,11 +358,10 @@ void runGatherBench(const GatherBenchOptions& options) {
                                                                                   : "bvh",
                                         setup.name, totalMs, minimum(walls));
                             if (threshold > 0.0f)
-                                std::printf(
-                                    " cut %.0f lights/point, %.0f nodes visited/point, tree build %.1f ms |",
-                                    double(technique->lastChoice().valTreeCutPerPoint),
-                                    double(technique->lastChoice().valTreeVisitedPerPoint),
-                                    double(technique->lastChoice().valTreeBuildMs));
+                                std::printf(" cut %.0f lights/point, %.0f nodes visited/point, tree build %.1f ms |",
+                                            double(technique->lastChoice().valTreeCutPerPoint),
+                                            double(technique->lastChoice().valTreeVisitedPerPoint),
+                                            double(technique->lastChoice().valTreeBuildMs));
                             for (const auto& s : stages)
                                 std::printf(" %s %.2f", s.name.c_str(), minimum(stageTimes[s.name]));
                             std::printf(" | gather %.3g interactions/s",
