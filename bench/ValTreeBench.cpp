@@ -4,7 +4,9 @@
 // error of the cut against the flat gather (relative MSE of L'_d and L'_s over the sparse points), the
 // nodes visited per sparse point (the cut's cost) and the thresholds as the knob. A separate program,
 // never a test; the numbers go to docs/BENCHMARKS.md with this command:
-//   build/bench/lightskin_bench_valtree [points-per-side=16] [glossy=1]
+//   build/bench/lightskin_bench_valtree [points-per-side=16] [glossy=1] [quadtree=0]
+// quadtree=1: the image quadtree (buildValQuadtreeInto) of the four r x r grids stacked into an r x 4r
+// image, as the CPU backend builds it for depth VALs (issue 17 item 2), instead of the BVH.
 // Scene: an open box room (floor and three walls, 3 m, each a grid of r x r disc VALs of radiance
 // 0.3..0.9) around a sphere of radius 0.3 m whose vertices are the sparse points.
 #include <lightskin/gi/LightSkinReference.h>
@@ -15,6 +17,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
@@ -96,12 +99,13 @@ double relativeMse(const std::vector<ref::GatherSums>& a, const std::vector<ref:
 int main(int argc, char** argv) {
     const int side = argc > 1 ? std::atoi(argv[1]) : 16;
     const bool glossy = argc > 2 ? std::atoi(argv[2]) != 0 : true;
+    const bool quadtree = argc > 3 && std::atoi(argv[3]) != 0;
     const auto receivers = sphere(side);
     const glm::dvec3 eye(0.0, -2.0, 0.5);
     ref::GatherParameters parameters;
     parameters.glossy = glossy;
-    std::printf("# %zu sparse points, glossy %d, CPU time per gather (s), double reference, 1 thread\n",
-                receivers.size(), int(glossy));
+    std::printf("# %zu sparse points, glossy %d, %s, CPU time per gather (s), double reference, 1 thread\n",
+                receivers.size(), int(glossy), quadtree ? "image quadtree" : "BVH");
     std::printf("| VALs | flat (s) | threshold | build (s) | cut (s) | flat/cut | nodes/point | cut size/point | "
                 "relMSE L'_d | relMSE L'_s |\n");
     std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
@@ -110,7 +114,14 @@ int main(int argc, char** argv) {
         std::vector<ref::GatherSums> flat, cut;
         const Timing tFlat = timed([&] { ref::gatherInto(vals, receivers, eye, parameters, flat); });
         gi::ValTreeD tree;
-        const Timing tBuild = timed([&] { gi::buildValTreeInto(vals, tree); });
+        std::vector<std::uint32_t> keys(vals.size());
+        for (std::size_t i = 0; i < keys.size(); ++i) keys[i] = std::uint32_t(i); // row-major in each grid
+        const Timing tBuild = timed([&] {
+            if (quadtree)
+                gi::buildValQuadtreeInto(vals, keys, std::uint32_t(r), std::uint32_t(4 * r), tree);
+            else
+                gi::buildValTreeInto(vals, tree);
+        });
         for (double threshold : {0.0, 0.01, 0.1, 1.0}) {
             ref::CutStatistics stats;
             const Timing tCut = timed([&] {

@@ -37,6 +37,10 @@ void addBenchGatherCommand(CLI::App& app, int& exitCode) {
                         "Comma-separated LightSkinSettings::valTreeThreshold values (0 = flat gather; issue 17)");
     command->add_flag("--tree-bvh", options->treeBvh,
                       "With --tree > 0: also the BVH beside the VAL map's quadtree, side by side");
+    command
+        ->add_option("--brute-subset", options->bruteSubset,
+                     "Brute force on this many random covered pixels only, its time scaled to all (0 = all)")
+        ->check(CLI::Range(0, 1 << 24));
     command->add_flag("--diffuse-only", options->diffuseOnly,
                       "Only the diffuse setup (the one compared with the brute force)");
     command->callback([=, &exitCode] {

@@ -12,6 +12,7 @@
 #include <lightskin/bench/GatherBench.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/BruteForceIllumination.h>
+#include <lightskin/gi/GpuValQuadtree.h>
 #include <lightskin/gi/LightSkinIllumination.h>
 #include <lightskin/gi/SimpleGBuffer.h>
 #include <lightskin/gi/VertexSparsePoints.h>
@@ -28,6 +29,8 @@
 #include <cstdio>
 #include <map>
 #include <numbers>
+#include <optional>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -36,6 +39,93 @@ namespace lightskin::bench {
 namespace {
 
 double minimum(const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); }
+
+double millisecondsSince(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+// --brute-subset: N covered pixels drawn without replacement (fixed seed), their G-buffer texels packed
+// into a kSubsetWidth-wide G-buffer of their own, so that the brute force shades only them (masking the
+// full-size G-buffer would still run every pixel once per VAL chunk). `empty` is the same size with no
+// pixel covered: the per-chunk cost that does not scale with the pixels.
+constexpr int kSubsetWidth = 64;
+struct BruteSubset {
+    std::vector<std::size_t> pixels; // indices into the output image
+    gl::Texture position, normal, albedo, specular, emptyPosition, target;
+    int width = kSubsetWidth, height = 0;
+    gi::GBufferView view(bool empty) const {
+        gi::GBufferView v;
+        v.worldPosition = empty ? emptyPosition.id() : position.id();
+        v.worldNormal = normal.id();
+        v.diffuseAlbedo = albedo.id();
+        v.specular = specular.id();
+        v.width = width;
+        v.height = height;
+        return v;
+    }
+};
+
+BruteSubset makeBruteSubset(const gi::SimpleGBuffer& gbuffer, const std::vector<glm::vec4>& positions, int count) {
+    BruteSubset b;
+    std::vector<std::size_t> covered;
+    for (std::size_t i = 0; i < positions.size(); ++i)
+        if (positions[i].w != 0.0f) covered.push_back(i);
+    std::mt19937_64 rng(17);
+    std::shuffle(covered.begin(), covered.end(), rng);
+    covered.resize(std::min(covered.size(), std::size_t(count)));
+    b.pixels = covered;
+    b.height = int((b.pixels.size() + kSubsetWidth - 1) / kSubsetWidth);
+    const gi::GBufferView full = gbuffer.view();
+    const auto pack = [&](std::uint32_t texture, bool empty) {
+        std::vector<glm::vec4> all(positions.size()),
+            packed(std::size_t(b.width) * std::size_t(b.height), glm::vec4(0));
+        glGetTextureImage(texture, 0, GL_RGBA, GL_FLOAT, GLsizei(all.size() * sizeof(glm::vec4)), all.data());
+        if (!empty)
+            for (std::size_t k = 0; k < b.pixels.size(); ++k) packed[k] = all[b.pixels[k]];
+        gl::Texture t = gl::Texture::create2D(GL_RGBA32F, b.width, b.height);
+        glTextureSubImage2D(t.id(), 0, 0, 0, b.width, b.height, GL_RGBA, GL_FLOAT, packed.data());
+        return t;
+    };
+    b.position = pack(full.worldPosition, false);
+    b.emptyPosition = pack(full.worldPosition, true);
+    b.normal = pack(full.worldNormal, false);
+    b.albedo = pack(full.diffuseAlbedo, false);
+    b.specular = pack(full.specular, false);
+    b.target = gl::Texture::create2D(GL_RGBA32F, b.width, b.height);
+    return b;
+}
+
+// relMSE = sum |d|^2 / sum |ref|^2 over the subset, and its standard error from the sampling of pixels
+// (delta method for a ratio of means: var(R) / R^2 ~ (var a / a^2 + var b / b^2 - 2 cov(a, b) / (a b)) / N).
+struct SubsetError {
+    double relMse = 0.0, standardError = 0.0;
+};
+SubsetError subsetError(const BruteSubset& b, const std::vector<glm::vec4>& image,
+                        const std::vector<glm::vec4>& reference) {
+    const auto n = double(b.pixels.size());
+    double sa = 0.0, sb = 0.0, saa = 0.0, sbb = 0.0, sab = 0.0;
+    for (std::size_t k = 0; k < b.pixels.size(); ++k) {
+        double a = 0.0, r = 0.0;
+        for (int c = 0; c < 3; ++c) {
+            const double d = double(image[b.pixels[k]][c]) - double(reference[k][c]);
+            a += d * d;
+            r += double(reference[k][c]) * double(reference[k][c]);
+        }
+        sa += a;
+        sb += r;
+        saa += a * a;
+        sbb += r * r;
+        sab += a * r;
+    }
+    SubsetError e;
+    if (sb <= 0.0 || n < 2.0) return e;
+    const double ma = sa / n, mb = sb / n;
+    e.relMse = ma / mb;
+    const double va = saa / n - ma * ma, vb = sbb / n - mb * mb, cab = sab / n - ma * mb;
+    const double relVar = (ma > 0.0 ? va / (ma * ma) - 2.0 * cab / (ma * mb) : 0.0) + vb / (mb * mb);
+    e.standardError = e.relMse * std::sqrt(std::max(relVar, 0.0) / n);
+    return e;
+}
 
 } // namespace
 
@@ -63,6 +153,12 @@ void runGatherBench(const GatherBenchOptions& options) {
         glGetTextureImage(target.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(out.size() * sizeof(glm::vec4)), out.data());
     };
 
+    BruteSubset subset;                            // --brute-subset
+    std::optional<gi::GpuValQuadtree> gpuQuadtree; // created on first use
+    gi::ValTree cpuQuadtree;
+    std::vector<gi::VirtualAreaLight> valsBack;
+    std::vector<std::uint32_t> keysBack;
+    gl::Buffer nodeUpload;
     for (const std::string& mapName : options.valMaps) {
         const auto [mapWidth, mapHeight] = bench::parseValMapSize(mapName);
         const auto vals = bench::valMap(mapWidth, mapHeight);
@@ -87,7 +183,44 @@ void runGatherBench(const GatherBenchOptions& options) {
         row.covered = covered;
         row.triangles = meshes[0].triangleCount() + meshes[1].triangleCount();
         double bruteMs = 0.0;
-        if (options.brute) {
+        std::vector<glm::vec4> subsetReference, flatOnSubset;
+        if (options.brute && options.bruteSubset > 0) {
+            if (subset.pixels.empty()) subset = makeBruteSubset(gbuffer, positions, options.bruteSubset);
+            gi::BruteForceSettings bruteSettings;
+            bruteSettings.glossy = false;
+            auto brute = gi::BruteForceIllumination::create(bruteSettings);
+            // Wall clock of render() + glFinish, the subset then the same draws with no pixel covered;
+            // their difference scaled to every covered pixel leaves out the full brute force's per-chunk
+            // cost over the uncovered pixels: a lower bound of its time, so the speed-up is not inflated.
+            std::vector<double> withPixels, without;
+            for (int r = 0; r < std::max(1, options.repeat / 2); ++r)
+                for (const bool empty : {true, false}) { // the subset last: its image is the reference
+                    glFinish();
+                    const auto start = std::chrono::steady_clock::now();
+                    brute->render(valSet, instances, subset.view(empty), view, subset.target.id());
+                    glFinish();
+                    (empty ? without : withPixels).push_back(millisecondsSince(start));
+                }
+            subsetReference.resize(std::size_t(subset.width) * std::size_t(subset.height));
+            glGetTextureImage(subset.target.id(), 0, GL_RGBA, GL_FLOAT,
+                              GLsizei(subsetReference.size() * sizeof(glm::vec4)), subsetReference.data());
+            const double perPixel = (minimum(withPixels) - minimum(without)) / double(subset.pixels.size());
+            bruteMs = perPixel * double(covered);
+            RunResult bruteRow = row;
+            bruteRow.method = "brute force";
+            bruteRow.series = "estimate from " + std::to_string(subset.pixels.size()) + " random covered pixels";
+            bruteRow.isBrute = true;
+            bruteRow.config.channels = 1;
+            bruteRow.config.sparse = 0;
+            bruteRow.bruteMs = bruteMs;
+            bruteRow.gpuMs = bruteMs;
+            bruteRow.cpuMs = bruteMs;
+            report.runs.push_back(bruteRow);
+            std::printf("\nVAL map %s (%zu VALs): brute force (diffuse) on %zu of %zu covered pixels %.1f ms, no pixel "
+                        "%.1f ms -> all covered pixels %.0f ms (%.3g interactions/s)\n",
+                        mapName.c_str(), vals.size(), subset.pixels.size(), covered, minimum(withPixels),
+                        minimum(without), bruteMs, double(covered) * double(vals.size()) / (bruteMs * 1e-3));
+        } else if (options.brute) {
             gi::BruteForceSettings bruteSettings;
             bruteSettings.glossy = false;
             auto brute = gi::BruteForceIllumination::create(bruteSettings);
@@ -118,6 +251,39 @@ void runGatherBench(const GatherBenchOptions& options) {
                         double(covered) * double(vals.size()) / (bruteMs * 1e-3));
         } else {
             std::printf("\nVAL map %s (%zu VALs)\n", mapName.c_str(), vals.size());
+        }
+
+        if (std::any_of(options.treeThresholds.begin(), options.treeThresholds.end(),
+                        [](float t) { return t > 0.0f; })) {
+            // The quadtree of the map's VALs built both ways, alternately, wall clock: on the GPU (as the
+            // tree gather does; the build ends with a 16-byte read-back) and on the CPU as the gather did
+            // before (VAL + key read-back, buildValQuadtreeInto, node upload).
+            if (!gpuQuadtree) gpuQuadtree = gi::GpuValQuadtree::create();
+            nodeUpload = gl::Buffer::create(GLsizeiptr(2 * vals.size()) * GLsizeiptr(sizeof(gi::ValCluster)));
+            std::vector<double> gpu, cpu;
+            for (int r = 0; r < std::max(2, options.repeat); ++r) {
+                glFinish();
+                auto start = std::chrono::steady_clock::now();
+                gpuQuadtree->build(keyedSet);
+                gpu.push_back(millisecondsSince(start));
+                glFinish();
+                start = std::chrono::steady_clock::now();
+                valsBack.resize(vals.size());
+                keysBack.resize(vals.size());
+                glGetNamedBufferSubData(valBuffer.id(), 0, GLsizeiptr(vals.size() * sizeof(gi::VirtualAreaLight)),
+                                        valsBack.data());
+                glGetNamedBufferSubData(keyBuffer.id(), 0, GLsizeiptr(vals.size() * 4), keysBack.data());
+                gi::buildValQuadtreeInto(std::span<const gi::VirtualAreaLight>(valsBack),
+                                         std::span<const std::uint32_t>(keysBack), std::uint32_t(mapWidth),
+                                         std::uint32_t(mapHeight), cpuQuadtree);
+                nodeUpload.upload(0, GLsizeiptr(cpuQuadtree.nodes.size() * sizeof(gi::ValCluster)),
+                                  cpuQuadtree.nodes.data());
+                glFinish();
+                cpu.push_back(millisecondsSince(start));
+            }
+            std::printf("  quadtree build (minimum of %zu): GPU %.2f ms, CPU with read-back and upload %.2f ms "
+                        "(CPU / GPU %.1fx)\n",
+                        gpu.size(), minimum(gpu), minimum(cpu), minimum(cpu) / minimum(gpu));
         }
 
         for (int sparse : options.sparse)
@@ -192,17 +358,32 @@ void runGatherBench(const GatherBenchOptions& options) {
                                                                                   : "bvh",
                                         setup.name, totalMs, minimum(walls));
                             if (threshold > 0.0f)
-                                std::printf(
-                                    " cut %.0f lights/point, %.0f nodes visited/point, read-back + build + upload "
-                                    "%.1f ms |",
-                                    double(technique->lastChoice().valTreeCutPerPoint),
-                                    double(technique->lastChoice().valTreeVisitedPerPoint),
-                                    double(technique->lastChoice().valTreeBuildMs));
+                                std::printf(" cut %.0f lights/point, %.0f nodes visited/point, tree build %.1f ms |",
+                                            double(technique->lastChoice().valTreeCutPerPoint),
+                                            double(technique->lastChoice().valTreeVisitedPerPoint),
+                                            double(technique->lastChoice().valTreeBuildMs));
                             for (const auto& s : stages)
                                 std::printf(" %s %.2f", s.name.c_str(), minimum(stageTimes[s.name]));
                             std::printf(" | gather %.3g interactions/s",
                                         double(sparse) * double(vals.size()) / (gatherMs * 1e-3));
-                            if (options.brute && !setup.glossy) {
+                            if (options.brute && !setup.glossy && options.bruteSubset > 0) {
+                                readImage(image);
+                                const SubsetError e = subsetError(subset, image, subsetReference);
+                                std::printf(" | speed-up over brute force %.1fx (estimate), relMSE %.3e +- %.1e on %zu "
+                                            "pixels",
+                                            bruteMs / totalMs, e.relMse, e.standardError, subset.pixels.size());
+                                // the flat gather's image on the same pixels: what the cut adds, paired (the
+                                // sampling error of the two relMSEs above is mostly shared)
+                                if (threshold <= 0.0f) {
+                                    flatOnSubset.resize(subset.pixels.size());
+                                    for (std::size_t k = 0; k < subset.pixels.size(); ++k)
+                                        flatOnSubset[k] = image[subset.pixels[k]];
+                                } else if (flatOnSubset.size() == subset.pixels.size()) {
+                                    const SubsetError f = subsetError(subset, image, flatOnSubset);
+                                    std::printf(", against the flat gather's image %.3e +- %.1e", f.relMse,
+                                                f.standardError);
+                                }
+                            } else if (options.brute && !setup.glossy) {
                                 readImage(image);
                                 double sumAbs = 0.0, sumRef = 0.0, sum = 0.0, sq = 0.0, sqRef = 0.0;
                                 for (std::size_t i = 0; i < image.size(); ++i)

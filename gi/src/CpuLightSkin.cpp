@@ -111,6 +111,7 @@ struct CpuLightSkin::Impl {
 
     // Per-frame data, sized in prepare() (VALs: grown when a frame brings more).
     std::vector<VirtualAreaLight> staging;
+    std::vector<std::uint32_t> stagingKeys; // render(): the VALs' pixel keys (quadtree), grown when needed
     cpu::ValArrays vals;
     double valSums[8] = {}; // sum l (3), sum r^2, sum l^2 per axis (3), count: eps_l terms of eq. 7
     std::vector<glm::dvec3> pointPosition, pointNormal; // world, per sparse point
@@ -509,7 +510,7 @@ void CpuLightSkin::prepare(std::span<const MeshInstance> instances) {
 }
 
 void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
-                               const glm::vec3& cameraPositionWorld) {
+                               const glm::vec3& cameraPositionWorld, const CpuValPixelKeys& pixels) {
     Impl& impl = *impl_;
     LIGHTSKIN_ASSERT(instances.size() == impl.sparse.size(),
                      "lightskin::gi::CpuLightSkin::computeVpls(): instances differ from prepare()");
@@ -536,11 +537,14 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
                             std::span(impl.pointNormal).first(impl.pointCount),
                             std::span(impl.pointExponent).first(impl.pointCount), eye,
                             double(impl.settings.lightSkin.cParameter), impl.glossy, impl.moments(), treeThreshold,
-                            impl.threadCount(), impl.sums.data(), impl.receivers.padded);
+                            impl.threadCount(), impl.sums.data(), impl.receivers.padded,
+                            cpu::ValTreeImage{pixels.keys, pixels.width, pixels.height});
         stats.valTreeCutPerPoint = double(impl.treeCut.stats().taken) / double(std::max<std::uint32_t>(impl.pointCount, 1));
+        stats.valTreeQuadtree = impl.treeCut.stats().quadtree;
     } else {
         impl.gather();
         stats.valTreeCutPerPoint = 0.0;
+        stats.valTreeQuadtree = false;
     }
     stats.gatherMs = millisecondsSince(start);
     stats.gatherCpuMs = processCpuMs() - cpu;
@@ -580,15 +584,24 @@ void CpuLightSkin::render(const ValSetView& lights, std::span<const MeshInstance
     if (lights.count > 0)
         glGetNamedBufferSubData(lights.buffer, 0, GLsizeiptr(lights.count) * GLsizeiptr(sizeof(VirtualAreaLight)),
                                 impl.staging.data());
+    // pixel keys only matter to the gather with a cut (the quadtree); else they are not read back
+    CpuValPixelKeys pixels;
+    if (impl.settings.lightSkin.valTreeThreshold > 0.0f && lights.keys != 0 && lights.keyWidth > 0 &&
+        lights.count > 0) {
+        impl.stagingKeys.resize(lights.count);
+        glGetNamedBufferSubData(lights.keys, 0, GLsizeiptr(lights.count) * 4, impl.stagingKeys.data());
+        pixels = {impl.stagingKeys, lights.keyWidth, lights.keyCount / lights.keyWidth};
+    }
     impl.readbackMs = millisecondsSince(start);
     renderCpuVals(std::span<const VirtualAreaLight>(impl.staging.data(), lights.count), instances, gbuffer, view,
-                  targetTexture);
+                  targetTexture, pixels);
 }
 
 void CpuLightSkin::renderCpuVals(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
-                                 const GBufferView& gbuffer, const ViewParameters& view, std::uint32_t targetTexture) {
+                                 const GBufferView& gbuffer, const ViewParameters& view, std::uint32_t targetTexture,
+                                 const CpuValPixelKeys& pixels) {
     Impl& impl = *impl_;
-    computeVpls(lights, instances, view.cameraPositionWorld);
+    computeVpls(lights, instances, view.cameraPositionWorld, pixels);
 
     const auto uploadStart = Clock::now();
     if (impl.vertexCount > 0)

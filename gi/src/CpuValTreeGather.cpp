@@ -6,19 +6,30 @@
 #include <lightskin/core/Error.h>
 
 #include <omp.h>
+#include <string>
 
 namespace lightskin::gi::cpu {
 
 void ValTreeCut::gather(std::span<const VirtualAreaLight> lights, std::span<const glm::dvec3> positions,
                         std::span<const glm::dvec3> normals, std::span<const double> exponents, const glm::dvec3& eye,
                         double c, bool glossy, bool moments, double threshold, int threads, float* sums,
-                        std::size_t stride) {
+                        std::size_t stride, const ValTreeImage& image) {
     LIGHTSKIN_ASSERT(threshold > 0.0, "lightskin::gi::cpu::ValTreeCut::gather(): threshold must be > 0");
     LIGHTSKIN_ASSERT(positions.size() == normals.size() && positions.size() == exponents.size() &&
                          positions.size() <= stride,
                      "lightskin::gi::cpu::ValTreeCut::gather(): one position, normal and exponent per point");
-    buildValTreeInto(lights, tree_);
     stats_ = ValTreeCutStats{};
+    // Depth VALs come with their pixels: the image's quadtree costs O(pixels) and no sort (ValTree.h)
+    stats_.quadtree = !image.keys.empty();
+    if (stats_.quadtree) {
+        if (image.keys.size() != lights.size())
+            throw Error("VAL keys", std::nullopt,
+                        std::to_string(image.keys.size()) + " pixel keys for " + std::to_string(lights.size()) +
+                            " VALs");
+        buildValQuadtreeInto(lights, image.keys, image.width, image.height, tree_);
+    } else {
+        buildValTreeInto(lights, tree_);
+    }
     stats_.nodes = std::uint32_t(tree_.nodes.size());
     reference::GatherParameters parameters;
     parameters.cParameter = c;

@@ -20,11 +20,12 @@ void ValTreeGather::buildPrograms(const gl::ShaderLibrary& library) {
         for (int o = 0; o < 2; ++o)
             programs_[g][o] =
                 library.buildProgram({{GL_COMPUTE_SHADER, "gather_tree.comp"}}, variantDefines(16, g != 0, o != 0));
+    quadtree_ = GpuValQuadtree::create();
 }
 
 void ValTreeGather::reserve(std::uint32_t valCount, std::uint32_t pointCount) {
     const std::uint32_t nodes = std::max(1u, 2u * valCount);
-    if (nodes > nodeCapacity_) {
+    if (!stats_.quadtree && nodes > nodeCapacity_) {
         if (nodeCapacity_ > 0) log::info("lightskin: VAL tree buffer grows to " + std::to_string(nodes) + " nodes");
         nodeCapacity_ = nodes;
         nodes_ = gl::Buffer::create(GLsizeiptr(nodes) * GLsizeiptr(sizeof(ValCluster)));
@@ -47,22 +48,25 @@ void ValTreeGather::run(std::uint32_t valBuffer, std::uint32_t count, std::uint3
     LIGHTSKIN_ASSERT(threshold > 0.0f, "lightskin::gi::detail::ValTreeGather::run(): threshold must be > 0");
     stats_ = ValTreeGatherStats{};
     const auto start = std::chrono::steady_clock::now();
-    vals_.resize(count);
-    if (count > 0) glGetNamedBufferSubData(valBuffer, 0, GLsizeiptr(count) * GLsizeiptr(kValBytes), vals_.data());
     stats_.quadtree = keyBuffer != 0 && keyWidth > 0;
+    std::uint32_t nodeBuffer = 0;
     if (stats_.quadtree) {
-        keys_.resize(count);
-        if (count > 0) glGetNamedBufferSubData(keyBuffer, 0, GLsizeiptr(count) * 4, keys_.data());
-        buildValQuadtreeInto(std::span<const VirtualAreaLight>(vals_), std::span<const std::uint32_t>(keys_), keyWidth,
-                             keyCount / keyWidth, tree_);
+        stats_.nodes = quadtree_.build(ValSetView{valBuffer, count, 0, keyBuffer, keyCount, keyWidth});
+        nodeBuffer = quadtree_.nodeBuffer();
     } else {
+        vals_.resize(count);
+        if (count > 0) glGetNamedBufferSubData(valBuffer, 0, GLsizeiptr(count) * GLsizeiptr(kValBytes), vals_.data());
         buildValTreeInto(std::span<const VirtualAreaLight>(vals_), tree_);
+        stats_.nodes = std::uint32_t(tree_.nodes.size());
     }
-    stats_.nodes = std::uint32_t(tree_.nodes.size());
     reserve(count, pointCount);
-    if (!tree_.nodes.empty()) nodes_.upload(0, GLsizeiptr(tree_.nodes.size() * sizeof(ValCluster)), tree_.nodes.data());
+    if (!stats_.quadtree) {
+        if (!tree_.nodes.empty())
+            nodes_.upload(0, GLsizeiptr(tree_.nodes.size() * sizeof(ValCluster)), tree_.nodes.data());
+        nodeBuffer = nodes_.id();
+    }
     stats_.buildMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    if (tree_.nodes.empty() || pointCount == 0) return;
+    if (stats_.nodes == 0 || pointCount == 0) return;
 
     const gl::Program& p = programs_[glossy ? 1 : 0][moments ? 1 : 0];
     p.use();
@@ -78,14 +82,14 @@ void ValTreeGather::run(std::uint32_t valBuffer, std::uint32_t count, std::uint3
     for (std::size_t i = 0; i < targets.size(); ++i)
         glBindImageTexture(GLuint(i), targets[i], 0, GL_FALSE, 0, GL_READ_WRITE, GL_RGBA32F);
     glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 0, valBuffer, 0, GLsizeiptr(count) * GLsizeiptr(kValBytes));
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, nodes_.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, nodeBuffer);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, walk_.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, stackD_.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, stackS_.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, stackNode_.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, counters_.id());
     // every node is visited at most once per point: this many dispatches always finish the walk
-    const std::uint32_t maxDispatches = std::uint32_t(tree_.nodes.size()) / steps + 2;
+    const std::uint32_t maxDispatches = stats_.nodes / steps + 2;
     for (std::uint32_t d = 0; d < maxDispatches; ++d) {
         std::uint32_t counters[4] = {0, 0, 0, 0};
         counters_.upload(0, sizeof counters, counters);

@@ -1,14 +1,13 @@
 #pragma once
-// The GL path's gather with a cut through the VAL tree (issue 17; gi/shaders/gather_tree.comp): builds
-// the tree of the gathered VALs on the CPU from a read-back of their GL buffer: for VALs keyed by image
-// pixels the image's quadtree (O(pixels)), else the BVH. On the CPU, not in a compute pass, because
-// the cone angles are combined with acos in double and rounded outward so that the float bound stays
-// certified (GLSL has no double acos). Then it uploads the nodes and runs the walk in dispatches of
-// bounded length until every sparse point is done. Writes the same five gather targets as the flat
-// gather. Buffers grow (logged) with the VAL and sparse-point counts and are reused; no allocation once
-// they have grown.
+// The GL path's gather with a cut through the VAL tree (issue 17; gi/shaders/gather_tree.comp): for
+// VALs keyed by image pixels (depth VALs) the image's quadtree, built on the GPU (GpuValQuadtree: no
+// read-back); for any other set the BVH, built on the CPU from a read-back of the VAL buffer and
+// uploaded. Then it runs the walk in dispatches of bounded length until every sparse point is done. Writes the same
+// five gather targets as the flat gather. Buffers grow (logged) with the VAL and sparse-point counts and are reused; no
+// allocation once they have grown.
 #include "GatherShaders.h"
 
+#include <lightskin/gi/GpuValQuadtree.h>
 #include <lightskin/gi/ValTree.h>
 #include <lightskin/gl/Objects.h>
 #include <lightskin/gl/ShaderLibrary.h>
@@ -26,7 +25,7 @@ struct ValTreeGatherStats {
     std::uint64_t visited = 0; ///< nodes visited, summed over the sparse points
     std::uint64_t taken = 0;   ///< lights taken (clusters + VALs): the cut sizes, summed
     std::uint32_t dispatches = 0;
-    double buildMs = 0.0;  ///< CPU: read-back, build and upload
+    double buildMs = 0.0;  ///< wall clock: GPU quadtree passes, or BVH read-back, build and upload
     bool quadtree = false; ///< the image quadtree (keyed VALs), else the BVH
 };
 
@@ -34,6 +33,8 @@ class ValTreeGather {
 public:
     /// Compiles the four variants of gather_tree.comp.
     void buildPrograms(const gl::ShaderLibrary& library);
+    /// The quadtree of the last run() (when stats().quadtree): for tests and benchmarks.
+    const GpuValQuadtree& quadtree() const noexcept { return quadtree_; }
     /// Gathers `count` VALs of `valBuffer` (std430 VirtualAreaLight) at `pointCount` sparse points into
     /// `targets` (the five rgba32f gather targets, cleared by the caller). threshold > 0. keyBuffer != 0
     /// and keyWidth > 0: one uint pixel key per VAL in a keyWidth x (keyCount / keyWidth) image (ValSetView):
@@ -47,9 +48,9 @@ public:
 private:
     void reserve(std::uint32_t valCount, std::uint32_t pointCount);
     gl::Program programs_[2][2];
-    ValTree tree_;
+    ValTree tree_;            // the BVH (CPU)
+    GpuValQuadtree quadtree_; // keyed sets
     std::vector<VirtualAreaLight> vals_;
-    std::vector<std::uint32_t> keys_;
     gl::Buffer nodes_, walk_, stackD_, stackS_, stackNode_, counters_;
     std::uint32_t nodeCapacity_ = 0, pointCapacity_ = 0;
     ValTreeGatherStats stats_;

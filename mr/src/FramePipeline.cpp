@@ -683,10 +683,15 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
     t = Clock::now();
     if (!gbufferReady) r.renderGBuffer(world_T_camera);
     if (runGi) {
-        if (cpuTechnique && valSet.buffer == 0)
-            cpuTechnique->renderCpuVals(s.cpuValSet, r.instances(), r.gbuffer(), r.viewParameters(),
-                                        r.indirectTarget());
-        else
+        if (cpuTechnique && valSet.buffer == 0) {
+            // the depth pixels of this frame's CPU VALs: the gather with a cut builds their quadtree
+            gi::CpuValPixelKeys pixels;
+            if (s.cpuVals && !s.cpuValSet.empty())
+                pixels = {s.cpuVals->lastPixelIndices(), std::uint32_t(s.cpuVals->depthWidth()),
+                          std::uint32_t(s.cpuVals->depthHeight())};
+            cpuTechnique->renderCpuVals(s.cpuValSet, r.instances(), r.gbuffer(), r.viewParameters(), r.indirectTarget(),
+                                        pixels);
+        } else
             s.technique->render(valSet, r.instances(), r.gbuffer(), r.viewParameters(), r.indirectTarget());
         if (const auto* lightSkin = dynamic_cast<const gi::LightSkinIllumination*>(s.technique.get());
             lightSkin && lightSkin->settings().adaptive) {

@@ -5,8 +5,11 @@
 #include "GatherTestScenes.h"
 #include "GlTestEnvironment.h"
 #include "GpuRig.h"
+#include "ValTreeScenes.h"
 
+#include <lightskin/core/Error.h>
 #include <lightskin/gi/CpuLightSkin.h>
+#include <lightskin/gi/GpuValQuadtree.h>
 #include <lightskin/gi/LightSkinIllumination.h>
 #include <lightskin/gi/LightSkinReference.h>
 #include <lightskin/gi/ValTree.h>
@@ -19,6 +22,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 namespace lightskin::test {
 namespace {
@@ -90,12 +94,20 @@ void cutMatchesTheDoubleWalk(bool quadtree) {
     EXPECT_LT(tree.choice.valTreeCutPerPoint, 0.25f * float(scene.vals.size())) << "the cut must cut";
     EXPECT_EQ(flat.choice.valTreeNodes, 0u);
 
+    // the reference walks the tree the GL path walked: the GPU quadtree (its build is deterministic:
+    // each node is computed by one invocation from its children; ValTreeGpuBuildGLTest compares it
+    // with the CPU builder's) or the BVH
     gi::ValTreeD treeD;
-    if (quadtree)
-        gi::buildValQuadtreeInto(scene.vals, scene.keys, RoomScene::kKeyWidth,
-                                 std::uint32_t(scene.vals.size()) / RoomScene::kKeyWidth, treeD);
-    else
+    if (quadtree) {
+        gi::GpuValQuadtree builder = gi::GpuValQuadtree::create();
+        const auto count = std::uint32_t(scene.vals.size());
+        builder.build(gi::ValSetView{scene.buffer.id(), count, 0, scene.keyBuffer.id(), count, RoomScene::kKeyWidth});
+        std::vector<gi::ValCluster> nodes;
+        builder.readNodes(nodes);
+        treeD = widenValTree(nodes);
+    } else {
         gi::buildValTreeInto(scene.vals, treeD);
+    }
     const glm::dvec3 eye(scene.eye);
     ref::GatherParameters parameters;
     parameters.epsilonL = 0.0; // the GPU adds the eps_l terms in the renormalisation
@@ -160,37 +172,48 @@ void cutMatchesTheDoubleWalk(bool quadtree) {
 }
 
 TEST_F(ValTreeGLTest, CutMatchesTheDoubleWalkAndStaysNearTheFlatGather) { cutMatchesTheDoubleWalk(false); }
-// the same with the image quadtree of the VALs' pixel keys (ValSetView::keyWidth)
+// the same with the image quadtree of the VALs' pixel keys (ValSetView::keyWidth), built on the GPU
+// (GpuValQuadtree)
 TEST_F(ValTreeGLTest, QuadtreeCutMatchesTheDoubleWalkAndStaysNearTheFlatGather) { cutMatchesTheDoubleWalk(true); }
 
 // The CPU backend runs the reference's walk (gi/src/reference/ValTreeWalk.h) in double on the same
 // points and stores float sums: equal to the reference cut up to that one rounding (6e-8 relative;
-// 1e-6 leaves room for the float world transform of the points), at any thread count.
-TEST_F(ValTreeGLTest, CpuBackendTakesTheReferenceCut) {
+// 1e-6 leaves room for the float world transform of the points), at any thread count. With pixel keys
+// (CpuValPixelKeys, as FramePipeline passes CpuValGenerator's) the cut goes through the image quadtree:
+// it then equals the reference walk of the double quadtree, and not the BVH's cut.
+std::vector<glm::vec4> cpuBackendTakesTheReferenceCut(bool quadtree) {
     RoomScene scene;
     const float threshold = 0.05f;
     gi::CpuLightSkinSettings settings;
     settings.lightSkin.valTreeThreshold = threshold;
+    const std::uint32_t keyHeight = std::uint32_t(scene.vals.size()) / RoomScene::kKeyWidth;
+    const gi::CpuValPixelKeys pixels =
+        quadtree ? gi::CpuValPixelKeys{scene.keys, RoomScene::kKeyWidth, keyHeight} : gi::CpuValPixelKeys{};
     std::vector<std::vector<glm::vec4>> sums;
     for (int threads : {1, 2}) {
         settings.threads = threads;
         auto cpu = gi::CpuLightSkin::create(settings, scene.provider());
         cpu->prepare(scene.instances);
-        cpu->computeVpls(scene.vals, scene.instances, scene.eye);
+        cpu->computeVpls(scene.vals, scene.instances, scene.eye, pixels);
         sums.emplace_back();
         cpu->readGatherSums(sums.back());
         EXPECT_GT(cpu->lastStats().valTreeCutPerPoint, 0.0);
         EXPECT_LT(cpu->lastStats().valTreeCutPerPoint, 0.25 * double(scene.vals.size()));
+        EXPECT_EQ(cpu->lastStats().valTreeQuadtree, quadtree);
         scene.receivers = ref::receiversFromSparsePoints(scene.sparsePoints(0), scene.instances[0].world_T_model, 20.0);
     }
     EXPECT_EQ(sums[0], sums[1]) << "the thread count must not change the sums";
     gi::ValTreeD treeD;
-    gi::buildValTreeInto(scene.vals, treeD);
+    if (quadtree)
+        gi::buildValQuadtreeInto(scene.vals, scene.keys, RoomScene::kKeyWidth, keyHeight, treeD);
+    else
+        gi::buildValTreeInto(scene.vals, treeD);
     std::vector<ref::GatherSums> cutRef;
     ref::GatherParameters parameters;
     parameters.epsilonL = 0.0;
     ref::gatherWithCutInto(treeD, scene.vals, scene.receivers, glm::dvec3(scene.eye), parameters, threshold, cutRef);
-    ASSERT_EQ(sums[0].size(), 5 * cutRef.size());
+    EXPECT_EQ(sums[0].size(), 5 * cutRef.size());
+    if (sums[0].size() != 5 * cutRef.size()) return {};
     for (std::size_t i = 0; i < cutRef.size(); ++i)
         for (int c = 0; c < 3; ++c) {
             EXPECT_NEAR(double(sums[0][5 * i][c]), cutRef[i].irradiance[c], 1e-6 * cutRef[i].irradiance[c] + 1e-30)
@@ -198,6 +221,31 @@ TEST_F(ValTreeGLTest, CpuBackendTakesTheReferenceCut) {
             EXPECT_NEAR(double(sums[0][5 * i + 2][c]), cutRef[i].glossy[c], 1e-6 * cutRef[i].glossy[c] + 1e-30)
                 << "point " << i;
         }
+    return sums[0];
+}
+
+TEST_F(ValTreeGLTest, CpuBackendTakesTheReferenceCut) {
+    const std::vector<glm::vec4> bvh = cpuBackendTakesTheReferenceCut(false);
+    const std::vector<glm::vec4> quadtree = cpuBackendTakesTheReferenceCut(true);
+    // the two trees cluster differently, so their cuts differ somewhere: else the keys were ignored
+    EXPECT_NE(bvh, quadtree);
+}
+
+// Keys that are not an image's (a key outside it) are a clear error, not a crash.
+TEST_F(ValTreeGLTest, CpuBackendRefusesBadPixelKeys) {
+    RoomScene scene;
+    gi::CpuLightSkinSettings settings;
+    settings.lightSkin.valTreeThreshold = 0.05f;
+    auto cpu = gi::CpuLightSkin::create(settings, scene.provider());
+    cpu->prepare(scene.instances);
+    std::vector<std::uint32_t> keys = scene.keys;
+    keys[7] = RoomScene::kKeyWidth * 1000; // beyond the 48 x 144 image
+    try {
+        cpu->computeVpls(scene.vals, scene.instances, scene.eye, {keys, RoomScene::kKeyWidth, 144});
+        ADD_FAILURE() << "no error";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("VAL 7"), std::string::npos) << e.what();
+    }
 }
 
 } // namespace

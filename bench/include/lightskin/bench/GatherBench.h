@@ -22,6 +22,10 @@ struct GatherBenchOptions {
     /// With a threshold > 0, also the BVH over the same VALs beside the VAL map's quadtree
     /// (`--tree-bvh`; without it the VAL map's pixel keys give the quadtree only).
     bool treeBvh = false;
+    /// > 0 (`--brute-subset N`): the brute force on N covered pixels drawn at random (fixed seed)
+    /// instead of all of them: its time scaled to all covered pixels, and every row's error on those
+    /// pixels (with its sampling error); for sizes where the full brute force would take hours.
+    int bruteSubset = 0;
 };
 
 /// LightSkin stage times (GL timer queries) per setup, speed-up over the brute force and its error; prints them and,

@@ -42,6 +42,16 @@ struct CpuLightSkinStats {
     double gatherCpuMs = 0.0, occlusionCpuMs = 0.0, stagesCpuMs = 0.0;
     std::string simdTarget;          ///< the instruction set the runtime dispatch chose, e.g. "AVX3"
     double valTreeCutPerPoint = 0.0; ///< valTreeThreshold > 0 (issue 17): lights taken per sparse point
+    bool valTreeQuadtree = false;    ///< the cut went through the image quadtree (CpuValPixelKeys), else the BVH
+};
+
+/// Where VALs on the CPU come from the pixels of an image (gi::CpuValGenerator::lastPixelIndices()):
+/// keys[i] = v * width + u names VAL i's pixel, one key per VAL, no pixel twice. With
+/// valTreeThreshold > 0 the gather then cuts through the image's quadtree (O(pixels) to build)
+/// instead of the BVH (O(n log n)); ValTree.h. Not kept after the call.
+struct CpuValPixelKeys {
+    std::span<const std::uint32_t> keys; ///< empty: the VALs are not an image's (BVH)
+    std::uint32_t width = 0, height = 0; ///< the image, pixels
 };
 
 class CpuLightSkin final : public IndirectIllumination {
@@ -56,8 +66,10 @@ public:
                 const ViewParameters& view, std::uint32_t targetTexture) override;
     /// render() with the VALs already on the CPU (e.g. gi::CpuValGenerator's; not kept after the
     /// call): no read-back of a GL buffer. Invalid VALs (area <= 0 or NaN) are skipped as in render().
+    /// `pixels`: the VALs' image pixels, if any (CpuValPixelKeys).
     void renderCpuVals(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
-                       const GBufferView& gbuffer, const ViewParameters& view, std::uint32_t targetTexture);
+                       const GBufferView& gbuffer, const ViewParameters& view, std::uint32_t targetTexture,
+                       const CpuValPixelKeys& pixels = {});
     /// upload, gather, normalisation, occlusion, interpolation: CPU wall clock; shading: GL timer.
     void lastStageTimes(std::vector<gl::StageTime>& out) const override;
 
@@ -69,7 +81,7 @@ public:
     /// VALs back and before writing the vertex VPLs to the GL buffer. For benchmarks and tests;
     /// needs prepare() (which needs a GL context for the buffers it creates).
     void computeVpls(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
-                     const glm::vec3& cameraPositionWorld);
+                     const glm::vec3& cameraPositionWorld, const CpuValPixelKeys& pixels = {});
 
     /// The same readbacks, in the same layouts, as LightSkinIllumination's (see its header; cheap
     /// here: the data are on the CPU).

@@ -51,6 +51,9 @@ public:
     /// The last set, and per VAL the depth pixel (v * width + u) it samples.
     std::span<const VirtualAreaLight> lastVals() const noexcept { return {vals_.data(), count_}; }
     std::span<const std::uint32_t> lastPixelIndices() const noexcept { return {pixelIndices_.data(), count_}; }
+    /// The depth-map size of create(), pixels: the image lastPixelIndices() index.
+    int depthWidth() const noexcept { return width_; }
+    int depthHeight() const noexcept { return height_; }
     /// The last set for in-place culls that zero a VAL's area (gi::ValOccupancyCull::applyOnCpu).
     std::span<VirtualAreaLight> mutableLastVals() noexcept { return {vals_.data(), count_}; }
 

@@ -112,8 +112,10 @@ struct LightSkinChoice {
     /// (the cut size) and the nodes visited; 0 for the flat gather.
     std::uint32_t valTreeNodes = 0;
     float valTreeCutPerPoint = 0.0f, valTreeVisitedPerPoint = 0.0f;
-    float valTreeBuildMs = 0.0f;  ///< CPU wall time of the VAL read-back, tree build and upload
-    bool valTreeQuadtree = false; ///< the tree was the image quadtree (VALs with pixel keys), else the BVH
+    /// Wall time of the tree build: the quadtree's GPU passes (GpuValQuadtree, until their 16-byte
+    /// read-back), or the BVH's VAL read-back, CPU build and node upload
+    float valTreeBuildMs = 0.0f;
+    bool valTreeQuadtree = false; ///< the image quadtree, built on the GPU (VALs with pixel keys), else the BVH
     std::string reason;
 };
 

@@ -5,8 +5,9 @@
 // Layout: node 0 is the root, an inner node has two children (always after their parent), a leaf is one valid VAL
 // (index into the input span); invalid VALs (area <= 0 or NaN) are left out, so an empty or all-invalid set gives
 // an empty tree. A traversal stack of kValTreeMaxDepth entries always suffices. Units and frames as
-// VirtualAreaLight: world metres, m^2, linear RGB W; angles in radians. The two builders (BVH, depth-image
-// quadtree), their node order and cost: docs/LIGHTSKIN.md, "Gather with a cut through the VAL tree".
+// VirtualAreaLight: world metres, m^2, linear RGB W; angles in radians. The two CPU builders (BVH, depth-image
+// quadtree; the GPU one is GpuValQuadtree.h), their node order and cost: docs/LIGHTSKIN.md, "Gather with a cut
+// through the VAL tree".
 
 #include <lightskin/gi/VirtualAreaLight.h>
 
