@@ -6,13 +6,13 @@
 //   vpl[0..3]       RGBA32F  (L''_d, rbar^2_d), (l'_d, S_o radius), (L''_s, rbar^2_s), (l'_s, S_o radius)
 //   occlusion       RGBA32F  x = sum of diffuse occluder amounts, y = glossy (clamped where used)
 // Per vertex (SSBO, 4 vec4): (L'''_d, rbar^2), (l'''_d, 0), (L'''_s, rbar^2), (l'''_s, 0), world.
+#include "GatherShaders.h"
+#include "ValTreeGather.h"
+
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
 #include <lightskin/gi/LightSkinIllumination.h>
 #include <lightskin/gl/ShaderLibrary.h>
-
-#include "GatherShaders.h"
-#include "ValTreeGather.h"
 
 #include <glm/gtc/type_ptr.hpp>
 #include <glm/mat3x3.hpp>
@@ -889,6 +889,14 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     glUniform1i(impl.interpolate.uniformLocation("uApplyOcclusion"), choice.occlusion ? 1 : 0);
     glUniform1f(impl.interpolate.uniformLocation("uHorizonSpread"), s.extendedVplHorizon ? 1.0f : 0.0f);
     glUniform1i(impl.interpolate.uniformLocation("uIrradianceCap"), s.vertexIrradianceCap ? 1 : 0);
+    // G11: the real depth, when handed in, leaves buried sparse points out of eq. 12-13.
+    const RealDepthView& realDepth = view.realDepth;
+    const bool buriedRule = s.buriedSparsePoints && realDepth.texture != 0;
+    glUniform1i(impl.interpolate.uniformLocation("uBuriedRule"), buriedRule ? 1 : 0);
+    glBindTextureUnit(6, buriedRule ? realDepth.texture : 0);
+    glUniformMatrix4fv(impl.interpolate.uniformLocation("uCameraFromWorld"), 1, GL_FALSE,
+                       glm::value_ptr(realDepth.camera_T_world));
+    glUniform4fv(impl.interpolate.uniformLocation("uRealIntrinsics"), 1, glm::value_ptr(realDepth.intrinsics));
     for (std::size_t m = 0; m < instances.size(); ++m) {
         const glm::mat3 normalMatrix = glm::transpose(glm::inverse(glm::mat3(instances[m].world_T_model)));
         const std::uint32_t vertices = std::uint32_t(instances[m].mesh->vertexCount());

@@ -110,6 +110,7 @@ std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettin
         s.extendedVplHorizon = settings.robustRealDepth;
         s.valTreeThreshold = settings.valTreeThreshold;
         s.vertexIrradianceCap = settings.robustRealDepth && settings.robustIrradianceCap;
+        s.buriedSparsePoints = settings.robustRealDepth && settings.robustBuriedSparsePoints;
         const gi::SparsePointProvider provider = [&renderer](const gi::MeshInstance& instance) {
             const gi::SparsePointSet* points = renderer.sparsePoints(instance.meshId);
             LIGHTSKIN_ASSERT(points != nullptr, "lightskin::mr::createTechnique(): the renderer prepared no sparse points");
@@ -580,6 +581,7 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     const bool runDifferential = options_.differential && s.differential && haveDepth && s.vals;
     render::Renderer& r = *renderer_;
     bool gbufferReady = false;
+    bool depthOnGpu = false; // the ValGenerator's depth texture holds this frame's filtered depth
     // The CPU backend takes its VALs from the CPU generator unless a GL consumer of the VAL buffer
     // runs this frame (occupancy cull, RSM merge, brute-force views, the VAL overlay).
     auto* cpuTechnique = runGi ? dynamic_cast<gi::CpuLightSkin*>(s.technique.get()) : nullptr;
@@ -606,6 +608,7 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     } else if (haveDepth && (runGi || runDifferential) && s.vals) {
         valSet = s.vals->generate(s.depthMetres, 1.0, frame.colour, frame.colourIntrinsics, world_T_camera);
         out.valCount = valSet.count;
+        depthOnGpu = true;
         if (gi_.robustRealDepth && s.occupancy) {
             // The VALs whose space the virtual content occupies (gi/ValOccupancyCull.h); needs the view.
             r.renderGBuffer(world_T_camera);
@@ -663,11 +666,24 @@ void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
     t = Clock::now();
     if (!gbufferReady) r.renderGBuffer(world_T_camera);
     if (runGi) {
+        // The filtered registered depth for LightSkin's buried sparse points (guard G11); the other
+        // techniques ignore it. On the GPU where the VAL pass uploaded it, always on the CPU.
+        gi::ViewParameters view = r.viewParameters();
+        if (haveDepth && s.depthMetres.isContinuous()) {
+            const CameraIntrinsics& k = frame.colourIntrinsics;
+            view.realDepth = gi::RealDepthView{
+                .texture = depthOnGpu ? s.vals->depthTexture() : 0u,
+                .data = s.depthMetres.ptr<float>(),
+                .width = s.depthMetres.cols,
+                .height = s.depthMetres.rows,
+                .intrinsics = glm::vec4(float(k.fx), float(k.fy), float(k.cx), float(k.cy)),
+                .camera_T_world = world_T_camera.inverse().matrixFloat(),
+            };
+        }
         if (cpuTechnique && valSet.buffer == 0)
-            cpuTechnique->renderCpuVals(s.cpuValSet, r.instances(), r.gbuffer(), r.viewParameters(),
-                                        r.indirectTarget());
+            cpuTechnique->renderCpuVals(s.cpuValSet, r.instances(), r.gbuffer(), view, r.indirectTarget());
         else
-            s.technique->render(valSet, r.instances(), r.gbuffer(), r.viewParameters(), r.indirectTarget());
+            s.technique->render(valSet, r.instances(), r.gbuffer(), view, r.indirectTarget());
         if (const auto* lightSkin = dynamic_cast<const gi::LightSkinIllumination*>(s.technique.get());
             lightSkin && lightSkin->settings().adaptive) {
             out.giReused = lightSkin->lastChoice().reused ? 1 : 0;

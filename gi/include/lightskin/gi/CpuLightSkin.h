@@ -67,9 +67,10 @@ public:
 
     /// Stages 1-4 on VALs already on the CPU (no GL call): what render() does after reading the
     /// VALs back and before writing the vertex VPLs to the GL buffer. For benchmarks and tests;
-    /// needs prepare() (which needs a GL context for the buffers it creates).
+    /// needs prepare() (which needs a GL context for the buffers it creates). `realDepth` (its CPU map,
+    /// `data`) drives guard G11 as ViewParameters::realDepth does in render(); none = no point buried.
     void computeVpls(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
-                     const glm::vec3& cameraPositionWorld);
+                     const glm::vec3& cameraPositionWorld, const RealDepthView& realDepth = {});
 
     /// The same readbacks, in the same layouts, as LightSkinIllumination's (see its header; cheap
     /// here: the data are on the CPU).
