@@ -6,13 +6,13 @@
 //   vpl[0..3]       RGBA32F  (L''_d, rbar^2_d), (l'_d, S_o radius), (L''_s, rbar^2_s), (l'_s, S_o radius)
 //   occlusion       RGBA32F  x = sum of diffuse occluder amounts, y = glossy (clamped where used)
 // Per vertex (SSBO, 4 vec4): (L'''_d, rbar^2), (l'''_d, 0), (L'''_s, rbar^2), (l'''_s, 0), world.
-#include "GatherShaders.h"
-#include "ValTreeGather.h"
-
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
 #include <lightskin/gi/LightSkinIllumination.h>
 #include <lightskin/gl/ShaderLibrary.h>
+
+#include "GatherShaders.h"
+#include "ValTreeGather.h"
 
 #include <glm/gtc/type_ptr.hpp>
 #include <glm/mat3x3.hpp>
