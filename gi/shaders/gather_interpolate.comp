@@ -29,6 +29,25 @@ uniform uint uVertexCount;
 uniform int uApplyOcclusion;
 uniform float uHorizonSpread; // G9: 0 = shade point VPLs (the diffuse S_o radius not handed on)
 uniform int uIrradianceCap;   // G10: 1 = cap the shaded diffuse irradiance (glossyPosition.w)
+// G11: the registered real depth (gi::RealDepthView): R32F metres, texel (u, v) = image column u, row v
+// from the top; <= 0 or NaN = hole. uBuriedRule 0 = no depth (no point is buried).
+layout(binding = 6) uniform sampler2D uRealDepth;
+uniform int uBuriedRule;
+uniform mat4 uCameraFromWorld; // rigid, OpenCV camera frame (x right, y down, z forward)
+uniform vec4 uRealIntrinsics;  // fx, fy, cx, cy (pixels)
+
+// G11: the sparse point at world position x lies under the real surface (lightskin_math.glsl).
+bool buriedUnderRealSurface(vec3 x) {
+    if (uBuriedRule == 0) return false;
+    const vec3 pc = (uCameraFromWorld * vec4(x, 1.0)).xyz;
+    if (!(pc.z > 0.0)) return false;
+    const vec2 pixel = floor(ls_projectToPixel(pc, uRealIntrinsics.x, uRealIntrinsics.y, uRealIntrinsics.z,
+                                               uRealIntrinsics.w) + 0.5);
+    const vec2 size = vec2(textureSize(uRealDepth, 0));
+    // Written so that NaN fails: outside the image is not buried.
+    if (!(pixel.x >= 0.0 && pixel.y >= 0.0 && pixel.x < size.x && pixel.y < size.y)) return false;
+    return ls_isBuried(pc.z, texelFetch(uRealDepth, ivec2(pixel), 0).r);
+}
 
 void main() {
     const uint local = gl_GlobalInvocationID.x;
@@ -41,14 +60,17 @@ void main() {
     float dist[kNeighbours];
     float cosN[kNeighbours];
     bool unique[kNeighbours];
+    bool buried[kNeighbours];
     for (int j = 0; j < kNeighbours; ++j) {
         index[j] = j < 4 ? vin.neighbours0[j] : vin.neighbours1[j - 4];
         const ivec2 texel = gather_pointTexel(int(index[j]));
-        dist[j] = length(p - texelFetch(uPointPosition, texel, 0).xyz);
+        const vec3 x = texelFetch(uPointPosition, texel, 0).xyz;
+        dist[j] = length(p - x);
         cosN[j] = dot(nv, texelFetch(uPointNormal, texel, 0).xyz);
         unique[j] = j == 0 || index[j] != index[j - 1];
+        buried[j] = buriedUnderRealSurface(x); // G11
     }
-    const VertexWeights weights = ls_vertexWeights(dist, cosN, unique);
+    const VertexWeights weights = ls_vertexWeightsAboveSurface(dist, cosN, unique, buried);
     VertexVpl result;
     result.diffuse = vec4(0.0);
     result.diffusePosition = vec4(0.0);

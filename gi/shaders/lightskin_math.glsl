@@ -96,6 +96,16 @@
 //     exceeds every gathered sample around it: for VALs at distance d from the surface the
 //     irradiance varies across the sparse-point spacing h by at most the factor (1 + h/d)^2 (inverse
 //     square law), which bounds the cap's error there. Off: cap < 0 (the model before it).
+//  G11 buried sparse points (eq. 12/13, issue 12): a virtual object sunk into a real surface has sparse
+//     points under it (behind the registered depth, seen from the camera); no VAL of that surface
+//     lights them (they are behind its emitting side), so as neighbours of the vertices above the
+//     surface they pull the interpolated light down (speckle on ICL-NUIM along a sunk cube's contact
+//     band). Such points get weight 0 in eq. 12/13 (ls_vertexWeightsAboveSurface); a vertex whose
+//     neighbours are all buried keeps the paper's weights. Buried: more than 3 sigma(z) of the Kinect
+//     noise model behind the depth of its pixel (ls_isBuried); outside the image or on a hole: not
+//     buried. A point hidden behind a real object in front of the virtual one counts as buried too
+//     (the depth cannot tell "under" from "behind"); its vertex then interpolates its other neighbours.
+//     Off: no depth handed in, or LightSkinSettings::buriedSparsePoints false (the model before it).
 // ---------------------------------------------------------------------------------------------
 
 #ifndef LIGHTSKIN_MATH_GLSL
@@ -378,9 +388,13 @@ struct VertexWeights {
     real w[kNeighbours]; // normalised: sum = 1 (eq. 13's 1/W_v applied)
 };
 
-// eq. 12/13 weights of the 8 neighbours with guard G6. dist: |v - x_j|; cosN: n_v . n_x_j;
-// unique: false for repeats of an earlier index (sets with < 8 points).
-LS_FN VertexWeights ls_vertexWeights(real dist[kNeighbours], real cosN[kNeighbours], bool unique[kNeighbours]) {
+// eq. 12/13 weights of the 8 neighbours with guard G6, over the neighbours with kept[j] (the others get
+// weight 0). dist: |v - x_j|; cosN: n_v . n_x_j; unique: false for repeats of an earlier index (sets
+// with < 8 points). d_max of eq. 12 stays the farthest of all unique neighbours, so the kept ones keep
+// their relative weights; G6b takes the nearest kept neighbour. At least one unique neighbour must be
+// kept (ls_vertexWeightsAboveSurface ensures it).
+LS_FN VertexWeights ls_vertexWeightsOf(real dist[kNeighbours], real cosN[kNeighbours], bool unique[kNeighbours],
+                                       bool kept[kNeighbours]) {
     VertexWeights r;
     real dMax = 0.0;
     for (int j = 0; j < kNeighbours; ++j)
@@ -389,23 +403,73 @@ LS_FN VertexWeights ls_vertexWeights(real dist[kNeighbours], real cosN[kNeighbou
     for (int j = 0; j < kNeighbours; ++j) {
         // eq. 12: (1 - d_j / d_max) (n_v . n_x,j), the dot product clamped to [0, 1]
         const real distanceTerm = dMax > 0.0 ? max(1.0 - dist[j] / dMax, 0.0) : 1.0;
-        r.w[j] = unique[j] ? distanceTerm * clamp(cosN[j], 0.0, 1.0) : 0.0;
+        r.w[j] = unique[j] && kept[j] ? distanceTerm * clamp(cosN[j], 0.0, 1.0) : 0.0;
         total += r.w[j];
     }
     if (!(total > 0.0)) { // G6a: normal term alone
         total = 0.0;
         for (int j = 0; j < kNeighbours; ++j) {
-            r.w[j] = unique[j] ? clamp(cosN[j], 0.0, 1.0) : 0.0;
+            r.w[j] = unique[j] && kept[j] ? clamp(cosN[j], 0.0, 1.0) : 0.0;
             total += r.w[j];
         }
     }
-    if (!(total > 0.0)) { // G6b: nearest neighbour
-        for (int j = 0; j < kNeighbours; ++j) r.w[j] = 0.0;
-        r.w[0] = 1.0;
+    if (!(total > 0.0)) { // G6b: the nearest (kept) neighbour
+        int nearest = -1;
+        for (int j = 0; j < kNeighbours; ++j) {
+            r.w[j] = 0.0;
+            if (nearest < 0 && unique[j] && kept[j]) nearest = j;
+        }
+        r.w[max(nearest, 0)] = 1.0;
         total = 1.0;
     }
     for (int j = 0; j < kNeighbours; ++j) r.w[j] = r.w[j] / total;
     return r;
+}
+
+// eq. 12/13 weights of the 8 neighbours with guard G6 (the paper's rule: every neighbour counts).
+LS_FN VertexWeights ls_vertexWeights(real dist[kNeighbours], real cosN[kNeighbours], bool unique[kNeighbours]) {
+    bool kept[kNeighbours];
+    for (int j = 0; j < kNeighbours; ++j) kept[j] = true;
+    return ls_vertexWeightsOf(dist, cosN, unique, kept);
+}
+
+// G11: Kinect v1 axial depth noise sigma(z), metres, z metres along the optical axis (Nguyen, Izadi,
+// Lovell, 3DIMPVT 2012; surfaces at 10-60 degrees). The same model and 3 sigma margin as the VAL
+// occupancy cull (gi::ValOccupancyCull, docs/LIGHTSKIN.md).
+LS_FN real ls_depthNoiseSigma(real z) {
+    return 0.0012 + 0.0019 * (z - 0.4) * (z - 0.4);
+}
+
+// G11: a point at camera depth pointZ lies under the real surface when it is more than 3 sigma(realZ)
+// behind the registered depth realZ of its pixel (metres). realZ <= 0 or NaN (a hole) and NaN pointZ:
+// not buried. Why 3 sigma of the raw sensor: the bilateral filter (capture/DepthFilter.h) only averages
+// noise down, so raw 3 sigma is conservative: a point on the surface is flagged with probability
+// < 0.14 % (one-sided Gaussian); the nearest-pixel lookup adds at most half a pixel of depth slope,
+// 0.87 z / f on surfaces up to 60 degrees (0.3 of the margin at 1 m, less elsewhere in 0.5-4 m).
+LS_FN bool ls_isBuried(real pointZ, real realZ) {
+    return realZ > 0.0 && pointZ > realZ + 3.0 * ls_depthNoiseSigma(realZ);
+}
+
+// G11: pixel coordinates (column, row; pixel centres at integers) of a camera-frame point (OpenCV
+// frame: x right, y down, z forward; fy may be negative); pc.z > 0.
+LS_FN rvec2 ls_projectToPixel(rvec3 pc, real fx, real fy, real cx, real cy) {
+    return rvec2(fx * pc.x / pc.z + cx, fy * pc.y / pc.z + cy);
+}
+
+// G11 (eq. 12/13, issue 12): the weights with the neighbours buried under the real surface left out
+// (weight 0): a sparse point under a real floor gathers no light from it (its VALs face away from it),
+// so as a neighbour it darkens the vertices above the surface. A vertex whose neighbours are all
+// buried keeps the paper's weights (nothing better is known there).
+LS_FN VertexWeights ls_vertexWeightsAboveSurface(real dist[kNeighbours], real cosN[kNeighbours],
+                                                 bool unique[kNeighbours], bool buried[kNeighbours]) {
+    bool kept[kNeighbours];
+    bool anyKept = false;
+    for (int j = 0; j < kNeighbours; ++j) {
+        kept[j] = !buried[j];
+        anyKept = anyKept || (unique[j] && kept[j]);
+    }
+    if (!anyKept) return ls_vertexWeights(dist, cosN, unique);
+    return ls_vertexWeightsOf(dist, cosN, unique, kept);
 }
 
 #endif

@@ -8,6 +8,7 @@
 
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
+#include <lightskin/gi/BuriedSparsePoints.h>
 #include <lightskin/gi/CpuLightSkin.h>
 #include <lightskin/gl/ShaderLibrary.h>
 
@@ -119,7 +120,8 @@ struct CpuLightSkin::Impl {
     cpu::ReceiverArrays receivers;
     std::vector<float> sums; // kGatherSums x padded receivers
     std::vector<m::Vpl> vplD, vplS;
-    std::vector<double> gatheredPeakD; // G10: peak RGB channel of L'_d per sparse point, W/m^2
+    std::vector<double> gatheredPeakD;     // G10: peak RGB channel of L'_d per sparse point, W/m^2
+    std::vector<std::uint8_t> pointBuried; // G11: 1 = under the real surface, per sparse point
     cpu::OcclusionReceivers occlusionReceivers;
     cpu::Occluders occluders;
     std::vector<float> occlusionD, occlusionS;
@@ -318,7 +320,13 @@ struct CpuLightSkin::Impl {
     }
 
     /// Stage 4 (eq. 12-13) per vertex, with the occlusion attenuation L'' (1 - o).
-    void interpolate(std::span<const MeshInstance> instances) {
+    void interpolate(std::span<const MeshInstance> instances, const RealDepthView& realDepth) {
+        // G11: which sparse points lie under the real surface (all 0 without a depth map or the rule).
+        const std::span<std::uint8_t> buriedFlags = std::span(pointBuried).first(pointCount);
+        if (settings.lightSkin.buriedSparsePoints && realDepth.data != nullptr)
+            markBuriedInto(std::span<const glm::dvec3>(pointPosition).first(pointCount), realDepth, buriedFlags);
+        else
+            std::fill(buriedFlags.begin(), buriedFlags.end(), std::uint8_t(0));
         for (std::size_t mesh = 0; mesh < instances.size(); ++mesh) {
             const glm::dmat4 transform(instances[mesh].world_T_model);
             const glm::dmat3 normalMatrix = glm::transpose(glm::inverse(glm::dmat3(transform)));
@@ -330,14 +338,15 @@ struct CpuLightSkin::Impl {
                 const glm::dvec3 p(transform * glm::dvec4(modelVertexPositions[v], 1.0));
                 const glm::dvec3 nv = glm::normalize(normalMatrix * modelVertexNormals[v]);
                 double dist[kVertexNeighbours], cosN[kVertexNeighbours];
-                bool unique[kVertexNeighbours];
+                bool unique[kVertexNeighbours], buried[kVertexNeighbours];
                 const auto& list = neighbours[v];
                 for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
                     dist[j] = glm::length(p - pointPosition[list[j]]);
                     cosN[j] = glm::dot(nv, pointNormal[list[j]]);
                     unique[j] = j == 0 || list[j] != list[j - 1];
+                    buried[j] = buriedFlags[list[j]] != 0; // G11
                 }
-                const m::VertexWeights weights = m::ls_vertexWeights(dist, cosN, unique);
+                const m::VertexWeights weights = m::ls_vertexWeightsAboveSurface(dist, cosN, unique, buried);
                 glm::dvec4 diffuse(0.0), diffusePosition(0.0), glossyRadiance(0.0), glossyPosition(0.0);
                 double minDD = std::numeric_limits<double>::max(), minDS = minDD; // G8
                 double cap = 0.0;                                                 // G10
@@ -496,6 +505,7 @@ void CpuLightSkin::prepare(std::span<const MeshInstance> instances) {
     impl.sums.assign(cpu::kGatherSums * padded, 0.0f);
     impl.vplD.assign(impl.pointCount, m::Vpl{});
     impl.gatheredPeakD.assign(impl.pointCount, 0.0);
+    impl.pointBuried.assign(impl.pointCount, 0);
     impl.vplS.assign(impl.pointCount, m::Vpl{});
     impl.occlusionReceivers.resize(padded);
     impl.occluders.resize(impl.pointCount);
@@ -510,7 +520,8 @@ void CpuLightSkin::prepare(std::span<const MeshInstance> instances) {
 }
 
 void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
-                               const glm::vec3& cameraPositionWorld, const CpuValPixelKeys& pixels) {
+                               const glm::vec3& cameraPositionWorld, const CpuValPixelKeys& pixels,
+                               const RealDepthView& realDepth) {
     Impl& impl = *impl_;
     LIGHTSKIN_ASSERT(instances.size() == impl.sparse.size(),
                      "lightskin::gi::CpuLightSkin::computeVpls(): instances differ from prepare()");
@@ -565,7 +576,7 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
     stats.occlusionCpuMs = processCpuMs() - cpu;
 
     start = Clock::now();
-    impl.interpolate(instances);
+    impl.interpolate(instances, realDepth);
     stats.interpolationMs = millisecondsSince(start);
     stats.stagesCpuMs = processCpuMs() - cpuStart;
 
@@ -601,7 +612,7 @@ void CpuLightSkin::renderCpuVals(std::span<const VirtualAreaLight> lights, std::
                                  const GBufferView& gbuffer, const ViewParameters& view, std::uint32_t targetTexture,
                                  const CpuValPixelKeys& pixels) {
     Impl& impl = *impl_;
-    computeVpls(lights, instances, view.cameraPositionWorld, pixels);
+    computeVpls(lights, instances, view.cameraPositionWorld, pixels, view.realDepth);
 
     const auto uploadStart = Clock::now();
     if (impl.vertexCount > 0)

@@ -889,6 +889,14 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     glUniform1i(impl.interpolate.uniformLocation("uApplyOcclusion"), choice.occlusion ? 1 : 0);
     glUniform1f(impl.interpolate.uniformLocation("uHorizonSpread"), s.extendedVplHorizon ? 1.0f : 0.0f);
     glUniform1i(impl.interpolate.uniformLocation("uIrradianceCap"), s.vertexIrradianceCap ? 1 : 0);
+    // G11: the real depth, when handed in, leaves buried sparse points out of eq. 12-13.
+    const RealDepthView& realDepth = view.realDepth;
+    const bool buriedRule = s.buriedSparsePoints && realDepth.texture != 0;
+    glUniform1i(impl.interpolate.uniformLocation("uBuriedRule"), buriedRule ? 1 : 0);
+    glBindTextureUnit(6, buriedRule ? realDepth.texture : 0);
+    glUniformMatrix4fv(impl.interpolate.uniformLocation("uCameraFromWorld"), 1, GL_FALSE,
+                       glm::value_ptr(realDepth.camera_T_world));
+    glUniform4fv(impl.interpolate.uniformLocation("uRealIntrinsics"), 1, glm::value_ptr(realDepth.intrinsics));
     for (std::size_t m = 0; m < instances.size(); ++m) {
         const glm::mat3 normalMatrix = glm::transpose(glm::inverse(glm::mat3(instances[m].world_T_model)));
         const std::uint32_t vertices = std::uint32_t(instances[m].mesh->vertexCount());

@@ -110,6 +110,7 @@ std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettin
         s.extendedVplHorizon = settings.robustRealDepth;
         s.valTreeThreshold = settings.valTreeThreshold;
         s.vertexIrradianceCap = settings.robustRealDepth && settings.robustIrradianceCap;
+        s.buriedSparsePoints = settings.robustRealDepth && settings.robustBuriedSparsePoints;
         const gi::SparsePointProvider provider = [&renderer](const gi::MeshInstance& instance) {
             const gi::SparsePointSet* points = renderer.sparsePoints(instance.meshId);
             LIGHTSKIN_ASSERT(points != nullptr, "lightskin::mr::createTechnique(): the renderer prepared no sparse points");
@@ -600,6 +601,7 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
     const bool runDifferential = options_.differential && s.differential && haveDepth && s.vals;
     render::Renderer& r = *renderer_;
     bool gbufferReady = false;
+    bool depthOnGpu = false; // the ValGenerator's depth texture holds this frame's filtered depth
     // The CPU backend takes its VALs from the CPU generator unless a GL consumer of the VAL buffer
     // runs this frame (occupancy cull, RSM merge, brute-force views, the VAL overlay).
     auto* cpuTechnique = runGi ? dynamic_cast<gi::CpuLightSkin*>(s.technique.get()) : nullptr;
@@ -626,6 +628,7 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
     } else if (haveDepth && (runGi || runDifferential) && s.vals) {
         valSet = s.vals->generate(depthMetres, 1.0, frame.colour, frame.colourIntrinsics, world_T_camera);
         out.valCount = valSet.count;
+        depthOnGpu = true;
         if (gi_.robustRealDepth && s.occupancy) {
             // The VALs whose space the virtual content occupies (gi/ValOccupancyCull.h); needs the view.
             r.renderGBuffer(world_T_camera);
@@ -683,16 +686,29 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
     t = Clock::now();
     if (!gbufferReady) r.renderGBuffer(world_T_camera);
     if (runGi) {
+        // The filtered registered depth for LightSkin's buried sparse points (guard G11); the other
+        // techniques ignore it. On the GPU where the VAL pass uploaded it, always on the CPU.
+        gi::ViewParameters view = r.viewParameters();
+        if (haveDepth && depthMetres.isContinuous()) {
+            const CameraIntrinsics& k = frame.colourIntrinsics;
+            view.realDepth = gi::RealDepthView{
+                .texture = depthOnGpu ? s.vals->depthTexture() : 0u,
+                .data = depthMetres.ptr<float>(),
+                .width = depthMetres.cols,
+                .height = depthMetres.rows,
+                .intrinsics = glm::vec4(float(k.fx), float(k.fy), float(k.cx), float(k.cy)),
+                .camera_T_world = world_T_camera.inverse().matrixFloat(),
+            };
+        }
         if (cpuTechnique && valSet.buffer == 0) {
             // the depth pixels of this frame's CPU VALs: the gather with a cut builds their quadtree
             gi::CpuValPixelKeys pixels;
             if (s.cpuVals && !s.cpuValSet.empty())
                 pixels = {s.cpuVals->lastPixelIndices(), std::uint32_t(s.cpuVals->depthWidth()),
                           std::uint32_t(s.cpuVals->depthHeight())};
-            cpuTechnique->renderCpuVals(s.cpuValSet, r.instances(), r.gbuffer(), r.viewParameters(), r.indirectTarget(),
-                                        pixels);
+            cpuTechnique->renderCpuVals(s.cpuValSet, r.instances(), r.gbuffer(), view, r.indirectTarget(), pixels);
         } else
-            s.technique->render(valSet, r.instances(), r.gbuffer(), r.viewParameters(), r.indirectTarget());
+            s.technique->render(valSet, r.instances(), r.gbuffer(), view, r.indirectTarget());
         if (const auto* lightSkin = dynamic_cast<const gi::LightSkinIllumination*>(s.technique.get());
             lightSkin && lightSkin->settings().adaptive) {
             out.giReused = lightSkin->lastChoice().reused ? 1 : 0;

@@ -81,6 +81,11 @@ struct RealCase {
     bool lightSkinSpeckleTarget, bruteForceSpeckleTarget, bruteForceBlackTarget;
     bool lightSkinBlownTarget = true;
     double fitDepthWindow = 0.03; ///< the bench's: 15 cm for the .oni's floor seen at a grazing angle
+    /// Both techniques also meet the speckle target by the issue's own definition (the median test alone,
+    /// before the smooth-profile refinement, eval::measureSpeckle's smoothProfiles = false). The
+    /// refinement only excuses steep true falloffs at the mesh's own scale, which the objects at 1-2 m in
+    /// ICL-NUIM and 2.2 m in the .oni do not need; the threshold stays the issue's 0.5 %.
+    bool medianOnlyTarget = false;
 };
 
 void PrintTo(const RealCase& c, std::ostream* os) { *os << c.name; }
@@ -156,6 +161,10 @@ TEST_P(RealDepthDataGLTest, ObjectsOnRealSurfacesMeetTheSpeckleTargets) {
             if (!lightSkin || c.lightSkinBlownTarget) {
                 EXPECT_EQ(s.blownPixels, 0u);
             }
+            if (c.medianOnlyTarget) {
+                const eval::SpeckleStats m = eval::measureSpeckle(image, out.coverage, nullptr, smooth, false);
+                EXPECT_LT(m.speckleFraction(), 0.005) << "median-only definition: " << m.describe();
+            }
         }
         ++frames;
     }
@@ -169,9 +178,10 @@ TEST_P(RealDepthDataGLTest, ObjectsOnRealSurfacesMeetTheSpeckleTargets) {
 // target, brute-force black-pixel target.
 // clang-format off
 INSTANTIATE_TEST_SUITE_P(BundledRecordings, RealDepthDataGLTest, ::testing::Values(
-    RealCase{"icl_nuim", "icl-nuim-open3d", mr::PoseMode::GroundTruth, {{250, 390}, {460, 430}}, 0.0, 3, true, true, true},
-    // Sunk 1 cm (issue 12 part 3's remaining ICL-NUIM case: 0.52 % LightSkin by the median-only definition).
-    RealCase{"icl_nuim_sunk_1cm", "icl-nuim-open3d", mr::PoseMode::GroundTruth, {{250, 390}, {460, 430}}, 0.01, 3, true, true, true},
+    RealCase{"icl_nuim", "icl-nuim-open3d", mr::PoseMode::GroundTruth, {{250, 390}, {460, 430}}, 0.0, 3, true, true, true, true, 0.03, true},
+    // Sunk 1 cm: the cube's sparse points under the floor darkened its contact band (0.52 % LightSkin by
+    // the median-only definition before guards G10 and G11); G11 leaves them out of eq. 12-13.
+    RealCase{"icl_nuim_sunk_1cm", "icl-nuim-open3d", mr::PoseMode::GroundTruth, {{250, 390}, {460, 430}}, 0.01, 3, true, true, true, true, 0.03, true},
     RealCase{"tum_fr2_desk_sunk_1cm", "tum-fr2-desk", mr::PoseMode::Fixed, {{300, 365}, {150, 335}}, 0.01, 2, true, true, true},
     RealCase{"pcl_kinect_tiff", "pcl-kinect-tiff", mr::PoseMode::Fixed, {{250, 380}, {520, 380}}, 0.0, 1, true, true, true},
     // Sunk 1 cm: the brute force keeps one black pixel, beside a bright spot 2 px away on the
@@ -185,7 +195,9 @@ INSTANTIATE_TEST_SUITE_P(BundledRecordings, RealDepthDataGLTest, ::testing::Valu
     // scale, 1-2 px wide (docs/BENCHMARKS.md), not yet told apart from blotches.
     RealCase{"tum_fr3_office", "tum-fr3-office", mr::PoseMode::Fixed, {{300, 440}, {580, 420}}, 0.0, 1, true, false, true},
     // The real Kinect v1 .oni (depth registered in software), objects on the floor ~2.2 m away: 3 of its 11 frames.
-    RealCase{"oni_kinect_v1", "oni-kinect-v1/3dj_test.oni", mr::PoseMode::Fixed, {{330, 440}, {250, 445}}, 0.0, 3, true, true, true, true, 0.15}),
+    RealCase{"oni_kinect_v1", "oni-kinect-v1/3dj_test.oni", mr::PoseMode::Fixed, {{330, 440}, {250, 445}}, 0.0, 3, true, true, true, true, 0.15, true},
+    // The same sunk 1 cm into the floor (sparse points under real Kinect v1 depth: guard G11).
+    RealCase{"oni_kinect_v1_sunk_1cm", "oni-kinect-v1/3dj_test.oni", mr::PoseMode::Fixed, {{330, 440}, {250, 445}}, 0.01, 3, true, true, true, true, 0.15, true}),
     [](const ::testing::TestParamInfo<RealCase>& p) { return std::string(p.param.name); });
 // clang-format on
 

@@ -123,22 +123,27 @@ void applyOcclusion(std::span<const glm::dvec2> occlusion, std::vector<VplPair>&
 void interpolateVerticesInto(std::span<const glm::dvec3> vertexPositions, std::span<const glm::dvec3> vertexNormals,
                              std::span<const std::array<std::uint32_t, kVertexNeighbours>> neighbours,
                              std::span<const Receiver> sparseReceivers, std::span<const VplPair> sparse,
-                             std::vector<VplPair>& out, bool irradianceCap) {
+                             std::vector<VplPair>& out, bool irradianceCap,
+                             std::span<const std::uint8_t> sparseBuried) {
     LIGHTSKIN_ASSERT(vertexPositions.size() == vertexNormals.size() && vertexPositions.size() == neighbours.size(),
                      "one normal and one neighbour list per vertex");
+    LIGHTSKIN_ASSERT(sparseBuried.empty() || sparseBuried.size() == sparseReceivers.size(),
+                     "one buried flag per sparse point, or none");
     out.resize(vertexPositions.size());
     for (std::size_t v = 0; v < vertexPositions.size(); ++v) {
         double dist[kVertexNeighbours];
         double cosN[kVertexNeighbours];
         bool unique[kVertexNeighbours];
+        bool buried[kVertexNeighbours];
         for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
             const std::uint32_t index = neighbours[v][j];
             LIGHTSKIN_ASSERT(index < sparseReceivers.size(), "neighbour index out of range");
             dist[j] = glm::length(vertexPositions[v] - sparseReceivers[index].position);
             cosN[j] = glm::dot(vertexNormals[v], sparseReceivers[index].normal);
             unique[j] = j == 0 || index != neighbours[v][j - 1];
+            buried[j] = !sparseBuried.empty() && sparseBuried[index] != 0; // G11
         }
-        const m::VertexWeights weights = m::ls_vertexWeights(dist, cosN, unique);
+        const m::VertexWeights weights = m::ls_vertexWeightsAboveSurface(dist, cosN, unique, buried);
         VplPair r{};
         double minDD = std::numeric_limits<double>::max(), minDS = std::numeric_limits<double>::max(); // G8
         double cap = 0.0;                                                                              // G10

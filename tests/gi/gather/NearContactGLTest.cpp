@@ -101,7 +101,16 @@ ContactRun render(double sink) {
     instance.material.specularAlbedo = glm::vec3(0.0f);
     const std::vector<gi::MeshInstance> instances{instance};
     const glm::mat4 clip(render::clipFromWorld(k, pose, 0.05, 20.0));
-    const gi::ViewParameters view{clip, glm::vec3(pose.translation())};
+    // The real depth for LightSkin's buried sparse points (guard G11), as mr::FramePipeline hands it in:
+    // the points of the sunk cube under the floor leave the vertex interpolation.
+    gi::RealDepthView realDepth;
+    realDepth.texture = generator.depthTexture();
+    realDepth.data = depth.ptr<float>();
+    realDepth.width = kWidth;
+    realDepth.height = kHeight;
+    realDepth.intrinsics = glm::vec4(float(k.fx), float(k.fy), float(k.cx), float(k.cy));
+    realDepth.camera_T_world = pose.inverse().matrixFloat();
+    const gi::ViewParameters view{clip, glm::vec3(pose.translation()), realDepth};
     gi::SimpleGBuffer gbuffer = gi::SimpleGBuffer::create(kWidth, kHeight);
     gbuffer.render(instances, clip);
     const gl::Texture target = gl::Texture::create2D(GL_RGBA32F, kWidth, kHeight);

@@ -79,9 +79,11 @@ public:
 
     /// Stages 1-4 on VALs already on the CPU (no GL call): what render() does after reading the
     /// VALs back and before writing the vertex VPLs to the GL buffer. For benchmarks and tests;
-    /// needs prepare() (which needs a GL context for the buffers it creates).
+    /// needs prepare() (which needs a GL context for the buffers it creates). `pixels` as in renderCpuVals(); `realDepth` (its CPU map,
+    /// `data`) drives guard G11 as ViewParameters::realDepth does in render(); none = no point buried.
     void computeVpls(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
-                     const glm::vec3& cameraPositionWorld, const CpuValPixelKeys& pixels = {});
+                     const glm::vec3& cameraPositionWorld, const CpuValPixelKeys& pixels = {},
+                     const RealDepthView& realDepth = {});
 
     /// The same readbacks, in the same layouts, as LightSkinIllumination's (see its header; cheap
     /// here: the data are on the CPU).

@@ -50,9 +50,33 @@ struct GBufferView {
     int height = 0;
 };
 
+/// The real surface as the depth camera sees it this frame, registered to the colour camera (one depth
+/// per colour pixel). LightSkin uses it to leave out sparse points buried under the real surface
+/// (guard G11, lightskin_math.glsl); the other techniques ignore it. Not owned: the texture and the
+/// CPU map must stay unchanged until render() returns. Either may be absent (0 / null): the GL
+/// technique reads `texture`, the CPU backend `data`; absent = no point is buried.
+struct RealDepthView {
+    /// GL R32F texture, width x height: texel (u, v) is image column u, row v (row 0 = the image's
+    /// top row, as uploaded from an OpenCV image); metres along the optical axis; <= 0 or NaN = hole.
+    std::uint32_t texture = 0;
+    const float* data = nullptr; ///< the same map on the CPU, row-major, `width` floats per row
+    int width = 0;
+    int height = 0;
+    glm::vec4 intrinsics{0.0f};     ///< fx, fy, cx, cy in pixels (fy may be negative); pixel centres at integers
+    glm::mat4 camera_T_world{1.0f}; ///< rigid; camera frame x right, y down, z forward (OpenCV)
+};
+
 struct ViewParameters {
-    glm::mat4 clip_T_world{1.0f};       ///< projection * view of the (colour) camera
+    ViewParameters() = default;
+    // A constructor (not an aggregate) so that the many {clip, eye} call sites need no realDepth.
+    ViewParameters(const glm::mat4& clip, const glm::vec3& eye, const RealDepthView& depth = {})
+        : clip_T_world(clip)
+        , cameraPositionWorld(eye)
+        , realDepth(depth) {}
+
+    glm::mat4 clip_T_world{1.0f};        ///< projection * view of the (colour) camera
     glm::vec3 cameraPositionWorld{0.0f}; ///< metres
+    RealDepthView realDepth;             ///< the real surface for LightSkin's guard G11; none by default
 };
 
 class IndirectIllumination {

@@ -95,6 +95,11 @@ struct LightSkinSettings {
     /// unoccluded share), so eq. 11's division by a grazing cos cannot amplify light at the vertex.
     /// false = no cap (the model before it).
     bool vertexIrradianceCap = true;
+    /// Guard G11 of lightskin_math.glsl (issue 12): sparse points more than the depth noise (3 sigma of
+    /// the Kinect v1 model) under the real surface of ViewParameters::realDepth get weight 0 in the
+    /// vertex interpolation (eq. 12-13); a vertex whose neighbours are all buried keeps the paper's
+    /// weights. No effect without a depth map. false = the model before it.
+    bool buriedSparsePoints = true;
 };
 
 /// What the adaptive mode chose for the last frame.

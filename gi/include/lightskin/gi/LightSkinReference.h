@@ -90,10 +90,13 @@ void applyOcclusion(std::span<const glm::dvec2> occlusion, std::vector<VplPair>&
 
 /// eq. 12-13: per vertex (world positions/normals) from its 8 neighbours (indices into `sparse`);
 /// with `irradianceCap` each vertex's diffuseCap is set (guard G10, LightSkinSettings::vertexIrradianceCap).
+/// `sparseBuried` (guard G11): one flag per sparse point, non-zero = under the real surface (e.g. from
+/// gi::markBuriedInto); such neighbours get weight 0 unless all of a vertex's are. Empty = none buried.
 void interpolateVerticesInto(std::span<const glm::dvec3> vertexPositions, std::span<const glm::dvec3> vertexNormals,
                              std::span<const std::array<std::uint32_t, kVertexNeighbours>> neighbours,
                              std::span<const Receiver> sparseReceivers, std::span<const VplPair> sparse,
-                             std::vector<VplPair>& out, bool irradianceCap = true);
+                             std::vector<VplPair>& out, bool irradianceCap = true,
+                             std::span<const std::uint8_t> sparseBuried = {});
 
 /// Material of a shaded pixel.
 struct Surface {

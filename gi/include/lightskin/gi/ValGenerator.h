@@ -94,6 +94,10 @@ public:
     bool lastSkipped() const noexcept { return lastSkipped_; }
     /// GL buffer: uint per VAL, the depth pixel index (v * width + u) it came from.
     std::uint32_t pixelIndexBuffer() const noexcept { return pixelIndices_.id(); }
+    /// GL texture (R32F, width x height, texel row v = depth image row v from the top) holding the last
+    /// generate()'s depth in metres (<= 0 or NaN = missing): the registered depth as
+    /// gi::RealDepthView::texture wants it (owned by this generator; replaced by the next generate()).
+    std::uint32_t depthTexture() const noexcept { return depthTexture_.id(); }
     /// GL buffer holding the count (one uint), for consumers that avoid the read-back.
     std::uint32_t countBuffer() const noexcept { return counter_.id(); }
     std::uint32_t capacity() const noexcept { return capacity_; }

@@ -85,6 +85,9 @@ struct GiSettings {
     /// Not a scene key: with robustRealDepth, false drops only its vertex irradiance cap (guard G10)
     /// for measurement (`lightskin bench-realdepth --models robust-nocap`).
     bool robustIrradianceCap = true;
+    /// Not a scene key: with robustRealDepth, false drops only its rule for sparse points buried under the
+    /// real surface (guard G11) for measurement (`lightskin bench-realdepth --models robust-noburied`).
+    bool robustBuriedSparsePoints = true;
     /// Technique "imperfect-volumes" (gi/ImperfectVolumes.h): the "imperfectVolumes" object.
     gi::ImperfectVolumesSettings imperfectVolumes;
     /// Technique "multiscale-prt" (gi/MultiscalePrt.h): the "multiscalePrt" object. Its cacheDirectory is
