@@ -10,9 +10,14 @@
 //    ~1e-7 after the step: 2^-14 estimate on AVX-512, 2^-12 on SSE/AVX, squared by the step);
 //  * fused multiply-adds where the GL path rounds twice; M_j w_j = (flux / pi) g with flux / pi
 //    precomputed per VAL; the lobe's c (k + 1) applied once per block of kSumBlock VALs;
-//  * cos^k by polynomial log2 and exp2 (LobePow below, error bound there).
+//  * cos^k by squaring where a receiver group shares an integer k <= 128, else by polynomial
+//    log2 and exp2 (PowSquaring and LobePow below, error bounds there).
 // An invalid VAL never reaches these kernels (dropped when the arrays are built).
 #include "CpuGatherKernels.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
 
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "CpuGatherKernels.cpp"
@@ -103,6 +108,62 @@ HWY_INLINE V LobePow(D d, V c, V k) {
     return hn::IfThenElseZero(lit, Exp2(d, hn::Max(y, minLog2Pow)));
 }
 
+// cos^k for an integer k shared by every lane of a vector (one material per receiver group, as
+// in practice): exponentiation by squaring, floor(log2 k) squarings and popcount(k) - 1
+// products (k = 30: 7 multiplies against ~30 operations of LobePow). Error: squaring a value of
+// relative error e gives 2e + u (u = 2^-24), a product of two adds theirs + u, so c^(2^j) carries
+// (2^j - 1) u and c^k at most (k - 1) u to first order; for k <= kMaxSquaringExponent = 128 the
+// higher-order terms add < 1e-5 of that: |lobe / exact - 1| <= 1.00001 (k - 1) u <= 7.6e-6.
+// That is a quarter of the gather's own k-term for cos^k (2.4e-7 k: the float error of cos(gamma)
+// amplified k times, LightSkinComparison.h) and checked in tests/gi/gather/CpuLobePowTest.cpp.
+// Larger k takes LobePow: the error grows with k here, with k |ln c| there.
+constexpr std::uint32_t kMaxSquaringExponent = 128;
+
+// The exponent shared by all lanes of k if it is an integer in [1, kMaxSquaringExponent], else 0.
+HWY_INLINE std::uint32_t UniformIntegerExponent(D d, V k) {
+    const float k0 = hn::GetLane(k);
+    if (!hn::AllTrue(d, hn::Eq(k, hn::Set(d, k0)))) return 0;
+    if (!(k0 >= 1.0f && k0 <= float(kMaxSquaringExponent) && k0 == std::floor(k0))) return 0;
+    return std::uint32_t(k0);
+}
+
+// G3 for one integer k as two cosines: lit where c >= litFrom, c clamped to >= floor. The cut-off
+// k ln c < kMinLogPow <=> c < exp(kMinLogPow / k); rounding it to float moves it by < k u in k ln c,
+// where either side is right (the lobe is ~e^-80 there). c >= the cut-off keeps every power c^j,
+// j <= k, >= e^-80 (1 - 1e-5): normal floats, no slow subnormal arithmetic. For k = 1 the cut-off
+// (e^-80) lies below G3's clamp kTinyCos (k ln kTinyCos = -69 > -80): every c > 0 is lit, at
+// least kTinyCos.
+struct SquaringLobe {
+    std::uint32_t k = 0; ///< 0: not uniform, LobePow instead
+    float litFrom = 0.0f, floor = 0.0f;
+};
+HWY_INLINE SquaringLobe SquaringLobeFor(std::uint32_t k) {
+    if (k == 0) return {};
+    const float cutoff = float(std::exp(refmath::kMinLogPow / double(k)));
+    const float tiny = float(refmath::kTinyCos);
+    return {k, cutoff > tiny ? cutoff : std::numeric_limits<float>::denorm_min(), std::max(cutoff, tiny)};
+}
+
+// c^k by squaring (see kMaxSquaringExponent) for c in [floor, 1] and k >= 1. The branches
+// depend on k only, the same for a whole receiver group: predicted.
+HWY_INLINE V PowSquaring(V c, std::uint32_t k) {
+    V p = c;
+    std::uint32_t e = k;
+    for (; (e & 1u) == 0; e >>= 1) p = hn::Mul(p, p);
+    V result = p;
+    for (e >>= 1; e != 0; e >>= 1) {
+        p = hn::Mul(p, p);
+        if (e & 1u) result = hn::Mul(result, p);
+    }
+    return result;
+}
+
+// The lobe by squaring with G3's guards, given `lit` = c >= litFrom (callers test it first to
+// skip VALs no lane sees).
+HWY_INLINE V LobeSquaring(D d, V c, hn::Mask<D> lit, V floor, std::uint32_t k) {
+    return hn::IfThenElseZero(lit, PowSquaring(hn::Min(hn::Max(c, floor), hn::Set(d, 1.0f)), k));
+}
+
 // Lanes per vector at most, over all targets this file is compiled for (scratch sizes).
 constexpr std::size_t kMaxLanes = HWY_LANES(float);
 
@@ -123,6 +184,9 @@ HWY_NOINLINE void GatherGroup(const ValArrays& vals, std::uint32_t valBegin, std
     HWY_ALIGN float blockCos[kGlossy ? kSumBlock * kMaxLanes : 1];
     HWY_ALIGN float blockG[kGlossy ? kSumBlock * kMaxLanes : 1];
     HWY_ALIGN float blockW[kGlossy ? kSumBlock * kMaxLanes : 1];
+    const V k = hn::LoadU(d, &r.k[i]);
+    const SquaringLobe squaring = SquaringLobeFor(kGlossy ? UniformIntegerExponent(d, k) : 0);
+    const V litFrom = hn::Set(d, squaring.litFrom), floor = hn::Set(d, squaring.floor);
     for (std::uint32_t first = valBegin; first < valEnd; first += kSumBlock) {
         bool anyFacing = false;
         {
@@ -193,12 +257,18 @@ HWY_NOINLINE void GatherGroup(const ValArrays& vals, std::uint32_t valBegin, std
             // is never -0), so a block (or VAL) that no lane's lobe sees leaves the sums unchanged.
             V gR = zero, gG = zero, gB = zero, r2S = zero, oSx = zero, oSy = zero, oSz = zero, wSs = zero, mS = zero;
             if (anyFacing) {
-                const V k = hn::LoadU(d, &r.k[i]);
                 for (std::uint32_t j = first; j < first + kSumBlock; ++j) {
                     const std::size_t at = (j - first) * lanes;
                     const V c = hn::Load(d, blockCos + at);
-                    if (hn::AllFalse(d, hn::Gt(c, zero))) continue;
-                    const V lobe = LobePow(d, c, k);
+                    V lobe;
+                    if (squaring.k != 0) { // one integer k for the group: the common case
+                        const auto lit = hn::Ge(c, litFrom);
+                        if (hn::AllFalse(d, lit)) continue; // every lane's lobe 0 (G3): adds +0
+                        lobe = LobeSquaring(d, c, lit, floor, squaring.k);
+                    } else {
+                        if (hn::AllFalse(d, hn::Gt(c, zero))) continue;
+                        lobe = LobePow(d, c, k);
+                    }
                     const V gLobe = hn::Mul(hn::Load(d, blockG + at), lobe); // c (k + 1) applied per block
                     gR = hn::MulAdd(hn::Set(d, vals.fr[j]), gLobe, gR);
                     gG = hn::MulAdd(hn::Set(d, vals.fg[j]), gLobe, gG);
@@ -314,10 +384,19 @@ void OcclusionImpl(const OcclusionReceivers& receivers, std::size_t receiverBegi
     }
 }
 
+// As the gather chooses per receiver group: squaring where a vector's lanes share an integer k.
 void LobePowImpl(const float* c, const float* k, float* out, std::size_t count) {
     const D d;
-    for (std::size_t i = 0; i < count; i += hn::Lanes(d))
-        hn::StoreU(LobePow(d, hn::LoadU(d, c + i), hn::LoadU(d, k + i)), d, out + i);
+    for (std::size_t i = 0; i < count; i += hn::Lanes(d)) {
+        const V cv = hn::LoadU(d, c + i), kv = hn::LoadU(d, k + i);
+        const SquaringLobe squaring = SquaringLobeFor(UniformIntegerExponent(d, kv));
+        if (squaring.k != 0) {
+            const V floor = hn::Set(d, squaring.floor);
+            hn::StoreU(LobeSquaring(d, cv, hn::Ge(cv, hn::Set(d, squaring.litFrom)), floor, squaring.k), d, out + i);
+        } else {
+            hn::StoreU(LobePow(d, cv, kv), d, out + i);
+        }
+    }
 }
 
 const char* TargetNameImpl() { return hwy::TargetName(HWY_TARGET); }
