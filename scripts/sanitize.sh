@@ -7,7 +7,8 @@
 #   scripts/sanitize.sh --thread [ctest arguments]  ThreadSanitizer in build-tsan/: builds only the tests of the
 #                                                   threaded code (tests/capture: Recorder's writer thread, the
 #                                                   OpenNI2 and libfreenect sources; gi_ground_truth_test: the
-#                                                   Embree reference's worker threads) and runs them
+#                                                   Embree reference's worker threads; the CPU GI backend's
+#                                                   oneTBB loops) and runs them
 #
 # Both are Debug builds (-O0: every access instrumented, nothing inlined away) with line tables only (-g1):
 # reports keep function names and file:line, while full debug info would make these builds (the longest
