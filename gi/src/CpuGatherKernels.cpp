@@ -16,6 +16,7 @@
 #include "CpuGatherKernels.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
 
@@ -168,8 +169,9 @@ HWY_INLINE V LobeSquaring(D d, V c, hn::Mask<D> lit, V floor, std::uint32_t k) {
 constexpr std::size_t kMaxLanes = HWY_LANES(float);
 
 template <bool kGlossy, bool kMoments>
-HWY_NOINLINE void GatherGroup(const ValArrays& vals, std::uint32_t valBegin, std::uint32_t valEnd,
-                              const ReceiverArrays& r, std::size_t i, float* sums, std::size_t stride) {
+HWY_NOINLINE std::uint64_t GatherGroup(const ValArrays& vals, std::uint32_t valBegin, std::uint32_t valEnd,
+                                       const ReceiverArrays& r, std::size_t i, float* sums, std::size_t stride,
+                                       bool skip) {
     namespace m = refmath;
     const D d;
     const std::size_t lanes = hn::Lanes(d);
@@ -189,12 +191,41 @@ HWY_NOINLINE void GatherGroup(const ValArrays& vals, std::uint32_t valBegin, std
     // receivers: all in one L1 set (8 ways), so every block's update missed L1 and its loads waited
     // on 4K-aliased stores (perf annotate: a quarter of the kernel's time in those updates).
     HWY_ALIGN float running[kGatherSums * kMaxLanes];
+    const std::uint32_t* receiverOf = &r.index[i]; // slot -> receiver (column of the sums)
     for (std::size_t s = 0; s < kGatherSums; ++s)
-        hn::Store(hn::LoadU(d, sums + i + s * stride), d, running + s * lanes);
+        for (std::size_t lane = 0; lane < lanes; ++lane)
+            running[s * lanes + lane] = sums[s * stride + receiverOf[lane]];
     const V k = hn::LoadU(d, &r.k[i]);
     const SquaringLobe squaring = SquaringLobeFor(kGlossy ? UniformIntegerExponent(d, k) : 0);
     const V litFrom = hn::Set(d, squaring.litFrom), floor = hn::Set(d, squaring.floor);
+    const V gnx = hn::LoadU(d, &r.nx[i]), gny = hn::LoadU(d, &r.ny[i]), gnz = hn::LoadU(d, &r.nz[i]);
+    const V margin = hn::Set(d, -1e-4f), positionScale = hn::Add(hn::Add(hn::Abs(x), hn::Abs(y)), hn::Abs(z));
+    std::uint64_t skipped = 0;
     for (std::uint32_t first = valBegin; first < valEnd; first += kSumBlock) {
+        // The block behind every receiver of the group: max over its bounding box of n . (l - x) =
+        // n . (c - x) + |n| . h < 0 with a margin of 1e-4 of the distances and positions involved
+        // (float rounding of the box, of l - x and of the kernel's n . l is ~1e-6 of those), so
+        // the kernel's cos theta_i = max(n . l, 0) would be exactly +0 for all 256 pairs: every
+        // term +0 (finite factors times +0), every block sum +0, and running + 0 = running. Skipping
+        // it changes no bit of any sum (the glossy pass needs cos theta_i > 0 too).
+        {
+            const std::size_t block = first / kSumBlock;
+            const V hx = hn::Set(d, vals.boxHx[block]), hy = hn::Set(d, vals.boxHy[block]),
+                    hz = hn::Set(d, vals.boxHz[block]);
+            const V cx = hn::Set(d, vals.boxCx[block]), cy = hn::Set(d, vals.boxCy[block]),
+                    cz = hn::Set(d, vals.boxCz[block]);
+            const V dx = hn::Sub(cx, x), dy = hn::Sub(cy, y), dz = hn::Sub(cz, z);
+            const V bound =
+                hn::Add(Dot(gnx, gny, gnz, dx, dy, dz), Dot(hn::Abs(gnx), hn::Abs(gny), hn::Abs(gnz), hx, hy, hz));
+            const V scale =
+                hn::Add(hn::Add(hn::Add(hn::Abs(dx), hn::Abs(dy)), hn::Add(hn::Abs(dz), hx)),
+                        hn::Add(hn::Add(hy, hz),
+                                hn::Add(positionScale, hn::Add(hn::Add(hn::Abs(cx), hn::Abs(cy)), hn::Abs(cz)))));
+            if (skip && hn::AllTrue(d, hn::Lt(bound, hn::Mul(margin, scale)))) {
+                ++skipped;
+                continue;
+            }
+        }
         bool anyFacing = false;
         {
             const V nx = hn::LoadU(d, &r.nx[i]), ny = hn::LoadU(d, &r.ny[i]), nz = hn::LoadU(d, &r.nz[i]);
@@ -306,23 +337,28 @@ HWY_NOINLINE void GatherGroup(const ValArrays& vals, std::uint32_t valBegin, std
         }
     }
     for (std::size_t s = 0; s < kGatherSums; ++s)
-        hn::StoreU(hn::Load(d, running + s * lanes), d, sums + i + s * stride);
+        for (std::size_t lane = 0; lane < lanes; ++lane)
+            sums[s * stride + receiverOf[lane]] = running[s * lanes + lane];
+    return skipped;
 }
 
-void GatherImpl(const ValArrays& vals, std::uint32_t valBegin, std::uint32_t valEnd, const ReceiverArrays& receivers,
-                std::size_t receiverBegin, std::size_t receiverEnd, const GatherParameters& p, float* sums,
-                std::size_t stride) {
+std::uint64_t GatherImpl(const ValArrays& vals, std::uint32_t valBegin, std::uint32_t valEnd,
+                         const ReceiverArrays& receivers, std::size_t receiverBegin, std::size_t receiverEnd,
+                         const GatherParameters& p, float* sums, std::size_t stride) {
     const std::size_t lanes = hn::Lanes(D());
+    const bool skip = p.skipHiddenBlocks;
+    std::uint64_t skipped = 0;
     for (std::size_t i = receiverBegin; i < receiverEnd; i += lanes) {
         if (p.glossy && p.moments)
-            GatherGroup<true, true>(vals, valBegin, valEnd, receivers, i, sums, stride);
+            skipped += GatherGroup<true, true>(vals, valBegin, valEnd, receivers, i, sums, stride, skip);
         else if (p.glossy)
-            GatherGroup<true, false>(vals, valBegin, valEnd, receivers, i, sums, stride);
+            skipped += GatherGroup<true, false>(vals, valBegin, valEnd, receivers, i, sums, stride, skip);
         else if (p.moments)
-            GatherGroup<false, true>(vals, valBegin, valEnd, receivers, i, sums, stride);
+            skipped += GatherGroup<false, true>(vals, valBegin, valEnd, receivers, i, sums, stride, skip);
         else
-            GatherGroup<false, false>(vals, valBegin, valEnd, receivers, i, sums, stride);
+            skipped += GatherGroup<false, false>(vals, valBegin, valEnd, receivers, i, sums, stride, skip);
     }
+    return skipped;
 }
 
 // Hidden fraction of one target (ls_occluderAmount after the shared per-occluder terms).
@@ -444,12 +480,81 @@ HWY_EXPORT(FmaChainsImpl);
 
 void ValArrays::reserve(std::size_t capacity) {
     for (auto* v : {&px, &py, &pz, &nx, &ny, &nz, &r2, &cr2, &fr, &fg, &fb}) v->resize(capacity);
+    const std::size_t blocks = (capacity + kSumBlock - 1) / kSumBlock;
+    for (auto* v : {&boxCx, &boxCy, &boxCz, &boxHx, &boxHy, &boxHz}) v->resize(blocks);
 }
 
 void ReceiverArrays::resize(std::size_t paddedCount) {
     padded = paddedCount;
     for (auto* v : {&px, &py, &pz, &nx, &ny, &ex, &ey, &ez, &nde, &k, &ck}) v->assign(paddedCount, 0.0f);
     nz.assign(paddedCount, 1.0f);
+    index.resize(paddedCount);
+    for (std::size_t i = 0; i < paddedCount; ++i) index[i] = std::uint32_t(i);
+    scratch_.resize(paddedCount);
+    order_.resize(paddedCount);
+    keys_.resize(paddedCount);
+}
+
+namespace {
+
+/// Sort key of a receiver: exponent (a group shares it: squaring), normal (6 cube faces x 4 x 4
+/// cells), then position (Morton order, 8 bits per axis over the receivers' bounding box).
+std::uint64_t coherenceKey(float k, float nx, float ny, float nz, const float unit[3]) {
+    const float a[3] = {std::abs(nx), std::abs(ny), std::abs(nz)};
+    const int axis = a[0] >= a[1] && a[0] >= a[2] ? 0 : (a[1] >= a[2] ? 1 : 2);
+    const float n[3] = {nx, ny, nz};
+    const float major = std::max(a[axis], 1e-30f);
+    const auto cell = [&](int c) {
+        const float t = (n[(axis + c) % 3] / major + 1.0f) * 2.0f; // [0, 4]
+        return std::uint64_t(std::clamp(int(t), 0, 3));
+    };
+    const std::uint64_t bucket = std::uint64_t(axis * 2 + (n[axis] < 0.0f ? 1 : 0)) * 16 + cell(1) * 4 + cell(2);
+    std::uint64_t morton = 0;
+    for (int bit = 7; bit >= 0; --bit)
+        for (int c = 0; c < 3; ++c) morton = (morton << 1) | ((std::uint64_t(unit[c]) >> bit) & 1u);
+    return (std::uint64_t(std::bit_cast<std::uint32_t>(k)) << 31) | (bucket << 24) | morton;
+}
+
+} // namespace
+
+void prepareGather(ValArrays& v, ReceiverArrays& r, std::size_t count) {
+    for (std::uint32_t b = 0; b < v.padded / kSumBlock; ++b) {
+        float lo[3] = {v.px[b * kSumBlock], v.py[b * kSumBlock], v.pz[b * kSumBlock]};
+        float hi[3] = {lo[0], lo[1], lo[2]};
+        for (std::uint32_t j = b * kSumBlock; j < (b + 1) * kSumBlock; ++j) {
+            const float p[3] = {v.px[j], v.py[j], v.pz[j]};
+            for (int c = 0; c < 3; ++c) lo[c] = std::min(lo[c], p[c]), hi[c] = std::max(hi[c], p[c]);
+        }
+        v.boxCx[b] = 0.5f * (lo[0] + hi[0]), v.boxHx[b] = 0.5f * (hi[0] - lo[0]);
+        v.boxCy[b] = 0.5f * (lo[1] + hi[1]), v.boxHy[b] = 0.5f * (hi[1] - lo[1]);
+        v.boxCz[b] = 0.5f * (lo[2] + hi[2]), v.boxHz[b] = 0.5f * (hi[2] - lo[2]);
+    }
+    for (std::size_t i = 0; i < r.padded; ++i) r.index[i] = std::uint32_t(i);
+    if (count < 2) return;
+    float lo[3] = {r.px[0], r.py[0], r.pz[0]}, hi[3] = {lo[0], lo[1], lo[2]};
+    for (std::size_t i = 0; i < count; ++i) {
+        const float p[3] = {r.px[i], r.py[i], r.pz[i]};
+        for (int c = 0; c < 3; ++c) lo[c] = std::min(lo[c], p[c]), hi[c] = std::max(hi[c], p[c]);
+    }
+    for (std::size_t i = 0; i < count; ++i) {
+        const float p[3] = {r.px[i], r.py[i], r.pz[i]};
+        float unit[3];
+        for (int c = 0; c < 3; ++c)
+            unit[c] = hi[c] > lo[c] ? std::clamp((p[c] - lo[c]) / (hi[c] - lo[c]) * 255.0f, 0.0f, 255.0f) : 0.0f;
+        if (!(std::isfinite(unit[0]) && std::isfinite(unit[1]) && std::isfinite(unit[2])))
+            unit[0] = unit[1] = unit[2] = 0;
+        r.keys_[i] = coherenceKey(r.k[i], r.nx[i], r.ny[i], r.nz[i], unit);
+        r.order_[i] = std::uint32_t(i);
+    }
+    // ties by receiver index: one order whatever the sort's implementation
+    std::sort(r.order_.begin(), r.order_.begin() + std::ptrdiff_t(count), [&](std::uint32_t a, std::uint32_t b) {
+        return r.keys_[a] != r.keys_[b] ? r.keys_[a] < r.keys_[b] : a < b;
+    });
+    for (auto* a : {&r.px, &r.py, &r.pz, &r.nx, &r.ny, &r.nz, &r.ex, &r.ey, &r.ez, &r.nde, &r.k, &r.ck}) {
+        for (std::size_t s = 0; s < count; ++s) r.scratch_[s] = (*a)[r.order_[s]];
+        std::copy_n(r.scratch_.begin(), count, a->begin());
+    }
+    for (std::size_t s = 0; s < count; ++s) r.index[s] = r.order_[s];
 }
 
 void OcclusionReceivers::resize(std::size_t paddedCount) {
@@ -465,11 +570,11 @@ void Occluders::resize(std::size_t n) {
     for (auto* v : {&px, &py, &pz, &nx, &ny, &nz, &r2}) v->assign(n, 0.0f);
 }
 
-void gather(const ValArrays& vals, std::uint32_t valBegin, std::uint32_t valEnd, const ReceiverArrays& receivers,
-            std::size_t receiverBegin, std::size_t receiverEnd, const GatherParameters& parameters, float* sums,
-            std::size_t stride) {
-    HWY_DYNAMIC_DISPATCH(GatherImpl)
-    (vals, valBegin, valEnd, receivers, receiverBegin, receiverEnd, parameters, sums, stride);
+std::uint64_t gather(const ValArrays& vals, std::uint32_t valBegin, std::uint32_t valEnd,
+                     const ReceiverArrays& receivers, std::size_t receiverBegin, std::size_t receiverEnd,
+                     const GatherParameters& parameters, float* sums, std::size_t stride) {
+    return HWY_DYNAMIC_DISPATCH(GatherImpl)(vals, valBegin, valEnd, receivers, receiverBegin, receiverEnd, parameters,
+                                            sums, stride);
 }
 
 void occlusion(const OcclusionReceivers& receivers, std::size_t receiverBegin, std::size_t receiverEnd,

@@ -18,6 +18,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <ctime>
@@ -236,13 +237,19 @@ struct CpuLightSkin::Impl {
     /// Stage 1: the running sums of every receiver over all VALs, tile by tile.
     void gather() {
         std::fill(sums.begin(), sums.end(), 0.0f);
-        const cpu::GatherParameters parameters{glossy, moments()};
+        cpu::prepareGather(vals, receivers, pointCount); // VAL block boxes, receivers in coherent groups
+        const cpu::GatherParameters parameters{glossy, moments(), settings.skipHiddenBlocks};
         const std::size_t stride = receivers.padded;
+        std::atomic<std::uint64_t> skipped{0};
         parallelRanges(*arena, receivers.padded, [&](std::size_t begin, std::size_t end) {
+            std::uint64_t n = 0;
             for (std::uint32_t first = 0; first < vals.padded; first += kValTile)
-                cpu::gather(vals, first, std::min(first + kValTile, vals.padded), receivers, begin, end, parameters,
-                            sums.data(), stride);
+                n += cpu::gather(vals, first, std::min(first + kValTile, vals.padded), receivers, begin, end,
+                                 parameters, sums.data(), stride);
+            skipped += n;
         });
+        const double blocks = double(vals.padded / cpu::kSumBlock) * double(receivers.padded / cpu::kReceiverPadding);
+        stats.gatherBlocksSkipped = blocks > 0.0 ? double(skipped.load()) / blocks : 0.0;
     }
 
     double sum(std::size_t s, std::size_t i) const { return double(sums[s * receivers.padded + i]); }
@@ -553,6 +560,7 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
                             impl.threadCount(), impl.sums.data(), impl.receivers.padded);
         stats.valTreeCutPerPoint =
             double(impl.treeCut.stats().taken) / double(std::max<std::uint32_t>(impl.pointCount, 1));
+        stats.gatherBlocksSkipped = 0.0;
     } else {
         impl.gather();
         stats.valTreeCutPerPoint = 0.0;
