@@ -492,6 +492,7 @@ void ReceiverArrays::resize(std::size_t paddedCount) {
     for (std::size_t i = 0; i < paddedCount; ++i) index[i] = std::uint32_t(i);
     scratch_.resize(paddedCount);
     order_.resize(paddedCount);
+    grouped_.resize(paddedCount);
     keys_.resize(paddedCount);
 }
 
@@ -550,6 +551,21 @@ void prepareGather(ValArrays& v, ReceiverArrays& r, std::size_t count) {
     std::sort(r.order_.begin(), r.order_.begin() + std::ptrdiff_t(count), [&](std::uint32_t a, std::uint32_t b) {
         return r.keys_[a] != r.keys_[b] ? r.keys_[a] < r.keys_[b] : a < b;
     });
+    // Whole groups in bit-reversed order (the partial last group stays last: the padding slots follow it).
+    // Any contiguous range of groups then takes about every (groups / range)-th group of the sorted order.
+    const std::size_t full = count / kReceiverPadding;
+    std::size_t bits = 0;
+    while ((std::size_t(1) << bits) < full) ++bits;
+    std::size_t at = 0;
+    for (std::size_t i = 0; i < (std::size_t(1) << bits); ++i) {
+        std::size_t g = 0;
+        for (std::size_t b = 0; b < bits; ++b) g |= ((i >> b) & 1u) << (bits - 1 - b);
+        if (g >= full) continue;
+        for (std::size_t lane = 0; lane < kReceiverPadding; ++lane)
+            r.grouped_[at++] = r.order_[g * kReceiverPadding + lane];
+    }
+    for (std::size_t s = at; s < count; ++s) r.grouped_[s] = r.order_[s];
+    std::copy_n(r.grouped_.begin(), count, r.order_.begin());
     for (auto* a : {&r.px, &r.py, &r.pz, &r.nx, &r.ny, &r.nz, &r.ex, &r.ey, &r.ez, &r.nde, &r.k, &r.ck}) {
         for (std::size_t s = 0; s < count; ++s) r.scratch_[s] = (*a)[r.order_[s]];
         std::copy_n(r.scratch_.begin(), count, a->begin());

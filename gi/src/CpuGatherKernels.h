@@ -52,7 +52,7 @@ struct ReceiverArrays {
 private:
     friend void prepareGather(ValArrays&, ReceiverArrays&, std::size_t);
     std::vector<float> scratch_;
-    std::vector<std::uint32_t> order_;
+    std::vector<std::uint32_t> order_, grouped_;
     std::vector<std::uint64_t> keys_;
 };
 
@@ -60,7 +60,9 @@ private:
 /// before gather(): the VAL blocks' bounding boxes, and the receivers reordered (index) so that each
 /// group of kReceiverPadding shares its exponent and has nearby normals and positions. A group then
 /// often lies wholly behind a VAL block (cos theta_i <= 0 for every pair), whose terms are all exactly
-/// +0: the kernel skips it, and every sum stays the same bit for bit (x + 0 = x). No allocation.
+/// +0: the kernel skips it, and every sum stays the same bit for bit (x + 0 = x). The groups are then
+/// laid out in bit-reversed order, so that the threads' contiguous ranges get alike mixes of groups
+/// (sorted by exponent and normal, the halves differed by 1.3x in work). No allocation.
 void prepareGather(ValArrays& vals, ReceiverArrays& receivers, std::size_t receiverCount);
 
 struct GatherParameters {
