@@ -10,9 +10,15 @@
 //    ~1e-7 after the step: 2^-14 estimate on AVX-512, 2^-12 on SSE/AVX, squared by the step);
 //  * fused multiply-adds where the GL path rounds twice; M_j w_j = (flux / pi) g with flux / pi
 //    precomputed per VAL; the lobe's c (k + 1) applied once per block of kSumBlock VALs;
-//  * cos^k by polynomial log2 and exp2 (LobePow below, error bound there).
+//  * cos^k by squaring where a receiver group shares an integer k <= 128, else by polynomial
+//    log2 and exp2 (PowSquaring and LobePow below, error bounds there).
 // An invalid VAL never reaches these kernels (dropped when the arrays are built).
 #include "CpuGatherKernels.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <limits>
 
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "CpuGatherKernels.cpp"
@@ -103,12 +109,69 @@ HWY_INLINE V LobePow(D d, V c, V k) {
     return hn::IfThenElseZero(lit, Exp2(d, hn::Max(y, minLog2Pow)));
 }
 
+// cos^k for an integer k shared by every lane of a vector (one material per receiver group, as
+// in practice): exponentiation by squaring, floor(log2 k) squarings and popcount(k) - 1
+// products (k = 30: 7 multiplies against ~30 operations of LobePow). Error: squaring a value of
+// relative error e gives 2e + u (u = 2^-24), a product of two adds theirs + u, so c^(2^j) carries
+// (2^j - 1) u and c^k at most (k - 1) u to first order; for k <= kMaxSquaringExponent = 128 the
+// higher-order terms add < 1e-5 of that: |lobe / exact - 1| <= 1.00001 (k - 1) u <= 7.6e-6.
+// That is a quarter of the gather's own k-term for cos^k (2.4e-7 k: the float error of cos(gamma)
+// amplified k times, LightSkinComparison.h) and checked in tests/gi/gather/CpuLobePowTest.cpp.
+// Larger k takes LobePow: the error grows with k here, with k |ln c| there.
+constexpr std::uint32_t kMaxSquaringExponent = 128;
+
+// The exponent shared by all lanes of k if it is an integer in [1, kMaxSquaringExponent], else 0.
+HWY_INLINE std::uint32_t UniformIntegerExponent(D d, V k) {
+    const float k0 = hn::GetLane(k);
+    if (!hn::AllTrue(d, hn::Eq(k, hn::Set(d, k0)))) return 0;
+    if (!(k0 >= 1.0f && k0 <= float(kMaxSquaringExponent) && k0 == std::floor(k0))) return 0;
+    return std::uint32_t(k0);
+}
+
+// G3 for one integer k as two cosines: lit where c >= litFrom, c clamped to >= floor. The cut-off
+// k ln c < kMinLogPow <=> c < exp(kMinLogPow / k); rounding it to float moves it by < k u in k ln c,
+// where either side is right (the lobe is ~e^-80 there). c >= the cut-off keeps every power c^j,
+// j <= k, >= e^-80 (1 - 1e-5): normal floats, no slow subnormal arithmetic. For k = 1 the cut-off
+// (e^-80) lies below G3's clamp kTinyCos (k ln kTinyCos = -69 > -80): every c > 0 is lit, at
+// least kTinyCos.
+struct SquaringLobe {
+    std::uint32_t k = 0; ///< 0: not uniform, LobePow instead
+    float litFrom = 0.0f, floor = 0.0f;
+};
+HWY_INLINE SquaringLobe SquaringLobeFor(std::uint32_t k) {
+    if (k == 0) return {};
+    const float cutoff = float(std::exp(refmath::kMinLogPow / double(k)));
+    const float tiny = float(refmath::kTinyCos);
+    return {k, cutoff > tiny ? cutoff : std::numeric_limits<float>::denorm_min(), std::max(cutoff, tiny)};
+}
+
+// c^k by squaring (see kMaxSquaringExponent) for c in [floor, 1] and k >= 1. The branches
+// depend on k only, the same for a whole receiver group: predicted.
+HWY_INLINE V PowSquaring(V c, std::uint32_t k) {
+    V p = c;
+    std::uint32_t e = k;
+    for (; (e & 1u) == 0; e >>= 1) p = hn::Mul(p, p);
+    V result = p;
+    for (e >>= 1; e != 0; e >>= 1) {
+        p = hn::Mul(p, p);
+        if (e & 1u) result = hn::Mul(result, p);
+    }
+    return result;
+}
+
+// The lobe by squaring with G3's guards, given `lit` = c >= litFrom (callers test it first to
+// skip VALs no lane sees).
+HWY_INLINE V LobeSquaring(D d, V c, hn::Mask<D> lit, V floor, std::uint32_t k) {
+    return hn::IfThenElseZero(lit, PowSquaring(hn::Min(hn::Max(c, floor), hn::Set(d, 1.0f)), k));
+}
+
 // Lanes per vector at most, over all targets this file is compiled for (scratch sizes).
 constexpr std::size_t kMaxLanes = HWY_LANES(float);
 
 template <bool kGlossy, bool kMoments>
-HWY_NOINLINE void GatherGroup(const ValArrays& vals, std::uint32_t valBegin, std::uint32_t valEnd,
-                              const ReceiverArrays& r, std::size_t i, float* sums, std::size_t stride) {
+HWY_NOINLINE std::uint64_t GatherGroup(const ValArrays& vals, std::uint32_t valBegin, std::uint32_t valEnd,
+                                       const ReceiverArrays& r, std::size_t i, float* sums, std::size_t stride,
+                                       bool skip) {
     namespace m = refmath;
     const D d;
     const std::size_t lanes = hn::Lanes(d);
@@ -123,7 +186,46 @@ HWY_NOINLINE void GatherGroup(const ValArrays& vals, std::uint32_t valBegin, std
     HWY_ALIGN float blockCos[kGlossy ? kSumBlock * kMaxLanes : 1];
     HWY_ALIGN float blockG[kGlossy ? kSumBlock * kMaxLanes : 1];
     HWY_ALIGN float blockW[kGlossy ? kSumBlock * kMaxLanes : 1];
+    // The group's running sums live here while it runs over the VALs, written back at the end (the
+    // same values). In place, its 20 rows sat `stride` floats apart, a multiple of 4 KB for 1024
+    // receivers: all in one L1 set (8 ways), so every block's update missed L1 and its loads waited
+    // on 4K-aliased stores (perf annotate: a quarter of the kernel's time in those updates).
+    HWY_ALIGN float running[kGatherSums * kMaxLanes];
+    const std::uint32_t* receiverOf = &r.index[i]; // slot -> receiver (column of the sums)
+    for (std::size_t s = 0; s < kGatherSums; ++s)
+        for (std::size_t lane = 0; lane < lanes; ++lane)
+            running[s * lanes + lane] = sums[s * stride + receiverOf[lane]];
+    const V k = hn::LoadU(d, &r.k[i]);
+    const SquaringLobe squaring = SquaringLobeFor(kGlossy ? UniformIntegerExponent(d, k) : 0);
+    const V litFrom = hn::Set(d, squaring.litFrom), floor = hn::Set(d, squaring.floor);
+    const V gnx = hn::LoadU(d, &r.nx[i]), gny = hn::LoadU(d, &r.ny[i]), gnz = hn::LoadU(d, &r.nz[i]);
+    const V margin = hn::Set(d, -1e-4f), positionScale = hn::Add(hn::Add(hn::Abs(x), hn::Abs(y)), hn::Abs(z));
+    std::uint64_t skipped = 0;
     for (std::uint32_t first = valBegin; first < valEnd; first += kSumBlock) {
+        // The block behind every receiver of the group: max over its bounding box of n . (l - x) =
+        // n . (c - x) + |n| . h < 0 with a margin of 1e-4 of the distances and positions involved
+        // (float rounding of the box, of l - x and of the kernel's n . l is ~1e-6 of those), so
+        // the kernel's cos theta_i = max(n . l, 0) would be exactly +0 for all 256 pairs: every
+        // term +0 (finite factors times +0), every block sum +0, and running + 0 = running. Skipping
+        // it changes no bit of any sum (the glossy pass needs cos theta_i > 0 too).
+        {
+            const std::size_t block = first / kSumBlock;
+            const V hx = hn::Set(d, vals.boxHx[block]), hy = hn::Set(d, vals.boxHy[block]),
+                    hz = hn::Set(d, vals.boxHz[block]);
+            const V cx = hn::Set(d, vals.boxCx[block]), cy = hn::Set(d, vals.boxCy[block]),
+                    cz = hn::Set(d, vals.boxCz[block]);
+            const V dx = hn::Sub(cx, x), dy = hn::Sub(cy, y), dz = hn::Sub(cz, z);
+            const V bound =
+                hn::Add(Dot(gnx, gny, gnz, dx, dy, dz), Dot(hn::Abs(gnx), hn::Abs(gny), hn::Abs(gnz), hx, hy, hz));
+            const V scale =
+                hn::Add(hn::Add(hn::Add(hn::Abs(dx), hn::Abs(dy)), hn::Add(hn::Abs(dz), hx)),
+                        hn::Add(hn::Add(hy, hz),
+                                hn::Add(positionScale, hn::Add(hn::Add(hn::Abs(cx), hn::Abs(cy)), hn::Abs(cz)))));
+            if (skip && hn::AllTrue(d, hn::Lt(bound, hn::Mul(margin, scale)))) {
+                ++skipped;
+                continue;
+            }
+        }
         bool anyFacing = false;
         {
             const V nx = hn::LoadU(d, &r.nx[i]), ny = hn::LoadU(d, &r.ny[i]), nz = hn::LoadU(d, &r.nz[i]);
@@ -173,19 +275,19 @@ HWY_NOINLINE void GatherGroup(const ValArrays& vals, std::uint32_t valBegin, std
                     hn::Store(w, d, blockW + at);
                 }
             }
-            float* s = sums + i;
-            AddBlock(d, s + 0 * stride, eR);
-            AddBlock(d, s + 1 * stride, eG);
-            AddBlock(d, s + 2 * stride, eB);
-            AddBlock(d, s + 3 * stride, r2D);
-            AddBlock(d, s + 4 * stride, oDx);
-            AddBlock(d, s + 5 * stride, oDy);
-            AddBlock(d, s + 6 * stride, oDz);
-            AddBlock(d, s + 7 * stride, wDs);
+            float* s = running;
+            AddBlock(d, s + 0 * lanes, eR);
+            AddBlock(d, s + 1 * lanes, eG);
+            AddBlock(d, s + 2 * lanes, eB);
+            AddBlock(d, s + 3 * lanes, r2D);
+            AddBlock(d, s + 4 * lanes, oDx);
+            AddBlock(d, s + 5 * lanes, oDy);
+            AddBlock(d, s + 6 * lanes, oDz);
+            AddBlock(d, s + 7 * lanes, wDs);
             if constexpr (kMoments) {
-                AddBlock(d, s + 16 * stride, mx);
-                AddBlock(d, s + 17 * stride, my);
-                AddBlock(d, s + 18 * stride, mz);
+                AddBlock(d, s + 16 * lanes, mx);
+                AddBlock(d, s + 17 * lanes, my);
+                AddBlock(d, s + 18 * lanes, mz);
             }
         }
         if constexpr (kGlossy) {
@@ -193,12 +295,18 @@ HWY_NOINLINE void GatherGroup(const ValArrays& vals, std::uint32_t valBegin, std
             // is never -0), so a block (or VAL) that no lane's lobe sees leaves the sums unchanged.
             V gR = zero, gG = zero, gB = zero, r2S = zero, oSx = zero, oSy = zero, oSz = zero, wSs = zero, mS = zero;
             if (anyFacing) {
-                const V k = hn::LoadU(d, &r.k[i]);
                 for (std::uint32_t j = first; j < first + kSumBlock; ++j) {
                     const std::size_t at = (j - first) * lanes;
                     const V c = hn::Load(d, blockCos + at);
-                    if (hn::AllFalse(d, hn::Gt(c, zero))) continue;
-                    const V lobe = LobePow(d, c, k);
+                    V lobe;
+                    if (squaring.k != 0) { // one integer k for the group: the common case
+                        const auto lit = hn::Ge(c, litFrom);
+                        if (hn::AllFalse(d, lit)) continue; // every lane's lobe 0 (G3): adds +0
+                        lobe = LobeSquaring(d, c, lit, floor, squaring.k);
+                    } else {
+                        if (hn::AllFalse(d, hn::Gt(c, zero))) continue;
+                        lobe = LobePow(d, c, k);
+                    }
                     const V gLobe = hn::Mul(hn::Load(d, blockG + at), lobe); // c (k + 1) applied per block
                     gR = hn::MulAdd(hn::Set(d, vals.fr[j]), gLobe, gR);
                     gG = hn::MulAdd(hn::Set(d, vals.fg[j]), gLobe, gG);
@@ -216,34 +324,41 @@ HWY_NOINLINE void GatherGroup(const ValArrays& vals, std::uint32_t valBegin, std
                 }
             }
             const V ck = hn::LoadU(d, &r.ck[i]);
-            float* s = sums + i;
-            AddBlock(d, s + 8 * stride, hn::Mul(ck, gR));
-            AddBlock(d, s + 9 * stride, hn::Mul(ck, gG));
-            AddBlock(d, s + 10 * stride, hn::Mul(ck, gB));
-            AddBlock(d, s + 11 * stride, r2S);
-            AddBlock(d, s + 12 * stride, oSx);
-            AddBlock(d, s + 13 * stride, oSy);
-            AddBlock(d, s + 14 * stride, oSz);
-            AddBlock(d, s + 15 * stride, wSs);
-            if constexpr (kMoments) AddBlock(d, s + 19 * stride, mS);
+            float* s = running;
+            AddBlock(d, s + 8 * lanes, hn::Mul(ck, gR));
+            AddBlock(d, s + 9 * lanes, hn::Mul(ck, gG));
+            AddBlock(d, s + 10 * lanes, hn::Mul(ck, gB));
+            AddBlock(d, s + 11 * lanes, r2S);
+            AddBlock(d, s + 12 * lanes, oSx);
+            AddBlock(d, s + 13 * lanes, oSy);
+            AddBlock(d, s + 14 * lanes, oSz);
+            AddBlock(d, s + 15 * lanes, wSs);
+            if constexpr (kMoments) AddBlock(d, s + 19 * lanes, mS);
         }
     }
+    for (std::size_t s = 0; s < kGatherSums; ++s)
+        for (std::size_t lane = 0; lane < lanes; ++lane)
+            sums[s * stride + receiverOf[lane]] = running[s * lanes + lane];
+    return skipped;
 }
 
-void GatherImpl(const ValArrays& vals, std::uint32_t valBegin, std::uint32_t valEnd, const ReceiverArrays& receivers,
-                std::size_t receiverBegin, std::size_t receiverEnd, const GatherParameters& p, float* sums,
-                std::size_t stride) {
+std::uint64_t GatherImpl(const ValArrays& vals, std::uint32_t valBegin, std::uint32_t valEnd,
+                         const ReceiverArrays& receivers, std::size_t receiverBegin, std::size_t receiverEnd,
+                         const GatherParameters& p, float* sums, std::size_t stride) {
     const std::size_t lanes = hn::Lanes(D());
+    const bool skip = p.skipHiddenBlocks;
+    std::uint64_t skipped = 0;
     for (std::size_t i = receiverBegin; i < receiverEnd; i += lanes) {
         if (p.glossy && p.moments)
-            GatherGroup<true, true>(vals, valBegin, valEnd, receivers, i, sums, stride);
+            skipped += GatherGroup<true, true>(vals, valBegin, valEnd, receivers, i, sums, stride, skip);
         else if (p.glossy)
-            GatherGroup<true, false>(vals, valBegin, valEnd, receivers, i, sums, stride);
+            skipped += GatherGroup<true, false>(vals, valBegin, valEnd, receivers, i, sums, stride, skip);
         else if (p.moments)
-            GatherGroup<false, true>(vals, valBegin, valEnd, receivers, i, sums, stride);
+            skipped += GatherGroup<false, true>(vals, valBegin, valEnd, receivers, i, sums, stride, skip);
         else
-            GatherGroup<false, false>(vals, valBegin, valEnd, receivers, i, sums, stride);
+            skipped += GatherGroup<false, false>(vals, valBegin, valEnd, receivers, i, sums, stride, skip);
     }
+    return skipped;
 }
 
 // Hidden fraction of one target (ls_occluderAmount after the shared per-occluder terms).
@@ -314,10 +429,19 @@ void OcclusionImpl(const OcclusionReceivers& receivers, std::size_t receiverBegi
     }
 }
 
+// As the gather chooses per receiver group: squaring where a vector's lanes share an integer k.
 void LobePowImpl(const float* c, const float* k, float* out, std::size_t count) {
     const D d;
-    for (std::size_t i = 0; i < count; i += hn::Lanes(d))
-        hn::StoreU(LobePow(d, hn::LoadU(d, c + i), hn::LoadU(d, k + i)), d, out + i);
+    for (std::size_t i = 0; i < count; i += hn::Lanes(d)) {
+        const V cv = hn::LoadU(d, c + i), kv = hn::LoadU(d, k + i);
+        const SquaringLobe squaring = SquaringLobeFor(UniformIntegerExponent(d, kv));
+        if (squaring.k != 0) {
+            const V floor = hn::Set(d, squaring.floor);
+            hn::StoreU(LobeSquaring(d, cv, hn::Ge(cv, hn::Set(d, squaring.litFrom)), floor, squaring.k), d, out + i);
+        } else {
+            hn::StoreU(LobePow(d, cv, kv), d, out + i);
+        }
+    }
 }
 
 const char* TargetNameImpl() { return hwy::TargetName(HWY_TARGET); }
@@ -356,12 +480,97 @@ HWY_EXPORT(FmaChainsImpl);
 
 void ValArrays::reserve(std::size_t capacity) {
     for (auto* v : {&px, &py, &pz, &nx, &ny, &nz, &r2, &cr2, &fr, &fg, &fb}) v->resize(capacity);
+    const std::size_t blocks = (capacity + kSumBlock - 1) / kSumBlock;
+    for (auto* v : {&boxCx, &boxCy, &boxCz, &boxHx, &boxHy, &boxHz}) v->resize(blocks);
 }
 
 void ReceiverArrays::resize(std::size_t paddedCount) {
     padded = paddedCount;
     for (auto* v : {&px, &py, &pz, &nx, &ny, &ex, &ey, &ez, &nde, &k, &ck}) v->assign(paddedCount, 0.0f);
     nz.assign(paddedCount, 1.0f);
+    index.resize(paddedCount);
+    for (std::size_t i = 0; i < paddedCount; ++i) index[i] = std::uint32_t(i);
+    scratch_.resize(paddedCount);
+    order_.resize(paddedCount);
+    grouped_.resize(paddedCount);
+    keys_.resize(paddedCount);
+}
+
+namespace {
+
+/// Sort key of a receiver: exponent (a group shares it: squaring), normal (6 cube faces x 4 x 4
+/// cells), then position (Morton order, 8 bits per axis over the receivers' bounding box).
+std::uint64_t coherenceKey(float k, float nx, float ny, float nz, const float unit[3]) {
+    const float a[3] = {std::abs(nx), std::abs(ny), std::abs(nz)};
+    const int axis = a[0] >= a[1] && a[0] >= a[2] ? 0 : (a[1] >= a[2] ? 1 : 2);
+    const float n[3] = {nx, ny, nz};
+    const float major = std::max(a[axis], 1e-30f);
+    const auto cell = [&](int c) {
+        const float t = (n[(axis + c) % 3] / major + 1.0f) * 2.0f; // [0, 4]
+        return std::uint64_t(std::clamp(int(t), 0, 3));
+    };
+    const std::uint64_t bucket = std::uint64_t(axis * 2 + (n[axis] < 0.0f ? 1 : 0)) * 16 + cell(1) * 4 + cell(2);
+    std::uint64_t morton = 0;
+    for (int bit = 7; bit >= 0; --bit)
+        for (int c = 0; c < 3; ++c) morton = (morton << 1) | ((std::uint64_t(unit[c]) >> bit) & 1u);
+    return (std::uint64_t(std::bit_cast<std::uint32_t>(k)) << 31) | (bucket << 24) | morton;
+}
+
+} // namespace
+
+void prepareGather(ValArrays& v, ReceiverArrays& r, std::size_t count) {
+    for (std::uint32_t b = 0; b < v.padded / kSumBlock; ++b) {
+        float lo[3] = {v.px[b * kSumBlock], v.py[b * kSumBlock], v.pz[b * kSumBlock]};
+        float hi[3] = {lo[0], lo[1], lo[2]};
+        for (std::uint32_t j = b * kSumBlock; j < (b + 1) * kSumBlock; ++j) {
+            const float p[3] = {v.px[j], v.py[j], v.pz[j]};
+            for (int c = 0; c < 3; ++c) lo[c] = std::min(lo[c], p[c]), hi[c] = std::max(hi[c], p[c]);
+        }
+        v.boxCx[b] = 0.5f * (lo[0] + hi[0]), v.boxHx[b] = 0.5f * (hi[0] - lo[0]);
+        v.boxCy[b] = 0.5f * (lo[1] + hi[1]), v.boxHy[b] = 0.5f * (hi[1] - lo[1]);
+        v.boxCz[b] = 0.5f * (lo[2] + hi[2]), v.boxHz[b] = 0.5f * (hi[2] - lo[2]);
+    }
+    for (std::size_t i = 0; i < r.padded; ++i) r.index[i] = std::uint32_t(i);
+    if (count < 2) return;
+    float lo[3] = {r.px[0], r.py[0], r.pz[0]}, hi[3] = {lo[0], lo[1], lo[2]};
+    for (std::size_t i = 0; i < count; ++i) {
+        const float p[3] = {r.px[i], r.py[i], r.pz[i]};
+        for (int c = 0; c < 3; ++c) lo[c] = std::min(lo[c], p[c]), hi[c] = std::max(hi[c], p[c]);
+    }
+    for (std::size_t i = 0; i < count; ++i) {
+        const float p[3] = {r.px[i], r.py[i], r.pz[i]};
+        float unit[3];
+        for (int c = 0; c < 3; ++c)
+            unit[c] = hi[c] > lo[c] ? std::clamp((p[c] - lo[c]) / (hi[c] - lo[c]) * 255.0f, 0.0f, 255.0f) : 0.0f;
+        if (!(std::isfinite(unit[0]) && std::isfinite(unit[1]) && std::isfinite(unit[2])))
+            unit[0] = unit[1] = unit[2] = 0;
+        r.keys_[i] = coherenceKey(r.k[i], r.nx[i], r.ny[i], r.nz[i], unit);
+        r.order_[i] = std::uint32_t(i);
+    }
+    // ties by receiver index: one order whatever the sort's implementation
+    std::sort(r.order_.begin(), r.order_.begin() + std::ptrdiff_t(count), [&](std::uint32_t a, std::uint32_t b) {
+        return r.keys_[a] != r.keys_[b] ? r.keys_[a] < r.keys_[b] : a < b;
+    });
+    // Whole groups in bit-reversed order (the partial last group stays last: the padding slots follow it).
+    // Any contiguous range of groups then takes about every (groups / range)-th group of the sorted order.
+    const std::size_t full = count / kReceiverPadding;
+    std::size_t bits = 0;
+    while ((std::size_t(1) << bits) < full) ++bits;
+    std::size_t at = 0;
+    for (std::size_t i = 0; i < (std::size_t(1) << bits); ++i) {
+        std::size_t g = 0;
+        for (std::size_t b = 0; b < bits; ++b) g |= ((i >> b) & 1u) << (bits - 1 - b);
+        if (g >= full) continue;
+        for (std::size_t lane = 0; lane < kReceiverPadding; ++lane)
+            r.grouped_[at++] = r.order_[g * kReceiverPadding + lane];
+    }
+    for (std::size_t s = at; s < count; ++s) r.grouped_[s] = r.order_[s];
+    std::copy_n(r.grouped_.begin(), count, r.order_.begin());
+    for (auto* a : {&r.px, &r.py, &r.pz, &r.nx, &r.ny, &r.nz, &r.ex, &r.ey, &r.ez, &r.nde, &r.k, &r.ck}) {
+        for (std::size_t s = 0; s < count; ++s) r.scratch_[s] = (*a)[r.order_[s]];
+        std::copy_n(r.scratch_.begin(), count, a->begin());
+    }
+    for (std::size_t s = 0; s < count; ++s) r.index[s] = r.order_[s];
 }
 
 void OcclusionReceivers::resize(std::size_t paddedCount) {
@@ -377,11 +586,11 @@ void Occluders::resize(std::size_t n) {
     for (auto* v : {&px, &py, &pz, &nx, &ny, &nz, &r2}) v->assign(n, 0.0f);
 }
 
-void gather(const ValArrays& vals, std::uint32_t valBegin, std::uint32_t valEnd, const ReceiverArrays& receivers,
-            std::size_t receiverBegin, std::size_t receiverEnd, const GatherParameters& parameters, float* sums,
-            std::size_t stride) {
-    HWY_DYNAMIC_DISPATCH(GatherImpl)
-    (vals, valBegin, valEnd, receivers, receiverBegin, receiverEnd, parameters, sums, stride);
+std::uint64_t gather(const ValArrays& vals, std::uint32_t valBegin, std::uint32_t valEnd,
+                     const ReceiverArrays& receivers, std::size_t receiverBegin, std::size_t receiverEnd,
+                     const GatherParameters& parameters, float* sums, std::size_t stride) {
+    return HWY_DYNAMIC_DISPATCH(GatherImpl)(vals, valBegin, valEnd, receivers, receiverBegin, receiverEnd, parameters,
+                                            sums, stride);
 }
 
 void occlusion(const OcclusionReceivers& receivers, std::size_t receiverBegin, std::size_t receiverEnd,

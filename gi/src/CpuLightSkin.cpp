@@ -4,6 +4,7 @@
 #include "CpuGatherKernels.h"
 #include "CpuValTreeGather.h"
 #include "GatherShaders.h"
+#include "TsanParallelRegion.h"
 #include "reference/LightSkinMath.h"
 
 #include <lightskin/core/Error.h>
@@ -18,6 +19,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <ctime>
@@ -60,17 +62,23 @@ static_assert(kValTile % cpu::kSumBlock == 0);
 /// tracker on 2 cores (docs/BENCHMARKS.md, "SIMD and thread libraries").
 template <class Body>
 void parallelRanges(tbb::task_arena& arena, std::size_t count, const Body& body) {
-    const std::size_t groups = count / cpu::kReceiverPadding;
-    const std::size_t n = std::size_t(arena.max_concurrency());
-    arena.execute([&] {
+    struct Context {
+        std::size_t groups, n;
+        const Body& body;
+        detail::TsanParallelRegion region; // last: the fork edge follows the fields above
+    } context{count / cpu::kReceiverPadding, std::size_t(arena.max_concurrency()), body, {}};
+    arena.execute([&context] {
         tbb::parallel_for(
-            tbb::blocked_range<std::size_t>(0, n, 1),
-            [&](const tbb::blocked_range<std::size_t>& threads) {
+            tbb::blocked_range<std::size_t>(0, context.n, 1),
+            [ctx = &context](const tbb::blocked_range<std::size_t>& threads) {
+                const Context& c = *detail::TsanParallelRegion::captured(ctx);
+                c.region.taskBegin();
                 for (std::size_t t = threads.begin(); t < threads.end(); ++t) {
-                    const std::size_t begin = groups * t / n * cpu::kReceiverPadding;
-                    const std::size_t end = groups * (t + 1) / n * cpu::kReceiverPadding;
-                    if (begin < end) body(begin, end);
+                    const std::size_t begin = c.groups * t / c.n * cpu::kReceiverPadding;
+                    const std::size_t end = c.groups * (t + 1) / c.n * cpu::kReceiverPadding;
+                    if (begin < end) c.body(begin, end);
                 }
+                c.region.taskEnd();
             },
             tbb::static_partitioner());
     });
@@ -79,11 +87,18 @@ void parallelRanges(tbb::task_arena& arena, std::size_t count, const Body& body)
 /// body(i) for i in [begin, end) in `arena`, in contiguous chunks (each i independent).
 template <class Body>
 void parallelFor(tbb::task_arena& arena, std::size_t begin, std::size_t end, const Body& body) {
+    struct Context {
+        const Body& body;
+        detail::TsanParallelRegion region;
+    } context{body, {}};
     arena.execute([&] {
         tbb::parallel_for(
             tbb::blocked_range<std::size_t>(begin, end),
-            [&](const tbb::blocked_range<std::size_t>& r) {
-                for (std::size_t i = r.begin(); i < r.end(); ++i) body(i);
+            [ctx = &context](const tbb::blocked_range<std::size_t>& r) {
+                const Context& c = *detail::TsanParallelRegion::captured(ctx);
+                c.region.taskBegin();
+                for (std::size_t i = r.begin(); i < r.end(); ++i) c.body(i);
+                c.region.taskEnd();
             },
             tbb::static_partitioner());
     });
@@ -128,7 +143,7 @@ struct CpuLightSkin::Impl {
     std::vector<glm::vec4> vertexVpls; // 4 vec4 per vertex, gather_vertex_vpl.glsl's layout
     bool glossy = true, occlusion = true;
     double readbackMs = 0.0; // render(): the VAL read-back, counted in the upload stage
-    cpu::ValTreeCut treeCut;  // LightSkinSettings::valTreeThreshold > 0 (issue 17)
+    cpu::ValTreeCut treeCut; // LightSkinSettings::valTreeThreshold > 0 (issue 17)
 
     std::unique_ptr<tbb::task_arena> arena; // settings.threads workers (0: one per hardware thread)
     int threadCount() const { return arena->max_concurrency(); }
@@ -225,13 +240,19 @@ struct CpuLightSkin::Impl {
     /// Stage 1: the running sums of every receiver over all VALs, tile by tile.
     void gather() {
         std::fill(sums.begin(), sums.end(), 0.0f);
-        const cpu::GatherParameters parameters{glossy, moments()};
+        cpu::prepareGather(vals, receivers, pointCount); // VAL block boxes, receivers in coherent groups
+        const cpu::GatherParameters parameters{glossy, moments(), settings.skipHiddenBlocks};
         const std::size_t stride = receivers.padded;
+        std::atomic<std::uint64_t> skipped{0};
         parallelRanges(*arena, receivers.padded, [&](std::size_t begin, std::size_t end) {
+            std::uint64_t n = 0;
             for (std::uint32_t first = 0; first < vals.padded; first += kValTile)
-                cpu::gather(vals, first, std::min(first + kValTile, vals.padded), receivers, begin, end, parameters,
-                            sums.data(), stride);
+                n += cpu::gather(vals, first, std::min(first + kValTile, vals.padded), receivers, begin, end,
+                                 parameters, sums.data(), stride);
+            skipped += n;
         });
+        const double blocks = double(vals.padded / cpu::kSumBlock) * double(receivers.padded / cpu::kReceiverPadding);
+        stats.gatherBlocksSkipped = blocks > 0.0 ? double(skipped.load()) / blocks : 0.0;
     }
 
     double sum(std::size_t s, std::size_t i) const { return double(sums[s * receivers.padded + i]); }
@@ -550,8 +571,10 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
                             double(impl.settings.lightSkin.cParameter), impl.glossy, impl.moments(), treeThreshold,
                             impl.threadCount(), impl.sums.data(), impl.receivers.padded,
                             cpu::ValTreeImage{pixels.keys, pixels.width, pixels.height});
-        stats.valTreeCutPerPoint = double(impl.treeCut.stats().taken) / double(std::max<std::uint32_t>(impl.pointCount, 1));
+        stats.valTreeCutPerPoint =
+            double(impl.treeCut.stats().taken) / double(std::max<std::uint32_t>(impl.pointCount, 1));
         stats.valTreeQuadtree = impl.treeCut.stats().quadtree;
+        stats.gatherBlocksSkipped = 0.0;
     } else {
         impl.gather();
         stats.valTreeCutPerPoint = 0.0;

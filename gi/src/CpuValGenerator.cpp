@@ -1,5 +1,7 @@
 // CpuValGenerator: val_from_depth.comp on the CPU (see the header). The function below follows the
 // shader line by line; keep the two in step (gi_cpu_val_generator_gl_test compares them).
+#include "TsanParallelRegion.h"
+
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/CpuValGenerator.h>
 
@@ -205,15 +207,36 @@ std::span<const VirtualAreaLight> CpuValGenerator::generate(const cv::Mat& depth
 
     const int mapW = valMapWidth(width_, settings_), mapH = valMapHeight(height_, settings_);
     // Rows of the VAL map are independent; each cell has its own slot, packed in raster order below.
-    workers_->arena.execute([&] {
-        tbb::parallel_for(tbb::blocked_range<int>(0, mapH, 4), [&](const tbb::blocked_range<int>& rows) {
-            for (int j = rows.begin(); j < rows.end(); ++j)
-                for (int i = 0; i < mapW; ++i) {
-                    const std::size_t cell = std::size_t(j) * std::size_t(mapW) + std::size_t(i);
-                    valid_[cell] = valFromDepth(in, {i, j}, slots_[cell], pixelIndices_[cell]) ? 1 : 0;
-                }
+    {
+        // the task body reads its inputs through this context (TsanParallelRegion.h); joined at the
+        // end of this scope
+        struct Context {
+            const PassInputs& in;
+            int mapW;
+            std::uint8_t* valid;
+            VirtualAreaLight* slots;
+            std::uint32_t* pixelIndices;
+            detail::TsanParallelRegion region;
+        } context{in, mapW, valid_.data(), slots_.data(), pixelIndices_.data(), {}};
+        workers_->arena.execute([&] {
+            // static_partitioner (rows cost about the same): auto_partitioner's work-stealing flags
+            // are atomics that libtbb initialises and hands over unseen by TSan, whose reports then
+            // have no restorable stack to suppress them by (TsanParallelRegion.h)
+            tbb::parallel_for(
+                tbb::blocked_range<int>(0, mapH, 4),
+                [ctx = &context](const tbb::blocked_range<int>& rows) {
+                    const Context& c = *detail::TsanParallelRegion::captured(ctx);
+                    c.region.taskBegin();
+                    for (int j = rows.begin(); j < rows.end(); ++j)
+                        for (int i = 0; i < c.mapW; ++i) {
+                            const std::size_t cell = std::size_t(j) * std::size_t(c.mapW) + std::size_t(i);
+                            c.valid[cell] = valFromDepth(c.in, {i, j}, c.slots[cell], c.pixelIndices[cell]) ? 1 : 0;
+                        }
+                    c.region.taskEnd();
+                },
+                tbb::static_partitioner());
         });
-    });
+    }
     std::size_t n = 0;
     for (std::size_t cell = 0; cell < slots_.size(); ++cell)
         if (valid_[cell]) {

@@ -24,6 +24,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstring>
 
 namespace lightskin::test {
@@ -210,6 +211,44 @@ TEST_F(CpuLightSkinGLTest, ResultsAreBitwiseIndependentOfTheThreadCount) {
         EXPECT_TRUE(bitwiseEqual(one.vertex, other.vertex)) << threads << " threads: vertex VPLs";
         EXPECT_TRUE(bitwiseEqual(one.image, other.image)) << threads << " threads: image";
     }
+}
+
+// The gather skips blocks of 16 VALs x 16 sparse points wholly behind the points (CpuGatherKernels.h,
+// prepareGather): every term there is exactly +0, so skipping them must change no bit of anything.
+// A ceiling emitter in raster order (blocks of 16 neighbouring VALs) over the sphere: the sphere's
+// downward-facing points see none of it, so some blocks are skipped (asserted: else this compares
+// the same computation twice).
+TEST_F(CpuLightSkinGLTest, SkippingHiddenBlocksChangesNoBit) {
+    Scene scene = sphereOverFloor();
+    const auto ceiling = squareEmitter({0.0f, 0.0f, 2.0f}, {0.0f, 0.0f, -1.0f}, 2.0f, 48, {0.8f, 0.7f, 0.6f});
+    scene.vals.insert(scene.vals.end(), ceiling.begin(), ceiling.end());
+    gi::LightSkinSettings settings; // diffuse + glossy + occlusion
+    const auto run = [&](bool skip, double* skipped) {
+        scene.upload();
+        gi::CpuLightSkinSettings cpuSettings;
+        cpuSettings.lightSkin = settings;
+        cpuSettings.threads = 2;
+        cpuSettings.skipHiddenBlocks = skip;
+        auto technique = gi::CpuLightSkin::create(cpuSettings, scene.provider());
+        technique->prepare(scene.instances);
+        GpuRun result = renderAndRead(scene, *technique);
+        *skipped = technique->lastStats().gatherBlocksSkipped;
+        return result;
+    };
+    double skippedOn = 0.0, skippedOff = 0.0;
+    const GpuRun all = run(false, &skippedOff);
+    const GpuRun skipping = run(true, &skippedOn);
+    EXPECT_EQ(skippedOff, 0.0);
+    EXPECT_GT(skippedOn, 0.0) << "no block was skipped: the test would compare a computation with itself";
+    std::printf("blocks skipped: %.1f %%\n", 100.0 * skippedOn);
+    EXPECT_TRUE(bitwiseEqual(all.gather, skipping.gather)) << "gather sums";
+    EXPECT_TRUE(bitwiseEqual(all.vpls, skipping.vpls)) << "renormalised VPLs";
+    EXPECT_TRUE(bitwiseEqual(all.occlusion, skipping.occlusion)) << "occlusion";
+    EXPECT_TRUE(bitwiseEqual(all.vertex, skipping.vertex)) << "vertex VPLs";
+    EXPECT_TRUE(bitwiseEqual(all.image, skipping.image)) << "image";
+    // and not all zero: the image carries the light (CarriesTheLight.h)
+    scene.gbuffer.render(scene.instances, scene.view().clip_T_world);
+    expectCarriesTheLight(scene, skipping.image, scene.vals, true, "skipping");
 }
 
 TEST_F(CpuLightSkinGLTest, EmptyValSetGivesExactlyZeroAndStageTimesAreReported) {

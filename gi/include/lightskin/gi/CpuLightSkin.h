@@ -27,6 +27,10 @@ struct CpuLightSkinSettings {
     /// Worker threads for stages 1-4; 0 = all hardware threads (oneTBB's default). Speed only:
     /// the results do not depend on it.
     int threads = 0;
+    /// Skip the gather's blocks of 16 VALs x 16 sparse points that lie wholly behind the points
+    /// (every cos theta_i <= 0, so every term is exactly 0). Exact: the results are the same bit for
+    /// bit either way; false only to check that (tests) or to measure the saving (benchmarks).
+    bool skipHiddenBlocks = true;
 };
 
 /// Wall-clock times of the CPU stages of the last render() and what they did (for benchmarks).
@@ -43,6 +47,8 @@ struct CpuLightSkinStats {
     std::string simdTarget;          ///< the instruction set the runtime dispatch chose, e.g. "AVX3"
     double valTreeCutPerPoint = 0.0; ///< valTreeThreshold > 0 (issue 17): lights taken per sparse point
     bool valTreeQuadtree = false;    ///< the cut went through the image quadtree (CpuValPixelKeys), else the BVH
+    /// Fraction of the gather's (16 VALs x 16 sparse points) blocks skipped as wholly hidden.
+    double gatherBlocksSkipped = 0.0;
 };
 
 /// Where VALs on the CPU come from the pixels of an image (gi::CpuValGenerator::lastPixelIndices()):
