@@ -88,6 +88,7 @@ struct LightModel {
     std::string name;
     bool robust;
     bool irradianceCap = true; ///< with robust: guard G10 (false: "robust-nocap")
+    bool nearField = true;     ///< with robust: guard G11, near-field VALs as areas (false: "robust-point")
 };
 
 struct Bounds {
@@ -326,6 +327,7 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
     render::Scene scene = render::loadScene(options.scene);
     scene.gi.robustRealDepth = model.robust;
     scene.gi.robustIrradianceCap = model.irradianceCap;
+    scene.gi.robustNearField = model.nearField;
     // Frame 0: the surfaces the objects stand on, in the world frame of the case's pose mode.
     auto source = capture::openFrameSource(recording.string(), {});
     RgbdFrame first;
@@ -531,8 +533,11 @@ void runRealDepthBench(const RealDepthBenchOptions& options) {
             models.push_back({"robust", true});
         else if (m == "robust-nocap")
             models.push_back({"robust-nocap", true, false});
+        else if (m == "robust-point")
+            models.push_back({"robust-point", true, true, false});
         else
-            throw Error("--models", std::nullopt, "unknown light model '" + m + "' (old, robust, robust-nocap)");
+            throw Error("--models", std::nullopt,
+                        "unknown light model '" + m + "' (old, robust, robust-nocap, robust-point)");
     }
     std::vector<CaseResult> results;
     for (const RealCase& c : realCases()) {

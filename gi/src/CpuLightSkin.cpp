@@ -2,6 +2,7 @@
 // bookkeeping are here; the SIMD kernels in CpuGatherKernels.cpp; every per-point formula is the
 // double instance of lightskin_math.glsl (reference/LightSkinMath.h).
 #include "CpuGatherKernels.h"
+#include "CpuNearField.h"
 #include "CpuValTreeGather.h"
 #include "GatherShaders.h"
 #include "reference/LightSkinMath.h"
@@ -124,8 +125,9 @@ struct CpuLightSkin::Impl {
     std::vector<float> occlusionD, occlusionS;
     std::vector<glm::vec4> vertexVpls; // 4 vec4 per vertex, gather_vertex_vpl.glsl's layout
     bool glossy = true, occlusion = true;
-    double readbackMs = 0.0; // render(): the VAL read-back, counted in the upload stage
-    cpu::ValTreeCut treeCut;  // LightSkinSettings::valTreeThreshold > 0 (issue 17)
+    double readbackMs = 0.0;            // render(): the VAL read-back, counted in the upload stage
+    cpu::ValTreeCut treeCut;            // LightSkinSettings::valTreeThreshold > 0 (issue 17)
+    cpu::NearFieldCorrection nearField; // guard G11 (LightSkinSettings::nearFieldArea) of the flat gather
 
     std::unique_ptr<tbb::task_arena> arena; // settings.threads workers (0: one per hardware thread)
     int threadCount() const { return arena->max_concurrency(); }
@@ -224,10 +226,13 @@ struct CpuLightSkin::Impl {
         std::fill(sums.begin(), sums.end(), 0.0f);
         const cpu::GatherParameters parameters{glossy, moments()};
         const std::size_t stride = receivers.padded;
+        const bool areas = settings.lightSkin.nearFieldArea;
+        if (areas) nearField.index(vals);
         parallelRanges(*arena, receivers.padded, [&](std::size_t begin, std::size_t end) {
             for (std::uint32_t first = 0; first < vals.padded; first += kValTile)
                 cpu::gather(vals, first, std::min(first + kValTile, vals.padded), receivers, begin, end, parameters,
                             sums.data(), stride);
+            if (areas) nearField.apply(vals, receivers, begin, end, parameters, sums.data(), stride); // G11
         });
     }
 
@@ -535,9 +540,11 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
         impl.treeCut.gather(lights, std::span(impl.pointPosition).first(impl.pointCount),
                             std::span(impl.pointNormal).first(impl.pointCount),
                             std::span(impl.pointExponent).first(impl.pointCount), eye,
-                            double(impl.settings.lightSkin.cParameter), impl.glossy, impl.moments(), treeThreshold,
-                            impl.threadCount(), impl.sums.data(), impl.receivers.padded);
-        stats.valTreeCutPerPoint = double(impl.treeCut.stats().taken) / double(std::max<std::uint32_t>(impl.pointCount, 1));
+                            double(impl.settings.lightSkin.cParameter), impl.glossy, impl.moments(),
+                            impl.settings.lightSkin.nearFieldArea, treeThreshold, impl.threadCount(), impl.sums.data(),
+                            impl.receivers.padded);
+        stats.valTreeCutPerPoint =
+            double(impl.treeCut.stats().taken) / double(std::max<std::uint32_t>(impl.pointCount, 1));
     } else {
         impl.gather();
         stats.valTreeCutPerPoint = 0.0;

@@ -24,10 +24,12 @@ struct ValTreeCutStats {
 class ValTreeCut {
 public:
     /// Builds the tree of `lights` (reusing its storage) and writes point i's sums to
-    /// sums[s * stride + i], s < kGatherSums. threshold > 0; c: c of c_k = c (k + 1).
+    /// sums[s * stride + i], s < kGatherSums. threshold > 0; c: c of c_k = c (k + 1); nearField: guard
+    /// G11 of lightskin_math.glsl.
     void gather(std::span<const VirtualAreaLight> lights, std::span<const glm::dvec3> positions,
                 std::span<const glm::dvec3> normals, std::span<const double> exponents, const glm::dvec3& eye, double c,
-                bool glossy, bool moments, double threshold, int threads, float* sums, std::size_t stride);
+                bool glossy, bool moments, bool nearField, double threshold, int threads, float* sums,
+                std::size_t stride);
     const ValTreeCutStats& stats() const noexcept { return stats_; }
 
 private:

@@ -33,7 +33,7 @@ struct ValTreeGatherStats {
 class ValTreeGather {
 public:
     /// Compiles the four variants of gather_tree.comp.
-    void buildPrograms(const gl::ShaderLibrary& library);
+    void buildPrograms(const gl::ShaderLibrary& library, bool nearField); ///< nearField: guard G11
     /// Gathers `count` VALs of `valBuffer` (std430 VirtualAreaLight) at `pointCount` sparse points into
     /// `targets` (the five rgba32f gather targets, cleared by the caller). threshold > 0. keyBuffer != 0
     /// and keyWidth > 0: one uint pixel key per VAL in a keyWidth x (keyCount / keyWidth) image (ValSetView):

@@ -110,6 +110,7 @@ std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettin
         s.extendedVplHorizon = settings.robustRealDepth;
         s.valTreeThreshold = settings.valTreeThreshold;
         s.vertexIrradianceCap = settings.robustRealDepth && settings.robustIrradianceCap;
+        s.nearFieldArea = settings.robustRealDepth && settings.robustNearField;
         const gi::SparsePointProvider provider = [&renderer](const gi::MeshInstance& instance) {
             const gi::SparsePointSet* points = renderer.sparsePoints(instance.meshId);
             LIGHTSKIN_ASSERT(points != nullptr, "lightskin::mr::createTechnique(): the renderer prepared no sparse points");
@@ -126,6 +127,7 @@ std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettin
         gi::BruteForceSettings s;
         s.kCache = settings.kCache;
         s.glossy = settings.glossy;
+        s.nearFieldArea = settings.robustRealDepth && settings.robustNearField;
         return gi::BruteForceIllumination::create(s);
     }
     if (settings.technique == "imperfect-volumes") return gi::ImperfectVolumes::create(settings.imperfectVolumes);

@@ -123,6 +123,7 @@ TEST_P(CpuLightSkinSetupGLTest, EveryStageMatchesTheDoubleReference) {
     gi::LightSkinSettings settings;
     settings.glossy = setup.glossy;
     settings.occlusion = setup.occlusion;
+    settings.nearFieldArea = setup.nearField;
     checkSetup(setup, scene, runCpu(scene, settings));
 }
 
@@ -132,6 +133,7 @@ TEST_P(CpuLightSkinSetupGLTest, MatchesTheGlPath) {
     gi::LightSkinSettings settings;
     settings.glossy = setup.glossy;
     settings.occlusion = setup.occlusion;
+    settings.nearFieldArea = setup.nearField;
     const GpuRun cpu = runCpu(scene, settings);
     const GpuRun gl = runGl(scene, settings);
     compareBackends(cpu, gl, setup, maxExponent(scene), 3e-3);
@@ -145,6 +147,7 @@ TEST_P(CpuLightSkinSetupGLTest, EveryInstructionSetMatchesTheDoubleReference) {
     gi::LightSkinSettings settings;
     settings.glossy = setup.glossy;
     settings.occlusion = setup.occlusion;
+    settings.nearFieldArea = setup.nearField;
     const ReferenceRun r = runReference(scene, setup);
     const std::vector<std::string> targets = gi::cpuSimdTargets();
     ASSERT_FALSE(targets.empty());
@@ -167,7 +170,8 @@ TEST_P(CpuLightSkinSetupGLTest, EveryInstructionSetMatchesTheDoubleReference) {
 
 INSTANTIATE_TEST_SUITE_P(PaperSetups, CpuLightSkinSetupGLTest,
                          ::testing::Values(PaperSetup{"diffuse", false, false}, PaperSetup{"glossy", true, false},
-                                           PaperSetup{"occlusion", true, true}),
+                                           PaperSetup{"occlusion", true, true},
+                                           PaperSetup{"near_field", true, true, true}),
                          [](const auto& param_info) { return std::string(param_info.param.name); });
 
 // ---- numerical extremes (the GL path's suite) --------------------------------------------------

@@ -95,6 +95,10 @@ struct LightSkinSettings {
     /// unoccluded share), so eq. 11's division by a grazing cos cannot amplify light at the vertex.
     /// false = no cap (the model before it).
     bool vertexIrradianceCap = true;
+    /// Guard G11 of lightskin_math.glsl (issue 12): a VAL nearer than 4 of its radii to a sparse point
+    /// is integrated as an area (a 32-gon of its area, clipped by the point's tangent plane, Lambert's
+    /// closed form) instead of eq. 3's point-like disc. false = the point model (before it).
+    bool nearFieldArea = true;
 };
 
 /// What the adaptive mode chose for the last frame.

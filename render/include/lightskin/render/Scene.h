@@ -85,6 +85,10 @@ struct GiSettings {
     /// Not a scene key: with robustRealDepth, false drops only its vertex irradiance cap (guard G10)
     /// for measurement (`lightskin bench-realdepth --models robust-nocap`).
     bool robustIrradianceCap = true;
+    /// Not a scene key: with robustRealDepth, false drops only its near-field VALs as areas (guard G11:
+    /// gi::LightSkinSettings::nearFieldArea, gi::BruteForceSettings::nearFieldArea) for measurement
+    /// (`lightskin bench-realdepth --models robust-point`).
+    bool robustNearField = true;
     /// Technique "imperfect-volumes" (gi/ImperfectVolumes.h): the "imperfectVolumes" object.
     gi::ImperfectVolumesSettings imperfectVolumes;
     /// Technique "multiscale-prt" (gi/MultiscalePrt.h): the "multiscalePrt" object. Its cacheDirectory is
