@@ -554,15 +554,22 @@ void runRealDepthBench(const RealDepthBenchOptions& options) {
                 std::fflush(stdout);
             }
     }
+    // Total light is relative to the old model, or where it did not run to the first model listed
+    // (e.g. --models robust-point,robust: the change G11 makes).
+    std::string baseline = models.empty() ? "old" : models.front().name;
+    for (const LightModel& m : models)
+        if (m.name == "old") baseline = "old";
     std::ostringstream md;
     md << "| recording | sink | light model | frames | VALs/frame | speckle LightSkin | speckle brute force | black / "
           "blown (LS) | "
-          "black / blown (BF) | total light LS vs old | total light BF vs old | median-only speckle LS / BF "
+          "black / blown (BF) | total light LS vs "
+       << baseline << " | total light BF vs " << baseline
+       << " | median-only speckle LS / BF "
           "|\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const CaseResult& r : results) {
         const CaseResult* old = nullptr;
         for (const CaseResult& o : results)
-            if (o.recording == r.recording && o.sink == r.sink && o.model == "old") old = &o;
+            if (o.recording == r.recording && o.sink == r.sink && o.model == baseline) old = &o;
         char row[512];
         std::snprintf(row, sizeof row,
                       "| %s | %.0f mm | %s | %d | %.0f | %s | %s | %zu / %zu | %zu / %zu | %s | %s | %s / %s |\n",
