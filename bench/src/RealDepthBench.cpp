@@ -88,7 +88,7 @@ struct LightModel {
     std::string name;
     bool robust;
     bool irradianceCap = true; ///< with robust: guard G10 (false: "robust-nocap")
-    bool nearField = true;     ///< with robust: guard G11, near-field VALs as areas (false: "robust-point")
+    bool nearField = false;    ///< with robust: guard G11, near-field VALs as areas ("robust-area")
 };
 
 struct Bounds {
@@ -533,11 +533,11 @@ void runRealDepthBench(const RealDepthBenchOptions& options) {
             models.push_back({"robust", true});
         else if (m == "robust-nocap")
             models.push_back({"robust-nocap", true, false});
-        else if (m == "robust-point")
-            models.push_back({"robust-point", true, true, false});
+        else if (m == "robust-area")
+            models.push_back({"robust-area", true, true, true});
         else
             throw Error("--models", std::nullopt,
-                        "unknown light model '" + m + "' (old, robust, robust-nocap, robust-point)");
+                        "unknown light model '" + m + "' (old, robust, robust-nocap, robust-area)");
     }
     std::vector<CaseResult> results;
     for (const RealCase& c : realCases()) {
@@ -555,7 +555,7 @@ void runRealDepthBench(const RealDepthBenchOptions& options) {
             }
     }
     // Total light is relative to the old model, or where it did not run to the first model listed
-    // (e.g. --models robust-point,robust: the change G11 makes).
+    // (e.g. --models robust,robust-area: the change G11 makes).
     std::string baseline = models.empty() ? "old" : models.front().name;
     for (const LightModel& m : models)
         if (m.name == "old") baseline = "old";

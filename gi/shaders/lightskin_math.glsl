@@ -227,43 +227,54 @@ LS_FN rvec3 ls_edgeVector(rvec3 a, rvec3 b) {
 // receiver's tangent plane: Phi = -(1 / 2 pi) sum_edges beta_e gamma_e (Lambert; the vertices run
 // counter-clockwise about nl), and the form factor is n . Phi >= 0. 0 behind the VAL (one-sided).
 // The clipped polygon is streamed: edges above the plane, the parts of the crossing edges above
-// it, and the chord in the plane from where the boundary leaves to where it comes back.
-LS_FN rvec3 ls_nearFieldVector(rvec3 offset, rvec3 n, rvec3 nl, real r2) {
-    if (!(-dot(nl, offset) > 0.0)) return rvec3(0.0);
-    const real radius = sqrt(r2) * kNearFieldCircumradius;
-    const rvec3 t = ls_tangent(nl) * radius;
-    const rvec3 b = ls_binormal(nl) * radius;
+// it, and the chord in the plane from where the boundary leaves to where it comes back. sides:
+// kNearFieldSides, or 0 for a VAL outside the near field (0 vector). A run-time trip count on
+// purpose: llvmpipe runs both sides of a divergent `if` under a mask, but leaves a loop as soon as
+// no lane iterates, so a shader whose VALs are all far skips the polygon (measured: with the loop
+// behind an `if` alone, the brute force took 4-5x as long on a scene without near-field pairs).
+LS_FN rvec3 ls_nearFieldVector(rvec3 offset, rvec3 n, rvec3 nl, real r2, int sides) {
     rvec3 sum = rvec3(0.0);
     rvec3 leave = rvec3(0.0);
     rvec3 enter = rvec3(0.0);
+    rvec3 t = rvec3(0.0);
+    rvec3 b = rvec3(0.0);
+    rvec3 p = rvec3(0.0);
     bool left = false;
     bool entered = false;
     real c = 1.0;
     real s = 0.0;
-    rvec3 p = offset + t;
-    real hp = dot(n, p);
-    for (int k = 1; k <= kNearFieldSides; ++k) {
-        const real cNext = c * kNearFieldCos - s * kNearFieldSin;
-        s = s * kNearFieldCos + c * kNearFieldSin;
-        c = cNext;
-        const rvec3 q = k == kNearFieldSides ? offset + t : offset + c * t + s * b; // closes exactly
-        const real hq = dot(n, q);
-        if (hp >= 0.0 && hq >= 0.0) {
-            sum += ls_edgeVector(p, q);
-        } else if (hp >= 0.0) {
-            leave = p + (q - p) * (hp / (hp - hq));
-            left = true;
-            sum += ls_edgeVector(p, leave);
-        } else if (hq >= 0.0) {
-            enter = p + (q - p) * (hp / (hp - hq));
-            entered = true;
-            sum += ls_edgeVector(enter, q);
+    real hp = 0.0;
+    // k = 0 sets up the frame and the first vertex inside the loop, so that far VALs pay nothing
+    for (int k = 0; k <= sides && sides > 0; ++k) {
+        if (k == 0) {
+            const real radius = sqrt(r2) * kNearFieldCircumradius;
+            t = ls_tangent(nl) * radius;
+            b = ls_binormal(nl) * radius;
+            p = offset + t;
+            hp = dot(n, p);
+        } else {
+            const real cNext = c * kNearFieldCos - s * kNearFieldSin;
+            s = s * kNearFieldCos + c * kNearFieldSin;
+            c = cNext;
+            const rvec3 q = k == sides ? offset + t : offset + c * t + s * b; // closes exactly
+            const real hq = dot(n, q);
+            if (hp >= 0.0 && hq >= 0.0) {
+                sum += ls_edgeVector(p, q);
+            } else if (hp >= 0.0) {
+                leave = p + (q - p) * (hp / (hp - hq));
+                left = true;
+                sum += ls_edgeVector(p, leave);
+            } else if (hq >= 0.0) {
+                enter = p + (q - p) * (hp / (hp - hq));
+                entered = true;
+                sum += ls_edgeVector(enter, q);
+            }
+            p = q;
+            hp = hq;
         }
-        p = q;
-        hp = hq;
     }
     if (left && entered) sum += ls_edgeVector(leave, enter);
-    return sum * (-1.0 / (2.0 * kPi));
+    return -dot(nl, offset) > 0.0 ? sum * (-1.0 / (2.0 * kPi)) : rvec3(0.0); // one-sided
 }
 
 // eq. 3 geometry of one VAL (l, nl, area) seen from a receiver (x, n), with guards G1, G2, G11.
@@ -281,21 +292,22 @@ LS_FN DiscTerms ls_discTerms(rvec3 x, rvec3 n, rvec3 l, rvec3 nl, real area, boo
     t.offset = l - x;
     t.r2 = area > 0.0 ? area / kPi : 0.0;
     const real d2 = dot(t.offset, t.offset);
-    if (nearField && d2 < kNearFieldRatio2 * t.r2) {
-        // G11: w cos(theta_i) = n . Phi = |Phi| cos(theta_i) with theta_i the angle to Phi
-        const rvec3 phi = ls_nearFieldVector(t.offset, n, nl, t.r2);
-        const real length2 = dot(phi, phi);
-        const real invLength = length2 > 0.0 ? inversesqrt(length2) : 0.0;
-        t.toLight = length2 > 0.0 ? phi * invLength : t.offset * inversesqrt(max(d2, kTinyLength2));
-        t.cosI = max(dot(n, t.toLight), 0.0);
-        t.g = length2 * invLength / t.r2;
-        return t;
-    }
+    // G11, outside any `if`: the trip count (0 far away) is what lets llvmpipe skip the polygon
+    const bool near = nearField && d2 < kNearFieldRatio2 * t.r2;
+    const rvec3 phi = ls_nearFieldVector(t.offset, n, nl, t.r2, near ? kNearFieldSides : 0);
     const real invLength = inversesqrt(max(d2 + kCoincident * t.r2, kTinyLength2)); // G1
     t.toLight = t.offset * invLength;
     t.cosI = max(dot(n, t.toLight), 0.0);
     const real cosJ = max(-dot(nl, t.toLight), 0.0);
     t.g = cosJ / max(t.r2 + d2, kTinyLength2);                                     // G2
+    if (near) {
+        // G11: w cos(theta_i) = n . Phi = |Phi| cos(theta_i) with theta_i the angle to Phi
+        const real length2 = dot(phi, phi);
+        const real invPhi = length2 > 0.0 ? inversesqrt(length2) : 0.0;
+        t.toLight = length2 > 0.0 ? phi * invPhi : t.toLight;
+        t.cosI = max(dot(n, t.toLight), 0.0);
+        t.g = length2 * invPhi / t.r2;
+    }
     return t;
 }
 
