@@ -37,8 +37,8 @@ void addBenchGatherCommand(CLI::App& app, int& exitCode) {
                         "Comma-separated LightSkinSettings::valTreeThreshold values (0 = flat gather; issue 17)");
     command->add_flag("--tree-bvh", options->treeBvh,
                       "With --tree > 0: also the BVH beside the VAL map's quadtree, side by side");
-    command->add_flag("--point-model", options->pointModel,
-                      "Guard G11 off: near-field VALs as point-like discs (eq. 3), to time G11 against the default");
+    command->add_flag("--near-field", options->nearField,
+                      "Guard G11 on: near-field VALs as areas (off by default), to time it against the default");
     command->add_flag("--diffuse-only", options->diffuseOnly,
                       "Only the diffuse setup (the one compared with the brute force)");
     command->callback([=, &exitCode] {

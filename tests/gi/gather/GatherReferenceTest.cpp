@@ -39,7 +39,7 @@ TEST(GatherReference, SingleCoaxialDiscGivesTheExactDiscFormFactor) {
         // within its polygon's tolerance
         const double point = ref::irradiance(std::span(&l, 1), dvec3(0.0), dvec3(0, 0, 1), 0, false);
         EXPECT_NEAR(point / exitance(l), r2 / (r2 + h * h), 1e-6 * r2 / (r2 + h * h)) << "h = " << h;
-        const double e = ref::irradiance(std::span(&l, 1), dvec3(0.0), dvec3(0, 0, 1));
+        const double e = ref::irradiance(std::span(&l, 1), dvec3(0.0), dvec3(0, 0, 1), 0, true);
         EXPECT_NEAR(e / exitance(l), r2 / (r2 + h * h),
                     h * h < 16.0 * r2 ? polygonTolerance(std::sqrt(r2), h) : 1e-6 * r2 / (r2 + h * h))
             << "h = " << h;
@@ -145,12 +145,12 @@ TEST(GatherReference, NearFieldAreaMatchesHowellsParallelDisc) {
         for (double azimuth : {0.0, 0.3, 1.9}) { // the polygon's vertices and edges lie at different angles
             const double h = c[0] * r, s = c[1] * r;
             const dvec3 x(s * std::cos(azimuth), s * std::sin(azimuth), h);
-            const double f = ref::irradiance(std::span(&l, 1), x, dvec3(0, 0, -1)) / m;
+            const double f = ref::irradiance(std::span(&l, 1), x, dvec3(0, 0, -1), 0, true) / m;
             EXPECT_NEAR(f, parallelDiscFormFactor(r, h, s), polygonTolerance(r, h))
                 << "h = " << c[0] << " r, s = " << c[1] << " r, azimuth " << azimuth;
         }
     // the case of the issue: exact 0.475, now within 0.7 % instead of 1 %
-    const double f = ref::irradiance(std::span(&l, 1), dvec3(r, 0, 0.1 * r), dvec3(0, 0, -1)) / m;
+    const double f = ref::irradiance(std::span(&l, 1), dvec3(r, 0, 0.1 * r), dvec3(0, 0, -1), 0, true) / m;
     EXPECT_NEAR(f, 0.475, 0.475 * 0.01);
 }
 
@@ -161,7 +161,7 @@ TEST(GatherReference, NearFieldAreaMatchesHowellsPerpendicularElement) {
     const double cases[][2] = {{0.2, 1.1}, {0.05, 1.05}, {0.5, 2.0}, {1.0, 1.5}, {1.5, 3.0}};
     for (const auto& c : cases) {
         const double h = c[0] * r, s = c[1] * r;
-        const double f = ref::irradiance(std::span(&l, 1), dvec3(s, 0, h), dvec3(-1, 0, 0)) / m;
+        const double f = ref::irradiance(std::span(&l, 1), dvec3(s, 0, h), dvec3(-1, 0, 0), 0, true) / m;
         const double exact = perpendicularDiscFormFactor(r, h, s);
         EXPECT_GT(exact, 0.01);
         EXPECT_NEAR(f, exact, polygonTolerance(r, h)) << "h = " << c[0] << " r, s = " << c[1] << " r";
@@ -193,7 +193,7 @@ TEST(GatherReference, NearFieldAreaMatchesQuadratureAtTiltedAndClippedReceivers)
     int lit = 0;
     for (const Case& c : cases) {
         const dvec3 x = c.x * r, n = glm::normalize(c.n);
-        const double f = ref::irradiance(std::span(&l, 1), x, n) / m;
+        const double f = ref::irradiance(std::span(&l, 1), x, n, 0, true) / m;
         const double fine = quadratureFormFactor(r, x, n, 1000), coarse = quadratureFormFactor(r, x, n, 500);
         // the midpoint rule's error, estimated by halving the cells (it shrinks at least linearly at
         // the horizon's kink, quadratically elsewhere: the fine grid's error <= |fine - coarse|)
@@ -204,7 +204,7 @@ TEST(GatherReference, NearFieldAreaMatchesQuadratureAtTiltedAndClippedReceivers)
     }
     EXPECT_GE(lit, 9); // all but the receiver facing away (and perhaps the small cap)
     // Behind the VAL (one-sided): 0 from both models.
-    EXPECT_EQ(ref::irradiance(std::span(&l, 1), dvec3(0.2, 0.0, -0.1) * r, dvec3(0, 0, 1)), 0.0);
+    EXPECT_EQ(ref::irradiance(std::span(&l, 1), dvec3(0.2, 0.0, -0.1) * r, dvec3(0, 0, 1), 0, true), 0.0);
 }
 
 // The area model's irradiance vector also gives the glossy channel (eq. 5): w = |Phi| and the lobe
@@ -222,6 +222,7 @@ TEST(GatherReference, NearFieldAreaGlossyWeightIsTheFormFactorOnTheAxis) {
     surface.exponent = 10.0;
     ref::GatherParameters parameters;
     parameters.epsilonL = 0.0;
+    parameters.nearField = true;
     const dvec3 eye(0, 0, -1.0); // on the axis below: the mirror direction of the disc's axis
     const double glossy = ref::bruteForce(std::span(&l, 1), surface, eye, parameters).x / m;
     // c_k M w cos^k(0) with c_k = (k + 1) / (2 pi), w = r^2 / (r^2 + h^2)

@@ -582,7 +582,7 @@ inline Scene extremeScene(const GpuExtreme& c) {
 /// A backend's run of extremeScene(c) (glossy, no occlusion): finite, non-negative, bounded by the
 /// sum of exitances, every stage and pixel within tolerance of both references, exactly 0 unlit.
 inline void checkExtreme(const GpuExtreme& c, const Scene& scene, const GpuRun& gpu) {
-    const PaperSetup setup{"glossy", true, false, true}; // the backends' default: guard G11 on
+    const PaperSetup setup{"glossy", true, false, true}; // guard G11 on: the callers run the backends with it
     const ReferenceRun r = runReference(scene, setup);
     double bound = 0.0; // sum of exitances bounds the irradiance
     for (const auto& l : scene.vals) bound += double(std::max({l.flux.x, l.flux.y, l.flux.z})) / double(l.area);

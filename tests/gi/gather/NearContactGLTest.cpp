@@ -117,6 +117,7 @@ ContactRun render(double sink) {
     run.vals = generator.downloadVals();
     gi::BruteForceSettings bs;
     bs.glossy = false;
+    bs.nearFieldArea = true; // guard G11 (the point model: brutePoint below)
     auto brute = gi::BruteForceIllumination::create(bs);
     brute->prepare(instances);
     brute->render(set, instances, gbuffer.view(), view, target.id());
@@ -140,6 +141,7 @@ ContactRun render(double sink) {
 
     gi::LightSkinSettings ls;
     ls.glossy = false;
+    ls.nearFieldArea = true; // guard G11 (the point model: lightSkinPoint below)
     auto lightSkin = gi::LightSkinIllumination::create(ls, [&points](const gi::MeshInstance&) { return points; });
     lightSkin->prepare(instances);
     lightSkin->render(set, instances, gbuffer.view(), view, target.id());
@@ -345,6 +347,7 @@ TEST_P(NearContactGLTest, NearFieldValsAtTheContactEdgeMatchRayTracedTruth) {
         surface.diffuseAlbedo = glm::dvec3(kAlbedo);
         gi::reference::GatherParameters parameters;
         parameters.glossy = false;
+        parameters.nearField = true;
         const double expected = gi::reference::bruteForce(all, surface, cameraPose().translation(), parameters).y;
         EXPECT_NEAR(double(run.brute.at<cv::Vec4f>(pixels[i])[1]), expected, 2e-4 * expected) << "pixel " << pixels[i];
         // Per-pixel factor 1.15: the truth's fine quadrature of a disc cut by the face's plane is off by

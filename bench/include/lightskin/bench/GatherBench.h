@@ -22,9 +22,9 @@ struct GatherBenchOptions {
     /// With a threshold > 0, also the BVH over the same VALs beside the VAL map's quadtree
     /// (`--tree-bvh`; without it the VAL map's pixel keys give the quadtree only).
     bool treeBvh = false;
-    /// `--point-model`: guard G11 off (LightSkinSettings/BruteForceSettings::nearFieldArea = false), the
-    /// point-like discs of eq. 3 everywhere: the cost of near-field VALs as areas, run against the default.
-    bool pointModel = false;
+    /// `--near-field`: guard G11 on (LightSkinSettings/BruteForceSettings::nearFieldArea, off by default):
+    /// the cost of near-field VALs as areas, run against the default.
+    bool nearField = false;
 };
 
 /// LightSkin stage times (GL timer queries) per setup, speed-up over the brute force and its error; prints them and,

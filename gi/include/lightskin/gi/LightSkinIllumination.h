@@ -97,8 +97,9 @@ struct LightSkinSettings {
     bool vertexIrradianceCap = true;
     /// Guard G11 of lightskin_math.glsl (issue 12): a VAL nearer than 4 of its radii to a sparse point
     /// is integrated as an area (a 32-gon of its area, clipped by the point's tangent plane, Lambert's
-    /// closed form) instead of eq. 3's point-like disc. false = the point model (before it).
-    bool nearFieldArea = true;
+    /// closed form) instead of eq. 3's point-like disc. false = the point model. Off by default: on
+    /// llvmpipe it costs ~3x the gather (docs/BENCHMARKS.md "Near-field VALs as areas").
+    bool nearFieldArea = false;
 };
 
 /// What the adaptive mode chose for the last frame.
