@@ -41,6 +41,8 @@ void addBenchGatherCommand(CLI::App& app, int& exitCode) {
         ->add_option("--brute-subset", options->bruteSubset,
                      "Brute force on this many random covered pixels only, its time scaled to all (0 = all)")
         ->check(CLI::Range(0, 1 << 24));
+    command->add_flag("--near-field", options->nearField,
+                      "Guard G12 on: near-field VALs as areas (off by default), to time it against the default");
     command->add_flag("--diffuse-only", options->diffuseOnly,
                       "Only the diffuse setup (the one compared with the brute force)");
     command->callback([=, &exitCode] {

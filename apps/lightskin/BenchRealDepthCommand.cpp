@@ -27,7 +27,8 @@ void addBenchRealDepthCommand(CLI::App& app, int& exitCode) {
     command->add_option(
         "--models", options->models,
         "Comma-separated light models: old, robust, robust-nocap (robust without the vertex irradiance cap G10), "
-        "robust-noburied (robust without the buried sparse-point rule G11)");
+        "robust-noburied (robust without the buried sparse-point rule G11), "
+        "robust-area (robust with the near-field VALs as areas G12, off by default)");
     command->add_option("--sink", options->sinks, "Depths the objects are sunk into the surface, metres");
     command->add_option("--max-frames", options->maxFrames,
                         "Cap on the frames per recording (each has its own count: ICL-NUIM 5, the .oni all)");

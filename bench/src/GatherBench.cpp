@@ -223,6 +223,7 @@ void runGatherBench(const GatherBenchOptions& options) {
         } else if (options.brute) {
             gi::BruteForceSettings bruteSettings;
             bruteSettings.glossy = false;
+            bruteSettings.nearFieldArea = options.nearField;
             auto brute = gi::BruteForceIllumination::create(bruteSettings);
             // Wall time of render() + glFinish: llvmpipe's timestamp queries under-report the brute force's
             // single full-screen stage (docs/BENCHMARKS.md, "Table 1 setups").
@@ -312,6 +313,7 @@ void runGatherBench(const GatherBenchOptions& options) {
                             settings.occlusion = setup.occlusion;
                             settings.valCapacity = std::uint32_t(vals.size());
                             settings.computeGather = options.compute;
+                            settings.nearFieldArea = options.nearField;
                             auto technique = gi::LightSkinIllumination::create(settings, provider);
                             technique->prepare(instances);
                             std::map<std::string, std::vector<double>> stageTimes;

@@ -38,9 +38,9 @@ void main() {
         const vec4 b = chunkVals[j].normal;
         const vec4 f = chunkVals[j].flux;
 #ifdef GLOSSY
-        sum += ls_bruteForceRadiance(ls_gatherSample(x, n, a.xyz, b.xyz, a.w, f.rgb, toEye, k, ck, 0.0), rhoD, fs);
+        sum += ls_bruteForceRadiance(ls_gatherSample(x, n, a.xyz, b.xyz, a.w, f.rgb, toEye, k, ck, 0.0, LS_NEAR_FIELD != 0), rhoD, fs);
 #else
-        sum += ls_irradiance(x, n, a.xyz, b.xyz, a.w, f.rgb);
+        sum += ls_irradiance(x, n, a.xyz, b.xyz, a.w, f.rgb, LS_NEAR_FIELD != 0);
 #endif
     }
 #ifndef GLOSSY

@@ -28,7 +28,8 @@ bool cullKeeps(VirtualAreaLight val, vec4 receiverSphere, float cutoff) {
     if (dot(b.xyz, toCentre) < -receiverSphere.w) return false; // sphere behind the emitting side
     const float dMin = max(length(toCentre) - receiverSphere.w, 0.0);
     const float r2 = a.w / 3.14159265;
-    const float bound = max(max(f.r, f.g), f.b) / (3.14159265 * (r2 + dMin * dMin)); // >= M w cos
+    // >= M w cos; within 4 r (guard G12 of lightskin_math.glsl: the VAL as an area) >= M F with F <= 1
+    const float bound = max(max(f.r, f.g), f.b) / (3.14159265 * (dMin * dMin < 16.0 * r2 ? r2 : r2 + dMin * dMin));
     return !(bound < cutoff);
 }
 

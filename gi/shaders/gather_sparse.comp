@@ -60,7 +60,7 @@ void main() {
                 const vec4 a = tile[3u * t];
                 const vec4 b = tile[3u * t + 1u];
                 const vec4 f = tile[3u * t + 2u];
-                block = gather_addSample(block, ls_gatherSample(x, n, a.xyz, b.xyz, a.w, f.rgb, toEye, k, ck, 0.0));
+                block = gather_addSample(block, ls_gatherSample(x, n, a.xyz, b.xyz, a.w, f.rgb, toEye, k, ck, 0.0, LS_NEAR_FIELD != 0));
             }
             running = gather_addBlock(running, block);
         }

@@ -46,7 +46,7 @@ void main() {
             const vec4 a = chunkVals[j].positionArea;
             const vec4 b = chunkVals[j].normal;
             const vec4 f = chunkVals[j].flux;
-            block = gather_addSample(block, ls_gatherSample(x, n, a.xyz, b.xyz, a.w, f.rgb, toEye, k, ck, 0.0)); // eps_l folded in gather_renormalise.frag
+            block = gather_addSample(block, ls_gatherSample(x, n, a.xyz, b.xyz, a.w, f.rgb, toEye, k, ck, 0.0, LS_NEAR_FIELD != 0)); // eps_l folded in gather_renormalise.frag
         }
         running = gather_addBlock(running, block);
     }

@@ -17,6 +17,9 @@
 // Also |E_b - E_a| <= E_a + E_b <= single(a) + single(b) (the cull's bound, 0 when S lies wholly
 // behind the VAL's plane). B = min of both; a VAL present on one side only gives single(.).
 // A missing VAL (area 0: key without VAL) on both sides gives 0. Channels: max over RGB.
+// Near field (guard G12 of lightskin_math.glsl: a VAL within 4 r of a receiver is integrated as an
+// area, whose form factor is <= 1 but not <= eq. 3's): where S comes within 4 r of a VAL, single() is
+// phi / (pi r^2) (form factor 1) and the Lipschitz bound, derived for eq. 3, is not used.
 layout(local_size_x = 256) in;
 layout(std430, binding = 0) readonly buffer Reference { VirtualAreaLight reference[]; };
 layout(std430, binding = 1) readonly buffer Current { VirtualAreaLight current[]; };
@@ -38,7 +41,8 @@ float single(VirtualAreaLight v) {
     const vec3 l = v.positionArea.xyz;
     if (dot(v.normal.xyz, uReceiverSphere.xyz - l) < -uReceiverSphere.w) return 0.0;
     const float dMin = distanceToSphere(l);
-    return maxChannel(abs(v.flux.rgb)) / (kPiF * (v.positionArea.w / kPiF + dMin * dMin));
+    const float r2 = v.positionArea.w / kPiF;
+    return maxChannel(abs(v.flux.rgb)) / (kPiF * (dMin * dMin < 16.0 * r2 ? r2 : r2 + dMin * dMin));
 }
 
 float changeBound(VirtualAreaLight a, VirtualAreaLight b) {
@@ -50,6 +54,8 @@ float changeBound(VirtualAreaLight a, VirtualAreaLight b) {
     const float dA = distanceToSphere(a.positionArea.xyz), dB = distanceToSphere(b.positionArea.xyz);
     const float shift = length(b.positionArea.xyz - a.positionArea.xyz);
     const float dS = dA - shift;
+    // G12's near field, at either end or on the way between them
+    if (dA * dA < 16.0 * ra2 || dB * dB < 16.0 * rb2 || dS * dS < 16.0 * max(ra2, rb2) || dS <= 0.0) return triangle;
     const float phiA = maxChannel(abs(a.flux.rgb));
     float lipschitz = maxChannel(abs(b.flux.rgb - a.flux.rgb)) / (kPiF * (rb2 + dB * dB));
     const float radiusTerm = abs(rb2 - ra2) / ((rMin2 + dA * dA) * (rMin2 + dA * dA));

@@ -55,7 +55,8 @@ GatherSample nodeSample(uint node, vec3 x, vec3 n, vec3 toEye, float k, float ck
     const ValCluster c = nodes[node];
     if (c.children.y == kLeaf) {
         const VirtualAreaLight l = vals[c.children.x];
-        return ls_gatherSample(x, n, l.positionArea.xyz, l.normal.xyz, l.positionArea.w, l.flux.rgb, toEye, k, ck, 0.0);
+        return ls_gatherSample(x, n, l.positionArea.xyz, l.normal.xyz, l.positionArea.w, l.flux.rgb, toEye, k, ck, 0.0,
+                               LS_NEAR_FIELD != 0);
     }
     return vt_clusterSample(x, n, c.positionR2Mean.xyz, c.axisScale.xyz, c.axisScale.w, c.positionR2Mean.w,
                             c.fluxR2Sum.w, c.fluxR2Sum.rgb, toEye, k, ck);
@@ -115,7 +116,7 @@ void main() {
         vec3 variance = vec3(0.0);
         if (!take) {
             const vec2 g = vt_clusterBound(x, n, c.boxMinCone.xyz, c.boxMaxR2Min.xyz, c.axisScale.xyz, c.boxMinCone.w,
-                                           c.boxMaxR2Min.w, toEye, k);
+                                           c.boxMaxR2Min.w, c.fluxR2Sum.w, toEye, k, LS_NEAR_FIELD != 0);
             const vec3 boundD = c.fluxR2Sum.rgb * (g.x / kPi);
             take = within(boundD, running.diffuse.rgb + pendingD + entryD.rgb);
 #ifdef GLOSSY

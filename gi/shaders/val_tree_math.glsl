@@ -30,6 +30,11 @@
 //   cosJMax: cos(max(angle(a, x - c) - beta - coneAngle, 0)), 0 past 90 degrees; 1 when x lies in the
 //   bounding sphere. Angles come from acos, whose float error near 1 is ~3.5e-4 rad: kTreeAngleSlack
 //   (1e-3 rad) is subtracted from every angle so that the float bound stays an upper bound.
+// Near-field VALs (guard G12 of lightskin_math.glsl): a member within kNearFieldRatio r_j of x is
+// integrated as an area, which the bound above does not cover (beside its rim the area form factor is
+// ~100x eq. 3's). Every member has r_j^2 <= r2Sum and d_j >= dMin, so dMin^2 >= kNearFieldRatio2 r2Sum
+// proves that no member is in its near field; otherwise the bound is kTreeDescend (the cluster is
+// never taken: its children are examined, down to the leaves, which are exact).
 // The eq.-7 weights and positions are not bounded (they enter the image only through eq. 8-11's
 // ratios); their error is measured (tests/gi/gather/ValTreeTest.cpp, docs/BENCHMARKS.md).
 
@@ -38,10 +43,12 @@
 
 const real kTreeAngleSlack = 1.0e-3; // rad, > float acos error near 1 (sqrt(2 * 6e-8) = 3.5e-4)
 const real kHalfPi = 1.57079632679489661923;
+const real kTreeDescend = 1.0e30; // a bound no threshold accepts (G12); finite, so flux * it stays finite
 
-// rvec2(G, G_s) of the bound above: U_d = Phi G / pi, U_s = c_k Phi G_s / pi. toEye, k: as ls_gatherSample.
+// rvec2(G, G_s) of the bound above: U_d = Phi G / pi, U_s = c_k Phi G_s / pi. toEye, k, nearField: as
+// ls_gatherSample; r2Sum: the cluster's sum r_j^2 (for G12).
 LS_FN rvec2 vt_clusterBound(rvec3 x, rvec3 n, rvec3 lo, rvec3 hi, rvec3 axis, real coneAngle, real r2Min,
-                            rvec3 toEye, real k) {
+                            real r2Sum, rvec3 toEye, real k, bool nearField) {
     const rvec3 c = 0.5 * (lo + hi);
     const rvec3 h = 0.5 * (hi - lo);
     const rvec3 v = c - x;
@@ -50,6 +57,7 @@ LS_FN rvec2 vt_clusterBound(rvec3 x, rvec3 n, rvec3 lo, rvec3 hi, rvec3 axis, re
     if (!(planeMax > 0.0)) return rvec2(0.0, 0.0);
     const rvec3 q = max(abs(v) - h, rvec3(0.0));
     const real d2Min = dot(q, q);
+    if (nearField && d2Min < kNearFieldRatio2 * r2Sum) return rvec2(kTreeDescend, kTreeDescend); // G12
     const real r2 = dot(h, h);
     const real dc2 = dot(v, v);
     real cosIMax = 1.0;
@@ -77,7 +85,8 @@ LS_FN rvec2 vt_clusterBound(rvec3 x, rvec3 n, rvec3 lo, rvec3 hi, rvec3 axis, re
 // (gather_addSample adds offset^2 w, the caller adds variance w). eps_l is the caller's.
 LS_FN GatherSample vt_clusterSample(rvec3 x, rvec3 n, rvec3 p, rvec3 axis, real normalScale, real r2Mean,
                                     real r2Sum, rvec3 flux, rvec3 toEye, real k, real ck) {
-    GatherSample s = ls_gatherSample(x, n, p, axis, kPi * r2Mean, flux * normalScale, toEye, k, ck, 0.0);
+    // point model: a cluster is taken only outside its members' near fields (vt_clusterBound)
+    GatherSample s = ls_gatherSample(x, n, p, axis, kPi * r2Mean, flux * normalScale, toEye, k, ck, 0.0, false);
     const real scale = r2Mean > 0.0 ? normalScale * r2Sum / r2Mean : 0.0;
     s.weightD = s.weightD * scale;
     s.weightS = s.weightS * scale;

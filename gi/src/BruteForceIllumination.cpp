@@ -30,7 +30,7 @@ std::unique_ptr<BruteForceIllumination> BruteForceIllumination::create(const Bru
     impl.settings = settings;
     impl.program = impl.library.buildProgram(
         {{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "bruteforce_gather.frag"}},
-        detail::variantDefines(settings.kCache, settings.glossy, false));
+        detail::variantDefines(settings.kCache, settings.glossy, false, settings.nearFieldArea));
     impl.valCount = impl.program.uniformLocation("uValCount");
     impl.eye = impl.program.uniformLocation("uEye");
     impl.c = impl.program.uniformLocation("uC");

@@ -2,6 +2,7 @@
 // bookkeeping are here; the SIMD kernels in CpuGatherKernels.cpp; every per-point formula is the
 // double instance of lightskin_math.glsl (reference/LightSkinMath.h).
 #include "CpuGatherKernels.h"
+#include "CpuNearField.h"
 #include "CpuValTreeGather.h"
 #include "GatherShaders.h"
 #include "TsanParallelRegion.h"
@@ -142,8 +143,9 @@ struct CpuLightSkin::Impl {
     std::vector<float> occlusionD, occlusionS;
     std::vector<glm::vec4> vertexVpls; // 4 vec4 per vertex, gather_vertex_vpl.glsl's layout
     bool glossy = true, occlusion = true;
-    double readbackMs = 0.0; // render(): the VAL read-back, counted in the upload stage
-    cpu::ValTreeCut treeCut; // LightSkinSettings::valTreeThreshold > 0 (issue 17)
+    double readbackMs = 0.0;            // render(): the VAL read-back, counted in the upload stage
+    cpu::ValTreeCut treeCut;            // LightSkinSettings::valTreeThreshold > 0 (issue 17)
+    cpu::NearFieldCorrection nearField; // guard G12 (LightSkinSettings::nearFieldArea) of the flat gather
 
     std::unique_ptr<tbb::task_arena> arena; // settings.threads workers (0: one per hardware thread)
     int threadCount() const { return arena->max_concurrency(); }
@@ -244,11 +246,14 @@ struct CpuLightSkin::Impl {
         const cpu::GatherParameters parameters{glossy, moments(), settings.skipHiddenBlocks};
         const std::size_t stride = receivers.padded;
         std::atomic<std::uint64_t> skipped{0};
+        const bool areas = settings.lightSkin.nearFieldArea;
+        if (areas) nearField.index(vals);
         parallelRanges(*arena, receivers.padded, [&](std::size_t begin, std::size_t end) {
             std::uint64_t n = 0;
             for (std::uint32_t first = 0; first < vals.padded; first += kValTile)
                 n += cpu::gather(vals, first, std::min(first + kValTile, vals.padded), receivers, begin, end,
                                  parameters, sums.data(), stride);
+            if (areas) nearField.apply(vals, receivers, begin, end, parameters, sums.data(), stride); // G12
             skipped += n;
         });
         const double blocks = double(vals.padded / cpu::kSumBlock) * double(receivers.padded / cpu::kReceiverPadding);
@@ -568,9 +573,9 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
         impl.treeCut.gather(lights, std::span(impl.pointPosition).first(impl.pointCount),
                             std::span(impl.pointNormal).first(impl.pointCount),
                             std::span(impl.pointExponent).first(impl.pointCount), eye,
-                            double(impl.settings.lightSkin.cParameter), impl.glossy, impl.moments(), treeThreshold,
-                            impl.threadCount(), impl.sums.data(), impl.receivers.padded,
-                            cpu::ValTreeImage{pixels.keys, pixels.width, pixels.height});
+                            double(impl.settings.lightSkin.cParameter), impl.glossy, impl.moments(),
+                            impl.settings.lightSkin.nearFieldArea, treeThreshold, impl.threadCount(), impl.sums.data(),
+                            impl.receivers.padded, cpu::ValTreeImage{pixels.keys, pixels.width, pixels.height});
         stats.valTreeCutPerPoint =
             double(impl.treeCut.stats().taken) / double(std::max<std::uint32_t>(impl.pointCount, 1));
         stats.valTreeQuadtree = impl.treeCut.stats().quadtree;

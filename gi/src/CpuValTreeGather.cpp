@@ -12,7 +12,7 @@ namespace lightskin::gi::cpu {
 
 void ValTreeCut::gather(std::span<const VirtualAreaLight> lights, std::span<const glm::dvec3> positions,
                         std::span<const glm::dvec3> normals, std::span<const double> exponents, const glm::dvec3& eye,
-                        double c, bool glossy, bool moments, double threshold, int threads, float* sums,
+                        double c, bool glossy, bool moments, bool nearField, double threshold, int threads, float* sums,
                         std::size_t stride, const ValTreeImage& image) {
     LIGHTSKIN_ASSERT(threshold > 0.0, "lightskin::gi::cpu::ValTreeCut::gather(): threshold must be > 0");
     LIGHTSKIN_ASSERT(positions.size() == normals.size() && positions.size() == exponents.size() &&
@@ -35,6 +35,7 @@ void ValTreeCut::gather(std::span<const VirtualAreaLight> lights, std::span<cons
     parameters.cParameter = c;
     parameters.epsilonL = 0.0; // folded in later, as on the GL path
     parameters.glossy = glossy;
+    parameters.nearField = nearField;
     std::uint64_t visited = 0, taken = 0;
     const auto points = std::ptrdiff_t(positions.size());
     // a point's sums depend on that point alone: any thread split gives the same numbers

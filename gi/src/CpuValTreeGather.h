@@ -33,11 +33,12 @@ class ValTreeCut {
 public:
     /// Builds the tree of `lights` (reusing its storage; the quadtree when `image` has keys, else the
     /// BVH) and writes point i's sums to sums[s * stride + i], s < kGatherSums. threshold > 0; c: c of
-    /// c_k = c (k + 1). Throws Error("VAL keys", ...) on bad keys (buildValQuadtreeInto).
+    /// c_k = c (k + 1); nearField: guard G12 of lightskin_math.glsl. Throws Error("VAL keys", ...) on bad
+    /// keys (buildValQuadtreeInto).
     void gather(std::span<const VirtualAreaLight> lights, std::span<const glm::dvec3> positions,
                 std::span<const glm::dvec3> normals, std::span<const double> exponents, const glm::dvec3& eye, double c,
-                bool glossy, bool moments, double threshold, int threads, float* sums, std::size_t stride,
-                const ValTreeImage& image = {});
+                bool glossy, bool moments, bool nearField, double threshold, int threads, float* sums,
+                std::size_t stride, const ValTreeImage& image = {});
     const ValTreeCutStats& stats() const noexcept { return stats_; }
 
 private:

@@ -59,8 +59,9 @@ GLint requireUniform(const gl::Program& program, const char* name, const char* s
     return location;
 }
 
-std::vector<std::string> variantDefines(int kCache, bool glossy, bool occlusion) {
+std::vector<std::string> variantDefines(int kCache, bool glossy, bool occlusion, bool nearField) {
     std::vector<std::string> defines{"K_CACHE " + std::to_string(kCache)};
+    if (!nearField) defines.emplace_back("LS_NEAR_FIELD 0");
     if (glossy) defines.emplace_back("GLOSSY");
     if (occlusion) defines.emplace_back("OCCLUSION");
     return defines;

@@ -48,7 +48,8 @@ GLint requireUniform(const gl::Program& program, const char* name, const char* s
 /// Uniform location or -1 (uniforms optimised away in some variants).
 inline GLint optionalUniform(const gl::Program& program, const char* name) { return program.uniformLocation(name); }
 
-std::vector<std::string> variantDefines(int kCache, bool glossy, bool occlusion);
+/// nearField false: LS_NEAR_FIELD 0 (guard G12 of lightskin_math.glsl off, the point model).
+std::vector<std::string> variantDefines(int kCache, bool glossy, bool occlusion, bool nearField = true);
 
 /// Convex with respect to the occluder model: no sparse point sees another above its horizon,
 /// so the occlusion stage would add exactly zero (LightSkin's adaptive mode turns it off).

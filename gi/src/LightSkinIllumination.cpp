@@ -45,8 +45,8 @@ struct GatherProgram {
     GLint valCount = -1, pointCount = -1, eye = -1, c = -1;
 };
 
-GatherProgram buildGather(const gl::ShaderLibrary& library, int kCache, bool glossy, bool occlusion) {
-    const auto defines = detail::variantDefines(kCache, glossy, occlusion);
+GatherProgram buildGather(const gl::ShaderLibrary& library, int kCache, bool glossy, bool occlusion, bool nearField) {
+    const auto defines = detail::variantDefines(kCache, glossy, occlusion, nearField);
     GatherProgram p;
     p.program = library.buildProgram({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "gather_sparse.frag"}},
                                      defines);
@@ -145,9 +145,10 @@ struct LightSkinIllumination::Impl {
     void buildPrograms() {
         for (int g = 0; g < 2; ++g)
             for (int o = 0; o < 2; ++o) {
-                gather[g][o] = buildGather(library, settings.kCache, g != 0, o != 0);
-                gatherCompute[g][o] = library.buildProgram({{GL_COMPUTE_SHADER, "gather_sparse.comp"}},
-                                                           detail::variantDefines(settings.kCache, g != 0, o != 0));
+                gather[g][o] = buildGather(library, settings.kCache, g != 0, o != 0, settings.nearFieldArea);
+                gatherCompute[g][o] = library.buildProgram(
+                    {{GL_COMPUTE_SHADER, "gather_sparse.comp"}},
+                    detail::variantDefines(settings.kCache, g != 0, o != 0, settings.nearFieldArea));
             }
         renormalise =
             library.buildProgram({{GL_VERTEX_SHADER, "fullscreen.vert"}, {GL_FRAGMENT_SHADER, "gather_renormalise.frag"}});
@@ -164,7 +165,7 @@ struct LightSkinIllumination::Impl {
         cullScatter = library.buildProgram({{GL_COMPUTE_SHADER, "gather_cull_scatter.comp"}});
         cullAppend = library.buildProgram({{GL_COMPUTE_SHADER, "gather_cull_append.comp"}});
         valSums = library.buildProgram({{GL_COMPUTE_SHADER, "gather_val_sums.comp"}});
-        treeGather.buildPrograms(library);
+        treeGather.buildPrograms(library, settings.nearFieldArea);
         staticScatter = library.buildProgram({{GL_COMPUTE_SHADER, "gather_static_scatter.comp"}});
         staticBound = library.buildProgram({{GL_COMPUTE_SHADER, "gather_static_bound.comp"}});
         staticSum = library.buildProgram({{GL_COMPUTE_SHADER, "gather_static_sum.comp"}});
@@ -530,7 +531,10 @@ void LightSkinIllumination::setSettings(const LightSkinSettings& settings) {
     if (!(settings.valTreeThreshold >= 0.0f && std::isfinite(settings.valTreeThreshold)))
         throw Error("LightSkinSettings.valTreeThreshold", std::nullopt,
                     "must be finite and >= 0, got " + std::to_string(settings.valTreeThreshold));
-    const bool rebuild = settings.kCache != impl_->settings.kCache;
+    // the variants bake kCache, G8 and G12 in as #defines
+    const bool rebuild = settings.kCache != impl_->settings.kCache ||
+                         settings.vertexDistanceFloor != impl_->settings.vertexDistanceFloor ||
+                         settings.nearFieldArea != impl_->settings.nearFieldArea;
     impl_->settings = settings;
     impl_->last.valid = false; // any setting may change stages 0-4
     if (rebuild) {

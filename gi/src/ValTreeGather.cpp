@@ -15,11 +15,11 @@ namespace {
 constexpr std::uint32_t kStackSize = std::uint32_t(kValTreeMaxDepth) + 1; // gather_tree.comp's kStackSize
 }
 
-void ValTreeGather::buildPrograms(const gl::ShaderLibrary& library) {
+void ValTreeGather::buildPrograms(const gl::ShaderLibrary& library, bool nearField) {
     for (int g = 0; g < 2; ++g)
         for (int o = 0; o < 2; ++o)
-            programs_[g][o] =
-                library.buildProgram({{GL_COMPUTE_SHADER, "gather_tree.comp"}}, variantDefines(16, g != 0, o != 0));
+            programs_[g][o] = library.buildProgram({{GL_COMPUTE_SHADER, "gather_tree.comp"}},
+                                                   variantDefines(16, g != 0, o != 0, nearField));
     quadtree_ = GpuValQuadtree::create();
 }
 

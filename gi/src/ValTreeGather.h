@@ -32,7 +32,7 @@ struct ValTreeGatherStats {
 class ValTreeGather {
 public:
     /// Compiles the four variants of gather_tree.comp.
-    void buildPrograms(const gl::ShaderLibrary& library);
+    void buildPrograms(const gl::ShaderLibrary& library, bool nearField); ///< nearField: guard G12
     /// The quadtree of the last run() (when stats().quadtree): for tests and benchmarks.
     const GpuValQuadtree& quadtree() const noexcept { return quadtree_; }
     /// Gathers `count` VALs of `valBuffer` (std430 VirtualAreaLight) at `pointCount` sparse points into

@@ -111,6 +111,7 @@ std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettin
         s.valTreeThreshold = settings.valTreeThreshold;
         s.vertexIrradianceCap = settings.robustRealDepth && settings.robustIrradianceCap;
         s.buriedSparsePoints = settings.robustRealDepth && settings.robustBuriedSparsePoints;
+        s.nearFieldArea = settings.robustRealDepth && settings.robustNearField;
         const gi::SparsePointProvider provider = [&renderer](const gi::MeshInstance& instance) {
             const gi::SparsePointSet* points = renderer.sparsePoints(instance.meshId);
             LIGHTSKIN_ASSERT(points != nullptr, "lightskin::mr::createTechnique(): the renderer prepared no sparse points");
@@ -127,6 +128,7 @@ std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettin
         gi::BruteForceSettings s;
         s.kCache = settings.kCache;
         s.glossy = settings.glossy;
+        s.nearFieldArea = settings.robustRealDepth && settings.robustNearField;
         return gi::BruteForceIllumination::create(s);
     }
     if (settings.technique == "imperfect-volumes") return gi::ImperfectVolumes::create(settings.imperfectVolumes);

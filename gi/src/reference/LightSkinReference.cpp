@@ -59,7 +59,7 @@ void gatherInto(std::span<const VirtualAreaLight> lights, std::span<const Receiv
         for (const VirtualAreaLight& l : lights) {
             const m::GatherSample g =
                 m::ls_gatherSample(x.position, x.normal, d3(l.position), d3(l.normal), double(l.area), d3(l.flux),
-                                   toEye, x.exponent, ck, parameters.epsilonL);
+                                   toEye, x.exponent, ck, parameters.epsilonL, parameters.nearField);
             s.irradiance += g.irradiance;
             s.weightD += g.weightD;
             s.offsetD += g.offset * g.weightD;
@@ -187,19 +187,19 @@ glm::dvec3 bruteForce(std::span<const VirtualAreaLight> lights, const Surface& s
     for (const VirtualAreaLight& l : lights) {
         const m::GatherSample g =
             m::ls_gatherSample(surface.position, surface.normal, d3(l.position), d3(l.normal), double(l.area),
-                               d3(l.flux), toEye, surface.exponent, ck, parameters.epsilonL);
+                               d3(l.flux), toEye, surface.exponent, ck, parameters.epsilonL, parameters.nearField);
         sum += m::ls_bruteForceRadiance(g, surface.diffuseAlbedo, fs);
     }
     return sum;
 }
 
 double irradiance(std::span<const VirtualAreaLight> lights, const glm::dvec3& position, const glm::dvec3& normal,
-                  int channel) {
+                  int channel, bool nearField) {
     LIGHTSKIN_ASSERT(channel >= 0 && channel < 3, "channel is 0, 1 or 2");
     double sum = 0.0;
     for (const VirtualAreaLight& l : lights) {
         const m::GatherSample g = m::ls_gatherSample(position, normal, d3(l.position), d3(l.normal), double(l.area),
-                                                     d3(l.flux), normal, 1.0, 0.0, 0.0);
+                                                     d3(l.flux), normal, 1.0, 0.0, 0.0, nearField);
         sum += g.irradiance[channel];
     }
     return sum;

@@ -13,7 +13,7 @@ using walk::add;
 CutBound clusterErrorBound(const ValClusterD& c, const Receiver& x, const glm::dvec3& eye,
                            const GatherParameters& parameters) {
     const glm::dvec2 g = m::vt_clusterBound(x.position, x.normal, c.boxMin, c.boxMax, c.axis, c.coneAngle, c.r2Min,
-                                            m::ls_toEye(x.position, eye), x.exponent);
+                                            c.r2Sum, m::ls_toEye(x.position, eye), x.exponent, parameters.nearField);
     const double ck = parameters.cParameter * (x.exponent + 1.0);
     return {c.flux * (g.x / m::kPi), parameters.glossy ? c.flux * (ck * g.y / m::kPi) : glm::dvec3(0.0)};
 }

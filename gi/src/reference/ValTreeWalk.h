@@ -58,7 +58,8 @@ inline void walkCut(const ValTreeD& tree, std::span<const VirtualAreaLight> ligh
             c.child1 == kValTreeLeaf
                 ? m::ls_gatherSample(x.position, x.normal, glm::dvec3(lights[c.child0].position),
                                      glm::dvec3(lights[c.child0].normal), double(lights[c.child0].area),
-                                     glm::dvec3(lights[c.child0].flux), toEye, x.exponent, ck, 0.0)
+                                     glm::dvec3(lights[c.child0].flux), toEye, x.exponent, ck, 0.0,
+                                     parameters.nearField)
                 : m::vt_clusterSample(x.position, x.normal, c.position, c.axis, c.normalScale, c.r2Mean, c.r2Sum,
                                       c.flux, toEye, x.exponent, ck);
         p.irradiance = g.irradiance;
@@ -79,13 +80,14 @@ inline void walkCut(const ValTreeD& tree, std::span<const VirtualAreaLight> ligh
             const VirtualAreaLight& l = lights[c.child0];
             add(s,
                 m::ls_gatherSample(x.position, x.normal, glm::dvec3(l.position), glm::dvec3(l.normal), double(l.area),
-                                   glm::dvec3(l.flux), toEye, x.exponent, ck, parameters.epsilonL),
+                                   glm::dvec3(l.flux), toEye, x.exponent, ck, parameters.epsilonL,
+                                   parameters.nearField),
                 glm::dvec3(0.0), parameters.glossy);
             ++totals.leaves;
             continue;
         }
         const glm::dvec2 g = m::vt_clusterBound(x.position, x.normal, c.boxMin, c.boxMax, c.axis, c.coneAngle, c.r2Min,
-                                                toEye, x.exponent);
+                                                c.r2Sum, toEye, x.exponent, parameters.nearField);
         const glm::dvec3 boundD = c.flux * (g.x / m::kPi);
         const glm::dvec3 boundS = c.flux * (ck * g.y / m::kPi);
         const glm::dvec3 estimateD = s.irradiance + glm::max(pendingD, glm::dvec3(0.0)) + current.irradiance;

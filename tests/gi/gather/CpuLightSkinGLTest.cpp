@@ -124,6 +124,7 @@ TEST_P(CpuLightSkinSetupGLTest, EveryStageMatchesTheDoubleReference) {
     gi::LightSkinSettings settings;
     settings.glossy = setup.glossy;
     settings.occlusion = setup.occlusion;
+    settings.nearFieldArea = setup.nearField;
     checkSetup(setup, scene, runCpu(scene, settings));
 }
 
@@ -133,6 +134,7 @@ TEST_P(CpuLightSkinSetupGLTest, MatchesTheGlPath) {
     gi::LightSkinSettings settings;
     settings.glossy = setup.glossy;
     settings.occlusion = setup.occlusion;
+    settings.nearFieldArea = setup.nearField;
     const GpuRun cpu = runCpu(scene, settings);
     const GpuRun gl = runGl(scene, settings);
     compareBackends(cpu, gl, setup, maxExponent(scene), 3e-3);
@@ -146,6 +148,7 @@ TEST_P(CpuLightSkinSetupGLTest, EveryInstructionSetMatchesTheDoubleReference) {
     gi::LightSkinSettings settings;
     settings.glossy = setup.glossy;
     settings.occlusion = setup.occlusion;
+    settings.nearFieldArea = setup.nearField;
     const ReferenceRun r = runReference(scene, setup);
     const std::vector<std::string> targets = gi::cpuSimdTargets();
     ASSERT_FALSE(targets.empty());
@@ -168,7 +171,8 @@ TEST_P(CpuLightSkinSetupGLTest, EveryInstructionSetMatchesTheDoubleReference) {
 
 INSTANTIATE_TEST_SUITE_P(PaperSetups, CpuLightSkinSetupGLTest,
                          ::testing::Values(PaperSetup{"diffuse", false, false}, PaperSetup{"glossy", true, false},
-                                           PaperSetup{"occlusion", true, true}),
+                                           PaperSetup{"occlusion", true, true},
+                                           PaperSetup{"near_field", true, true, true}),
                          [](const auto& param_info) { return std::string(param_info.param.name); });
 
 // ---- numerical extremes (the GL path's suite) --------------------------------------------------
@@ -179,6 +183,7 @@ TEST_P(CpuLightSkinExtremeGLTest, FiniteNonNegativeBoundedAndAgreesWithTheRefere
     Scene scene = extremeScene(c);
     gi::LightSkinSettings settings;
     settings.occlusion = false;
+    settings.nearFieldArea = true; // guard G12 at the extremes too (checkExtreme's reference has it)
     checkExtreme(c, scene, runCpu(scene, settings));
 }
 

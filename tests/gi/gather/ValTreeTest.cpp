@@ -162,16 +162,21 @@ void thresholdZeroIsTheFlatGather(Builder builder) {
 
 // Every cut's error against the flat gather is below its certified bound (sum of U over taken
 // clusters), per channel, for L'_d and L'_s; plus double rounding of both sums (1e-11 relative, as above).
-void errorStaysBelowTheCertifiedBound(Builder builder) {
+// nearField: guard G12 (near-field VALs as areas, beyond eq. 3's bound): the cut must leave every
+// cluster within its members' near field unopened (val_tree_math.glsl), so the bound still holds.
+void errorStaysBelowTheCertifiedBound(Builder builder, bool nearField = false) {
+    ref::GatherParameters parameters;
+    parameters.nearField = nearField;
     for (const Scene& scene : scenes()) {
         gi::ValTreeD tree;
         buildTree(scene.vals, builder, tree);
         std::vector<ref::GatherSums> flat, cut;
         std::vector<ref::CutBound> bounds;
-        ref::gatherInto(scene.vals, scene.receivers, kEye, {}, flat);
+        ref::gatherInto(scene.vals, scene.receivers, kEye, parameters, flat);
         for (double threshold : {0.001, 0.01, 0.1, 1.0}) {
             ref::CutStatistics stats;
-            ref::gatherWithCutInto(tree, scene.vals, scene.receivers, kEye, {}, threshold, cut, &bounds, &stats);
+            ref::gatherWithCutInto(tree, scene.vals, scene.receivers, kEye, parameters, threshold, cut, &bounds,
+                                   &stats);
             double worstRatio = 0.0;
             for (std::size_t i = 0; i < flat.size(); ++i) {
                 for (int c = 0; c < 3; ++c) {
@@ -257,6 +262,9 @@ TEST(ValTreeCut, ThresholdZeroIsTheFlatGather) { thresholdZeroIsTheFlatGather(Bu
 TEST(ValQuadtreeCut, ThresholdZeroIsTheFlatGather) { thresholdZeroIsTheFlatGather(Builder::Quadtree); }
 TEST(ValTreeCut, ErrorStaysBelowTheCertifiedBound) { errorStaysBelowTheCertifiedBound(Builder::Bvh); }
 TEST(ValQuadtreeCut, ErrorStaysBelowTheCertifiedBound) { errorStaysBelowTheCertifiedBound(Builder::Quadtree); }
+TEST(ValTreeCut, ErrorStaysBelowTheCertifiedBoundWithNearFieldAreas) {
+    errorStaysBelowTheCertifiedBound(Builder::Bvh, true);
+}
 TEST(ValTreeCut, BoundHoldsForEveryCluster) { boundHoldsForEveryCluster(Builder::Bvh); }
 TEST(ValQuadtreeCut, BoundHoldsForEveryCluster) { boundHoldsForEveryCluster(Builder::Quadtree); }
 

@@ -26,6 +26,9 @@ struct GatherBenchOptions {
     /// instead of all of them: its time scaled to all covered pixels, and every row's error on those
     /// pixels (with its sampling error); for sizes where the full brute force would take hours.
     int bruteSubset = 0;
+    /// `--near-field`: guard G12 on (LightSkinSettings/BruteForceSettings::nearFieldArea, off by default):
+    /// the cost of near-field VALs as areas, run against the default.
+    bool nearField = false;
 };
 
 /// LightSkin stage times (GL timer queries) per setup, speed-up over the brute force and its error; prints them and,

@@ -15,6 +15,9 @@ struct BruteForceSettings {
     bool glossy = true;   ///< add the glossy term (eq. 5)
     float cParameter = float(1.0 / (2.0 * std::numbers::pi)); ///< c of c_k = c (k+1), 1/sr
     std::uint32_t valCapacity = 1u << 16; ///< reserved in prepare(), grows if exceeded
+    /// Guard G12 of lightskin_math.glsl: VALs within 4 of their radii of a pixel integrated as areas
+    /// (LightSkinSettings::nearFieldArea); false = the point model (the default, for its cost).
+    bool nearFieldArea = false;
 };
 
 class BruteForceIllumination final : public IndirectIllumination {

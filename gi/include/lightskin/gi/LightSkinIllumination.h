@@ -100,6 +100,11 @@ struct LightSkinSettings {
     /// vertex interpolation (eq. 12-13); a vertex whose neighbours are all buried keeps the paper's
     /// weights. No effect without a depth map. false = the model before it.
     bool buriedSparsePoints = true;
+    /// Guard G12 of lightskin_math.glsl (issue 12): a VAL nearer than 4 of its radii to a sparse point
+    /// is integrated as an area (a 32-gon of its area, clipped by the point's tangent plane, Lambert's
+    /// closed form) instead of eq. 3's point-like disc. false = the point model. Off by default: on
+    /// llvmpipe it costs ~3x the gather (docs/BENCHMARKS.md "Near-field VALs as areas").
+    bool nearFieldArea = false;
 };
 
 /// What the adaptive mode chose for the last frame.

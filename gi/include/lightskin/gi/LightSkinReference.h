@@ -29,6 +29,7 @@ struct GatherParameters {
     double cParameter = 1.0 / (2.0 * std::numbers::pi); ///< c of c_k = c (k + 1), 1/sr (normalised Phong)
     double epsilonL = 1e-20; ///< eps_l of eq. 7 (dimensionless weight added per VAL)
     bool glossy = true;      ///< false: the glossy sums stay 0 (the paper's "diffuse" setup)
+    bool nearField = false;  ///< guard G12 of lightskin_math.glsl (near-field VALs as areas); false: point model
 };
 
 /// A receiver: a sparse point in world space with its material exponent.
@@ -115,7 +116,8 @@ glm::dvec3 bruteForce(std::span<const VirtualAreaLight> lights, const Surface& s
                       const GatherParameters& parameters);
 
 /// Irradiance (W/m^2) at a point from every VAL (eq. 3, 4): sum_j M_j w_j cos(theta_i).
+/// nearField: guard G12 (GatherParameters::nearField).
 double irradiance(std::span<const VirtualAreaLight> lights, const glm::dvec3& position, const glm::dvec3& normal,
-                  int channel = 0);
+                  int channel = 0, bool nearField = false);
 
 } // namespace lightskin::gi::reference

@@ -88,6 +88,13 @@ struct GiSettings {
     /// Not a scene key: with robustRealDepth, false drops only its rule for sparse points buried under the
     /// real surface (guard G11) for measurement (`lightskin bench-realdepth --models robust-noburied`).
     bool robustBuriedSparsePoints = true;
+    /// Not a scene key: with robustRealDepth, true adds near-field VALs as areas (guard G12:
+    /// gi::LightSkinSettings::nearFieldArea, gi::BruteForceSettings::nearFieldArea; `lightskin
+    /// bench-realdepth --models robust-area`). Off by default for now: on llvmpipe the polygon's loop
+    /// inside the per-VAL loop makes the gather ~3x and the brute force ~4x slower even where no VAL is
+    /// near (docs/BENCHMARKS.md "Near-field VALs as areas"), for no measured gain in speckle on the
+    /// bundled real recordings.
+    bool robustNearField = false;
     /// Technique "imperfect-volumes" (gi/ImperfectVolumes.h): the "imperfectVolumes" object.
     gi::ImperfectVolumesSettings imperfectVolumes;
     /// Technique "multiscale-prt" (gi/MultiscalePrt.h): the "multiscalePrt" object. Its cacheDirectory is
