@@ -5,8 +5,8 @@
 #   2. AddressSanitizer + UBSan + LeakSanitizer (scripts/sanitize.sh, build-asan/): the whole suite again;
 #   3. ThreadSanitizer (scripts/sanitize.sh --thread, build-tsan/): the tests of the threaded code.
 # Fails if a stage ran no test. Extra arguments go to ctest in stages 1 and 2 (e.g. -L unit).
-# Stage 1 runs by default (CI); LIGHTSKIN_SANITIZERS=1 adds stages 2 and 3. They become the default once the
-# merged tree has passed one whole ASan+UBSan run (docs/TESTING.md, "Sanitizer builds").
+# Stage 1 runs by default (CI); LIGHTSKIN_SANITIZERS=1 adds stages 2 and 3. They stay opt-in until stage 3's
+# crash inside OpenNI2's .oni driver under TSan is understood (docs/TESTING.md, "Sanitizer builds").
 # Stage times are printed at the end; the measured totals are in docs/TESTING.md ("Build and CI times").
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

@@ -12,6 +12,7 @@
 //
 // Drivers: libOpenNI2 finds its drivers in OpenNI2/Drivers next to the library itself (Debian:
 // /usr/lib/x86_64-linux-gnu/OpenNI2/Drivers), independent of the working directory.
+#include "FramePairing.h"
 #include "Sources.h"
 
 #include <lightskin/core/Error.h>
@@ -335,6 +336,13 @@ protected:
                 if (haveColour_) ++unpaired_;
                 takeColour(frame, out);
             }
+            // .oni: a frame whose partner OpenNI2's player skipped is dropped (FramePairing.h).
+            if (file_ && haveDepth_ && haveColour_) {
+                const auto decision = pairing_.decide(heldDepthIndex_, heldColourIndex_);
+                if (decision != FrameIndexPairing::Decision::Pair) ++unpaired_;
+                if (decision == FrameIndexPairing::Decision::DropDepth) haveDepth_ = false;
+                if (decision == FrameIndexPairing::Decision::DropColour) haveColour_ = false;
+            }
         }
         if (colour_.isValid() == false) out.colour.release();
         stampFrame(out, next_++);
@@ -349,6 +357,7 @@ protected:
         open(true);
         next_ = 0;
         lastDepthIndex_ = lastColourIndex_ = -1;
+        pairing_.reset();
         while (next_ < index)
             if (!readNext(seekScratch_)) throw Error(info_.uri, index, "seek beyond the end of the file");
     }
@@ -398,6 +407,7 @@ private:
             view.copyTo(out.depth);
         out.depthTimestampSeconds = double(frame.getTimestamp()) * 1e-6;
         countGap(frame.getFrameIndex(), lastDepthIndex_);
+        heldDepthIndex_ = frame.getFrameIndex();
         haveDepth_ = true;
     }
 
@@ -431,6 +441,7 @@ private:
         if (flipColour_) cv::flip(out.colour, out.colour, 1);
         out.colourTimestampSeconds = double(frame.getTimestamp()) * 1e-6;
         countGap(frame.getFrameIndex(), lastColourIndex_);
+        heldColourIndex_ = frame.getFrameIndex();
         haveColour_ = true;
     }
 
@@ -445,6 +456,8 @@ private:
     int depthFrames_ = 0, colourFrames_ = 0;
     int depthWidth_ = 0, depthHeight_ = 0; // the stream's own size (info_ may describe registered frames)
     int lastDepthIndex_ = -1, lastColourIndex_ = -1;
+    int heldDepthIndex_ = 0, heldColourIndex_ = 0; // OpenNI2's numbers of the frames in `out`
+    FrameIndexPairing pairing_;
     std::int64_t next_ = 0, gaps_ = 0, unpaired_ = 0;
 };
 

@@ -175,13 +175,19 @@ struct PlyElement {
 /// Walks an ASCII PLY body, one element instance per line (as assimp reads it; "comment" lines
 /// are skipped like assimp does): every list count must be a whole number within its count type.
 /// assimp reads "99999999993" into a uchar count without a check and allocates for it (32 GB: fuzz
-/// finding 2b). Lines with too few values are left to assimp, which reports them.
+/// finding 2b). Lines with too few values are left to assimp, which reports them. A body with fewer
+/// instance lines than the header's counts is refused: assimp read the last line again for the missing face,
+/// so a vertex line's "99999999999993" became a list count and it allocated 2.2 GB (fuzz finding 12).
 void checkPlyAsciiBody(std::istream& body, const std::vector<PlyElement>& elements, const std::string& source) {
     std::string line, token;
     for (const PlyElement& element : elements)
         for (std::uint64_t i = 0; i < element.count; ++i) {
             do {
-                if (!std::getline(body, line)) return;
+                if (!std::getline(body, line))
+                    throw Error(source, std::nullopt,
+                                "ASCII PLY: the body ends before element '" + element.name + "' " + std::to_string(i) +
+                                    " (the header counts " + std::to_string(element.count) +
+                                    "; one line per instance)");
             } while (line.find_first_not_of(" \t\r") == std::string::npos ||
                      line.compare(line.find_first_not_of(" \t"), 7, "comment") == 0);
             std::istringstream values(line);

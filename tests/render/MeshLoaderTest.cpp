@@ -160,6 +160,18 @@ TEST(MeshLoader, BadFilesGiveErrorsNamingTheFileAndCause) {
                              "type (0..255)"),
               std::string::npos)
         << listCount;
+    // Fuzz finding 12: the face line missing (the body's size still passed); assimp read the last vertex
+    // line again as the face, took its "99999999999993" as the list count and allocated 2.2 GB.
+    const auto bodyScratch = lightskin::test::scratchDir("mesh_missing_face");
+    std::ofstream(bodyScratch / "missing_face.ply")
+        << "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+           "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+           "0 0 0\n1 0 0\n0 1 0\n99999999999993 232 243 227\n";
+    const std::string missingFace = errorOf(bodyScratch / "missing_face.ply");
+    EXPECT_NE(missingFace.find("missing_face.ply"), std::string::npos) << missingFace;
+    EXPECT_NE(missingFace.find("ASCII PLY: the body ends before element 'face' 0 (the header counts 1"),
+              std::string::npos)
+        << missingFace;
     // Fuzz finding: 2^31 - 1 faces whose property line is misspelt (so no value counted) kept
     // assimp reading for minutes: an unknown header line is refused.
     const std::string noProperties = errorOf(dir / "ascii_element_without_properties.ply");
