@@ -1,5 +1,6 @@
 // Issue 21 part 5, .oni files damaged in the middle (the reader is OpenNI2's; ours must turn what it
 // reports into an Error naming the file, or deliver well-formed frames, never crash or hang).
+#include "OniStreams.h"
 #include "TestPaths.h"
 
 #include <lightskin/capture/FrameSource.h>
@@ -91,8 +92,8 @@ int recordSingleStream(const std::filesystem::path& out, openni::SensorType sens
     for (int i = 0; i < frames && stream.readFrame(&frame) == openni::STATUS_OK; ++i) ++read;
     recorder.stop();
     recorder.destroy();
-    stream.stop();
-    stream.destroy();
+    frame.release();
+    stopAndDestroy({&stream});
     device.close();
     // Every initialize needs its shutdown: without it OpenNI2 never unloads its drivers, and the
     // PS1080 / PSLink drivers' per-process objects stay allocated (LeakSanitizer: 240 bytes in 10

@@ -1,5 +1,6 @@
 // .oni playback through OpenNI2 on a real Kinect v1 recording (tests/data/oni-kinect-v1:
 // 12 depth + 12 colour frames, colour field of view 0, mirror flag set).
+#include "OniStreams.h"
 #include "TestPaths.h"
 
 #include <lightskin/capture/FrameSource.h>
@@ -45,8 +46,8 @@ cv::Mat rawFirstDepthFrame() {
         openni::VideoFrameRef frame;
         EXPECT_EQ(depth.readFrame(&frame), openni::STATUS_OK);
         copy = cv::Mat(frame.getHeight(), frame.getWidth(), CV_16UC1, const_cast<void*>(frame.getData())).clone();
-        depth.stop();
-        depth.destroy();
+        frame.release();
+        stopAndDestroy({&depth});
         device.close();
     }
     openni::OpenNI::shutdown();
