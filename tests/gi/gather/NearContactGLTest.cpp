@@ -80,6 +80,17 @@ struct ContactRun {
     std::uint32_t culledCpu = 0;
 };
 
+/// A receiver on the cube's face toward the camera (normal -y), diffuse with the test's albedo.
+gi::GroundTruthReceiver faceReceiver(const glm::dvec3& x) {
+    gi::GroundTruthReceiver r;
+    r.position = x;
+    r.normal = glm::dvec3(0, -1, 0);
+    r.toViewer = glm::normalize(cameraPose().translation() - x);
+    r.material.diffuseAlbedo = glm::vec3(float(kAlbedo));
+    r.material.specularAlbedo = glm::vec3(0.0f);
+    return r;
+}
+
 ContactRun render(double sink) {
     const CameraIntrinsics k = intrinsics();
     const Pose pose = cameraPose();
@@ -211,13 +222,7 @@ TEST_P(NearContactGLTest, BruteForceOnProductionValsMatchesRayTracedTruth) {
             const glm::dvec3 x(p[0], p[1], p[2]);
             // away from the contact edge (floor z = 0), the top edge and the side edges
             if (x.z < minHeight || x.z > 2.0 * kHalf - sink - minHeight || std::abs(x.x) > kHalf - minHeight) continue;
-            gi::GroundTruthReceiver r;
-            r.position = x;
-            r.normal = glm::dvec3(0, -1, 0);
-            r.toViewer = glm::normalize(cameraPose().translation() - x);
-            r.material.diffuseAlbedo = glm::vec3(float(kAlbedo));
-            r.material.specularAlbedo = glm::vec3(0.0f);
-            receivers.push_back(r);
+            receivers.push_back(faceReceiver(x));
             pixels.emplace_back(u, row);
         }
     ASSERT_GT(receivers.size(), 30u);
@@ -298,13 +303,7 @@ TEST_P(NearContactGLTest, NearFieldValsAtTheContactEdgeMatchRayTracedTruth) {
             const glm::dvec3 x(p[0], p[1], p[2]);
             if (x.z < kBandLow * maxRadius || x.z >= 3.0 * maxRadius || std::abs(x.x) > kHalf - 3.0 * maxRadius)
                 continue;
-            gi::GroundTruthReceiver r;
-            r.position = x;
-            r.normal = glm::dvec3(0, -1, 0);
-            r.toViewer = glm::normalize(cameraPose().translation() - x);
-            r.material.diffuseAlbedo = glm::vec3(float(kAlbedo));
-            r.material.specularAlbedo = glm::vec3(0.0f);
-            receivers.push_back(r);
+            receivers.push_back(faceReceiver(x));
             pixels.emplace_back(u, v);
         }
     ASSERT_GT(receivers.size(), 20u);
