@@ -40,6 +40,20 @@ namespace {
 
 double minimum(const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); }
 
+/// The diffuse brute force's row beside a LightSkin row of the same VAL map (its time in every time column).
+RunResult bruteForceRow(const RunResult& row, double bruteMs, std::string series) {
+    RunResult brute = row;
+    brute.method = "brute force";
+    brute.series = std::move(series);
+    brute.isBrute = true;
+    brute.config.channels = 1;
+    brute.config.sparse = 0;
+    brute.bruteMs = bruteMs;
+    brute.gpuMs = bruteMs;
+    brute.cpuMs = bruteMs;
+    return brute;
+}
+
 double millisecondsSince(std::chrono::steady_clock::time_point start) {
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
@@ -206,16 +220,8 @@ void runGatherBench(const GatherBenchOptions& options) {
                               GLsizei(subsetReference.size() * sizeof(glm::vec4)), subsetReference.data());
             const double perPixel = (minimum(withPixels) - minimum(without)) / double(subset.pixels.size());
             bruteMs = perPixel * double(covered);
-            RunResult bruteRow = row;
-            bruteRow.method = "brute force";
-            bruteRow.series = "estimate from " + std::to_string(subset.pixels.size()) + " random covered pixels";
-            bruteRow.isBrute = true;
-            bruteRow.config.channels = 1;
-            bruteRow.config.sparse = 0;
-            bruteRow.bruteMs = bruteMs;
-            bruteRow.gpuMs = bruteMs;
-            bruteRow.cpuMs = bruteMs;
-            report.runs.push_back(bruteRow);
+            report.runs.push_back(bruteForceRow(
+                row, bruteMs, "estimate from " + std::to_string(subset.pixels.size()) + " random covered pixels"));
             std::printf("\nVAL map %s (%zu VALs): brute force (diffuse) on %zu of %zu covered pixels %.1f ms, no pixel "
                         "%.1f ms -> all covered pixels %.0f ms (%.3g interactions/s)\n",
                         mapName.c_str(), vals.size(), subset.pixels.size(), covered, minimum(withPixels),
@@ -238,15 +244,7 @@ void runGatherBench(const GatherBenchOptions& options) {
             }
             bruteMs = minimum(times);
             readImage(reference);
-            RunResult bruteRow = row;
-            bruteRow.method = "brute force";
-            bruteRow.isBrute = true;
-            bruteRow.config.channels = 1;
-            bruteRow.config.sparse = 0;
-            bruteRow.bruteMs = bruteMs;
-            bruteRow.gpuMs = bruteMs;
-            bruteRow.cpuMs = bruteMs;
-            report.runs.push_back(bruteRow);
+            report.runs.push_back(bruteForceRow(row, bruteMs, ""));
             std::printf("\nVAL map %s (%zu VALs): brute force (diffuse) %.1f ms, %.3g interactions/s\n",
                         mapName.c_str(), vals.size(), bruteMs,
                         double(covered) * double(vals.size()) / (bruteMs * 1e-3));
