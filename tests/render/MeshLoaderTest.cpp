@@ -172,6 +172,15 @@ TEST(MeshLoader, BadFilesGiveErrorsNamingTheFileAndCause) {
     EXPECT_NE(missingFace.find("ASCII PLY: the body ends before element 'face' 0 (the header counts 1"),
               std::string::npos)
         << missingFace;
+    // Fuzz finding 13: assimp read the leading digits of an element name as its count (53 GB).
+    std::ofstream(bodyScratch / "element_name_digits.ply")
+        << "ply\nformat ascii 1.0\nelement 33333333333333333333vertex 3\nproperty float x\nproperty float y\n"
+           "property float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n";
+    const std::string nameDigits = errorOf(bodyScratch / "element_name_digits.ply");
+    EXPECT_NE(nameDigits.find("element_name_digits.ply"), std::string::npos) << nameDigits;
+    EXPECT_NE(nameDigits.find("element name '33333333333333333333vertex' does not start with a letter"),
+              std::string::npos)
+        << nameDigits;
     // Fuzz finding: 2^31 - 1 faces whose property line is misspelt (so no value counted) kept
     // assimp reading for minutes: an unknown header line is refused.
     const std::string noProperties = errorOf(dir / "ascii_element_without_properties.ply");
