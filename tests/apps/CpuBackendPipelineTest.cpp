@@ -18,6 +18,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,8 @@ struct Recording {
     const char* folder;    ///< under recordings/
     const char* sceneFile; ///< under recordings/scenes/
 };
+// gtest would print the case as raw bytes (pointers), which ctest puts into the test's name.
+void PrintTo(const Recording& recording, std::ostream* out) { *out << recording.name; }
 
 std::vector<cv::Mat> indirectFrames(const Recording& recording, const std::string& backend, int frames) {
     render::Scene scene = render::loadScene(test::sourceDir() / "recordings" / "scenes" / recording.sceneFile);

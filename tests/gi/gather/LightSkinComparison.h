@@ -23,6 +23,7 @@
 #include <cstdlib>
 #include <numbers>
 #include <optional>
+#include <ostream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -41,6 +42,9 @@ struct PaperSetup {
     /// G12 has its own independent references in GatherReferenceTest.cpp).
     bool nearField = false;
 };
+// gtest prints a parameter without operator<< as its raw bytes, pointers included, and ctest takes that
+// into the test's name: it changed with every build (ASLR). Print the case's name instead.
+inline void PrintTo(const PaperSetup& setup, std::ostream* out) { *out << setup.name; }
 
 /// The shared rig (its own G-buffer and output are not used here: each run makes its own) with
 /// the VALs of the scene and a view from above the origin.
@@ -533,6 +537,7 @@ struct GpuExtreme {
     float exponent = 20.0f;
     std::vector<gi::VirtualAreaLight> (*vals)(float scale);
 };
+inline void PrintTo(const GpuExtreme& extreme, std::ostream* out) { *out << extreme.name; } // see PaperSetup's
 
 inline std::vector<gi::VirtualAreaLight> valsCoincident(float) {
     return {disc({0, 0, 0}, {0, 0, -1}, 1e-3f, {1, 1, 1})};

@@ -26,6 +26,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <ostream>
 #include <string>
 
 namespace lightskin::test {
@@ -151,6 +152,8 @@ struct Case {
     bool ambientOcclusion;
     bool sceneLights = false; ///< the mesh points carry the direct light of Scene::lights()
 };
+// gtest would print the case as raw bytes (a pointer), which ctest puts into the test's name.
+void PrintTo(const Case& c, std::ostream* out) { *out << c.name; }
 
 class ImperfectVolumesGLTest : public GlTest, public ::testing::WithParamInterface<Case> {};
 
