@@ -3,6 +3,7 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/core/ImageFile.h>
 #include <lightskin/core/Log.h>
+#include <lightskin/gl/TextureUpload.h>
 
 #include <epoxy/gl.h>
 #include <opencv2/core.hpp>
@@ -39,17 +40,8 @@ gl::Texture loadSmallScaleTexture(const std::filesystem::path& file, SmallScaleM
     }
     cv::flip(pixels, pixels, 0);
     if (!pixels.isContinuous()) pixels = pixels.clone();
-    const int levels = 1 + int(std::floor(std::log2(std::max(pixels.cols, pixels.rows))));
-    gl::Texture texture = gl::Texture::create2D(internalFormat, pixels.cols, pixels.rows, levels);
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 2);
-    glTextureSubImage2D(texture.id(), 0, 0, 0, pixels.cols, pixels.rows, format, GL_UNSIGNED_SHORT, pixels.data);
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-    glGenerateTextureMipmap(texture.id());
-    glTextureParameteri(texture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
-    glTextureParameteri(texture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
-    glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_T, GL_REPEAT);
-    return texture;
+    return gl::createMipmappedRepeatingTexture2D(internalFormat, pixels.cols, pixels.rows, format, GL_UNSIGNED_SHORT,
+                                                 pixels.data);
 }
 
 PrtSmallScale PrtSmallScale::create(std::span<const MeshInstance> instances) {

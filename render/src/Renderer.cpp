@@ -7,6 +7,7 @@
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/gl/Readback.h>
 #include <lightskin/gl/ShaderLibrary.h>
+#include <lightskin/gl/TextureUpload.h>
 #include <lightskin/render/CameraProjection.h>
 #include <lightskin/render/MeshLoader.h>
 #include <lightskin/render/Renderer.h>
@@ -46,16 +47,8 @@ gl::Texture loadTexture(const std::string& path) {
     cv::Mat rgba;
     cv::cvtColor(image, rgba, cv::COLOR_BGR2RGBA);
     cv::flip(rgba, rgba, 0); // texture coordinate v = 0 is the bottom row (OBJ/glTF after assimp)
-    const int levels = 1 + int(std::floor(std::log2(std::max(rgba.cols, rgba.rows))));
-    gl::Texture texture = gl::Texture::create2D(GL_SRGB8_ALPHA8, rgba.cols, rgba.rows, levels);
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    glTextureSubImage2D(texture.id(), 0, 0, 0, rgba.cols, rgba.rows, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data);
-    glGenerateTextureMipmap(texture.id());
-    glTextureParameteri(texture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
-    glTextureParameteri(texture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
-    glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_T, GL_REPEAT);
-    return texture;
+    return gl::createMipmappedRepeatingTexture2D(GL_SRGB8_ALPHA8, rgba.cols, rgba.rows, GL_RGBA, GL_UNSIGNED_BYTE,
+                                                 rgba.data);
 }
 
 void setMat4(const gl::Program& program, const char* name, const glm::mat4& m) {
