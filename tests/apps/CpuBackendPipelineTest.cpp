@@ -1,7 +1,8 @@
 // gi.backend "cpu" in the per-frame pipeline (issue 18): the bundled synthetic recordings with
 // their scenes (synth-orbit: bunny and cube, ~3.7k depth VALs, glossy + occlusion; synth-pan;
-// synth-clean-channels) through mr::FramePipeline with the GL and the CPU LightSkin backend; the
-// indirect light of the two must agree per pixel, frame by frame.
+// synth-clean-channels) and the real Kinect v1 `.oni` (640x480, depth registered in software, the
+// real-depth guards at work) through mr::FramePipeline with the GL and the CPU LightSkin backend;
+// the indirect light of the two must agree per pixel, frame by frame.
 //
 // Tolerance: each backend is within 3e-3 relative + 1e-3 of the image's maximum of the double
 // reference per pixel (tests/gi/gather/: the GL path in LightSkinGLTest, the CPU backend in
@@ -28,8 +29,9 @@ namespace {
 
 struct Recording {
     const char* name;      ///< test name
-    const char* folder;    ///< under recordings/
+    const char* path;      ///< recording folder or file, relative to the source tree
     const char* sceneFile; ///< under recordings/scenes/
+    mr::PoseMode pose = mr::PoseMode::GroundTruth;
 };
 // gtest would print the case as raw bytes (pointers), which ctest puts into the test's name.
 void PrintTo(const Recording& recording, std::ostream* out) { *out << recording.name; }
@@ -37,9 +39,9 @@ void PrintTo(const Recording& recording, std::ostream* out) { *out << recording.
 std::vector<cv::Mat> indirectFrames(const Recording& recording, const std::string& backend, int frames) {
     render::Scene scene = render::loadScene(test::sourceDir() / "recordings" / "scenes" / recording.sceneFile);
     scene.gi.backend = backend;
-    auto source = capture::openFrameSource((test::sourceDir() / "recordings" / recording.folder).string(), {});
+    auto source = capture::openFrameSource((test::sourceDir() / recording.path).string(), {});
     mr::PipelineOptions options;
-    options.poseMode = mr::PoseMode::GroundTruth;
+    options.poseMode = recording.pose;
     options.compare = false;
     options.linearIndirect = true;
     auto pipeline = mr::FramePipeline::create(scene, source->info(), options);
@@ -88,10 +90,12 @@ TEST_P(CpuBackendPipeline, IndirectLightMatchesTheGlBackend) {
 }
 
 INSTANTIATE_TEST_SUITE_P(BundledRecordings, CpuBackendPipeline,
-                         ::testing::Values(Recording{"synth_orbit", "synth-orbit", "orbit.json"},
-                                           Recording{"synth_pan", "synth-pan", "pan.json"},
-                                           Recording{"synth_clean_channels", "synth-clean-channels",
-                                                     "clean_channels.json"}),
+                         ::testing::Values(Recording{"synth_orbit", "recordings/synth-orbit", "orbit.json"},
+                                           Recording{"synth_pan", "recordings/synth-pan", "pan.json"},
+                                           Recording{"synth_clean_channels", "recordings/synth-clean-channels",
+                                                     "clean_channels.json"},
+                                           Recording{"oni_kinect_v1", "tests/data/oni-kinect-v1/3dj_test.oni",
+                                                     "oni_room.json", mr::PoseMode::Fixed}),
                          [](const auto& param_info) { return std::string(param_info.param.name); });
 
 } // namespace
