@@ -521,7 +521,10 @@ std::size_t removeDuplicateTriangles(aiMesh& mesh) {
     std::map<std::array<std::uint32_t, 3>, std::vector<unsigned>> bySet;
     for (unsigned f = 0; f < faces; ++f) {
         const aiFace& face = mesh.mFaces[f];
-        if (face.mNumIndices != 3) continue;
+        // Not a triangle, or an index out of range: left alone here, the conversion below refuses the latter.
+        if (face.mNumIndices != 3 ||
+            std::max({face.mIndices[0], face.mIndices[1], face.mIndices[2]}) >= mesh.mNumVertices)
+            continue;
         for (unsigned k = 0; k < 3; ++k) corners[f][k] = idOf(face.mIndices[k]);
         std::array<std::uint32_t, 3> key = corners[f];
         std::sort(key.begin(), key.end());
