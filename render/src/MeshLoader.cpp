@@ -16,13 +16,18 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <mutex>
 #include <sstream>
 #include <string>
+#include <unordered_map>
+#include <utility>
+#include <vector>
 
 namespace lightskin::render {
 
@@ -494,6 +499,94 @@ bool extensionReaderRecognises(const Assimp::Importer& importer, const std::file
     return listing == 1 || recognised;
 }
 
+/// Drops all but one of the triangles of `mesh` that span the same three corner positions (a
+/// zero-thickness flap: bun_zipper_res4.ply holds 30 such pairs, the second copy wound the other
+/// way). Why before the normals are generated: the copy wound against its neighbours adds its
+/// reversed face normal to its corners, which turns their smooth normals by up to ~170 degrees and the
+/// interpolated per-pixel normal of every triangle around them by tens of degrees; under light
+/// from near a receiver's horizon that turns a lit pixel black (issue 12: the brute force's black
+/// pixel on the PCL TIFF). The copy kept is the one whose edges run opposite to the edges of the
+/// other triangles that share them (the winding its neighbours agree on); ties keep the first in the
+/// file. Corners are compared by position, as assimp's readers may give each face its own vertices.
+/// Returns the count dropped.
+std::size_t removeDuplicateTriangles(aiMesh& mesh) {
+    struct PositionHash {
+        std::size_t operator()(const std::array<float, 3>& p) const noexcept {
+            std::size_t h = 0;
+            for (float f : p) h = h * 1000003u ^ std::hash<float>{}(f);
+            return h;
+        }
+    };
+    std::unordered_map<std::array<float, 3>, std::uint32_t, PositionHash> ids;
+    const auto idOf = [&](unsigned vertex) {
+        const aiVector3D& v = mesh.mVertices[vertex];
+        return ids.try_emplace({v.x, v.y, v.z}, std::uint32_t(ids.size())).first->second;
+    };
+    const unsigned faces = mesh.mNumFaces;
+    std::vector<std::array<std::uint32_t, 3>> corners(faces, {0u, 0u, 0u});
+    std::map<std::array<std::uint32_t, 3>, std::vector<unsigned>> bySet;
+    for (unsigned f = 0; f < faces; ++f) {
+        const aiFace& face = mesh.mFaces[f];
+        // Not a triangle, or an index out of range: left alone here, the conversion below refuses the latter.
+        if (face.mNumIndices != 3 ||
+            std::max({face.mIndices[0], face.mIndices[1], face.mIndices[2]}) >= mesh.mNumVertices)
+            continue;
+        for (unsigned k = 0; k < 3; ++k) corners[f][k] = idOf(face.mIndices[k]);
+        std::array<std::uint32_t, 3> key = corners[f];
+        std::sort(key.begin(), key.end());
+        if (key[0] != key[1] && key[1] != key[2]) bySet[key].push_back(f);
+    }
+    std::vector<char> drop(faces, 0);
+    std::map<std::pair<std::uint32_t, std::uint32_t>, int> directedEdges; // of the triangles listed once
+    bool anyDuplicate = false;
+    for (const auto& [key, list] : bySet) {
+        if (list.size() > 1)
+            anyDuplicate = true;
+        else
+            for (unsigned k = 0; k < 3; ++k) ++directedEdges[{corners[list[0]][k], corners[list[0]][(k + 1) % 3]}];
+    }
+    if (!anyDuplicate) return 0;
+    const auto count = [&](std::uint32_t a, std::uint32_t b) {
+        const auto it = directedEdges.find({a, b});
+        return it == directedEdges.end() ? 0 : it->second;
+    };
+    std::size_t dropped = 0;
+    for (const auto& [key, list] : bySet) {
+        if (list.size() < 2) continue;
+        unsigned keep = list[0];
+        int best = std::numeric_limits<int>::min();
+        for (unsigned f : list) {
+            int agree = 0; // a neighbour's edge b -> a agrees with this copy's a -> b; a -> b disagrees
+            for (unsigned k = 0; k < 3; ++k) {
+                const std::uint32_t a = corners[f][k], b = corners[f][(k + 1) % 3];
+                agree += count(b, a) - count(a, b);
+            }
+            if (agree > best) {
+                best = agree;
+                keep = f;
+            }
+        }
+        for (unsigned f : list)
+            if (f != keep) {
+                drop[f] = 1;
+                ++dropped;
+            }
+    }
+    // Compact by swapping the index arrays: aiMesh deletes its whole face array, so the moved-out
+    // faces past mNumFaces are still freed.
+    unsigned next = 0;
+    for (unsigned f = 0; f < faces; ++f) {
+        if (drop[f]) continue;
+        if (next != f) {
+            std::swap(mesh.mFaces[next].mNumIndices, mesh.mFaces[f].mNumIndices);
+            std::swap(mesh.mFaces[next].mIndices, mesh.mFaces[f].mIndices);
+        }
+        ++next;
+    }
+    mesh.mNumFaces = next;
+    return dropped;
+}
+
 } // namespace
 
 LoadedModel loadModel(const std::filesystem::path& path) {
@@ -542,12 +635,19 @@ LoadedModel loadModel(const std::filesystem::path& path) {
     }
     std::vector<bool> hadNormals(scene->mNumMeshes);
     for (unsigned m = 0; m < scene->mNumMeshes; ++m) hadNormals[m] = scene->mMeshes[m]->HasNormals();
+    // The importer created the scene (non-const); assimp's public API has no step for this repair.
+    std::size_t duplicateTriangles = 0;
+    for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+        aiMesh& mesh = *const_cast<aiMesh*>(scene->mMeshes[m]);
+        duplicateTriangles += removeDuplicateTriangles(mesh);
+    }
     scene = importer.ApplyPostProcessing(aiProcess_GenSmoothNormals | aiProcess_JoinIdenticalVertices);
     if (scene == nullptr)
         throw Error(source, std::nullopt, std::string("cannot process mesh: ") + importer.GetErrorString());
 
     LoadedModel model;
     model.path = path;
+    model.report.droppedDuplicateTriangles = duplicateTriangles;
     const std::filesystem::path folder = path.parent_path();
     for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
         const aiMesh& in = *scene->mMeshes[m];
@@ -616,10 +716,10 @@ LoadedModel loadModel(const std::filesystem::path& path) {
     if (model.parts.empty()) throw Error(source, std::nullopt, "file contains no non-degenerate triangles");
 
     const MeshLoadReport& r = model.report;
-    if (r.droppedDegenerateTriangles > 0 || r.partsWithGeneratedNormals > 0)
-        log::info(source + ": dropped " + std::to_string(r.droppedDegenerateTriangles) +
-                  " degenerate triangles, generated normals for " + std::to_string(r.partsWithGeneratedNormals) +
-                  " part(s)");
+    if (r.droppedDegenerateTriangles > 0 || r.droppedDuplicateTriangles > 0 || r.partsWithGeneratedNormals > 0)
+        log::info(source + ": dropped " + std::to_string(r.droppedDegenerateTriangles) + " degenerate and " +
+                  std::to_string(r.droppedDuplicateTriangles) + " duplicate triangles, generated normals for " +
+                  std::to_string(r.partsWithGeneratedNormals) + " part(s)");
     return model;
 }
 

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <sstream>
 #include <utility>
 
 using lightskin::Error;
@@ -39,7 +40,11 @@ TEST(MeshLoader, StanfordBunnyPlyHasItsPublishedCountsAndGetsNormals) {
     // The header says 946 faces; the file also holds two "comment" lines inside the face list
     // (lines 526 and 613, the triangles zipper removed), which assimp counts among the 946 and
     // skips, so 944 triangles arrive. The PLY has no normals, so they are generated.
-    EXPECT_EQ(model.triangleCount() + model.report.droppedDegenerateTriangles, 944u);
+    // Of those, 39 repeat the corners of another triangle (30 corner sets listed 2-4 times, most copies
+    // wound the other way; counted from the file with a script), and are dropped before the normals are made.
+    EXPECT_EQ(model.report.droppedDuplicateTriangles, 39u);
+    EXPECT_EQ(model.triangleCount() + model.report.droppedDegenerateTriangles + model.report.droppedDuplicateTriangles,
+              944u);
     EXPECT_LE(model.vertexCount(), 453u);
     EXPECT_GE(model.vertexCount(), 440u);
     EXPECT_EQ(model.report.partsWithGeneratedNormals, 1u);
@@ -52,6 +57,61 @@ TEST(MeshLoader, StanfordBunnyPlyHasItsPublishedCountsAndGetsNormals) {
     }
     EXPECT_FLOAT_EQ(minY, 0.0336204f);
     EXPECT_FLOAT_EQ(maxY, 0.181897f);
+}
+
+namespace {
+
+/// A roof of 8 triangles over a 3x3 grid (x, y in {0, 1, 2}), its ridge along x = 1 raised so that the
+/// two planes meet at a 13 degree crease (the bunny's, issue 12), all wound counter-clockwise seen
+/// from +z; plus one copy of a ridge triangle wound the other way, listed first or last. ASCII PLY
+/// with shared vertices (as bun_zipper_res4.ply): assimp then writes each face's normal into the
+/// shared vertex slots, so a reversed copy listed last decides its corners' normals.
+std::string roofPly(bool reversedCopyFirst) {
+    const double ridge = std::tan(6.5 * 3.14159265358979 / 180.0); // each side 6.5 degrees from level
+    std::ostringstream ply;
+    ply << "ply\nformat ascii 1.0\nelement vertex 9\nproperty float x\nproperty float y\nproperty float z\n"
+           "element face 9\nproperty list uchar int vertex_indices\nend_header\n";
+    for (int y = 0; y < 3; ++y)
+        for (int x = 0; x < 3; ++x) ply << x << ' ' << y << ' ' << (x == 1 ? ridge : 0.0) << '\n';
+    const std::string reversed = "3 4 1 0\n"; // the copy of "3 0 1 4" wound the other way
+    if (reversedCopyFirst) ply << reversed;
+    for (int y = 0; y < 2; ++y)
+        for (int x = 0; x < 2; ++x) {
+            const int a = 3 * y + x;
+            ply << "3 " << a << ' ' << a + 1 << ' ' << a + 4 << "\n3 " << a << ' ' << a + 4 << ' ' << a + 3 << '\n';
+        }
+    if (!reversedCopyFirst) ply << reversed;
+    return ply.str();
+}
+
+} // namespace
+
+// Issue 12 (the brute force's black pixel on the PCL TIFF): a triangle listed twice, once wound the
+// other way, turned its corners' generated normals by up to ~170 degrees. The reference is the roof's
+// own geometry: generated normals average the normals of adjacent faces (within the crease angle), so each
+// lies within the 13 degree crease of every outward face around it, and every kept face faces +z.
+TEST(MeshLoader, ATriangleListedTwiceWithReversedWindingIsDroppedBeforeTheNormalsAreMade) {
+    const auto scratch = lightskin::test::scratchDir("mesh_duplicate_triangles");
+    for (const bool first : {false, true}) {
+        SCOPED_TRACE(first ? "reversed copy listed first" : "reversed copy listed last");
+        const auto path = scratch / (first ? "roof_first.ply" : "roof_last.ply");
+        std::ofstream(path) << roofPly(first);
+        const auto model = loadModel(path);
+        ASSERT_EQ(model.parts.size(), 1u);
+        const TriangleMesh& mesh = model.parts[0].mesh;
+        EXPECT_EQ(mesh.triangleCount(), 8u);
+        EXPECT_EQ(model.report.droppedDuplicateTriangles, 1u);
+        const float creaseCos = std::cos(13.0f * 3.14159265f / 180.0f) - 1e-5f; // float rounding of the normals
+        for (std::size_t t = 0; t < mesh.indices.size(); t += 3) {
+            const glm::vec3 a = mesh.positions[mesh.indices[t]], b = mesh.positions[mesh.indices[t + 1]],
+                            c = mesh.positions[mesh.indices[t + 2]];
+            const glm::vec3 face = glm::normalize(glm::cross(b - a, c - a));
+            EXPECT_GT(face.z, 0.99f) << "triangle " << t / 3 << " kept the reversed winding";
+            for (int k = 0; k < 3; ++k)
+                EXPECT_GE(glm::dot(mesh.normals[mesh.indices[t + std::size_t(k)]], face), creaseCos)
+                    << "triangle " << t / 3 << " corner " << k;
+        }
+    }
 }
 
 TEST(MeshLoader, CornellBoxObjMaterialsAndAmbientEmission) {

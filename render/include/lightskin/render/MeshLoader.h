@@ -30,6 +30,9 @@ struct MeshPart {
 
 struct MeshLoadReport {
     std::size_t droppedDegenerateTriangles = 0;
+    /// triangles over the same three corner positions as another (all copies but the one wound like its
+    /// neighbours; before normals are generated, which the reversed copies would turn)
+    std::size_t droppedDuplicateTriangles = 0;
     std::size_t removedUnusedVertices = 0;
     std::size_t partsWithGeneratedNormals = 0;
     std::size_t repairedNormals = 0; ///< generated normals that were zero/non-finite, set to +z
