@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 namespace lightskin::eval {
 
@@ -24,11 +25,16 @@ void luminanceInto(const cv::Mat& linearBgr, cv::Mat& luminance) {
 }
 
 void smoothSurfaceMaskInto(const cv::Mat& coverage, const cv::Mat& normals, const cv::Mat& depth,
-                           double maxNormalAngleDegrees, double maxRelativeDepthStep, cv::Mat& mask) {
+                           double maxNormalAngleDegrees, double maxRelativeDepthStep, cv::Mat& mask,
+                           const cv::Mat& normalSensitivity) {
     if (coverage.type() != CV_8UC1 || normals.type() != CV_32FC3 || depth.type() != CV_32FC1 ||
         normals.size() != coverage.size() || depth.size() != coverage.size())
         throw Error("smoothSurfaceMaskInto", std::nullopt,
                     "expected CV_8UC1 coverage, CV_32FC3 normals, CV_32FC1 depth of one size");
+    const bool sensitive = !normalSensitivity.empty();
+    if (sensitive && (normalSensitivity.type() != CV_32FC1 || normalSensitivity.size() != coverage.size()))
+        throw Error("smoothSurfaceMaskInto", std::nullopt,
+                    "expected a CV_32FC1 normal sensitivity of the coverage's size");
     const double minCos = std::cos(maxNormalAngleDegrees * 3.14159265358979323846 / 180.0);
     mask.create(coverage.size(), CV_8UC1);
     mask.setTo(cv::Scalar(0));
@@ -38,12 +44,24 @@ void smoothSurfaceMaskInto(const cv::Mat& coverage, const cv::Mat& normals, cons
             const cv::Vec3f n = normals.at<cv::Vec3f>(v, u);
             const double z = double(depth.at<float>(v, u));
             bool smooth = std::isfinite(z) && z > 0.0;
+            // The light's own limit on the normals' spread (0.5 / S radians; header): +inf = none.
+            double maxAngle = std::numeric_limits<double>::infinity();
+            if (sensitive) {
+                const double s = double(normalSensitivity.at<float>(v, u));
+                if (std::isnan(s))
+                    smooth = false;
+                else if (s > 0.0)
+                    maxAngle = 0.5 / s; // 0 for s = +inf: equal normals only
+            }
             for (int dv = -2; dv <= 2 && smooth; ++dv)
                 for (int du = -2; du <= 2 && smooth; ++du) {
                     const cv::Vec3f m = normals.at<cv::Vec3f>(v + dv, u + du);
                     smooth = coverage.at<std::uint8_t>(v + dv, u + du) &&
                              double(n.dot(m)) >= minCos * double(cv::norm(n)) * double(cv::norm(m)) &&
                              std::abs(double(depth.at<float>(v + dv, u + du)) - z) <= maxRelativeDepthStep * z;
+                    // atan2 of |n x m| and n . m: exact 0 for equal normals (a cosine test is not, in float)
+                    if (smooth && maxAngle < std::numeric_limits<double>::infinity())
+                        smooth = std::atan2(double(cv::norm(n.cross(m))), double(n.dot(m))) <= maxAngle;
                 }
             if (smooth) mask.at<std::uint8_t>(v, u) = 255;
         }

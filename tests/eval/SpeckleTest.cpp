@@ -225,5 +225,76 @@ TEST(SpeckleTest, SmoothSurfaceMaskDropsCreasesAndDepthSteps) {
     EXPECT_EQ(eval::measureSpeckle(image, coverage).specklePixels, 2u);
 }
 
+/// Normals turning about the y axis by `degreesPerPixel` per column (0 at u = 32): a smooth surface
+/// whose 5x5 windows span +-2 degreesPerPixel around the centre's normal (the diagonal neighbours
+/// too: the turn depends on u only). Depth 1 m everywhere, all covered.
+void turningSurface(double degreesPerPixel, cv::Mat& coverage, cv::Mat& normals, cv::Mat& depth) {
+    coverage = cv::Mat(kSize, kSize, CV_8UC1, cv::Scalar(255));
+    normals.create(kSize, kSize, CV_32FC3);
+    depth = cv::Mat(kSize, kSize, CV_32FC1, cv::Scalar(1.0));
+    for (int v = 0; v < kSize; ++v)
+        for (int u = 0; u < kSize; ++u) {
+            const double a = double(u - 32) * degreesPerPixel * 3.14159265358979323846 / 180.0;
+            normals.at<cv::Vec3f>(v, u) = cv::Vec3f(float(std::sin(a)), 0.0f, float(std::cos(a)));
+        }
+}
+
+TEST(SpeckleTest, NormalSensitivityLimitsTheNormalSpreadToHalfOverS) {
+    // 2 degrees per pixel: a window spans 4 degrees (0.0698 rad) from its centre. The limit 0.5 / S
+    // keeps it for S < 0.5 / 0.0698 = 7.16 and drops it above (S = tan(theta_i): light at 82 degrees).
+    cv::Mat coverage, normals, depth, plain, mask;
+    turningSurface(2.0, coverage, normals, depth);
+    eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, plain);
+    ASSERT_EQ(cv::countNonZero(plain), (kSize - 4) * (kSize - 4)); // 4 < 30 degrees: every full window
+    const auto withS = [&](float s) {
+        eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, mask,
+                                    cv::Mat(kSize, kSize, CV_32FC1, cv::Scalar(s)));
+        return cv::countNonZero(mask);
+    };
+    EXPECT_EQ(withS(0.0f), cv::countNonZero(plain)); // S = 0: no limit beyond the 30 degrees
+    EXPECT_EQ(withS(1.0f), cv::countNonZero(plain)); // light at 45 degrees: 28.6 degrees allowed
+    EXPECT_EQ(withS(7.0f), cv::countNonZero(plain)); // 4.09 degrees allowed >= 4
+    EXPECT_EQ(withS(7.4f), 0);                       // 3.87 degrees allowed < 4: every window dropped
+    EXPECT_EQ(withS(std::numeric_limits<float>::infinity()), 0);
+    EXPECT_EQ(withS(std::numeric_limits<float>::quiet_NaN()), 0);
+    // Per pixel: S high in the left half only drops exactly the windows centred there.
+    cv::Mat s(kSize, kSize, CV_32FC1, cv::Scalar(1.0f));
+    s(cv::Rect(0, 0, 32, kSize)).setTo(cv::Scalar(10.0f));
+    eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, mask, s);
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 31), 0);
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 32), 255);
+    EXPECT_EQ(cv::countNonZero(mask), (kSize - 4) * (kSize - 2 - 32));
+    EXPECT_THROW(eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, mask, cv::Mat(4, 4, CV_32FC1)),
+                 Error);
+    EXPECT_THROW(eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, mask,
+                                             cv::Mat(kSize, kSize, CV_64FC1, cv::Scalar(1.0))),
+                 Error);
+}
+
+TEST(SpeckleTest, DefectsOnAFlatPatchAreCountedWhateverTheNormalSensitivity) {
+    // Equal normals everywhere: the light's sensitivity to the normal cannot explain anything, so the
+    // mask keeps every full window even at S = +inf, and the outliers, the streak and the 2x2 blotch
+    // of the tests above are counted pixel for pixel as without the mask.
+    cv::Mat coverage, normals, depth, mask;
+    turningSurface(0.0, coverage, normals, depth);
+    eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, mask,
+                                cv::Mat(kSize, kSize, CV_32FC1, cv::Scalar(std::numeric_limits<float>::infinity())));
+    ASSERT_EQ(cv::countNonZero(mask), (kSize - 4) * (kSize - 4));
+    cv::Mat image = smoothRamp();
+    image.at<cv::Vec3f>(10, 10) = cv::Vec3f::all(0.0f); // black outlier
+    image.at<cv::Vec3f>(10, 50) *= 20.0f;               // blown outlier
+    paintBlotch(image, 18, 18, 2, 4.0f);
+    paintBlotch(image, 36, 18, 3, 4.0f);
+    paintBlotch(image, 18, 36, 3, 0.0f);
+    for (int u = 28; u < 33; ++u) image.at<cv::Vec3f>(50, u) = cv::Vec3f::all(0.0f); // 1 px black streak
+    const eval::SpeckleStats withMask = eval::measureSpeckle(image, coverage, nullptr, mask);
+    const eval::SpeckleStats without = eval::measureSpeckle(image, coverage);
+    EXPECT_EQ(withMask.specklePixels, 1u + 1u + 4u + 9u + 9u + 5u);
+    EXPECT_EQ(withMask.blackPixels, 1u + 9u + 5u);
+    EXPECT_EQ(withMask.blownPixels, 1u);
+    EXPECT_EQ(withMask.specklePixels, without.specklePixels);
+    EXPECT_EQ(withMask.interiorPixels, without.interiorPixels);
+}
+
 } // namespace
 } // namespace lightskin::test

@@ -69,8 +69,20 @@ SpeckleStats measureSpeckle(const cv::Mat& linearBgr, const cv::Mat& coverage, c
 /// object (an ear in front of the head) irradiance legitimately jumps by more than 50 %, so those
 /// pixels say nothing about speckle. `normals`: CV_32FC3 unit normals; `depth`: CV_32FC1 metres;
 /// `mask` (sized by the call): CV_8UC1 255 = smooth. Throws lightskin::Error on bad types or sizes.
+///
+/// `normalSensitivity` (optional, CV_32FC1 of the same size; a proposal, issue 12 / TUM fr3, not used
+/// by the bench's headline numbers): per pixel S = the relative change of the true irradiance per
+/// radian of normal tilt (gi::reference::irradianceNormalSensitivity; S = tan(theta_i) for one light
+/// at incidence theta_i). A window whose normals differ from the centre's by up to Delta can then hold
+/// a true light change of S Delta, which the measure counts once it exceeds its own 50 %; so the
+/// window is kept only if every neighbour's normal is also within 0.5 / S radians of the centre's.
+/// At S = 1 (light at 45 degrees) that is 28.6 degrees, about the bench's 30; under grazing light
+/// (S = 5-18 on the bunny's underside at TUM fr3) 1.6-5.7 degrees. S <= 0 adds no limit; S = +inf
+/// (no light above the horizon) allows equal normals only; NaN drops the pixel. A patch whose normals
+/// are all equal stays in the mask for any S, so defects there are still counted pixel for pixel.
 void smoothSurfaceMaskInto(const cv::Mat& coverage, const cv::Mat& normals, const cv::Mat& depth,
-                           double maxNormalAngleDegrees, double maxRelativeDepthStep, cv::Mat& mask);
+                           double maxNormalAngleDegrees, double maxRelativeDepthStep, cv::Mat& mask,
+                           const cv::Mat& normalSensitivity = cv::Mat());
 
 /// Luminance Y of a CV_32FC3 BGR linear image into a CV_32FC1 image (sized by the call).
 void luminanceInto(const cv::Mat& linearBgr, cv::Mat& luminance);
