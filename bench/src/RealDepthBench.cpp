@@ -199,8 +199,8 @@ constexpr double kSmoothAngleDegrees = 30.0;
 struct TechniqueStats {
     eval::SpeckleStats speckle;       ///< summed over frames
     eval::SpeckleStats speckleMedian; ///< the median-only definition (before the smooth-profile test)
-    /// The proposal for TUM fr3 (eval::smoothSurfaceMaskInto with the irradiance's normal sensitivity):
-    /// windows whose normals spread more than 0.5 / S radians are left out as well.
+    /// The proposal for TUM fr3 (eval::smoothSurfaceMaskInto with the irradiance's normal sensitivity S):
+    /// pixels whose normal is more than 0.5 / S radians from their window's mean normal are left out too.
     eval::SpeckleStats speckleSensitive;
     double totalLight = 0.0; ///< sum of luminance over covered pixels, all frames
 };
@@ -634,7 +634,7 @@ void runRealDepthBench(const RealDepthBenchOptions& options) {
           "blown (LS) | "
           "black / blown (BF) | total light LS vs "
        << baseline << " | total light BF vs " << baseline
-       << " | median-only speckle LS / BF | sensitivity mask (proposal): speckle LS / BF (black BF), interior "
+       << " | median-only speckle LS / BF | sensitivity mask (proposal): speckle LS / BF (black LS / BF), interior "
           "|\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const CaseResult& r : results) {
         const CaseResult* old = nullptr;
@@ -643,7 +643,7 @@ void runRealDepthBench(const RealDepthBenchOptions& options) {
         char row[640];
         std::snprintf(row, sizeof row,
                       "| %s | %.0f mm | %s | %d | %.0f | %s | %s | %zu / %zu | %zu / %zu | %s | %s | %s / %s | %s / %s "
-                      "(%zu), %zu of %zu |\n",
+                      "(%zu / %zu), %zu of %zu |\n",
                       r.recording.c_str(), r.sink * 1e3, r.model.c_str(), r.frames,
                       double(r.vals) / double(std::max(1, r.frames)),
                       percent(r.lightSkin.speckle.speckleFraction()).c_str(),
@@ -654,7 +654,8 @@ void runRealDepthBench(const RealDepthBenchOptions& options) {
                       percent(r.lightSkin.speckleMedian.speckleFraction()).c_str(),
                       percent(r.brute.speckleMedian.speckleFraction()).c_str(),
                       percent(r.lightSkin.speckleSensitive.speckleFraction()).c_str(),
-                      percent(r.brute.speckleSensitive.speckleFraction()).c_str(), r.brute.speckleSensitive.blackPixels,
+                      percent(r.brute.speckleSensitive.speckleFraction()).c_str(),
+                      r.lightSkin.speckleSensitive.blackPixels, r.brute.speckleSensitive.blackPixels,
                       r.brute.speckleSensitive.interiorPixels, r.brute.speckle.interiorPixels);
         md << row;
     }

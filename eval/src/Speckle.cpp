@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <limits>
 
 namespace lightskin::eval {
 
@@ -44,25 +43,23 @@ void smoothSurfaceMaskInto(const cv::Mat& coverage, const cv::Mat& normals, cons
             const cv::Vec3f n = normals.at<cv::Vec3f>(v, u);
             const double z = double(depth.at<float>(v, u));
             bool smooth = std::isfinite(z) && z > 0.0;
-            // The light's own limit on the normals' spread (0.5 / S radians; header): +inf = none.
-            double maxAngle = std::numeric_limits<double>::infinity();
-            if (sensitive) {
-                const double s = double(normalSensitivity.at<float>(v, u));
-                if (std::isnan(s))
-                    smooth = false;
-                else if (s > 0.0)
-                    maxAngle = 0.5 / s; // 0 for s = +inf: equal normals only
-            }
+            cv::Vec3d meanNormal(0.0, 0.0, 0.0); // of the window's unit normals (the sensitivity test)
             for (int dv = -2; dv <= 2 && smooth; ++dv)
                 for (int du = -2; du <= 2 && smooth; ++du) {
                     const cv::Vec3f m = normals.at<cv::Vec3f>(v + dv, u + du);
                     smooth = coverage.at<std::uint8_t>(v + dv, u + du) &&
                              double(n.dot(m)) >= minCos * double(cv::norm(n)) * double(cv::norm(m)) &&
                              std::abs(double(depth.at<float>(v + dv, u + du)) - z) <= maxRelativeDepthStep * z;
-                    // atan2 of |n x m| and n . m: exact 0 for equal normals (a cosine test is not, in float)
-                    if (smooth && maxAngle < std::numeric_limits<double>::infinity())
-                        smooth = std::atan2(double(cv::norm(n.cross(m))), double(n.dot(m))) <= maxAngle;
+                    if (smooth && sensitive) meanNormal += cv::Vec3d(m) / cv::norm(m);
                 }
+            if (smooth && sensitive) {
+                // S times the angle between the pixel's normal and its window's mean normal (header):
+                // atan2 of |n x mean| and n . mean, exactly 0 where every normal is equal.
+                const double s = double(normalSensitivity.at<float>(v, u));
+                const cv::Vec3d centre(n);
+                const double angle = std::atan2(cv::norm(centre.cross(meanNormal)), centre.dot(meanNormal));
+                smooth = !std::isnan(s) && (angle == 0.0 || s * angle <= 0.5);
+            }
             if (smooth) mask.at<std::uint8_t>(v, u) = 255;
         }
 }

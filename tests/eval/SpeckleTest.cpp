@@ -225,45 +225,57 @@ TEST(SpeckleTest, SmoothSurfaceMaskDropsCreasesAndDepthSteps) {
     EXPECT_EQ(eval::measureSpeckle(image, coverage).specklePixels, 2u);
 }
 
-/// Normals turning about the y axis by `degreesPerPixel` per column (0 at u = 32): a smooth surface
-/// whose 5x5 windows span +-2 degreesPerPixel around the centre's normal (the diagonal neighbours
-/// too: the turn depends on u only). Depth 1 m everywhere, all covered.
-void turningSurface(double degreesPerPixel, cv::Mat& coverage, cv::Mat& normals, cv::Mat& depth) {
+/// Normals turning about the y axis: 0 for u < 32, then by `degreesPerPixel` per column (a kink of the
+/// normal field at u = 32, as where two triangles' vertex normals meet); `linear`: the turn runs over
+/// the whole image (0 at u = 32), no kink. Depth 1 m everywhere, all covered.
+void turningSurface(double degreesPerPixel, bool linear, cv::Mat& coverage, cv::Mat& normals, cv::Mat& depth) {
     coverage = cv::Mat(kSize, kSize, CV_8UC1, cv::Scalar(255));
     normals.create(kSize, kSize, CV_32FC3);
     depth = cv::Mat(kSize, kSize, CV_32FC1, cv::Scalar(1.0));
     for (int v = 0; v < kSize; ++v)
         for (int u = 0; u < kSize; ++u) {
-            const double a = double(u - 32) * degreesPerPixel * 3.14159265358979323846 / 180.0;
+            const int steps = linear ? u - 32 : std::max(0, u - 32);
+            const double a = double(steps) * degreesPerPixel * 3.14159265358979323846 / 180.0;
             normals.at<cv::Vec3f>(v, u) = cv::Vec3f(float(std::sin(a)), 0.0f, float(std::cos(a)));
         }
 }
 
-TEST(SpeckleTest, NormalSensitivityLimitsTheNormalSpreadToHalfOverS) {
-    // 2 degrees per pixel: a window spans 4 degrees (0.0698 rad) from its centre. The limit 0.5 / S
-    // keeps it for S < 0.5 / 0.0698 = 7.16 and drops it above (S = tan(theta_i): light at 82 degrees).
+TEST(SpeckleTest, NormalSensitivityLeavesOutKinksOfTheNormalFieldUnderGrazingLight) {
+    // The kink at u = 32, 2 degrees per pixel beyond it: the window centred on u = 32 holds normals at
+    // 0, 0, 0, 2, 4 degrees per row, whose mean lies at atan2(sin 2 + sin 4, 3 + cos 2 + cos 4) = 1.2000
+    // degrees (0.020944 rad) from the centre's. So it is left out for S > 0.5 / 0.020944 = 23.87 and
+    // kept below; windows on the flat side (u <= 30) have Delta = 0 and are kept for any S. Centred on
+    // u = 33: normals 0, 0, 2, 4, 6 -> mean 2.4 degrees, centre 2: Delta = 0.4 degrees, kept below 71.6.
     cv::Mat coverage, normals, depth, plain, mask;
-    turningSurface(2.0, coverage, normals, depth);
+    turningSurface(2.0, false, coverage, normals, depth);
     eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, plain);
-    ASSERT_EQ(cv::countNonZero(plain), (kSize - 4) * (kSize - 4)); // 4 < 30 degrees: every full window
+    ASSERT_EQ(cv::countNonZero(plain), (kSize - 4) * (kSize - 4)); // spreads of <= 8 < 30 degrees
     const auto withS = [&](float s) {
         eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, mask,
                                     cv::Mat(kSize, kSize, CV_32FC1, cv::Scalar(s)));
-        return cv::countNonZero(mask);
     };
-    EXPECT_EQ(withS(0.0f), cv::countNonZero(plain)); // S = 0: no limit beyond the 30 degrees
-    EXPECT_EQ(withS(1.0f), cv::countNonZero(plain)); // light at 45 degrees: 28.6 degrees allowed
-    EXPECT_EQ(withS(7.0f), cv::countNonZero(plain)); // 4.09 degrees allowed >= 4
-    EXPECT_EQ(withS(7.4f), 0);                       // 3.87 degrees allowed < 4: every window dropped
-    EXPECT_EQ(withS(std::numeric_limits<float>::infinity()), 0);
-    EXPECT_EQ(withS(std::numeric_limits<float>::quiet_NaN()), 0);
-    // Per pixel: S high in the left half only drops exactly the windows centred there.
-    cv::Mat s(kSize, kSize, CV_32FC1, cv::Scalar(1.0f));
-    s(cv::Rect(0, 0, 32, kSize)).setTo(cv::Scalar(10.0f));
-    eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, mask, s);
-    EXPECT_EQ(mask.at<std::uint8_t>(10, 31), 0);
+    withS(0.0f); // S = 0: the plain mask
+    EXPECT_EQ(cv::countNonZero(mask), cv::countNonZero(plain));
+    withS(23.0f);
     EXPECT_EQ(mask.at<std::uint8_t>(10, 32), 255);
-    EXPECT_EQ(cv::countNonZero(mask), (kSize - 4) * (kSize - 2 - 32));
+    withS(25.0f);
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 32), 0);
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 29), 255); // flat window, Delta = 0
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 33), 255); // Delta = 0.4 degrees: S Delta = 0.17
+    withS(80.0f);
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 33), 0); // S Delta = 0.56
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 29), 255);
+    withS(std::numeric_limits<float>::infinity());
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 29), 255); // all normals equal
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 30), 255); // window u = 28..32: still flat
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 31), 0);   // the window reaches the turn (u = 33)
+    withS(std::numeric_limits<float>::quiet_NaN());
+    EXPECT_EQ(cv::countNonZero(mask), 0);
+    // A normal field that turns linearly (no kink): every centre normal is its window's mean, so a
+    // steep S leaves it in (to first order its light is linear, which the smooth-profile test takes).
+    turningSurface(2.0, true, coverage, normals, depth);
+    withS(1000.0f);
+    EXPECT_EQ(cv::countNonZero(mask), (kSize - 4) * (kSize - 4));
     EXPECT_THROW(eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, mask, cv::Mat(4, 4, CV_32FC1)),
                  Error);
     EXPECT_THROW(eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, mask,
@@ -276,7 +288,7 @@ TEST(SpeckleTest, DefectsOnAFlatPatchAreCountedWhateverTheNormalSensitivity) {
     // mask keeps every full window even at S = +inf, and the outliers, the streak and the 2x2 blotch
     // of the tests above are counted pixel for pixel as without the mask.
     cv::Mat coverage, normals, depth, mask;
-    turningSurface(0.0, coverage, normals, depth);
+    turningSurface(0.0, false, coverage, normals, depth);
     eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, mask,
                                 cv::Mat(kSize, kSize, CV_32FC1, cv::Scalar(std::numeric_limits<float>::infinity())));
     ASSERT_EQ(cv::countNonZero(mask), (kSize - 4) * (kSize - 4));

@@ -73,13 +73,15 @@ SpeckleStats measureSpeckle(const cv::Mat& linearBgr, const cv::Mat& coverage, c
 /// `normalSensitivity` (optional, CV_32FC1 of the same size; a proposal, issue 12 / TUM fr3, not used
 /// by the bench's headline numbers): per pixel S = the relative change of the true irradiance per
 /// radian of normal tilt (gi::reference::irradianceNormalSensitivity; S = tan(theta_i) for one light
-/// at incidence theta_i). A window whose normals differ from the centre's by up to Delta can then hold
-/// a true light change of S Delta, which the measure counts once it exceeds its own 50 %; so the
-/// window is kept only if every neighbour's normal is also within 0.5 / S radians of the centre's.
-/// At S = 1 (light at 45 degrees) that is 28.6 degrees, about the bench's 30; under grazing light
-/// (S = 5-18 on the bunny's underside at TUM fr3) 1.6-5.7 degrees. S <= 0 adds no limit; S = +inf
-/// (no light above the horizon) allows equal normals only; NaN drops the pixel. A patch whose normals
-/// are all equal stays in the mask for any S, so defects there are still counted pixel for pixel.
+/// at incidence theta_i). To first order the median of the window is the light at the window's mean
+/// normal, and a pixel whose normal is Delta away from that mean can differ from it by S Delta from
+/// its normal alone; the measure flags > 50 %, so the pixel is also left out where S Delta > 0.5.
+/// A normal field that turns linearly across the window (Delta = 0 at its centre) stays in for any S
+/// (its light is then linear too, to first order, which the smooth-profile test explains); kinks and
+/// valleys of the shading normals under grazing light (S = 5-18 on the bunny's underside at TUM fr3,
+/// kinks of 2-13 degrees) are left out. S <= 0 adds nothing; S = +inf (no light above the horizon)
+/// keeps only pixels whose window's normals are all equal; NaN drops the pixel. A patch whose normals
+/// are all equal stays in for any S, so defects there are still counted pixel for pixel.
 void smoothSurfaceMaskInto(const cv::Mat& coverage, const cv::Mat& normals, const cv::Mat& depth,
                            double maxNormalAngleDegrees, double maxRelativeDepthStep, cv::Mat& mask,
                            const cv::Mat& normalSensitivity = cv::Mat());
