@@ -298,9 +298,9 @@ void dumpSpecklePixels(std::ofstream& csv, const RgbdFrame& frame, const mr::Fra
             }
 }
 
-/// --maps: the frame's depth VALs (as the techniques received them: culled ones have area 0) as CSV,
-/// and the G-buffer's world positions and normals as raw float32 RGBA (rows top to bottom), so that an
-/// analysis script can split a pixel's brute-force irradiance by VAL (eq. 3 and 4 per VAL).
+/// --maps (first frame of each case): the frame's depth VALs (as the techniques received them: culled ones have area 0)
+/// as CSV, and the G-buffer's world positions and normals as raw float32 RGBA (rows top to bottom), so that an analysis
+/// script can split a pixel's brute-force irradiance by VAL (eq. 3 and 4 per VAL).
 void dumpValsAndGBuffer(const std::filesystem::path& stem, mr::FramePipeline& pipeline, int depthWidth) {
     std::vector<gi::VirtualAreaLight> vals;
     std::vector<std::uint32_t> pixels;
@@ -471,7 +471,8 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
                           sink * 1e3, static_cast<long long>(frame.index));
             writeRawLuminance(imageFolder / (std::string(name) + "_lightskin_Y.f32"), out.linearIndirect);
             writeRawLuminance(imageFolder / (std::string(name) + "_bruteforce_Y.f32"), out.linearIndirectReference);
-            dumpValsAndGBuffer(imageFolder / name, *pipeline, frame.depth.cols);
+            // ~11 MB per frame (VALs, two RGBA32F images): the first frame of each case only
+            if (r.frames == 0) dumpValsAndGBuffer(imageFolder / name, *pipeline, frame.depth.cols);
             cv::Mat measured;
             cv::hconcat(mapLs, mapBf, measured);
             cv::imwrite((imageFolder / (std::string(name) + "_speckle_map.png")).string(), measured);
