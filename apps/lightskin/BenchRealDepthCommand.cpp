@@ -35,9 +35,12 @@ void addBenchRealDepthCommand(CLI::App& app, int& exitCode) {
     command->add_option("--recordings", options->recordings,
                         "Comma-separated recordings (tum-fr2-desk, icl-nuim, pcl-kinect-tiff, tum-fr3-office, "
                         "oni-kinect-v1; default all)");
-    command->add_flag("--maps", options->maps,
-                      "Also write per frame the speckle maps and the luminance of both indirect images (raw float32), "
-                      "a CSV of the speckle pixels and one of the tracked points that flicker most");
+    command->add_flag(
+        "--maps", options->maps,
+        "Also write per frame the speckle maps and the luminance of both indirect images (raw float32), "
+        "a CSV of the speckle pixels and one of the tracked points that flicker most, and for each case's "
+        "first frame the depth VALs (CSV) and the G-buffer's world positions and normals (raw float32; "
+        "bench/plots/realdepth_val_analysis.py reads them)");
     command->callback([options, &exitCode] {
         bench::runRealDepthBench(*options);
         exitCode = 0;

@@ -21,8 +21,10 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/eval/ColourSpace.h>
 #include <lightskin/eval/Speckle.h>
+#include <lightskin/gi/IrradianceSensitivity.h>
 #include <lightskin/gl/Context.h>
 #include <lightskin/gl/DebugOutput.h>
+#include <lightskin/gl/Objects.h>
 #include <lightskin/mr/FramePipeline.h>
 #include <lightskin/render/Scene.h>
 #include <lightskin/tracking/PoseTracker.h>
@@ -197,7 +199,10 @@ constexpr double kSmoothAngleDegrees = 30.0;
 struct TechniqueStats {
     eval::SpeckleStats speckle;       ///< summed over frames
     eval::SpeckleStats speckleMedian; ///< the median-only definition (before the smooth-profile test)
-    double totalLight = 0.0;          ///< sum of luminance over covered pixels, all frames
+    /// The proposal for TUM fr3 (eval::smoothSurfaceMaskInto with the irradiance's normal sensitivity S):
+    /// pixels whose normal is more than 0.5 / S radians from their window's mean normal are left out too.
+    eval::SpeckleStats speckleSensitive;
+    double totalLight = 0.0; ///< sum of luminance over covered pixels, all frames
 };
 
 struct CaseResult {
@@ -293,6 +298,34 @@ void dumpSpecklePixels(std::ofstream& csv, const RgbdFrame& frame, const mr::Fra
             }
 }
 
+/// --maps (first frame of each case): the frame's depth VALs (as the techniques received them: culled ones have area 0)
+/// as CSV, and the G-buffer's world positions and normals as raw float32 RGBA (rows top to bottom), so that an analysis
+/// script can split a pixel's brute-force irradiance by VAL (eq. 3 and 4 per VAL).
+void dumpValsAndGBuffer(const std::filesystem::path& stem, mr::FramePipeline& pipeline, int depthWidth) {
+    std::vector<gi::VirtualAreaLight> vals;
+    std::vector<std::uint32_t> pixels;
+    pipeline.downloadDepthValsInto(vals, pixels);
+    std::ofstream csv(stem.string() + "_vals.csv");
+    csv << "u,v,x,y,z,normal_x,normal_y,normal_z,area,flux_r,flux_g,flux_b\n";
+    for (std::size_t i = 0; i < vals.size() && i < pixels.size(); ++i) {
+        const gi::VirtualAreaLight& l = vals[i];
+        csv << pixels[i] % std::uint32_t(depthWidth) << ',' << pixels[i] / std::uint32_t(depthWidth) << ','
+            << l.position.x << ',' << l.position.y << ',' << l.position.z << ',' << l.normal.x << ',' << l.normal.y
+            << ',' << l.normal.z << ',' << l.area << ',' << l.flux.x << ',' << l.flux.y << ',' << l.flux.z << '\n';
+    }
+    if (!csv) throw Error(stem.string() + "_vals.csv", std::nullopt, "cannot write");
+    const gi::GBufferView& g = pipeline.renderer().gbuffer();
+    cv::Mat rgba(g.height, g.width, CV_32FC4);
+    for (const auto& [texture, suffix] :
+         {std::pair{g.worldPosition, "_gbuffer_position.f32"}, std::pair{g.worldNormal, "_gbuffer_normal.f32"}}) {
+        glGetTextureImage(texture, 0, GL_RGBA, GL_FLOAT, GLsizei(rgba.total() * rgba.elemSize()), rgba.data);
+        cv::flip(rgba, rgba, 0); // GL rows count from the bottom
+        std::ofstream file(stem.string() + suffix, std::ios::binary);
+        file.write(reinterpret_cast<const char*>(rgba.data), std::streamsize(rgba.total() * rgba.elemSize()));
+        if (!file) throw Error(stem.string() + suffix, std::nullopt, "cannot write");
+    }
+}
+
 /// --maps: the 20 tracked points with the largest excess change (LightSkin's change minus the brute
 /// force's, between consecutive frames), with both series, to find where flicker comes from.
 void dumpWorstFlicker(const std::filesystem::path& folder, const std::string& name, double sink,
@@ -321,6 +354,29 @@ void dumpWorstFlicker(const std::filesystem::path& folder, const std::string& na
                 << f << ',' << ls[i] << ',' << bf[i] << '\n';
         }
     }
+}
+
+/// Per covered pixel S = gi::reference::irradianceNormalSensitivity of the frame's depth VALs (the
+/// brute force's light, without near field) at the G-buffer's world position and normal; 0 elsewhere.
+void normalSensitivityInto(mr::FramePipeline& pipeline, const cv::Mat& coverage, const cv::Mat& normals,
+                           std::vector<gi::VirtualAreaLight>& vals, std::vector<std::uint32_t>& pixels,
+                           cv::Mat& positions, cv::Mat& sensitivity) {
+    pipeline.downloadDepthValsInto(vals, pixels);
+    const gi::GBufferView& g = pipeline.renderer().gbuffer();
+    positions.create(g.height, g.width, CV_32FC4);
+    glGetTextureImage(g.worldPosition, 0, GL_RGBA, GL_FLOAT, GLsizei(positions.total() * positions.elemSize()),
+                      positions.data);
+    cv::flip(positions, positions, 0); // GL rows count from the bottom
+    sensitivity.create(coverage.size(), CV_32FC1);
+    sensitivity.setTo(cv::Scalar(0.0));
+    for (int v = 0; v < coverage.rows; ++v)
+        for (int u = 0; u < coverage.cols; ++u) {
+            if (!coverage.at<std::uint8_t>(v, u)) continue;
+            const cv::Vec4f p = positions.at<cv::Vec4f>(v, u);
+            const cv::Vec3f n = normals.at<cv::Vec3f>(v, u);
+            sensitivity.at<float>(v, u) = float(gi::reference::irradianceNormalSensitivity(
+                vals, glm::dvec3(p[0], p[1], p[2]), glm::dvec3(n[0], n[1], n[2])));
+        }
 }
 
 CaseResult runCase(const RealCase& c, const LightModel& model, double sink, const RealDepthBenchOptions& options) {
@@ -379,7 +435,9 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
     r.sink = sink;
     RgbdFrame frame;
     mr::FrameOutput out;
-    cv::Mat smooth, mapLs, mapBf;
+    cv::Mat smooth, mapLs, mapBf, sensitivity, sensitiveSmooth, positions;
+    std::vector<gi::VirtualAreaLight> vals;
+    std::vector<std::uint32_t> valPixels;
     const std::filesystem::path imageFolder = std::filesystem::path(options.out) / "images";
     std::filesystem::create_directories(imageFolder);
     std::ofstream speckleCsv;
@@ -413,10 +471,19 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
                           sink * 1e3, static_cast<long long>(frame.index));
             writeRawLuminance(imageFolder / (std::string(name) + "_lightskin_Y.f32"), out.linearIndirect);
             writeRawLuminance(imageFolder / (std::string(name) + "_bruteforce_Y.f32"), out.linearIndirectReference);
+            // ~11 MB per frame (VALs, two RGBA32F images): the first frame of each case only
+            if (r.frames == 0) dumpValsAndGBuffer(imageFolder / name, *pipeline, frame.depth.cols);
             cv::Mat measured;
             cv::hconcat(mapLs, mapBf, measured);
             cv::imwrite((imageFolder / (std::string(name) + "_speckle_map.png")).string(), measured);
         }
+        normalSensitivityInto(*pipeline, out.coverage, out.virtualNormals, vals, valPixels, positions, sensitivity);
+        eval::smoothSurfaceMaskInto(out.coverage, out.virtualNormals, out.virtualDepthMetres, kSmoothAngleDegrees, 0.02,
+                                    sensitiveSmooth, sensitivity);
+        accumulate(r.lightSkin.speckleSensitive,
+                   eval::measureSpeckle(out.linearIndirect, out.coverage, nullptr, sensitiveSmooth));
+        accumulate(r.brute.speckleSensitive,
+                   eval::measureSpeckle(out.linearIndirectReference, out.coverage, nullptr, sensitiveSmooth));
         accumulate(r.lightSkin.speckle, ls);
         accumulate(r.brute.speckle, bf);
         accumulate(r.lightSkin.speckleMedian,
@@ -568,15 +635,16 @@ void runRealDepthBench(const RealDepthBenchOptions& options) {
           "blown (LS) | "
           "black / blown (BF) | total light LS vs "
        << baseline << " | total light BF vs " << baseline
-       << " | median-only speckle LS / BF "
-          "|\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+       << " | median-only speckle LS / BF | sensitivity mask (proposal): speckle LS / BF (black LS / BF), interior "
+          "|\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const CaseResult& r : results) {
         const CaseResult* old = nullptr;
         for (const CaseResult& o : results)
             if (o.recording == r.recording && o.sink == r.sink && o.model == baseline) old = &o;
-        char row[512];
+        char row[640];
         std::snprintf(row, sizeof row,
-                      "| %s | %.0f mm | %s | %d | %.0f | %s | %s | %zu / %zu | %zu / %zu | %s | %s | %s / %s |\n",
+                      "| %s | %.0f mm | %s | %d | %.0f | %s | %s | %zu / %zu | %zu / %zu | %s | %s | %s / %s | %s / %s "
+                      "(%zu / %zu), %zu of %zu |\n",
                       r.recording.c_str(), r.sink * 1e3, r.model.c_str(), r.frames,
                       double(r.vals) / double(std::max(1, r.frames)),
                       percent(r.lightSkin.speckle.speckleFraction()).c_str(),
@@ -585,7 +653,11 @@ void runRealDepthBench(const RealDepthBenchOptions& options) {
                       old ? percent(r.lightSkin.totalLight / old->lightSkin.totalLight - 1.0).c_str() : "-",
                       old ? percent(r.brute.totalLight / old->brute.totalLight - 1.0).c_str() : "-",
                       percent(r.lightSkin.speckleMedian.speckleFraction()).c_str(),
-                      percent(r.brute.speckleMedian.speckleFraction()).c_str());
+                      percent(r.brute.speckleMedian.speckleFraction()).c_str(),
+                      percent(r.lightSkin.speckleSensitive.speckleFraction()).c_str(),
+                      percent(r.brute.speckleSensitive.speckleFraction()).c_str(),
+                      r.lightSkin.speckleSensitive.blackPixels, r.brute.speckleSensitive.blackPixels,
+                      r.brute.speckleSensitive.interiorPixels, r.brute.speckle.interiorPixels);
         md << row;
     }
     md << "\n| recording | sink | light model | frames | samples | flicker brute force | flicker LightSkin | excess "

@@ -24,11 +24,16 @@ void luminanceInto(const cv::Mat& linearBgr, cv::Mat& luminance) {
 }
 
 void smoothSurfaceMaskInto(const cv::Mat& coverage, const cv::Mat& normals, const cv::Mat& depth,
-                           double maxNormalAngleDegrees, double maxRelativeDepthStep, cv::Mat& mask) {
+                           double maxNormalAngleDegrees, double maxRelativeDepthStep, cv::Mat& mask,
+                           const cv::Mat& normalSensitivity) {
     if (coverage.type() != CV_8UC1 || normals.type() != CV_32FC3 || depth.type() != CV_32FC1 ||
         normals.size() != coverage.size() || depth.size() != coverage.size())
         throw Error("smoothSurfaceMaskInto", std::nullopt,
                     "expected CV_8UC1 coverage, CV_32FC3 normals, CV_32FC1 depth of one size");
+    const bool sensitive = !normalSensitivity.empty();
+    if (sensitive && (normalSensitivity.type() != CV_32FC1 || normalSensitivity.size() != coverage.size()))
+        throw Error("smoothSurfaceMaskInto", std::nullopt,
+                    "expected a CV_32FC1 normal sensitivity of the coverage's size");
     const double minCos = std::cos(maxNormalAngleDegrees * 3.14159265358979323846 / 180.0);
     mask.create(coverage.size(), CV_8UC1);
     mask.setTo(cv::Scalar(0));
@@ -38,13 +43,23 @@ void smoothSurfaceMaskInto(const cv::Mat& coverage, const cv::Mat& normals, cons
             const cv::Vec3f n = normals.at<cv::Vec3f>(v, u);
             const double z = double(depth.at<float>(v, u));
             bool smooth = std::isfinite(z) && z > 0.0;
+            cv::Vec3d meanNormal(0.0, 0.0, 0.0); // of the window's unit normals (the sensitivity test)
             for (int dv = -2; dv <= 2 && smooth; ++dv)
                 for (int du = -2; du <= 2 && smooth; ++du) {
                     const cv::Vec3f m = normals.at<cv::Vec3f>(v + dv, u + du);
                     smooth = coverage.at<std::uint8_t>(v + dv, u + du) &&
                              double(n.dot(m)) >= minCos * double(cv::norm(n)) * double(cv::norm(m)) &&
                              std::abs(double(depth.at<float>(v + dv, u + du)) - z) <= maxRelativeDepthStep * z;
+                    if (smooth && sensitive) meanNormal += cv::Vec3d(m) / cv::norm(m);
                 }
+            if (smooth && sensitive) {
+                // S times the angle between the pixel's normal and its window's mean normal (header):
+                // atan2 of |n x mean| and n . mean, exactly 0 where every normal is equal.
+                const double s = double(normalSensitivity.at<float>(v, u));
+                const cv::Vec3d centre(n);
+                const double angle = std::atan2(cv::norm(centre.cross(meanNormal)), centre.dot(meanNormal));
+                smooth = !std::isnan(s) && (angle == 0.0 || s * angle <= 0.5);
+            }
             if (smooth) mask.at<std::uint8_t>(v, u) = 255;
         }
 }

@@ -444,6 +444,15 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
     return p;
 }
 
+void FramePipeline::downloadDepthValsInto(std::vector<gi::VirtualAreaLight>& vals,
+                                          std::vector<std::uint32_t>& pixels) const {
+    vals.clear();
+    pixels.clear();
+    if (!state_->vals) return;
+    vals = state_->vals->downloadVals();
+    pixels = state_->vals->downloadPixelIndices();
+}
+
 void FramePipeline::createValGenerator(int stride) {
     State& s = *state_;
     const CameraIntrinsics& colour = s.source.colourIntrinsics;

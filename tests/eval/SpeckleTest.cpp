@@ -225,5 +225,88 @@ TEST(SpeckleTest, SmoothSurfaceMaskDropsCreasesAndDepthSteps) {
     EXPECT_EQ(eval::measureSpeckle(image, coverage).specklePixels, 2u);
 }
 
+/// Normals turning about the y axis: 0 for u < 32, then by `degreesPerPixel` per column (a kink of the
+/// normal field at u = 32, as where two triangles' vertex normals meet); `linear`: the turn runs over
+/// the whole image (0 at u = 32), no kink. Depth 1 m everywhere, all covered.
+void turningSurface(double degreesPerPixel, bool linear, cv::Mat& coverage, cv::Mat& normals, cv::Mat& depth) {
+    coverage = cv::Mat(kSize, kSize, CV_8UC1, cv::Scalar(255));
+    normals.create(kSize, kSize, CV_32FC3);
+    depth = cv::Mat(kSize, kSize, CV_32FC1, cv::Scalar(1.0));
+    for (int v = 0; v < kSize; ++v)
+        for (int u = 0; u < kSize; ++u) {
+            const int steps = linear ? u - 32 : std::max(0, u - 32);
+            const double a = double(steps) * degreesPerPixel * 3.14159265358979323846 / 180.0;
+            normals.at<cv::Vec3f>(v, u) = cv::Vec3f(float(std::sin(a)), 0.0f, float(std::cos(a)));
+        }
+}
+
+TEST(SpeckleTest, NormalSensitivityLeavesOutKinksOfTheNormalFieldUnderGrazingLight) {
+    // The kink at u = 32, 2 degrees per pixel beyond it: the window centred on u = 32 holds normals at
+    // 0, 0, 0, 2, 4 degrees per row, whose mean lies at atan2(sin 2 + sin 4, 3 + cos 2 + cos 4) = 1.2000
+    // degrees (0.020944 rad) from the centre's. So it is left out for S > 0.5 / 0.020944 = 23.87 and
+    // kept below; windows on the flat side (u <= 30) have Delta = 0 and are kept for any S. Centred on
+    // u = 33: normals 0, 0, 2, 4, 6 -> mean 2.4 degrees, centre 2: Delta = 0.4 degrees, kept below 71.6.
+    cv::Mat coverage, normals, depth, plain, mask;
+    turningSurface(2.0, false, coverage, normals, depth);
+    eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, plain);
+    ASSERT_EQ(cv::countNonZero(plain), (kSize - 4) * (kSize - 4)); // spreads of <= 8 < 30 degrees
+    const auto withS = [&](float s) {
+        eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, mask,
+                                    cv::Mat(kSize, kSize, CV_32FC1, cv::Scalar(s)));
+    };
+    withS(0.0f); // S = 0: the plain mask
+    EXPECT_EQ(cv::countNonZero(mask), cv::countNonZero(plain));
+    withS(23.0f);
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 32), 255);
+    withS(25.0f);
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 32), 0);
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 29), 255); // flat window, Delta = 0
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 33), 255); // Delta = 0.4 degrees: S Delta = 0.17
+    withS(80.0f);
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 33), 0); // S Delta = 0.56
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 29), 255);
+    withS(std::numeric_limits<float>::infinity());
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 29), 255); // all normals equal
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 30), 255); // window u = 28..32: still flat
+    EXPECT_EQ(mask.at<std::uint8_t>(10, 31), 0);   // the window reaches the turn (u = 33)
+    withS(std::numeric_limits<float>::quiet_NaN());
+    EXPECT_EQ(cv::countNonZero(mask), 0);
+    // A normal field that turns linearly (no kink): every centre normal is its window's mean, so a
+    // steep S leaves it in (to first order its light is linear, which the smooth-profile test takes).
+    turningSurface(2.0, true, coverage, normals, depth);
+    withS(1000.0f);
+    EXPECT_EQ(cv::countNonZero(mask), (kSize - 4) * (kSize - 4));
+    EXPECT_THROW(eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, mask, cv::Mat(4, 4, CV_32FC1)),
+                 Error);
+    EXPECT_THROW(eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, mask,
+                                             cv::Mat(kSize, kSize, CV_64FC1, cv::Scalar(1.0))),
+                 Error);
+}
+
+TEST(SpeckleTest, DefectsOnAFlatPatchAreCountedWhateverTheNormalSensitivity) {
+    // Equal normals everywhere: the light's sensitivity to the normal cannot explain anything, so the
+    // mask keeps every full window even at S = +inf, and the outliers, the streak and the 2x2 blotch
+    // of the tests above are counted pixel for pixel as without the mask.
+    cv::Mat coverage, normals, depth, mask;
+    turningSurface(0.0, false, coverage, normals, depth);
+    eval::smoothSurfaceMaskInto(coverage, normals, depth, 30.0, 0.02, mask,
+                                cv::Mat(kSize, kSize, CV_32FC1, cv::Scalar(std::numeric_limits<float>::infinity())));
+    ASSERT_EQ(cv::countNonZero(mask), (kSize - 4) * (kSize - 4));
+    cv::Mat image = smoothRamp();
+    image.at<cv::Vec3f>(10, 10) = cv::Vec3f::all(0.0f); // black outlier
+    image.at<cv::Vec3f>(10, 50) *= 20.0f;               // blown outlier
+    paintBlotch(image, 18, 18, 2, 4.0f);
+    paintBlotch(image, 36, 18, 3, 4.0f);
+    paintBlotch(image, 18, 36, 3, 0.0f);
+    for (int u = 28; u < 33; ++u) image.at<cv::Vec3f>(50, u) = cv::Vec3f::all(0.0f); // 1 px black streak
+    const eval::SpeckleStats withMask = eval::measureSpeckle(image, coverage, nullptr, mask);
+    const eval::SpeckleStats without = eval::measureSpeckle(image, coverage);
+    EXPECT_EQ(withMask.specklePixels, 1u + 1u + 4u + 9u + 9u + 5u);
+    EXPECT_EQ(withMask.blackPixels, 1u + 9u + 5u);
+    EXPECT_EQ(withMask.blownPixels, 1u);
+    EXPECT_EQ(withMask.specklePixels, without.specklePixels);
+    EXPECT_EQ(withMask.interiorPixels, without.interiorPixels);
+}
+
 } // namespace
 } // namespace lightskin::test

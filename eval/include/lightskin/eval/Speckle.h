@@ -69,8 +69,22 @@ SpeckleStats measureSpeckle(const cv::Mat& linearBgr, const cv::Mat& coverage, c
 /// object (an ear in front of the head) irradiance legitimately jumps by more than 50 %, so those
 /// pixels say nothing about speckle. `normals`: CV_32FC3 unit normals; `depth`: CV_32FC1 metres;
 /// `mask` (sized by the call): CV_8UC1 255 = smooth. Throws lightskin::Error on bad types or sizes.
+///
+/// `normalSensitivity` (optional, CV_32FC1 of the same size; a proposal, issue 12 / TUM fr3, not used
+/// by the bench's headline numbers): per pixel S = the relative change of the true irradiance per
+/// radian of normal tilt (gi::reference::irradianceNormalSensitivity; S = tan(theta_i) for one light
+/// at incidence theta_i). To first order the median of the window is the light at the window's mean
+/// normal, and a pixel whose normal is Delta away from that mean can differ from it by S Delta from
+/// its normal alone; the measure flags > 50 %, so the pixel is also left out where S Delta > 0.5.
+/// A normal field that turns linearly across the window (Delta = 0 at its centre) stays in for any S
+/// (its light is then linear too, to first order, which the smooth-profile test explains); kinks and
+/// valleys of the shading normals under grazing light (S = 5-18 on the bunny's underside at TUM fr3,
+/// kinks of 2-13 degrees) are left out. S <= 0 adds nothing; S = +inf (no light above the horizon)
+/// keeps only pixels whose window's normals are all equal; NaN drops the pixel. A patch whose normals
+/// are all equal stays in for any S, so defects there are still counted pixel for pixel.
 void smoothSurfaceMaskInto(const cv::Mat& coverage, const cv::Mat& normals, const cv::Mat& depth,
-                           double maxNormalAngleDegrees, double maxRelativeDepthStep, cv::Mat& mask);
+                           double maxNormalAngleDegrees, double maxRelativeDepthStep, cv::Mat& mask,
+                           const cv::Mat& normalSensitivity = cv::Mat());
 
 /// Luminance Y of a CV_32FC3 BGR linear image into a CV_32FC1 image (sized by the call).
 void luminanceInto(const cv::Mat& linearBgr, cv::Mat& luminance);

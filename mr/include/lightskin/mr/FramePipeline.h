@@ -193,6 +193,11 @@ public:
     /// Technique multiscale-prt: its last prepare() (precompute or cache load), else nullopt.
     std::optional<gi::PrtPrepareStats> prtPrepareStats() const;
     render::Renderer& renderer() noexcept { return *renderer_; }
+    /// Diagnostics (`bench-realdepth --maps`): the last frame's depth VALs as the techniques received
+    /// them (after the occupancy cull: culled VALs have area 0) and the depth pixel (v * width + u) of
+    /// each; empty without a GL VAL generator (unregistered depth, or the CPU backend's own VALs).
+    /// Reads the GPU buffers back: not for per-frame use.
+    void downloadDepthValsInto(std::vector<gi::VirtualAreaLight>& vals, std::vector<std::uint32_t>& pixels) const;
 
 private:
     FramePipeline() = default;

@@ -1,0 +1,112 @@
+#!/usr/bin/env python3
+"""bench/plots/realdepth_val_analysis.py on inputs whose answers are known in closed form: the brute
+force of one VAL at one receiver (eq. 3, 4 written out here), the floor extension's count, Loop's
+weights on a tetrahedron, and bad input (exit 2 naming the file)."""
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import unittest
+
+import numpy as np
+
+SCRIPT = os.path.join(os.path.dirname(__file__), "..", "..", "bench", "plots", "realdepth_val_analysis.py")
+WIDTH = 8
+
+
+def run(*args):
+    return subprocess.run([sys.executable, SCRIPT, *args], capture_output=True, text=True)
+
+
+class Decompose(unittest.TestCase):
+    def setUp(self):
+        self.dir = tempfile.TemporaryDirectory()
+        self.stem = os.path.join(self.dir.name, "case_frame0")
+        # An 8x8 G-buffer: the plane z = 0, 1 cm per pixel, normals +z, all covered.
+        position = np.zeros((WIDTH, WIDTH, 4), np.float32)
+        normal = np.zeros((WIDTH, WIDTH, 4), np.float32)
+        for v in range(WIDTH):
+            for u in range(WIDTH):
+                position[v, u] = (0.01 * u, 0.01 * v, 0.0, 1.0)
+                normal[v, u] = (0.0, 0.0, 1.0, 0.0)
+        position.tofile(self.stem + "_gbuffer_position.f32")
+        normal.tofile(self.stem + "_gbuffer_normal.f32")
+        np.zeros((WIDTH, WIDTH), np.float32).tofile(self.stem + "_bruteforce_Y.f32")
+        # VALs: one 20 cm above (0.05, 0.02) facing down and tilted; two rows (v = 0, 4) of two for
+        # the extension (zero flux: they light nothing); a culled one (area 0) with a huge flux.
+        self.light = np.array([0.05, 0.02, 0.2])
+        self.light_normal = np.array([0.3, 0.0, -1.0]) / math.hypot(0.3, 1.0)
+        rows = [(0, 0, *self.light, *self.light_normal, 1e-4, 1.0, 2.0, 3.0),
+                (1, 0, 0, 0, 0.5, 0, 0, -1, 1e-4, 0, 0, 0), (5, 0, 0.1, 0, 0.5, 0, 0, -1, 1e-4, 0, 0, 0),
+                (1, 4, 0, 0.1, 0.5, 0, 0, -1, 1e-4, 0, 0, 0), (5, 4, 0.1, 0.1, 0.5, 0, 0, -1, 1e-4, 0, 0, 0),
+                (3, 3, 0.03, 0.03, 0.01, 0, 0, -1, 0.0, 1e6, 1e6, 1e6)]
+        with open(self.stem + "_vals.csv", "w") as f:
+            f.write("u,v,x,y,z,normal_x,normal_y,normal_z,area,flux_r,flux_g,flux_b\n")
+            f.writelines(",".join(str(x) for x in r) + "\n" for r in rows)
+        self.csv = os.path.join(self.dir.name, "speckle.csv")
+        with open(self.csv, "w") as f:
+            f.write("frame,u,v,technique,Y,median5x5\n0,3,4,bruteforce,0,0\n0,3,4,lightskin,0,0\n")
+
+    def tearDown(self):
+        self.dir.cleanup()
+
+    def test_recomputes_the_brute_force_and_extends_the_last_row(self):
+        out = run("decompose", self.stem, self.csv, "--extend", "3", "--width", str(WIDTH))
+        self.assertEqual(out.returncode, 0, out.stderr)
+        # eq. 3, 4 for the receiver (0.03, 0.04, 0) with normal +z: E = Phi cos_i cos_j / (pi (r^2 + d^2)),
+        # reflected luminance rho_Y E / pi, rho_Y and Phi_Y the luminance of the bunny's albedo times flux.
+        x = np.array([0.03, 0.04, 0.0])
+        d = self.light - x
+        d2 = d @ d
+        t = d / math.sqrt(d2)
+        flux_y = np.array([1.0, 2.0, 3.0]) * np.array([0.7, 0.68, 0.64]) @ np.array([0.2126, 0.7152, 0.0722])
+        expected = flux_y * t[2] * (-self.light_normal @ t) / (math.pi * (1e-4 / math.pi + d2)) / math.pi
+        line = next(l for l in out.stdout.splitlines() if l.startswith("(3,4)"))
+        recomputed = float(line.split("recomputed ")[1].split(";")[0])
+        self.assertAlmostEqual(recomputed / expected, 1.0, delta=1e-4)  # printed to 5 significant digits
+        self.assertIn("80 % from 1 VALs", line)
+        self.assertIn("5 VALs (1 culled); --extend 3: 6 VALs added", out.stdout)  # 2 columns x 3 rows
+        self.assertEqual(sum(l.startswith("(") for l in out.stdout.splitlines()), 1)  # brute force rows only
+
+    def test_bad_input_names_the_file(self):
+        os.remove(self.stem + "_vals.csv")
+        out = run("decompose", self.stem, self.csv, "--width", str(WIDTH))
+        self.assertEqual(out.returncode, 2)
+        self.assertIn("case_frame0_vals.csv", out.stderr)
+        out = run("decompose", self.stem, self.csv, "--width", "5")  # 64 pixels are not rows of 5
+        self.assertEqual(out.returncode, 2)
+        self.assertIn("_gbuffer_position.f32", out.stderr)
+
+
+class LoopSubdivide(unittest.TestCase):
+    def test_tetrahedron_one_level(self):
+        p = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], float)
+        faces = [(0, 1, 2), (0, 3, 1), (0, 2, 3), (1, 3, 2)]
+        with tempfile.TemporaryDirectory() as d:
+            src, dst = os.path.join(d, "t.ply"), os.path.join(d, "t1.ply")
+            with open(src, "w") as f:
+                f.write("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+                        "element face 4\nproperty list uchar int vertex_indices\nend_header\n")
+                f.writelines(f"{a} {b} {c}\n" for a, b, c in p)
+                f.writelines(f"3 {a} {b} {c}\n" for a, b, c in faces)
+            out = run("loop-subdivide", src, dst, "--levels", "1")
+            self.assertEqual(out.returncode, 0, out.stderr)
+            with open(dst) as f:
+                lines = f.read().split("\n")
+            body = lines[lines.index("end_header") + 1:]
+            vertices = np.array([[float(x) for x in body[k].split()] for k in range(10)])
+            self.assertEqual(len([l for l in body if l.startswith("3 ")]), 16)  # 4 x 4 triangles
+            # Loop's vertex rule with valence 3: beta = (5/8 - (3/8 + cos(2 pi / 3) / 4)^2) / 3 = 3/16,
+            # v' = (1 - 3 beta) v + beta (sum of neighbours) = 7/16 v + 3/16 (-v) = v / 4 here
+            # (the neighbours of a vertex of this tetrahedron sum to -v).
+            np.testing.assert_allclose(vertices[0], p[0] / 4.0, atol=1e-6)
+            # edge rule: 3/8 (a + b) + 1/8 (c + d); for edge (0, 1) c, d = 2, 3: (3/8)(2, 0, 0) + (1/8)(-2, 0, 0)
+            self.assertTrue(any(np.allclose(v, [0.5, 0.0, 0.0], atol=1e-6) for v in vertices[4:]))
+        out = run("loop-subdivide", "/nonexistent.ply", "/tmp/x.ply")
+        self.assertEqual(out.returncode, 2)
+        self.assertIn("/nonexistent.ply", out.stderr)
+
+
+if __name__ == "__main__":
+    unittest.main()
