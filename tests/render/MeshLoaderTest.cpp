@@ -10,6 +10,7 @@
 #include <cmath>
 #include <fstream>
 #include <sstream>
+#include <string_view>
 #include <utility>
 
 using lightskin::Error;
@@ -241,6 +242,20 @@ TEST(MeshLoader, BadFilesGiveErrorsNamingTheFileAndCause) {
     EXPECT_NE(nameDigits.find("element name '33333333333333333333vertex' does not start with a letter"),
               std::string::npos)
         << nameDigits;
+    // Fuzz finding 14: "ascii\0" was binary to this check and ASCII to assimp, which took the unchecked
+    // list count 9999999999 and allocated 11 GB.
+    using namespace std::string_view_literals;
+    std::ofstream(bodyScratch / "format_nul.ply", std::ios::binary)
+        << std::string_view("ply\nformat ascii\0 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                            "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                            "0 0 0\n1 0 0\n0 1 0\n9999999999 0 1 2\n"sv);
+    const std::string formatNul = errorOf(bodyScratch / "format_nul.ply");
+    EXPECT_NE(formatNul.find("format_nul.ply"), std::string::npos) << formatNul;
+    EXPECT_NE(formatNul.find("PLY header: control character in line 2"), std::string::npos) << formatNul;
+    std::ofstream(bodyScratch / "format_unknown.ply")
+        << "ply\nformat text 1.0\nelement vertex 0\nproperty float x\nend_header\n";
+    const std::string formatUnknown = errorOf(bodyScratch / "format_unknown.ply");
+    EXPECT_NE(formatUnknown.find("PLY header: unknown format 'text'"), std::string::npos) << formatUnknown;
     // Fuzz finding: 2^31 - 1 faces whose property line is misspelt (so no value counted) kept
     // assimp reading for minutes: an unknown header line is refused.
     const std::string noProperties = errorOf(dir / "ascii_element_without_properties.ply");
