@@ -46,6 +46,33 @@ double processCpuMs() {
     return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
 }
 
+double threadCpuMs() {
+    timespec t{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
+}
+
+/// Per parallel region, the CPU time of each arena slot's tasks (slot = oneTBB's thread index in the
+/// arena; each slot written by its own thread only), folded after the join into the frame's excess
+/// of summed over critical (largest) thread time: CpuLightSkinStats::criticalPathCpuMs.
+struct RegionClock {
+    std::vector<double> slotMs; // sized once per arena (no allocation per frame)
+    double excessMs = 0.0;      // this frame: sum over regions of (sum - max) of the slots
+    void resize(std::size_t slots) { slotMs.assign(slots, 0.0); }
+    void begin() { std::fill(slotMs.begin(), slotMs.end(), 0.0); }
+    void add(double ms) {
+        const int slot = tbb::this_task_arena::current_thread_index();
+        if (slot >= 0 && std::size_t(slot) < slotMs.size()) slotMs[std::size_t(slot)] += ms;
+    }
+    void end() {
+        double sum = 0.0, largest = 0.0;
+        for (const double ms : slotMs) sum += ms, largest = std::max(largest, ms);
+        excessMs += sum - largest;
+        std::fprintf(stderr, "region sum %.3f max %.3f slots %.3f %.3f\n", sum, largest, slotMs[0],
+                     slotMs.size() > 1 ? slotMs[1] : -1.0);
+    }
+};
+
 std::size_t padReceivers(std::size_t n) {
     return (n + cpu::kReceiverPadding - 1) / cpu::kReceiverPadding * cpu::kReceiverPadding;
 }
@@ -62,47 +89,57 @@ static_assert(kValTile % cpu::kSumBlock == 0);
 /// (OMP_WAIT_POLICY defaults to active) and took 30 % of the replay's CPU time from llvmpipe and the
 /// tracker on 2 cores (docs/BENCHMARKS.md, "SIMD and thread libraries").
 template <class Body>
-void parallelRanges(tbb::task_arena& arena, std::size_t count, const Body& body) {
+void parallelRanges(tbb::task_arena& arena, RegionClock& clock, std::size_t count, const Body& body) {
     struct Context {
         std::size_t groups, n;
         const Body& body;
+        RegionClock& clock;
         detail::TsanParallelRegion region; // last: the fork edge follows the fields above
-    } context{count / cpu::kReceiverPadding, std::size_t(arena.max_concurrency()), body, {}};
+    } context{count / cpu::kReceiverPadding, std::size_t(arena.max_concurrency()), body, clock, {}};
+    clock.begin();
     arena.execute([&context] {
         tbb::parallel_for(
             tbb::blocked_range<std::size_t>(0, context.n, 1),
             [ctx = &context](const tbb::blocked_range<std::size_t>& threads) {
                 const Context& c = *detail::TsanParallelRegion::captured(ctx);
                 c.region.taskBegin();
+                const double start = threadCpuMs();
                 for (std::size_t t = threads.begin(); t < threads.end(); ++t) {
                     const std::size_t begin = c.groups * t / c.n * cpu::kReceiverPadding;
                     const std::size_t end = c.groups * (t + 1) / c.n * cpu::kReceiverPadding;
                     if (begin < end) c.body(begin, end);
                 }
+                c.clock.add(threadCpuMs() - start);
                 c.region.taskEnd();
             },
             tbb::static_partitioner());
     });
+    clock.end();
 }
 
 /// body(i) for i in [begin, end) in `arena`, in contiguous chunks (each i independent).
 template <class Body>
-void parallelFor(tbb::task_arena& arena, std::size_t begin, std::size_t end, const Body& body) {
+void parallelFor(tbb::task_arena& arena, RegionClock& clock, std::size_t begin, std::size_t end, const Body& body) {
     struct Context {
         const Body& body;
+        RegionClock& clock;
         detail::TsanParallelRegion region;
-    } context{body, {}};
+    } context{body, clock, {}};
+    clock.begin();
     arena.execute([&] {
         tbb::parallel_for(
             tbb::blocked_range<std::size_t>(begin, end),
             [ctx = &context](const tbb::blocked_range<std::size_t>& r) {
                 const Context& c = *detail::TsanParallelRegion::captured(ctx);
                 c.region.taskBegin();
+                const double start = threadCpuMs();
                 for (std::size_t i = r.begin(); i < r.end(); ++i) c.body(i);
+                c.clock.add(threadCpuMs() - start);
                 c.region.taskEnd();
             },
             tbb::static_partitioner());
     });
+    clock.end();
 }
 
 } // namespace
@@ -123,6 +160,8 @@ struct CpuLightSkin::Impl {
     std::vector<bool> convex;
     std::uint32_t pointCount = 0, vertexCount = 0;
     std::vector<glm::dvec3> modelVertexPositions, modelVertexNormals;     // per global vertex, model space
+    std::vector<glm::dmat4> meshTransforms;                               // interpolate(): per instance, world_T_model
+    std::vector<glm::dmat3> meshNormalMatrices;                           // and its normal matrix
     std::vector<std::array<std::uint32_t, kVertexNeighbours>> neighbours; // global sparse-point indices
     gl::Buffer vertexVplBuffer;
 
@@ -140,18 +179,23 @@ struct CpuLightSkin::Impl {
     std::vector<std::uint8_t> pointBuried; // G11: 1 = under the real surface, per sparse point
     cpu::OcclusionReceivers occlusionReceivers;
     cpu::Occluders occluders;
-    std::vector<float> occlusionD, occlusionS;
-    std::vector<glm::vec4> vertexVpls; // 4 vec4 per vertex, gather_vertex_vpl.glsl's layout
+    std::vector<float> occlusionD, occlusionS;         // per point
+    std::vector<float> occlusionSlotD, occlusionSlotS; // per gather slot (occludeSlots())
+    std::vector<glm::vec4> vertexVpls;                 // 4 vec4 per vertex, gather_vertex_vpl.glsl's layout
     bool glossy = true, occlusion = true;
     double readbackMs = 0.0;            // render(): the VAL read-back, counted in the upload stage
     cpu::ValTreeCut treeCut;            // LightSkinSettings::valTreeThreshold > 0 (issue 17)
     cpu::NearFieldCorrection nearField; // guard G12 (LightSkinSettings::nearFieldArea) of the flat gather
 
     std::unique_ptr<tbb::task_arena> arena; // settings.threads workers (0: one per hardware thread)
+    RegionClock regionClock;                // per-thread CPU time of the parallel regions (stats)
+    RegionClock occlusionClock;             // per-thread CPU time of occludeSlots() (stats)
     int threadCount() const { return arena->max_concurrency(); }
     void createArena() {
         arena = std::make_unique<tbb::task_arena>(settings.threads > 0 ? settings.threads
                                                                        : int(tbb::task_arena::automatic));
+        regionClock.resize(std::size_t(arena->max_concurrency()));
+        occlusionClock.resize(std::size_t(arena->max_concurrency()));
     }
 
     void reserveVals(std::size_t count) {
@@ -234,27 +278,43 @@ struct CpuLightSkin::Impl {
                 receivers.nde[at] = float(glm::dot(n, e));
                 receivers.k[at] = float(k);
                 receivers.ck[at] = float(c * (k + 1.0));
+                // the occluder discs need no gather result: set here, before the fused region reads them
+                occluders.px[at] = float(x.x), occluders.py[at] = float(x.y), occluders.pz[at] = float(x.z);
+                occluders.nx[at] = float(n.x), occluders.ny[at] = float(n.y), occluders.nz[at] = float(n.z);
+                const float radius = float(pointOccluderRadius[at]);
+                occluders.r2[at] = radius * radius;
                 ++at;
             }
         }
     }
 
     /// Stage 1: the running sums of every receiver over all VALs, tile by tile.
-    void gather() {
+    /// Stage 1 and, per point of each thread's range right after its sums are complete, stage 2
+    /// and stage 3's per-point set-up (renormalisePoint, occlusionSetup): both read only the point's
+    /// own sums, so they need no join of their own and run on both cores instead of one.
+    void gather(const glm::dvec3& eye) {
         std::fill(sums.begin(), sums.end(), 0.0f);
+        occlusionClock.begin();
         cpu::prepareGather(vals, receivers, pointCount); // VAL block boxes, receivers in coherent groups
         const cpu::GatherParameters parameters{glossy, moments(), settings.skipHiddenBlocks};
         const std::size_t stride = receivers.padded;
         std::atomic<std::uint64_t> skipped{0};
         const bool areas = settings.lightSkin.nearFieldArea;
         if (areas) nearField.index(vals);
-        parallelRanges(*arena, receivers.padded, [&](std::size_t begin, std::size_t end) {
+        parallelRanges(*arena, regionClock, receivers.padded, [&](std::size_t begin, std::size_t end) {
             std::uint64_t n = 0;
             for (std::uint32_t first = 0; first < vals.padded; first += kValTile)
                 n += cpu::gather(vals, first, std::min(first + kValTile, vals.padded), receivers, begin, end,
                                  parameters, sums.data(), stride);
             if (areas) nearField.apply(vals, receivers, begin, end, parameters, sums.data(), stride); // G12
             skipped += n;
+            for (std::size_t slot = begin; slot < end; ++slot) {
+                const std::uint32_t i = receivers.index[slot];
+                if (i >= pointCount) continue; // padding
+                renormalisePoint(i, eye);
+                if (occlusion) occlusionSetup(i, slot);
+            }
+            if (occlusion) occludeSlots(begin, end);
         });
         const double blocks = double(vals.padded / cpu::kSumBlock) * double(receivers.padded / cpu::kReceiverPadding);
         stats.gatherBlocksSkipped = blocks > 0.0 ? double(skipped.load()) / blocks : 0.0;
@@ -293,37 +353,49 @@ struct CpuLightSkin::Impl {
         return p;
     }
 
-    /// Stage 2 (eq. 8-11) and the occlusion targets of stage 3, per point.
+    /// Stage 2 (eq. 8-11) of point i.
+    void renormalisePoint(std::size_t i, const glm::dvec3& eye) {
+        const PointSums p = pointSums(i);
+        const glm::dvec3 x = pointPosition[i], nx = pointNormal[i];
+        gatheredPeakD[i] = m::ls_peakChannel(p.L); // G10
+        vplD[i] = m::ls_renormaliseDiffuse(p.L, p.offset, p.W, p.r2, p.moment, x, nx,
+                                           settings.lightSkin.extendedVplHorizon ? 1.0 : 0.0);
+        vplS[i] = m::ls_renormaliseGlossy(p.Ls, p.offsetS, p.Ws, p.r2s, p.momentS, x, nx, m::ls_toEye(x, eye),
+                                          pointExponent[i]);
+    }
+
+    /// Stage 2 for every point, and stage 3's set-up if on: after the gather with a cut (issue 17),
+    /// which has its own threads; the flat gather does both inside its parallel region.
     void renormalise(const glm::dvec3& eye) {
         // ~0.1 us per point: threads pay off only for many points (a fork/join costs ~10 us idle,
         // a scheduler time slice when the cores are oversubscribed)
         const auto point = [&](std::size_t i) {
-            const PointSums p = pointSums(i);
-            const glm::dvec3 x = pointPosition[i], nx = pointNormal[i];
-            gatheredPeakD[i] = m::ls_peakChannel(p.L); // G10
-            vplD[i] = m::ls_renormaliseDiffuse(p.L, p.offset, p.W, p.r2, p.moment, x, nx,
-                                               settings.lightSkin.extendedVplHorizon ? 1.0 : 0.0);
-            vplS[i] = m::ls_renormaliseGlossy(p.Ls, p.offsetS, p.Ws, p.r2s, p.momentS, x, nx, m::ls_toEye(x, eye),
-                                              pointExponent[i]);
+            renormalisePoint(i, eye);
+            if (occlusion) occlusionSetup(i, i);
         };
         if (pointCount > 8192)
-            parallelFor(*arena, 0, pointCount, point);
+            parallelFor(*arena, regionClock, 0, pointCount, point);
         else
             for (std::size_t i = 0; i < pointCount; ++i) point(i);
     }
 
-    /// Stage 3 (section 3.3, eq. 14): targets per point (double), the occluder sums (SIMD).
-    void occlude() {
+    /// Stage 3 (section 3.3, eq. 14), per point: its targets (double) as a receiver, its disc as an
+    /// occluder. Needs the point's VPLs (stage 2).
+    /// Written at `slot` of the kernel's receiver arrays (the gather's slot of point i: the fused
+    /// region runs the occlusion kernel over its own slots; each lane's sum is the same whichever
+    /// lanes share its vector). The occluders (every point's disc) were set in placePoints().
+    void occlusionSetup(std::size_t i, std::size_t slot) {
         cpu::OcclusionReceivers& r = occlusionReceivers;
-        for (std::size_t i = 0; i < pointCount; ++i) {
+        {
             const glm::dvec3 x = pointPosition[i], n = pointNormal[i];
             const glm::dvec3 t = m::ls_tangent(n), b = m::ls_binormal(n);
             const m::OcclusionTarget td = m::ls_occlusionTarget(x, n, t, b, vplD[i].position, vplD[i].sphereRadius);
             const m::OcclusionTarget ts = m::ls_occlusionTarget(x, n, t, b, vplS[i].position, vplS[i].sphereRadius);
-            r.px[i] = float(x.x), r.py[i] = float(x.y), r.pz[i] = float(x.z);
-            r.nx[i] = float(n.x), r.ny[i] = float(n.y), r.nz[i] = float(n.z);
-            r.tx[i] = float(t.x), r.ty[i] = float(t.y), r.tz[i] = float(t.z);
-            r.bx[i] = float(b.x), r.by[i] = float(b.y), r.bz[i] = float(b.z);
+            const std::size_t k = slot;
+            r.px[k] = float(x.x), r.py[k] = float(x.y), r.pz[k] = float(x.z);
+            r.nx[k] = float(n.x), r.ny[k] = float(n.y), r.nz[k] = float(n.z);
+            r.tx[k] = float(t.x), r.ty[k] = float(t.y), r.tz[k] = float(t.z);
+            r.bx[k] = float(b.x), r.by[k] = float(b.y), r.bz[k] = float(b.z);
             const auto setTarget = [&](const m::OcclusionTarget& o, float& cx, float& cy, float& half, float& invArea,
                                        float& dist, float& invRadius) {
                 cx = float(o.centre.x);
@@ -333,14 +405,31 @@ struct CpuLightSkin::Impl {
                 dist = float(o.distance);
                 invRadius = float(1.0 / std::max(o.radius, 1.0e-30));
             };
-            setTarget(td, r.dcx[i], r.dcy[i], r.dhalf[i], r.dinvArea[i], r.ddist[i], r.dinvRadius[i]);
-            setTarget(ts, r.scx[i], r.scy[i], r.shalf[i], r.sinvArea[i], r.sdist[i], r.sinvRadius[i]);
-            occluders.px[i] = float(x.x), occluders.py[i] = float(x.y), occluders.pz[i] = float(x.z);
-            occluders.nx[i] = float(n.x), occluders.ny[i] = float(n.y), occluders.nz[i] = float(n.z);
-            const float radius = float(pointOccluderRadius[i]);
-            occluders.r2[i] = radius * radius;
+            setTarget(td, r.dcx[k], r.dcy[k], r.dhalf[k], r.dinvArea[k], r.ddist[k], r.dinvRadius[k]);
+            setTarget(ts, r.scx[k], r.scy[k], r.shalf[k], r.sinvArea[k], r.sdist[k], r.sinvRadius[k]);
         }
-        parallelRanges(*arena, r.padded, [&](std::size_t begin, std::size_t end) {
+    }
+
+    /// Stage 3 for the slots [begin, end) set up by occlusionSetup(): the occluder sums (SIMD) into
+    /// occlusionSlotD/S, then to each point's entry of occlusionD/S. Adds the thread's CPU time
+    /// spent here to its slot of occlusionClock (the bench's occlusion rate).
+    void occludeSlots(std::size_t begin, std::size_t end) {
+        const double start = threadCpuMs();
+        cpu::occlusion(occlusionReceivers, begin, end, occluders, glossy, occlusionSlotD.data(), occlusionSlotS.data());
+        for (std::size_t slot = begin; slot < end; ++slot) {
+            const std::uint32_t i = receivers.index[slot];
+            if (i >= pointCount) continue;
+            occlusionD[i] = occlusionSlotD[slot];
+            occlusionS[i] = occlusionSlotS[slot];
+        }
+        occlusionClock.add(threadCpuMs() - start);
+    }
+
+    /// Stage 3's sums over all occluders after the gather with a cut (its points in their own
+    /// order, slot = point: occlusionSetup(i, i)); the flat gather runs occludeSlots() in its region.
+    void occlude() {
+        cpu::OcclusionReceivers& r = occlusionReceivers;
+        parallelRanges(*arena, regionClock, r.padded, [&](std::size_t begin, std::size_t end) {
             cpu::occlusion(r, begin, end, occluders, glossy, occlusionD.data(), occlusionS.data());
         });
     }
@@ -354,13 +443,19 @@ struct CpuLightSkin::Impl {
         else
             std::fill(buriedFlags.begin(), buriedFlags.end(), std::uint8_t(0));
         for (std::size_t mesh = 0; mesh < instances.size(); ++mesh) {
-            const glm::dmat4 transform(instances[mesh].world_T_model);
-            const glm::dmat3 normalMatrix = glm::transpose(glm::inverse(glm::dmat3(transform)));
-            const std::size_t first = vertexOffsets[mesh];
-            const std::size_t end = first + instances[mesh].mesh->vertexCount();
-            const bool horizon = settings.lightSkin.extendedVplHorizon;
-            const bool capOn = settings.lightSkin.vertexIrradianceCap;
-            parallelFor(*arena, first, end, [&](std::size_t v) {
+            meshTransforms[mesh] = glm::dmat4(instances[mesh].world_T_model);
+            meshNormalMatrices[mesh] = glm::transpose(glm::inverse(glm::dmat3(meshTransforms[mesh])));
+        }
+        const bool horizon = settings.lightSkin.extendedVplHorizon;
+        const bool capOn = settings.lightSkin.vertexIrradianceCap;
+        // one region over every mesh's vertices (one join instead of one per mesh)
+        {
+            parallelFor(*arena, regionClock, 0, vertexCount, [&](std::size_t v) {
+                const std::size_t mesh =
+                    std::size_t(std::upper_bound(vertexOffsets.begin(), vertexOffsets.end(), std::uint32_t(v)) -
+                                vertexOffsets.begin() - 1);
+                const glm::dmat4& transform = meshTransforms[mesh];
+                const glm::dmat3& normalMatrix = meshNormalMatrices[mesh];
                 const glm::dvec3 p(transform * glm::dvec4(modelVertexPositions[v], 1.0));
                 const glm::dvec3 nv = glm::normalize(normalMatrix * modelVertexNormals[v]);
                 double dist[kVertexNeighbours], cosN[kVertexNeighbours];
@@ -537,7 +632,11 @@ void CpuLightSkin::prepare(std::span<const MeshInstance> instances) {
     impl.occluders.resize(impl.pointCount);
     impl.occlusionD.assign(padded, 0.0f);
     impl.occlusionS.assign(padded, 0.0f);
+    impl.occlusionSlotD.assign(padded, 0.0f);
+    impl.occlusionSlotS.assign(padded, 0.0f);
     impl.vertexVpls.assign(std::size_t(impl.vertexCount) * 4, glm::vec4(0.0f));
+    impl.meshTransforms.assign(instances.size(), glm::dmat4(1.0));
+    impl.meshNormalMatrices.assign(instances.size(), glm::dmat3(1.0));
     impl.vertexVplBuffer = gl::Buffer::create(GLsizeiptr(std::max<std::uint32_t>(impl.vertexCount, 1)) * 64, nullptr,
                                               GL_DYNAMIC_STORAGE_BIT);
     log::info("lightskin-cpu: prepared " + std::to_string(instances.size()) + " instance(s), " +
@@ -560,6 +659,7 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
     const glm::dvec3 eye(cameraPositionWorld);
 
     const double cpuStart = processCpuMs();
+    impl.regionClock.excessMs = 0.0;
     auto start = Clock::now();
     impl.buildValArrays(lights);
     impl.placePoints(instances, eye);
@@ -581,7 +681,7 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
         stats.valTreeQuadtree = impl.treeCut.stats().quadtree;
         stats.gatherBlocksSkipped = 0.0;
     } else {
-        impl.gather();
+        impl.gather(eye); // with stage 2 and stage 3's set-up in its threads
         stats.valTreeCutPerPoint = 0.0;
         stats.valTreeQuadtree = false;
     }
@@ -589,24 +689,31 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
     stats.gatherCpuMs = processCpuMs() - cpu;
 
     start = Clock::now();
-    impl.renormalise(eye);
+    if (treeThreshold > 0.0) impl.renormalise(eye);
     stats.normalisationMs = millisecondsSince(start);
 
     start = Clock::now();
     cpu = processCpuMs();
-    if (impl.occlusion)
-        impl.occlude();
-    else {
+    if (!impl.occlusion) {
         std::fill(impl.occlusionD.begin(), impl.occlusionD.end(), 0.0f);
         std::fill(impl.occlusionS.begin(), impl.occlusionS.end(), 0.0f);
+    } else if (treeThreshold > 0.0) {
+        impl.occlude();
     }
     stats.occlusionMs = millisecondsSince(start);
     stats.occlusionCpuMs = processCpuMs() - cpu;
+    if (impl.occlusion && treeThreshold <= 0.0) { // ran inside the gather's region: its threads' CPU time
+        double occlusionCpu = 0.0;
+        for (const double ms : impl.occlusionClock.slotMs) occlusionCpu += ms;
+        stats.occlusionCpuMs = occlusionCpu;
+        stats.gatherCpuMs -= occlusionCpu;
+    }
 
     start = Clock::now();
     impl.interpolate(instances, realDepth);
     stats.interpolationMs = millisecondsSince(start);
     stats.stagesCpuMs = processCpuMs() - cpuStart;
+    stats.criticalPathCpuMs = stats.stagesCpuMs - impl.regionClock.excessMs;
 
     stats.vals = impl.vals.count;
     stats.points = impl.pointCount;
