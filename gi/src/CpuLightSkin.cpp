@@ -182,6 +182,16 @@ struct CpuLightSkin::Impl {
     std::vector<float> occlusionD, occlusionS;         // per point
     std::vector<float> occlusionSlotD, occlusionSlotS; // per gather slot (occludeSlots())
     std::vector<glm::vec4> vertexVpls;                 // 4 vec4 per vertex, gather_vertex_vpl.glsl's layout
+    /// What stage 4 takes from sparse point i, whichever vertex: its VPLs with the occlusion's
+    /// keep factor (1 - o) applied, G8's distances and G10's peak. ~100 vertices read each point:
+    /// made once per point (makePointTerms(): the same operations on the same values as they were
+    /// per vertex, so the same bits).
+    struct PointTerms {
+        glm::dvec4 diffuse, diffusePosition, glossy, glossyPosition; // eq. 13's summands before w
+        double minDD = 0.0, minDS = 0.0, cap = 0.0;                  // G8 (|x_vpl - x|^2 + r^2), G10
+    };
+    std::vector<PointTerms> pointTerms; // per sparse point
+    bool pointTermsReady = false;       // this frame's pointTerms are made
     bool glossy = true, occlusion = true;
     double readbackMs = 0.0;            // render(): the VAL read-back, counted in the upload stage
     cpu::ValTreeCut treeCut;            // LightSkinSettings::valTreeThreshold > 0 (issue 17)
@@ -315,7 +325,10 @@ struct CpuLightSkin::Impl {
                 if (occlusion) occlusionSetup(i, slot);
             }
             if (occlusion) occludeSlots(begin, end);
+            for (std::size_t slot = begin; slot < end; ++slot)
+                if (receivers.index[slot] < pointCount) makePointTerms(receivers.index[slot]);
         });
+        pointTermsReady = true;
         const double blocks = double(vals.padded / cpu::kSumBlock) * double(receivers.padded / cpu::kReceiverPadding);
         stats.gatherBlocksSkipped = blocks > 0.0 ? double(skipped.load()) / blocks : 0.0;
     }
@@ -434,6 +447,21 @@ struct CpuLightSkin::Impl {
         });
     }
 
+    void makePointTerms(std::size_t s) {
+        const double keepD = occlusion ? 1.0 - std::clamp(double(occlusionD[s]), 0.0, 1.0) : 1.0;
+        const double keepS = occlusion ? 1.0 - std::clamp(double(occlusionS[s]), 0.0, 1.0) : 1.0;
+        const glm::dvec3 od = vplD[s].position - pointPosition[s], os = vplS[s].position - pointPosition[s];
+        PointTerms& t = pointTerms[s];
+        t.minDD = glm::dot(od, od) + vplD[s].r2;
+        t.minDS = glm::dot(os, os) + vplS[s].r2;
+        t.cap = gatheredPeakD[s] * keepD;
+        t.diffuse = glm::dvec4(vplD[s].radiance * keepD, vplD[s].r2);
+        t.diffusePosition =
+            glm::dvec4(vplD[s].position, settings.lightSkin.extendedVplHorizon ? vplD[s].sphereRadius : 0.0);
+        t.glossy = glm::dvec4(vplS[s].radiance * keepS, vplS[s].r2);
+        t.glossyPosition = glm::dvec4(vplS[s].position, 0.0);
+    }
+
     /// Stage 4 (eq. 12-13) per vertex, with the occlusion attenuation L'' (1 - o).
     void interpolate(std::span<const MeshInstance> instances, const RealDepthView& realDepth) {
         // G11: which sparse points lie under the real surface (all 0 without a depth map or the rule).
@@ -446,8 +474,9 @@ struct CpuLightSkin::Impl {
             meshTransforms[mesh] = glm::dmat4(instances[mesh].world_T_model);
             meshNormalMatrices[mesh] = glm::transpose(glm::inverse(glm::dmat3(meshTransforms[mesh])));
         }
-        const bool horizon = settings.lightSkin.extendedVplHorizon;
         const bool capOn = settings.lightSkin.vertexIrradianceCap;
+        if (!pointTermsReady) // the gather with a cut; the flat gather's threads made them
+            for (std::size_t i = 0; i < pointCount; ++i) makePointTerms(i);
         // one region over every mesh's vertices (one join instead of one per mesh)
         {
             parallelFor(*arena, regionClock, 0, vertexCount, [&](std::size_t v) {
@@ -474,17 +503,14 @@ struct CpuLightSkin::Impl {
                 for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
                     const double w = weights.w[j];
                     if (w == 0.0) continue;
-                    const std::uint32_t s = list[j];
-                    const glm::dvec3 od = vplD[s].position - pointPosition[s], os = vplS[s].position - pointPosition[s];
-                    minDD = std::min(minDD, glm::dot(od, od) + vplD[s].r2);
-                    minDS = std::min(minDS, glm::dot(os, os) + vplS[s].r2);
-                    const double keepD = occlusion ? 1.0 - std::clamp(double(occlusionD[s]), 0.0, 1.0) : 1.0;
-                    const double keepS = occlusion ? 1.0 - std::clamp(double(occlusionS[s]), 0.0, 1.0) : 1.0;
-                    cap = std::max(cap, gatheredPeakD[s] * keepD); // G10
-                    diffuse += w * glm::dvec4(vplD[s].radiance * keepD, vplD[s].r2);
-                    diffusePosition += w * glm::dvec4(vplD[s].position, horizon ? vplD[s].sphereRadius : 0.0); // G9
-                    glossyRadiance += w * glm::dvec4(vplS[s].radiance * keepS, vplS[s].r2);
-                    glossyPosition += w * glm::dvec4(vplS[s].position, 0.0);
+                    const PointTerms& t = pointTerms[list[j]];
+                    minDD = std::min(minDD, t.minDD);
+                    minDS = std::min(minDS, t.minDS);
+                    cap = std::max(cap, t.cap); // G10
+                    diffuse += w * t.diffuse;
+                    diffusePosition += w * t.diffusePosition; // G9
+                    glossyRadiance += w * t.glossy;
+                    glossyPosition += w * t.glossyPosition;
                 }
                 if (settings.lightSkin.vertexDistanceFloor) {
                     diffuse.w = m::ls_vertexR2Floor(diffuse.w, p, glm::dvec3(diffusePosition), minDD);
@@ -635,6 +661,7 @@ void CpuLightSkin::prepare(std::span<const MeshInstance> instances) {
     impl.occlusionSlotD.assign(padded, 0.0f);
     impl.occlusionSlotS.assign(padded, 0.0f);
     impl.vertexVpls.assign(std::size_t(impl.vertexCount) * 4, glm::vec4(0.0f));
+    impl.pointTerms.assign(impl.pointCount, Impl::PointTerms{});
     impl.meshTransforms.assign(instances.size(), glm::dmat4(1.0));
     impl.meshNormalMatrices.assign(instances.size(), glm::dmat3(1.0));
     impl.vertexVplBuffer = gl::Buffer::create(GLsizeiptr(std::max<std::uint32_t>(impl.vertexCount, 1)) * 64, nullptr,
@@ -660,6 +687,7 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
 
     const double cpuStart = processCpuMs();
     impl.regionClock.excessMs = 0.0;
+    impl.pointTermsReady = false;
     auto start = Clock::now();
     impl.buildValArrays(lights);
     impl.placePoints(instances, eye);
