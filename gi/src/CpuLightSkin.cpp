@@ -229,9 +229,9 @@ struct CpuLightSkin::Impl {
             vals.px[n] = l.position.x;
             vals.py[n] = l.position.y;
             vals.pz[n] = l.position.z;
-            vals.nx[n] = l.normal.x;
-            vals.ny[n] = l.normal.y;
-            vals.nz[n] = l.normal.z;
+            vals.negNx[n] = -l.normal.x;
+            vals.negNy[n] = -l.normal.y;
+            vals.negNz[n] = -l.normal.z;
             const float r2 = l.area * invPi;
             vals.r2[n] = r2;
             vals.cr2[n] = coincident * r2;
@@ -252,10 +252,10 @@ struct CpuLightSkin::Impl {
         vals.count = n;
         vals.padded = (n + cpu::kSumBlock - 1) / cpu::kSumBlock * cpu::kSumBlock;
         for (std::uint32_t j = n; j < vals.padded; ++j) // zero-area, zero-flux VALs at the origin: add +0
-            for (auto* v :
-                 {&vals.px, &vals.py, &vals.pz, &vals.nx, &vals.ny, &vals.r2, &vals.cr2, &vals.fr, &vals.fg, &vals.fb})
+            for (auto* v : {&vals.px, &vals.py, &vals.pz, &vals.negNx, &vals.negNy, &vals.r2, &vals.cr2, &vals.fr,
+                            &vals.fg, &vals.fb})
                 (*v)[j] = 0.0f;
-        for (std::uint32_t j = n; j < vals.padded; ++j) vals.nz[j] = 1.0f;
+        for (std::uint32_t j = n; j < vals.padded; ++j) vals.negNz[j] = -1.0f;
     }
 
     /// World-space sparse points (double, as reference::receiversFromSparsePoints) and the gather's SoA.
@@ -285,7 +285,7 @@ struct CpuLightSkin::Impl {
                 receivers.ex[at] = float(e.x);
                 receivers.ey[at] = float(e.y);
                 receivers.ez[at] = float(e.z);
-                receivers.nde[at] = float(glm::dot(n, e));
+                receivers.nde2[at] = float(2.0 * glm::dot(n, e));
                 receivers.k[at] = float(k);
                 receivers.ck[at] = float(c * (k + 1.0));
                 // the occluder discs need no gather result: set here, before the fused region reads them
