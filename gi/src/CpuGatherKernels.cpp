@@ -397,6 +397,10 @@ HWY_NOINLINE void OcclusionGroup(const OcclusionReceivers& r, std::size_t i, con
         const V ux = hn::Mul(vx, inv), uy = hn::Mul(vy, inv), uz = hn::Mul(vz, inv);
         const V cosI = Dot(nx, ny, nz, ux, uy, uz);
         const auto counts = hn::And(hn::Gt(d2, tiny), hn::Gt(cosI, zero)); // not the point itself, above the horizon
+        // No lane counts this occluder (behind or in every receiver's tangent plane: 2/3 of the pairs
+        // in bench-cpu's scene, the groups being coherent): every term below would be IfThenElseZero's
+        // +0, and sum + 0 = sum (a sum is never -0), so skipping it changes no bit.
+        if (hn::AllFalse(d, counts)) continue;
         const V r2 = hn::Set(d, o.r2[j]);
         const V cosO = hn::Abs(Dot(hn::Set(d, o.nx[j]), hn::Set(d, o.ny[j]), hn::Set(d, o.nz[j]), ux, uy, uz));
         const V area =
