@@ -95,25 +95,28 @@ void parallelRanges(tbb::task_arena& arena, RegionClock& clock, std::size_t coun
         const Body& body;
         RegionClock& clock;
         detail::TsanParallelRegion region; // last: the fork edge follows the fields above
-    } context{count / cpu::kReceiverPadding, std::size_t(arena.max_concurrency()), body, clock, {}};
-    clock.begin();
-    arena.execute([&context] {
-        tbb::parallel_for(
-            tbb::blocked_range<std::size_t>(0, context.n, 1),
-            [ctx = &context](const tbb::blocked_range<std::size_t>& threads) {
-                const Context& c = *detail::TsanParallelRegion::captured(ctx);
-                c.region.taskBegin();
-                const double start = threadCpuMs();
-                for (std::size_t t = threads.begin(); t < threads.end(); ++t) {
-                    const std::size_t begin = c.groups * t / c.n * cpu::kReceiverPadding;
-                    const std::size_t end = c.groups * (t + 1) / c.n * cpu::kReceiverPadding;
-                    if (begin < end) c.body(begin, end);
-                }
-                c.clock.add(threadCpuMs() - start);
-                c.region.taskEnd();
-            },
-            tbb::static_partitioner());
-    });
+    };
+    clock.begin(); // before the fork edge (the context's construction), read after the join (its end)
+    {
+        Context context{count / cpu::kReceiverPadding, std::size_t(arena.max_concurrency()), body, clock, {}};
+        arena.execute([&context] {
+            tbb::parallel_for(
+                tbb::blocked_range<std::size_t>(0, context.n, 1),
+                [ctx = &context](const tbb::blocked_range<std::size_t>& threads) {
+                    const Context& c = *detail::TsanParallelRegion::captured(ctx);
+                    c.region.taskBegin();
+                    const double start = threadCpuMs();
+                    for (std::size_t t = threads.begin(); t < threads.end(); ++t) {
+                        const std::size_t begin = c.groups * t / c.n * cpu::kReceiverPadding;
+                        const std::size_t end = c.groups * (t + 1) / c.n * cpu::kReceiverPadding;
+                        if (begin < end) c.body(begin, end);
+                    }
+                    c.clock.add(threadCpuMs() - start);
+                    c.region.taskEnd();
+                },
+                tbb::static_partitioner());
+        });
+    }
     clock.end();
 }
 
@@ -124,21 +127,24 @@ void parallelFor(tbb::task_arena& arena, RegionClock& clock, std::size_t begin, 
         const Body& body;
         RegionClock& clock;
         detail::TsanParallelRegion region;
-    } context{body, clock, {}};
-    clock.begin();
-    arena.execute([&] {
-        tbb::parallel_for(
-            tbb::blocked_range<std::size_t>(begin, end),
-            [ctx = &context](const tbb::blocked_range<std::size_t>& r) {
-                const Context& c = *detail::TsanParallelRegion::captured(ctx);
-                c.region.taskBegin();
-                const double start = threadCpuMs();
-                for (std::size_t i = r.begin(); i < r.end(); ++i) c.body(i);
-                c.clock.add(threadCpuMs() - start);
-                c.region.taskEnd();
-            },
-            tbb::static_partitioner());
-    });
+    };
+    clock.begin(); // before the fork edge (the context's construction), read after the join (its end)
+    {
+        Context context{body, clock, {}};
+        arena.execute([&] {
+            tbb::parallel_for(
+                tbb::blocked_range<std::size_t>(begin, end),
+                [ctx = &context](const tbb::blocked_range<std::size_t>& r) {
+                    const Context& c = *detail::TsanParallelRegion::captured(ctx);
+                    c.region.taskBegin();
+                    const double start = threadCpuMs();
+                    for (std::size_t i = r.begin(); i < r.end(); ++i) c.body(i);
+                    c.clock.add(threadCpuMs() - start);
+                    c.region.taskEnd();
+                },
+                tbb::static_partitioner());
+        });
+    }
     clock.end();
 }
 
