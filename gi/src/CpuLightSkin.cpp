@@ -54,22 +54,26 @@ double threadCpuMs() {
 
 /// Per parallel region, the CPU time of each arena slot's tasks (slot = oneTBB's thread index in the
 /// arena; each slot written by its own thread only), folded after the join into the frame's excess
-/// of summed over critical (largest) thread time: CpuLightSkinStats::criticalPathCpuMs.
+/// of the busiest slot over the calling thread's own slot: the calling thread's CPU time plus that
+/// excess over all regions is CpuLightSkinStats::criticalPathCpuMs. Only thread CPU clocks: a
+/// worker's spinning between regions or another process's load do not enter it.
 struct RegionClock {
     std::vector<double> slotMs; // sized once per arena (no allocation per frame)
-    double excessMs = 0.0;      // this frame: sum over regions of (sum - max) of the slots
+    int callerSlot = -1;        // the calling thread's slot in this region (set inside arena.execute)
+    double excessMs = 0.0;      // this frame: sum over regions of (max - caller's) slot time
     void resize(std::size_t slots) { slotMs.assign(slots, 0.0); }
     void begin() { std::fill(slotMs.begin(), slotMs.end(), 0.0); }
+    void enter() { callerSlot = tbb::this_task_arena::current_thread_index(); }
     void add(double ms) {
         const int slot = tbb::this_task_arena::current_thread_index();
         if (slot >= 0 && std::size_t(slot) < slotMs.size()) slotMs[std::size_t(slot)] += ms;
     }
     void end() {
-        double sum = 0.0, largest = 0.0;
-        for (const double ms : slotMs) sum += ms, largest = std::max(largest, ms);
-        excessMs += sum - largest;
-        std::fprintf(stderr, "region sum %.3f max %.3f slots %.3f %.3f\n", sum, largest, slotMs[0],
-                     slotMs.size() > 1 ? slotMs[1] : -1.0);
+        double largest = 0.0;
+        for (const double ms : slotMs) largest = std::max(largest, ms);
+        const double caller =
+            callerSlot >= 0 && std::size_t(callerSlot) < slotMs.size() ? slotMs[std::size_t(callerSlot)] : 0.0;
+        excessMs += largest - caller;
     }
 };
 
@@ -100,6 +104,7 @@ void parallelRanges(tbb::task_arena& arena, RegionClock& clock, std::size_t coun
     {
         Context context{count / cpu::kReceiverPadding, std::size_t(arena.max_concurrency()), body, clock, {}};
         arena.execute([&context] {
+            context.clock.enter();
             tbb::parallel_for(
                 tbb::blocked_range<std::size_t>(0, context.n, 1),
                 [ctx = &context](const tbb::blocked_range<std::size_t>& threads) {
@@ -132,6 +137,7 @@ void parallelFor(tbb::task_arena& arena, RegionClock& clock, std::size_t begin, 
     {
         Context context{body, clock, {}};
         arena.execute([&] {
+            clock.enter();
             tbb::parallel_for(
                 tbb::blocked_range<std::size_t>(begin, end),
                 [ctx = &context](const tbb::blocked_range<std::size_t>& r) {
@@ -691,7 +697,7 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
     impl.chooseChannels(instances);
     const glm::dvec3 eye(cameraPositionWorld);
 
-    const double cpuStart = processCpuMs();
+    const double cpuStart = processCpuMs(), callerStart = threadCpuMs();
     impl.regionClock.excessMs = 0.0;
     impl.pointTermsReady = false;
     auto start = Clock::now();
@@ -747,7 +753,7 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
     impl.interpolate(instances, realDepth);
     stats.interpolationMs = millisecondsSince(start);
     stats.stagesCpuMs = processCpuMs() - cpuStart;
-    stats.criticalPathCpuMs = stats.stagesCpuMs - impl.regionClock.excessMs;
+    stats.criticalPathCpuMs = threadCpuMs() - callerStart + impl.regionClock.excessMs;
 
     stats.vals = impl.vals.count;
     stats.points = impl.pointCount;

@@ -48,11 +48,13 @@ struct CpuLightSkinStats {
     /// For the flat gather occlusionCpuMs is its threads' CPU time in the occlusion kernel, and
     /// gatherCpuMs the rest of their region (gather, renormalisation, occlusion set-up).
     double gatherCpuMs = 0.0, occlusionCpuMs = 0.0, stagesCpuMs = 0.0;
-    /// Stages 0-4 on idle cores, from CPU clocks alone: stagesCpuMs with each parallel region's
-    /// summed task CPU time replaced by its largest thread's (CLOCK_THREAD_CPUTIME_ID per task),
-    /// i.e. serial work + the critical thread of every region. Wall time on the machine's threads
-    /// when nothing else runs (fork/join latency excluded); unlike the wall clock it does not
-    /// measure other processes' load. Also shows an uneven split (critical > stagesCpuMs / threads).
+    /// Stages 0-4 on idle cores, from thread CPU clocks alone: the calling thread's CPU time, with
+    /// its share of each parallel region replaced by the busiest thread's (CLOCK_THREAD_CPUTIME_ID per
+    /// task), i.e. serial work + the critical thread of every region: the wall time on the machine's
+    /// threads when nothing else runs (fork/join latency excluded), the regions split as they were
+    /// scheduled. It does not count waiting for a core; a region that ran on one thread because the
+    /// other was not scheduled in time (load) counts whole. The gather with a cut: its own threads
+    /// are not counted (criticalPathCpuMs then understates).
     double criticalPathCpuMs = 0.0;
     std::string simdTarget;          ///< the instruction set the runtime dispatch chose, e.g. "AVX3"
     double valTreeCutPerPoint = 0.0; ///< valTreeThreshold > 0 (issue 17): lights taken per sparse point
