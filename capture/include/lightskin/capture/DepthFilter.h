@@ -10,7 +10,7 @@
 //
 // Two implementations of that one filter (BilateralDepthFilterParams::implementation):
 //  * Simd (the default): one pass of our own, SIMD across a row's pixels (Google Highway, runtime
-//    dispatch), exact range weights (a polynomial 2^x, relative error < 3e-7), one thread. ~4x less
+//    dispatch), exact range weights (a polynomial 2^x, relative error < 3e-7), one thread. 2.8x less
 //    CPU than the OpenCV one per 640x480 frame (docs/BENCHMARKS.md, "Capture: depth bilateral filter").
 //  * OpenCv: cv::bilateralFilter, with holes filled by a sentinel 15 sigma_depth beyond the deepest
 //    valid pixel (range weight exp(-112.5) = 1e-49, 0 in float) and set back to 0 after. Its range
