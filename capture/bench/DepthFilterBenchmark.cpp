@@ -1,8 +1,12 @@
 // Cost of BilateralDepthFilter::filterInto per 640x480 depth frame (Google Benchmark).
 //   build/capture/lightskin_bench_depth_filter [--benchmark_repetitions=5]
 // Inputs: a synthetic noisy scene with 10 % missing pixels, and a real TUM fr2 depth frame
-// (tests/data/tum-fr2-desk/1_depth.png) when the source tree is present.
+// (tests/data/tum-fr2-desk/1_depth.png) when the source tree is present. BM_BilateralOni: both
+// implementations (Simd, OpenCv) on the registered depth of the Kinect v1 .oni's frames, as the
+// replay filters them, with the process's CPU time (OpenCV's worker threads included).
 #include <lightskin/capture/DepthFilter.h>
+#include <lightskin/capture/FrameSource.h>
+#include <lightskin/core/RgbdFrame.h>
 
 #include <benchmark/benchmark.h>
 #include <opencv2/core.hpp>
@@ -54,6 +58,44 @@ void BM_BilateralSingleThread(benchmark::State& state) {
     cv::setNumThreads(threads);
 }
 BENCHMARK(BM_BilateralSingleThread)->Unit(benchmark::kMillisecond);
+
+/// The .oni's registered depth frames (read once).
+const std::vector<lightskin::RgbdFrame>& oniFrames() {
+    static const std::vector<lightskin::RgbdFrame> frames = [] {
+        std::vector<lightskin::RgbdFrame> out;
+        auto source =
+            lightskin::capture::openFrameSource(LIGHTSKIN_SOURCE_DIR "/tests/data/oni-kinect-v1/3dj_test.oni");
+        lightskin::RgbdFrame frame;
+        while (out.size() < 12 && source->next(frame)) out.push_back(frame.clone());
+        return out;
+    }();
+    return frames;
+}
+
+void BM_BilateralOni(benchmark::State& state) {
+    lightskin::capture::BilateralDepthFilterParams params;
+    params.implementation = state.range(0) == 0 ? lightskin::capture::BilateralImplementation::Simd
+                                                : lightskin::capture::BilateralImplementation::OpenCv;
+    lightskin::capture::BilateralDepthFilter filter(params);
+    const auto& frames = oniFrames();
+    if (frames.empty()) {
+        state.SkipWithError("tests/data/oni-kinect-v1/3dj_test.oni gave no frame");
+        return;
+    }
+    cv::Mat out;
+    std::size_t i = 0;
+    filter.filterInto(frames[0].depth, frames[0].depthScaleMetres, out);
+    for (auto _ : state) {
+        const lightskin::RgbdFrame& f = frames[i++ % frames.size()];
+        filter.filterInto(f.depth, f.depthScaleMetres, out);
+        benchmark::DoNotOptimize(out.data);
+    }
+    state.SetLabel(std::string(state.range(0) == 0 ? "Simd" : "OpenCv") + ", .oni " +
+                   std::to_string(frames[0].depth.cols) + "x" + std::to_string(frames[0].depth.rows) + ", " +
+                   std::to_string(cv::getNumThreads()) + " OpenCV threads");
+}
+// alternated Simd, OpenCv, Simd, OpenCv: side by side in one run
+BENCHMARK(BM_BilateralOni)->Arg(0)->Arg(1)->Arg(0)->Arg(1)->MeasureProcessCPUTime()->Unit(benchmark::kMillisecond);
 
 } // namespace
 

@@ -25,7 +25,9 @@ inline constexpr std::size_t kGatherSums = 20;
 /// Valid VALs, SoA, padded to a multiple of kSumBlock.
 struct ValArrays {
     std::vector<float> px, py, pz; ///< position, world metres
-    std::vector<float> nx, ny, nz; ///< unit normal
+    /// minus the unit normal: the kernel's cos theta_j = max((-n) . t, 0) needs no negation
+    /// (exact: negating is, and rounding is symmetric)
+    std::vector<float> negNx, negNy, negNz;
     std::vector<float> r2;         ///< r^2 = area / pi, m^2
     std::vector<float> cr2;        ///< kCoincident r^2 (guard G1)
     std::vector<float> fr, fg, fb; ///< flux / pi (M w = (flux / pi) g, eq. 3-4)
@@ -41,7 +43,7 @@ struct ValArrays {
 struct ReceiverArrays {
     std::vector<float> px, py, pz, nx, ny, nz;
     std::vector<float> ex, ey, ez; ///< unit vector to the eye
-    std::vector<float> nde;        ///< n . toEye (eq. 5's mirror cosine: 2 (n.l)(n.e) - l.e)
+    std::vector<float> nde2;       ///< 2 n . toEye (eq. 5's mirror cosine: 2 (n.l)(n.e) - l.e; times 2 is exact)
     std::vector<float> k, ck;      ///< Phong exponent and c (k + 1)
     /// Receiver (column of the sums) in each slot: the identity as filled, the coherent order after
     /// prepareGather(). The kernels read slots and write the sums of receiver index[slot].

@@ -46,6 +46,37 @@ double processCpuMs() {
     return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
 }
 
+double threadCpuMs() {
+    timespec t{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
+}
+
+/// Per parallel region, the CPU time of each arena slot's tasks (slot = oneTBB's thread index in the
+/// arena; each slot written by its own thread only), folded after the join into the frame's excess
+/// of the busiest slot over the calling thread's own slot: the calling thread's CPU time plus that
+/// excess over all regions is CpuLightSkinStats::criticalPathCpuMs. Only thread CPU clocks: a
+/// worker's spinning between regions or another process's load do not enter it.
+struct RegionClock {
+    std::vector<double> slotMs; // sized once per arena (no allocation per frame)
+    int callerSlot = -1;        // the calling thread's slot in this region (set inside arena.execute)
+    double excessMs = 0.0;      // this frame: sum over regions of (max - caller's) slot time
+    void resize(std::size_t slots) { slotMs.assign(slots, 0.0); }
+    void begin() { std::fill(slotMs.begin(), slotMs.end(), 0.0); }
+    void enter() { callerSlot = tbb::this_task_arena::current_thread_index(); }
+    void add(double ms) {
+        const int slot = tbb::this_task_arena::current_thread_index();
+        if (slot >= 0 && std::size_t(slot) < slotMs.size()) slotMs[std::size_t(slot)] += ms;
+    }
+    void end() {
+        double largest = 0.0;
+        for (const double ms : slotMs) largest = std::max(largest, ms);
+        const double caller =
+            callerSlot >= 0 && std::size_t(callerSlot) < slotMs.size() ? slotMs[std::size_t(callerSlot)] : 0.0;
+        excessMs += largest - caller;
+    }
+};
+
 std::size_t padReceivers(std::size_t n) {
     return (n + cpu::kReceiverPadding - 1) / cpu::kReceiverPadding * cpu::kReceiverPadding;
 }
@@ -62,47 +93,65 @@ static_assert(kValTile % cpu::kSumBlock == 0);
 /// (OMP_WAIT_POLICY defaults to active) and took 30 % of the replay's CPU time from llvmpipe and the
 /// tracker on 2 cores (docs/BENCHMARKS.md, "SIMD and thread libraries").
 template <class Body>
-void parallelRanges(tbb::task_arena& arena, std::size_t count, const Body& body) {
+void parallelRanges(tbb::task_arena& arena, RegionClock& clock, std::size_t count, const Body& body) {
     struct Context {
         std::size_t groups, n;
         const Body& body;
+        RegionClock& clock;
         detail::TsanParallelRegion region; // last: the fork edge follows the fields above
-    } context{count / cpu::kReceiverPadding, std::size_t(arena.max_concurrency()), body, {}};
-    arena.execute([&context] {
-        tbb::parallel_for(
-            tbb::blocked_range<std::size_t>(0, context.n, 1),
-            [ctx = &context](const tbb::blocked_range<std::size_t>& threads) {
-                const Context& c = *detail::TsanParallelRegion::captured(ctx);
-                c.region.taskBegin();
-                for (std::size_t t = threads.begin(); t < threads.end(); ++t) {
-                    const std::size_t begin = c.groups * t / c.n * cpu::kReceiverPadding;
-                    const std::size_t end = c.groups * (t + 1) / c.n * cpu::kReceiverPadding;
-                    if (begin < end) c.body(begin, end);
-                }
-                c.region.taskEnd();
-            },
-            tbb::static_partitioner());
-    });
+    };
+    clock.begin(); // before the fork edge (the context's construction), read after the join (its end)
+    {
+        Context context{count / cpu::kReceiverPadding, std::size_t(arena.max_concurrency()), body, clock, {}};
+        arena.execute([&context] {
+            context.clock.enter();
+            tbb::parallel_for(
+                tbb::blocked_range<std::size_t>(0, context.n, 1),
+                [ctx = &context](const tbb::blocked_range<std::size_t>& threads) {
+                    const Context& c = *detail::TsanParallelRegion::captured(ctx);
+                    c.region.taskBegin();
+                    const double start = threadCpuMs();
+                    for (std::size_t t = threads.begin(); t < threads.end(); ++t) {
+                        const std::size_t begin = c.groups * t / c.n * cpu::kReceiverPadding;
+                        const std::size_t end = c.groups * (t + 1) / c.n * cpu::kReceiverPadding;
+                        if (begin < end) c.body(begin, end);
+                    }
+                    c.clock.add(threadCpuMs() - start);
+                    c.region.taskEnd();
+                },
+                tbb::static_partitioner());
+        });
+    }
+    clock.end();
 }
 
 /// body(i) for i in [begin, end) in `arena`, in contiguous chunks (each i independent).
 template <class Body>
-void parallelFor(tbb::task_arena& arena, std::size_t begin, std::size_t end, const Body& body) {
+void parallelFor(tbb::task_arena& arena, RegionClock& clock, std::size_t begin, std::size_t end, const Body& body) {
     struct Context {
         const Body& body;
+        RegionClock& clock;
         detail::TsanParallelRegion region;
-    } context{body, {}};
-    arena.execute([&] {
-        tbb::parallel_for(
-            tbb::blocked_range<std::size_t>(begin, end),
-            [ctx = &context](const tbb::blocked_range<std::size_t>& r) {
-                const Context& c = *detail::TsanParallelRegion::captured(ctx);
-                c.region.taskBegin();
-                for (std::size_t i = r.begin(); i < r.end(); ++i) c.body(i);
-                c.region.taskEnd();
-            },
-            tbb::static_partitioner());
-    });
+    };
+    clock.begin(); // before the fork edge (the context's construction), read after the join (its end)
+    {
+        Context context{body, clock, {}};
+        arena.execute([&] {
+            clock.enter();
+            tbb::parallel_for(
+                tbb::blocked_range<std::size_t>(begin, end),
+                [ctx = &context](const tbb::blocked_range<std::size_t>& r) {
+                    const Context& c = *detail::TsanParallelRegion::captured(ctx);
+                    c.region.taskBegin();
+                    const double start = threadCpuMs();
+                    for (std::size_t i = r.begin(); i < r.end(); ++i) c.body(i);
+                    c.clock.add(threadCpuMs() - start);
+                    c.region.taskEnd();
+                },
+                tbb::static_partitioner());
+        });
+    }
+    clock.end();
 }
 
 } // namespace
@@ -123,6 +172,8 @@ struct CpuLightSkin::Impl {
     std::vector<bool> convex;
     std::uint32_t pointCount = 0, vertexCount = 0;
     std::vector<glm::dvec3> modelVertexPositions, modelVertexNormals;     // per global vertex, model space
+    std::vector<glm::dmat4> meshTransforms;                               // interpolate(): per instance, world_T_model
+    std::vector<glm::dmat3> meshNormalMatrices;                           // and its normal matrix
     std::vector<std::array<std::uint32_t, kVertexNeighbours>> neighbours; // global sparse-point indices
     gl::Buffer vertexVplBuffer;
 
@@ -140,18 +191,33 @@ struct CpuLightSkin::Impl {
     std::vector<std::uint8_t> pointBuried; // G11: 1 = under the real surface, per sparse point
     cpu::OcclusionReceivers occlusionReceivers;
     cpu::Occluders occluders;
-    std::vector<float> occlusionD, occlusionS;
-    std::vector<glm::vec4> vertexVpls; // 4 vec4 per vertex, gather_vertex_vpl.glsl's layout
+    std::vector<float> occlusionD, occlusionS;         // per point
+    std::vector<float> occlusionSlotD, occlusionSlotS; // per gather slot (occludeSlots())
+    std::vector<glm::vec4> vertexVpls;                 // 4 vec4 per vertex, gather_vertex_vpl.glsl's layout
+    /// What stage 4 takes from sparse point i, whichever vertex: its VPLs with the occlusion's
+    /// keep factor (1 - o) applied, G8's distances and G10's peak. ~100 vertices read each point:
+    /// made once per point (makePointTerms(): the same operations on the same values as they were
+    /// per vertex, so the same bits).
+    struct PointTerms {
+        glm::dvec4 diffuse, diffusePosition, glossy, glossyPosition; // eq. 13's summands before w
+        double minDD = 0.0, minDS = 0.0, cap = 0.0;                  // G8 (|x_vpl - x|^2 + r^2), G10
+    };
+    std::vector<PointTerms> pointTerms; // per sparse point
+    bool pointTermsReady = false;       // this frame's pointTerms are made
     bool glossy = true, occlusion = true;
     double readbackMs = 0.0;            // render(): the VAL read-back, counted in the upload stage
     cpu::ValTreeCut treeCut;            // LightSkinSettings::valTreeThreshold > 0 (issue 17)
     cpu::NearFieldCorrection nearField; // guard G12 (LightSkinSettings::nearFieldArea) of the flat gather
 
     std::unique_ptr<tbb::task_arena> arena; // settings.threads workers (0: one per hardware thread)
+    RegionClock regionClock;                // per-thread CPU time of the parallel regions (stats)
+    RegionClock occlusionClock;             // per-thread CPU time of occludeSlots() (stats)
     int threadCount() const { return arena->max_concurrency(); }
     void createArena() {
         arena = std::make_unique<tbb::task_arena>(settings.threads > 0 ? settings.threads
                                                                        : int(tbb::task_arena::automatic));
+        regionClock.resize(std::size_t(arena->max_concurrency()));
+        occlusionClock.resize(std::size_t(arena->max_concurrency()));
     }
 
     void reserveVals(std::size_t count) {
@@ -175,9 +241,9 @@ struct CpuLightSkin::Impl {
             vals.px[n] = l.position.x;
             vals.py[n] = l.position.y;
             vals.pz[n] = l.position.z;
-            vals.nx[n] = l.normal.x;
-            vals.ny[n] = l.normal.y;
-            vals.nz[n] = l.normal.z;
+            vals.negNx[n] = -l.normal.x;
+            vals.negNy[n] = -l.normal.y;
+            vals.negNz[n] = -l.normal.z;
             const float r2 = l.area * invPi;
             vals.r2[n] = r2;
             vals.cr2[n] = coincident * r2;
@@ -198,10 +264,10 @@ struct CpuLightSkin::Impl {
         vals.count = n;
         vals.padded = (n + cpu::kSumBlock - 1) / cpu::kSumBlock * cpu::kSumBlock;
         for (std::uint32_t j = n; j < vals.padded; ++j) // zero-area, zero-flux VALs at the origin: add +0
-            for (auto* v :
-                 {&vals.px, &vals.py, &vals.pz, &vals.nx, &vals.ny, &vals.r2, &vals.cr2, &vals.fr, &vals.fg, &vals.fb})
+            for (auto* v : {&vals.px, &vals.py, &vals.pz, &vals.negNx, &vals.negNy, &vals.r2, &vals.cr2, &vals.fr,
+                            &vals.fg, &vals.fb})
                 (*v)[j] = 0.0f;
-        for (std::uint32_t j = n; j < vals.padded; ++j) vals.nz[j] = 1.0f;
+        for (std::uint32_t j = n; j < vals.padded; ++j) vals.negNz[j] = -1.0f;
     }
 
     /// World-space sparse points (double, as reference::receiversFromSparsePoints) and the gather's SoA.
@@ -231,31 +297,50 @@ struct CpuLightSkin::Impl {
                 receivers.ex[at] = float(e.x);
                 receivers.ey[at] = float(e.y);
                 receivers.ez[at] = float(e.z);
-                receivers.nde[at] = float(glm::dot(n, e));
+                receivers.nde2[at] = float(2.0 * glm::dot(n, e));
                 receivers.k[at] = float(k);
                 receivers.ck[at] = float(c * (k + 1.0));
+                // the occluder discs need no gather result: set here, before the fused region reads them
+                occluders.px[at] = float(x.x), occluders.py[at] = float(x.y), occluders.pz[at] = float(x.z);
+                occluders.nx[at] = float(n.x), occluders.ny[at] = float(n.y), occluders.nz[at] = float(n.z);
+                const float radius = float(pointOccluderRadius[at]);
+                occluders.r2[at] = radius * radius;
                 ++at;
             }
         }
     }
 
     /// Stage 1: the running sums of every receiver over all VALs, tile by tile.
-    void gather() {
+    /// Stage 1 and, per point of each thread's range right after its sums are complete, stage 2
+    /// and stage 3's per-point set-up (renormalisePoint, occlusionSetup): both read only the point's
+    /// own sums, so they need no join of their own and run on both cores instead of one.
+    void gather(const glm::dvec3& eye) {
         std::fill(sums.begin(), sums.end(), 0.0f);
+        occlusionClock.begin();
         cpu::prepareGather(vals, receivers, pointCount); // VAL block boxes, receivers in coherent groups
         const cpu::GatherParameters parameters{glossy, moments(), settings.skipHiddenBlocks};
         const std::size_t stride = receivers.padded;
         std::atomic<std::uint64_t> skipped{0};
         const bool areas = settings.lightSkin.nearFieldArea;
         if (areas) nearField.index(vals);
-        parallelRanges(*arena, receivers.padded, [&](std::size_t begin, std::size_t end) {
+        parallelRanges(*arena, regionClock, receivers.padded, [&](std::size_t begin, std::size_t end) {
             std::uint64_t n = 0;
             for (std::uint32_t first = 0; first < vals.padded; first += kValTile)
                 n += cpu::gather(vals, first, std::min(first + kValTile, vals.padded), receivers, begin, end,
                                  parameters, sums.data(), stride);
             if (areas) nearField.apply(vals, receivers, begin, end, parameters, sums.data(), stride); // G12
             skipped += n;
+            for (std::size_t slot = begin; slot < end; ++slot) {
+                const std::uint32_t i = receivers.index[slot];
+                if (i >= pointCount) continue; // padding
+                renormalisePoint(i, eye);
+                if (occlusion) occlusionSetup(i, slot);
+            }
+            if (occlusion) occludeSlots(begin, end);
+            for (std::size_t slot = begin; slot < end; ++slot)
+                if (receivers.index[slot] < pointCount) makePointTerms(receivers.index[slot]);
         });
+        pointTermsReady = true;
         const double blocks = double(vals.padded / cpu::kSumBlock) * double(receivers.padded / cpu::kReceiverPadding);
         stats.gatherBlocksSkipped = blocks > 0.0 ? double(skipped.load()) / blocks : 0.0;
     }
@@ -293,37 +378,49 @@ struct CpuLightSkin::Impl {
         return p;
     }
 
-    /// Stage 2 (eq. 8-11) and the occlusion targets of stage 3, per point.
+    /// Stage 2 (eq. 8-11) of point i.
+    void renormalisePoint(std::size_t i, const glm::dvec3& eye) {
+        const PointSums p = pointSums(i);
+        const glm::dvec3 x = pointPosition[i], nx = pointNormal[i];
+        gatheredPeakD[i] = m::ls_peakChannel(p.L); // G10
+        vplD[i] = m::ls_renormaliseDiffuse(p.L, p.offset, p.W, p.r2, p.moment, x, nx,
+                                           settings.lightSkin.extendedVplHorizon ? 1.0 : 0.0);
+        vplS[i] = m::ls_renormaliseGlossy(p.Ls, p.offsetS, p.Ws, p.r2s, p.momentS, x, nx, m::ls_toEye(x, eye),
+                                          pointExponent[i]);
+    }
+
+    /// Stage 2 for every point, and stage 3's set-up if on: after the gather with a cut (issue 17),
+    /// which has its own threads; the flat gather does both inside its parallel region.
     void renormalise(const glm::dvec3& eye) {
         // ~0.1 us per point: threads pay off only for many points (a fork/join costs ~10 us idle,
         // a scheduler time slice when the cores are oversubscribed)
         const auto point = [&](std::size_t i) {
-            const PointSums p = pointSums(i);
-            const glm::dvec3 x = pointPosition[i], nx = pointNormal[i];
-            gatheredPeakD[i] = m::ls_peakChannel(p.L); // G10
-            vplD[i] = m::ls_renormaliseDiffuse(p.L, p.offset, p.W, p.r2, p.moment, x, nx,
-                                               settings.lightSkin.extendedVplHorizon ? 1.0 : 0.0);
-            vplS[i] = m::ls_renormaliseGlossy(p.Ls, p.offsetS, p.Ws, p.r2s, p.momentS, x, nx, m::ls_toEye(x, eye),
-                                              pointExponent[i]);
+            renormalisePoint(i, eye);
+            if (occlusion) occlusionSetup(i, i);
         };
         if (pointCount > 8192)
-            parallelFor(*arena, 0, pointCount, point);
+            parallelFor(*arena, regionClock, 0, pointCount, point);
         else
             for (std::size_t i = 0; i < pointCount; ++i) point(i);
     }
 
-    /// Stage 3 (section 3.3, eq. 14): targets per point (double), the occluder sums (SIMD).
-    void occlude() {
+    /// Stage 3 (section 3.3, eq. 14), per point: its targets (double) as a receiver, its disc as an
+    /// occluder. Needs the point's VPLs (stage 2).
+    /// Written at `slot` of the kernel's receiver arrays (the gather's slot of point i: the fused
+    /// region runs the occlusion kernel over its own slots; each lane's sum is the same whichever
+    /// lanes share its vector). The occluders (every point's disc) were set in placePoints().
+    void occlusionSetup(std::size_t i, std::size_t slot) {
         cpu::OcclusionReceivers& r = occlusionReceivers;
-        for (std::size_t i = 0; i < pointCount; ++i) {
+        {
             const glm::dvec3 x = pointPosition[i], n = pointNormal[i];
             const glm::dvec3 t = m::ls_tangent(n), b = m::ls_binormal(n);
             const m::OcclusionTarget td = m::ls_occlusionTarget(x, n, t, b, vplD[i].position, vplD[i].sphereRadius);
             const m::OcclusionTarget ts = m::ls_occlusionTarget(x, n, t, b, vplS[i].position, vplS[i].sphereRadius);
-            r.px[i] = float(x.x), r.py[i] = float(x.y), r.pz[i] = float(x.z);
-            r.nx[i] = float(n.x), r.ny[i] = float(n.y), r.nz[i] = float(n.z);
-            r.tx[i] = float(t.x), r.ty[i] = float(t.y), r.tz[i] = float(t.z);
-            r.bx[i] = float(b.x), r.by[i] = float(b.y), r.bz[i] = float(b.z);
+            const std::size_t k = slot;
+            r.px[k] = float(x.x), r.py[k] = float(x.y), r.pz[k] = float(x.z);
+            r.nx[k] = float(n.x), r.ny[k] = float(n.y), r.nz[k] = float(n.z);
+            r.tx[k] = float(t.x), r.ty[k] = float(t.y), r.tz[k] = float(t.z);
+            r.bx[k] = float(b.x), r.by[k] = float(b.y), r.bz[k] = float(b.z);
             const auto setTarget = [&](const m::OcclusionTarget& o, float& cx, float& cy, float& half, float& invArea,
                                        float& dist, float& invRadius) {
                 cx = float(o.centre.x);
@@ -333,16 +430,48 @@ struct CpuLightSkin::Impl {
                 dist = float(o.distance);
                 invRadius = float(1.0 / std::max(o.radius, 1.0e-30));
             };
-            setTarget(td, r.dcx[i], r.dcy[i], r.dhalf[i], r.dinvArea[i], r.ddist[i], r.dinvRadius[i]);
-            setTarget(ts, r.scx[i], r.scy[i], r.shalf[i], r.sinvArea[i], r.sdist[i], r.sinvRadius[i]);
-            occluders.px[i] = float(x.x), occluders.py[i] = float(x.y), occluders.pz[i] = float(x.z);
-            occluders.nx[i] = float(n.x), occluders.ny[i] = float(n.y), occluders.nz[i] = float(n.z);
-            const float radius = float(pointOccluderRadius[i]);
-            occluders.r2[i] = radius * radius;
+            setTarget(td, r.dcx[k], r.dcy[k], r.dhalf[k], r.dinvArea[k], r.ddist[k], r.dinvRadius[k]);
+            setTarget(ts, r.scx[k], r.scy[k], r.shalf[k], r.sinvArea[k], r.sdist[k], r.sinvRadius[k]);
         }
-        parallelRanges(*arena, r.padded, [&](std::size_t begin, std::size_t end) {
+    }
+
+    /// Stage 3 for the slots [begin, end) set up by occlusionSetup(): the occluder sums (SIMD) into
+    /// occlusionSlotD/S, then to each point's entry of occlusionD/S. Adds the thread's CPU time
+    /// spent here to its slot of occlusionClock (the bench's occlusion rate).
+    void occludeSlots(std::size_t begin, std::size_t end) {
+        const double start = threadCpuMs();
+        cpu::occlusion(occlusionReceivers, begin, end, occluders, glossy, occlusionSlotD.data(), occlusionSlotS.data());
+        for (std::size_t slot = begin; slot < end; ++slot) {
+            const std::uint32_t i = receivers.index[slot];
+            if (i >= pointCount) continue;
+            occlusionD[i] = occlusionSlotD[slot];
+            occlusionS[i] = occlusionSlotS[slot];
+        }
+        occlusionClock.add(threadCpuMs() - start);
+    }
+
+    /// Stage 3's sums over all occluders after the gather with a cut (its points in their own
+    /// order, slot = point: occlusionSetup(i, i)); the flat gather runs occludeSlots() in its region.
+    void occlude() {
+        cpu::OcclusionReceivers& r = occlusionReceivers;
+        parallelRanges(*arena, regionClock, r.padded, [&](std::size_t begin, std::size_t end) {
             cpu::occlusion(r, begin, end, occluders, glossy, occlusionD.data(), occlusionS.data());
         });
+    }
+
+    void makePointTerms(std::size_t s) {
+        const double keepD = occlusion ? 1.0 - std::clamp(double(occlusionD[s]), 0.0, 1.0) : 1.0;
+        const double keepS = occlusion ? 1.0 - std::clamp(double(occlusionS[s]), 0.0, 1.0) : 1.0;
+        const glm::dvec3 od = vplD[s].position - pointPosition[s], os = vplS[s].position - pointPosition[s];
+        PointTerms& t = pointTerms[s];
+        t.minDD = glm::dot(od, od) + vplD[s].r2;
+        t.minDS = glm::dot(os, os) + vplS[s].r2;
+        t.cap = gatheredPeakD[s] * keepD;
+        t.diffuse = glm::dvec4(vplD[s].radiance * keepD, vplD[s].r2);
+        t.diffusePosition =
+            glm::dvec4(vplD[s].position, settings.lightSkin.extendedVplHorizon ? vplD[s].sphereRadius : 0.0);
+        t.glossy = glm::dvec4(vplS[s].radiance * keepS, vplS[s].r2);
+        t.glossyPosition = glm::dvec4(vplS[s].position, 0.0);
     }
 
     /// Stage 4 (eq. 12-13) per vertex, with the occlusion attenuation L'' (1 - o).
@@ -354,13 +483,20 @@ struct CpuLightSkin::Impl {
         else
             std::fill(buriedFlags.begin(), buriedFlags.end(), std::uint8_t(0));
         for (std::size_t mesh = 0; mesh < instances.size(); ++mesh) {
-            const glm::dmat4 transform(instances[mesh].world_T_model);
-            const glm::dmat3 normalMatrix = glm::transpose(glm::inverse(glm::dmat3(transform)));
-            const std::size_t first = vertexOffsets[mesh];
-            const std::size_t end = first + instances[mesh].mesh->vertexCount();
-            const bool horizon = settings.lightSkin.extendedVplHorizon;
-            const bool capOn = settings.lightSkin.vertexIrradianceCap;
-            parallelFor(*arena, first, end, [&](std::size_t v) {
+            meshTransforms[mesh] = glm::dmat4(instances[mesh].world_T_model);
+            meshNormalMatrices[mesh] = glm::transpose(glm::inverse(glm::dmat3(meshTransforms[mesh])));
+        }
+        const bool capOn = settings.lightSkin.vertexIrradianceCap;
+        if (!pointTermsReady) // the gather with a cut; the flat gather's threads made them
+            for (std::size_t i = 0; i < pointCount; ++i) makePointTerms(i);
+        // one region over every mesh's vertices (one join instead of one per mesh)
+        {
+            parallelFor(*arena, regionClock, 0, vertexCount, [&](std::size_t v) {
+                const std::size_t mesh =
+                    std::size_t(std::upper_bound(vertexOffsets.begin(), vertexOffsets.end(), std::uint32_t(v)) -
+                                vertexOffsets.begin() - 1);
+                const glm::dmat4& transform = meshTransforms[mesh];
+                const glm::dmat3& normalMatrix = meshNormalMatrices[mesh];
                 const glm::dvec3 p(transform * glm::dvec4(modelVertexPositions[v], 1.0));
                 const glm::dvec3 nv = glm::normalize(normalMatrix * modelVertexNormals[v]);
                 double dist[kVertexNeighbours], cosN[kVertexNeighbours];
@@ -379,17 +515,14 @@ struct CpuLightSkin::Impl {
                 for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
                     const double w = weights.w[j];
                     if (w == 0.0) continue;
-                    const std::uint32_t s = list[j];
-                    const glm::dvec3 od = vplD[s].position - pointPosition[s], os = vplS[s].position - pointPosition[s];
-                    minDD = std::min(minDD, glm::dot(od, od) + vplD[s].r2);
-                    minDS = std::min(minDS, glm::dot(os, os) + vplS[s].r2);
-                    const double keepD = occlusion ? 1.0 - std::clamp(double(occlusionD[s]), 0.0, 1.0) : 1.0;
-                    const double keepS = occlusion ? 1.0 - std::clamp(double(occlusionS[s]), 0.0, 1.0) : 1.0;
-                    cap = std::max(cap, gatheredPeakD[s] * keepD); // G10
-                    diffuse += w * glm::dvec4(vplD[s].radiance * keepD, vplD[s].r2);
-                    diffusePosition += w * glm::dvec4(vplD[s].position, horizon ? vplD[s].sphereRadius : 0.0); // G9
-                    glossyRadiance += w * glm::dvec4(vplS[s].radiance * keepS, vplS[s].r2);
-                    glossyPosition += w * glm::dvec4(vplS[s].position, 0.0);
+                    const PointTerms& t = pointTerms[list[j]];
+                    minDD = std::min(minDD, t.minDD);
+                    minDS = std::min(minDS, t.minDS);
+                    cap = std::max(cap, t.cap); // G10
+                    diffuse += w * t.diffuse;
+                    diffusePosition += w * t.diffusePosition; // G9
+                    glossyRadiance += w * t.glossy;
+                    glossyPosition += w * t.glossyPosition;
                 }
                 if (settings.lightSkin.vertexDistanceFloor) {
                     diffuse.w = m::ls_vertexR2Floor(diffuse.w, p, glm::dvec3(diffusePosition), minDD);
@@ -537,7 +670,12 @@ void CpuLightSkin::prepare(std::span<const MeshInstance> instances) {
     impl.occluders.resize(impl.pointCount);
     impl.occlusionD.assign(padded, 0.0f);
     impl.occlusionS.assign(padded, 0.0f);
+    impl.occlusionSlotD.assign(padded, 0.0f);
+    impl.occlusionSlotS.assign(padded, 0.0f);
     impl.vertexVpls.assign(std::size_t(impl.vertexCount) * 4, glm::vec4(0.0f));
+    impl.pointTerms.assign(impl.pointCount, Impl::PointTerms{});
+    impl.meshTransforms.assign(instances.size(), glm::dmat4(1.0));
+    impl.meshNormalMatrices.assign(instances.size(), glm::dmat3(1.0));
     impl.vertexVplBuffer = gl::Buffer::create(GLsizeiptr(std::max<std::uint32_t>(impl.vertexCount, 1)) * 64, nullptr,
                                               GL_DYNAMIC_STORAGE_BIT);
     log::info("lightskin-cpu: prepared " + std::to_string(instances.size()) + " instance(s), " +
@@ -559,7 +697,9 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
     impl.chooseChannels(instances);
     const glm::dvec3 eye(cameraPositionWorld);
 
-    const double cpuStart = processCpuMs();
+    const double cpuStart = processCpuMs(), callerStart = threadCpuMs();
+    impl.regionClock.excessMs = 0.0;
+    impl.pointTermsReady = false;
     auto start = Clock::now();
     impl.buildValArrays(lights);
     impl.placePoints(instances, eye);
@@ -581,7 +721,7 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
         stats.valTreeQuadtree = impl.treeCut.stats().quadtree;
         stats.gatherBlocksSkipped = 0.0;
     } else {
-        impl.gather();
+        impl.gather(eye); // with stage 2 and stage 3's set-up in its threads
         stats.valTreeCutPerPoint = 0.0;
         stats.valTreeQuadtree = false;
     }
@@ -589,24 +729,31 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
     stats.gatherCpuMs = processCpuMs() - cpu;
 
     start = Clock::now();
-    impl.renormalise(eye);
+    if (treeThreshold > 0.0) impl.renormalise(eye);
     stats.normalisationMs = millisecondsSince(start);
 
     start = Clock::now();
     cpu = processCpuMs();
-    if (impl.occlusion)
-        impl.occlude();
-    else {
+    if (!impl.occlusion) {
         std::fill(impl.occlusionD.begin(), impl.occlusionD.end(), 0.0f);
         std::fill(impl.occlusionS.begin(), impl.occlusionS.end(), 0.0f);
+    } else if (treeThreshold > 0.0) {
+        impl.occlude();
     }
     stats.occlusionMs = millisecondsSince(start);
     stats.occlusionCpuMs = processCpuMs() - cpu;
+    if (impl.occlusion && treeThreshold <= 0.0) { // ran inside the gather's region: its threads' CPU time
+        double occlusionCpu = 0.0;
+        for (const double ms : impl.occlusionClock.slotMs) occlusionCpu += ms;
+        stats.occlusionCpuMs = occlusionCpu;
+        stats.gatherCpuMs -= occlusionCpu;
+    }
 
     start = Clock::now();
     impl.interpolate(instances, realDepth);
     stats.interpolationMs = millisecondsSince(start);
     stats.stagesCpuMs = processCpuMs() - cpuStart;
+    stats.criticalPathCpuMs = threadCpuMs() - callerStart + impl.regionClock.excessMs;
 
     stats.vals = impl.vals.count;
     stats.points = impl.pointCount;

@@ -84,7 +84,7 @@ void NearFieldCorrection::apply(const ValArrays& vals, const ReceiverArrays& r, 
                 const glm::dvec3 o = l - x;
                 const double r2 = double(vals.r2[j]);
                 if (!(glm::dot(o, o) < m::kNearFieldRatio2 * r2)) continue; // as ls_discTerms decides
-                const glm::dvec3 nl(vals.nx[j], vals.ny[j], vals.nz[j]);
+                const glm::dvec3 nl(-vals.negNx[j], -vals.negNy[j], -vals.negNz[j]);
                 const glm::dvec3 flux = glm::dvec3(vals.fr[j], vals.fg[j], vals.fb[j]) * m::kPi;
                 const double area = m::kPi * r2;
                 const m::GatherSample a = m::ls_gatherSample(x, n, l, nl, area, flux, toEye, k, ck, 0.0, true);

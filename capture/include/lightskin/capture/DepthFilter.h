@@ -1,24 +1,36 @@
 #pragma once
 // Edge-preserving bilateral filter for depth maps (KinectFusion's pre-filter, Newcombe et al.
-// 2011), on depth in metres with OpenCV's cv::bilateralFilter.
+// 2011), on depth in metres.
 //
-// Missing depth (0) stays missing and takes no part in the filter: cv::bilateralFilter alone
-// would treat 0 as a depth, so a valid pixel next to a hole is pulled toward 0 as soon as the
-// range weight exp(-z^2 / 2 sigma_depth^2) of a zero neighbour is not negligible (near depths or
-// a large sigma_depth), and a hole pixel becomes a weighted mix of its neighbours. We therefore
-// fill holes with a sentinel 15 sigma_depth beyond the deepest valid pixel (range weight
-// exp(-112.5) = 1e-49, which is 0 in float), filter, and set holes back to 0. That is exactly a
-// normalised bilateral filter whose weights are multiplied by a validity mask, run by OpenCV's
-// optimised (parallel, SIMD) implementation; away from holes it is cv::bilateralFilter itself.
+// The filter: a normalised bilateral filter whose weights are multiplied by a validity mask, on
+// OpenCV's kernel: a disk of diameter kernelSize (pixels within kernelSize/2 of the centre) with
+// spatial weight exp(-r^2 / 2 sigma_space^2) and range weight exp(-dz^2 / 2 sigma_depth^2), the
+// centre weight 1, borders replicated. Missing depth (0) stays missing (output 0) and takes no part:
+// a valid pixel next to a hole is not pulled toward 0, and a hole is not filled.
 //
-// The kernel is OpenCV's: a disk of diameter kernelSize (pixels within kernelSize/2 of the centre)
-// with spatial weight exp(-r^2 / 2 sigma_space^2) and range weight exp(-dz^2 / 2 sigma_depth^2).
+// Two implementations of that one filter (BilateralDepthFilterParams::implementation):
+//  * Simd (the default): one pass of our own, SIMD across a row's pixels (Google Highway, runtime
+//    dispatch), exact range weights (a polynomial 2^x, relative error < 3e-7), one thread. 2.8x less
+//    CPU than the OpenCV one per 640x480 frame (docs/BENCHMARKS.md, "Capture: depth bilateral filter").
+//  * OpenCv: cv::bilateralFilter, with holes filled by a sentinel 15 sigma_depth beyond the deepest
+//    valid pixel (range weight exp(-112.5) = 1e-49, 0 in float) and set back to 0 after. Its range
+//    weights come from a 4096-entry table over [min, max] of the image, linearly interpolated, so
+//    it differs from Simd by that table's error: 0.008 mm at most on the Kinect v1 .oni, within a
+//    per-pixel bound derived in tests/capture/DepthFilterOniTest.cpp. Kept to compare with.
 
 #include <opencv2/core/mat.hpp>
 
+#include <cstddef>
+#include <cstdint>
 #include <limits>
+#include <vector>
 
 namespace lightskin::capture {
+
+enum class BilateralImplementation : std::uint8_t {
+    Simd,   ///< our row kernel (SIMD, exact range weights, one thread)
+    OpenCv, ///< cv::bilateralFilter with a hole sentinel (interpolated range table, OpenCV's threads)
+};
 
 struct BilateralDepthFilterParams {
     int kernelSize = 7;             ///< odd diameter, pixels (KinectFusion: 7)
@@ -28,6 +40,7 @@ struct BilateralDepthFilterParams {
     /// and does not influence its neighbours. Defaults keep every positive depth.
     double minDepthMetres = 0.0;
     double maxDepthMetres = std::numeric_limits<double>::infinity();
+    BilateralImplementation implementation = BilateralImplementation::Simd; ///< same filter, see above
 };
 
 class BilateralDepthFilter {
@@ -37,8 +50,8 @@ public:
     /// Filters `depth` (CV_16UC1 raw units times `depthScaleMetres`, or CV_32FC1 metres with
     /// scale 1) into `outMetres` (CV_32FC1 metres, 0 = missing). `outMetres` and the internal
     /// buffers are allocated on the first call and reused while the size stays the same
-    /// (cv::bilateralFilter still makes its own bordered copy per call). `outMetres` must not
-    /// share memory with `depth`.
+    /// (the OpenCv implementation's cv::bilateralFilter still makes its own bordered copy per
+    /// call). `outMetres` must not share memory with `depth`.
     void filterInto(const cv::Mat& depth, double depthScaleMetres, cv::Mat& outMetres);
     /// Allocating convenience form of filterInto().
     cv::Mat filter(const cv::Mat& depth, double depthScaleMetres);
@@ -46,8 +59,15 @@ public:
     const BilateralDepthFilterParams& params() const noexcept { return params_; }
 
 private:
+    void filterOpenCv(const cv::Mat& depth, double depthScaleMetres, cv::Mat& outMetres);
+    void filterSimd(const cv::Mat& depth, double depthScaleMetres, cv::Mat& outMetres);
+
     BilateralDepthFilterParams params_;
-    cv::Mat metres_, valid_, invalid_;
+    cv::Mat metres_, valid_, invalid_; // OpenCv
+    std::vector<float> padded_;        // Simd: metres, missing = sentinel, bordered by the radius
+    std::vector<std::ptrdiff_t> tapOffsets_;
+    std::vector<float> tapLog2Space_;
+    std::size_t paddedStride_ = 0;
 };
 
 } // namespace lightskin::capture

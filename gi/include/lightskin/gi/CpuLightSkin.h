@@ -39,11 +39,23 @@ struct CpuLightSkinStats {
     std::uint32_t points = 0;   ///< sparse points
     std::uint32_t vertices = 0; ///< vertices interpolated
     bool glossy = false, occlusion = false;
+    /// normalisationMs and occlusionMs: ~0 for the flat gather (no cut), whose threads renormalise
+    /// their points and sum their occlusion right after gathering them (counted in gatherMs).
     double uploadMs = 0.0, gatherMs = 0.0, normalisationMs = 0.0, occlusionMs = 0.0, interpolationMs = 0.0;
     double shadingMs = 0.0; ///< CPU time to issue the GL shading pass (its GPU time: lastStageTimes())
     /// Process CPU time (all threads) of the gather, the occlusion stage and stages 0-4 of
     /// computeVpls(): under load from other processes wall time overstates the work, CPU time does not.
+    /// For the flat gather occlusionCpuMs is its threads' CPU time in the occlusion kernel, and
+    /// gatherCpuMs the rest of their region (gather, renormalisation, occlusion set-up).
     double gatherCpuMs = 0.0, occlusionCpuMs = 0.0, stagesCpuMs = 0.0;
+    /// Stages 0-4 on idle cores, from thread CPU clocks alone: the calling thread's CPU time, with
+    /// its share of each parallel region replaced by the busiest thread's (CLOCK_THREAD_CPUTIME_ID per
+    /// task), i.e. serial work + the critical thread of every region: the wall time on the machine's
+    /// threads when nothing else runs (fork/join latency excluded), the regions split as they were
+    /// scheduled. It does not count waiting for a core; a region that ran on one thread because the
+    /// other was not scheduled in time (load) counts whole. The gather with a cut: its own threads
+    /// are not counted (criticalPathCpuMs then understates).
+    double criticalPathCpuMs = 0.0;
     std::string simdTarget;          ///< the instruction set the runtime dispatch chose, e.g. "AVX3"
     double valTreeCutPerPoint = 0.0; ///< valTreeThreshold > 0 (issue 17): lights taken per sparse point
     bool valTreeQuadtree = false;    ///< the cut went through the image quadtree (CpuValPixelKeys), else the BVH
@@ -85,8 +97,9 @@ public:
 
     /// Stages 1-4 on VALs already on the CPU (no GL call): what render() does after reading the
     /// VALs back and before writing the vertex VPLs to the GL buffer. For benchmarks and tests;
-    /// needs prepare() (which needs a GL context for the buffers it creates). `pixels` as in renderCpuVals(); `realDepth` (its CPU map,
-    /// `data`) drives guard G11 as ViewParameters::realDepth does in render(); none = no point buried.
+    /// needs prepare() (which needs a GL context for the buffers it creates). `pixels` as in renderCpuVals();
+    /// `realDepth` (its CPU map, `data`) drives guard G11 as ViewParameters::realDepth does in render(); none = no
+    /// point buried.
     void computeVpls(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
                      const glm::vec3& cameraPositionWorld, const CpuValPixelKeys& pixels = {},
                      const RealDepthView& realDepth = {});
