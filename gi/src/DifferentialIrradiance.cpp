@@ -67,11 +67,10 @@ bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y
 /// The valid VALs as structure-of-arrays floats (flux unscaled, r2 = area / pi), for the shadow tests.
 struct DiscArrays {
     std::vector<float> px, py, pz, nx, ny, nz, r2, fr, fg, fb;
-    std::size_t size() const noexcept { return px.size(); }
 };
 
-/// w_j of gatherDiscs' formula for one disc j (eq. 3/4 with the guards G1/G2 of ls_irradiance, in
-/// float): E_j = flux_j w_j at (x, n).
+/// w_j of disc j at (x, n), eq. 3/4 with the guards G1/G2 of ls_irradiance, in float (the per-pair
+/// loop's formula before the clusters): E_j = flux_j w_j.
 float discWeight(const DiscArrays& d, std::size_t j, float x, float y, float z, float nx, float ny, float nz) {
     const float invPi = float(1.0 / std::numbers::pi);
     const float dx = d.px[j] - x, dy = d.py[j] - y, dz = d.pz[j] - z;
@@ -83,8 +82,8 @@ float discWeight(const DiscArrays& d, std::size_t j, float x, float y, float z, 
 }
 
 /// The segment from x to disc j passes within the sphere (centre - x = (cx, cy, cz), radius^2 r2),
-/// in float: the test the per-pair loop made for every pair before the clusters (kept bit for bit, so
-/// the clusters change which pairs are tested, never a pair's answer).
+/// in float: the test the per-pair loop made for every pair before the clusters (the same formula, so
+/// the clusters change which pairs are tested, not a pair's answer).
 bool discNearSphere(const DiscArrays& d, std::size_t j, float x, float y, float z, float cx, float cy, float cz,
                     float r2) {
     const float dx = d.px[j] - x, dy = d.py[j] - y, dz = d.pz[j] - z;
@@ -112,7 +111,6 @@ struct BlockQuery {
 /// w_j and the candidate mark (1: w_j > 0 and the segment passes some sphere) of the kBlockVals discs
 /// from `first` (the arrays are padded to whole blocks with zero discs: w = 0, never a candidate).
 /// Fixed length, branch-free: the compiler vectorises it; testBlock() picks the widest instruction set.
-template <int kTag>
 inline void testBlockImpl(const DiscArrays& d, std::uint32_t first, const BlockQuery& q, float* w, float* near) {
     for (std::uint32_t m = 0; m < kBlockVals; ++m) {
         w[m] = discWeight(d, first + m, q.x, q.y, q.z, q.nx, q.ny, q.nz);
@@ -128,12 +126,12 @@ inline void testBlockImpl(const DiscArrays& d, std::uint32_t first, const BlockQ
 }
 
 #if defined(__x86_64__) && defined(__GNUC__)
-// The same loop compiled for AVX-512 (one block = one 16-float vector) and dispatched at run time (the
-// build targets baseline x86-64: SSE2, 4 floats). Same formulas, no FMA contraction of them beyond what
-// the baseline allows: the target adds vector width only.
+// The same loop compiled for AVX-512 (one block = one 16-float vector: ~2x faster than the baseline
+// x86-64 build's SSE2) and chosen at run time. The compiler may fuse multiply-adds there, so the last
+// bit of w_j can depend on the CPU (as CpuLightSkin's Highway kernels do), never on the thread count.
 __attribute__((target("avx512f,avx512dq,avx512vl"))) void testBlockAvx512(const DiscArrays& d, std::uint32_t first,
                                                                           const BlockQuery& q, float* w, float* near) {
-    testBlockImpl<1>(d, first, q, w, near);
+    testBlockImpl(d, first, q, w, near);
 }
 #endif
 
@@ -143,7 +141,7 @@ void testBlock(const DiscArrays& d, std::uint32_t first, const BlockQuery& q, fl
         __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
     if (avx512) return testBlockAvx512(d, first, q, w, near);
 #endif
-    testBlockImpl<0>(d, first, q, w, near);
+    testBlockImpl(d, first, q, w, near);
 }
 
 /// Squared distance from c to the closed segment a-b (double).
