@@ -7,7 +7,8 @@
 #   oni:   tests/data/oni-kinect-v1/3dj_test.oni, recordings/scenes/oni_room.json, fixed pose (all 12 frames)
 # Needs perf (Debian: linux-perf) and python3. Parts (symbols): embree (libembree3, TriangleRayScene: the
 # shadow rays), simd (the SIMD gather kernel GatherGroup; gatherDiscs in older binaries), receivers
-# (computeReceiver / placeReceiver / gatherReceiver: geometry, region, pair tests, the lights), really
+# (computeReceiver / placeReceiver / gatherReceiver and the file's helpers they call: geometry, region,
+# pair tests, the lights), really
 # (reallyOccluded: the depth-frame shadow test), interpolate, other (the rest of DifferentialIrradiance).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -47,7 +48,9 @@ for line in open(path):
         parts["really"] += samples
     elif "Differential" in line and "interpolate" in line:
         parts["interpolate"] += samples
-    elif any(name in line for name in ("computeReceiver", "placeReceiver", "gatherReceiver")):
+    elif any(name in line for name in ("computeReceiver", "placeReceiver", "gatherReceiver", "testBlock",
+                                       "discWeight", "discNearSphere", "segmentDistance2", "segmentNearSphere",
+                                       "lightIrradiance", "sortVals", "spreadBits10", "validDisc")):
         parts["receivers"] += samples
     elif "Differential" in line:
         parts["other"] += samples

@@ -69,30 +69,6 @@ struct DiscArrays {
     std::vector<float> px, py, pz, nx, ny, nz, r2, fr, fg, fb;
 };
 
-/// w_j of disc j at (x, n), eq. 3/4 with the guards G1/G2 of ls_irradiance, in float (the per-pair
-/// loop's formula before the clusters): E_j = flux_j w_j.
-float discWeight(const DiscArrays& d, std::size_t j, float x, float y, float z, float nx, float ny, float nz) {
-    const float invPi = float(1.0 / std::numbers::pi);
-    const float dx = d.px[j] - x, dy = d.py[j] - y, dz = d.pz[j] - z;
-    const float d2 = dx * dx + dy * dy + dz * dz;
-    const float inv = 1.0f / std::sqrt(std::max(d2 + 1.0e-12f * d.r2[j], 1.0e-36f)); // G1
-    const float cosI = std::max((nx * dx + ny * dy + nz * dz) * inv, 0.0f);
-    const float cosJ = std::max(-(d.nx[j] * dx + d.ny[j] * dy + d.nz[j] * dz) * inv, 0.0f);
-    return cosJ / std::max(d.r2[j] + d2, 1.0e-36f) * cosI * invPi; // G2
-}
-
-/// The segment from x to disc j passes within the sphere (centre - x = (cx, cy, cz), radius^2 r2),
-/// in float: the test the per-pair loop made for every pair before the clusters (the same formula, so
-/// the clusters change which pairs are tested, not a pair's answer).
-bool discNearSphere(const DiscArrays& d, std::size_t j, float x, float y, float z, float cx, float cy, float cz,
-                    float r2) {
-    const float dx = d.px[j] - x, dy = d.py[j] - y, dz = d.pz[j] - z;
-    const float length2 = std::max(dx * dx + dy * dy + dz * dz, 1.0e-36f);
-    const float t = std::clamp((cx * dx + cy * dy + cz * dz) / length2, 0.0f, 1.0f);
-    const float qx = t * dx - cx, qy = t * dy - cy, qz = t * dz - cz;
-    return qx * qx + qy * qy + qz * qz <= r2;
-}
-
 /// VALs per leaf cluster and leaf clusters per group of the indirect-shadow cull (two levels: a
 /// receiver tests ~n/256 groups, then 16 blocks of each group its segments can reach, then their VALs).
 constexpr std::uint32_t kBlockVals = 16;
@@ -109,39 +85,41 @@ struct BlockQuery {
 };
 
 /// w_j and the candidate mark (1: w_j > 0 and the segment passes some sphere) of the kBlockVals discs
-/// from `first` (the arrays are padded to whole blocks with zero discs: w = 0, never a candidate).
-/// Fixed length, branch-free: the compiler vectorises it; testBlock() picks the widest instruction set.
-inline void testBlockImpl(const DiscArrays& d, std::uint32_t first, const BlockQuery& q, float* w, float* near) {
-    for (std::uint32_t m = 0; m < kBlockVals; ++m) {
-        w[m] = discWeight(d, first + m, q.x, q.y, q.z, q.nx, q.ny, q.nz);
+/// from `first` (the arrays are padded to whole blocks with zero discs: w = 0, never a candidate). The
+/// per-pair loop's formulas before the clusters, in float: w_j of eq. 3/4 with the guards G1/G2 of
+/// ls_irradiance (E_j = flux_j w_j), and the segment's nearest point to the sphere's centre.
+/// Fixed length, branch-free: the compiler vectorises it.
+void testBlock(const DiscArrays& d, std::uint32_t first, const BlockQuery& q, float* wOut, float* nearOut) {
+    // Local arrays and local copies of the disc pointers: the compiler sees that nothing aliases, and
+    // vectorises the fixed-length loops (through the output pointers it kept them scalar).
+    const float *px = d.px.data() + first, *py = d.py.data() + first, *pz = d.pz.data() + first;
+    const float *nx = d.nx.data() + first, *ny = d.ny.data() + first, *nz = d.nz.data() + first;
+    const float* r2 = d.r2.data() + first;
+    const float invPi = float(1.0 / std::numbers::pi);
+    std::array<float, kBlockVals> w, near, dx, dy, dz;
+    for (std::uint32_t m = 0; m < kBlockVals; ++m) { // discWeight
+        dx[m] = px[m] - q.x;
+        dy[m] = py[m] - q.y;
+        dz[m] = pz[m] - q.z;
+        const float d2 = dx[m] * dx[m] + dy[m] * dy[m] + dz[m] * dz[m];
+        const float inv = 1.0f / std::sqrt(std::max(d2 + 1.0e-12f * r2[m], 1.0e-36f)); // G1
+        const float cosI = std::max((q.nx * dx[m] + q.ny * dy[m] + q.nz * dz[m]) * inv, 0.0f);
+        const float cosJ = std::max(-(nx[m] * dx[m] + ny[m] * dy[m] + nz[m] * dz[m]) * inv, 0.0f);
+        w[m] = cosJ / std::max(r2[m] + d2, 1.0e-36f) * cosI * invPi; // G2
         near[m] = 0.0f;
     }
-    for (std::size_t k = 0; k < q.sphereCount; ++k) {
-        const float* s = q.spheres + 4 * k;
-        for (std::uint32_t m = 0; m < kBlockVals; ++m)
-            near[m] = discNearSphere(d, first + m, q.x, q.y, q.z, s[0], s[1], s[2], s[3]) & (w[m] > 0.0f)
-                          ? 1.0f
-                          : near[m]; // no short-circuit: vectorises
+    for (std::size_t k = 0; k < q.sphereCount; ++k) { // discNearSphere
+        const float cx = q.spheres[4 * k], cy = q.spheres[4 * k + 1], cz = q.spheres[4 * k + 2],
+                    radius2 = q.spheres[4 * k + 3];
+        for (std::uint32_t m = 0; m < kBlockVals; ++m) {
+            const float length2 = std::max(dx[m] * dx[m] + dy[m] * dy[m] + dz[m] * dz[m], 1.0e-36f);
+            const float t = std::clamp((cx * dx[m] + cy * dy[m] + cz * dz[m]) / length2, 0.0f, 1.0f);
+            const float ex = t * dx[m] - cx, ey = t * dy[m] - cy, ez = t * dz[m] - cz;
+            near[m] = (ex * ex + ey * ey + ez * ez <= radius2) & (w[m] > 0.0f) ? 1.0f : near[m]; // no short-circuit
+        }
     }
-}
-
-#if defined(__x86_64__) && defined(__GNUC__)
-// The same loop compiled for AVX-512 (one block = one 16-float vector: ~2x faster than the baseline
-// x86-64 build's SSE2) and chosen at run time. The compiler may fuse multiply-adds there, so the last
-// bit of w_j can depend on the CPU (as CpuLightSkin's Highway kernels do), never on the thread count.
-__attribute__((target("avx512f,avx512dq,avx512vl"))) void testBlockAvx512(const DiscArrays& d, std::uint32_t first,
-                                                                          const BlockQuery& q, float* w, float* near) {
-    testBlockImpl(d, first, q, w, near);
-}
-#endif
-
-void testBlock(const DiscArrays& d, std::uint32_t first, const BlockQuery& q, float* w, float* near) {
-#if defined(__x86_64__) && defined(__GNUC__)
-    static const bool avx512 =
-        __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
-    if (avx512) return testBlockAvx512(d, first, q, w, near);
-#endif
-    testBlockImpl(d, first, q, w, near);
+    std::copy(w.begin(), w.end(), wOut);
+    std::copy(near.begin(), near.end(), nearOut);
 }
 
 /// Squared distance from c to the closed segment a-b (double).
@@ -194,9 +172,8 @@ struct DifferentialIrradiance::Impl {
     std::vector<double> emitterArea;
     std::vector<VirtualAreaLight> emitters;
     // Per frame, sized on the first frames and reused (vectors keep their capacity):
-    DiscArrays valArrays;                ///< the valid VALs in spatial (Morton) order, for the shadow tests
-    std::vector<std::uint32_t> valIndex; ///< input index of each sorted slot (the blocked sum's order)
-    std::vector<std::uint64_t> valKeys;  ///< sort scratch: Morton code << 32 | input index
+    DiscArrays valArrays;               ///< the valid VALs in spatial (Morton) order, for the shadow tests
+    std::vector<std::uint64_t> valKeys; ///< sort scratch: Morton code << 32 | input index
     std::vector<ValBall> valBlocks, valGroups;
     cpu::ValArrays valSimd, emitterSimd;  ///< the SIMD gather's VALs (sorted) and emitter discs
     cpu::ReceiverArrays gatherReceivers;  ///< receivers in the region (then emitters) for the SIMD gather
@@ -222,7 +199,7 @@ struct DifferentialIrradiance::Impl {
         return false;
     }
 
-    /// The valid VALs in Morton order (valArrays, valSimd, valIndex) and their clusters.
+    /// The valid VALs in Morton order (valArrays, valSimd) and their clusters.
     void sortVals(std::span<const VirtualAreaLight> vals);
     /// Sums of `discs` (SIMD, eq. 3/4) at `receivers` [0, count) into sums (kGatherSums x padded).
     void gatherSimd(const cpu::ValArrays& discs, const cpu::ReceiverArrays& at, std::vector<float>& sums) const;
@@ -398,13 +375,11 @@ void DifferentialIrradiance::Impl::sortVals(std::span<const VirtualAreaLight> va
     for (auto* v : {&valArrays.px, &valArrays.py, &valArrays.pz, &valArrays.nx, &valArrays.ny, &valArrays.nz,
                     &valArrays.r2, &valArrays.fr, &valArrays.fg, &valArrays.fb})
         v->assign((n + kBlockVals - 1) / kBlockVals * kBlockVals, 0.0f); // zero discs pad the last block
-    valIndex.resize(n);
     const std::size_t padded = (n + cpu::kSumBlock - 1) / cpu::kSumBlock * cpu::kSumBlock;
     if (valSimd.px.size() < padded) valSimd.reserve(padded); // grows only past the largest frame
     for (std::size_t s = 0; s < n; ++s) {
         const std::uint32_t i = std::uint32_t(valKeys[s] & 0xFFFFFFFFu);
         const VirtualAreaLight& d = vals[i];
-        valIndex[s] = i;
         valArrays.px[s] = d.position.x;
         valArrays.py[s] = d.position.y;
         valArrays.pz[s] = d.position.z;
@@ -613,7 +588,7 @@ void DifferentialIrradiance::Impl::gatherReceiver(const cv::Mat& depth, const Ca
     glm::dvec3 without = valsIrradiance, delta(0.0);
 
     // The indirect shadow: VALs whose segment from x passes an object's bounding sphere (and whose
-    // w_j > 0) get an Embree ray. The pair test is the per-pair loop's (discNearSphere), but only inside
+    // w_j > 0) get an Embree ray. The pair test is the per-pair loop's (testBlock), but only inside
     // clusters that can hold such a VAL: a segment x-y with y in the ball (c_b, rho_b) stays within rho_b
     // of the segment x-c_b (its point at t is x + t (y - x), within t rho_b <= rho_b of x + t (c_b - x)),
     // so it can pass within r of the sphere's centre c only if the segment x-c_b passes within
@@ -649,9 +624,7 @@ void DifferentialIrradiance::Impl::gatherReceiver(const cv::Mat& depth, const Ca
                 if (near[m] != 0.0f) candidates.emplace_back(block.begin + m, w[m]);
         }
     }
-    // In the VALs' input order, as the per-pair loop summed them (the sum does not depend on the cull).
-    std::sort(candidates.begin(), candidates.end(),
-              [this](const auto& a, const auto& b) { return valIndex[a.first] < valIndex[b.first]; });
+    // Summed in the VALs' spatial order (the per-pair loop used the input order: rounding only).
     for (const auto& [v, w] : candidates) {
         ++rays;
         if (occluded(x, glm::dvec3(valArrays.px[v], valArrays.py[v], valArrays.pz[v]))) // the indirect shadow
