@@ -84,12 +84,14 @@ struct BlockQuery {
     std::size_t sphereCount;
 };
 
-/// w_j and the candidate mark (1: w_j > 0 and the segment passes some sphere) of the kBlockVals discs
+/// w_j and the candidate mark (1: w_j > 0 and the segment passes some sphere whose bit min(k, 63) is
+/// set in sphereMask; the others cannot be reached from the block) of the kBlockVals discs
 /// from `first` (the arrays are padded to whole blocks with zero discs: w = 0, never a candidate). The
 /// per-pair loop's formulas before the clusters, in float: w_j of eq. 3/4 with the guards G1/G2 of
 /// ls_irradiance (E_j = flux_j w_j), and the segment's nearest point to the sphere's centre.
 /// Fixed length, branch-free: the compiler vectorises it.
-void testBlock(const DiscArrays& d, std::uint32_t first, const BlockQuery& q, float* wOut, float* nearOut) {
+void testBlock(const DiscArrays& d, std::uint32_t first, const BlockQuery& q, std::uint64_t sphereMask, float* wOut,
+               float* nearOut) {
     // Local arrays and local copies of the disc pointers: the compiler sees that nothing aliases, and
     // vectorises the fixed-length loops (through the output pointers it kept them scalar).
     const float *px = d.px.data() + first, *py = d.py.data() + first, *pz = d.pz.data() + first;
@@ -108,7 +110,8 @@ void testBlock(const DiscArrays& d, std::uint32_t first, const BlockQuery& q, fl
         w[m] = cosJ / std::max(r2[m] + d2, 1.0e-36f) * cosI * invPi; // G2
         near[m] = 0.0f;
     }
-    for (std::size_t k = 0; k < q.sphereCount; ++k) { // discNearSphere
+    for (std::size_t k = 0; k < q.sphereCount; ++k) { // discNearSphere, for the spheres that can be reached
+        if (((sphereMask >> std::min<std::size_t>(k, 63)) & 1u) == 0) continue;
         const float cx = q.spheres[4 * k], cy = q.spheres[4 * k + 1], cz = q.spheres[4 * k + 2],
                     radius2 = q.spheres[4 * k + 3];
         for (std::uint32_t m = 0; m < kBlockVals; ++m) {
@@ -597,12 +600,16 @@ void DifferentialIrradiance::Impl::gatherReceiver(const cv::Mat& depth, const Ca
     const float fx = float(x.x), fy = float(x.y), fz = float(x.z);
     const float fnx = float(nx.x), fny = float(nx.y), fnz = float(nx.z);
     constexpr double kMargin = 1.0e-4;
-    const auto reaches = [&](const ValBall& b) {
-        for (const BoundingSphere& sphere : spheres) {
-            const double reach = sphere.radius + b.radius + kMargin;
-            if (segmentDistance2(x, b.centre, sphere.centre) <= reach * reach) return true;
+    // Bit min(k, 63) set: sphere k can be reached from the cluster (objects 63 and up share a bit).
+    const auto reaches = [&](const ValBall& b, std::uint64_t among) {
+        std::uint64_t mask = 0;
+        for (std::size_t o = 0; o < spheres.size(); ++o) {
+            const std::uint64_t bit = std::uint64_t(1) << std::min<std::size_t>(o, 63);
+            if ((among & bit) == 0) continue;
+            const double reach = spheres[o].radius + b.radius + kMargin;
+            if (segmentDistance2(x, b.centre, spheres[o].centre) <= reach * reach) mask |= bit;
         }
-        return false;
+        return mask;
     };
     thread_local std::vector<std::pair<std::uint32_t, float>> candidates; // (sorted slot, w_j): grows once
     thread_local std::vector<float> sphereData;                           // per sphere: centre - x, r^2
@@ -614,12 +621,14 @@ void DifferentialIrradiance::Impl::gatherReceiver(const cv::Mat& depth, const Ca
             sphereData.push_back(value);
     const BlockQuery query{fx, fy, fz, fnx, fny, fnz, sphereData.data(), spheres.size()};
     for (const ValBall& group : valGroups) {
-        if (!reaches(group)) continue;
+        const std::uint64_t groupMask = reaches(group, ~std::uint64_t(0));
+        if (groupMask == 0) continue;
         for (std::uint32_t b = group.begin; b < group.end; ++b) {
             const ValBall& block = valBlocks[b];
-            if (!reaches(block)) continue;
+            const std::uint64_t blockMask = reaches(block, groupMask); // a block lies in its group's ball
+            if (blockMask == 0) continue;
             std::array<float, kBlockVals> w, near;
-            testBlock(valArrays, block.begin, query, w.data(), near.data());
+            testBlock(valArrays, block.begin, query, blockMask, w.data(), near.data());
             for (std::uint32_t m = 0; m < kBlockVals; ++m)
                 if (near[m] != 0.0f) candidates.emplace_back(block.begin + m, w[m]);
         }
