@@ -99,7 +99,7 @@ void testBlock(const DiscArrays& d, std::uint32_t first, const BlockQuery& q, st
     const float* r2 = d.r2.data() + first;
     const float invPi = float(1.0 / std::numbers::pi);
     std::array<float, kBlockVals> w, near, dx, dy, dz;
-    for (std::uint32_t m = 0; m < kBlockVals; ++m) { // discWeight
+    for (std::uint32_t m = 0; m < kBlockVals; ++m) { // w_j
         dx[m] = px[m] - q.x;
         dy[m] = py[m] - q.y;
         dz[m] = pz[m] - q.z;
@@ -110,7 +110,7 @@ void testBlock(const DiscArrays& d, std::uint32_t first, const BlockQuery& q, st
         w[m] = cosJ / std::max(r2[m] + d2, 1.0e-36f) * cosI * invPi; // G2
         near[m] = 0.0f;
     }
-    for (std::size_t k = 0; k < q.sphereCount; ++k) { // discNearSphere, for the spheres that can be reached
+    for (std::size_t k = 0; k < q.sphereCount; ++k) { // the segment test, against the reachable spheres
         if (((sphereMask >> std::min<std::size_t>(k, 63)) & 1u) == 0) continue;
         const float cx = q.spheres[4 * k], cy = q.spheres[4 * k + 1], cz = q.spheres[4 * k + 2],
                     radius2 = q.spheres[4 * k + 3];
