@@ -1,3 +1,5 @@
+#include "CpuGatherKernels.h"
+
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/DifferentialIrradiance.h>
 #include <lightskin/gi/TriangleRayScene.h>
@@ -7,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <limits>
@@ -61,71 +64,92 @@ glm::dvec3 lightIrradiance(const glm::dvec3& x, const glm::dvec3& n, const Virtu
 bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
-/// Discs (VALs or emitters) as structure-of-arrays floats for the vectorised gather below
-/// (this file is compiled with -O3 and relaxed float associativity, gi/CMakeLists.txt).
+/// The valid VALs as structure-of-arrays floats (flux unscaled, r2 = area / pi), for the shadow tests.
 struct DiscArrays {
     std::vector<float> px, py, pz, nx, ny, nz, r2, fr, fg, fb;
-    void assign(std::span<const VirtualAreaLight> discs) {
-        for (auto* v : {&px, &py, &pz, &nx, &ny, &nz, &r2, &fr, &fg, &fb}) v->resize(discs.size()); // keeps capacity
-        for (std::size_t j = 0; j < discs.size(); ++j) {
-            const VirtualAreaLight& d = discs[j];
-            // An invalid disc (area <= 0 or non-finite data) adds exactly 0, as in ls_irradiance.
-            const bool valid =
-                d.area > 0.0f && std::isfinite(d.area) && finite(d.position) && finite(d.normal) && finite(d.flux);
-            px[j] = valid ? d.position.x : 0.0f;
-            py[j] = valid ? d.position.y : 0.0f;
-            pz[j] = valid ? d.position.z : 0.0f;
-            nx[j] = valid ? d.normal.x : 0.0f;
-            ny[j] = valid ? d.normal.y : 0.0f;
-            nz[j] = valid ? d.normal.z : 0.0f;
-            r2[j] = valid ? d.area / float(std::numbers::pi) : 0.0f;
-            fr[j] = valid ? d.flux.x : 0.0f;
-            fg[j] = valid ? d.flux.y : 0.0f;
-            fb[j] = valid ? d.flux.z : 0.0f;
-        }
-    }
-    std::size_t size() const noexcept { return px.size(); }
 };
 
-/// Sum over discs of E_j = flux_j w_j at (x, n), w_j = cos(theta_j) cos(theta_i) / (pi (r_j^2 + d_j^2))
-/// with the guards G1/G2 of gi/shaders/lightskin_math.glsl (ls_irradiance, in float); writes w_j.
-glm::dvec3 gatherDiscs(const DiscArrays& d, const glm::dvec3& xd, const glm::dvec3& nd, float* weights) {
-    const float x = float(xd.x), y = float(xd.y), z = float(xd.z), nx = float(nd.x), ny = float(nd.y), nz = float(nd.z);
+/// VALs per leaf cluster and leaf clusters per group of the indirect-shadow cull (two levels: a
+/// receiver tests ~n/256 groups, then 16 blocks of each group its segments can reach, then their VALs).
+constexpr std::uint32_t kBlockVals = 16;
+constexpr std::uint32_t kGroupBlocks = 16;
+/// VALs per summation tile of the SIMD gather (as CpuLightSkin: a tile and a receiver group sit in L1).
+constexpr std::uint32_t kValTile = 2048;
+
+/// A receiver's side of the block test: its position and normal in float, and per object sphere
+/// (centre - x, r^2) as 4 floats.
+struct BlockQuery {
+    float x, y, z, nx, ny, nz;
+    const float* spheres;
+    std::size_t sphereCount;
+};
+
+/// w_j and the candidate mark (1: w_j > 0 and the segment passes some sphere whose bit min(k, 63) is
+/// set in sphereMask; the others cannot be reached from the block) of the kBlockVals discs
+/// from `first` (the arrays are padded to whole blocks with zero discs: w = 0, never a candidate). The
+/// per-pair loop's formulas before the clusters, in float: w_j of eq. 3/4 with the guards G1/G2 of
+/// ls_irradiance (E_j = flux_j w_j), and the segment's nearest point to the sphere's centre.
+/// Fixed length, branch-free: the compiler vectorises it.
+void testBlock(const DiscArrays& d, std::uint32_t first, const BlockQuery& q, std::uint64_t sphereMask, float* wOut,
+               float* nearOut) {
+    // Local arrays and local copies of the disc pointers: the compiler sees that nothing aliases, and
+    // vectorises the fixed-length loops (through the output pointers it kept them scalar).
+    const float *px = d.px.data() + first, *py = d.py.data() + first, *pz = d.pz.data() + first;
+    const float *nx = d.nx.data() + first, *ny = d.ny.data() + first, *nz = d.nz.data() + first;
+    const float* r2 = d.r2.data() + first;
     const float invPi = float(1.0 / std::numbers::pi);
-    float sr = 0.0f, sg = 0.0f, sb = 0.0f;
-    const std::size_t count = d.size();
-    for (std::size_t j = 0; j < count; ++j) {
-        const float dx = d.px[j] - x, dy = d.py[j] - y, dz = d.pz[j] - z;
-        const float d2 = dx * dx + dy * dy + dz * dz;
-        const float inv = 1.0f / std::sqrt(std::max(d2 + 1.0e-12f * d.r2[j], 1.0e-36f)); // G1
-        const float cosI = std::max((nx * dx + ny * dy + nz * dz) * inv, 0.0f);
-        const float cosJ = std::max(-(d.nx[j] * dx + d.ny[j] * dy + d.nz[j] * dz) * inv, 0.0f);
-        const float w = cosJ / std::max(d.r2[j] + d2, 1.0e-36f) * cosI * invPi; // G2
-        weights[j] = w;
-        sr += d.fr[j] * w;
-        sg += d.fg[j] * w;
-        sb += d.fb[j] * w;
+    std::array<float, kBlockVals> w, near, dx, dy, dz;
+    for (std::uint32_t m = 0; m < kBlockVals; ++m) { // w_j
+        dx[m] = px[m] - q.x;
+        dy[m] = py[m] - q.y;
+        dz[m] = pz[m] - q.z;
+        const float d2 = dx[m] * dx[m] + dy[m] * dy[m] + dz[m] * dz[m];
+        const float inv = 1.0f / std::sqrt(std::max(d2 + 1.0e-12f * r2[m], 1.0e-36f)); // G1
+        const float cosI = std::max((q.nx * dx[m] + q.ny * dy[m] + q.nz * dz[m]) * inv, 0.0f);
+        const float cosJ = std::max(-(nx[m] * dx[m] + ny[m] * dy[m] + nz[m] * dz[m]) * inv, 0.0f);
+        w[m] = cosJ / std::max(r2[m] + d2, 1.0e-36f) * cosI * invPi; // G2
+        near[m] = 0.0f;
     }
-    return {double(sr), double(sg), double(sb)};
+    for (std::size_t k = 0; k < q.sphereCount; ++k) { // the segment test, against the reachable spheres
+        if (((sphereMask >> std::min<std::size_t>(k, 63)) & 1u) == 0) continue;
+        const float cx = q.spheres[4 * k], cy = q.spheres[4 * k + 1], cz = q.spheres[4 * k + 2],
+                    radius2 = q.spheres[4 * k + 3];
+        for (std::uint32_t m = 0; m < kBlockVals; ++m) {
+            const float length2 = std::max(dx[m] * dx[m] + dy[m] * dy[m] + dz[m] * dz[m], 1.0e-36f);
+            const float t = std::clamp((cx * dx[m] + cy * dy[m] + cz * dz[m]) / length2, 0.0f, 1.0f);
+            const float ex = t * dx[m] - cx, ey = t * dy[m] - cy, ez = t * dz[m] - cz;
+            near[m] = (ex * ex + ey * ey + ez * ez <= radius2) & (w[m] > 0.0f) ? 1.0f : near[m]; // no short-circuit
+        }
+    }
+    std::copy(w.begin(), w.end(), wOut);
+    std::copy(near.begin(), near.end(), nearOut);
 }
 
-/// candidates[j] = 1 where w_j > 0 and the segment from x to disc j passes within the sphere, else
-/// left as it was (callers clear it first).
-void markNearSphere(const DiscArrays& d, const glm::dvec3& xd, const glm::dvec3& centre, double radius,
-                    const float* weights, float* candidates) {
-    const float x = float(xd.x), y = float(xd.y), z = float(xd.z);
-    const float cx = float(centre.x) - x, cy = float(centre.y) - y, cz = float(centre.z) - z,
-                r2 = float(radius * radius);
-    const std::size_t count = d.size();
-    for (std::size_t j = 0; j < count; ++j) {
-        const float dx = d.px[j] - x, dy = d.py[j] - y, dz = d.pz[j] - z;
-        const float length2 = std::max(dx * dx + dy * dy + dz * dz, 1.0e-36f);
-        const float t = std::clamp((cx * dx + cy * dy + cz * dz) / length2, 0.0f, 1.0f);
-        const float qx = t * dx - cx, qy = t * dy - cy, qz = t * dz - cz;
-        const bool near = (qx * qx + qy * qy + qz * qz <= r2) & (weights[j] > 0.0f); // no short-circuit: vectorises
-        candidates[j] = near ? 1.0f : candidates[j];
-    }
+/// Squared distance from c to the closed segment a-b (double).
+double segmentDistance2(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+    const glm::dvec3 d = b - a;
+    const double length2 = glm::dot(d, d);
+    const double t = length2 > 0.0 ? std::clamp(glm::dot(c - a, d) / length2, 0.0, 1.0) : 0.0;
+    const glm::dvec3 q = a + t * d - c;
+    return glm::dot(q, q);
 }
+
+/// 10-bit Morton interleave (x in [0, 1023]) for the VALs' spatial order.
+std::uint32_t spreadBits10(std::uint32_t v) {
+    v &= 0x3FFu;
+    v = (v | (v << 16u)) & 0x030000FFu;
+    v = (v | (v << 8u)) & 0x0300F00Fu;
+    v = (v | (v << 4u)) & 0x030C30C3u;
+    v = (v | (v << 2u)) & 0x09249249u;
+    return v;
+}
+
+/// A cluster of consecutive VALs of the spatial order: its members lie in the ball (centre, radius).
+struct ValBall {
+    glm::dvec3 centre{0.0};
+    double radius = 0.0;
+    std::uint32_t begin = 0, end = 0; ///< slots [begin, end) of the sorted VALs (blocks) or blocks (groups)
+};
 
 } // namespace
 
@@ -150,7 +174,16 @@ struct DifferentialIrradiance::Impl {
     std::vector<glm::dvec3> emitterPosition, emitterNormal, emitterAlbedo;
     std::vector<double> emitterArea;
     std::vector<VirtualAreaLight> emitters;
-    DiscArrays valArrays, emitterArrays;
+    // Per frame, sized on the first frames and reused (vectors keep their capacity):
+    DiscArrays valArrays;               ///< the valid VALs in spatial (Morton) order, for the shadow tests
+    std::vector<std::uint64_t> valKeys; ///< sort scratch: Morton code << 32 | input index
+    std::vector<ValBall> valBlocks, valGroups;
+    cpu::ValArrays valSimd, emitterSimd;  ///< the SIMD gather's VALs (sorted) and emitter discs
+    cpu::ReceiverArrays gatherReceivers;  ///< receivers in the region (then emitters) for the SIMD gather
+    cpu::ReceiverArrays emitterReceivers; ///< the emitters as receivers of the VALs
+    cpu::ReceiverArrays noReceivers;      ///< prepareGather's block boxes of the emitter discs alone
+    std::vector<float> valSums, emitterSums, emitterValSums; ///< kGatherSums x padded receivers each
+    std::vector<std::uint32_t> regionReceivers;              ///< grid index of each receiver in the region, grid order
     std::vector<DifferentialReceiver> receivers;
     int gridWidth = 0, gridHeight = 0;
 
@@ -169,12 +202,20 @@ struct DifferentialIrradiance::Impl {
         return false;
     }
 
-    /// Emitter flux of this frame from valArrays (assigned first) and the lights.
+    /// The valid VALs in Morton order (valArrays, valSimd) and their clusters.
+    void sortVals(std::span<const VirtualAreaLight> vals);
+    /// Sums of `discs` (SIMD, eq. 3/4) at `receivers` [0, count) into sums (kGatherSums x padded).
+    void gatherSimd(const cpu::ValArrays& discs, const cpu::ReceiverArrays& at, std::vector<float>& sums) const;
+    /// Emitter flux of this frame from the VALs (sorted first) and the lights.
     void updateEmitters(std::span<const DifferentialLightSource> lights, std::int64_t& rays);
-    void computeReceiver(const cv::Mat& depth, const CameraIntrinsics& k, const Pose& world_T_camera,
-                         const Pose& camera_T_world, int i, int j, std::span<const VirtualAreaLight> vals,
-                         std::span<const DifferentialLightSource> lights, DifferentialReceiver& r,
-                         std::int64_t& rays) const;
+    /// Receiver (i, j): position, normal, validity and whether it is in the region (no gathering).
+    void placeReceiver(const cv::Mat& depth, const CameraIntrinsics& k, const Pose& world_T_camera, int i, int j,
+                       std::span<const DifferentialLightSource> lights, DifferentialReceiver& r) const;
+    /// dE and E_without of a receiver in the region; vals: the SIMD sums of the VALs (E_j summed),
+    /// bounce: of the emitters.
+    void gatherReceiver(const cv::Mat& depth, const CameraIntrinsics& k, const Pose& camera_T_world,
+                        std::span<const DifferentialLightSource> lights, const glm::dvec3& valsIrradiance,
+                        const glm::dvec3& bounce, DifferentialReceiver& r, std::int64_t& rays) const;
     void interpolate(const cv::Mat& depth, DifferentialImages& out) const;
 };
 
@@ -251,13 +292,176 @@ DifferentialIrradiance DifferentialIrradiance::create(std::span<const MeshInstan
         }
     }
     impl.scene = TriangleRayScene::create(rayMeshes, "differential");
-    impl.emitters.resize(impl.emitterPosition.size());
+    const std::size_t emitterCount = impl.emitterPosition.size();
+    impl.emitters.resize(emitterCount);
+    const std::size_t emitterPadded = (emitterCount + cpu::kSumBlock - 1) / cpu::kSumBlock * cpu::kSumBlock;
+    impl.emitterSimd.reserve(std::max<std::size_t>(emitterPadded, cpu::kSumBlock));
+    impl.noReceivers.resize(0);
     return out;
 }
 
+namespace {
+
+/// Disc j of `discs` into slot n of the SIMD arrays (flux / pi, as CpuLightSkin's buildValArrays).
+void setSimdDisc(cpu::ValArrays& simd, std::uint32_t n, const VirtualAreaLight& l) {
+    const float invPi = float(1.0 / std::numbers::pi);
+    const float r2 = l.area * invPi;
+    simd.px[n] = l.position.x;
+    simd.py[n] = l.position.y;
+    simd.pz[n] = l.position.z;
+    simd.nx[n] = l.normal.x;
+    simd.ny[n] = l.normal.y;
+    simd.nz[n] = l.normal.z;
+    simd.r2[n] = r2;
+    simd.cr2[n] = 1.0e-12f * r2; // guard G1 (kCoincident)
+    simd.fr[n] = l.flux.x * invPi;
+    simd.fg[n] = l.flux.y * invPi;
+    simd.fb[n] = l.flux.z * invPi;
+}
+
+/// Slots [count, padded to kSumBlock) as zero-area, zero-flux discs: they add exactly +0.
+void padSimdDiscs(cpu::ValArrays& simd, std::uint32_t count) {
+    simd.count = count;
+    simd.padded = (count + cpu::kSumBlock - 1) / cpu::kSumBlock * cpu::kSumBlock;
+    for (std::uint32_t j = count; j < simd.padded; ++j) {
+        for (auto* v :
+             {&simd.px, &simd.py, &simd.pz, &simd.nx, &simd.ny, &simd.r2, &simd.cr2, &simd.fr, &simd.fg, &simd.fb})
+            (*v)[j] = 0.0f;
+        simd.nz[j] = 1.0f;
+    }
+}
+
+/// Receiver slot n of the SIMD gather (the glossy inputs unused: finite dummies).
+void setSimdReceiver(cpu::ReceiverArrays& r, std::size_t n, const glm::dvec3& x, const glm::dvec3& normal) {
+    r.px[n] = float(x.x);
+    r.py[n] = float(x.y);
+    r.pz[n] = float(x.z);
+    r.nx[n] = float(normal.x);
+    r.ny[n] = float(normal.y);
+    r.nz[n] = float(normal.z);
+    r.ex[n] = r.nx[n];
+    r.ey[n] = r.ny[n];
+    r.ez[n] = r.nz[n];
+    r.nde[n] = 1.0f;
+    r.k[n] = 1.0f;
+    r.ck[n] = 0.0f;
+}
+
+bool validDisc(const VirtualAreaLight& d) {
+    return d.area > 0.0f && std::isfinite(d.area) && finite(d.position) && finite(d.normal) && finite(d.flux);
+}
+
+} // namespace
+
+void DifferentialIrradiance::Impl::sortVals(std::span<const VirtualAreaLight> vals) {
+    // Morton order over the valid VALs' bounding box: consecutive VALs are near each other, so blocks of
+    // them have small bounding balls (the shadow cull) and boxes (the SIMD gather's hidden-block skip).
+    glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    for (const VirtualAreaLight& v : vals)
+        if (validDisc(v)) {
+            lo = glm::min(lo, glm::dvec3(v.position));
+            hi = glm::max(hi, glm::dvec3(v.position));
+        }
+    valKeys.clear(); // keeps capacity
+    for (std::size_t i = 0; i < vals.size(); ++i) {
+        if (!validDisc(vals[i])) continue; // adds exactly 0 (ls_irradiance), so it is left out
+        std::uint32_t code = 0;
+        for (int axis = 0; axis < 3; ++axis) {
+            const double extent = hi[axis] - lo[axis];
+            const double unit = extent > 0.0 ? (double(vals[i].position[axis]) - lo[axis]) / extent : 0.0;
+            code |= spreadBits10(std::uint32_t(std::clamp(unit * 1023.0, 0.0, 1023.0))) << std::uint32_t(axis);
+        }
+        valKeys.push_back(std::uint64_t(code) << 32u | std::uint64_t(i)); // ties by input index: one order
+    }
+    std::sort(valKeys.begin(), valKeys.end());
+    const std::size_t n = valKeys.size();
+    for (auto* v : {&valArrays.px, &valArrays.py, &valArrays.pz, &valArrays.nx, &valArrays.ny, &valArrays.nz,
+                    &valArrays.r2, &valArrays.fr, &valArrays.fg, &valArrays.fb})
+        v->assign((n + kBlockVals - 1) / kBlockVals * kBlockVals, 0.0f); // zero discs pad the last block
+    const std::size_t padded = (n + cpu::kSumBlock - 1) / cpu::kSumBlock * cpu::kSumBlock;
+    if (valSimd.px.size() < padded) valSimd.reserve(padded); // grows only past the largest frame
+    for (std::size_t s = 0; s < n; ++s) {
+        const std::uint32_t i = std::uint32_t(valKeys[s] & 0xFFFFFFFFu);
+        const VirtualAreaLight& d = vals[i];
+        valArrays.px[s] = d.position.x;
+        valArrays.py[s] = d.position.y;
+        valArrays.pz[s] = d.position.z;
+        valArrays.nx[s] = d.normal.x;
+        valArrays.ny[s] = d.normal.y;
+        valArrays.nz[s] = d.normal.z;
+        valArrays.r2[s] = d.area / float(std::numbers::pi);
+        valArrays.fr[s] = d.flux.x;
+        valArrays.fg[s] = d.flux.y;
+        valArrays.fb[s] = d.flux.z;
+        setSimdDisc(valSimd, std::uint32_t(s), d);
+    }
+    padSimdDiscs(valSimd, std::uint32_t(n));
+
+    // Bounding balls: blocks of kBlockVals sorted VALs, groups of kGroupBlocks blocks (centre of the
+    // box, radius to the farthest member, computed from the float positions the member tests use).
+    const auto ball = [](std::span<const glm::dvec3> points) {
+        glm::dvec3 boxLo(std::numeric_limits<double>::infinity()), boxHi(-std::numeric_limits<double>::infinity());
+        for (const glm::dvec3& p : points) boxLo = glm::min(boxLo, p), boxHi = glm::max(boxHi, p);
+        ValBall b;
+        b.centre = 0.5 * (boxLo + boxHi);
+        for (const glm::dvec3& p : points) b.radius = std::max(b.radius, glm::length(p - b.centre));
+        return b;
+    };
+    valBlocks.clear();
+    for (std::size_t first = 0; first < n; first += kBlockVals) {
+        const std::size_t last = std::min(first + kBlockVals, n);
+        std::array<glm::dvec3, kBlockVals> points;
+        for (std::size_t s = first; s < last; ++s)
+            points[s - first] = glm::dvec3(valArrays.px[s], valArrays.py[s], valArrays.pz[s]);
+        ValBall b = ball(std::span(points.data(), last - first));
+        b.begin = std::uint32_t(first);
+        b.end = std::uint32_t(last);
+        valBlocks.push_back(b);
+    }
+    valGroups.clear();
+    for (std::size_t first = 0; first < valBlocks.size(); first += kGroupBlocks) {
+        const std::size_t last = std::min(first + kGroupBlocks, valBlocks.size());
+        ValBall g;
+        glm::dvec3 boxLo(std::numeric_limits<double>::infinity()), boxHi(-std::numeric_limits<double>::infinity());
+        for (std::size_t b = first; b < last; ++b) {
+            boxLo = glm::min(boxLo, valBlocks[b].centre - glm::dvec3(valBlocks[b].radius));
+            boxHi = glm::max(boxHi, valBlocks[b].centre + glm::dvec3(valBlocks[b].radius));
+        }
+        g.centre = 0.5 * (boxLo + boxHi);
+        for (std::size_t b = first; b < last; ++b) // the group's ball holds every block's ball
+            g.radius = std::max(g.radius, glm::length(valBlocks[b].centre - g.centre) + valBlocks[b].radius);
+        g.begin = std::uint32_t(first);
+        g.end = std::uint32_t(last);
+        valGroups.push_back(g);
+    }
+}
+
+void DifferentialIrradiance::Impl::gatherSimd(const cpu::ValArrays& discs, const cpu::ReceiverArrays& at,
+                                              std::vector<float>& sums) const {
+    sums.assign(cpu::kGatherSums * at.padded, 0.0f); // keeps capacity
+    if (discs.padded == 0 || at.padded == 0) return;
+    const cpu::GatherParameters parameters{false, false, true}; // diffuse sums only; exact hidden-block skip
+    const int groups = int(at.padded / cpu::kReceiverPadding);
+    // Each receiver's sums run over the discs in their order whatever the split (CpuGatherKernels.h):
+    // the result does not depend on the thread count.
+    cv::parallel_for_(cv::Range(0, groups), [&](const cv::Range& range) {
+        const std::size_t begin = std::size_t(range.start) * cpu::kReceiverPadding,
+                          end = std::size_t(range.end) * cpu::kReceiverPadding;
+        for (std::uint32_t first = 0; first < discs.padded; first += kValTile)
+            cpu::gather(discs, first, std::min(first + kValTile, discs.padded), at, begin, end, parameters, sums.data(),
+                        at.padded);
+    });
+}
+
 void DifferentialIrradiance::Impl::updateEmitters(std::span<const DifferentialLightSource> lights, std::int64_t& rays) {
+    // The emitters' irradiance from the room's VALs: the SIMD gather with the emitters as receivers.
+    const std::size_t count = emitters.size();
+    emitterReceivers.resize((count + cpu::kReceiverPadding - 1) / cpu::kReceiverPadding * cpu::kReceiverPadding);
+    for (std::size_t k = 0; k < count; ++k) setSimdReceiver(emitterReceivers, k, emitterPosition[k], emitterNormal[k]);
+    cpu::prepareGather(valSimd, emitterReceivers, count);
+    gatherSimd(valSimd, emitterReceivers, emitterValSums);
     std::atomic<std::int64_t> rayCount{0};
-    cv::parallel_for_(cv::Range(0, int(emitters.size())), [&](const cv::Range& range) {
+    cv::parallel_for_(cv::Range(0, int(count)), [&](const cv::Range& range) {
         std::int64_t localRays = 0;
         for (int e = range.start; e < range.end; ++e) {
             const std::size_t k = std::size_t(e);
@@ -269,9 +473,9 @@ void DifferentialIrradiance::Impl::updateEmitters(std::span<const DifferentialLi
                 ++localRays;
                 if (!occluded(x, toDouble(source.light.position))) irradiance += direct;
             }
-            thread_local std::vector<float> weights;
-            weights.resize(valArrays.size());
-            irradiance += gatherDiscs(valArrays, x, n, weights.data());
+            const std::size_t stride = emitterReceivers.padded;
+            irradiance += glm::dvec3(emitterValSums[0 * stride + k], emitterValSums[1 * stride + k],
+                                     emitterValSums[2 * stride + k]);
             VirtualAreaLight& out = emitters[k];
             out.position = glm::vec3(x);
             out.normal = glm::vec3(n);
@@ -283,6 +487,12 @@ void DifferentialIrradiance::Impl::updateEmitters(std::span<const DifferentialLi
         rayCount += localRays;
     });
     rays += rayCount.load();
+    // The emitter discs for the receivers' bounce (validDisc as for the VALs; the order is kept).
+    std::uint32_t n = 0;
+    for (const VirtualAreaLight& e : emitters)
+        if (validDisc(e)) setSimdDisc(emitterSimd, n++, e);
+    padSimdDiscs(emitterSimd, n);
+    cpu::prepareGather(emitterSimd, noReceivers, 0); // the discs' block boxes only
 }
 
 /// Real geometry between a receiver and a light, from the depth frame alone (a screen-space
@@ -311,11 +521,10 @@ bool reallyOccluded(const cv::Mat& depth, const CameraIntrinsics& k, const Pose&
     return false;
 }
 
-void DifferentialIrradiance::Impl::computeReceiver(const cv::Mat& depth, const CameraIntrinsics& k,
-                                                   const Pose& world_T_camera, const Pose& camera_T_world, int i, int j,
-                                                   std::span<const VirtualAreaLight> vals,
-                                                   std::span<const DifferentialLightSource> lights,
-                                                   DifferentialReceiver& r, std::int64_t& rays) const {
+void DifferentialIrradiance::Impl::placeReceiver(const cv::Mat& depth, const CameraIntrinsics& k,
+                                                 const Pose& world_T_camera, int i, int j,
+                                                 std::span<const DifferentialLightSource> lights,
+                                                 DifferentialReceiver& r) const {
     r = DifferentialReceiver{};
     const int s = settings.receiverStride, R = settings.normalWindowRadius;
     const int cu = i * s + s / 2, cv = j * s + s / 2;
@@ -371,20 +580,64 @@ void DifferentialIrradiance::Impl::computeReceiver(const cv::Mat& depth, const C
         for (const DifferentialLightSource& source : lights)
             r.inRegion = r.inRegion || segmentNearSphere(r.position, toDouble(source.light.position), sphere);
     }
-    if (!r.inRegion) return;
+}
 
+void DifferentialIrradiance::Impl::gatherReceiver(const cv::Mat& depth, const CameraIntrinsics& k,
+                                                  const Pose& camera_T_world,
+                                                  std::span<const DifferentialLightSource> lights,
+                                                  const glm::dvec3& valsIrradiance, const glm::dvec3& bounce,
+                                                  DifferentialReceiver& r, std::int64_t& rays) const {
     const glm::dvec3 &x = r.position, &nx = r.normal;
-    thread_local std::vector<float> weights, candidates;
-    weights.resize(std::max(valArrays.size(), emitterArrays.size()));
-    candidates.assign(valArrays.size(), 0.0f); // keeps capacity
-    glm::dvec3 without = gatherDiscs(valArrays, x, nx, weights.data()), delta(0.0);
-    for (const BoundingSphere& sphere : spheres)
-        markNearSphere(valArrays, x, sphere.centre, sphere.radius, weights.data(), candidates.data());
-    for (std::size_t v = 0; v < vals.size(); ++v) {
-        if (candidates[v] == 0.0f) continue;
+    glm::dvec3 without = valsIrradiance, delta(0.0);
+
+    // The indirect shadow: VALs whose segment from x passes an object's bounding sphere (and whose
+    // w_j > 0) get an Embree ray. The pair test is the per-pair loop's (testBlock), but only inside
+    // clusters that can hold such a VAL: a segment x-y with y in the ball (c_b, rho_b) stays within rho_b
+    // of the segment x-c_b (its point at t is x + t (y - x), within t rho_b <= rho_b of x + t (c_b - x)),
+    // so it can pass within r of the sphere's centre c only if the segment x-c_b passes within
+    // r + rho_b of c. The margin 1e-4 m covers the float rounding of the pair test (positions < 100 m:
+    // ulp <= 8e-6 m), so a cluster is skipped only if the pair test would fail for all its VALs.
+    const float fx = float(x.x), fy = float(x.y), fz = float(x.z);
+    const float fnx = float(nx.x), fny = float(nx.y), fnz = float(nx.z);
+    constexpr double kMargin = 1.0e-4;
+    // Bit min(k, 63) set: sphere k can be reached from the cluster (objects 63 and up share a bit).
+    const auto reaches = [&](const ValBall& b, std::uint64_t among) {
+        std::uint64_t mask = 0;
+        for (std::size_t o = 0; o < spheres.size(); ++o) {
+            const std::uint64_t bit = std::uint64_t(1) << std::min<std::size_t>(o, 63);
+            if ((among & bit) == 0) continue;
+            const double reach = spheres[o].radius + b.radius + kMargin;
+            if (segmentDistance2(x, b.centre, spheres[o].centre) <= reach * reach) mask |= bit;
+        }
+        return mask;
+    };
+    thread_local std::vector<std::pair<std::uint32_t, float>> candidates; // (sorted slot, w_j): grows once
+    thread_local std::vector<float> sphereData;                           // per sphere: centre - x, r^2
+    candidates.clear();
+    sphereData.clear();
+    for (const BoundingSphere& sphere : spheres) // centre - x as the per-pair loop had it: float(c) - float(x)
+        for (const float value : {float(sphere.centre.x) - fx, float(sphere.centre.y) - fy, float(sphere.centre.z) - fz,
+                                  float(sphere.radius * sphere.radius)})
+            sphereData.push_back(value);
+    const BlockQuery query{fx, fy, fz, fnx, fny, fnz, sphereData.data(), spheres.size()};
+    for (const ValBall& group : valGroups) {
+        const std::uint64_t groupMask = reaches(group, ~std::uint64_t(0));
+        if (groupMask == 0) continue;
+        for (std::uint32_t b = group.begin; b < group.end; ++b) {
+            const ValBall& block = valBlocks[b];
+            const std::uint64_t blockMask = reaches(block, groupMask); // a block lies in its group's ball
+            if (blockMask == 0) continue;
+            std::array<float, kBlockVals> w, near;
+            testBlock(valArrays, block.begin, query, blockMask, w.data(), near.data());
+            for (std::uint32_t m = 0; m < kBlockVals; ++m)
+                if (near[m] != 0.0f) candidates.emplace_back(block.begin + m, w[m]);
+        }
+    }
+    // Summed in the VALs' spatial order (the per-pair loop used the input order: rounding only).
+    for (const auto& [v, w] : candidates) {
         ++rays;
         if (occluded(x, glm::dvec3(valArrays.px[v], valArrays.py[v], valArrays.pz[v]))) // the indirect shadow
-            delta -= glm::dvec3(valArrays.fr[v], valArrays.fg[v], valArrays.fb[v]) * double(weights[v]);
+            delta -= glm::dvec3(valArrays.fr[v], valArrays.fg[v], valArrays.fb[v]) * double(w);
     }
     for (const DifferentialLightSource& source : lights) {
         const glm::dvec3 e = lightIrradiance(x, nx, source.light);
@@ -398,7 +651,7 @@ void DifferentialIrradiance::Impl::computeReceiver(const cv::Mat& depth, const C
             delta += e;
         }
     }
-    delta += gatherDiscs(emitterArrays, x, nx, weights.data()); // the light the objects reflect
+    delta += bounce; // the light the objects reflect
     r.irradianceWithout = finite(without) ? without : glm::dvec3(0.0);
     r.deltaIrradiance = finite(delta) ? delta : glm::dvec3(0.0);
 }
@@ -471,25 +724,48 @@ void DifferentialIrradiance::compute(const cv::Mat& depthMetres, const CameraInt
     out.receiversGathered = 0;
     out.shadowRays = 0;
 
-    impl.valArrays.assign(vals);
+    impl.sortVals(vals);
     impl.updateEmitters(lights, out.shadowRays);
-    impl.emitterArrays.assign(impl.emitters);
     const Pose camera_T_world = world_T_camera.inverse();
-    std::atomic<std::int64_t> rays{0}, gathered{0};
+
+    // 1. Every receiver's geometry and whether it is in the region (rows in parallel).
     cv::parallel_for_(cv::Range(0, impl.gridHeight), [&](const cv::Range& range) {
-        std::int64_t localRays = 0, localGathered = 0;
         for (int j = range.start; j < range.end; ++j)
-            for (int i = 0; i < impl.gridWidth; ++i) {
-                DifferentialReceiver& r = impl.receivers[std::size_t(j) * std::size_t(impl.gridWidth) + std::size_t(i)];
-                impl.computeReceiver(depthMetres, intrinsics, world_T_camera, camera_T_world, i, j, vals, lights, r,
-                                     localRays);
-                if (r.inRegion) ++localGathered;
-            }
+            for (int i = 0; i < impl.gridWidth; ++i)
+                impl.placeReceiver(depthMetres, intrinsics, world_T_camera, i, j, lights,
+                                   impl.receivers[std::size_t(j) * std::size_t(impl.gridWidth) + std::size_t(i)]);
+    });
+    // 2. The region's receivers, in grid order, gather the VALs (E_without's sum) and the emitter discs
+    // (the bounce) with CpuLightSkin's SIMD kernel: eq. 3/4 as before, in float sums of 16 discs.
+    impl.regionReceivers.clear();
+    for (std::size_t g = 0; g < impl.receivers.size(); ++g)
+        if (impl.receivers[g].inRegion) impl.regionReceivers.push_back(std::uint32_t(g));
+    const std::size_t count = impl.regionReceivers.size();
+    impl.gatherReceivers.resize((count + cpu::kReceiverPadding - 1) / cpu::kReceiverPadding * cpu::kReceiverPadding);
+    for (std::size_t n = 0; n < count; ++n) {
+        const DifferentialReceiver& r = impl.receivers[impl.regionReceivers[n]];
+        setSimdReceiver(impl.gatherReceivers, n, r.position, r.normal);
+    }
+    cpu::prepareGather(impl.valSimd, impl.gatherReceivers, count); // coherent receiver groups, VAL block boxes
+    impl.gatherSimd(impl.valSimd, impl.gatherReceivers, impl.valSums);
+    impl.gatherSimd(impl.emitterSimd, impl.gatherReceivers, impl.emitterSums);
+    // 3. Per receiver: the indirect shadow (Embree), the lights, dE and E_without.
+    const std::size_t stride = impl.gatherReceivers.padded;
+    const auto sum = [stride](const std::vector<float>& sums, std::size_t n) {
+        return glm::dvec3(sums[0 * stride + n], sums[1 * stride + n], sums[2 * stride + n]);
+    };
+    std::atomic<std::int64_t> rays{0};
+    cv::parallel_for_(cv::Range(0, int(count)), [&](const cv::Range& range) {
+        std::int64_t localRays = 0;
+        for (int n = range.start; n < range.end; ++n) {
+            const std::size_t at = std::size_t(n);
+            impl.gatherReceiver(depthMetres, intrinsics, camera_T_world, lights, sum(impl.valSums, at),
+                                sum(impl.emitterSums, at), impl.receivers[impl.regionReceivers[at]], localRays);
+        }
         rays += localRays;
-        gathered += localGathered;
     });
     out.shadowRays += rays.load();
-    out.receiversGathered = gathered.load();
+    out.receiversGathered = std::int64_t(count);
     impl.interpolate(depthMetres, out);
 }
 

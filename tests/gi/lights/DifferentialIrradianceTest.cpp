@@ -14,6 +14,7 @@
 #include <opencv2/core.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 
@@ -295,6 +296,139 @@ TEST(DifferentialIrradianceTest, ReceiversBeyondTheRegionStayExactlyUnchanged) {
             }
         }
     EXPECT_GT(cv::countNonZero(images.affected), 100);
+}
+
+// A room of 2 240 VALs on four walls around the floor (facing inward, 4 cm apart, radiance 1), in a
+// shuffled input order, and two cubes: many receivers see many VALs behind the cubes.
+std::vector<gi::VirtualAreaLight> roomVals() {
+    std::vector<gi::VirtualAreaLight> vals;
+    const float spacing = 0.04f;
+    const auto wall = [&](glm::vec3 origin, glm::vec3 along, int count, glm::vec3 normal) {
+        for (int i = 0; i < count; ++i)
+            for (int k = 0; k < 16; ++k) {
+                gi::VirtualAreaLight v;
+                v.position =
+                    origin + (float(i) + 0.5f) * spacing * along + glm::vec3(0, 0, (float(k) + 0.5f) * spacing);
+                v.normal = normal;
+                v.area = spacing * spacing;
+                v.flux = glm::vec3(float(kPi) * v.area) * glm::vec3(1.0f, 0.8f, 0.6f); // phi = pi L a
+                vals.push_back(v);
+            }
+    };
+    wall({-0.8f, -0.6f, 0.0f}, {1, 0, 0}, 40, {0, 1, 0}); // y = -0.6
+    wall({-0.8f, 0.6f, 0.0f}, {1, 0, 0}, 40, {0, -1, 0}); // y = +0.6
+    wall({-0.8f, -0.6f, 0.0f}, {0, 1, 0}, 30, {1, 0, 0}); // x = -0.8
+    wall({0.8f, -0.6f, 0.0f}, {0, 1, 0}, 30, {-1, 0, 0}); // x = +0.8
+    // A fixed shuffle (a full-period LCG step): the input order is not the spatial one.
+    std::vector<gi::VirtualAreaLight> shuffled(vals.size());
+    for (std::size_t i = 0; i < vals.size(); ++i) shuffled[(i * 1237u) % vals.size()] = vals[i];
+    return shuffled;
+}
+
+// The clusters that spare the per-pair tests are exact: dE of the indirect shadow (no emitters, no
+// lights) equals the sum over every VAL pair of the blocked light, with blocking decided by a
+// separately written slab test against the two boxes (not Embree, not the bounding spheres), and
+// E_without equals the unoccluded double-precision sum of eq. 3/4 over all VALs.
+TEST(DifferentialIrradianceTest, ClusteredShadowPairsAreExactlyThePairsTheObjectsBlock) {
+    const TriangleMesh big = cube(0.1f), small = cube(0.05f);
+    const std::array<gi::MeshInstance, 2> instances{placed(big, {0.0f, 0.0f, 0.1f}),
+                                                    placed(small, {0.35f, -0.2f, 0.05f})};
+    const std::array<Box, 2> boxes{Box{{-0.1, -0.1, 0.0}, {0.1, 0.1, 0.2}}, Box{{0.3, -0.25, 0.0}, {0.4, -0.15, 0.1}}};
+    gi::DifferentialSettings settings;
+    settings.emittersPerObject = 0;
+    gi::DifferentialIrradiance differential = gi::DifferentialIrradiance::create(instances, settings);
+    const std::vector<gi::VirtualAreaLight> vals = roomVals();
+    gi::DifferentialImages images;
+    differential.compute(floorDepth(), camera(), world_T_camera(), vals, {}, images);
+
+    int compared = 0, shadowed = 0;
+    for (const gi::DifferentialReceiver& r : differential.receivers()) {
+        if (!r.inRegion) continue;
+        // Receivers on a box's footprint (+1 cm) start inside it: skipped (hidden in any composite).
+        bool under = false;
+        for (const Box& b : boxes)
+            under = under || (r.position.x > b.lo.x - 0.01 && r.position.x < b.hi.x + 0.01 &&
+                              r.position.y > b.lo.y - 0.01 && r.position.y < b.hi.y + 0.01);
+        if (under) continue;
+        glm::dvec3 blocked(0.0), unoccluded(0.0), magnitude(0.0), ambiguous(0.0);
+        for (const gi::VirtualAreaLight& v : vals) {
+            const glm::dvec3 offset = glm::dvec3(v.position) - r.position;
+            const double d2 = glm::dot(offset, offset), d = std::sqrt(d2);
+            const double r2 = double(v.area) / kPi;
+            const double e = std::max(0.0, -glm::dot(glm::dvec3(v.normal), offset) / d) *
+                             std::max(0.0, glm::dot(r.normal, offset) / d) / (kPi * (r2 + d2)); // eq. 3/4, w_j
+            if (!(e > 0.0)) continue;
+            const glm::dvec3 light = glm::dvec3(v.flux) * e;
+            unoccluded += light;
+            // Decided: the same answer with the boxes grown and shrunk by 0.1 mm (float positions and
+            // Embree's float ray against the exact slab test). Undecided pairs may go either way.
+            bool in = false, out = false;
+            for (const Box& b : boxes) {
+                in = in || segmentHitsBox(r.position, glm::dvec3(v.position), b, -1e-4);
+                out = out || segmentHitsBox(r.position, glm::dvec3(v.position), b, 1e-4);
+            }
+            if (in != out)
+                ambiguous += light;
+            else if (in)
+                blocked += light;
+            magnitude += light;
+        }
+        // Tolerance: the undecided pairs, plus float rounding: the shadow's w_j in float (~10
+        // operations, < 1e-6 relative each pair, 1e-5 of the blocked sum) and E_without's float sums
+        // (2 240 terms in 140 blocks of 16: running-sum rounding <= (140 + 16) 6e-8 < 1e-5 of the sum,
+        // and the kernel's 1/sqrt estimate + Newton step ~1e-7 per term: 2e-5 of the sum).
+        for (int c = 0; c < 3; ++c) {
+            EXPECT_NEAR(r.deltaIrradiance[c], -blocked[c], ambiguous[c] + 1e-5 * magnitude[c] + 1e-12)
+                << "channel " << c << " at " << r.position.x << ", " << r.position.y;
+            EXPECT_NEAR(r.irradianceWithout[c], unoccluded[c], 2e-5 * unoccluded[c] + 1e-12);
+        }
+        if (blocked.x > 0.1 * unoccluded.x) ++shadowed;
+        ++compared;
+    }
+    EXPECT_GT(compared, 900); // of the 40 x 30 grid: all but the border and the footprints
+    EXPECT_GT(shadowed, 60) << "receivers must lose a visible share of the room's light to the boxes";
+    EXPECT_GT(images.shadowRays, 0);
+    EXPECT_LT(images.shadowRays, std::int64_t(compared) * std::int64_t(vals.size()) / 4)
+        << "the clusters must spare most pairs their tests and rays";
+}
+
+// The thread count decides who computes a receiver, never how: one thread and several give the same
+// images and receivers bit for bit (the scene of the test above, with emitters and a light).
+TEST(DifferentialIrradianceTest, ResultsDoNotDependOnTheThreadCount) {
+    const TriangleMesh big = cube(0.1f), small = cube(0.05f);
+    const std::array<gi::MeshInstance, 2> instances{placed(big, {0.0f, 0.0f, 0.1f}),
+                                                    placed(small, {0.35f, -0.2f, 0.05f}, glm::vec3(0.8f, 0.2f, 0.1f))};
+    gi::DifferentialIrradiance differential = gi::DifferentialIrradiance::create(instances);
+    gi::DifferentialLightSource light;
+    light.light.type = gi::VirtualLight::Type::Point;
+    light.light.position = glm::vec3(-0.4f, 0.1f, 0.9f);
+    light.light.intensity = glm::vec3(5.0f);
+    const std::vector<gi::VirtualAreaLight> vals = roomVals();
+    const int threads = cv::getNumThreads();
+    std::array<gi::DifferentialImages, 2> images;
+    std::array<std::vector<gi::DifferentialReceiver>, 2> receivers;
+    for (std::size_t run = 0; run < 2; ++run) {
+        cv::setNumThreads(run == 0 ? 1 : 4);
+        differential.compute(floorDepth(), camera(), world_T_camera(), vals, std::span(&light, 1), images[run]);
+        receivers[run].assign(differential.receivers().begin(), differential.receivers().end());
+    }
+    cv::setNumThreads(threads);
+    const auto same = [](const cv::Mat& a, const cv::Mat& b) {
+        return a.size() == b.size() && a.type() == b.type() &&
+               std::equal(a.datastart, a.dataend, b.datastart, b.dataend);
+    };
+    EXPECT_TRUE(same(images[0].deltaIrradiance, images[1].deltaIrradiance));
+    EXPECT_TRUE(same(images[0].irradianceWithout, images[1].irradianceWithout));
+    EXPECT_TRUE(same(images[0].affected, images[1].affected));
+    EXPECT_EQ(images[0].shadowRays, images[1].shadowRays);
+    ASSERT_EQ(receivers[0].size(), receivers[1].size());
+    int nonzero = 0;
+    for (std::size_t i = 0; i < receivers[0].size(); ++i) {
+        ASSERT_EQ(receivers[0][i].deltaIrradiance, receivers[1][i].deltaIrradiance) << i;
+        ASSERT_EQ(receivers[0][i].irradianceWithout, receivers[1][i].irradianceWithout) << i;
+        if (receivers[0][i].deltaIrradiance != glm::dvec3(0.0)) ++nonzero;
+    }
+    EXPECT_GT(nonzero, 1000) << "the comparison must cover real shadows and bounce";
 }
 
 TEST(DifferentialIrradianceTest, RejectsBadSettings) {

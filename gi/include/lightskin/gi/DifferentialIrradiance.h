@@ -7,8 +7,11 @@
 // terms, the region bound and the interpolation: docs/LIGHTSKIN.md, "Differential irradiance".
 //
 // Units and frames: world metres; irradiance W/m^2 in the VALs' flux unit; images BGR like the
-// camera image. CPU, double precision per receiver, OpenCV's parallel_for over receiver rows.
-// Buffers are sized on the first compute() for one image size and reused (no per-frame allocation).
+// camera image. CPU, OpenCV's parallel_for: the VAL and emitter sums (eq. 3/4) with CpuLightSkin's
+// SIMD gather kernel (float sums), the indirect shadow's pairs found through clusters of the VALs
+// (exact: the same pairs as testing every VAL) and traced with Embree, the rest in double. Results do
+// not depend on the thread count. Buffers are sized on the first compute() for one image size and
+// VAL count and reused (no per-frame allocation once grown).
 
 #include <lightskin/core/CameraIntrinsics.h>
 #include <lightskin/core/Pose.h>
