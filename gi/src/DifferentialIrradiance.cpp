@@ -309,9 +309,9 @@ void setSimdDisc(cpu::ValArrays& simd, std::uint32_t n, const VirtualAreaLight& 
     simd.px[n] = l.position.x;
     simd.py[n] = l.position.y;
     simd.pz[n] = l.position.z;
-    simd.nx[n] = l.normal.x;
-    simd.ny[n] = l.normal.y;
-    simd.nz[n] = l.normal.z;
+    simd.negNx[n] = -l.normal.x; // the kernels take minus the normal (exact)
+    simd.negNy[n] = -l.normal.y;
+    simd.negNz[n] = -l.normal.z;
     simd.r2[n] = r2;
     simd.cr2[n] = 1.0e-12f * r2; // guard G1 (kCoincident)
     simd.fr[n] = l.flux.x * invPi;
@@ -325,9 +325,9 @@ void padSimdDiscs(cpu::ValArrays& simd, std::uint32_t count) {
     simd.padded = (count + cpu::kSumBlock - 1) / cpu::kSumBlock * cpu::kSumBlock;
     for (std::uint32_t j = count; j < simd.padded; ++j) {
         for (auto* v :
-             {&simd.px, &simd.py, &simd.pz, &simd.nx, &simd.ny, &simd.r2, &simd.cr2, &simd.fr, &simd.fg, &simd.fb})
+             {&simd.px, &simd.py, &simd.pz, &simd.negNx, &simd.negNy, &simd.r2, &simd.cr2, &simd.fr, &simd.fg, &simd.fb})
             (*v)[j] = 0.0f;
-        simd.nz[j] = 1.0f;
+        simd.negNz[j] = -1.0f; // a unit normal (+z), stored negated
     }
 }
 
@@ -342,7 +342,7 @@ void setSimdReceiver(cpu::ReceiverArrays& r, std::size_t n, const glm::dvec3& x,
     r.ex[n] = r.nx[n];
     r.ey[n] = r.ny[n];
     r.ez[n] = r.nz[n];
-    r.nde[n] = 1.0f;
+    r.nde2[n] = 2.0f; // 2 n . e with e = n
     r.k[n] = 1.0f;
     r.ck[n] = 0.0f;
 }
