@@ -153,6 +153,9 @@ private:
     gi::ViewParameters view_;
     glm::mat4 camera_T_world_{1.0f};
     glm::ivec4 coveredWindowRect_{0}; ///< of the last renderGBuffer(): shade() runs its shader only there
+    /// Window rectangles outside which the G-buffer / the colour and depth outputs / the linear output hold
+    /// their clear values (what the last draw into them could write): the next clear covers only these.
+    glm::ivec4 gbufferWritten_{0}, outputWritten_{0}, linearWritten_{0};
     mutable cv::Mat readbackScratch_; ///< readShadedInto()'s rectangle, sized once
 };
 
