@@ -27,9 +27,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <exception>
 #include <filesystem>
+#include <mutex>
 #include <numbers>
 #include <span>
+#include <thread>
 
 namespace lightskin::mr {
 
@@ -350,6 +354,61 @@ void drawDifferential(cv::Mat& image, const cv::Mat& camera, const gi::Different
     }
 }
 
+/// The GI ahead (FramePipeline::render with a NextFrame): stages 0-4 of the CPU backend for the next frame on
+/// a worker thread, one job at a time. The caller's thread writes the job while no job is pending and reads
+/// the result after waitIdle(); the worker touches the technique only between the two (the mutex orders both).
+struct GiAhead {
+    bool on = false;
+    std::thread worker; // started by the first setGiAhead(true)
+    std::mutex mutex;
+    std::condition_variable changed;
+    bool stop = false, jobReady = false, pending = false; // pending: handed over and not finished
+    // The job: computeVpls()'s arguments (VALs in the pipeline's CPU generator, depth in the next frame's slot).
+    gi::CpuLightSkin* technique = nullptr;
+    std::span<const gi::VirtualAreaLight> vals;
+    std::span<const gi::MeshInstance> instances;
+    glm::vec3 cameraPositionWorld{0.0f};
+    gi::CpuValPixelKeys pixels;
+    gi::RealDepthView realDepth;
+    // The result: for the frame of PreparedFrame::sequence `sequence` under settings `generation`.
+    bool have = false;
+    std::uint64_t sequence = 0, generation = 0;
+    std::exception_ptr error; // of the VALs, their cull or computeVpls: thrown at that frame
+    std::uint32_t valCount = 0;
+    double valsMs = 0.0; // the VALs and their cull, on the caller's thread
+
+    ~GiAhead();
+    void run() {
+        std::unique_lock lock(mutex);
+        for (;;) {
+            changed.wait(lock, [&] { return stop || jobReady; });
+            if (stop) return;
+            jobReady = false;
+            lock.unlock();
+            std::exception_ptr failed;
+            try {
+                technique->computeVpls(vals, instances, cameraPositionWorld, pixels, realDepth);
+            } catch (...) {
+                failed = std::current_exception();
+            }
+            lock.lock();
+            error = failed;
+            pending = false;
+            changed.notify_all();
+        }
+    }
+    void waitIdle() {
+        std::unique_lock lock(mutex);
+        changed.wait(lock, [&] { return !pending; });
+    }
+    /// Waits for a running job and forgets any result.
+    void drop() {
+        waitIdle();
+        have = false;
+        error = nullptr;
+    }
+};
+
 } // namespace
 
 struct FramePipeline::State {
@@ -386,9 +445,33 @@ struct FramePipeline::State {
     std::vector<gi::VirtualAreaLight> depthValsOnCpu;
     gi::DifferentialImages differentialImages;
     cv::Mat cameraWithDifferential;
+    std::uint64_t preparedCount = 0; // prepare() calls: PreparedFrame::sequence
+    std::uint64_t generation = 0;    // setGiSettings() calls: a GI ahead of older settings is not used
+    GiAhead giAhead;
 };
 
-FramePipeline::~FramePipeline() = default;
+GiAhead::~GiAhead() {
+    if (!worker.joinable()) return;
+    {
+        const std::lock_guard lock(mutex);
+        stop = true;
+    }
+    changed.notify_all();
+    worker.join();
+}
+
+FramePipeline::~FramePipeline() {
+    if (state_) state_->giAhead.drop(); // its job reads the renderer's instances, destroyed before state_
+}
+
+void FramePipeline::setGiAhead(bool on) {
+    GiAhead& g = state_->giAhead;
+    if (!on) g.drop();
+    g.on = on;
+    if (on && !g.worker.joinable()) g.worker = std::thread([&g] { g.run(); });
+}
+
+void FramePipeline::finishGiAhead() { state_->giAhead.drop(); }
 
 std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene, const capture::FrameSourceInfo& source,
                                                      const PipelineOptions& options) {
@@ -459,6 +542,8 @@ void FramePipeline::createValGenerator(int stride) {
 
 void FramePipeline::setGiSettings(const render::GiSettings& settings) {
     State& st = *state_;
+    st.giAhead.drop(); // it uses the technique and the VAL generator replaced below
+    ++st.generation;
     // A new VAL stride needs a generator of that size; new sparse points need the meshes prepared
     // again (Renderer::setScene: the sparse points may refine the meshes). Both are rare (the frame
     // budget switches with hysteresis), not per frame.
@@ -547,9 +632,14 @@ void FramePipeline::prepare(const RgbdFrame& frame, PreparedFrame& prepared) {
         break;
     }
     prepared.poseMs = msSince(t);
+    prepared.sequence = ++s.preparedCount;
 }
 
 void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared, FrameOutput& out) {
+    render(frame, prepared, out, nullptr);
+}
+
+void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared, FrameOutput& out, NextFrame* next) {
     State& s = *state_;
     const auto frameStart = Clock::now();
     std::size_t used = 0;
@@ -562,6 +652,7 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
     out.meanRelativeErrorVsBruteForce = -1.0;
     out.vplSegments = -1;
     out.vplNonFinite = -1;
+    out.giComputedAhead = false;
     out.giReused = -1;
     out.giChangeMeasure = -1.0f;
     out.volumeVoxelsDropped = -1;
@@ -596,8 +687,19 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
     }
     const Pose& world_T_camera = *out.world_T_camera;
 
-    // VALs from the depth map.
+    // A GI ahead (started by the previous frame's render) uses the technique and the CPU VAL generator:
+    // wait for it before this frame touches either, and take its result if it is this frame's.
     auto t = Clock::now();
+    GiAhead& ahead = s.giAhead;
+    ahead.waitIdle();
+    const bool aheadForThisFrame =
+        ahead.have && ahead.sequence == prepared.sequence && ahead.generation == s.generation;
+    ahead.have = false;
+    const std::exception_ptr aheadError = std::exchange(ahead.error, nullptr);
+    const double aheadWaitMs = msSince(t);
+
+    // VALs from the depth map.
+    t = Clock::now();
     gi::ValSetView valSet;
     const bool runGi = options_.giEnabled && gi_.technique != "none";
     const bool runDifferential = options_.differential && s.differential && haveDepth && s.vals;
@@ -609,24 +711,32 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
     auto* cpuTechnique = runGi ? dynamic_cast<gi::CpuLightSkin*>(s.technique.get()) : nullptr;
     const bool valsOnCpu = cpuTechnique && !s.rsm && !options_.referenceIndirect &&
                            options_.overlay != Overlay::ErrorVsBruteForce && options_.overlay != Overlay::Vals;
-    s.cpuValSet = {};
-    if (haveDepth && valsOnCpu && s.vals) {
+    // The CPU VALs of a frame into s.cpuVals (this frame's, or the next one's for the GI ahead), culled where
+    // the virtual content is (gi.robustRealDepth; the view's clip_T_world as renderGBuffer() sets it).
+    const auto generateCpuVals = [&](const RgbdFrame& f, const cv::Mat& depth, const Pose& pose) {
         gi::ValGeneratorSettings settings = s.vals->settings();
         settings.skipUnchangedInput = false;
         if (!s.cpuVals || s.cpuVals->settings().stride != settings.stride)
-            s.cpuVals = gi::CpuValGenerator::create(frame.colour.cols, frame.colour.rows, settings,
-                                                    cpuTechnique->settings().threads);
+            s.cpuVals =
+                gi::CpuValGenerator::create(f.colour.cols, f.colour.rows, settings, cpuTechnique->settings().threads);
         else
             s.cpuVals->setSettings(settings);
-        s.cpuValSet = s.cpuVals->generate(depthMetres, 1.0, frame.colour, frame.colourIntrinsics, world_T_camera);
+        s.cpuVals->generate(depth, 1.0, f.colour, f.colourIntrinsics, pose);
+        if (gi_.robustRealDepth && s.occupancy)
+            s.occupancy->applyOnCpu(s.cpuVals->mutableLastVals(), s.cpuVals->lastPixelIndices(), r.instances(),
+                                    r.clipFromWorldAt(pose), pose.inverse().matrixFloat());
+        return s.cpuVals->lastVals();
+    };
+    // The GI ahead ran on this frame's VALs with this frame's settings and options: use it (and its error).
+    const bool useAhead =
+        aheadForThisFrame && haveDepth && valsOnCpu && s.vals && s.cpuVals && options_.overlay != Overlay::VertexVpls;
+    if (useAhead && aheadError) std::rethrow_exception(aheadError);
+    out.giComputedAhead = useAhead;
+    s.cpuValSet = {};
+    if (haveDepth && valsOnCpu && s.vals) {
+        s.cpuValSet = useAhead ? s.cpuVals->lastVals() : generateCpuVals(frame, depthMetres, world_T_camera);
         valSet = gi::ValSetView{0, std::uint32_t(s.cpuValSet.size()), 0, 0, 0};
         out.valCount = valSet.count;
-        if (gi_.robustRealDepth && s.occupancy) { // as below, on the CPU set
-            r.renderGBuffer(world_T_camera);
-            gbufferReady = true;
-            s.occupancy->applyOnCpu(s.cpuVals->mutableLastVals(), s.cpuVals->lastPixelIndices(), r.instances(),
-                                    r.viewParameters().clip_T_world, world_T_camera.inverse().matrixFloat());
-        }
     } else if (haveDepth && (runGi || runDifferential) && s.vals) {
         valSet = s.vals->generate(depthMetres, 1.0, frame.colour, frame.colourIntrinsics, world_T_camera);
         out.valCount = valSet.count;
@@ -638,7 +748,8 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
             s.occupancy->apply(valSet, r.instances(), r.viewParameters().clip_T_world, world_T_camera.inverse().matrixFloat());
         }
     }
-    addTime(out.cpuTimes, used, "vals", msSince(t));
+    // With the GI ahead: the time the VALs took then (this thread's wait for the GI goes to "gbuffer+gi").
+    addTime(out.cpuTimes, used, "vals", useAhead ? ahead.valsMs : msSince(t));
 
     // Differential rendering: the camera image with the virtual objects' shadows and bounce.
     out.differentialReceivers = -1;
@@ -708,7 +819,10 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
             if (s.cpuVals && !s.cpuValSet.empty())
                 pixels = {s.cpuVals->lastPixelIndices(), std::uint32_t(s.cpuVals->depthWidth()),
                           std::uint32_t(s.cpuVals->depthHeight())};
-            cpuTechnique->renderCpuVals(s.cpuValSet, r.instances(), r.gbuffer(), view, r.indirectTarget(), pixels);
+            if (useAhead)
+                cpuTechnique->shadeVpls(r.instances(), r.gbuffer(), view, r.indirectTarget());
+            else
+                cpuTechnique->renderCpuVals(s.cpuValSet, r.instances(), r.gbuffer(), view, r.indirectTarget(), pixels);
         } else
             s.technique->render(valSet, r.instances(), r.gbuffer(), view, r.indirectTarget());
         if (const auto* lightSkin = dynamic_cast<const gi::LightSkinIllumination*>(s.technique.get());
@@ -721,7 +835,7 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
             out.volumeVoxelsDropped = std::int64_t(dropped.x) + std::int64_t(dropped.y);
         }
     }
-    addTime(out.cpuTimes, used, "gbuffer+gi", msSince(t));
+    addTime(out.cpuTimes, used, "gbuffer+gi", msSince(t) + aheadWaitMs);
 
     // Shade, read back, composite.
     t = Clock::now();
@@ -729,6 +843,55 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
     render::ShadeOptions shade{.includeIndirect = runGi, .exposureStops = s.scene->exposureStops, .view = options_.view,
                                .linearOutput = options_.linearComposite};
     r.shade(shade);
+    // The GI ahead: the next frame's VALs now (their occupancy cull's read-back waits for this frame's GL work,
+    // as this frame's read-backs below would), its stages 0-4 on the worker while this thread reads back and
+    // composites. Nothing below uses the technique's VPLs or the CPU VALs (the vpl overlay does: no GI ahead).
+    bool stageTimesTaken = false;
+    const RgbdFrame* nextFrame = nullptr;
+    const PreparedFrame* nextPrepared = nullptr;
+    if (ahead.on && next != nullptr && runGi && cpuTechnique && valsOnCpu && s.vals &&
+        options_.overlay != Overlay::VertexVpls && next->wait(nextFrame, nextPrepared) && nextPrepared->haveDepth &&
+        nextPrepared->tracking.world_T_camera) {
+        cpuTechnique->lastStageTimes(s.scratchTimes); // this frame's, before the worker replaces them
+        stageTimesTaken = true;
+        const Pose& pose = *nextPrepared->tracking.world_T_camera;
+        const cv::Mat& depth = nextPrepared->depthMetres;
+        const auto valsStart = Clock::now();
+        ahead.have = true;
+        ahead.sequence = nextPrepared->sequence;
+        ahead.generation = s.generation;
+        try {
+            const std::span<const gi::VirtualAreaLight> vals = generateCpuVals(*nextFrame, depth, pose);
+            ahead.technique = cpuTechnique;
+            ahead.vals = vals;
+            ahead.instances = r.instances();
+            ahead.cameraPositionWorld = glm::vec3(pose.translation()); // as renderGBuffer's view
+            ahead.pixels = {};
+            if (!vals.empty())
+                ahead.pixels = {s.cpuVals->lastPixelIndices(), std::uint32_t(s.cpuVals->depthWidth()),
+                                std::uint32_t(s.cpuVals->depthHeight())};
+            ahead.realDepth = {};
+            if (depth.isContinuous()) { // as the GI stage's view.realDepth
+                const CameraIntrinsics& k = nextFrame->colourIntrinsics;
+                ahead.realDepth = gi::RealDepthView{
+                    .texture = 0u,
+                    .data = depth.ptr<float>(),
+                    .width = depth.cols,
+                    .height = depth.rows,
+                    .intrinsics = glm::vec4(float(k.fx), float(k.fy), float(k.cx), float(k.cy)),
+                    .camera_T_world = pose.inverse().matrixFloat(),
+                };
+            }
+            ahead.valsMs = msSince(valsStart);
+            {
+                const std::lock_guard lock(ahead.mutex);
+                ahead.pending = ahead.jobReady = true;
+            }
+            ahead.changed.notify_all();
+        } catch (...) {
+            ahead.error = std::current_exception(); // the next frame's: its render() throws it
+        }
+    }
     r.readOutputsInto(s.virtualColour, s.virtualDepth);
     cv::extractChannel(s.virtualColour, s.coverage, 3);
     out.coveredPixels = cv::countNonZero(s.coverage);
@@ -846,7 +1009,7 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
                                                                              {"normalisation", "gi normalisation"},
                                                                              {"occlusion", "gi occlusion"},
                                                                              {"interpolation", "gi interpolation"}};
-        s.technique->lastStageTimes(s.scratchTimes);
+        if (!stageTimesTaken) s.technique->lastStageTimes(s.scratchTimes);
         for (const auto& [stage, label] : kCpuStages)
             for (const gl::StageTime& st : s.scratchTimes)
                 if (st.name == stage) addTime(out.cpuTimes, used, label, st.milliseconds);
@@ -872,7 +1035,7 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
         out.gpuTimes.insert(out.gpuTimes.end(), s.rsmTimes.begin(), s.rsmTimes.end());
     }
     if (runGi && !dynamic_cast<const gi::MultiscalePrt*>(s.technique.get())) {
-        s.technique->lastStageTimes(s.scratchTimes);
+        if (!stageTimesTaken) s.technique->lastStageTimes(s.scratchTimes);
         for (const gl::StageTime& st : s.scratchTimes)
             if (!dynamic_cast<const gi::CpuLightSkin*>(s.technique.get()) || st.name == "shading")
                 out.gpuTimes.push_back(st);

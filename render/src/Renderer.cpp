@@ -244,7 +244,7 @@ void Renderer::renderShadowMaps() {
 void Renderer::renderGBuffer(const Pose& world_T_camera) {
     timer_.beginFrame();
     timer_.begin("gbuffer");
-    const glm::mat4 clip_T_world(clipFromWorld(intrinsics_, world_T_camera, options_.nearMetres, options_.farMetres));
+    const glm::mat4 clip_T_world = clipFromWorldAt(world_T_camera);
     camera_T_world_ = glm::mat4(world_T_camera.inverse().matrix());
     view_.clip_T_world = clip_T_world;
     coveredWindowRect_ = options_.shadeCoveredRectOnly ? coveredWindowRect(clip_T_world)
@@ -287,6 +287,10 @@ void Renderer::renderGBuffer(const Pose& world_T_camera) {
     glDisable(GL_DEPTH_TEST);
     glDisable(GL_SCISSOR_TEST);
     timer_.end();
+}
+
+glm::mat4 Renderer::clipFromWorldAt(const Pose& world_T_camera) const {
+    return glm::mat4(clipFromWorld(intrinsics_, world_T_camera, options_.nearMetres, options_.farMetres));
 }
 
 glm::ivec4 Renderer::coveredWindowRect(const glm::mat4& clip_T_world) const {

@@ -88,6 +88,9 @@ public:
     /// Per frame: fills the G-buffer for the camera at `world_T_camera`.
     void renderGBuffer(const Pose& world_T_camera);
     const gi::GBufferView& gbuffer() const noexcept { return gbufferView_; }
+    /// The clip_T_world that renderGBuffer(world_T_camera) puts into viewParameters(), the same bits,
+    /// without drawing (for work on a later frame's view, e.g. mr::FramePipeline's GI ahead).
+    glm::mat4 clipFromWorldAt(const Pose& world_T_camera) const;
     gi::ViewParameters viewParameters() const noexcept { return view_; }
     /// The RGBA32F texture techniques write indirect radiance into (cleared to 0 by renderGBuffer()).
     std::uint32_t indirectTarget() const noexcept { return indirect_.id(); }
