@@ -25,6 +25,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -354,28 +355,35 @@ void drawDifferential(cv::Mat& image, const cv::Mat& camera, const gi::Different
     }
 }
 
-/// The GI ahead (FramePipeline::render with a NextFrame): stages 0-4 of the CPU backend for the next frame on
-/// a worker thread, one job at a time. The caller's thread writes the job while no job is pending and reads
-/// the result after waitIdle(); the worker touches the technique only between the two (the mutex orders both).
-struct GiAhead {
-    bool on = false;
-    std::thread worker; // started by the first setGiAhead(true)
-    std::mutex mutex;
-    std::condition_variable changed;
-    bool stop = false, jobReady = false, pending = false; // pending: handed over and not finished
-    // The job: computeVpls()'s arguments (VALs in the pipeline's CPU generator, depth in the next frame's slot).
+/// computeVpls()'s arguments for one frame: VALs in one of the pipeline's CPU generators, depth in the frame's slot.
+struct GiJob {
     gi::CpuLightSkin* technique = nullptr;
     std::span<const gi::VirtualAreaLight> vals;
     std::span<const gi::MeshInstance> instances;
     glm::vec3 cameraPositionWorld{0.0f};
     gi::CpuValPixelKeys pixels;
     gi::RealDepthView realDepth;
-    // The result: for the frame of PreparedFrame::sequence `sequence` under settings `generation`.
-    bool have = false;
+};
+
+/// The GI ahead (FramePipeline::render with a NextFrame). Frame n makes frame n+1's VALs (into the other CPU
+/// generator) before its own GL work, and after its own GI has been shaded hands n+1's stages 0-4 to the
+/// worker, which runs them while frame n shades, reads back and composites and frame n+1 starts. One job at
+/// a time: the caller writes `job` only while none is pending (the mutex orders the hand-over and the end).
+struct GiAhead {
+    bool on = false;
+    std::thread worker; // started by the first setGiAhead(true)
+    std::mutex mutex;
+    std::condition_variable changed;
+    bool stop = false, jobReady = false, pending = false; // under the mutex; pending: handed over, not finished
+    GiJob job;
+    std::exception_ptr jobError; // the worker's, read after waitIdle()
+
+    // The caller's side: what it did for the frame of PreparedFrame::sequence `sequence` under `generation`.
+    enum class Stage { None, ValsReady, Launched, ValsFailed } stage = Stage::None;
     std::uint64_t sequence = 0, generation = 0;
-    std::exception_ptr error; // of the VALs, their cull or computeVpls: thrown at that frame
-    std::uint32_t valCount = 0;
-    double valsMs = 0.0; // the VALs and their cull, on the caller's thread
+    GiJob next;                   // ValsReady: the job launch() hands over
+    std::exception_ptr valsError; // ValsFailed: thrown by that frame's render()
+    double valsMs = 0.0;          // that frame's VALs and their cull, on the caller's thread
 
     ~GiAhead();
     void run() {
@@ -384,28 +392,39 @@ struct GiAhead {
             changed.wait(lock, [&] { return stop || jobReady; });
             if (stop) return;
             jobReady = false;
+            const GiJob j = job;
             lock.unlock();
             std::exception_ptr failed;
             try {
-                technique->computeVpls(vals, instances, cameraPositionWorld, pixels, realDepth);
+                j.technique->computeVpls(j.vals, j.instances, j.cameraPositionWorld, j.pixels, j.realDepth);
             } catch (...) {
                 failed = std::current_exception();
             }
             lock.lock();
-            error = failed;
+            jobError = failed;
             pending = false;
             changed.notify_all();
         }
+    }
+    void launch() {
+        {
+            const std::lock_guard lock(mutex);
+            job = next;
+            jobError = nullptr;
+            pending = jobReady = true;
+        }
+        changed.notify_all();
+        stage = Stage::Launched;
     }
     void waitIdle() {
         std::unique_lock lock(mutex);
         changed.wait(lock, [&] { return !pending; });
     }
-    /// Waits for a running job and forgets any result.
+    /// Waits for a running job and forgets everything.
     void drop() {
         waitIdle();
-        have = false;
-        error = nullptr;
+        stage = Stage::None;
+        jobError = valsError = nullptr;
     }
 };
 
@@ -418,7 +437,8 @@ struct FramePipeline::State {
     std::optional<tracking::PoseTracker> tracker;
     std::optional<gi::ValGenerator> vals;
     // The CPU backend's VALs, generated on the CPU (no GL pass, no read-back); created on first use.
-    std::optional<gi::CpuValGenerator> cpuVals;
+    // Two, by PreparedFrame::sequence % 2: the GI ahead makes frame n+1's while frame n's are in use.
+    std::array<std::optional<gi::CpuValGenerator>, 2> cpuVals;
     std::span<const gi::VirtualAreaLight> cpuValSet;
     std::optional<gi::ValOccupancyCull> occupancy; // gi.robustRealDepth
     bool valsUsable = false;
@@ -687,19 +707,8 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
     }
     const Pose& world_T_camera = *out.world_T_camera;
 
-    // A GI ahead (started by the previous frame's render) uses the technique and the CPU VAL generator:
-    // wait for it before this frame touches either, and take its result if it is this frame's.
-    auto t = Clock::now();
-    GiAhead& ahead = s.giAhead;
-    ahead.waitIdle();
-    const bool aheadForThisFrame =
-        ahead.have && ahead.sequence == prepared.sequence && ahead.generation == s.generation;
-    ahead.have = false;
-    const std::exception_ptr aheadError = std::exchange(ahead.error, nullptr);
-    const double aheadWaitMs = msSince(t);
-
     // VALs from the depth map.
-    t = Clock::now();
+    auto t = Clock::now();
     gi::ValSetView valSet;
     const bool runGi = options_.giEnabled && gi_.technique != "none";
     const bool runDifferential = options_.differential && s.differential && haveDepth && s.vals;
@@ -711,30 +720,43 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
     auto* cpuTechnique = runGi ? dynamic_cast<gi::CpuLightSkin*>(s.technique.get()) : nullptr;
     const bool valsOnCpu = cpuTechnique && !s.rsm && !options_.referenceIndirect &&
                            options_.overlay != Overlay::ErrorVsBruteForce && options_.overlay != Overlay::Vals;
-    // The CPU VALs of a frame into s.cpuVals (this frame's, or the next one's for the GI ahead), culled where
-    // the virtual content is (gi.robustRealDepth; the view's clip_T_world as renderGBuffer() sets it).
-    const auto generateCpuVals = [&](const RgbdFrame& f, const cv::Mat& depth, const Pose& pose) {
+    // The CPU VALs of the frame `sequence` (this frame's, or the next one's for the GI ahead) into its generator,
+    // culled where the virtual content is (gi.robustRealDepth; the view's clip_T_world as renderGBuffer() sets it).
+    const auto generateCpuVals = [&](std::uint64_t sequence, const RgbdFrame& f, const cv::Mat& depth,
+                                     const Pose& pose) -> gi::CpuValGenerator& {
+        std::optional<gi::CpuValGenerator>& generator = s.cpuVals[sequence % 2];
         gi::ValGeneratorSettings settings = s.vals->settings();
         settings.skipUnchangedInput = false;
-        if (!s.cpuVals || s.cpuVals->settings().stride != settings.stride)
-            s.cpuVals =
+        if (!generator || generator->settings().stride != settings.stride)
+            generator =
                 gi::CpuValGenerator::create(f.colour.cols, f.colour.rows, settings, cpuTechnique->settings().threads);
         else
-            s.cpuVals->setSettings(settings);
-        s.cpuVals->generate(depth, 1.0, f.colour, f.colourIntrinsics, pose);
+            generator->setSettings(settings);
+        generator->generate(depth, 1.0, f.colour, f.colourIntrinsics, pose);
         if (gi_.robustRealDepth && s.occupancy)
-            s.occupancy->applyOnCpu(s.cpuVals->mutableLastVals(), s.cpuVals->lastPixelIndices(), r.instances(),
+            s.occupancy->applyOnCpu(generator->mutableLastVals(), generator->lastPixelIndices(), r.instances(),
                                     r.clipFromWorldAt(pose), pose.inverse().matrixFloat());
-        return s.cpuVals->lastVals();
+        return *generator;
     };
-    // The GI ahead ran on this frame's VALs with this frame's settings and options: use it (and its error).
-    const bool useAhead =
-        aheadForThisFrame && haveDepth && valsOnCpu && s.vals && s.cpuVals && options_.overlay != Overlay::VertexVpls;
-    if (useAhead && aheadError) std::rethrow_exception(aheadError);
+    // The GI ahead made this frame's VALs and started its GI with this frame's settings (the worker may still
+    // run it: it only reads the VALs, the GI stage below waits for it). Any other job must end before this
+    // frame touches the technique or a VAL generator.
+    GiAhead& ahead = s.giAhead;
+    const bool aheadForThisFrame =
+        (ahead.stage == GiAhead::Stage::Launched || ahead.stage == GiAhead::Stage::ValsFailed) &&
+        ahead.sequence == prepared.sequence && ahead.generation == s.generation;
+    const bool useAhead = aheadForThisFrame && haveDepth && valsOnCpu && s.vals && s.cpuVals[prepared.sequence % 2] &&
+                          options_.overlay != Overlay::VertexVpls;
+    if (!useAhead) ahead.waitIdle();
+    ahead.stage = GiAhead::Stage::None;
+    if (useAhead && ahead.valsError) std::rethrow_exception(std::exchange(ahead.valsError, nullptr));
     out.giComputedAhead = useAhead;
     s.cpuValSet = {};
+    gi::CpuValGenerator* frameVals = nullptr; // this frame's CPU VALs
     if (haveDepth && valsOnCpu && s.vals) {
-        s.cpuValSet = useAhead ? s.cpuVals->lastVals() : generateCpuVals(frame, depthMetres, world_T_camera);
+        frameVals = useAhead ? &*s.cpuVals[prepared.sequence % 2]
+                             : &generateCpuVals(prepared.sequence, frame, depthMetres, world_T_camera);
+        s.cpuValSet = frameVals->lastVals();
         valSet = gi::ValSetView{0, std::uint32_t(s.cpuValSet.size()), 0, 0, 0};
         out.valCount = valSet.count;
     } else if (haveDepth && (runGi || runDifferential) && s.vals) {
@@ -795,6 +817,51 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
             out.giInactiveCause = kGiCauseNoVals;
     }
 
+    // The GI ahead, first half: the next frame's VALs and their cull into the other generator, before this
+    // frame queues GL work (the cull's read-back then waits for its own pass only). Nothing of this frame after
+    // here uses the technique's VPLs once its GI is shaded (the vpl overlay does: no GI ahead with it).
+    if (ahead.on && next != nullptr && runGi && cpuTechnique && valsOnCpu && s.vals &&
+        options_.overlay != Overlay::VertexVpls) {
+        const RgbdFrame* nextFrame = nullptr;
+        const PreparedFrame* nextPrepared = nullptr;
+        if (next->wait(nextFrame, nextPrepared) && nextPrepared->haveDepth && nextPrepared->tracking.world_T_camera) {
+            const Pose& pose = *nextPrepared->tracking.world_T_camera;
+            const cv::Mat& depth = nextPrepared->depthMetres;
+            const auto valsStart = Clock::now();
+            ahead.sequence = nextPrepared->sequence;
+            ahead.generation = s.generation;
+            try {
+                const gi::CpuValGenerator& generator = generateCpuVals(nextPrepared->sequence, *nextFrame, depth, pose);
+                GiJob& job = ahead.next;
+                job.technique = cpuTechnique;
+                job.vals = generator.lastVals();
+                job.instances = r.instances();
+                job.cameraPositionWorld = glm::vec3(pose.translation()); // as renderGBuffer's view
+                job.pixels = {};
+                if (!job.vals.empty())
+                    job.pixels = {generator.lastPixelIndices(), std::uint32_t(generator.depthWidth()),
+                                  std::uint32_t(generator.depthHeight())};
+                job.realDepth = {};
+                if (depth.isContinuous()) { // as the GI stage's view.realDepth below
+                    const CameraIntrinsics& k = nextFrame->colourIntrinsics;
+                    job.realDepth = gi::RealDepthView{
+                        .texture = 0u,
+                        .data = depth.ptr<float>(),
+                        .width = depth.cols,
+                        .height = depth.rows,
+                        .intrinsics = glm::vec4(float(k.fx), float(k.fy), float(k.cx), float(k.cy)),
+                        .camera_T_world = pose.inverse().matrixFloat(),
+                    };
+                }
+                ahead.stage = GiAhead::Stage::ValsReady;
+            } catch (...) {
+                ahead.valsError = std::current_exception(); // the next frame's: its render() throws it
+                ahead.stage = GiAhead::Stage::ValsFailed;
+            }
+            ahead.valsMs = msSince(valsStart);
+        }
+    }
+
     // G-buffer and indirect light.
     t = Clock::now();
     if (!gbufferReady) r.renderGBuffer(world_T_camera);
@@ -816,12 +883,14 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
         if (cpuTechnique && valSet.buffer == 0) {
             // the depth pixels of this frame's CPU VALs: the gather with a cut builds their quadtree
             gi::CpuValPixelKeys pixels;
-            if (s.cpuVals && !s.cpuValSet.empty())
-                pixels = {s.cpuVals->lastPixelIndices(), std::uint32_t(s.cpuVals->depthWidth()),
-                          std::uint32_t(s.cpuVals->depthHeight())};
-            if (useAhead)
+            if (frameVals && !s.cpuValSet.empty())
+                pixels = {frameVals->lastPixelIndices(), std::uint32_t(frameVals->depthWidth()),
+                          std::uint32_t(frameVals->depthHeight())};
+            if (useAhead) {
+                ahead.waitIdle(); // for the worker to finish this frame's stages 0-4
+                if (ahead.jobError) std::rethrow_exception(std::exchange(ahead.jobError, nullptr));
                 cpuTechnique->shadeVpls(r.instances(), r.gbuffer(), view, r.indirectTarget());
-            else
+            } else
                 cpuTechnique->renderCpuVals(s.cpuValSet, r.instances(), r.gbuffer(), view, r.indirectTarget(), pixels);
         } else
             s.technique->render(valSet, r.instances(), r.gbuffer(), view, r.indirectTarget());
@@ -835,7 +904,15 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
             out.volumeVoxelsDropped = std::int64_t(dropped.x) + std::int64_t(dropped.y);
         }
     }
-    addTime(out.cpuTimes, used, "gbuffer+gi", msSince(t) + aheadWaitMs);
+    // The GI ahead, second half: the next frame's stages 0-4 on the worker from now on (its VPLs replace this
+    // frame's in the technique, uploaded above), while this frame shades, reads back and composites.
+    bool stageTimesTaken = false;
+    if (ahead.stage == GiAhead::Stage::ValsReady) {
+        s.technique->lastStageTimes(s.scratchTimes); // this frame's, before the worker replaces them
+        stageTimesTaken = true;
+        ahead.launch();
+    }
+    addTime(out.cpuTimes, used, "gbuffer+gi", msSince(t)); // with the GI ahead: the wait for the worker
 
     // Shade, read back, composite.
     t = Clock::now();
@@ -843,55 +920,6 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
     render::ShadeOptions shade{.includeIndirect = runGi, .exposureStops = s.scene->exposureStops, .view = options_.view,
                                .linearOutput = options_.linearComposite};
     r.shade(shade);
-    // The GI ahead: the next frame's VALs now (their occupancy cull's read-back waits for this frame's GL work,
-    // as this frame's read-backs below would), its stages 0-4 on the worker while this thread reads back and
-    // composites. Nothing below uses the technique's VPLs or the CPU VALs (the vpl overlay does: no GI ahead).
-    bool stageTimesTaken = false;
-    const RgbdFrame* nextFrame = nullptr;
-    const PreparedFrame* nextPrepared = nullptr;
-    if (ahead.on && next != nullptr && runGi && cpuTechnique && valsOnCpu && s.vals &&
-        options_.overlay != Overlay::VertexVpls && next->wait(nextFrame, nextPrepared) && nextPrepared->haveDepth &&
-        nextPrepared->tracking.world_T_camera) {
-        cpuTechnique->lastStageTimes(s.scratchTimes); // this frame's, before the worker replaces them
-        stageTimesTaken = true;
-        const Pose& pose = *nextPrepared->tracking.world_T_camera;
-        const cv::Mat& depth = nextPrepared->depthMetres;
-        const auto valsStart = Clock::now();
-        ahead.have = true;
-        ahead.sequence = nextPrepared->sequence;
-        ahead.generation = s.generation;
-        try {
-            const std::span<const gi::VirtualAreaLight> vals = generateCpuVals(*nextFrame, depth, pose);
-            ahead.technique = cpuTechnique;
-            ahead.vals = vals;
-            ahead.instances = r.instances();
-            ahead.cameraPositionWorld = glm::vec3(pose.translation()); // as renderGBuffer's view
-            ahead.pixels = {};
-            if (!vals.empty())
-                ahead.pixels = {s.cpuVals->lastPixelIndices(), std::uint32_t(s.cpuVals->depthWidth()),
-                                std::uint32_t(s.cpuVals->depthHeight())};
-            ahead.realDepth = {};
-            if (depth.isContinuous()) { // as the GI stage's view.realDepth
-                const CameraIntrinsics& k = nextFrame->colourIntrinsics;
-                ahead.realDepth = gi::RealDepthView{
-                    .texture = 0u,
-                    .data = depth.ptr<float>(),
-                    .width = depth.cols,
-                    .height = depth.rows,
-                    .intrinsics = glm::vec4(float(k.fx), float(k.fy), float(k.cx), float(k.cy)),
-                    .camera_T_world = pose.inverse().matrixFloat(),
-                };
-            }
-            ahead.valsMs = msSince(valsStart);
-            {
-                const std::lock_guard lock(ahead.mutex);
-                ahead.pending = ahead.jobReady = true;
-            }
-            ahead.changed.notify_all();
-        } catch (...) {
-            ahead.error = std::current_exception(); // the next frame's: its render() throws it
-        }
-    }
     r.readOutputsInto(s.virtualColour, s.virtualDepth);
     cv::extractChannel(s.virtualColour, s.coverage, 3);
     out.coveredPixels = cv::countNonZero(s.coverage);
