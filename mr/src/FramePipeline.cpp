@@ -938,10 +938,12 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
     }
     for (int v = 0; v < (options_.linearComposite ? out.linearWithGi.rows : 0); ++v) {
         const auto* row = out.linearWithGi.ptr<cv::Vec3f>(v);
-        for (int u = 0; u < out.linearWithGi.cols; ++u) {
+        for (int u = 0; u < out.linearWithGi.cols; ++u) { // without branches: the compiler vectorises it
             const cv::Vec3f& p = row[u];
-            if (std::isnan(p[0]) || std::isnan(p[1]) || std::isnan(p[2])) ++out.linearNanPixels;
-            else if (std::isinf(p[0]) || std::isinf(p[1]) || std::isinf(p[2])) ++out.linearInfPixels;
+            const bool nan = std::isnan(p[0]) | std::isnan(p[1]) | std::isnan(p[2]);
+            const bool inf = std::isinf(p[0]) | std::isinf(p[1]) | std::isinf(p[2]);
+            out.linearNanPixels += nan ? 1 : 0;
+            out.linearInfPixels += !nan && inf ? 1 : 0;
         }
     }
     if ((options_.linearIndirect || options_.referenceIndirect) && runGi) {
