@@ -381,6 +381,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     Progress progress(total >= 0 ? std::optional<std::int64_t>(total) : std::nullopt);
     cv::Mat sideBySide, presentPair, presentTriple, presentFigure;
     std::int64_t read = 0;
+    std::chrono::steady_clock::time_point firstFrameEnd;
     try {
         while (!interruptRequested && (!args.maxFrames || read < *args.maxFrames) && session->processNext()) {
             ++read;
@@ -479,6 +480,12 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
             }
             frames.push_back(std::move(rf));
             progress.update(read);
+            const auto now = std::chrono::steady_clock::now();
+            if (read == 1)
+                firstFrameEnd = now;
+            else
+                summary.steadyMsPerFrame =
+                    std::chrono::duration<double, std::milli>(now - firstFrameEnd).count() / double(read - 1);
         }
     } catch (const std::exception& error) {
         // Keep what was written: close the video, write the report marked failed, say what is kept.

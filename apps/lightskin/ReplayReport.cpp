@@ -118,6 +118,7 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
     root["status"] = !s.failure.empty() ? "failed" : s.interrupted ? "interrupted" : "complete";
     root["failure"] = s.failure.empty() ? nlohmann::json(nullptr) : nlohmann::json(s.failure);
     root["wallSeconds"] = s.wallSeconds;
+    root["steadyMsPerFrame"] = s.steadyMsPerFrame;
     root["video"] = s.video;
     root["videoCodec"] = s.videoCodec;
     root["meanFrameMs"] = totalSum / n;
@@ -227,6 +228,9 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
     md += "| frames read | " + std::to_string(s.framesRead) +
           (s.framesInSource ? " of " + std::to_string(*s.framesInSource) : std::string()) + (s.interrupted ? " (interrupted by Ctrl-C)" : "") + " |\n";
     md += "| wall time | " + fixed(s.wallSeconds, 1) + " s" + " (" + fixed(s.wallSeconds > 0 ? double(s.framesRead) / s.wallSeconds : 0.0, 2) + " frames/s) |\n";
+    if (s.steadyMsPerFrame > 0.0)
+        md += "| after the first frame | " + fixed(s.steadyMsPerFrame, 1) + " ms per frame (" +
+              fixed(1000.0 / s.steadyMsPerFrame, 2) + " frames/s) |\n";
     md += "| video | " + (s.video.empty() ? std::string("none") : "`" + s.video + "` (" + s.videoCodec + ")") + " |\n";
     std::string states;
     for (const auto& [state, count] : trackingCounts) states += (states.empty() ? "" : ", ") + state + " " + std::to_string(count);

@@ -66,6 +66,9 @@ struct ReportSummary {
     /// or empty. report.json's "status" is "failed" then, else "interrupted" or "complete".
     std::string failure;
     double wallSeconds = 0.0;
+    /// Wall time from the end of the first frame to the end of the last, per frame (the setup and the first
+    /// frame's one-off costs left out: the replay's steady rate); 0 with fewer than 2 frames.
+    double steadyMsPerFrame = 0.0;
     /// Technique multiscale-prt: its prepare() (precompute or cache load) before the first frame, else nullopt.
     std::optional<gi::PrtPrepareStats> prtPrepare;
 };

@@ -786,9 +786,13 @@ void CpuLightSkin::render(const ValSetView& lights, std::span<const MeshInstance
 void CpuLightSkin::renderCpuVals(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
                                  const GBufferView& gbuffer, const ViewParameters& view, std::uint32_t targetTexture,
                                  const CpuValPixelKeys& pixels) {
-    Impl& impl = *impl_;
     computeVpls(lights, instances, view.cameraPositionWorld, pixels, view.realDepth);
+    shadeVpls(instances, gbuffer, view, targetTexture);
+}
 
+void CpuLightSkin::shadeVpls(std::span<const MeshInstance> instances, const GBufferView& gbuffer,
+                             const ViewParameters& view, std::uint32_t targetTexture) {
+    Impl& impl = *impl_;
     const auto uploadStart = Clock::now();
     if (impl.vertexCount > 0)
         glNamedBufferSubData(impl.vertexVplBuffer.id(), 0, GLsizeiptr(impl.vertexVpls.size() * sizeof(glm::vec4)),

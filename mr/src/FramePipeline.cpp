@@ -25,11 +25,16 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <exception>
 #include <filesystem>
+#include <mutex>
 #include <numbers>
 #include <span>
+#include <thread>
 
 namespace lightskin::mr {
 
@@ -350,6 +355,79 @@ void drawDifferential(cv::Mat& image, const cv::Mat& camera, const gi::Different
     }
 }
 
+/// computeVpls()'s arguments for one frame: VALs in one of the pipeline's CPU generators, depth in the frame's slot.
+struct GiJob {
+    gi::CpuLightSkin* technique = nullptr;
+    std::span<const gi::VirtualAreaLight> vals;
+    std::span<const gi::MeshInstance> instances;
+    glm::vec3 cameraPositionWorld{0.0f};
+    gi::CpuValPixelKeys pixels;
+    gi::RealDepthView realDepth;
+};
+
+/// The GI ahead (FramePipeline::render with a NextFrame). Frame n makes frame n+1's VALs (into the other CPU
+/// generator) before its own GL work, and after its own GI has been shaded hands n+1's stages 0-4 to the
+/// worker, which runs them while frame n shades, reads back and composites and frame n+1 starts. One job at
+/// a time: the caller writes `job` only while none is pending (the mutex orders the hand-over and the end).
+struct GiAhead {
+    bool on = false;
+    std::thread worker; // started by the first setGiAhead(true)
+    std::mutex mutex;
+    std::condition_variable changed;
+    bool stop = false, jobReady = false, pending = false; // under the mutex; pending: handed over, not finished
+    GiJob job;
+    std::exception_ptr jobError; // the worker's, read after waitIdle()
+
+    // The caller's side: what it did for the frame of PreparedFrame::sequence `sequence` under `generation`.
+    enum class Stage { None, ValsReady, Launched, ValsFailed } stage = Stage::None;
+    std::uint64_t sequence = 0, generation = 0;
+    GiJob next;                   // ValsReady: the job launch() hands over
+    std::exception_ptr valsError; // ValsFailed: thrown by that frame's render()
+    double valsMs = 0.0;          // that frame's VALs and their cull, on the caller's thread
+
+    ~GiAhead();
+    void run() {
+        std::unique_lock lock(mutex);
+        for (;;) {
+            changed.wait(lock, [&] { return stop || jobReady; });
+            if (stop) return;
+            jobReady = false;
+            const GiJob j = job;
+            lock.unlock();
+            std::exception_ptr failed;
+            try {
+                j.technique->computeVpls(j.vals, j.instances, j.cameraPositionWorld, j.pixels, j.realDepth);
+            } catch (...) {
+                failed = std::current_exception();
+            }
+            lock.lock();
+            jobError = failed;
+            pending = false;
+            changed.notify_all();
+        }
+    }
+    void launch() {
+        {
+            const std::lock_guard lock(mutex);
+            job = next;
+            jobError = nullptr;
+            pending = jobReady = true;
+        }
+        changed.notify_all();
+        stage = Stage::Launched;
+    }
+    void waitIdle() {
+        std::unique_lock lock(mutex);
+        changed.wait(lock, [&] { return !pending; });
+    }
+    /// Waits for a running job and forgets everything.
+    void drop() {
+        waitIdle();
+        stage = Stage::None;
+        jobError = valsError = nullptr;
+    }
+};
+
 } // namespace
 
 struct FramePipeline::State {
@@ -359,7 +437,8 @@ struct FramePipeline::State {
     std::optional<tracking::PoseTracker> tracker;
     std::optional<gi::ValGenerator> vals;
     // The CPU backend's VALs, generated on the CPU (no GL pass, no read-back); created on first use.
-    std::optional<gi::CpuValGenerator> cpuVals;
+    // Two, by PreparedFrame::sequence % 2: the GI ahead makes frame n+1's while frame n's are in use.
+    std::array<std::optional<gi::CpuValGenerator>, 2> cpuVals;
     std::span<const gi::VirtualAreaLight> cpuValSet;
     std::optional<gi::ValOccupancyCull> occupancy; // gi.robustRealDepth
     bool valsUsable = false;
@@ -386,9 +465,33 @@ struct FramePipeline::State {
     std::vector<gi::VirtualAreaLight> depthValsOnCpu;
     gi::DifferentialImages differentialImages;
     cv::Mat cameraWithDifferential;
+    std::uint64_t preparedCount = 0; // prepare() calls: PreparedFrame::sequence
+    std::uint64_t generation = 0;    // setGiSettings() calls: a GI ahead of older settings is not used
+    GiAhead giAhead;
 };
 
-FramePipeline::~FramePipeline() = default;
+GiAhead::~GiAhead() {
+    if (!worker.joinable()) return;
+    {
+        const std::lock_guard lock(mutex);
+        stop = true;
+    }
+    changed.notify_all();
+    worker.join();
+}
+
+FramePipeline::~FramePipeline() {
+    if (state_) state_->giAhead.drop(); // its job reads the renderer's instances, destroyed before state_
+}
+
+void FramePipeline::setGiAhead(bool on) {
+    GiAhead& g = state_->giAhead;
+    if (!on) g.drop();
+    g.on = on;
+    if (on && !g.worker.joinable()) g.worker = std::thread([&g] { g.run(); });
+}
+
+void FramePipeline::finishGiAhead() { state_->giAhead.drop(); }
 
 std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene, const capture::FrameSourceInfo& source,
                                                      const PipelineOptions& options) {
@@ -468,6 +571,8 @@ void FramePipeline::createValGenerator(int stride) {
 
 void FramePipeline::setGiSettings(const render::GiSettings& settings) {
     State& st = *state_;
+    st.giAhead.drop(); // it uses the technique and the VAL generator replaced below
+    ++st.generation;
     // A new VAL stride needs a generator of that size; new sparse points need the meshes prepared
     // again (Renderer::setScene: the sparse points may refine the meshes). Both are rare (the frame
     // budget switches with hysteresis), not per frame.
@@ -556,9 +661,14 @@ void FramePipeline::prepare(const RgbdFrame& frame, PreparedFrame& prepared) {
         break;
     }
     prepared.poseMs = msSince(t);
+    prepared.sequence = ++s.preparedCount;
 }
 
 void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared, FrameOutput& out) {
+    render(frame, prepared, out, nullptr);
+}
+
+void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared, FrameOutput& out, NextFrame* next) {
     State& s = *state_;
     const auto frameStart = Clock::now();
     std::size_t used = 0;
@@ -571,6 +681,7 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
     out.meanRelativeErrorVsBruteForce = -1.0;
     out.vplSegments = -1;
     out.vplNonFinite = -1;
+    out.giComputedAhead = false;
     out.giReused = -1;
     out.giChangeMeasure = -1.0f;
     out.volumeVoxelsDropped = -1;
@@ -618,24 +729,45 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
     auto* cpuTechnique = runGi ? dynamic_cast<gi::CpuLightSkin*>(s.technique.get()) : nullptr;
     const bool valsOnCpu = cpuTechnique && !s.rsm && !options_.referenceIndirect &&
                            options_.overlay != Overlay::ErrorVsBruteForce && options_.overlay != Overlay::Vals;
-    s.cpuValSet = {};
-    if (haveDepth && valsOnCpu && s.vals) {
+    // The CPU VALs of the frame `sequence` (this frame's, or the next one's for the GI ahead) into its generator,
+    // culled where the virtual content is (gi.robustRealDepth; the view's clip_T_world as renderGBuffer() sets it).
+    const auto generateCpuVals = [&](std::uint64_t sequence, const RgbdFrame& f, const cv::Mat& depth,
+                                     const Pose& pose) -> gi::CpuValGenerator& {
+        std::optional<gi::CpuValGenerator>& generator = s.cpuVals[sequence % 2];
         gi::ValGeneratorSettings settings = s.vals->settings();
         settings.skipUnchangedInput = false;
-        if (!s.cpuVals || s.cpuVals->settings().stride != settings.stride)
-            s.cpuVals = gi::CpuValGenerator::create(frame.colour.cols, frame.colour.rows, settings,
-                                                    cpuTechnique->settings().threads);
+        if (!generator || generator->settings().stride != settings.stride)
+            generator =
+                gi::CpuValGenerator::create(f.colour.cols, f.colour.rows, settings, cpuTechnique->settings().threads);
         else
-            s.cpuVals->setSettings(settings);
-        s.cpuValSet = s.cpuVals->generate(depthMetres, 1.0, frame.colour, frame.colourIntrinsics, world_T_camera);
+            generator->setSettings(settings);
+        generator->generate(depth, 1.0, f.colour, f.colourIntrinsics, pose);
+        if (gi_.robustRealDepth && s.occupancy)
+            s.occupancy->applyOnCpu(generator->mutableLastVals(), generator->lastPixelIndices(), r.instances(),
+                                    r.clipFromWorldAt(pose), pose.inverse().matrixFloat());
+        return *generator;
+    };
+    // The GI ahead made this frame's VALs and started its GI with this frame's settings (the worker may still
+    // run it: it only reads the VALs, the GI stage below waits for it). Any other job must end before this
+    // frame touches the technique or a VAL generator.
+    GiAhead& ahead = s.giAhead;
+    const bool aheadForThisFrame =
+        (ahead.stage == GiAhead::Stage::Launched || ahead.stage == GiAhead::Stage::ValsFailed) &&
+        ahead.sequence == prepared.sequence && ahead.generation == s.generation;
+    const bool useAhead = aheadForThisFrame && haveDepth && valsOnCpu && s.vals && s.cpuVals[prepared.sequence % 2] &&
+                          options_.overlay != Overlay::VertexVpls;
+    if (!useAhead) ahead.waitIdle();
+    ahead.stage = GiAhead::Stage::None;
+    if (useAhead && ahead.valsError) std::rethrow_exception(std::exchange(ahead.valsError, nullptr));
+    out.giComputedAhead = useAhead;
+    s.cpuValSet = {};
+    gi::CpuValGenerator* frameVals = nullptr; // this frame's CPU VALs
+    if (haveDepth && valsOnCpu && s.vals) {
+        frameVals = useAhead ? &*s.cpuVals[prepared.sequence % 2]
+                             : &generateCpuVals(prepared.sequence, frame, depthMetres, world_T_camera);
+        s.cpuValSet = frameVals->lastVals();
         valSet = gi::ValSetView{0, std::uint32_t(s.cpuValSet.size()), 0, 0, 0};
         out.valCount = valSet.count;
-        if (gi_.robustRealDepth && s.occupancy) { // as below, on the CPU set
-            r.renderGBuffer(world_T_camera);
-            gbufferReady = true;
-            s.occupancy->applyOnCpu(s.cpuVals->mutableLastVals(), s.cpuVals->lastPixelIndices(), r.instances(),
-                                    r.viewParameters().clip_T_world, world_T_camera.inverse().matrixFloat());
-        }
     } else if (haveDepth && (runGi || runDifferential) && s.vals) {
         valSet = s.vals->generate(depthMetres, 1.0, frame.colour, frame.colourIntrinsics, world_T_camera);
         out.valCount = valSet.count;
@@ -647,7 +779,8 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
             s.occupancy->apply(valSet, r.instances(), r.viewParameters().clip_T_world, world_T_camera.inverse().matrixFloat());
         }
     }
-    addTime(out.cpuTimes, used, "vals", msSince(t));
+    // With the GI ahead: the time the VALs took then (this thread's wait for the GI goes to "gbuffer+gi").
+    addTime(out.cpuTimes, used, "vals", useAhead ? ahead.valsMs : msSince(t));
 
     // Differential rendering: the camera image with the virtual objects' shadows and bounce.
     out.differentialReceivers = -1;
@@ -693,6 +826,51 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
             out.giInactiveCause = kGiCauseNoVals;
     }
 
+    // The GI ahead, first half: the next frame's VALs and their cull into the other generator, before this
+    // frame queues GL work (the cull's read-back then waits for its own pass only). Nothing of this frame after
+    // here uses the technique's VPLs once its GI is shaded (the vpl overlay does: no GI ahead with it).
+    if (ahead.on && next != nullptr && runGi && cpuTechnique && valsOnCpu && s.vals &&
+        options_.overlay != Overlay::VertexVpls) {
+        const RgbdFrame* nextFrame = nullptr;
+        const PreparedFrame* nextPrepared = nullptr;
+        if (next->wait(nextFrame, nextPrepared) && nextPrepared->haveDepth && nextPrepared->tracking.world_T_camera) {
+            const Pose& pose = *nextPrepared->tracking.world_T_camera;
+            const cv::Mat& depth = nextPrepared->depthMetres;
+            const auto valsStart = Clock::now();
+            ahead.sequence = nextPrepared->sequence;
+            ahead.generation = s.generation;
+            try {
+                const gi::CpuValGenerator& generator = generateCpuVals(nextPrepared->sequence, *nextFrame, depth, pose);
+                GiJob& job = ahead.next;
+                job.technique = cpuTechnique;
+                job.vals = generator.lastVals();
+                job.instances = r.instances();
+                job.cameraPositionWorld = glm::vec3(pose.translation()); // as renderGBuffer's view
+                job.pixels = {};
+                if (!job.vals.empty())
+                    job.pixels = {generator.lastPixelIndices(), std::uint32_t(generator.depthWidth()),
+                                  std::uint32_t(generator.depthHeight())};
+                job.realDepth = {};
+                if (depth.isContinuous()) { // as the GI stage's view.realDepth below
+                    const CameraIntrinsics& k = nextFrame->colourIntrinsics;
+                    job.realDepth = gi::RealDepthView{
+                        .texture = 0u,
+                        .data = depth.ptr<float>(),
+                        .width = depth.cols,
+                        .height = depth.rows,
+                        .intrinsics = glm::vec4(float(k.fx), float(k.fy), float(k.cx), float(k.cy)),
+                        .camera_T_world = pose.inverse().matrixFloat(),
+                    };
+                }
+                ahead.stage = GiAhead::Stage::ValsReady;
+            } catch (...) {
+                ahead.valsError = std::current_exception(); // the next frame's: its render() throws it
+                ahead.stage = GiAhead::Stage::ValsFailed;
+            }
+            ahead.valsMs = msSince(valsStart);
+        }
+    }
+
     // G-buffer and indirect light.
     t = Clock::now();
     if (!gbufferReady) r.renderGBuffer(world_T_camera);
@@ -714,10 +892,15 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
         if (cpuTechnique && valSet.buffer == 0) {
             // the depth pixels of this frame's CPU VALs: the gather with a cut builds their quadtree
             gi::CpuValPixelKeys pixels;
-            if (s.cpuVals && !s.cpuValSet.empty())
-                pixels = {s.cpuVals->lastPixelIndices(), std::uint32_t(s.cpuVals->depthWidth()),
-                          std::uint32_t(s.cpuVals->depthHeight())};
-            cpuTechnique->renderCpuVals(s.cpuValSet, r.instances(), r.gbuffer(), view, r.indirectTarget(), pixels);
+            if (frameVals && !s.cpuValSet.empty())
+                pixels = {frameVals->lastPixelIndices(), std::uint32_t(frameVals->depthWidth()),
+                          std::uint32_t(frameVals->depthHeight())};
+            if (useAhead) {
+                ahead.waitIdle(); // for the worker to finish this frame's stages 0-4
+                if (ahead.jobError) std::rethrow_exception(std::exchange(ahead.jobError, nullptr));
+                cpuTechnique->shadeVpls(r.instances(), r.gbuffer(), view, r.indirectTarget());
+            } else
+                cpuTechnique->renderCpuVals(s.cpuValSet, r.instances(), r.gbuffer(), view, r.indirectTarget(), pixels);
         } else
             s.technique->render(valSet, r.instances(), r.gbuffer(), view, r.indirectTarget());
         if (const auto* lightSkin = dynamic_cast<const gi::LightSkinIllumination*>(s.technique.get());
@@ -730,7 +913,15 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
             out.volumeVoxelsDropped = std::int64_t(dropped.x) + std::int64_t(dropped.y);
         }
     }
-    addTime(out.cpuTimes, used, "gbuffer+gi", msSince(t));
+    // The GI ahead, second half: the next frame's stages 0-4 on the worker from now on (its VPLs replace this
+    // frame's in the technique, uploaded above), while this frame shades, reads back and composites.
+    bool stageTimesTaken = false;
+    if (ahead.stage == GiAhead::Stage::ValsReady) {
+        s.technique->lastStageTimes(s.scratchTimes); // this frame's, before the worker replaces them
+        stageTimesTaken = true;
+        ahead.launch();
+    }
+    addTime(out.cpuTimes, used, "gbuffer+gi", msSince(t)); // with the GI ahead: the wait for the worker
 
     // Shade, read back, composite.
     t = Clock::now();
@@ -756,10 +947,12 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
     }
     for (int v = 0; v < (options_.linearComposite ? out.linearWithGi.rows : 0); ++v) {
         const auto* row = out.linearWithGi.ptr<cv::Vec3f>(v);
-        for (int u = 0; u < out.linearWithGi.cols; ++u) {
+        for (int u = 0; u < out.linearWithGi.cols; ++u) { // without branches: the compiler vectorises it
             const cv::Vec3f& p = row[u];
-            if (std::isnan(p[0]) || std::isnan(p[1]) || std::isnan(p[2])) ++out.linearNanPixels;
-            else if (std::isinf(p[0]) || std::isinf(p[1]) || std::isinf(p[2])) ++out.linearInfPixels;
+            const bool nan = std::isnan(p[0]) | std::isnan(p[1]) | std::isnan(p[2]);
+            const bool inf = std::isinf(p[0]) | std::isinf(p[1]) | std::isinf(p[2]);
+            out.linearNanPixels += nan ? 1 : 0;
+            out.linearInfPixels += !nan && inf ? 1 : 0;
         }
     }
     if ((options_.linearIndirect || options_.referenceIndirect) && runGi) {
@@ -855,7 +1048,7 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
                                                                              {"normalisation", "gi normalisation"},
                                                                              {"occlusion", "gi occlusion"},
                                                                              {"interpolation", "gi interpolation"}};
-        s.technique->lastStageTimes(s.scratchTimes);
+        if (!stageTimesTaken) s.technique->lastStageTimes(s.scratchTimes);
         for (const auto& [stage, label] : kCpuStages)
             for (const gl::StageTime& st : s.scratchTimes)
                 if (st.name == stage) addTime(out.cpuTimes, used, label, st.milliseconds);
@@ -881,7 +1074,7 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
         out.gpuTimes.insert(out.gpuTimes.end(), s.rsmTimes.begin(), s.rsmTimes.end());
     }
     if (runGi && !dynamic_cast<const gi::MultiscalePrt*>(s.technique.get())) {
-        s.technique->lastStageTimes(s.scratchTimes);
+        if (!stageTimesTaken) s.technique->lastStageTimes(s.scratchTimes);
         for (const gl::StageTime& st : s.scratchTimes)
             if (!dynamic_cast<const gi::CpuLightSkin*>(s.technique.get()) || st.name == "shading")
                 out.gpuTimes.push_back(st);

@@ -88,4 +88,16 @@ const FramePrefetcher::Slot* FramePrefetcher::next() {
     return &slot;
 }
 
+bool FramePrefetcher::wait(const RgbdFrame*& frame, const PreparedFrame*& prepared) {
+    std::unique_lock lock(mutex_);
+    if (consumed_ == 0) return false; // no current frame yet
+    // Slot consumed_ is not released, so the worker does not write it once produced (k - released_ < kSlots).
+    changed_.wait(lock, [&] { return produced_ > consumed_; });
+    const Slot& slot = slots_[consumed_ % kSlots];
+    if (slot.error || slot.end) return false;
+    frame = &slot.frame;
+    prepared = &slot.prepared;
+    return true;
+}
+
 } // namespace lightskin::mr

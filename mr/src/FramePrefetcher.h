@@ -2,7 +2,8 @@
 // Session's prefetch (SessionOptions::prefetch): a worker thread reads frame n+1 from the source and runs
 // its CPU-only front (FramePipeline::prepare: depth filter, pose) while the caller's thread renders frame n
 // (VALs, GI, shading and composite on GL). A ring of kSlots frames sized on first use: no allocation per
-// frame; the worker runs at most kSlots - 1 frames ahead of the frame the caller holds.
+// frame; the worker runs at most kSlots - 1 frames ahead of the frame the caller holds. wait() shows the
+// caller the frame after its current one (NextFrame: the pipeline's GI ahead, FramePipeline.h).
 //
 // Determinism: the worker prepares the frames in source order, one at a time, with the pipeline's own
 // filter and tracker, exactly as FramePipeline::process would: the images equal the sequential run's bit
@@ -21,7 +22,7 @@
 
 namespace lightskin::mr {
 
-class FramePrefetcher {
+class FramePrefetcher final : public NextFrame {
 public:
     /// A frame read and prepared by the worker; owned by the prefetcher, valid until the next next().
     struct Slot {
@@ -42,9 +43,14 @@ public:
     /// Hands back the slot of the previous call and returns the next prepared frame, waiting for it;
     /// nullptr at the source's end. Rethrows the frame's exception (the prefetcher then stays at it).
     const Slot* next();
+    /// NextFrame: the frame after the one the last next() returned, waiting until the worker has prepared
+    /// it; false at the source's end or when reading or preparing it failed (next() rethrows that at its frame).
+    bool wait(const RgbdFrame*& frame, const PreparedFrame*& prepared) override;
 
 private:
-    static constexpr std::size_t kSlots = 2; // the frame being rendered + the one being prepared
+    // The frame being rendered, the next one (which wait() hands out while that renders) and the one
+    // being prepared: the worker keeps busy while the caller looks one frame ahead.
+    static constexpr std::size_t kSlots = 3;
     void run();
 
     capture::FrameSource& source_;

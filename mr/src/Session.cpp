@@ -56,7 +56,8 @@ struct Session::Gl {
 };
 
 Session::~Session() {
-    prefetch_.reset(); // its worker uses the source and the pipeline
+    if (pipeline_) pipeline_->finishGiAhead(); // it reads a frame of the prefetch
+    prefetch_.reset();                         // its worker uses the source and the pipeline
     // The pipeline's and render()'s GL objects are deleted on the host's context: keep its bindings.
     const gl::StateGuard guard;
     gl_.reset();
@@ -139,11 +140,16 @@ bool Session::processNext() {
     if (!source_)
         throw Error("session", std::nullopt, "processNext() needs a source-fed session (this one takes submit())");
     if (options_.prefetch) {
-        if (!prefetch_) prefetch_ = std::make_unique<FramePrefetcher>(*source_, *pipeline_);
+        if (!prefetch_) {
+            prefetch_ = std::make_unique<FramePrefetcher>(*source_, *pipeline_);
+            // The next frame's GI while this one reads back and composites (not under a budget, whose
+            // cost model times the GI stage of each frame).
+            pipeline_->setGiAhead(!budget_.has_value());
+        }
         const FramePrefetcher::Slot* slot = prefetch_->next();
         if (slot == nullptr) return false;
         current_ = &slot->frame;
-        processWith(slot->frame, &slot->prepared);
+        processWith(slot->frame, &slot->prepared, prefetch_.get());
         return true;
     }
     if (!source_->next(frame_)) return false;
@@ -187,10 +193,10 @@ void Session::submit(const HostFrame& host) {
 void Session::process(const RgbdFrame& frame) {
     LIGHTSKIN_ASSERT(!prefetch_,
                      "lightskin::mr::Session::process(): the session prefetches its source (processNext() only)");
-    processWith(frame, nullptr);
+    processWith(frame, nullptr, nullptr);
 }
 
-void Session::processWith(const RgbdFrame& frame, const PreparedFrame* prepared) {
+void Session::processWith(const RgbdFrame& frame, const PreparedFrame* prepared, NextFrame* nextFrame) {
     if (!sameCamera(frame.colourIntrinsics, camera_))
         throw Error("frame", frame.index,
                     "colour intrinsics " + describeCamera(frame.colourIntrinsics) +
@@ -208,7 +214,7 @@ void Session::processWith(const RgbdFrame& frame, const PreparedFrame* prepared)
         }
     }
     if (prepared != nullptr)
-        pipeline_->render(frame, *prepared, output_);
+        pipeline_->render(frame, *prepared, output_, nextFrame);
     else
         pipeline_->process(frame, output_);
     if (output_.world_T_camera) {
@@ -305,6 +311,7 @@ void Session::render(const RenderTarget& target) {
 }
 
 void Session::setBudgetMs(double budgetMs) {
+    pipeline_->setGiAhead(false); // see processNext()
     if (budget_) {
         budget_->setBudgetMs(budgetMs);
         return;

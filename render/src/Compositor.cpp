@@ -115,7 +115,11 @@ void Compositor::compositeLinearInto(const cv::Mat& camera, const cv::Mat& virtu
         colour = &warpedColour_;
         depth = &warpedDepth_;
     }
-    out.create(size, CV_32FC3);
+    // Where no virtual content is (alpha 0, most of a camera frame) the output is the decoded camera pixel: the
+    // table over the whole image first (cv::LUT copies its float entries, vectorised), then the blend below only
+    // where alpha > 0. The same values as decoding pixel by pixel.
+    const cv::Mat decodedTable(1, 256, CV_32FC1, const_cast<float*>(decoded.data()));
+    cv::LUT(camera, decodedTable, out);
     for (int v = 0; v < size.height; ++v) {
         const auto* cam = camera.ptr<cv::Vec3b>(v);
         const auto* lin = linear->ptr<cv::Vec4f>(v);
@@ -124,8 +128,8 @@ void Compositor::compositeLinearInto(const cv::Mat& camera, const cv::Mat& virtu
         const float* zr = realDepth.empty() ? nullptr : realDepth.ptr<float>(v);
         auto* dst = out.ptr<cv::Vec3f>(v);
         for (int u = 0; u < size.width; ++u) {
-            const float a = rgba[u][3] == 0 ? 0.0f
-                                            : float(rgba[u][3]) / 255.0f * (zr != nullptr ? visibility(zv[u], zr[u], settings_) : 1.0f);
+            if (rgba[u][3] == 0) continue; // the decoded camera pixel
+            const float a = float(rgba[u][3]) / 255.0f * (zr != nullptr ? visibility(zv[u], zr[u], settings_) : 1.0f);
             for (int c = 0; c < 3; ++c) {
                 const float virtualValue = lin[u][2 - c]; // RGBA -> BGR
                 if (a <= 0.0f) {

@@ -126,6 +126,8 @@ std::unique_ptr<Renderer> Renderer::create(const CameraIntrinsics& intrinsics, c
     const std::uint8_t white[4] = {255, 255, 255, 255};
     r->whiteTexture_ = gl::Texture::create2D(GL_SRGB8_ALPHA8, 1, 1);
     glTextureSubImage2D(r->whiteTexture_.id(), 0, 0, 0, 1, 1, GL_RGBA, GL_UNSIGNED_BYTE, white);
+    // Texture storage starts undefined: the first clears cover everything.
+    r->gbufferWritten_ = r->outputWritten_ = r->linearWritten_ = glm::ivec4(0, 0, w, h);
     r->timer_ = gl::GpuStageTimer::create(8);
     gl::DebugOutput::throwIfErrors("renderer creation");
     return r;
@@ -235,7 +237,7 @@ void Renderer::renderShadowMaps() {
 void Renderer::renderGBuffer(const Pose& world_T_camera) {
     timer_.beginFrame();
     timer_.begin("gbuffer");
-    const glm::mat4 clip_T_world(clipFromWorld(intrinsics_, world_T_camera, options_.nearMetres, options_.farMetres));
+    const glm::mat4 clip_T_world = clipFromWorldAt(world_T_camera);
     camera_T_world_ = glm::mat4(world_T_camera.inverse().matrix());
     view_.clip_T_world = clip_T_world;
     coveredWindowRect_ = options_.shadeCoveredRectOnly ? coveredWindowRect(clip_T_world)
@@ -243,9 +245,17 @@ void Renderer::renderGBuffer(const Pose& world_T_camera) {
     view_.cameraPositionWorld = glm::vec3(world_T_camera.translation());
 
     const float zero[4] = {0, 0, 0, 0};
+    // Only the pixels the last draw could write (gbufferWritten_) differ from the clear values: clear those,
+    // then draw scissored to this frame's rectangle, which holds every pixel the objects cover (so the
+    // scissor changes no pixel; it makes "written" a fact rather than a claim). On llvmpipe clearing the
+    // four targets (40 bytes per pixel) over the whole frame cost more than the draw.
+    glEnable(GL_SCISSOR_TEST);
+    glScissor(gbufferWritten_.x, gbufferWritten_.y, gbufferWritten_.z, gbufferWritten_.w);
     for (GLint i = 0; i < 4; ++i) glClearNamedFramebufferfv(gbufferFramebuffer_.id(), GL_COLOR, i, zero);
     glClearNamedFramebufferfi(gbufferFramebuffer_.id(), GL_DEPTH_STENCIL, 0, 1.0f, 0);
-    glClearTexImage(indirect_.id(), 0, GL_RGBA, GL_FLOAT, zero);
+    glScissor(coveredWindowRect_.x, coveredWindowRect_.y, coveredWindowRect_.z, coveredWindowRect_.w);
+    gbufferWritten_ = coveredWindowRect_;
+    glClearTexImage(indirect_.id(), 0, GL_RGBA, GL_FLOAT, zero); // techniques may write anywhere: all of it
     glBindFramebuffer(GL_FRAMEBUFFER, gbufferFramebuffer_.id());
     glViewport(0, 0, intrinsics_.width, intrinsics_.height);
     glEnable(GL_DEPTH_TEST);
@@ -268,7 +278,12 @@ void Renderer::renderGBuffer(const Pose& world_T_camera) {
     }
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
     glDisable(GL_DEPTH_TEST);
+    glDisable(GL_SCISSOR_TEST);
     timer_.end();
+}
+
+glm::mat4 Renderer::clipFromWorldAt(const Pose& world_T_camera) const {
+    return glm::mat4(clipFromWorld(intrinsics_, world_T_camera, options_.nearMetres, options_.farMetres));
 }
 
 glm::ivec4 Renderer::coveredWindowRect(const glm::mat4& clip_T_world) const {
@@ -349,10 +364,18 @@ void Renderer::shade(const ShadeOptions& options) {
     // Pixels no virtual content covers get shade.frag's output for them (all zero) from a clear, and the
     // shader runs only in the rectangle the objects can cover (renderGBuffer): on llvmpipe every pixel of
     // a full-screen pass costs, and the objects cover a small part of a camera frame. Same images.
-    glDisable(GL_SCISSOR_TEST);
+    // As in renderGBuffer(): only what the last shade() wrote needs the clear (the linear target is
+    // written, and cleared, only with linearOutput: its draw buffer is GL_NONE otherwise).
     const float zero[4] = {0, 0, 0, 0};
-    for (GLint i = 0; i < 3; ++i) glClearNamedFramebufferfv(outputFramebuffer_.id(), GL_COLOR, i, zero);
     glEnable(GL_SCISSOR_TEST);
+    glScissor(outputWritten_.x, outputWritten_.y, outputWritten_.z, outputWritten_.w);
+    for (GLint i = 0; i < 2; ++i) glClearNamedFramebufferfv(outputFramebuffer_.id(), GL_COLOR, i, zero);
+    outputWritten_ = coveredWindowRect_;
+    if (options.linearOutput) {
+        glScissor(linearWritten_.x, linearWritten_.y, linearWritten_.z, linearWritten_.w);
+        glClearNamedFramebufferfv(outputFramebuffer_.id(), GL_COLOR, 2, zero);
+        linearWritten_ = coveredWindowRect_;
+    }
     glScissor(coveredWindowRect_.x, coveredWindowRect_.y, coveredWindowRect_.z, coveredWindowRect_.w);
     shadeProgram_.use();
     glBindVertexArray(emptyVertexArray_.id());

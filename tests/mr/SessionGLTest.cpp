@@ -544,4 +544,104 @@ TEST_F(SessionGLTest, PrefetchReportsASourceErrorAtItsFrame) {
     EXPECT_EQ(session->report().frameIndex, kFailAt - 1) << "the last frame that rendered";
 }
 
+// ---- GI ahead (FramePipeline::render with the prefetch's next frame): frame n+1's CPU VALs and stages 0-4 ----
+// ---- computed while frame n reads back and composites ----
+
+void expectSameFrame(const mr::FrameOutput& a, const mr::FrameOutput& b, int f) {
+    EXPECT_EQ(a.valCount, b.valCount) << "frame " << f;
+    ASSERT_EQ(a.withGi.size(), b.withGi.size()) << "frame " << f;
+    EXPECT_EQ(cv::norm(a.withGi, b.withGi, cv::NORM_INF), 0.0) << "frame " << f << ": not bit for bit";
+    EXPECT_EQ(cv::norm(a.linearWithGi, b.linearWithGi, cv::NORM_INF), 0.0) << "frame " << f;
+    // Not a test of two empty images: GI lit the objects, and they cover part of the frame.
+    EXPECT_TRUE(b.giActive) << "frame " << f;
+    EXPECT_GT(b.coveredPixels, 100) << "frame " << f;
+    EXPECT_GT(b.valCount, 100u) << "frame " << f;
+}
+
+// The prefetching session computes each frame's GI during the frame before (giComputedAhead), and its images
+// equal the sequential session's bit for bit, also when the GI settings change between two frames: the GI
+// computed ahead under the old settings must be dropped and the frame's own computed instead.
+TEST_F(SessionGLTest, GiAheadGivesTheSequentialImagesBitForBitAcrossASettingsChange) {
+    auto sequential = sourceSession(trackingOptions(false), orbitSceneOnCpu());
+    auto prefetching = sourceSession(trackingOptions(true), orbitSceneOnCpu());
+    constexpr int kFrames = 6, kChangeAt = 3;
+    bool trackedBefore = false;
+    for (int f = 0; f < kFrames; ++f) {
+        if (f == kChangeAt)
+            for (mr::Session* session : {sequential.get(), prefetching.get()}) {
+                render::GiSettings gi = session->pipeline().giSettings();
+                gi.glossy = !gi.glossy;
+                session->pipeline().setGiSettings(gi);
+            }
+        ASSERT_TRUE(sequential->processNext());
+        ASSERT_TRUE(prefetching->processNext());
+        const mr::FrameOutput &a = sequential->output(), &b = prefetching->output();
+        ASSERT_EQ(prefetching->sourceFrame().index, f) << "the frame the output belongs to";
+        ASSERT_EQ(a.world_T_camera.has_value(), b.world_T_camera.has_value()) << "frame " << f;
+        ASSERT_TRUE(b.world_T_camera.has_value()) << "frame " << f << ": the tags are seen in the first frames";
+        expectSameFrame(a, b, f);
+        EXPECT_FALSE(a.giComputedAhead) << "frame " << f << ": the sequential session has no next frame";
+        // Ahead when the frame before ran GI (frame 0 has none before it), except after the change.
+        EXPECT_EQ(b.giComputedAhead, trackedBefore && f != kChangeAt) << "frame " << f;
+        trackedBefore = true;
+    }
+}
+
+/// The recording with frame `badAt`'s colour as BGRA: its depth filter and ground-truth pose work, its CPU
+/// VALs do not (gi::CpuValGenerator needs BGR), so the error comes from the stage the GI ahead runs early.
+class BgraColourSource : public capture::FrameSource {
+public:
+    BgraColourSource(std::unique_ptr<capture::FrameSource> inner, std::int64_t badAt)
+        : FrameSource(inner->info(), inner->options())
+        , inner_(std::move(inner))
+        , badAt_(badAt) {}
+
+protected:
+    bool readNext(RgbdFrame& out) override {
+        const std::int64_t index = inner_->framesDelivered();
+        if (!inner_->next(out)) return false;
+        if (index == badAt_) cv::cvtColor(out.colour, out.colour, cv::COLOR_BGR2BGRA);
+        return true;
+    }
+
+private:
+    std::unique_ptr<capture::FrameSource> inner_;
+    std::int64_t badAt_;
+};
+
+// A frame whose VALs fail: the GI ahead meets the error while the frame before renders; that frame must still
+// come out whole, and the error must be thrown for its own frame, as in the sequential session; the frame
+// after it renders again. Ground-truth poses (the tracker would not take the BGRA image).
+TEST_F(SessionGLTest, GiAheadReportsAValErrorAtItsFrame) {
+    constexpr std::int64_t kBadAt = 2, kFrames = 4;
+    std::unique_ptr<mr::Session> sessions[2];
+    for (int prefetch = 0; prefetch < 2; ++prefetch) {
+        mr::SessionOptions options;
+        options.prefetch = prefetch == 1;
+        sessions[prefetch] =
+            mr::Session::create(options, orbitSceneOnCpu(),
+                                std::make_unique<BgraColourSource>(capture::openFrameSource(recording(), {}), kBadAt));
+    }
+    for (std::int64_t f = 0; f < kFrames; ++f) {
+        for (auto& session : sessions) {
+            if (f != kBadAt) {
+                ASSERT_TRUE(session->processNext()) << "frame " << f;
+                EXPECT_EQ(session->report().frameIndex, f);
+                continue;
+            }
+            try {
+                session->processNext();
+                ADD_FAILURE() << "no error for frame " << f;
+            } catch (const Error& error) {
+                EXPECT_NE(std::string(error.what()).find("CV_8UC3"), std::string::npos) << error.what();
+            }
+            EXPECT_EQ(session->report().frameIndex, kBadAt - 1) << "the last frame that rendered";
+        }
+        if (f != kBadAt) expectSameFrame(sessions[0]->output(), sessions[1]->output(), int(f));
+        if (f == 1) {
+            EXPECT_TRUE(sessions[1]->output().giComputedAhead) << "the GI ahead ran before the bad frame";
+        }
+    }
+}
+
 } // namespace

@@ -356,3 +356,59 @@ TEST_F(RendererGLTest, ShadingOnlyTheCoveredRectangleGivesTheSameOutputs) {
         }
     }
 }
+
+namespace {
+
+/// Every texel of a GL texture as floats (RGBA), rows as GL stores them: no rectangle, no flip.
+cv::Mat wholeTexture(GLuint texture, int width, int height, GLenum format = GL_RGBA) {
+    cv::Mat out(height, width, format == GL_RGBA ? CV_32FC4 : CV_32FC1);
+    glGetTextureImage(texture, 0, format, GL_FLOAT, GLsizei(out.total() * out.elemSize()), out.data);
+    return out;
+}
+
+} // namespace
+
+// renderGBuffer() and shade() clear only what the previous frame could write (its covered rectangle). The
+// whole G-buffer and output textures (what GI techniques and Session::render read, not only the shaded
+// rectangle) must still equal a renderer that clears and draws the whole viewport, after the rectangle
+// moves, grows to the whole viewport and shrinks again: a pixel written by an earlier frame and not cleared
+// would differ. Exact equality: both renderers run the same shaders on the same inputs.
+TEST_F(RendererGLTest, ClearingOnlyTheLastRectangleLeavesNoStalePixels) {
+    render::RendererOptions wholeViewport;
+    wholeViewport.shadeCoveredRectOnly = false;
+    auto limited = Renderer::create(kCamera), reference = Renderer::create(kCamera, wholeViewport);
+    render::Scene scene;
+    scene.objects.push_back(cubeInCameraFrame({0.05, 0.02, 1.0}, 0.2, glm::vec3(0.6f, 0.5f, 0.4f)));
+    scene.lights.push_back(pointLightInCameraFrame({0.0, -0.5, 0.3}, 20.0f));
+    limited->setScene(scene);
+    reference->setScene(scene);
+    const auto moved = [](double x, double z) {
+        return kWorld_T_camera * Pose(glm::dquat(1.0, 0.0, 0.0, 0.0), glm::dvec3(x, 0.0, z));
+    };
+    // left, right (disjoint rectangles: the left one's pixels must be cleared), the whole viewport (the
+    // cube's corners behind the near plane), the left again (everything else must be cleared)
+    const Pose views[] = {moved(0.25, 0.0), moved(-0.25, 0.0), moved(0.0, 0.85), moved(0.25, 0.0)};
+    for (std::size_t i = 0; i < std::size(views); ++i) {
+        Renderer* renderers[2] = {limited.get(), reference.get()};
+        cv::Mat textures[2][7];
+        for (int r = 0; r < 2; ++r) {
+            renderers[r]->renderGBuffer(views[i]);
+            renderers[r]->shade({.includeIndirect = false, .linearOutput = i % 2 == 0});
+            const gi::GBufferView& g = renderers[r]->gbuffer();
+            textures[r][0] = wholeTexture(g.worldPosition, kCamera.width, kCamera.height);
+            textures[r][1] = wholeTexture(g.worldNormal, kCamera.width, kCamera.height);
+            textures[r][2] = wholeTexture(g.diffuseAlbedo, kCamera.width, kCamera.height);
+            textures[r][3] = wholeTexture(g.specular, kCamera.width, kCamera.height);
+            textures[r][4] = wholeTexture(g.depth, kCamera.width, kCamera.height, GL_DEPTH_COMPONENT);
+            textures[r][5] = wholeTexture(renderers[r]->outputColourTexture(), kCamera.width, kCamera.height);
+            textures[r][6] = wholeTexture(renderers[r]->outputDepthTexture(), kCamera.width, kCamera.height, GL_RED);
+        }
+        const glm::ivec4 rect = limited->shadedWindowRect();
+        if (i != 2) {
+            ASSERT_LT(rect.z * rect.w, kCamera.width * kCamera.height / 2) << "view " << i << ": a part";
+        }
+        ASSERT_GT(cv::countNonZero(textures[1][6] > 0.0f), 20) << "view " << i << ": the cube must be in view";
+        for (int t = 0; t < 7; ++t)
+            EXPECT_EQ(cv::norm(textures[0][t], textures[1][t], cv::NORM_INF), 0.0) << "view " << i << ", texture " << t;
+    }
+}

@@ -104,6 +104,12 @@ public:
                      const glm::vec3& cameraPositionWorld, const CpuValPixelKeys& pixels = {},
                      const RealDepthView& realDepth = {});
 
+    /// The second half of renderCpuVals(): uploads the per-vertex VPLs of the last computeVpls() and runs the
+    /// per-pixel shading pass into `targetTexture` (needs the GL context). computeVpls() may run on another
+    /// thread (no GL) for a later frame only after this call has returned (mr::FramePipeline's GI ahead).
+    void shadeVpls(std::span<const MeshInstance> instances, const GBufferView& gbuffer, const ViewParameters& view,
+                   std::uint32_t targetTexture);
+
     /// The same readbacks, in the same layouts, as LightSkinIllumination's (see its header; cheap
     /// here: the data are on the CPU).
     void readGatherSums(std::vector<glm::vec4>& out) const; ///< 5 vec4 per point, eps_l terms included

@@ -146,6 +146,9 @@ struct FrameOutput {
     /// Wall clock of process(), its front (filter, pose) included; of render() alone when the front ran
     /// ahead on another thread (Session's prefetch), where it overlaps the previous frame.
     double totalMs = 0.0;
+    /// The CPU backend's VALs and GI stages 0-4 of this frame ran while the previous frame rendered (the GI
+    /// ahead, FramePipeline::render with a NextFrame); cpuTimes "vals" and "gi ..." are the times they took then.
+    bool giComputedAhead = false;
     int giReused = -1;                ///< adaptive LightSkin: 1 = VPLs reused (static content), 0 = recomputed, else -1
     float giChangeMeasure = -1.0f;    ///< adaptive LightSkin: LightSkinChoice::staticChangeBound
     /// imperfect volumes: occupied + ray-marched voxels dropped for want of slots (256^3), else -1
@@ -162,6 +165,17 @@ struct PreparedFrame {
     bool haveDepth = false; ///< the frame has depth registered to colour, of the colour image's size
     tracking::TrackingResult tracking;   ///< the pose of the colour camera (PoseMode), world_T_camera empty = lost
     double filterMs = 0.0, poseMs = 0.0; ///< wall clock of the two stages (FrameOutput::cpuTimes)
+    /// Set by prepare(), one more per call: names this frame to render()'s GI ahead.
+    std::uint64_t sequence = 0;
+};
+
+/// Where render() finds the frame after the one it renders (Session's prefetch), for the GI ahead.
+class NextFrame {
+public:
+    virtual ~NextFrame() = default;
+    /// Waits until the next frame is prepared and points at it (valid until render() of that frame has
+    /// returned); false when there is none (the source's end, or its reading or prepare() failed).
+    virtual bool wait(const RgbdFrame*& frame, const PreparedFrame*& prepared) = 0;
 };
 
 class FramePipeline {
@@ -182,6 +196,20 @@ public:
     /// The rest of `frame` (VALs, GI, shading, composite) from its prepare() result; needs the GL
     /// context current. The output equals process()'s bit for bit.
     void render(const RgbdFrame& frame, const PreparedFrame& prepared, FrameOutput& out);
+    /// render() that, with setGiAhead(true) and the CPU backend, also starts the next frame's GI once this
+    /// frame's GL work is queued: its CPU VALs and their occupancy cull here, then stages 0-4 of the
+    /// technique (gi::CpuLightSkin::computeVpls) on a worker thread while this frame's read-backs and
+    /// composite run; the next render() of that frame (with its PreparedFrame) then only shades. Used
+    /// when the frame's VALs and GI would be the same as computed now (same settings, options and
+    /// prepared frame), else the next render() computes them itself: the images equal render()'s bit for
+    /// bit. An error of the next frame's VALs or GI is thrown by the render() of that frame.
+    void render(const RgbdFrame& frame, const PreparedFrame& prepared, FrameOutput& out, NextFrame* next);
+    /// Turns the GI ahead of render(..., next) on or off (off: waits for a running one and drops it).
+    /// Session turns it on with its prefetch and without a frame budget (whose cost model times the GI).
+    void setGiAhead(bool on);
+    /// Waits for a GI ahead that is running and drops its result. Call before the frames handed to
+    /// render(..., next) go away (Session does, before its prefetch).
+    void finishGiAhead();
 
     PipelineOptions& options() noexcept { return options_; }
     /// Rebuilds the GI technique with changed settings (live toggles of glossy/occlusion; the frame

@@ -108,9 +108,11 @@ struct SessionOptions {
     std::function<StageCosts(const QualitySettings&, const FrameStats&, const FrameOutput&)>
         costMeter; /// Source-fed sessions: read frame n+1 and run its depth filter and pose on a worker thread while
     /// processNext() renders frame n (FramePipeline::prepare; the images are the same bit for bit). The
-    /// worker reads one frame ahead of the caller, so a live camera's frame is up to one frame older; a
+    /// worker reads up to two frames ahead of the caller, so a live camera's frame is up to two frames older; a
     /// source error is reported at its frame, after which every processNext() reports it again.
-    /// pipeline.poseMode must not change while the session lives.
+    /// pipeline.poseMode must not change while the session lives. With the CPU backend and no frame budget it
+    /// also computes frame n+1's VALs and GI stages 0-4 on a worker while frame n reads back and composites
+    /// (FramePipeline's GI ahead; FrameOutput::giComputedAhead), again with the same images.
     bool prefetch = false;
 };
 
@@ -165,8 +167,9 @@ public:
 
 private:
     Session() = default;
-    /// process() on the pipeline's front result `prepared` (nullptr: the pipeline runs the front itself).
-    void processWith(const RgbdFrame& frame, const PreparedFrame* prepared);
+    /// process() on the pipeline's front result `prepared` (nullptr: the pipeline runs the front itself);
+    /// `nextFrame`: the prefetch's next frame, for the pipeline's GI ahead (nullptr: none).
+    void processWith(const RgbdFrame& frame, const PreparedFrame* prepared, NextFrame* nextFrame);
     static std::unique_ptr<Session> createWith(const SessionOptions& options, const SceneInput& scene,
                                                const capture::FrameSourceInfo& info);
     struct Gl;

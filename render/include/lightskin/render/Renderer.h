@@ -88,6 +88,9 @@ public:
     /// Per frame: fills the G-buffer for the camera at `world_T_camera`.
     void renderGBuffer(const Pose& world_T_camera);
     const gi::GBufferView& gbuffer() const noexcept { return gbufferView_; }
+    /// The clip_T_world that renderGBuffer(world_T_camera) puts into viewParameters(), the same bits,
+    /// without drawing (for work on a later frame's view, e.g. mr::FramePipeline's GI ahead).
+    glm::mat4 clipFromWorldAt(const Pose& world_T_camera) const;
     gi::ViewParameters viewParameters() const noexcept { return view_; }
     /// The RGBA32F texture techniques write indirect radiance into (cleared to 0 by renderGBuffer()).
     std::uint32_t indirectTarget() const noexcept { return indirect_.id(); }
@@ -153,6 +156,9 @@ private:
     gi::ViewParameters view_;
     glm::mat4 camera_T_world_{1.0f};
     glm::ivec4 coveredWindowRect_{0}; ///< of the last renderGBuffer(): shade() runs its shader only there
+    /// Window rectangles outside which the G-buffer / the colour and depth outputs / the linear output hold
+    /// their clear values (what the last draw into them could write): the next clear covers only these.
+    glm::ivec4 gbufferWritten_{0}, outputWritten_{0}, linearWritten_{0};
     mutable cv::Mat readbackScratch_; ///< readShadedInto()'s rectangle, sized once
 };
 
