@@ -252,6 +252,14 @@ TEST(MeshLoader, BadFilesGiveErrorsNamingTheFileAndCause) {
     const std::string formatNul = errorOf(bodyScratch / "format_nul.ply");
     EXPECT_NE(formatNul.find("format_nul.ply"), std::string::npos) << formatNul;
     EXPECT_NE(formatNul.find("PLY header: control character in line 2"), std::string::npos) << formatNul;
+    // Fuzz findings 15 and 16: a NUL inside a body line made assimp read a vertex value as a list count.
+    std::ofstream(bodyScratch / "body_nul.ply", std::ios::binary)
+        << std::string_view("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                            "property list uchar int indices\nend_header\n0 0\n9\0\0\09999999999993 2 1 0\n0 0\n"sv);
+    const std::string bodyNul = errorOf(bodyScratch / "body_nul.ply");
+    EXPECT_NE(bodyNul.find("body_nul.ply"), std::string::npos) << bodyNul;
+    EXPECT_NE(bodyNul.find("ASCII PLY: control character in the line of element 'vertex' 1"), std::string::npos)
+        << bodyNul;
     std::ofstream(bodyScratch / "format_unknown.ply")
         << "ply\nformat text 1.0\nelement vertex 0\nproperty float x\nend_header\n";
     const std::string formatUnknown = errorOf(bodyScratch / "format_unknown.ply");
