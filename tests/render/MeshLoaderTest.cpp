@@ -10,6 +10,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <sstream>
 #include <utility>
@@ -54,6 +55,25 @@ TEST(MeshLoader, StanfordBunnyPlyHasItsPublishedCountsAndGetsNormals) {
     // 913 distinct (vertex, face set within 60 degrees of a corner's face) pairs, so 913 vertices. (Before
     // issue 12 part 3 a shared vertex kept one face's normal: 452.)
     EXPECT_EQ(model.vertexCount(), 913u);
+    // Each corner's normal is a mean of face normals within 60 degrees of its own face's, so it lies within 60
+    // degrees of that face's geometric normal (cos 60 = 0.5, less 1e-4 for float rounding).
+    {
+        const TriangleMesh& mesh = model.parts[0].mesh;
+        std::size_t outside = 0;
+        double sumCos = 0.0;
+        for (std::size_t t = 0; t < mesh.indices.size(); t += 3) {
+            const glm::vec3 a = mesh.positions[mesh.indices[t]], b = mesh.positions[mesh.indices[t + 1]],
+                            c = mesh.positions[mesh.indices[t + 2]];
+            const glm::vec3 face = glm::normalize(glm::cross(b - a, c - a));
+            for (std::size_t k = 0; k < 3; ++k) {
+                const float cosine = glm::dot(mesh.normals[mesh.indices[t + k]], face);
+                sumCos += double(cosine);
+                if (cosine < 0.5f - 1e-4f) ++outside;
+            }
+        }
+        EXPECT_EQ(outside, 0u) << "mean cos " << sumCos / double(mesh.indices.size());
+        std::printf("bunny: mean cos(corner normal, face normal) %.4f\n", sumCos / double(mesh.indices.size()));
+    }
     EXPECT_EQ(model.report.partsWithGeneratedNormals, 1u);
     expectUnitNormals(model.parts[0].mesh);
     // y range of the 453 vertices, read from the file with a script: 0.0336204 .. 0.181897.
