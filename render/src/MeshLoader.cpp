@@ -25,6 +25,7 @@
 #include <mutex>
 #include <sstream>
 #include <string>
+#include <type_traits>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -603,6 +604,49 @@ std::size_t removeDuplicateTriangles(aiMesh& mesh) {
     return dropped;
 }
 
+/// Gives every face corner of `mesh` its own vertex (positions and every texture-coordinate and colour set
+/// copied). Why: assimp 5.2.5's GenSmoothNormals first writes each face's normal into its corners' vertex
+/// slots (for a vertex shared by several faces the last face wins) and then averages only over the
+/// distinct vertices at the same position; on an indexed mesh (PLY: bun_zipper_res4.ply) a shared vertex
+/// so kept the normal of one adjacent face (378 of its 451 vertices), and the G-buffer's normal field
+/// kinked by 2-13 degrees within 1-2 px (issue 12, TUM fr3's speckle). Un-shared, each corner averages the
+/// normals of all faces around its position within the crease angle, and JoinIdenticalVertices re-joins
+/// the corners that end up equal. Only for a mesh without normals and without bones or morph targets
+/// (their per-vertex data would need remapping; assimp's PLY, OBJ and glTF readers give such meshes
+/// normals or no sharing). Returns false when left alone (also on an index out of range: refused below).
+bool unshareVertices(aiMesh& mesh) {
+    if (mesh.HasNormals() || mesh.HasBones() || mesh.mNumAnimMeshes > 0 || mesh.HasTangentsAndBitangents())
+        return false;
+    std::uint64_t corners = 0;
+    for (unsigned f = 0; f < mesh.mNumFaces; ++f) {
+        const aiFace& face = mesh.mFaces[f];
+        for (unsigned k = 0; k < face.mNumIndices; ++k)
+            if (face.mIndices[k] >= mesh.mNumVertices) return false;
+        corners += face.mNumIndices;
+    }
+    if (corners == 0 || corners > std::numeric_limits<unsigned>::max() / 2) return false;
+    const auto count = static_cast<unsigned>(corners);
+    // aiMesh's destructor delete[]s these arrays; each is replaced by one of the new size.
+    const auto remap = [&](auto*& array) {
+        using T = std::remove_pointer_t<std::remove_reference_t<decltype(array)>>;
+        if (array == nullptr) return;
+        T* copy = new T[count];
+        unsigned next = 0;
+        for (unsigned f = 0; f < mesh.mNumFaces; ++f)
+            for (unsigned k = 0; k < mesh.mFaces[f].mNumIndices; ++k) copy[next++] = array[mesh.mFaces[f].mIndices[k]];
+        delete[] array;
+        array = copy;
+    };
+    remap(mesh.mVertices);
+    for (auto*& set : mesh.mTextureCoords) remap(set);
+    for (auto*& set : mesh.mColors) remap(set);
+    unsigned next = 0;
+    for (unsigned f = 0; f < mesh.mNumFaces; ++f)
+        for (unsigned k = 0; k < mesh.mFaces[f].mNumIndices; ++k) mesh.mFaces[f].mIndices[k] = next++;
+    mesh.mNumVertices = count;
+    return true;
+}
+
 } // namespace
 
 LoadedModel loadModel(const std::filesystem::path& path) {
@@ -656,6 +700,7 @@ LoadedModel loadModel(const std::filesystem::path& path) {
     for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
         aiMesh& mesh = *const_cast<aiMesh*>(scene->mMeshes[m]);
         duplicateTriangles += removeDuplicateTriangles(mesh);
+        unshareVertices(mesh);
     }
     scene = importer.ApplyPostProcessing(aiProcess_GenSmoothNormals | aiProcess_JoinIdenticalVertices);
     if (scene == nullptr)
