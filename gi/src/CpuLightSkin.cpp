@@ -154,6 +154,45 @@ void parallelFor(tbb::task_arena& arena, RegionClock& clock, std::size_t begin, 
     clock.end();
 }
 
+/// Whether `linear` (world_T_model's 3x3 part) is a similarity: L^T L = s^2 (I + E) with every
+/// |E_ij| <= kSimilarity. Then world distances are s |d| (1 + O(1.5 kSimilarity)) and the normals'
+/// dot products change by O(3 kSimilarity), so the model-space weights of eq. 12 (each a product of
+/// two such terms in [0, 1], normalised) differ from the world-space ones by O(10 kSimilarity) =
+/// 1e-4 of the vertex's VPL at most, against gi_cpu_lightskin_gl_test's 6e-3 vertex tolerance. Why not
+/// 0: world_T_model is float, a rotation rounded to float is orthogonal only to ~3 x 6e-8 per entry
+/// (times the few products that built it).
+bool isSimilarity(const glm::dmat3& linear) {
+    constexpr double kSimilarity = 1e-5;
+    const glm::dmat3 g = glm::transpose(linear) * linear;
+    const double s2 = (g[0][0] + g[1][1] + g[2][2]) / 3.0;
+    if (!(s2 > 0.0) || !std::isfinite(s2)) return false;
+    for (int c = 0; c < 3; ++c)
+        for (int r = 0; r < 3; ++r)
+            if (!(std::abs(g[c][r] - (c == r ? s2 : 0.0)) <= kSimilarity * s2)) return false;
+    return true;
+}
+
+/// Eq. 12's weights (no point buried) of vertex v of `mesh` over its neighbours in `set`, from
+/// model-space positions and normals (see CpuLightSkin::Impl::modelWeights).
+std::array<double, kVertexNeighbours> modelVertexWeights(const TriangleMesh& mesh, std::size_t v,
+                                                         const SparsePointSet& set) {
+    const glm::dvec3 p(mesh.positions[v]);
+    const glm::dvec3 nv = glm::normalize(glm::dvec3(mesh.normals[v]));
+    const auto& list = set.vertexNeighbours[v];
+    double dist[kVertexNeighbours], cosN[kVertexNeighbours];
+    bool unique[kVertexNeighbours];
+    for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
+        const SparsePoint& x = set.points[list[j]];
+        dist[j] = glm::length(p - glm::dvec3(x.position));
+        cosN[j] = glm::dot(nv, glm::normalize(glm::dvec3(x.normal)));
+        unique[j] = j == 0 || list[j] != list[j - 1];
+    }
+    const m::VertexWeights weights = m::ls_vertexWeights(dist, cosN, unique);
+    std::array<double, kVertexNeighbours> out{};
+    std::copy_n(weights.w, kVertexNeighbours, out.begin());
+    return out;
+}
+
 } // namespace
 
 struct CpuLightSkin::Impl {
@@ -175,6 +214,12 @@ struct CpuLightSkin::Impl {
     std::vector<glm::dmat4> meshTransforms;                               // interpolate(): per instance, world_T_model
     std::vector<glm::dmat3> meshNormalMatrices;                           // and its normal matrix
     std::vector<std::array<std::uint32_t, kVertexNeighbours>> neighbours; // global sparse-point indices
+    /// Eq. 12's normalised weights of each vertex's neighbours with none buried (G11), from the model-space
+    /// distances and normals: a similarity transform (rotation, uniform scale, translation) keeps the
+    /// ratios d_j / d_max and the normals' dot products, so these are the world-space weights of any frame
+    /// whose transform is one (interpolate(): isSimilarity()); ~40 % of the interpolation's work per frame.
+    std::vector<std::array<double, kVertexNeighbours>> modelWeights; // per global vertex
+    std::vector<std::uint8_t> meshSimilar;                           // interpolate(): per instance, this frame
     gl::Buffer vertexVplBuffer;
 
     // Per-frame data, sized in prepare() (VALs: grown when a frame brings more).
@@ -485,6 +530,7 @@ struct CpuLightSkin::Impl {
         for (std::size_t mesh = 0; mesh < instances.size(); ++mesh) {
             meshTransforms[mesh] = glm::dmat4(instances[mesh].world_T_model);
             meshNormalMatrices[mesh] = glm::transpose(glm::inverse(glm::dmat3(meshTransforms[mesh])));
+            meshSimilar[mesh] = isSimilarity(glm::dmat3(meshTransforms[mesh])) ? 1 : 0;
         }
         const bool capOn = settings.lightSkin.vertexIrradianceCap;
         if (!pointTermsReady) // the gather with a cut; the flat gather's threads made them
@@ -498,17 +544,24 @@ struct CpuLightSkin::Impl {
                 const glm::dmat4& transform = meshTransforms[mesh];
                 const glm::dmat3& normalMatrix = meshNormalMatrices[mesh];
                 const glm::dvec3 p(transform * glm::dvec4(modelVertexPositions[v], 1.0));
-                const glm::dvec3 nv = glm::normalize(normalMatrix * modelVertexNormals[v]);
-                double dist[kVertexNeighbours], cosN[kVertexNeighbours];
-                bool unique[kVertexNeighbours], buried[kVertexNeighbours];
                 const auto& list = neighbours[v];
-                for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
-                    dist[j] = glm::length(p - pointPosition[list[j]]);
-                    cosN[j] = glm::dot(nv, pointNormal[list[j]]);
-                    unique[j] = j == 0 || list[j] != list[j - 1];
-                    buried[j] = buriedFlags[list[j]] != 0; // G11
+                bool anyBuried = false;
+                for (const std::uint32_t i : list) anyBuried = anyBuried || buriedFlags[i] != 0;
+                m::VertexWeights weights;
+                if (meshSimilar[mesh] != 0 && !anyBuried) {
+                    std::copy_n(modelWeights[v].begin(), kVertexNeighbours, weights.w);
+                } else {
+                    const glm::dvec3 nv = glm::normalize(normalMatrix * modelVertexNormals[v]);
+                    double dist[kVertexNeighbours], cosN[kVertexNeighbours];
+                    bool unique[kVertexNeighbours], buried[kVertexNeighbours];
+                    for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
+                        dist[j] = glm::length(p - pointPosition[list[j]]);
+                        cosN[j] = glm::dot(nv, pointNormal[list[j]]);
+                        unique[j] = j == 0 || list[j] != list[j - 1];
+                        buried[j] = buriedFlags[list[j]] != 0; // G11
+                    }
+                    weights = m::ls_vertexWeightsAboveSurface(dist, cosN, unique, buried);
                 }
-                const m::VertexWeights weights = m::ls_vertexWeightsAboveSurface(dist, cosN, unique, buried);
                 glm::dvec4 diffuse(0.0), diffusePosition(0.0), glossyRadiance(0.0), glossyPosition(0.0);
                 double minDD = std::numeric_limits<double>::max(), minDS = minDD; // G8
                 double cap = 0.0;                                                 // G10
@@ -625,6 +678,7 @@ void CpuLightSkin::prepare(std::span<const MeshInstance> instances) {
     impl.modelVertexPositions.clear();
     impl.modelVertexNormals.clear();
     impl.neighbours.clear();
+    impl.modelWeights.clear();
     impl.pointCount = 0;
     impl.vertexCount = 0;
     for (const MeshInstance& instance : instances) {
@@ -649,6 +703,8 @@ void CpuLightSkin::prepare(std::span<const MeshInstance> instances) {
             for (auto& index : list) index += impl.pointCount;
             impl.neighbours.push_back(list);
         }
+        for (std::size_t v = 0; v < mesh.vertexCount(); ++v)
+            impl.modelWeights.push_back(modelVertexWeights(mesh, v, set));
         impl.pointCount += std::uint32_t(set.points.size());
         impl.vertexCount += std::uint32_t(mesh.vertexCount());
         impl.convex.push_back(detail::convexForOcclusion(set));
@@ -676,6 +732,7 @@ void CpuLightSkin::prepare(std::span<const MeshInstance> instances) {
     impl.pointTerms.assign(impl.pointCount, Impl::PointTerms{});
     impl.meshTransforms.assign(instances.size(), glm::dmat4(1.0));
     impl.meshNormalMatrices.assign(instances.size(), glm::dmat3(1.0));
+    impl.meshSimilar.assign(instances.size(), 0);
     impl.vertexVplBuffer = gl::Buffer::create(GLsizeiptr(std::max<std::uint32_t>(impl.vertexCount, 1)) * 64, nullptr,
                                               GL_DYNAMIC_STORAGE_BIT);
     log::info("lightskin-cpu: prepared " + std::to_string(instances.size()) + " instance(s), " +
