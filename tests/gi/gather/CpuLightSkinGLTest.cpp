@@ -169,6 +169,23 @@ TEST_P(CpuLightSkinSetupGLTest, EveryInstructionSetMatchesTheDoubleReference) {
     EXPECT_THROW(gi::setCpuSimdTarget("NO_SUCH_TARGET"), Error);
 }
 
+// The interpolation takes eq. 12's weights from model space when a mesh's transform is a similarity
+// (CpuLightSkin.cpp, isSimilarity()); the paper setups' rotated sphere and identity floor run that
+// path. A non-uniform scale changes the distance ratios and the normals' angles, so the weights
+// must come from world space: the sphere squashed to an ellipsoid must still meet every stage's
+// reference tolerance (the reference computes its weights in world space, LightSkinComparison.h).
+using CpuLightSkinTransformGLTest = GlTest;
+
+TEST_F(CpuLightSkinTransformGLTest, ANonUniformlyScaledMeshMatchesTheDoubleReference) {
+    Scene scene = sphereOverFloor();
+    scene.instances[0].world_T_model = glm::scale(scene.instances[0].world_T_model, {1.3f, 0.7f, 1.0f});
+    const PaperSetup setup{"occlusion", true, true};
+    gi::LightSkinSettings settings;
+    settings.glossy = setup.glossy;
+    settings.occlusion = setup.occlusion;
+    checkSetup(setup, scene, runCpu(scene, settings));
+}
+
 INSTANTIATE_TEST_SUITE_P(PaperSetups, CpuLightSkinSetupGLTest,
                          ::testing::Values(PaperSetup{"diffuse", false, false}, PaperSetup{"glossy", true, false},
                                            PaperSetup{"occlusion", true, true},
