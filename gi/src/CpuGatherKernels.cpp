@@ -522,7 +522,12 @@ std::uint64_t coherenceKey(float k, float nx, float ny, float nz, const float un
 } // namespace
 
 void prepareGather(ValArrays& v, ReceiverArrays& r, std::size_t count) {
-    for (std::uint32_t b = 0; b < v.padded / kSumBlock; ++b) {
+    valBlockBoxes(v, 0, v.padded / kSumBlock);
+    orderReceivers(r, count);
+}
+
+void valBlockBoxes(ValArrays& v, std::uint32_t firstBlock, std::uint32_t endBlock) {
+    for (std::uint32_t b = firstBlock; b < endBlock; ++b) {
         float lo[3] = {v.px[b * kSumBlock], v.py[b * kSumBlock], v.pz[b * kSumBlock]};
         float hi[3] = {lo[0], lo[1], lo[2]};
         for (std::uint32_t j = b * kSumBlock; j < (b + 1) * kSumBlock; ++j) {
@@ -533,6 +538,9 @@ void prepareGather(ValArrays& v, ReceiverArrays& r, std::size_t count) {
         v.boxCy[b] = 0.5f * (lo[1] + hi[1]), v.boxHy[b] = 0.5f * (hi[1] - lo[1]);
         v.boxCz[b] = 0.5f * (lo[2] + hi[2]), v.boxHz[b] = 0.5f * (hi[2] - lo[2]);
     }
+}
+
+void orderReceivers(ReceiverArrays& r, std::size_t count) {
     for (std::size_t i = 0; i < r.padded; ++i) r.index[i] = std::uint32_t(i);
     if (count < 2) return;
     float lo[3] = {r.px[0], r.py[0], r.pz[0]}, hi[3] = {lo[0], lo[1], lo[2]};

@@ -52,7 +52,7 @@ struct ReceiverArrays {
     void resize(std::size_t paddedCount);
 
 private:
-    friend void prepareGather(ValArrays&, ReceiverArrays&, std::size_t);
+    friend void orderReceivers(ReceiverArrays&, std::size_t);
     std::vector<float> scratch_;
     std::vector<std::uint32_t> order_, grouped_;
     std::vector<std::uint64_t> keys_;
@@ -66,6 +66,10 @@ private:
 /// laid out in bit-reversed order, so that the threads' contiguous ranges get alike mixes of groups
 /// (sorted by exponent and normal, the halves differed by 1.3x in work). No allocation.
 void prepareGather(ValArrays& vals, ReceiverArrays& receivers, std::size_t receiverCount);
+/// prepareGather()'s two parts: the bounding boxes of the VAL blocks [firstBlock, endBlock) (each block
+/// independent: threads may split them), and the receivers' coherent order (serial: one sort).
+void valBlockBoxes(ValArrays& vals, std::uint32_t firstBlock, std::uint32_t endBlock);
+void orderReceivers(ReceiverArrays& receivers, std::size_t receiverCount);
 
 struct GatherParameters {
     bool glossy = true;

@@ -227,6 +227,11 @@ struct CpuLightSkin::Impl {
     std::vector<std::uint32_t> stagingKeys; // render(): the VALs' pixel keys (quadtree), grown when needed
     cpu::ValArrays vals;
     double valSums[8] = {}; // sum l (3), sum r^2, sum l^2 per axis (3), count: eps_l terms of eq. 7
+    /// buildValArrays()'s chunks of output VALs (whole blocks: each chunk's boxes are its own).
+    static constexpr std::uint32_t kValChunk = 1024;
+    static_assert(kValChunk % cpu::kSumBlock == 0);
+    std::vector<std::uint32_t> chunkInput;              // per chunk: the input index of its first valid VAL
+    std::vector<std::array<double, 8>> chunkSums;       // per chunk: its share of valSums
     std::vector<glm::dvec3> pointPosition, pointNormal; // world, per sparse point
     std::vector<double> pointExponent, pointOccluderRadius;
     cpu::ReceiverArrays receivers;
@@ -272,17 +277,46 @@ struct CpuLightSkin::Impl {
         if (!vals.px.empty()) log::info("lightskin-cpu: VAL arrays grow to " + std::to_string(capacity) + " lights");
         staging.resize(capacity);
         vals.reserve(capacity);
+        chunkInput.resize(capacity / kValChunk + 1);
+        chunkSums.resize(capacity / kValChunk + 1);
     }
 
-    /// Stage 0: the valid VALs into SoA (input order kept), the eps_l sums, padding to kSumBlock.
+    /// Stage 0: the valid VALs into SoA (input order kept), the eps_l sums, padding to kSumBlock and
+    /// the blocks' boxes (cpu::valBlockBoxes), in the threads by chunks of kValChunk output VALs: a
+    /// serial pass over the areas alone finds each chunk's first input VAL.
     void buildValArrays(std::span<const VirtualAreaLight> lights) {
         reserveVals(lights.size());
         std::uint32_t n = 0;
+        for (std::size_t i = 0; i < lights.size(); ++i) {
+            if (!(lights[i].area > 0.0f)) continue; // invalid: adds exactly 0 (ls_gatherSample)
+            if (n % kValChunk == 0) chunkInput[n / kValChunk] = std::uint32_t(i);
+            ++n;
+        }
+        vals.count = n;
+        vals.padded = (n + cpu::kSumBlock - 1) / cpu::kSumBlock * cpu::kSumBlock;
+        const std::size_t chunks = (vals.padded + kValChunk - 1) / kValChunk;
+        if (chunks > 1)
+            parallelFor(*arena, regionClock, 0, chunks, [&](std::size_t c) { buildValChunk(lights, c); });
+        else if (chunks == 1)
+            buildValChunk(lights, 0);
+        // per chunk, then the chunks in order: the same bits whichever thread summed a chunk
         std::fill(std::begin(valSums), std::end(valSums), 0.0);
+        for (std::size_t c = 0; c < chunks; ++c)
+            for (std::size_t k = 0; k < 8; ++k) valSums[k] += chunkSums[c][k];
+    }
+
+    /// buildValArrays()'s output VALs [c kValChunk, (c + 1) kValChunk): SoA, eps_l sums, padding, boxes.
+    void buildValChunk(std::span<const VirtualAreaLight> lights, std::size_t c) {
         const float coincident = float(m::kCoincident);
         const float invPi = float(1.0 / m::kPi);
-        for (const VirtualAreaLight& l : lights) {
-            if (!(l.area > 0.0f)) continue; // invalid: adds exactly 0 (ls_gatherSample)
+        const std::uint32_t first = std::uint32_t(c) * kValChunk;
+        const std::uint32_t end = std::min(first + kValChunk, vals.count);
+        const std::uint32_t paddedEnd = std::min(first + kValChunk, vals.padded);
+        std::array<double, 8> s{}; // sum l (3), sum r^2, sum l^2 per axis (3), count
+        std::size_t i = chunkInput[c];
+        for (std::uint32_t n = first; n < end; ++i) {
+            const VirtualAreaLight& l = lights[i];
+            if (!(l.area > 0.0f)) continue;
             vals.px[n] = l.position.x;
             vals.py[n] = l.position.y;
             vals.pz[n] = l.position.z;
@@ -296,23 +330,24 @@ struct CpuLightSkin::Impl {
             vals.fg[n] = l.flux.y * invPi;
             vals.fb[n] = l.flux.z * invPi;
             const glm::dvec3 p(l.position);
-            valSums[0] += p.x;
-            valSums[1] += p.y;
-            valSums[2] += p.z;
-            valSums[3] += double(l.area) / m::kPi;
-            valSums[4] += p.x * p.x;
-            valSums[5] += p.y * p.y;
-            valSums[6] += p.z * p.z;
-            valSums[7] += 1.0;
+            s[0] += p.x;
+            s[1] += p.y;
+            s[2] += p.z;
+            s[3] += double(l.area) / m::kPi;
+            s[4] += p.x * p.x;
+            s[5] += p.y * p.y;
+            s[6] += p.z * p.z;
+            s[7] += 1.0;
             ++n;
         }
-        vals.count = n;
-        vals.padded = (n + cpu::kSumBlock - 1) / cpu::kSumBlock * cpu::kSumBlock;
-        for (std::uint32_t j = n; j < vals.padded; ++j) // zero-area, zero-flux VALs at the origin: add +0
+        for (std::uint32_t j = end; j < paddedEnd; ++j) { // zero-area, zero-flux VALs at the origin: add +0
             for (auto* v : {&vals.px, &vals.py, &vals.pz, &vals.negNx, &vals.negNy, &vals.r2, &vals.cr2, &vals.fr,
                             &vals.fg, &vals.fb})
                 (*v)[j] = 0.0f;
-        for (std::uint32_t j = n; j < vals.padded; ++j) vals.negNz[j] = -1.0f;
+            vals.negNz[j] = -1.0f;
+        }
+        chunkSums[c] = s;
+        cpu::valBlockBoxes(vals, first / cpu::kSumBlock, paddedEnd / cpu::kSumBlock);
     }
 
     /// World-space sparse points (double, as reference::receiversFromSparsePoints) and the gather's SoA.
@@ -362,7 +397,7 @@ struct CpuLightSkin::Impl {
     void gather(const glm::dvec3& eye) {
         std::fill(sums.begin(), sums.end(), 0.0f);
         occlusionClock.begin();
-        cpu::prepareGather(vals, receivers, pointCount); // VAL block boxes, receivers in coherent groups
+        cpu::orderReceivers(receivers, pointCount);
         const cpu::GatherParameters parameters{glossy, moments(), settings.skipHiddenBlocks};
         const std::size_t stride = receivers.padded;
         std::atomic<std::uint64_t> skipped{0};
