@@ -92,17 +92,23 @@ static_assert(kValTile % cpu::kSumBlock == 0);
 /// receiver, never how. oneTBB, not OpenMP: libgomp's idle workers spin between parallel regions
 /// (OMP_WAIT_POLICY defaults to active) and took 30 % of the replay's CPU time from llvmpipe and the
 /// tracker on 2 cores (docs/BENCHMARKS.md, "SIMD and thread libraries").
+/// `splits` (optional): thread t's groups are [splits[t], splits[t + 1]), max_concurrency() + 1
+/// group boundaries from 0 to count / kReceiverPadding; empty: equal numbers of groups.
 template <class Body>
-void parallelRanges(tbb::task_arena& arena, RegionClock& clock, std::size_t count, const Body& body) {
+void parallelRanges(tbb::task_arena& arena, RegionClock& clock, std::size_t count, const Body& body,
+                    std::span<const std::size_t> splits = {}) {
     struct Context {
         std::size_t groups, n;
+        std::span<const std::size_t> splits;
         const Body& body;
         RegionClock& clock;
         detail::TsanParallelRegion region; // last: the fork edge follows the fields above
     };
     clock.begin(); // before the fork edge (the context's construction), read after the join (its end)
     {
-        Context context{count / cpu::kReceiverPadding, std::size_t(arena.max_concurrency()), body, clock, {}};
+        const std::size_t n = std::size_t(arena.max_concurrency());
+        LIGHTSKIN_ASSERT(splits.empty() || splits.size() == n + 1, "parallelRanges(): one split per thread + 1");
+        Context context{count / cpu::kReceiverPadding, n, splits, body, clock, {}};
         arena.execute([&context] {
             context.clock.enter();
             tbb::parallel_for(
@@ -112,8 +118,10 @@ void parallelRanges(tbb::task_arena& arena, RegionClock& clock, std::size_t coun
                     c.region.taskBegin();
                     const double start = threadCpuMs();
                     for (std::size_t t = threads.begin(); t < threads.end(); ++t) {
-                        const std::size_t begin = c.groups * t / c.n * cpu::kReceiverPadding;
-                        const std::size_t end = c.groups * (t + 1) / c.n * cpu::kReceiverPadding;
+                        const std::size_t begin =
+                            (c.splits.empty() ? c.groups * t / c.n : c.splits[t]) * cpu::kReceiverPadding;
+                        const std::size_t end =
+                            (c.splits.empty() ? c.groups * (t + 1) / c.n : c.splits[t + 1]) * cpu::kReceiverPadding;
                         if (begin < end) c.body(begin, end);
                     }
                     c.clock.add(threadCpuMs() - start);
@@ -262,12 +270,23 @@ struct CpuLightSkin::Impl {
     std::unique_ptr<tbb::task_arena> arena; // settings.threads workers (0: one per hardware thread)
     RegionClock regionClock;                // per-thread CPU time of the parallel regions (stats)
     RegionClock occlusionClock;             // per-thread CPU time of occludeSlots() (stats)
+    // planLayout(): per slot group its gather time this frame (us); per group of the sorted order its
+    // time estimate (us), bin (thread) and place; the groups by cost; per thread its load and range
+    std::vector<double> groupTime, groupCost;
+    static constexpr std::size_t kCostFrames = 4;
+    std::vector<double> recentTimes; // kCostFrames x groups: the last frames' times per sorted group (ring)
+    std::size_t costFrame = 0;       // this frame's row of recentTimes
+    std::vector<std::uint32_t> layout, byCost, binOf;
+    std::vector<double> binLoad;
+    std::vector<std::size_t> splits;
     int threadCount() const { return arena->max_concurrency(); }
     void createArena() {
         arena = std::make_unique<tbb::task_arena>(settings.threads > 0 ? settings.threads
                                                                        : int(tbb::task_arena::automatic));
         regionClock.resize(std::size_t(arena->max_concurrency()));
         occlusionClock.resize(std::size_t(arena->max_concurrency()));
+        splits.assign(std::size_t(arena->max_concurrency()) + 1, 0);
+        binLoad.assign(std::size_t(arena->max_concurrency()), 0.0);
     }
 
     void reserveVals(std::size_t count) {
@@ -397,32 +416,101 @@ struct CpuLightSkin::Impl {
     void gather(const glm::dvec3& eye) {
         std::fill(sums.begin(), sums.end(), 0.0f);
         occlusionClock.begin();
-        cpu::orderReceivers(receivers, pointCount);
+        // receivers in coherent groups, laid out for the split (the VAL boxes were made in stage 0)
+        const std::size_t full = pointCount / cpu::kReceiverPadding;
+        planLayout(full);
+        costFrame = (costFrame + 1) % kCostFrames;
+        cpu::orderReceivers(receivers, pointCount, std::span<const std::uint32_t>(layout).first(full));
         const cpu::GatherParameters parameters{glossy, moments(), settings.skipHiddenBlocks};
         const std::size_t stride = receivers.padded;
         std::atomic<std::uint64_t> skipped{0};
         const bool areas = settings.lightSkin.nearFieldArea;
         if (areas) nearField.index(vals);
-        parallelRanges(*arena, regionClock, receivers.padded, [&](std::size_t begin, std::size_t end) {
-            std::uint64_t n = 0;
-            for (std::uint32_t first = 0; first < vals.padded; first += kValTile)
-                n += cpu::gather(vals, first, std::min(first + kValTile, vals.padded), receivers, begin, end,
-                                 parameters, sums.data(), stride);
-            if (areas) nearField.apply(vals, receivers, begin, end, parameters, sums.data(), stride); // G12
-            skipped += n;
-            for (std::size_t slot = begin; slot < end; ++slot) {
-                const std::uint32_t i = receivers.index[slot];
-                if (i >= pointCount) continue; // padding
-                renormalisePoint(i, eye);
-                if (occlusion) occlusionSetup(i, slot);
-            }
-            if (occlusion) occludeSlots(begin, end);
-            for (std::size_t slot = begin; slot < end; ++slot)
-                if (receivers.index[slot] < pointCount) makePointTerms(receivers.index[slot]);
-        });
+        parallelRanges(
+            *arena, regionClock, receivers.padded,
+            [&](std::size_t begin, std::size_t end) {
+                std::uint64_t n = 0;
+                const std::size_t g0 = begin / cpu::kReceiverPadding, g1 = end / cpu::kReceiverPadding;
+                std::fill(groupTime.begin() + std::ptrdiff_t(g0), groupTime.begin() + std::ptrdiff_t(g1), 0.0);
+                for (std::uint32_t first = 0; first < vals.padded; first += kValTile) {
+                    const std::uint32_t last = std::min(first + kValTile, vals.padded);
+                    // group by group (the same order of operations as one call over the range), timed
+                    // for the next frame's layout (one clock read per call)
+                    auto before = Clock::now();
+                    for (std::size_t i = begin; i < end; i += cpu::kReceiverPadding) {
+                        n += cpu::gather(vals, first, last, receivers, i, i + cpu::kReceiverPadding, parameters,
+                                         sums.data(), stride);
+                        const auto after = Clock::now();
+                        groupTime[i / cpu::kReceiverPadding] +=
+                            std::chrono::duration<double, std::micro>(after - before).count();
+                        before = after;
+                    }
+                }
+                // per group of the sorted order, the least of its last kCostFrames frames' times: a time
+                // slice lost to another process only ever adds to a group's time
+                for (std::size_t sg = g0; sg < std::min(g1, full); ++sg) {
+                    const std::size_t g = layout[sg];
+                    recentTimes[costFrame * groupCost.size() + g] = groupTime[sg];
+                    double least = groupTime[sg];
+                    for (std::size_t f = 0; f < kCostFrames; ++f) {
+                        const double t = recentTimes[f * groupCost.size() + g];
+                        if (t > 0.0) least = std::min(least, t);
+                    }
+                    groupCost[g] = least;
+                }
+                if (areas) nearField.apply(vals, receivers, begin, end, parameters, sums.data(), stride); // G12
+                skipped += n;
+                for (std::size_t slot = begin; slot < end; ++slot) {
+                    const std::uint32_t i = receivers.index[slot];
+                    if (i >= pointCount) continue; // padding
+                    renormalisePoint(i, eye);
+                    if (occlusion) occlusionSetup(i, slot);
+                }
+                if (occlusion) occludeSlots(begin, end);
+                for (std::size_t slot = begin; slot < end; ++slot)
+                    if (receivers.index[slot] < pointCount) makePointTerms(receivers.index[slot]);
+            },
+            splits);
         pointTermsReady = true;
         const double blocks = double(vals.padded / cpu::kSumBlock) * double(receivers.padded / cpu::kReceiverPadding);
         stats.gatherBlocksSkipped = blocks > 0.0 ? double(skipped.load()) / blocks : 0.0;
+    }
+
+    /// The gather region's layout of the `full` whole groups of the sorted order and its split
+    /// (splits): with every group's time of the previous frames known (groupCost), the groups go to
+    /// the threads longest first, each to the least loaded (LPT), and each thread's groups are laid out
+    /// contiguously; else bit-reversed order and equal numbers of groups. With hidden blocks and unlit
+    /// lanes skipped, groups differ several-fold in work: the bit-reversed halves differed by 3 %
+    /// (0.3 ms at 2 threads), about one group, and moving the split point alone cannot do better than
+    /// a group. Decides only where and by whom a group is computed: no result depends on it.
+    void planLayout(std::size_t full) {
+        const std::size_t groups = receivers.padded / cpu::kReceiverPadding, n = splits.size() - 1;
+        const bool known = full > 0 && std::all_of(groupCost.begin(), groupCost.begin() + std::ptrdiff_t(full),
+                                                   [](double c) { return c > 0.0; });
+        if (!known) {
+            cpu::bitReversedLayout(std::span(layout).first(full));
+            for (std::size_t t = 0; t <= n; ++t) splits[t] = groups * t / n;
+            return;
+        }
+        for (std::size_t g = 0; g < full; ++g) byCost[g] = std::uint32_t(g);
+        std::sort(byCost.begin(), byCost.begin() + std::ptrdiff_t(full), [&](std::uint32_t a, std::uint32_t b) {
+            return groupCost[a] != groupCost[b] ? groupCost[a] > groupCost[b] : a < b;
+        });
+        std::fill(binLoad.begin(), binLoad.end(), 0.0);
+        for (std::size_t i = 0; i < full; ++i) {
+            const std::uint32_t g = byCost[i];
+            const std::size_t bin = std::size_t(std::min_element(binLoad.begin(), binLoad.end()) - binLoad.begin());
+            binOf[g] = std::uint32_t(bin);
+            binLoad[bin] += groupCost[g];
+        }
+        std::size_t pos = 0;
+        splits[0] = 0;
+        for (std::size_t bin = 0; bin < n; ++bin) {
+            for (std::size_t g = 0; g < full; ++g)
+                if (binOf[g] == bin) layout[pos++] = std::uint32_t(g);
+            splits[bin + 1] = pos;
+        }
+        splits[n] = groups; // the partial group and the padding: last
     }
 
     double sum(std::size_t s, std::size_t i) const { return double(sums[s * receivers.padded + i]); }
@@ -753,6 +841,9 @@ void CpuLightSkin::prepare(std::span<const MeshInstance> instances) {
     impl.pointOccluderRadius.assign(impl.pointCount, 0.0);
     impl.receivers.resize(padded);
     impl.sums.assign(cpu::kGatherSums * padded, 0.0f);
+    for (auto* v : {&impl.groupTime, &impl.groupCost}) v->assign(padded / cpu::kReceiverPadding, 0.0);
+    impl.recentTimes.assign(Impl::kCostFrames * (padded / cpu::kReceiverPadding), 0.0);
+    for (auto* v : {&impl.layout, &impl.byCost, &impl.binOf}) v->assign(padded / cpu::kReceiverPadding, 0);
     impl.vplD.assign(impl.pointCount, m::Vpl{});
     impl.gatheredPeakD.assign(impl.pointCount, 0.0);
     impl.pointBuried.assign(impl.pointCount, 0);
