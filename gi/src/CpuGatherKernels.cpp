@@ -497,6 +497,7 @@ void ReceiverArrays::resize(std::size_t paddedCount) {
     order_.resize(paddedCount);
     grouped_.resize(paddedCount);
     keys_.resize(paddedCount);
+    layout_.resize(paddedCount / kReceiverPadding);
 }
 
 namespace {
@@ -522,7 +523,12 @@ std::uint64_t coherenceKey(float k, float nx, float ny, float nz, const float un
 } // namespace
 
 void prepareGather(ValArrays& v, ReceiverArrays& r, std::size_t count) {
-    for (std::uint32_t b = 0; b < v.padded / kSumBlock; ++b) {
+    valBlockBoxes(v, 0, v.padded / kSumBlock);
+    orderReceivers(r, count, {});
+}
+
+void valBlockBoxes(ValArrays& v, std::uint32_t firstBlock, std::uint32_t endBlock) {
+    for (std::uint32_t b = firstBlock; b < endBlock; ++b) {
         float lo[3] = {v.px[b * kSumBlock], v.py[b * kSumBlock], v.pz[b * kSumBlock]};
         float hi[3] = {lo[0], lo[1], lo[2]};
         for (std::uint32_t j = b * kSumBlock; j < (b + 1) * kSumBlock; ++j) {
@@ -533,6 +539,21 @@ void prepareGather(ValArrays& v, ReceiverArrays& r, std::size_t count) {
         v.boxCy[b] = 0.5f * (lo[1] + hi[1]), v.boxHy[b] = 0.5f * (hi[1] - lo[1]);
         v.boxCz[b] = 0.5f * (lo[2] + hi[2]), v.boxHz[b] = 0.5f * (hi[2] - lo[2]);
     }
+}
+
+void bitReversedLayout(std::span<std::uint32_t> layout) {
+    const std::size_t full = layout.size();
+    std::size_t bits = 0;
+    while ((std::size_t(1) << bits) < full) ++bits;
+    std::size_t at = 0;
+    for (std::size_t i = 0; i < (std::size_t(1) << bits); ++i) {
+        std::size_t g = 0;
+        for (std::size_t b = 0; b < bits; ++b) g |= ((i >> b) & 1u) << (bits - 1 - b);
+        if (g < full) layout[at++] = std::uint32_t(g);
+    }
+}
+
+void orderReceivers(ReceiverArrays& r, std::size_t count, std::span<const std::uint32_t> layout) {
     for (std::size_t i = 0; i < r.padded; ++i) r.index[i] = std::uint32_t(i);
     if (count < 2) return;
     float lo[3] = {r.px[0], r.py[0], r.pz[0]}, hi[3] = {lo[0], lo[1], lo[2]};
@@ -554,16 +575,14 @@ void prepareGather(ValArrays& v, ReceiverArrays& r, std::size_t count) {
     std::sort(r.order_.begin(), r.order_.begin() + std::ptrdiff_t(count), [&](std::uint32_t a, std::uint32_t b) {
         return r.keys_[a] != r.keys_[b] ? r.keys_[a] < r.keys_[b] : a < b;
     });
-    // Whole groups in bit-reversed order (the partial last group stays last: the padding slots follow it).
-    // Any contiguous range of groups then takes about every (groups / range)-th group of the sorted order.
+    // Whole groups in the given layout or bit-reversed order (the partial last group stays last: the
+    // padding slots follow it).
     const std::size_t full = count / kReceiverPadding;
-    std::size_t bits = 0;
-    while ((std::size_t(1) << bits) < full) ++bits;
+    const bool given = layout.size() == full;
+    if (!given) bitReversedLayout(std::span(r.layout_).first(full));
     std::size_t at = 0;
-    for (std::size_t i = 0; i < (std::size_t(1) << bits); ++i) {
-        std::size_t g = 0;
-        for (std::size_t b = 0; b < bits; ++b) g |= ((i >> b) & 1u) << (bits - 1 - b);
-        if (g >= full) continue;
+    for (std::size_t pos = 0; pos < full; ++pos) {
+        const std::size_t g = given ? layout[pos] : r.layout_[pos];
         for (std::size_t lane = 0; lane < kReceiverPadding; ++lane)
             r.grouped_[at++] = r.order_[g * kReceiverPadding + lane];
     }

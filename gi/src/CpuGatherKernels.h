@@ -5,6 +5,7 @@
 // run over the VALs in list order whatever the thread or vector width.
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -52,9 +53,9 @@ struct ReceiverArrays {
     void resize(std::size_t paddedCount);
 
 private:
-    friend void prepareGather(ValArrays&, ReceiverArrays&, std::size_t);
+    friend void orderReceivers(ReceiverArrays&, std::size_t, std::span<const std::uint32_t>);
     std::vector<float> scratch_;
-    std::vector<std::uint32_t> order_, grouped_;
+    std::vector<std::uint32_t> order_, grouped_, layout_;
     std::vector<std::uint64_t> keys_;
 };
 
@@ -66,6 +67,17 @@ private:
 /// laid out in bit-reversed order, so that the threads' contiguous ranges get alike mixes of groups
 /// (sorted by exponent and normal, the halves differed by 1.3x in work). No allocation.
 void prepareGather(ValArrays& vals, ReceiverArrays& receivers, std::size_t receiverCount);
+/// prepareGather()'s two parts: the bounding boxes of the VAL blocks [firstBlock, endBlock) (each block
+/// independent: threads may split them), and the receivers' coherent order (serial: one sort).
+/// `layout` (receiverCount / kReceiverPadding entries, else ignored): layout[pos] = the group of the
+/// sorted order placed at slot group pos, a permutation; none: bitReversedLayout(). The layout moves
+/// whole groups only, so no receiver's results depend on it.
+void valBlockBoxes(ValArrays& vals, std::uint32_t firstBlock, std::uint32_t endBlock);
+void orderReceivers(ReceiverArrays& receivers, std::size_t receiverCount, std::span<const std::uint32_t> layout);
+/// The groups 0..layout.size()-1 in bit-reversed order: any contiguous range of slot groups then takes
+/// about every (groups / range)-th group of the sorted order (sorted by exponent and normal, contiguous
+/// halves differed by 1.3x in work).
+void bitReversedLayout(std::span<std::uint32_t> layout);
 
 struct GatherParameters {
     bool glossy = true;
