@@ -9,7 +9,7 @@
 #include <glm/mat3x3.hpp>
 
 #include <Eigen/Dense>
-#include <Eigen/SVD>
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -409,18 +409,36 @@ PrtData precomputePrt(std::span<const MeshInstance> instances, const MultiscaleP
         const Eigen::MatrixXd centred = x.rowwise() - mean;
         float* maps = data.clusterMaps.data() + std::size_t(c) * std::size_t(D + 1) * mapSize;
         for (std::size_t j = 0; j < mapSize; ++j) maps[j] = float(mean(Eigen::Index(j)));
-        Eigen::BDCSVD<Eigen::MatrixXd> svd(centred, Eigen::ComputeThinU | Eigen::ComputeThinV);
-        const Eigen::VectorXd& sigma = svd.singularValues();
-        const Eigen::Index rank = sigma.size();
+        // The SVD through the eigen-decomposition of the smaller Gram matrix (sigma_k^2 its eigenvalues), not
+        // Eigen 3.4.0's BDCSVD: its perturbCol0 indexes out of bounds on some of these rank-deficient matrices
+        // (an assertion with asserts on, undefined behaviour without; orbit_prt at ~6000 entries), and
+        // JacobiSVD is ~10 x slower. Squaring costs precision only in sigma_k << sigma_0, which are discarded.
+        const Eigen::Index n = centred.rows(), m = centred.cols(), rank = std::min(n, m);
+        const bool byRows = n <= m;
+        const Eigen::MatrixXd gram =
+            byRows ? Eigen::MatrixXd(centred * centred.transpose()) : Eigen::MatrixXd(centred.transpose() * centred);
+        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(gram);
+        if (eigen.info() != Eigen::Success)
+            throw Error("gi.multiscalePrt", std::nullopt,
+                        "the PCA of cluster " + std::to_string(c) + " did not converge (non-finite transfer?)");
+        const Eigen::VectorXd lambda = eigen.eigenvalues().reverse(); // descending
+        const Eigen::MatrixXd vectors = eigen.eigenvectors().rowwise().reverse();
+        Eigen::VectorXd sigma(rank);
+        for (Eigen::Index k = 0; k < rank; ++k) sigma(k) = std::sqrt(std::max(0.0, lambda(k)));
         for (Eigen::Index k = 0; k < rank; ++k) data.singularValues.push_back(float(sigma(k)));
         for (Eigen::Index k = rank; k < D; ++k) data.singularValues.push_back(0.0f);
         data.singularValueOffsets.push_back(std::uint32_t(data.singularValues.size()));
+        // A direction whose sigma is rounding noise of sigma_0 carries nothing: no basis map, zero weights.
+        const double noise = 1e-7 * (rank > 0 ? sigma(0) : 0.0);
         for (Eigen::Index d = 0; d < std::min<Eigen::Index>(D, rank); ++d) {
+            if (!(sigma(d) > noise)) break;
+            const Eigen::VectorXd v = byRows ? Eigen::VectorXd(centred.transpose() * vectors.col(d) / sigma(d))
+                                             : Eigen::VectorXd(vectors.col(d));
             float* basis = maps + std::size_t(d + 1) * mapSize;
-            for (std::size_t j = 0; j < mapSize; ++j) basis[j] = float(svd.matrixV()(Eigen::Index(j), d));
+            for (std::size_t j = 0; j < mapSize; ++j) basis[j] = float(v(Eigen::Index(j)));
+            const Eigen::VectorXd weights = centred * v; // = u_d sigma_d
             for (std::size_t i = 0; i < members.size(); ++i)
-                data.entryWeights[members[i] * std::size_t(D) + std::size_t(d)] =
-                    float(svd.matrixU()(Eigen::Index(i), d) * sigma(d));
+                data.entryWeights[members[i] * std::size_t(D) + std::size_t(d)] = float(weights(Eigen::Index(i)));
         }
     }
     data.precomputeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
