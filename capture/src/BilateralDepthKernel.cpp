@@ -5,14 +5,15 @@
 //
 // Per tap one exponential: the spatial and the range weight multiply, so their logarithms add,
 // w = 2^(log2 s_k - (c dz)^2) with c^2 = log2(e) / (2 sigma_depth^2): one FMA for the exponent, then
-// 2^y by Cephes' exp2f polynomial (relative error <= 2.9e-7 including its roundings, as
-// gi/src/CpuGatherKernels.cpp's Exp2, which this copies: capture does not depend on gi).
+// 2^y by Cephes' exp2f polynomial (core/Exp2-inl.h: relative error <= 2.9e-7 including its roundings).
 #include "BilateralDepthKernel.h"
 
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "BilateralDepthKernel.cpp"
 #include <hwy/foreach_target.h> // re-includes this file once per target
 #include <hwy/highway.h>
+// after highway.h: per-target header, re-included for every target
+#include <lightskin/core/Exp2-inl.h>
 
 HWY_BEFORE_NAMESPACE();
 namespace lightskin::capture::detail {
@@ -22,21 +23,7 @@ namespace hn = hwy::HWY_NAMESPACE;
 using D = hn::ScalableTag<float>;
 using V = hn::Vec<D>;
 
-// 2^y for y in [-126, 0] (callers clamp): n = nearest integer, f = y - n in [-1/2, 1/2] (exact),
-// 2^f = 1 + f Q(f), 2^n added to the exponent bits (2^n >= 2^-126: a normal float).
-HWY_INLINE V Exp2(D d, V y) {
-    const hn::RebindToSigned<D> di;
-    const auto n = hn::NearestInt(y);
-    const V f = hn::Sub(y, hn::ConvertTo(d, n));
-    V q = hn::Set(d, 1.535336188319500e-4f);
-    q = hn::MulAdd(q, f, hn::Set(d, 1.339887440266574e-3f));
-    q = hn::MulAdd(q, f, hn::Set(d, 9.618437357674640e-3f));
-    q = hn::MulAdd(q, f, hn::Set(d, 5.550332471162809e-2f));
-    q = hn::MulAdd(q, f, hn::Set(d, 2.402264791363012e-1f));
-    q = hn::MulAdd(q, f, hn::Set(d, 6.931472028550421e-1f));
-    const V p = hn::MulAdd(q, f, hn::Set(d, 1.0f));
-    return hn::BitCast(d, hn::Add(hn::BitCast(di, p), hn::ShiftLeft<23>(n)));
-}
+using lightskin::simd::HWY_NAMESPACE::Exp2; // core/Exp2-inl.h
 
 void BilateralRowsImpl(const float* in, std::size_t inStride, std::size_t rows, std::size_t width,
                        const BilateralTaps& taps, float rangeScale, float* out, std::size_t outStride) {

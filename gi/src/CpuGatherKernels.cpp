@@ -26,6 +26,7 @@
 #include <hwy/highway.h>
 // after highway.h: per-target header, re-included for every target
 #include "reference/LightSkinMath.h"
+#include <lightskin/core/Exp2-inl.h>
 
 #include <hwy/contrib/math/math-inl.h>
 
@@ -84,20 +85,7 @@ HWY_INLINE V Log2(D d, V c) {
     return hn::MulAdd(ln, hn::Set(d, 1.44269504088896341f), hn::ConvertTo(d, e));
 }
 
-// 2^y for y in [-126, 0] (callers clamp).
-HWY_INLINE V Exp2(D d, V y) {
-    const hn::RebindToSigned<D> di;
-    const auto n = hn::NearestInt(y);
-    const V f = hn::Sub(y, hn::ConvertTo(d, n));
-    V q = hn::Set(d, 1.535336188319500e-4f);
-    q = hn::MulAdd(q, f, hn::Set(d, 1.339887440266574e-3f));
-    q = hn::MulAdd(q, f, hn::Set(d, 9.618437357674640e-3f));
-    q = hn::MulAdd(q, f, hn::Set(d, 5.550332471162809e-2f));
-    q = hn::MulAdd(q, f, hn::Set(d, 2.402264791363012e-1f));
-    q = hn::MulAdd(q, f, hn::Set(d, 6.931472028550421e-1f));
-    const V p = hn::MulAdd(q, f, hn::Set(d, 1.0f)); // 2^f in [0.70, 1.42]
-    return hn::BitCast(d, hn::Add(hn::BitCast(di, p), hn::ShiftLeft<23>(n)));
-}
+using lightskin::simd::HWY_NAMESPACE::Exp2; // core/Exp2-inl.h
 
 // The Phong lobe cos^k of ls_pow (G3) for lanes where `c` is the clamped-able mirror cosine:
 // 0 where c <= 0 or k ln c < kMinLogPow, else 2^(k log2 c).
