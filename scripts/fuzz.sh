@@ -41,18 +41,39 @@ for target in "${targets[@]}"; do
   mkdir -p "$corpus" "$findings"
   cp -n "$root/fuzz/corpus/$target/"* "$corpus/"
   log="$build_dir/fuzz-$target.log"
+  # LIGHTSKIN_FUZZ_WORKERS=N > 1: N libFuzzer processes on the one corpus (-jobs/-workers; each
+  # logs to fuzz-<job>.log in $build_dir/logs-<target>/ and stops at its first finding); the counts
+  # below are summed over them. Default 1: one process, a deliberate choice on a shared machine.
+  workers="${LIGHTSKIN_FUZZ_WORKERS:-1}"
+  parallel=()
+  logs=("$log")
+  if [[ $workers -gt 1 ]]; then
+    rm -rf "$build_dir/logs-$target" && mkdir -p "$build_dir/logs-$target"
+    parallel=(-jobs="$workers" -workers="$workers")
+    logs=("$build_dir/logs-$target"/fuzz-*.log)
+  fi
   # -max_len 64 KiB (LIGHTSKIN_FUZZ_MAX_LEN): larger than every seed; a smaller one makes slow targets
   # (mesh: assimp) run many more inputs per second. -timeout 10 s per input is a hang; -rss_limit_mb 2048
   # is libFuzzer's default, named here because an input that makes us allocate that much is a finding.
   started=$(date +%s)
-  if "$build_dir/fuzz/lightskin_fuzz_$target" "$corpus" -max_total_time="$seconds" -max_len="${LIGHTSKIN_FUZZ_MAX_LEN:-65536}" -timeout=10 \
-      -rss_limit_mb=2048 -print_final_stats=1 -artifact_prefix="$findings/" >"$log" 2>&1; then
+  findingsBefore=$(ls "$findings" | wc -l)
+  (cd "$build_dir/logs-$target" 2>/dev/null || cd "$build_dir"
+    "$build_dir/fuzz/lightskin_fuzz_$target" "$corpus" "${parallel[@]}" -max_total_time="$seconds" \
+      -max_len="${LIGHTSKIN_FUZZ_MAX_LEN:-65536}" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
+      -artifact_prefix="$findings/" >"$log" 2>&1) || true
+  [[ $workers -gt 1 ]] && logs=("$build_dir/logs-$target"/fuzz-*.log)
+  # A finding is an input in findings/ (a crash, leak, timeout or out-of-memory), in either mode.
+  runs=$(cat "${logs[@]}" | grep -ao 'stat::number_of_executed_units: *[0-9]*' | grep -o '[0-9]*$' |
+    awk '{ s += $1 } END { print (NR ? s : "?") }')
+  if [[ $runs == "?" ]]; then
+    status="FAILED to run (see ${logs[*]})"
+    failed=1
+  elif [[ $(ls "$findings" | wc -l) -eq $findingsBefore ]]; then
     status=ok
   else
-    status="FINDING (see $log and $findings/)"
+    status="FINDING (see ${logs[*]} and $findings/)"
     failed=1
   fi
-  runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo "?")
   echo "$target: $runs executions in $(($(date +%s) - started)) s, corpus $(ls "$corpus" | wc -l) inputs: $status"
 done
 exit "$failed"
