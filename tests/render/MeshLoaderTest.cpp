@@ -287,6 +287,21 @@ TEST(MeshLoader, BadFilesGiveErrorsNamingTheFileAndCause) {
     EXPECT_NE(bodyNul.find("body_nul.ply"), std::string::npos) << bodyNul;
     EXPECT_NE(bodyNul.find("ASCII PLY: control character in the line of element 'vertex' 1"), std::string::npos)
         << bodyNul;
+    // Fuzz finding 17: a list count of 232 over 3 values; assimp read the rest from the next lines.
+    std::ofstream(bodyScratch / "short_list.ply")
+        << "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+           "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n4 0 1 2\n";
+    const std::string shortList = errorOf(bodyScratch / "short_list.ply");
+    EXPECT_NE(shortList.find("element 'face' 0 has fewer values on its line than its properties need"),
+              std::string::npos)
+        << shortList;
+    std::ofstream(bodyScratch / "short_vertex.ply")
+        << "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+           "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0\n0 1 0\n3 0 1 2\n";
+    const std::string shortVertex = errorOf(bodyScratch / "short_vertex.ply");
+    EXPECT_NE(shortVertex.find("element 'vertex' 1 has fewer values on its line than its properties need"),
+              std::string::npos)
+        << shortVertex;
     std::ofstream(bodyScratch / "format_unknown.ply")
         << "ply\nformat text 1.0\nelement vertex 0\nproperty float x\nend_header\n";
     const std::string formatUnknown = errorOf(bodyScratch / "format_unknown.ply");
