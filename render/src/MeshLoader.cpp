@@ -525,7 +525,7 @@ bool extensionReaderRecognises(const Assimp::Importer& importer, const std::file
 }
 
 /// Drops all but one of the triangles of `mesh` that span the same three corner positions (a
-/// zero-thickness flap: bun_zipper_res4.ply holds 30 such pairs, the second copy wound the other
+/// zero-thickness flap: bun_zipper_res4.ply lists 30 corner sets 2-4 times, 39 extra copies, most wound the other
 /// way). Why before the normals are generated: the copy wound against its neighbours adds its
 /// reversed face normal to its corners, which turns their smooth normals by up to ~170 degrees and the
 /// interpolated per-pixel normal of every triangle around them by tens of degrees; under light
