@@ -3,6 +3,10 @@
 // Google Highway and dispatched at run time). Data in structure-of-arrays form: one lane per
 // receiver (sparse point), VALs / occluders broadcast one at a time, so each receiver's sums
 // run over the VALs in list order whatever the thread or vector width.
+#include "reference/LightSkinMath.h"
+
+#include <lightskin/gi/VirtualAreaLight.h>
+
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -39,6 +43,24 @@ struct ValArrays {
     std::vector<float> boxCx, boxCy, boxCz, boxHx, boxHy, boxHz;
     void reserve(std::size_t capacity);
 };
+
+/// VAL `l` (area > 0) into slot n of `vals`, in the layout above: the one place that knows it, for
+/// CpuLightSkin and the differential's gather alike.
+inline void setVal(ValArrays& vals, std::uint32_t n, const VirtualAreaLight& l) {
+    const float invPi = float(1.0 / refmath::kPi);
+    const float r2 = l.area * invPi;
+    vals.px[n] = l.position.x;
+    vals.py[n] = l.position.y;
+    vals.pz[n] = l.position.z;
+    vals.negNx[n] = -l.normal.x;
+    vals.negNy[n] = -l.normal.y;
+    vals.negNz[n] = -l.normal.z;
+    vals.r2[n] = r2;
+    vals.cr2[n] = float(refmath::kCoincident) * r2;
+    vals.fr[n] = l.flux.x * invPi;
+    vals.fg[n] = l.flux.y * invPi;
+    vals.fb[n] = l.flux.z * invPi;
+}
 
 /// Gather receivers, SoA, padded to kReceiverPadding (padding: finite dummies, results ignored).
 struct ReceiverArrays {

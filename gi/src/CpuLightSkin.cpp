@@ -326,8 +326,6 @@ struct CpuLightSkin::Impl {
 
     /// buildValArrays()'s output VALs [c kValChunk, (c + 1) kValChunk): SoA, eps_l sums, padding, boxes.
     void buildValChunk(std::span<const VirtualAreaLight> lights, std::size_t c) {
-        const float coincident = float(m::kCoincident);
-        const float invPi = float(1.0 / m::kPi);
         const std::uint32_t first = std::uint32_t(c) * kValChunk;
         const std::uint32_t end = std::min(first + kValChunk, vals.count);
         const std::uint32_t paddedEnd = std::min(first + kValChunk, vals.padded);
@@ -336,18 +334,7 @@ struct CpuLightSkin::Impl {
         for (std::uint32_t n = first; n < end; ++i) {
             const VirtualAreaLight& l = lights[i];
             if (!(l.area > 0.0f)) continue;
-            vals.px[n] = l.position.x;
-            vals.py[n] = l.position.y;
-            vals.pz[n] = l.position.z;
-            vals.negNx[n] = -l.normal.x;
-            vals.negNy[n] = -l.normal.y;
-            vals.negNz[n] = -l.normal.z;
-            const float r2 = l.area * invPi;
-            vals.r2[n] = r2;
-            vals.cr2[n] = coincident * r2;
-            vals.fr[n] = l.flux.x * invPi;
-            vals.fg[n] = l.flux.y * invPi;
-            vals.fb[n] = l.flux.z * invPi;
+            cpu::setVal(vals, n, l);
             const glm::dvec3 p(l.position);
             s[0] += p.x;
             s[1] += p.y;

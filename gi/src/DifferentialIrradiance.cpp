@@ -302,23 +302,6 @@ DifferentialIrradiance DifferentialIrradiance::create(std::span<const MeshInstan
 
 namespace {
 
-/// Disc j of `discs` into slot n of the SIMD arrays (flux / pi, as CpuLightSkin's buildValArrays).
-void setSimdDisc(cpu::ValArrays& simd, std::uint32_t n, const VirtualAreaLight& l) {
-    const float invPi = float(1.0 / std::numbers::pi);
-    const float r2 = l.area * invPi;
-    simd.px[n] = l.position.x;
-    simd.py[n] = l.position.y;
-    simd.pz[n] = l.position.z;
-    simd.negNx[n] = -l.normal.x; // the kernels take minus the normal (exact)
-    simd.negNy[n] = -l.normal.y;
-    simd.negNz[n] = -l.normal.z;
-    simd.r2[n] = r2;
-    simd.cr2[n] = 1.0e-12f * r2; // guard G1 (kCoincident)
-    simd.fr[n] = l.flux.x * invPi;
-    simd.fg[n] = l.flux.y * invPi;
-    simd.fb[n] = l.flux.z * invPi;
-}
-
 /// Slots [count, padded to kSumBlock) as zero-area, zero-flux discs: they add exactly +0.
 void padSimdDiscs(cpu::ValArrays& simd, std::uint32_t count) {
     simd.count = count;
@@ -393,7 +376,7 @@ void DifferentialIrradiance::Impl::sortVals(std::span<const VirtualAreaLight> va
         valArrays.fr[s] = d.flux.x;
         valArrays.fg[s] = d.flux.y;
         valArrays.fb[s] = d.flux.z;
-        setSimdDisc(valSimd, std::uint32_t(s), d);
+        cpu::setVal(valSimd, std::uint32_t(s), d);
     }
     padSimdDiscs(valSimd, std::uint32_t(n));
 
@@ -490,7 +473,7 @@ void DifferentialIrradiance::Impl::updateEmitters(std::span<const DifferentialLi
     // The emitter discs for the receivers' bounce (validDisc as for the VALs; the order is kept).
     std::uint32_t n = 0;
     for (const VirtualAreaLight& e : emitters)
-        if (validDisc(e)) setSimdDisc(emitterSimd, n++, e);
+        if (validDisc(e)) cpu::setVal(emitterSimd, n++, e);
     padSimdDiscs(emitterSimd, n);
     cpu::prepareGather(emitterSimd, noReceivers, 0); // the discs' block boxes only
 }
