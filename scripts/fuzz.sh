@@ -46,11 +46,11 @@ for target in "${targets[@]}"; do
   # below are summed over them. Default 1: one process, a deliberate choice on a shared machine.
   workers="${LIGHTSKIN_FUZZ_WORKERS:-1}"
   parallel=()
-  logs=("$log")
+  workdir="$build_dir"
   if [[ $workers -gt 1 ]]; then
-    rm -rf "$build_dir/logs-$target" && mkdir -p "$build_dir/logs-$target"
+    workdir="$build_dir/logs-$target"
+    rm -rf "$workdir" && mkdir -p "$workdir"
     parallel=(-jobs="$workers" -workers="$workers")
-    logs=("$build_dir/logs-$target"/fuzz-*.log)
   fi
   # -max_len 64 KiB (LIGHTSKIN_FUZZ_MAX_LEN): larger than every seed; a smaller one makes slow targets
   # (mesh: assimp) run many more inputs per second. -timeout 10 s per input is a hang; -rss_limit_mb 2048
@@ -60,11 +60,12 @@ for target in "${targets[@]}"; do
   # 10 s of wall time (rerun them alone to check).
   countFindings() { find "$findings" -maxdepth 1 -type f ! -name 'slow-unit-*' | wc -l; }
   findingsBefore=$(countFindings)
-  (cd "$build_dir/logs-$target" 2>/dev/null || cd "$build_dir"
+  (cd "$workdir"
     "$build_dir/fuzz/lightskin_fuzz_$target" "$corpus" "${parallel[@]}" -max_total_time="$seconds" \
       -max_len="${LIGHTSKIN_FUZZ_MAX_LEN:-65536}" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
       -artifact_prefix="$findings/" >"$log" 2>&1) || true
-  [[ $workers -gt 1 ]] && logs=("$build_dir/logs-$target"/fuzz-*.log)
+  logs=("$log")
+  [[ $workers -gt 1 ]] && logs=("$workdir"/fuzz-*.log)
   # A finding is a new input in findings/ (a crash, leak, timeout or out-of-memory), in either mode.
   runs=$(cat "${logs[@]}" | grep -ao 'stat::number_of_executed_units: *[0-9]*' | grep -o '[0-9]*$' |
     awk '{ s += $1 } END { print (NR ? s : "?") }')
