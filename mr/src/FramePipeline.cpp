@@ -966,6 +966,7 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
         out.coverage.create(s.virtualColour.size(), CV_8UC1);
         cv::extractChannel(s.virtualColour, out.coverage, 3);
         cv::threshold(out.coverage, out.coverage, 0, 255, cv::THRESH_BINARY);
+        s.compositor.visibleInto(s.virtualColour, s.virtualDepth, realDepth, out.visibleCoverage);
         s.virtualDepth.copyTo(out.virtualDepthMetres);
         const gi::GBufferView& g = r.gbuffer();
         s.normalsRgba.create(g.height, g.width, CV_32FC4);

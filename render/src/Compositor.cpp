@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 namespace lightskin::render {
@@ -19,6 +20,17 @@ float visibility(float zVirtual, float zReal, const CompositeSettings& s) noexce
     if (!(band > 0.0f)) return zReal >= zVirtual ? 1.0f : 0.0f;
     return std::clamp((zReal - zVirtual) / (2.0f * band) + 0.5f, 0.0f, 1.0f);
 }
+
+namespace {
+/// The share a of a virtual pixel in the composite: its coverage alpha (8 bit) times its visibility over the
+/// real depth (none without real depth). One function for compositeInto(), compositeLinearInto() and
+/// visibleInto(), so that what the measures call visible is what the composite shows.
+float compositeShare(std::uint8_t coverageAlpha, float zVirtual, const float* zRealRow, int u,
+                     const CompositeSettings& settings) noexcept {
+    if (coverageAlpha == 0) return 0.0f;
+    return float(coverageAlpha) / 255.0f * (zRealRow != nullptr ? visibility(zVirtual, zRealRow[u], settings) : 1.0f);
+}
+} // namespace
 
 Compositor Compositor::create(const CameraIntrinsics& k, const CompositeSettings& settings) {
     if (!k.isValid()) throw Error("compositor", std::nullopt, "invalid colour intrinsics " + k.describe());
@@ -43,6 +55,12 @@ Compositor Compositor::create(const CameraIntrinsics& k, const CompositeSettings
                 c.mapX_.at<float>(v, u) = p.x;
                 c.mapY_.at<float>(v, u) = p.y;
             }
+        // Each render pixel's index (exact in float below 2^24 pixels), warped like the layers by visibleInto().
+        LIGHTSKIN_ASSERT(std::int64_t(k.width) * k.height < (std::int64_t(1) << 24),
+                         "lightskin::render::Compositor::create(): image too large for the pixel index map");
+        c.renderIndex_.create(k.height, k.width, CV_32FC1);
+        for (int v = 0; v < k.height; ++v)
+            for (int u = 0; u < k.width; ++u) c.renderIndex_.at<float>(v, u) = float(v * k.width + u);
     }
     return c;
 }
@@ -70,8 +88,7 @@ void Compositor::compositeInto(const cv::Mat& camera, const cv::Mat& virtualRgba
         const float* zr = realDepth.empty() ? nullptr : realDepth.ptr<float>(v);
         auto* dst = out.ptr<cv::Vec3b>(v);
         for (int u = 0; u < size.width; ++u) {
-            if (rgba[u][3] == 0) continue;
-            const float a = float(rgba[u][3]) / 255.0f * (zr != nullptr ? visibility(zv[u], zr[u], settings_) : 1.0f);
+            const float a = compositeShare(rgba[u][3], zv[u], zr, u, settings_);
             if (a <= 0.0f) continue;
             for (int c = 0; c < 3; ++c) {
                 const float virtualValue = float(rgba[u][2 - c]); // RGBA -> BGR
@@ -129,7 +146,7 @@ void Compositor::compositeLinearInto(const cv::Mat& camera, const cv::Mat& virtu
         auto* dst = out.ptr<cv::Vec3f>(v);
         for (int u = 0; u < size.width; ++u) {
             if (rgba[u][3] == 0) continue; // the decoded camera pixel
-            const float a = float(rgba[u][3]) / 255.0f * (zr != nullptr ? visibility(zv[u], zr[u], settings_) : 1.0f);
+            const float a = compositeShare(rgba[u][3], zv[u], zr, u, settings_);
             for (int c = 0; c < 3; ++c) {
                 const float virtualValue = lin[u][2 - c]; // RGBA -> BGR
                 if (a <= 0.0f) {
@@ -141,6 +158,47 @@ void Compositor::compositeLinearInto(const cv::Mat& camera, const cv::Mat& virtu
                     dst[u][c] = srgbDecode(encoded);
                 }
             }
+        }
+    }
+}
+
+void Compositor::visibleInto(const cv::Mat& virtualRgba, const cv::Mat& virtualDepth, const cv::Mat& realDepth,
+                             cv::Mat& visible) {
+    const cv::Size size(intrinsics_.width, intrinsics_.height);
+    LIGHTSKIN_ASSERT(virtualRgba.type() == CV_8UC4 && virtualRgba.size() == size,
+                     "lightskin::render::Compositor::visibleInto(): virtual colour must be CV_8UC4");
+    LIGHTSKIN_ASSERT(virtualDepth.type() == CV_32FC1 && virtualDepth.size() == size,
+                     "lightskin::render::Compositor::visibleInto(): virtual depth must be CV_32FC1");
+    LIGHTSKIN_ASSERT(
+        realDepth.empty() || (realDepth.type() == CV_32FC1 && realDepth.size() == size),
+        "lightskin::render::Compositor::visibleInto(): real depth must be empty or CV_32FC1 of the same size");
+    visible.create(size, CV_8UC1);
+    visible.setTo(cv::Scalar::all(0));
+    if (mapX_.empty()) { // output pixel = render pixel
+        for (int v = 0; v < size.height; ++v) {
+            const auto* rgba = virtualRgba.ptr<cv::Vec4b>(v);
+            const auto* zv = virtualDepth.ptr<float>(v);
+            const float* zr = realDepth.empty() ? nullptr : realDepth.ptr<float>(v);
+            auto* dst = visible.ptr<std::uint8_t>(v);
+            for (int u = 0; u < size.width; ++u)
+                if (compositeShare(rgba[u][3], zv[u], zr, u, settings_) > 0.0f) dst[u] = 255;
+        }
+        return;
+    }
+    // With distortion an output pixel shows the render pixel the warp takes it from: the same remaps as the
+    // composite, plus the render pixels' indices warped alike, so each output pixel names its source.
+    cv::remap(virtualRgba, warpedColour_, mapX_, mapY_, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+    cv::remap(virtualDepth, warpedDepth_, mapX_, mapY_, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+    cv::remap(renderIndex_, warpedIndex_, mapX_, mapY_, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar::all(-1));
+    for (int v = 0; v < size.height; ++v) {
+        const auto* rgba = warpedColour_.ptr<cv::Vec4b>(v);
+        const auto* zv = warpedDepth_.ptr<float>(v);
+        const auto* index = warpedIndex_.ptr<float>(v);
+        const float* zr = realDepth.empty() ? nullptr : realDepth.ptr<float>(v);
+        for (int u = 0; u < size.width; ++u) {
+            if (!(compositeShare(rgba[u][3], zv[u], zr, u, settings_) > 0.0f) || index[u] < 0.0f) continue;
+            const int i = int(index[u]);
+            visible.at<std::uint8_t>(i / size.width, i % size.width) = 255;
         }
     }
 }

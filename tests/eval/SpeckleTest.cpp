@@ -308,5 +308,35 @@ TEST(SpeckleTest, DefectsOnAFlatPatchAreCountedWhateverTheNormalSensitivity) {
     EXPECT_EQ(withMask.interiorPixels, without.interiorPixels);
 }
 
+TEST(SpeckleTest, HiddenPixelsLeaveTheCountAndEveryVisibleBlackPixelStays) {
+    // The composite hides the disc's rows >= 40 behind real depth (a contact line; Speckle.h, "What the user
+    // sees"). Isolated black pixels 6 px apart (one per 5x5 window, so every median stays the ramp's) in the
+    // hidden rows 41 and 44 and in the visible rows right above the line, 39 and 38, and in the middle (30).
+    cv::Mat image = smoothRamp();
+    const cv::Mat coverage = discCoverage();
+    cv::Mat visible = coverage.clone();
+    visible.rowRange(40, kSize).setTo(cv::Scalar(0));
+    std::size_t shownBlack = 0, hiddenBlack = 0;
+    for (const int v : {30, 38, 39, 41, 44})
+        for (int u = 14 + (v % 2) * 3; u <= 48; u += 6) {
+            image.at<cv::Vec3f>(v, u) = cv::Vec3f::all(0.0f);
+            (v < 40 ? shownBlack : hiddenBlack) += 1;
+        }
+    ASSERT_GT(hiddenBlack, 0u);
+    const eval::SpeckleStats all = eval::measureSpeckle(image, coverage);
+    const eval::SpeckleStats shown = eval::measureSpeckle(image, coverage, nullptr, visible);
+    EXPECT_EQ(all.blackPixels, shownBlack + hiddenBlack); // without the mask the hidden ones counted too
+    EXPECT_EQ(shown.blackPixels, shownBlack);             // every visible one, those next to the line included
+    EXPECT_EQ(shown.specklePixels, shownBlack);
+    cv::Mat interior, shownInterior;
+    cv::erode(coverage, interior, cv::Mat::ones(5, 5, CV_8U), cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(0));
+    cv::bitwise_and(interior, visible, shownInterior);
+    EXPECT_EQ(shown.interiorPixels, std::size_t(cv::countNonZero(shownInterior)));
+    // Why the mask restricts the counted pixels and is not passed as the coverage: eroded, it would drop rows
+    // 38-39 and with them visible black pixels.
+    const eval::SpeckleStats eroded = eval::measureSpeckle(image, visible);
+    EXPECT_LT(eroded.blackPixels, shownBlack);
+}
+
 } // namespace
 } // namespace lightskin::test

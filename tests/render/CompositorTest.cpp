@@ -86,6 +86,67 @@ TEST(Compositor, DistortionWarpsTheVirtualLayer) {
     EXPECT_GT(std::abs(ud - 100) + std::abs(vd - 80), 2); // the distortion really moves it here
 }
 
+// visibleInto() against the composite itself (compositeLinearInto, a separate code path through the blend): on a
+// black camera image with the virtual linear value 1 everywhere covered, an output pixel is > 0 exactly where the
+// composite blends a share a > 0 of the virtual pixel (sRGB decode of encode(1) a > 0 for any a > 0). The real
+// depth is drawn around the virtual depth over +-2 soft bands, so pixels fully shown, in the band and hidden all
+// occur; missing real depth (0) and uncovered pixels too. Distortion: no band (real depth 10 cm in front or
+// behind), each render pixel's value is its index + 1, so each output pixel names the render pixel it shows.
+TEST(Compositor, VisibleMaskIsWhereTheCompositeShowsTheVirtualPixel) {
+    const CameraIntrinsics k{64, 48, 60.0, 60.0, 31.5, 23.5, {}};
+    render::Compositor compositor = render::Compositor::create(k);
+    const cv::Mat camera(48, 64, CV_8UC3, cv::Scalar::all(0));
+    cv::Mat virtualColour(48, 64, CV_8UC4, cv::Scalar(255, 255, 255, 255));
+    const cv::Mat virtualLinear(48, 64, CV_32FC4, cv::Scalar::all(1.0));
+    const cv::Mat virtualDepth(48, 64, CV_32FC1, cv::Scalar(1.5));
+    const float band = 3.0f * render::kinectAxialNoiseMetres(1.5f); // softBandSigmas 3 > the 5 mm minimum at 1.5 m
+    cv::Mat realDepth(48, 64, CV_32FC1);
+    cv::RNG rng(12);
+    for (int v = 0; v < 48; ++v)
+        for (int u = 0; u < 64; ++u) realDepth.at<float>(v, u) = 1.5f + float(rng.uniform(-2.0, 2.0)) * band;
+    realDepth(cv::Rect(0, 0, 8, 8)).setTo(cv::Scalar(0.0));          // missing depth never hides
+    virtualColour(cv::Rect(56, 40, 8, 8)).setTo(cv::Scalar::all(0)); // uncovered
+    cv::Mat visible, out;
+    compositor.visibleInto(virtualColour, virtualDepth, realDepth, visible);
+    compositor.compositeLinearInto(camera, virtualLinear, virtualColour, virtualDepth, realDepth, out);
+    int shown = 0, hidden = 0, band01 = 0;
+    for (int v = 0; v < 48; ++v)
+        for (int u = 0; u < 64; ++u) {
+            const bool composited = out.at<cv::Vec3f>(v, u)[1] > 0.0f;
+            EXPECT_EQ(visible.at<std::uint8_t>(v, u) != 0, composited) << "pixel " << u << "," << v;
+            shown += composited ? 1 : 0;
+            hidden += composited ? 0 : 1;
+            const float a = render::visibility(1.5f, realDepth.at<float>(v, u), compositor.settings());
+            band01 += a > 0.0f && a < 1.0f ? 1 : 0;
+        }
+    EXPECT_GT(hidden, 64 * 48 / 5); // a quarter of the draws lie beyond the band behind, plus the uncovered block
+    EXPECT_GT(shown, 64 * 48 / 2);
+    EXPECT_GT(band01, 64 * 48 / 3); // half of the draws lie inside the band: partly shown, counted as shown
+
+    CameraIntrinsics distorted = CameraIntrinsics::tumFreiburg1();
+    render::Compositor warping = render::Compositor::create(distorted);
+    const cv::Size size(distorted.width, distorted.height);
+    const cv::Mat black(size, CV_8UC3, cv::Scalar::all(0));
+    cv::Mat colour(size, CV_8UC4, cv::Scalar::all(255)), depth(size, CV_32FC1, cv::Scalar(1.0)), linear(size, CV_32FC4);
+    cv::Mat real(size, CV_32FC1);
+    for (int v = 0; v < size.height; ++v)
+        for (int u = 0; u < size.width; ++u) {
+            linear.at<cv::Vec4f>(v, u) = cv::Vec4f::all(float(v * size.width + u + 1));
+            real.at<float>(v, u) = (u / 16 + v / 16) % 2 ? 1.1f : 0.9f; // checkerboard: behind / in front
+        }
+    warping.visibleInto(colour, depth, real, visible);
+    warping.compositeLinearInto(black, linear, colour, depth, real, out);
+    cv::Mat expected(size, CV_8UC1, cv::Scalar(0));
+    for (int v = 0; v < size.height; ++v)
+        for (int u = 0; u < size.width; ++u)
+            if (const float value = out.at<cv::Vec3f>(v, u)[0]; value > 0.0f) {
+                const int i = int(value) - 1;
+                expected.at<std::uint8_t>(i / size.width, i % size.width) = 255;
+            }
+    EXPECT_GT(cv::countNonZero(expected), size.area() / 4);
+    EXPECT_EQ(cv::norm(visible, expected, cv::NORM_INF), 0.0);
+}
+
 namespace {
 float decode(std::uint8_t v) {
     const float c = float(v) / 255.0f;

@@ -29,6 +29,15 @@
 //  * Speckle fraction = speckle pixels / interior pixels.
 //  * Black pixel (subset): Y < 0.1 m in a lit neighbourhood (m >= 0.1 x mean Y): a hole in the light.
 //  * Blown pixel (subset): Y > 10 max(m, floor): a spike. Non-finite Y counts as blown and speckle.
+//  * What the user sees (issue 12: the measure is about the composite): a covered pixel that the
+//    composite hides behind the real depth (render::Compositor::visibleInto: share a = coverage x
+//    visibility(z_virtual, z_real) == 0, the camera pixel is copied) is not counted; one that it shows
+//    with any a > 0, the soft occlusion band included, is. Callers pass the composite's mask
+//    (mr::FrameOutput::visibleCoverage, made by the compositor's own code, so no second tolerance)
+//    ANDed into `smooth`: it restricts the pixels counted, while the 5x5 windows and the median still
+//    see every covered pixel, so a visible pixel next to a hidden one is measured as before and every
+//    visible black pixel still counts (tests/eval/SpeckleTest.cpp). Passing the visible mask as
+//    `coverage` instead would erode it and drop the visible pixels along every contact line.
 // A median (not a mean) of 25 samples tolerates up to 12 outliers, so a speckle pixel is one that
 // differs from the bulk of its neighbourhood, and an isolated outlier in a smooth image is found
 // exactly once. A smooth image (|grad Y| * 2 px < 0.5 m everywhere) has speckle 0, and so has any
@@ -55,8 +64,9 @@ struct SpeckleStats {
 
 /// Measures `linearBgr` (CV_32FC3, linear, any scale) inside `coverage` (CV_8UC1 of the same size,
 /// != 0 = virtual content). `map` (optional): CV_8UC1, 0 outside the interior, 64 interior, 255
-/// speckle (for looking at where it is). `smooth` (optional, CV_8UC1, e.g. smoothSurfaceMaskInto()):
-/// the interior is further restricted to pixels where it is != 0. `smoothProfiles` false: the
+/// speckle (for looking at where it is). `smooth` (optional, CV_8UC1, e.g. smoothSurfaceMaskInto() ANDed
+/// with the composite's visible mask, see "What the user sees"): the interior is further restricted to
+/// pixels where it is != 0; the windows are not. `smoothProfiles` false: the
 /// median test alone (the definition before the smooth-profile refinement, for comparison). Throws
 /// lightskin::Error on other types or sizes.
 SpeckleStats measureSpeckle(const cv::Mat& linearBgr, const cv::Mat& coverage, cv::Mat* map = nullptr,

@@ -124,6 +124,10 @@ struct FrameOutput {
     /// options.referenceIndirect: CV_8UC1, 255 where virtual content covers the pixel (its G-buffer
     /// coverage, independent of the light it receives), else 0.
     cv::Mat coverage;
+    /// options.referenceIndirect: CV_8UC1, 255 where the composite shows the covered pixel (any share a > 0
+    /// of it: render::Compositor::visibleInto with the frame's filtered depth, the composite's own rule),
+    /// 0 where it is uncovered or hidden behind the real depth. What the speckle measures count.
+    cv::Mat visibleCoverage;
     /// options.referenceIndirect: CV_32FC1 camera-space depth (metres) of the virtual content.
     cv::Mat virtualDepthMetres;
     /// options.referenceIndirect: CV_32FC3 unit world normals (x, y, z) of the G-buffer, image rows.

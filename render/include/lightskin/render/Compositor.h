@@ -45,6 +45,16 @@ public:
     void compositeLinearInto(const cv::Mat& cameraBgr, const cv::Mat& virtualLinear, const cv::Mat& virtualRgba,
                              const cv::Mat& virtualDepth, const cv::Mat& realDepthMetres, cv::Mat& out);
 
+    /// Which pixels of the virtual layers (the render's pinhole grid, the inputs of compositeInto(); the grid
+    /// of Renderer's G-buffer and indirect image) the composite shows: `visible` (CV_8UC1, reallocated only
+    /// when the size changes) is 255 where compositeInto() blends a share a > 0 of that pixel into some output
+    /// pixel, a = coverage alpha * visibility(z_virtual, z_real) as above, computed by the same code; 0 where
+    /// the pixel is uncovered or hidden behind the real depth (a == 0: the camera pixel is copied). A pixel in
+    /// the soft band (0 < a < 1) counts as shown. With distortion: the pixels the warp takes an output pixel
+    /// from. For measures of what the user sees (eval::measureSpeckle; docs/BENCHMARKS.md).
+    void visibleInto(const cv::Mat& virtualRgba, const cv::Mat& virtualDepth, const cv::Mat& realDepthMetres,
+                     cv::Mat& visible);
+
     const CompositeSettings& settings() const noexcept { return settings_; }
 
 private:
@@ -52,6 +62,7 @@ private:
     CompositeSettings settings_;
     cv::Mat mapX_, mapY_; ///< distorted pixel -> undistorted render pixel (empty without distortion)
     cv::Mat warpedColour_, warpedDepth_, warpedLinear_;
+    cv::Mat renderIndex_, warpedIndex_; ///< with distortion: each render pixel's index, and its warp (visibleInto)
 };
 
 /// Differential rendering on the camera image (Debevec 1998): L_final = L_camera + rho / pi * dE, with the real
