@@ -41,6 +41,11 @@ void addBenchRealDepthCommand(CLI::App& app, int& exitCode) {
         "a CSV of the speckle pixels and one of the tracked points that flicker most, and for each case's "
         "first frame the depth VALs (CSV) and the G-buffer's world positions and normals (raw float32; "
         "bench/plots/realdepth_val_analysis.py reads them)");
+    command->add_option("--truth", options->truthReceivers,
+                        "At this many bunny pixels of each case's first frame, the Embree truth with visibility "
+                        "(4 x 8 cells per VAL) into images/<case>_truth.csv with the G-buffer position and normal");
+    command->add_option("--truth-pixels", options->truthPixels,
+                        "Pixels \"u,v;u,v\" added to --truth's (16 x 32 cells per VAL)");
     command->callback([options, &exitCode] {
         bench::runRealDepthBench(*options);
         exitCode = 0;

@@ -22,6 +22,7 @@
 #include <lightskin/eval/ColourSpace.h>
 #include <lightskin/eval/Speckle.h>
 #include <lightskin/gi/IrradianceSensitivity.h>
+#include <lightskin/gi/RayTracedGroundTruth.h>
 #include <lightskin/gl/Context.h>
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/gl/Objects.h>
@@ -379,6 +380,97 @@ void normalSensitivityInto(mr::FramePipeline& pipeline, const cv::Mat& coverage,
         }
 }
 
+/// --truth: the Embree truth with visibility at bunny pixels of this frame (RealDepthBenchOptions::truthReceivers),
+/// one CSV line per pixel: the G-buffer's position and normal (so a run with other normals can be set beside it),
+/// both techniques' luminance and the truth's with and without visibility in the same unit (2^exposure rho_d / pi E:
+/// the template's materials are diffuse), and whether the composite shows the pixel.
+void dumpTruth(const std::filesystem::path& path, mr::FramePipeline& pipeline, const mr::FrameOutput& out,
+               const Pose& world_T_camera, double exposureScale, const RealDepthBenchOptions& options) {
+    std::vector<gi::VirtualAreaLight> vals;
+    std::vector<std::uint32_t> pixels;
+    pipeline.downloadDepthValsInto(vals, pixels);
+    const gi::GBufferView& g = pipeline.renderer().gbuffer();
+    cv::Mat positions(g.height, g.width, CV_32FC4);
+    glGetTextureImage(g.worldPosition, 0, GL_RGBA, GL_FLOAT, GLsizei(positions.total() * positions.elemSize()),
+                      positions.data);
+    cv::flip(positions, positions, 0); // GL rows count from the bottom
+    const auto instances = pipeline.renderer().instances();
+    if (instances.empty()) throw Error(path.string(), std::nullopt, "no virtual object");
+    // The bunny's pixels: G-buffer positions inside its world bounding box (+1 mm); the cube stands ~10 cm away.
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+    for (const glm::vec3& p : instances[0].mesh->positions) {
+        const glm::vec3 w(instances[0].world_T_model * glm::vec4(p, 1.0f));
+        lo = glm::min(lo, w);
+        hi = glm::max(hi, w);
+    }
+    std::vector<cv::Point> bunny, chosen;
+    for (int v = 0; v < positions.rows; ++v)
+        for (int u = 0; u < positions.cols; ++u) {
+            const cv::Vec4f p = positions.at<cv::Vec4f>(v, u);
+            const glm::vec3 w(p[0], p[1], p[2]);
+            if (out.coverage.at<std::uint8_t>(v, u) && p[3] > 0.0f && glm::all(glm::greaterThanEqual(w, lo - 1e-3f)) &&
+                glm::all(glm::lessThanEqual(w, hi + 1e-3f)))
+                bunny.emplace_back(u, v);
+        }
+    const std::size_t sampled = std::min<std::size_t>(bunny.size(), std::size_t(std::max(0, options.truthReceivers)));
+    for (std::size_t i = 0; i < sampled; ++i) chosen.push_back(bunny[i * bunny.size() / sampled]);
+    std::istringstream list(options.truthPixels);
+    std::size_t extra = 0;
+    for (std::string item; std::getline(list, item, ';');) {
+        int u = -1, v = -1;
+        if (std::sscanf(item.c_str(), "%d,%d", &u, &v) != 2 || u < 0 || v < 0 || u >= positions.cols ||
+            v >= positions.rows || !out.coverage.at<std::uint8_t>(v, u))
+            throw Error("--truth-pixels", std::nullopt, "'" + item + "' is not a covered pixel u,v");
+        chosen.emplace_back(u, v);
+        ++extra;
+    }
+    std::vector<gi::GroundTruthMesh> meshes;
+    for (const gi::MeshInstance& m : instances) meshes.push_back({m.mesh, glm::dmat4(m.world_T_model)});
+    const gi::RayTracedGroundTruth truth = gi::RayTracedGroundTruth::create(meshes);
+    const glm::dvec3 eye = world_T_camera.translation();
+    std::vector<gi::GroundTruthReceiver> receivers;
+    for (const cv::Point& px : chosen) {
+        const cv::Vec4f p = positions.at<cv::Vec4f>(px.y, px.x);
+        const cv::Vec3f n = out.virtualNormals.at<cv::Vec3f>(px.y, px.x);
+        gi::GroundTruthReceiver r;
+        r.position = glm::dvec3(p[0], p[1], p[2]);
+        r.normal = glm::normalize(glm::dvec3(n[0], n[1], n[2]));
+        r.toViewer = glm::normalize(eye - r.position);
+        r.material = instances[0].material;
+        receivers.push_back(r);
+    }
+    std::vector<gi::GroundTruthResult> results(receivers.size());
+    const std::size_t coarse = receivers.size() - extra;
+    gi::GroundTruthSettings settings;
+    settings.discRings = 4; // VALs ~1 cm apart at >= 10 cm from most receivers: 32 cells per disc
+    settings.discSectors = 8;
+    truth.compute(vals, std::span(receivers).first(coarse), std::span(results).first(coarse), settings);
+    settings.discRings = 16; // contact pixels: VALs a few mm away
+    settings.discSectors = 32;
+    truth.compute(vals, std::span(receivers).subspan(coarse), std::span(results).subspan(coarse), settings);
+    cv::Mat yLs, yBf;
+    eval::luminanceInto(out.linearIndirect, yLs);
+    eval::luminanceInto(out.linearIndirectReference, yBf);
+    const glm::dvec3 reflect = exposureScale * glm::dvec3(instances[0].material.diffuseAlbedo) / 3.141592653589793;
+    const auto luminance = [&](const glm::dvec3& e) {
+        const glm::dvec3 c = reflect * e;
+        return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
+    };
+    std::ofstream csv(path);
+    csv << "u,v,x,y,z,normal_x,normal_y,normal_z,lightskin_Y,bruteforce_Y,truth_Y,truth_unoccluded_Y,visible\n";
+    csv.precision(9);
+    for (std::size_t i = 0; i < chosen.size(); ++i) {
+        const cv::Point& px = chosen[i];
+        const gi::GroundTruthReceiver& r = receivers[i];
+        csv << px.x << ',' << px.y << ',' << r.position.x << ',' << r.position.y << ',' << r.position.z << ','
+            << r.normal.x << ',' << r.normal.y << ',' << r.normal.z << ',' << yLs.at<float>(px.y, px.x) << ','
+            << yBf.at<float>(px.y, px.x) << ',' << luminance(results[i].irradiance) << ','
+            << luminance(results[i].unoccludedIrradiance) << ','
+            << (out.visibleCoverage.at<std::uint8_t>(px.y, px.x) ? 1 : 0) << '\n';
+    }
+    if (!csv) throw Error(path.string(), std::nullopt, "cannot write");
+}
+
 CaseResult runCase(const RealCase& c, const LightModel& model, double sink, const RealDepthBenchOptions& options) {
     const std::filesystem::path recording = std::filesystem::path(options.data) / c.recording;
     render::Scene scene = render::loadScene(options.scene);
@@ -459,6 +551,8 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
         // kSmoothAngle, depth within 2 %; eval::smoothSurfaceMaskInto).
         eval::smoothSurfaceMaskInto(out.coverage, out.virtualNormals, out.virtualDepthMetres, kSmoothAngleDegrees, 0.02,
                                     smooth);
+        // ... that the composite shows (eval/Speckle.h, "What the user sees"): hidden pixels out, windows whole.
+        cv::bitwise_and(smooth, out.visibleCoverage, smooth);
         const bool maps = options.maps;
         const eval::SpeckleStats ls =
             eval::measureSpeckle(out.linearIndirect, out.coverage, maps ? &mapLs : nullptr, smooth);
@@ -477,9 +571,17 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
             cv::hconcat(mapLs, mapBf, measured);
             cv::imwrite((imageFolder / (std::string(name) + "_speckle_map.png")).string(), measured);
         }
+        if (r.frames == 0 && (options.truthReceivers > 0 || !options.truthPixels.empty())) {
+            char name[160];
+            std::snprintf(name, sizeof name, "%s_%s_sink%.0fmm_truth.csv", c.name.c_str(), model.name.c_str(),
+                          sink * 1e3);
+            dumpTruth(imageFolder / name, *pipeline, out, *out.world_T_camera, std::exp2(double(scene.exposureStops)),
+                      options);
+        }
         normalSensitivityInto(*pipeline, out.coverage, out.virtualNormals, vals, valPixels, positions, sensitivity);
         eval::smoothSurfaceMaskInto(out.coverage, out.virtualNormals, out.virtualDepthMetres, kSmoothAngleDegrees, 0.02,
                                     sensitiveSmooth, sensitivity);
+        cv::bitwise_and(sensitiveSmooth, out.visibleCoverage, sensitiveSmooth);
         accumulate(r.lightSkin.speckleSensitive,
                    eval::measureSpeckle(out.linearIndirect, out.coverage, nullptr, sensitiveSmooth));
         accumulate(r.brute.speckleSensitive,
