@@ -16,7 +16,18 @@ the camera beyond the depth image's last VAL row (--extend K: copies of the last
 K times by the step between the last two rows; a what-if, not a light model).
 
     python3 bench/plots/realdepth_val_analysis.py decompose STEM SPECKLE_CSV [--extend 15] [--width 640]
+    python3 bench/plots/realdepth_val_analysis.py normals NEW_STEM OLD_STEM [--columns 0,400] [--seeds 3]
+    python3 bench/plots/realdepth_val_analysis.py truth NEW_TRUTH_CSV OLD_TRUTH_CSV
     python3 bench/plots/realdepth_val_analysis.py loop-subdivide IN.ply OUT.ply [--levels 2]
+
+normals (issue 12, why total light fell with the loader's smooth normals): two runs of the same case and frame whose
+only difference is the mesh's normals (NEW_STEM, OLD_STEM); per covered pixel in the image columns [a, b) (one
+object) the brute force in double (as decompose) with the new normals, the old ones, and the new ones turned by
+the measured old-new angles, shuffled over the pixels, about random axes (scatter without the old normals' own
+pattern; --seeds draws); totals, and per incidence class c = cos(new normal, the pixel's vector irradiance: the sum of
+the VALs' per-VAL irradiance direction, weights as eq. 3 without cos_i), c < 0 = the light comes from behind the
+normal and reaches the receiver only near its horizon. truth: the --truth CSVs of two such runs (the same pixels),
+the brute force, LightSkin and the Embree truth with visibility, summed, old against new.
 
 loop-subdivide writes Loop's smooth subdivision of an ASCII PLY triangle mesh (a finer mesh of the same
 shape, for checking whether a light feature is the coarse mesh's). Exit status: 0 done, 2 bad input
@@ -143,6 +154,95 @@ def decompose(args):
               f"window's mean normal, {window(u, v, longer):.2f} with the floor extended")
 
 
+def irradiance(vals, x, normals):
+    """The brute force's luminance (Vals.terms summed) at receivers x (n x 3) for each normal field in `normals`
+    (each n x 3 unit), and the receivers' vector irradiance (the same weights without cos_i, times the direction)."""
+    r2 = np.where(vals.area > 0, vals.area / np.pi, 0.0)
+    out = [np.zeros(len(x)) for _ in normals]
+    vector = np.zeros((len(x), 3))
+    for s in range(0, len(x), 256):
+        offset = vals.position[None] - x[s:s + 256, None]
+        d2 = (offset ** 2).sum(2)
+        t = offset / np.sqrt(np.maximum(d2 + 1e-12 * r2[None], 1e-36))[..., None]
+        cos_j = np.maximum(-(vals.normal[None] * t).sum(2), 0.0)
+        w = np.where(vals.area[None] > 0, vals.flux[None] * cos_j / np.maximum(r2[None] + d2, 1e-36) / np.pi / np.pi, 0.0)
+        vector[s:s + 256] = (w[..., None] * t).sum(1)
+        for k, n in enumerate(normals):
+            out[k][s:s + 256] = (w * np.maximum((t * n[s:s + 256, None]).sum(2), 0.0)).sum(1)
+    return out, vector
+
+
+def unit_rows(a):
+    return a / np.linalg.norm(a, axis=1, keepdims=True)
+
+
+def normals(args):
+    a, b = (int(c) for c in args.columns.split(","))
+    position = load_image(args.new + "_gbuffer_position.f32", args.width, 4)
+    new_normal = load_image(args.new + "_gbuffer_normal.f32", args.width, 4)
+    old_normal = load_image(args.old + "_gbuffer_normal.f32", args.width, 4)
+    if not np.array_equal(position, load_image(args.old + "_gbuffer_position.f32", args.width, 4)):
+        fail(args.old + "_gbuffer_position.f32", "not the G-buffer positions of " + args.new + ": not the same case")
+    table = load_vals(args.new + "_vals.csv")
+    old_table = load_vals(args.old + "_vals.csv")
+    order = lambda t: t[np.lexsort((t[:, 0], t[:, 1]))]  # the GPU appends VALs in any order
+    if table.shape != old_table.shape or not np.array_equal(order(table), order(old_table)):
+        fail(args.old + "_vals.csv", "not the VALs of " + args.new + ": not the same case and frame")
+    vals = Vals(table)
+    v, u = np.nonzero(position[..., 3] > 0)
+    keep = (u >= a) & (u < b)
+    v, u = v[keep], u[keep]
+    if len(u) == 0:
+        fail(args.new + "_gbuffer_position.f32", f"no covered pixel in columns [{a}, {b})")
+    x = position[v, u, :3].astype(float)
+    n_new, n_old = unit_rows(new_normal[v, u, :3].astype(float)), unit_rows(old_normal[v, u, :3].astype(float))
+    angle = np.arccos(np.clip((n_new * n_old).sum(1), -1.0, 1.0))
+    rng = np.random.default_rng(1)
+    turned = []
+    for _ in range(args.seeds):
+        theta = rng.permutation(angle)
+        axis = unit_rows(np.cross(n_new, rng.normal(size=n_new.shape)))
+        turned.append(unit_rows(n_new * np.cos(theta)[:, None] + axis * np.sin(theta)[:, None]))
+    (e_new, e_old, *e_turned), vector = irradiance(vals, x, [n_new, n_old] + turned)
+    print(f"{len(u)} pixels; old-new normal angle median {np.degrees(np.median(angle)):.1f}, 90th percentile "
+          f"{np.degrees(np.percentile(angle, 90)):.1f} degrees; mean old - new normal "
+          f"({', '.join(f'{c:.3f}' for c in (n_old - n_new).mean(0))})")
+    change = lambda e, m: e[m].sum() / e_new[m].sum() - 1.0 if e_new[m].sum() > 0 else float("nan")
+    everything = np.ones(len(u), bool)
+    print(f"total: new {e_new.sum():.6g}, old {e_old.sum():.6g} ({change(e_old, everything):+.1%}), turned "
+          + ", ".join(f"{e.sum():.6g} ({change(e, everything):+.1%})" for e in e_turned))
+    c = (vector * n_new).sum(1) / np.maximum(np.linalg.norm(vector, axis=1), 1e-300)
+    for lo, hi, name in ((-2.0, 0.0, "c < 0"), (0.0, 0.3, "0 <= c < 0.3"), (0.3, 0.7, "0.3 <= c < 0.7"), (0.7, 2.0, "c >= 0.7")):
+        m = (c >= lo) & (c < hi)
+        if m.any():
+            print(f"class {name}: {m.sum()} pixels, new {e_new[m].sum():.6g} ({e_new[m].sum() / max(e_new.sum(), 1e-300):.0%} "
+                  f"of the total), old {change(e_old, m):+.1%} (change {e_old[m].sum() - e_new[m].sum():+.6g}), turned "
+                  + ", ".join(f"{change(e, m):+.1%}" for e in e_turned))
+
+
+def truth(args):
+    def load(path):
+        try:
+            rows = list(csv.DictReader(open(path)))
+            return {k: np.array([float(r[k]) for r in rows]) for k in ("u", "v", "normal_x", "normal_y", "normal_z",
+                    "lightskin_Y", "bruteforce_Y", "truth_Y", "truth_unoccluded_Y")}
+        except (OSError, KeyError, ValueError) as e:
+            fail(path, f"cannot read the truth table ({e})")
+    new, old = load(args.new), load(args.old)
+    if not (np.array_equal(new["u"], old["u"]) and np.array_equal(new["v"], old["v"])) or len(new["u"]) == 0:
+        fail(args.old, "not the pixels of " + args.new)
+    total = {f"{k} {name}": t[k].sum() for name, t in (("new", new), ("old", old))
+             for k in ("bruteforce_Y", "lightskin_Y", "truth_Y", "truth_unoccluded_Y")}
+    print(f"{len(new['u'])} pixels")
+    for k in ("truth_Y", "truth_unoccluded_Y", "bruteforce_Y", "lightskin_Y"):
+        print(f"{k}: new {total[k + ' new']:.6g}, old {total[k + ' old']:.6g}, old / new "
+              f"{total[k + ' old'] / total[k + ' new']:.3f}")
+    for k in ("bruteforce_Y", "lightskin_Y"):
+        print(f"{k} / truth_Y with the new normals: new {total[k + ' new'] / total['truth_Y new']:.3f}, old "
+              f"{total[k + ' old'] / total['truth_Y new']:.3f}; each with its own normals: new "
+              f"{total[k + ' new'] / total['truth_Y new']:.3f}, old {total[k + ' old'] / total['truth_Y old']:.3f}")
+
+
 def loop_subdivide(args):
     try:
         lines = open(args.input).read().split("\n")
@@ -211,12 +311,21 @@ def main():
     d.add_argument("speckle_csv")
     d.add_argument("--extend", type=int, default=15)
     d.add_argument("--width", type=int, default=640)
+    n = sub.add_parser("normals")
+    n.add_argument("new")
+    n.add_argument("old")
+    n.add_argument("--columns", default="0,100000")
+    n.add_argument("--seeds", type=int, default=3)
+    n.add_argument("--width", type=int, default=640)
+    t = sub.add_parser("truth")
+    t.add_argument("new")
+    t.add_argument("old")
     s = sub.add_parser("loop-subdivide")
     s.add_argument("input")
     s.add_argument("output")
     s.add_argument("--levels", type=int, default=2)
     args = parser.parse_args()
-    decompose(args) if args.command == "decompose" else loop_subdivide(args)
+    {"decompose": decompose, "normals": normals, "truth": truth, "loop-subdivide": loop_subdivide}[args.command](args)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """bench/plots/realdepth_val_analysis.py on inputs whose answers are known in closed form: the brute
-force of one VAL at one receiver (eq. 3, 4 written out here), the floor extension's count, Loop's
-weights on a tetrahedron, and bad input (exit 2 naming the file)."""
+force of one VAL at one receiver (eq. 3, 4 written out here), the floor extension's count, the totals of
+two normal fields and the incidence class (normals), the truth table's sums (truth), Loop's weights on a
+tetrahedron, and bad input (exit 2 naming the file)."""
 import math
 import os
 import subprocess
@@ -77,6 +78,100 @@ class Decompose(unittest.TestCase):
         out = run("decompose", self.stem, self.csv, "--width", "5")  # 64 pixels are not rows of 5
         self.assertEqual(out.returncode, 2)
         self.assertIn("_gbuffer_position.f32", out.stderr)
+
+
+def brute_force(light, light_normal, area, flux_rgb, x, n):
+    """eq. 3, 4 for one VAL at receiver x with normal n: reflected luminance rho_Y Phi_Y cos_i cos_j / (pi^2 (r^2 + d^2))."""
+    d = light - x
+    d2 = d @ d
+    t = d / math.sqrt(d2)
+    flux_y = np.array(flux_rgb) * np.array([0.7, 0.68, 0.64]) @ np.array([0.2126, 0.7152, 0.0722])
+    return flux_y * max(t @ n, 0.0) * max(-light_normal @ t, 0.0) / (math.pi * (area / math.pi + d2)) / math.pi
+
+
+class Normals(unittest.TestCase):
+    """Two runs of one case that differ in the normals only: an 8x8 plane z = 0 (1 cm pixels) under one VAL
+    20 cm above it, new normals +z, old ones turned by 30 degrees about x (toward the VAL's side, +y)."""
+
+    def setUp(self):
+        self.dir = tempfile.TemporaryDirectory()
+        self.light = np.array([0.05, 0.3, 0.2])
+        self.light_normal = np.array([0.0, -1.0, -1.0]) / math.sqrt(2.0)
+        self.stems = {}
+        a = math.radians(30.0)
+        for name, n in (("new", (0.0, 0.0, 1.0)), ("old", (0.0, math.sin(a), math.cos(a))), ("same", (0.0, 0.0, 1.0))):
+            stem = os.path.join(self.dir.name, name + "_frame0")
+            position = np.zeros((WIDTH, WIDTH, 4), np.float32)
+            normal = np.zeros((WIDTH, WIDTH, 4), np.float32)
+            for v in range(WIDTH):
+                for u in range(WIDTH):
+                    position[v, u] = (0.01 * u, 0.01 * v, 0.0, 1.0)
+                    normal[v, u] = (*n, 0.0)
+            position.tofile(stem + "_gbuffer_position.f32")
+            normal.tofile(stem + "_gbuffer_normal.f32")
+            with open(stem + "_vals.csv", "w") as f:
+                f.write("u,v,x,y,z,normal_x,normal_y,normal_z,area,flux_r,flux_g,flux_b\n")
+                f.write(",".join(str(c) for c in (0, 0, *self.light, *self.light_normal, 1e-4, 1.0, 2.0, 3.0)) + "\n")
+            self.stems[name] = stem
+
+    def tearDown(self):
+        self.dir.cleanup()
+
+    def total(self, normal, columns=range(WIDTH)):
+        return sum(brute_force(self.light, self.light_normal, 1e-4, (1.0, 2.0, 3.0), np.array([0.01 * u, 0.01 * v, 0.0]),
+                               np.array(normal)) for v in range(WIDTH) for u in columns)
+
+    def test_totals_of_both_normal_fields_and_the_incidence_class(self):
+        out = run("normals", self.stems["new"], self.stems["old"], "--width", str(WIDTH), "--columns", "2,6")
+        self.assertEqual(out.returncode, 0, out.stderr)
+        line = next(l for l in out.stdout.splitlines() if l.startswith("total:"))
+        new = float(line.split("new ")[1].split(",")[0])
+        old = float(line.split("old ")[1].split(" ")[0])
+        a = math.radians(30.0)
+        self.assertAlmostEqual(new / self.total((0.0, 0.0, 1.0), range(2, 6)), 1.0, delta=1e-5)  # 6 digits printed
+        self.assertAlmostEqual(old / self.total((0.0, math.sin(a), math.cos(a)), range(2, 6)), 1.0, delta=1e-5)
+        self.assertIn("32 pixels; old-new normal angle median 30.0", out.stdout)
+        # Incidence class: c = cos(+z, direction to the VAL) >= 0.3 for every pixel (the VAL is 20 cm up, <= 30 cm
+        # away sideways), and at most 0.7 (it is at least 20 cm away in y) -> all 32 in one class.
+        cosines = [0.2 / np.linalg.norm(self.light - np.array([0.01 * u, 0.01 * v, 0.0])) for v in range(WIDTH) for u in range(2, 6)]
+        self.assertTrue(all(0.3 <= c < 0.7 for c in cosines))
+        self.assertIn("class 0.3 <= c < 0.7: 32 pixels", out.stdout)
+
+    def test_equal_normals_change_nothing(self):
+        out = run("normals", self.stems["new"], self.stems["same"], "--width", str(WIDTH))
+        self.assertEqual(out.returncode, 0, out.stderr)
+        line = next(l for l in out.stdout.splitlines() if l.startswith("total:"))
+        self.assertEqual(line.count("(+0.0%)"), 4)  # old and the three turned fields: angle 0
+
+    def test_another_case_is_refused(self):
+        with open(self.stems["same"] + "_vals.csv", "a") as f:
+            f.write("1,0,0,0,0.5,0,0,-1,1e-4,0,0,0\n")
+        out = run("normals", self.stems["new"], self.stems["same"], "--width", str(WIDTH))
+        self.assertEqual(out.returncode, 2)
+        self.assertIn("same_frame0_vals.csv", out.stderr)
+
+
+class Truth(unittest.TestCase):
+    def test_sums_and_ratios(self):
+        header = "u,v,x,y,z,normal_x,normal_y,normal_z,lightskin_Y,bruteforce_Y,truth_Y,truth_unoccluded_Y,visible\n"
+        with tempfile.TemporaryDirectory() as d:
+            paths = [os.path.join(d, "new.csv"), os.path.join(d, "old.csv")]
+            for path, rows in zip(paths, (("1,2,0,0,0,0,0,1,1.0,2.0,1.0,2.0,1", "3,4,0,0,0,0,0,1,1.0,2.0,3.0,2.0,1"),
+                                          ("1,2,0,0,0,0,0,1,2.0,4.0,2.0,6.0,1", "3,4,0,0,0,0,0,1,2.0,4.0,3.0,2.0,1"))):
+                with open(path, "w") as f:
+                    f.write(header + "\n".join(rows) + "\n")
+            out = run("truth", *paths)
+            self.assertEqual(out.returncode, 0, out.stderr)
+            self.assertIn("truth_Y: new 4, old 5, old / new 1.250", out.stdout)
+            self.assertIn("bruteforce_Y: new 4, old 8, old / new 2.000", out.stdout)
+            # brute force 4 and 8 against the truth 4 (new normals) and 5 (old)
+            self.assertIn("bruteforce_Y / truth_Y with the new normals: new 1.000, old 2.000; each with its own "
+                          "normals: new 1.000, old 1.600", out.stdout)
+            with open(paths[1], "a") as f:
+                f.write("5,6,0,0,0,0,0,1,1,1,1,1,1\n")
+            out = run("truth", *paths)
+            self.assertEqual(out.returncode, 2)
+            self.assertIn("old.csv", out.stderr)
 
 
 class LoopSubdivide(unittest.TestCase):
