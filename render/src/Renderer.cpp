@@ -142,6 +142,7 @@ void Renderer::setScene(const Scene& scene, bool prepareSparsePoints) {
     objects_.clear();
     instances_.clear();
     const std::string sceneName = scene.file.empty() ? std::string("scene") : scene.file.string();
+    std::vector<std::filesystem::path> warnedOpen; // once per model file, however many objects use it
     for (std::size_t i = 0; i < scene.objects.size(); ++i) {
         const SceneObject& so = scene.objects[i];
         LoadedModel model;
@@ -149,6 +150,11 @@ void Renderer::setScene(const Scene& scene, bool prepareSparsePoints) {
             model = loadModel(so.mesh);
         } catch (const Error& error) {
             throw Error(sceneName, std::nullopt, "/objects/" + std::to_string(i) + "/mesh ('" + so.name + "'): " + error.what());
+        }
+        if (const std::string warning = openBoundaryWarning(so.mesh.string(), model.report);
+            !warning.empty() && std::find(warnedOpen.begin(), warnedOpen.end(), so.mesh) == warnedOpen.end()) {
+            log::warning(warning);
+            warnedOpen.push_back(so.mesh);
         }
         double totalArea = 0.0;
         for (const MeshPart& part : model.parts) totalArea += gi::surfaceArea(part.mesh);

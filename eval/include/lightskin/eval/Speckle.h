@@ -28,8 +28,9 @@
 //    centre at 1.5x / 0.5x. Proof by construction: tests/eval/SpeckleTest.cpp.
 //  * Back faces (optional mask, issue 12): pixels where the G-buffer shows a back face are the inside of
 //    an object seen through a hole in its mesh (a scan's holes). Light reaches an object's inside only
-//    through its holes: against the ray-traced truth with visibility, an inside seen through a 4 x 4 cm
-//    hole in a 16 cm box gets < 2 % of the outside's light (gi_back_face_hole_gl_test), and both GI
+//    through its holes: against the ray-traced truth with visibility, the inside of a 16 cm box seen
+//    through a 4 x 4 cm hole gets 11 % of its lit outside's light on average, bounded by the holes'
+//    solid angle (gi_back_face_hole_gl_test; a scan's holes of a few mm let in far less), and both GI
 //    techniques write 0 there (gi::GBufferView::worldNormal). So they are not "inside a lit object":
 //    they leave the interior, and the median of a front-face pixel is taken over the front-face pixels
 //    of its window only (the upper middle of an even count), and a smooth-profile direction that
