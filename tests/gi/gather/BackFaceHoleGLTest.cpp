@@ -418,7 +418,15 @@ TriangleMesh slab() {
 // lit front face. Here the fold is a whole face: a 0.1 mm slab whose back face is drawn after its front face.
 // Reference: the brute force on the same VALs and G-buffer (checked against the ray-traced truth on the front faces
 // above), per pixel within LightSkin's factor 3 of gi_near_contact_gl_test (black = 0 and blown = 10x fail it).
-TEST_F(BackFaceHoleGLTest, BackFacingFragmentsWithinTheToleranceDoNotShadeAFrontFace) {
+// Variants: as placed; mirrored (scale x by -1: the slab is symmetric, but its winding turns clockwise on screen);
+// with a host's glFrontFace(GL_CW) left set (mr::Session draws in the host's context). In each the front face must
+// be front facing: the passes set the front face from the placement's handedness.
+enum class Placement { Plain, Mirrored, HostClockwise };
+
+class BackFaceFoldGLTest : public test::GlTest, public ::testing::WithParamInterface<Placement> {};
+
+TEST_P(BackFaceFoldGLTest, BackFacingFragmentsWithinTheToleranceDoNotShadeAFrontFace) {
+    const Placement placement = GetParam();
     const CameraIntrinsics k = intrinsics();
     const Pose pose = cameraPose();
     cv::Mat depth, depthNormals;
@@ -440,6 +448,9 @@ TEST_F(BackFaceHoleGLTest, BackFacingFragmentsWithinTheToleranceDoNotShadeAFront
     instance.mesh = &mesh;
     instance.gpu = gpu.view();
     instance.world_T_model = glm::translate(glm::mat4(1.0f), glm::vec3(kCentre + glm::dvec3(0.0, -kHalf, 0.0)));
+    if (placement == Placement::Mirrored)
+        instance.world_T_model = glm::scale(instance.world_T_model, {-1.0f, 1.0f, 1.0f});
+    if (placement == Placement::HostClockwise) glFrontFace(GL_CW);
     instance.material.diffuseAlbedo = glm::vec3(float(kAlbedo));
     instance.material.specularAlbedo = glm::vec3(0.0f);
     const std::vector<gi::MeshInstance> instances{instance};
@@ -494,6 +505,15 @@ TEST_F(BackFaceHoleGLTest, BackFacingFragmentsWithinTheToleranceDoNotShadeAFront
         }
     // The face's inner 12 cm at 0.5 m, f = 240 px: ~55 x 55 px.
     EXPECT_GT(frontPixels, 1500);
+    glFrontFace(GL_CCW);
 }
+
+INSTANTIATE_TEST_SUITE_P(Placements, BackFaceFoldGLTest,
+                         ::testing::Values(Placement::Plain, Placement::Mirrored, Placement::HostClockwise),
+                         [](const ::testing::TestParamInfo<Placement>& p) {
+                             return p.param == Placement::Plain      ? std::string("Plain")
+                                    : p.param == Placement::Mirrored ? std::string("Mirrored")
+                                                                     : std::string("HostClockwise");
+                         });
 
 } // namespace
