@@ -295,7 +295,8 @@ void dumpSpecklePixels(std::ofstream& csv, const RgbdFrame& frame, const mr::Fra
                 csv << frame.index << ',' << u << ',' << v << ',' << (lightSkin ? "lightskin" : "bruteforce") << ','
                     << (lightSkin ? yLs : yBf).at<float>(v, u) << ',' << (lightSkin ? mLs : mBf).at<float>(v, u) << ','
                     << (lightSkin ? yBf : yLs).at<float>(v, u) << ',' << n[0] << ',' << n[1] << ',' << n[2] << ','
-                    << out.virtualDepthMetres.at<float>(v, u) << ',' << real << '\n';
+                    << out.virtualDepthMetres.at<float>(v, u) << ',' << real << ','
+                    << (out.backFacing.at<std::uint8_t>(v, u) ? 1 : 0) << '\n';
             }
 }
 
@@ -540,7 +541,8 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
         speckleCsv.open(imageFolder / name);
         if (!speckleCsv) throw Error((imageFolder / name).string(), std::nullopt, "cannot write");
         speckleCsv
-            << "frame,u,v,technique,Y,median5x5,Y_other_technique,normal_x,normal_y,normal_z,depth_m,real_depth_m\n";
+            << "frame,u,v,technique,Y,median5x5,Y_other_technique,normal_x,normal_y,normal_z,depth_m,real_depth_m,"
+               "back_face\n";
     }
     while (r.frames < std::min(c.frames, options.maxFrames) && source->next(frame)) {
         pipeline->process(frame, out);
@@ -554,10 +556,10 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
         // ... that the composite shows (eval/Speckle.h, "What the user sees"): hidden pixels out, windows whole.
         cv::bitwise_and(smooth, out.visibleCoverage, smooth);
         const bool maps = options.maps;
-        const eval::SpeckleStats ls =
-            eval::measureSpeckle(out.linearIndirect, out.coverage, maps ? &mapLs : nullptr, smooth);
-        const eval::SpeckleStats bf =
-            eval::measureSpeckle(out.linearIndirectReference, out.coverage, maps ? &mapBf : nullptr, smooth);
+        const eval::SpeckleStats ls = eval::measureSpeckle(out.linearIndirect, out.coverage, maps ? &mapLs : nullptr,
+                                                           smooth, true, out.backFacing);
+        const eval::SpeckleStats bf = eval::measureSpeckle(out.linearIndirectReference, out.coverage,
+                                                           maps ? &mapBf : nullptr, smooth, true, out.backFacing);
         if (maps) {
             dumpSpecklePixels(speckleCsv, frame, out, mapLs, mapBf);
             char name[200];
@@ -582,16 +584,16 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
         eval::smoothSurfaceMaskInto(out.coverage, out.virtualNormals, out.virtualDepthMetres, kSmoothAngleDegrees, 0.02,
                                     sensitiveSmooth, sensitivity);
         cv::bitwise_and(sensitiveSmooth, out.visibleCoverage, sensitiveSmooth);
-        accumulate(r.lightSkin.speckleSensitive,
-                   eval::measureSpeckle(out.linearIndirect, out.coverage, nullptr, sensitiveSmooth));
-        accumulate(r.brute.speckleSensitive,
-                   eval::measureSpeckle(out.linearIndirectReference, out.coverage, nullptr, sensitiveSmooth));
+        accumulate(r.lightSkin.speckleSensitive, eval::measureSpeckle(out.linearIndirect, out.coverage, nullptr,
+                                                                      sensitiveSmooth, true, out.backFacing));
+        accumulate(r.brute.speckleSensitive, eval::measureSpeckle(out.linearIndirectReference, out.coverage, nullptr,
+                                                                  sensitiveSmooth, true, out.backFacing));
         accumulate(r.lightSkin.speckle, ls);
         accumulate(r.brute.speckle, bf);
         accumulate(r.lightSkin.speckleMedian,
-                   eval::measureSpeckle(out.linearIndirect, out.coverage, nullptr, smooth, false));
-        accumulate(r.brute.speckleMedian,
-                   eval::measureSpeckle(out.linearIndirectReference, out.coverage, nullptr, smooth, false));
+                   eval::measureSpeckle(out.linearIndirect, out.coverage, nullptr, smooth, false, out.backFacing));
+        accumulate(r.brute.speckleMedian, eval::measureSpeckle(out.linearIndirectReference, out.coverage, nullptr,
+                                                               smooth, false, out.backFacing));
         r.lightSkin.totalLight += coveredLuminance(out.linearIndirect, out.coverage);
         r.brute.totalLight += coveredLuminance(out.linearIndirectReference, out.coverage);
         if (r.frames == 0) {

@@ -73,13 +73,20 @@ bool near(double value, double reference, double floor) {
 
 /// Whether the pixel lies on a smooth profile (Speckle.h): along one of the four directions e it is
 /// on the straight lines through its +-1 and its +-2 neighbours, and across e it is not an extremum
-/// of its two +-1 neighbours. The caller guarantees a covered 5x5 window.
-bool onSmoothProfile(const cv::Mat& y, int u, int v, double floor) {
+/// of its two +-1 neighbours. The caller guarantees a covered 5x5 window. A direction that would use a
+/// back-face pixel (`backFacing`, may be empty) explains nothing: the dark inside is no profile.
+bool onSmoothProfile(const cv::Mat& y, int u, int v, double floor, const cv::Mat& backFacing) {
     const auto at = [&](int du, int dv) { return double(y.at<float>(v + dv, u + du)); };
+    const auto back = [&](int du, int dv) {
+        return !backFacing.empty() && backFacing.at<std::uint8_t>(v + dv, u + du) != 0;
+    };
     const double value = at(0, 0);
     static constexpr int kDirections[4][2] = {{1, 0}, {0, 1}, {1, 1}, {1, -1}};
     for (const auto& e : kDirections) {
         const int du = e[0], dv = e[1];
+        if (back(-du, -dv) || back(du, dv) || back(-2 * du, -2 * dv) || back(2 * du, 2 * dv) || back(dv, -du) ||
+            back(-dv, du))
+            continue;
         const double line1 = 0.5 * (at(-du, -dv) + at(du, dv)),
                      line2 = 0.5 * (at(-2 * du, -2 * dv) + at(2 * du, 2 * dv));
         if (!near(value, line1, floor) || !near(value, line2, floor)) continue;
@@ -93,7 +100,7 @@ bool onSmoothProfile(const cv::Mat& y, int u, int v, double floor) {
 } // namespace
 
 SpeckleStats measureSpeckle(const cv::Mat& linearBgr, const cv::Mat& coverage, cv::Mat* map, const cv::Mat& smooth,
-                            bool smoothProfiles) {
+                            bool smoothProfiles, const cv::Mat& backFacing) {
     if (linearBgr.type() != CV_32FC3 || coverage.type() != CV_8UC1 || linearBgr.size() != coverage.size())
         throw Error("measureSpeckle", std::nullopt,
                     "expected a CV_32FC3 image and a CV_8UC1 coverage mask of the same size");
@@ -108,12 +115,31 @@ SpeckleStats measureSpeckle(const cv::Mat& linearBgr, const cv::Mat& coverage, c
             throw Error("measureSpeckle", std::nullopt, "the smooth mask must be CV_8UC1 of the image's size");
         interior.setTo(cv::Scalar(0), smooth == 0);
     }
+    if (!backFacing.empty()) {
+        if (backFacing.type() != CV_8UC1 || backFacing.size() != coverage.size())
+            throw Error("measureSpeckle", std::nullopt, "the back-face mask must be CV_8UC1 of the image's size");
+        interior.setTo(cv::Scalar(0), backFacing != 0);
+    }
     // Non-finite values would poison the median filter: replace them by 0 for the median only
     // (a non-finite pixel is counted as blown below).
     cv::Mat finiteY = y.clone();
     cv::patchNaNs(finiteY, 0.0);
     cv::max(cv::min(finiteY, 3.0e38), -3.0e38, finiteY);
     cv::medianBlur(finiteY, median, 5);
+    if (!backFacing.empty()) // windows with a back face: the median of their front-face pixels (Speckle.h)
+        for (int v = 2; v + 2 < y.rows; ++v)
+            for (int u = 2; u + 2 < y.cols; ++u) {
+                if (!interior.at<std::uint8_t>(v, u)) continue;
+                float front[25];
+                int count = 0;
+                for (int dv = -2; dv <= 2; ++dv)
+                    for (int du = -2; du <= 2; ++du)
+                        if (!backFacing.at<std::uint8_t>(v + dv, u + du))
+                            front[count++] = finiteY.at<float>(v + dv, u + du);
+                if (count == 25) continue;                                 // medianBlur's value
+                std::nth_element(front, front + count / 2, front + count); // count >= 1: the pixel itself
+                median.at<float>(v, u) = front[count / 2];
+            }
 
     double sum = 0.0;
     std::size_t finiteCount = 0;
@@ -149,7 +175,7 @@ SpeckleStats measureSpeckle(const cv::Mat& linearBgr, const cv::Mat& coverage, c
             }
             const double scale = std::max(m, floor);
             if (std::abs(value - m) <= 0.5 * scale) continue;
-            if (smoothProfiles && onSmoothProfile(finiteY, u, v, floor)) continue;
+            if (smoothProfiles && onSmoothProfile(finiteY, u, v, floor, backFacing)) continue;
             mark();
             ++s.specklePixels;
             if (m >= litLevel && value < 0.1 * m) ++s.blackPixels;

@@ -16,12 +16,15 @@ layout(location = 0) out vec4 outRadiance;
 void main() {
     const ivec2 texel = ivec2(gl_FragCoord.xy);
     const vec4 position = texelFetch(uGPosition, texel, 0);
-    if (position.w == 0.0) {
+    const vec4 normal = texelFetch(uGNormal, texel, 0);
+    // Uncovered, or a back face (w = 1: the object's inside seen through a hole in its mesh, dark as in
+    // LightSkin; gi::GBufferView::worldNormal).
+    if (position.w == 0.0 || normal.w > 0.5) {
         outRadiance = vec4(0.0);
         return;
     }
     const vec3 x = position.xyz;
-    const vec3 n = normalize(texelFetch(uGNormal, texel, 0).xyz);
+    const vec3 n = normalize(normal.xyz);
     const vec3 rhoD = texelFetch(uGAlbedo, texel, 0).rgb;
     const vec4 specular = texelFetch(uGSpecular, texel, 0);
 #ifdef GLOSSY

@@ -24,7 +24,14 @@ void main() {
     if (position.w == 0.0) discard;
     const float tolerance = uPositionTolerance + 1e-4 * length(position.xyz - uEye);
     if (length(position.xyz - vWorld) > tolerance) discard;
-    const vec3 n = normalize(texelFetch(uGNormal, texel, 0).xyz);
+    const vec4 normal = texelFetch(uGNormal, texel, 0);
+    // A back face (w = 1) is the object's inside seen through a hole in its mesh: no light (the target
+    // is cleared to 0). Why 0: gi::GBufferView::worldNormal. And a back-facing fragment never shades a
+    // front-face pixel: where a scan folds over itself (bun_zipper_res4.ply), a triangle wound the other
+    // way lies within the position tolerance behind the visible one; its VPLs sit on its own side, behind
+    // the G-buffer's normal, and drawn last it wrote 0 over the visible surface's light.
+    if (normal.w > 0.5 || !gl_FrontFacing) discard;
+    const vec3 n = normalize(normal.xyz);
     const vec3 rhoD = texelFetch(uGAlbedo, texel, 0).rgb;
     const vec4 specular = texelFetch(uGSpecular, texel, 0);
     Vpl d;

@@ -453,7 +453,7 @@ struct FramePipeline::State {
     PreparedFrame prepared;                    // process()'s own front (Session's prefetch brings its own)
     cv::Mat virtualColour, virtualDepth, virtualLinear, srgbToLinearTable;
     std::unique_ptr<gi::IndirectIllumination> bruteForce; // error view only
-    cv::Mat indirectTechnique, indirectReference, errorMap, normalsRgba;
+    cv::Mat indirectTechnique, indirectReference, errorMap, normalsRgba, facing;
     std::vector<glm::vec4> vertexVpls; // vpl view only
     std::vector<gl::StageTime> scratchTimes;
     cv::Mat coverage;             // alpha of virtualColour (coveredPixels)
@@ -973,6 +973,8 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
         glGetTextureImage(g.worldNormal, 0, GL_RGBA, GL_FLOAT, GLsizei(s.normalsRgba.total() * s.normalsRgba.elemSize()), s.normalsRgba.data);
         cv::flip(s.normalsRgba, s.normalsRgba, 0); // GL rows count from the bottom
         cv::cvtColor(s.normalsRgba, out.virtualNormals, cv::COLOR_RGBA2RGB);
+        cv::extractChannel(s.normalsRgba, s.facing, 3); // w = 1 on back faces, 0 on front faces and background
+        cv::compare(s.facing, 0.5, out.backFacing, cv::CMP_GT);
         if (runGi) {
             if (!s.bruteForce) {
                 render::GiSettings reference = gi_;

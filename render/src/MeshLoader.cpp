@@ -780,6 +780,9 @@ LoadedModel loadModel(const std::filesystem::path& path) {
             part.material = convertMaterial(*scene->mMaterials[in.mMaterialIndex], folder, part.materialName,
                                             part.emission, source);
         mesh.validate(where);
+        const OpenBoundaries open = findOpenBoundaries(mesh);
+        model.report.boundaryEdges += open.edges;
+        model.report.boundaryLoops += open.loops;
         model.parts.push_back(std::move(part));
     }
     if (model.parts.empty()) throw Error(source, std::nullopt, "file contains no non-degenerate triangles");
@@ -790,6 +793,62 @@ LoadedModel loadModel(const std::filesystem::path& path) {
                   std::to_string(r.droppedDuplicateTriangles) + " duplicate triangles, generated normals for " +
                   std::to_string(r.partsWithGeneratedNormals) + " part(s)");
     return model;
+}
+
+OpenBoundaries findOpenBoundaries(const TriangleMesh& mesh) {
+    // Corners joined by exact position: sort the vertex indices by position, equal positions share an id.
+    std::vector<std::uint32_t> order(mesh.positions.size()), corner(mesh.positions.size());
+    for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+    const auto key = [&](std::uint32_t i) {
+        const glm::vec3& p = mesh.positions[i];
+        return std::array<float, 3>{p.x, p.y, p.z};
+    };
+    std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return key(a) < key(b); });
+    std::uint32_t corners = 0;
+    for (std::size_t k = 0; k < order.size(); ++k) {
+        if (k > 0 && key(order[k]) != key(order[k - 1])) ++corners;
+        corner[order[k]] = corners;
+    }
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
+    edges.reserve(mesh.indices.size());
+    for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3)
+        for (std::size_t k = 0; k < 3; ++k) {
+            const std::uint32_t a = corner[mesh.indices[t + k]], b = corner[mesh.indices[t + (k + 1) % 3]];
+            if (a != b) edges.emplace_back(std::min(a, b), std::max(a, b));
+        }
+    std::sort(edges.begin(), edges.end());
+    // Union-find over the corners of boundary edges: one root per loop.
+    std::vector<std::uint32_t> parent(std::size_t(corners) + 1);
+    for (std::uint32_t i = 0; i < parent.size(); ++i) parent[i] = i;
+    const auto find = [&](std::uint32_t x) {
+        while (parent[x] != x) x = parent[x] = parent[parent[x]];
+        return x;
+    };
+    std::vector<bool> onBoundary(parent.size(), false);
+    OpenBoundaries result;
+    for (std::size_t k = 0; k < edges.size();) {
+        std::size_t next = k + 1;
+        while (next < edges.size() && edges[next] == edges[k]) ++next;
+        if (next - k == 1) {
+            ++result.edges;
+            const auto [a, b] = edges[k];
+            onBoundary[a] = onBoundary[b] = true;
+            parent[find(a)] = find(b);
+        }
+        k = next;
+    }
+    for (std::uint32_t i = 0; i < parent.size(); ++i)
+        if (onBoundary[i] && find(i) == i) ++result.loops;
+    return result;
+}
+
+std::string openBoundaryWarning(const std::string& meshFile, const MeshLoadReport& report) {
+    if (report.boundaryEdges == 0) return {};
+    return meshFile + ": the mesh is open (" + std::to_string(report.boundaryLoops) + " hole(s), " +
+           std::to_string(report.boundaryEdges) +
+           " boundary edges): where the camera sees the object's inside through a hole, the GI gives it no "
+           "indirect light (a nearly closed object's inside is lit only through its holes), so a hole shows "
+           "as a dark spot; close the holes (a watertight remesh) if the object should look solid";
 }
 
 } // namespace lightskin::render

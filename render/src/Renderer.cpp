@@ -142,6 +142,7 @@ void Renderer::setScene(const Scene& scene, bool prepareSparsePoints) {
     objects_.clear();
     instances_.clear();
     const std::string sceneName = scene.file.empty() ? std::string("scene") : scene.file.string();
+    std::vector<std::filesystem::path> warnedOpen; // once per model file, however many objects use it
     for (std::size_t i = 0; i < scene.objects.size(); ++i) {
         const SceneObject& so = scene.objects[i];
         LoadedModel model;
@@ -149,6 +150,11 @@ void Renderer::setScene(const Scene& scene, bool prepareSparsePoints) {
             model = loadModel(so.mesh);
         } catch (const Error& error) {
             throw Error(sceneName, std::nullopt, "/objects/" + std::to_string(i) + "/mesh ('" + so.name + "'): " + error.what());
+        }
+        if (const std::string warning = openBoundaryWarning(so.mesh.string(), model.report);
+            !warning.empty() && std::find(warnedOpen.begin(), warnedOpen.end(), so.mesh) == warnedOpen.end()) {
+            log::warning(warning);
+            warnedOpen.push_back(so.mesh);
         }
         double totalArea = 0.0;
         for (const MeshPart& part : model.parts) totalArea += gi::surfaceArea(part.mesh);
@@ -267,6 +273,9 @@ void Renderer::renderGBuffer(const Pose& world_T_camera) {
     const GLuint p = gbufferProgram_.id();
     for (const auto& o : objects_) {
         setMat4(gbufferProgram_, "world_T_model", o->world_T_model);
+        // The facing (gl_FrontFacing, the G-buffer's back-face flag) follows the mesh's counter-clockwise
+        // winding: clockwise on screen under a mirroring placement, whatever the host's state.
+        glFrontFace(glm::determinant(glm::mat3(o->world_T_model)) < 0.0f ? GL_CW : GL_CCW);
         const glm::mat3 normalMatrix = glm::inverseTranspose(glm::mat3(o->world_T_model));
         glProgramUniformMatrix3fv(p, gbufferProgram_.uniformLocation("normalMatrix"), 1, GL_FALSE, glm::value_ptr(normalMatrix));
         glProgramUniform3fv(p, gbufferProgram_.uniformLocation("diffuseAlbedo"), 1, glm::value_ptr(o->material.diffuseAlbedo));
@@ -276,6 +285,7 @@ void Renderer::renderGBuffer(const Pose& world_T_camera) {
         glBindTextureUnit(0, o->texture ? o->texture.id() : whiteTexture_.id());
         o->gpu.draw();
     }
+    glFrontFace(GL_CCW);
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
     glDisable(GL_DEPTH_TEST);
     glDisable(GL_SCISSOR_TEST);

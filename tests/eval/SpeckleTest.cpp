@@ -194,6 +194,44 @@ TEST(SpeckleTest, NonFiniteIsBlownAndBadInputThrows) {
     EXPECT_THROW(eval::measureSpeckle(cv::Mat(4, 4, CV_32FC3), cv::Mat(5, 4, CV_8UC1)), Error);
 }
 
+TEST(SpeckleTest, BackFacesLeaveTheInteriorAndEveryBlackFrontPixelCounts) {
+    // Uniform light 1.0 on the front faces; a 4 x 4 hole at (30..33, 30..33) shows a back face, dark (0, as
+    // the GI techniques write there). Without the mask the hole's corner pixels count as black (9 of
+    // their window's 25 samples are 0, the median is 1.0); with it the hole leaves the interior.
+    cv::Mat image(kSize, kSize, CV_32FC3, cv::Scalar::all(1.0));
+    const cv::Mat all(kSize, kSize, CV_8UC1, cv::Scalar(255));
+    cv::Mat back(kSize, kSize, CV_8UC1, cv::Scalar(0));
+    const cv::Rect hole(30, 30, 4, 4);
+    image(hole).setTo(cv::Scalar::all(0.0));
+    back(hole).setTo(cv::Scalar(255));
+    EXPECT_GE(eval::measureSpeckle(image, all).blackPixels, 4u);
+    cv::Mat map;
+    const eval::SpeckleStats masked = eval::measureSpeckle(image, all, &map, cv::Mat(), true, back);
+    EXPECT_EQ(masked.specklePixels, 0u);
+    EXPECT_EQ(masked.interiorPixels, std::size_t((kSize - 4) * (kSize - 4) - 16)); // covered: still eroded as before
+    EXPECT_EQ(cv::countNonZero(map(hole)), 0);                                     // not measured
+    EXPECT_DOUBLE_EQ(masked.meanLuminance, 1.0);
+
+    // A black front-face pixel in a notch of a hole: the back face covers columns 30-32 of rows 30-34 but
+    // (32, 32), which is front facing and black. Its window (columns 30-34) holds 14 back-face zeros, the
+    // pixel's own 0 and 10 lit front samples: the plain median is 0 (an "unlit" neighbourhood, so the
+    // pixel is not black by the definition), the median of the 11 front samples is 1.0.
+    image.setTo(cv::Scalar::all(1.0));
+    back.setTo(cv::Scalar(0));
+    const cv::Rect notched(30, 30, 3, 5);
+    image(notched).setTo(cv::Scalar::all(0.0));
+    back(notched).setTo(cv::Scalar(255));
+    back.at<std::uint8_t>(32, 32) = 0; // (row, column)
+    cv::Mat plainMap;
+    eval::measureSpeckle(image, all, &plainMap);
+    EXPECT_NE(plainMap.at<std::uint8_t>(32, 32), 255); // the plain measure misses it
+    const eval::SpeckleStats front = eval::measureSpeckle(image, all, &map, cv::Mat(), true, back);
+    EXPECT_EQ(front.blackPixels, 1u);
+    EXPECT_EQ(front.specklePixels, 1u);
+    EXPECT_EQ(map.at<std::uint8_t>(32, 32), 255);
+    EXPECT_THROW(eval::measureSpeckle(image, all, nullptr, cv::Mat(), true, cv::Mat(4, 4, CV_8UC1)), Error);
+}
+
 TEST(SpeckleTest, SmoothSurfaceMaskDropsCreasesAndDepthSteps) {
     // Left half faces +z, right half is turned by 40 degrees (a crease at u = 32); a depth step of
     // 10 % along v = 32. Pixels whose 5x5 window crosses either are not smooth; the others are.

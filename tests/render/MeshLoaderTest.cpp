@@ -671,3 +671,52 @@ TEST(MeshLoader, SharpEdgesKeepFaceNormalsAndGentleEdgesAreSmoothedOnSharedVerti
     }
     EXPECT_EQ(ridge, 3);
 }
+
+TEST(MeshLoader, OpenBoundariesAreCountedAsEdgesAndLoops) {
+    // A cube of 8 shared corners (OBJ), 12 triangles; counted by hand: removing the two triangles of the top
+    // face opens a square hole (4 boundary edges, 1 loop), removing one triangle of the bottom face a
+    // triangular one (3 edges, 1 loop): 7 edges, 2 loops. The closed cube has none.
+    const std::string corners = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n";
+    const std::vector<std::string> faces = {
+        "f 1 3 2\nf 1 4 3\n",                                                        // bottom (z = 0)
+        "f 5 6 7\nf 5 7 8\n",                                                        // top (z = 1)
+        "f 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n"}; // sides
+    const std::filesystem::path folder = std::filesystem::temp_directory_path() / "lightskin_open_boundaries";
+    std::filesystem::create_directories(folder);
+    const auto write = [&](const std::string& name, const std::string& text) {
+        std::ofstream(folder / name) << text;
+        return folder / name;
+    };
+    const auto closed = loadModel(write("closed.obj", corners + faces[0] + faces[1] + faces[2]));
+    EXPECT_EQ(closed.report.boundaryEdges, 0u);
+    EXPECT_EQ(closed.report.boundaryLoops, 0u);
+    EXPECT_EQ(lightskin::render::openBoundaryWarning("closed.obj", closed.report), "");
+    const auto open = loadModel(write("open.obj", corners + "f 1 3 2\n" + faces[2]));
+    EXPECT_EQ(open.report.boundaryEdges, 7u);
+    EXPECT_EQ(open.report.boundaryLoops, 2u);
+    const std::string warning = lightskin::render::openBoundaryWarning("open.obj", open.report);
+    EXPECT_NE(warning.find("open.obj"), std::string::npos);
+    EXPECT_NE(warning.find("2 hole(s), 7 boundary edges"), std::string::npos) << warning;
+    // The loader splits the cube's corners at its 90 degree creases (24 vertices): corners are joined by position,
+    // so the splits are no boundary.
+    EXPECT_GT(closed.vertexCount(), 8u);
+    std::filesystem::remove_all(folder);
+
+    // The bunny scan (bun_zipper_res4.ply): counted from the file with a script (Python, corners joined by
+    // position, each corner set once as the loader keeps it): 907 triangles, 53 boundary edges in 21 loops (its
+    // scan holes; 46 further edges are shared by more than two triangles, non-manifold, not open).
+    const auto bunny = loadModel(dataPath("meshes/bun_zipper_res4.ply"));
+    EXPECT_EQ(bunny.report.boundaryEdges, 53u);
+    EXPECT_EQ(bunny.report.boundaryLoops, 21u);
+
+    // findOpenBoundaries on a hand-made mesh: one triangle is one loop of 3 edges; two triangles sharing only a
+    // corner are one loop (their rims touch) of 6 edges.
+    TriangleMesh one;
+    one.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {-1, 0, 0}, {0, -1, 0}};
+    one.indices = {0, 1, 2};
+    EXPECT_EQ(lightskin::render::findOpenBoundaries(one).edges, 3u);
+    EXPECT_EQ(lightskin::render::findOpenBoundaries(one).loops, 1u);
+    one.indices = {0, 1, 2, 0, 3, 4};
+    EXPECT_EQ(lightskin::render::findOpenBoundaries(one).edges, 6u);
+    EXPECT_EQ(lightskin::render::findOpenBoundaries(one).loops, 1u);
+}

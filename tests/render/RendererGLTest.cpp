@@ -412,3 +412,67 @@ TEST_F(RendererGLTest, ClearingOnlyTheLastRectangleLeavesNoStalePixels) {
             EXPECT_EQ(cv::norm(textures[0][t], textures[1][t], cv::NORM_INF), 0.0) << "view " << i << ", texture " << t;
     }
 }
+
+// The G-buffer's facing flag (normal w, gi::GBufferView::worldNormal) through the renderer: a cube without the face
+// toward the camera shows only its inside (back faces: w = 1, the normal turned toward the camera); the closed cube
+// under a mirroring placement (scale x by -1, its winding clockwise on screen) shows front faces (w = 0). And the
+// open cube, placed twice, is warned about once, with its counts (MeshLoadReport::boundaryLoops / boundaryEdges).
+TEST_F(RendererGLTest, BackFacesAreFlaggedMirroredPlacementsAreNotAndOpenMeshesAreWarnedAboutOnce) {
+    const fs::path folder = fs::temp_directory_path() / "lightskin_renderer_open_cube";
+    fs::create_directories(folder);
+    const fs::path open = folder / "open_front.obj";
+    // The unit cube of box_no_normals.obj's corners without its z = 0 face (2 triangles): 1 hole, 4 boundary edges.
+    std::ofstream(open) << "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+                        << "f 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n";
+    const auto readNormals = [](const Renderer& r) {
+        const gi::GBufferView& g = r.gbuffer();
+        gl::Texture t = gl::Texture::wrap(g.worldNormal, g.width, g.height);
+        cv::Mat out;
+        gl::readTextureRgba32fInto(t, out);
+        t.release();
+        return out;
+    };
+    const glm::dvec3 towardCamera = kWorld_T_camera.transformDirection({0.0, 0.0, -1.0});
+    for (const bool mirrored : {false, true}) {
+        SCOPED_TRACE(mirrored ? "closed cube, mirrored" : "open cube");
+        auto renderer = Renderer::create(kCamera);
+        render::Scene scene;
+        // Model [0, 1]^3 centred on the optical axis at z = 1 m, 0.3 m wide: its z = 0 face toward the camera.
+        render::SceneObject o = cubeInCameraFrame({0.0, 0.0, 1.0}, 0.3, glm::vec3(0.5f));
+        o.mesh = mirrored ? test::dataPath("meshes/box_no_normals.obj") : open;
+        if (mirrored) o.world_T_model = o.world_T_model * glm::scale(glm::mat4(1.0f), glm::vec3(-1.0f, 1.0f, 1.0f));
+        if (!mirrored) o.world_T_model = o.world_T_model * glm::translate(glm::mat4(1.0f), glm::vec3(-0.5f));
+        scene.objects = {o, o};
+        testing::internal::CaptureStderr();
+        renderer->setScene(scene);
+        const std::string log = testing::internal::GetCapturedStderr();
+        std::size_t warnings = 0;
+        for (std::size_t at = log.find("the mesh is open"); at != std::string::npos;
+             at = log.find("the mesh is open", at + 1))
+            ++warnings;
+        EXPECT_EQ(warnings, mirrored ? 0u : 1u) << log;
+        if (!mirrored) {
+            EXPECT_NE(log.find("1 hole(s), 4 boundary edges"), std::string::npos) << log;
+        }
+        renderer->renderGBuffer(kWorld_T_camera);
+        const cv::Mat normal = readNormals(*renderer);
+        int covered = 0, back = 0;
+        for (int v = 0; v < normal.rows; ++v)
+            for (int u = 0; u < normal.cols; ++u) {
+                const cv::Vec4f n = normal.at<cv::Vec4f>(v, u);
+                if (n[0] == 0.0f && n[1] == 0.0f && n[2] == 0.0f) continue; // background (cleared to 0)
+                ++covered;
+                if (n[3] == 1.0f) ++back;
+                EXPECT_TRUE(n[3] == 0.0f || n[3] == 1.0f) << u << ", " << v;
+            }
+        // The 0.3 m cube at 0.85-1.15 m, f = 80 px: ~20 x 20 px (the open one shows its inside, 21-28 px).
+        EXPECT_GT(covered, 300);
+        EXPECT_EQ(back, mirrored ? 0 : covered);
+        // The centre pixel: the back wall's inside (open) or the front face (mirrored), both facing the camera.
+        const cv::Vec4f centre = normal.at<cv::Vec4f>(int(std::lround(kCamera.cy)), int(std::lround(kCamera.cx)));
+        EXPECT_NEAR(centre[0], towardCamera.x, 2e-3);
+        EXPECT_NEAR(centre[1], towardCamera.y, 2e-3);
+        EXPECT_NEAR(centre[2], towardCamera.z, 2e-3);
+    }
+    fs::remove_all(folder);
+}

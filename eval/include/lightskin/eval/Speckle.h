@@ -26,6 +26,18 @@
 //    one side: at the median's own contrast (> 1.5x or < 0.5x the background) for outliers, streaks
 //    and 2x2 blotches; > 3x or < 1/3 for the edge pixels of a 3x3 blotch (a pair half in it), its
 //    centre at 1.5x / 0.5x. Proof by construction: tests/eval/SpeckleTest.cpp.
+//  * Back faces (optional mask, issue 12): pixels where the G-buffer shows a back face are the inside of
+//    an object seen through a hole in its mesh (a scan's holes). Light reaches an object's inside only
+//    through its holes: against the ray-traced truth with visibility, the inside of a 16 cm box seen
+//    through a 4 x 4 cm hole gets 11 % of its lit outside's light on average, bounded by the holes'
+//    solid angle (gi_back_face_hole_gl_test; a scan's holes of a few mm let in far less), and both GI
+//    techniques write 0 there (gi::GBufferView::worldNormal). So they are not "inside a lit object":
+//    they leave the interior, and the median of a front-face pixel is taken over the front-face pixels
+//    of its window only (the upper middle of an even count), and a smooth-profile direction that
+//    would use a back-face pixel explains nothing, so that the dark inside neither drags a
+//    neighbour's median down nor passes a black front-face pixel beside a hole as a dark profile:
+//    every front-face pixel is measured against its front-face neighbourhood. Back-face pixels
+//    still count as covered for the 5x5 erosion (a front pixel beside a hole stays interior).
 //  * Speckle fraction = speckle pixels / interior pixels.
 //  * Black pixel (subset): Y < 0.1 m in a lit neighbourhood (m >= 0.1 x mean Y): a hole in the light.
 //  * Blown pixel (subset): Y > 10 max(m, floor): a spike. Non-finite Y counts as blown and speckle.
@@ -67,10 +79,13 @@ struct SpeckleStats {
 /// speckle (for looking at where it is). `smooth` (optional, CV_8UC1, e.g. smoothSurfaceMaskInto() ANDed
 /// with the composite's visible mask, see "What the user sees"): the interior is further restricted to
 /// pixels where it is != 0; the windows are not. `smoothProfiles` false: the
-/// median test alone (the definition before the smooth-profile refinement, for comparison). Throws
-/// lightskin::Error on other types or sizes.
+/// median test alone (the definition before the smooth-profile refinement, for comparison).
+/// `backFacing` (optional, CV_8UC1 of the same size, != 0 = a back face, e.g. the G-buffer normal's w,
+/// mr::FrameOutput::backFacing): those pixels leave the interior and every window's median (above).
+/// Throws lightskin::Error on other types or sizes.
 SpeckleStats measureSpeckle(const cv::Mat& linearBgr, const cv::Mat& coverage, cv::Mat* map = nullptr,
-                            const cv::Mat& smooth = cv::Mat(), bool smoothProfiles = true);
+                            const cv::Mat& smooth = cv::Mat(), bool smoothProfiles = true,
+                            const cv::Mat& backFacing = cv::Mat());
 
 /// The part of `coverage` where the true indirect light can be expected to be smooth at the 5x5
 /// scale of the measure: covered pixels whose 5x5 neighbourhood is one continuous surface patch:

@@ -1,7 +1,8 @@
 #pragma once
 // A minimal G-buffer of the virtual content and GPU copies of meshes, for the GI tests and
 // benchmarks (the renderer in render/ has its own, full one). Layout as GBufferView documents:
-// RGBA32F world position (w = 1 where covered), RGBA32F world normal, RGBA32F albedo, RGBA32F
+// RGBA32F world position (w = 1 where covered), RGBA32F world normal (w = 1 on back faces, whose normal
+// is turned toward the viewer, as the renderer's), RGBA32F albedo, RGBA32F
 // specular (rgb f_s, a = k), DEPTH_COMPONENT32F depth. Needs a current GL 4.5 context.
 
 #include <lightskin/core/TriangleMesh.h>

@@ -130,8 +130,13 @@ struct FrameOutput {
     cv::Mat visibleCoverage;
     /// options.referenceIndirect: CV_32FC1 camera-space depth (metres) of the virtual content.
     cv::Mat virtualDepthMetres;
-    /// options.referenceIndirect: CV_32FC3 unit world normals (x, y, z) of the G-buffer, image rows.
+    /// options.referenceIndirect: CV_32FC3 unit world normals (x, y, z) of the G-buffer, image rows
+    /// (turned toward the camera on back faces).
     cv::Mat virtualNormals;
+    /// options.referenceIndirect: CV_8UC1, 255 where the G-buffer shows a back face (the inside of an
+    /// object seen through a hole in its mesh, where both GI techniques write 0:
+    /// gi::GBufferView::worldNormal), else 0; eval::measureSpeckle leaves those pixels out.
+    cv::Mat backFacing;
     tracking::TrackingResult tracking;
     std::optional<Pose> world_T_camera;
     /// Whether GI lit this frame: a technique ran on at least one VAL. When false, giInactiveCause

@@ -36,7 +36,26 @@ struct MeshLoadReport {
     std::size_t removedUnusedVertices = 0;
     std::size_t partsWithGeneratedNormals = 0;
     std::size_t repairedNormals = 0; ///< generated normals that were zero/non-finite, set to +z
+    /// Open boundaries (findOpenBoundaries), summed over the parts: edges of only one triangle, and their
+    /// loops (the mesh's holes; a scan's holes, or a surface that is open by design). Not repaired: through a
+    /// hole the camera sees the object's inside (back faces), which the GI leaves dark
+    /// (gi::GBufferView::worldNormal); Renderer::setScene warns once per model.
+    std::size_t boundaryEdges = 0;
+    std::size_t boundaryLoops = 0;
 };
+
+/// Open boundaries of a triangle mesh, with corners joined by their exact position (a vertex split at a
+/// crease or a UV seam is one corner): an edge used by exactly one triangle is a boundary edge (edges of
+/// three or more triangles are non-manifold, not open); loops = connected components of the boundary
+/// edges (a hole's rim; two rims sharing a corner count as one). A closed mesh has 0 and 0.
+struct OpenBoundaries {
+    std::size_t edges = 0;
+    std::size_t loops = 0;
+};
+OpenBoundaries findOpenBoundaries(const TriangleMesh& mesh);
+
+/// The warning for a model with open boundaries (what it means for the GI), or "" for a closed one.
+std::string openBoundaryWarning(const std::string& meshFile, const MeshLoadReport& report);
 
 struct LoadedModel {
     std::filesystem::path path;
