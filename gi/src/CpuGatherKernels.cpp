@@ -10,6 +10,9 @@
 //    ~1e-7 after the step: 2^-14 estimate on AVX-512, 2^-12 on SSE/AVX, squared by the step);
 //  * fused multiply-adds where the GL path rounds twice; M_j w_j = (flux / pi) g with flux / pi
 //    precomputed per VAL; the lobe's c (k + 1) applied once per block of kSumBlock VALs;
+//  * the products regrouped to save multiplies (GatherGroup): cos(gamma) = t . R with the mirrored
+//    eye direction R per receiver, r^2 g cos theta_i as r^2 (g cos theta_i), the moments from
+//    (l - x) w_d;
 //  * cos^k by squaring where a receiver group shares an integer k <= 128, else by polynomial
 //    log2 and exp2 (PowSquaring and LobePow below, error bounds there).
 // An invalid VAL never reaches these kernels (dropped when the arrays are built).
@@ -26,6 +29,7 @@
 #include <hwy/highway.h>
 // after highway.h: per-target header, re-included for every target
 #include "reference/LightSkinMath.h"
+
 #include <lightskin/core/Exp2-inl.h>
 
 #include <hwy/contrib/math/math-inl.h>
@@ -43,6 +47,15 @@ HWY_INLINE V InverseSqrt(D d, V a) {
     const V y = hn::ApproximateReciprocalSqrt(a);
     const V halfA = hn::Mul(a, hn::Set(d, 0.5f));
     return hn::Mul(y, hn::NegMulAdd(halfA, hn::Mul(y, y), hn::Set(d, 1.5f)));
+}
+
+// 2/sqrt(a), exactly twice InverseSqrt(a) bit for bit: y (3 - a y^2) is InverseSqrt's y (1.5 - (a/2) y^2)
+// with both roundings scaled by 2 (a power of 2 commutes with rounding between the float limits, which
+// these values, 1e-2..2e6, are far from). One multiply fewer (a/2); the gather folds the 2 into its
+// receivers' halved normals and a doubled denominator (GatherGroup).
+HWY_INLINE V TwiceInverseSqrt(D d, V a) {
+    const V y = hn::ApproximateReciprocalSqrt(a);
+    return hn::Mul(y, hn::NegMulAdd(a, hn::Mul(y, y), hn::Set(d, 3.0f)));
 }
 
 HWY_INLINE V Dot(V ax, V ay, V az, V bx, V by, V bz) { return hn::MulAdd(az, bz, hn::MulAdd(ay, by, hn::Mul(ax, bx))); }
@@ -167,13 +180,13 @@ HWY_NOINLINE std::uint64_t GatherGroup(const ValArrays& vals, std::uint32_t valB
     const V tiny = hn::Set(d, float(m::kTinyLength2));
     const V x = hn::LoadU(d, &r.px[i]), y = hn::LoadU(d, &r.py[i]), z = hn::LoadU(d, &r.pz[i]);
     // Per block of kSumBlock VALs, the glossy pass's inputs (mirror cosine, zeroed where the lobe
-    // is 0 by facing; g; w): a second loop over the block then needs only the glossy sums in
+    // is 0 by facing; g; |l - x|^2): a second loop over the block then needs only the glossy sums in
     // registers. One loop with all 20 sums spilled them to the stack (perf annotate: 134 stack
     // accesses in the loop). The split changes no value; c (k + 1) now scales the block's glossy
     // radiance sums once instead of every term (rounding only).
     HWY_ALIGN float blockCos[kGlossy ? kSumBlock * kMaxLanes : 1];
     HWY_ALIGN float blockG[kGlossy ? kSumBlock * kMaxLanes : 1];
-    HWY_ALIGN float blockW[kGlossy ? kSumBlock * kMaxLanes : 1];
+    HWY_ALIGN float blockD2[kGlossy && kMoments ? kSumBlock * kMaxLanes : 1];
     // The group's running sums live here while it runs over the VALs, written back at the end (the
     // same values). In place, its 20 rows sat `stride` floats apart, a multiple of 4 KB for 1024
     // receivers: all in one L1 set (8 ways), so every block's update missed L1 and its loads waited
@@ -216,7 +229,24 @@ HWY_NOINLINE std::uint64_t GatherGroup(const ValArrays& vals, std::uint32_t valB
         }
         bool anyFacing = false;
         {
-            const V nx = hn::LoadU(d, &r.nx[i]), ny = hn::LoadU(d, &r.ny[i]), nz = hn::LoadU(d, &r.nz[i]);
+            // Shorter dependency chains and fewer multiplies than the GL path's order of operations (a
+            // pass over a block ran at ~2/3 of the multiply pipes' rate, waiting on latency):
+            //  * the dot products with l - x instead of the unit vector t, scaled by 1/|l - x| after, so
+            //    they and g's division (cos theta_j = (-n_j).(l - x) / |l - x|: the division by
+            //    r^2 + d^2 first) run beside the reciprocal square root instead of after it;
+            //  * 2/|l - x| (TwiceInverseSqrt, one multiply fewer) with the 2 taken out exactly: the
+            //    receivers' normals and mirror directions halved and g's denominator doubled by an add;
+            //  * cos(gamma) = R . t with R = 2 (n.e) n - e per receiver (eq. 5's 2 (n.t)(n.e) - t.e
+            //    regrouped: 3 operations instead of 4);
+            //  * w = r^2 g not formed: wD = r^2 (g cos theta_i), wS = r^2 (g lobe);
+            //  * the first and second moments from p = (l - x) wD: offset += p (an add), moment += (l - x) p.
+            // All rounding only (the bounds in tests/gi/gather/CpuLightSkinGLTest.cpp hold unchanged).
+            const V half = hn::Set(d, 0.5f);
+            const V nx = hn::Mul(hn::LoadU(d, &r.nx[i]), half), ny = hn::Mul(hn::LoadU(d, &r.ny[i]), half),
+                    nz = hn::Mul(hn::LoadU(d, &r.nz[i]), half);
+            const V tiny2 = hn::Add(tiny, tiny);
+            const V mirrorX = hn::Mul(hn::LoadU(d, &r.rx[i]), half), mirrorY = hn::Mul(hn::LoadU(d, &r.ry[i]), half),
+                    mirrorZ = hn::Mul(hn::LoadU(d, &r.rz[i]), half);
             V eR = zero, eG = zero, eB = zero, r2D = zero, oDx = zero, oDy = zero, oDz = zero, wDs = zero;
             V mx = zero, my = zero, mz = zero;
             for (std::uint32_t j = first; j < first + kSumBlock; ++j) {
@@ -226,40 +256,44 @@ HWY_NOINLINE std::uint64_t GatherGroup(const ValArrays& vals, std::uint32_t valB
                 const V oz = hn::Sub(hn::Set(d, vals.pz[j]), z);
                 const V r2 = hn::Set(d, vals.r2[j]);
                 const V d2 = Dot(ox, oy, oz, ox, oy, oz);
-                const V invLength = InverseSqrt(d, hn::Max(hn::Add(d2, hn::Set(d, vals.cr2[j])), tiny));
-                const V tx = hn::Mul(ox, invLength), ty = hn::Mul(oy, invLength), tz = hn::Mul(oz, invLength);
-                const V ndl = Dot(nx, ny, nz, tx, ty, tz);
-                const V cosI = hn::Max(ndl, zero);
-                const V cosJ = hn::Max(
-                    Dot(hn::Set(d, vals.negNx[j]), hn::Set(d, vals.negNy[j]), hn::Set(d, vals.negNz[j]), tx, ty, tz),
-                    zero);
-                const V g = hn::Div(cosJ, hn::Max(hn::Add(r2, d2), tiny));
-                const V w = hn::Mul(r2, g);      // eq. 3
-                const V wD = hn::Mul(w, cosI);   // eq. 7 weight (eps_l folded later)
+                const V invLength2 = TwiceInverseSqrt(d, hn::Max(hn::Add(d2, hn::Set(d, vals.cr2[j])), tiny));
+                const V b = hn::Add(r2, d2);
+                // cos theta_j / max(r^2 + d^2, tiny) as max((-n_j).(l - x), 0) / (2 max(..)) times 2/|l - x|
+                const V cosJOver = hn::Div(hn::Max(Dot(hn::Set(d, vals.negNx[j]), hn::Set(d, vals.negNy[j]),
+                                                       hn::Set(d, vals.negNz[j]), ox, oy, oz),
+                                                   zero),
+                                           hn::Max(hn::Add(b, b), tiny2));
+                const V g = hn::Mul(cosJOver, invLength2);
+                const V cosI = hn::Mul(hn::Max(Dot(nx, ny, nz, ox, oy, oz), zero), invLength2); // (n/2).(l-x) 2/|l-x|
                 const V gCos = hn::Mul(g, cosI); // E = (flux / pi) g cos(theta_i), eq. 4
+                const V wD = hn::Mul(r2, gCos);  // eq. 7 weight r^2 g cos(theta_i) (eps_l folded later)
                 eR = hn::MulAdd(hn::Set(d, vals.fr[j]), gCos, eR);
                 eG = hn::MulAdd(hn::Set(d, vals.fg[j]), gCos, eG);
                 eB = hn::MulAdd(hn::Set(d, vals.fb[j]), gCos, eB);
                 r2D = hn::MulAdd(r2, wD, r2D);
-                oDx = hn::MulAdd(ox, wD, oDx);
-                oDy = hn::MulAdd(oy, wD, oDy);
-                oDz = hn::MulAdd(oz, wD, oDz);
                 wDs = hn::Add(wDs, wD);
                 if constexpr (kMoments) {
-                    mx = hn::MulAdd(hn::Mul(ox, ox), wD, mx);
-                    my = hn::MulAdd(hn::Mul(oy, oy), wD, my);
-                    mz = hn::MulAdd(hn::Mul(oz, oz), wD, mz);
+                    const V px = hn::Mul(ox, wD), py = hn::Mul(oy, wD), pz = hn::Mul(oz, wD);
+                    oDx = hn::Add(oDx, px);
+                    oDy = hn::Add(oDy, py);
+                    oDz = hn::Add(oDz, pz);
+                    mx = hn::MulAdd(ox, px, mx);
+                    my = hn::MulAdd(oy, py, my);
+                    mz = hn::MulAdd(oz, pz, mz);
+                } else {
+                    oDx = hn::MulAdd(ox, wD, oDx);
+                    oDy = hn::MulAdd(oy, wD, oDy);
+                    oDz = hn::MulAdd(oz, wD, oDz);
                 }
                 if constexpr (kGlossy) {
-                    // eq. 5: cos(gamma) = mirror . e = 2 (n.l)(n.e) - l.e
-                    const V ex = hn::LoadU(d, &r.ex[i]), ey = hn::LoadU(d, &r.ey[i]), ez = hn::LoadU(d, &r.ez[i]);
-                    const V cosGamma = hn::MulSub(ndl, hn::LoadU(d, &r.nde2[i]), Dot(tx, ty, tz, ex, ey, ez));
+                    // eq. 5: cos(gamma) = mirror(t) . e = t . R
+                    const V cosGamma = hn::Mul(Dot(ox, oy, oz, mirrorX, mirrorY, mirrorZ), invLength2);
                     const auto facing = hn::And(hn::Gt(cosGamma, zero), hn::Gt(cosI, zero));
                     anyFacing = anyFacing || !hn::AllFalse(d, facing);
                     const std::size_t at = (j - first) * lanes;
                     hn::Store(hn::IfThenElseZero(facing, cosGamma), d, blockCos + at);
                     hn::Store(g, d, blockG + at);
-                    hn::Store(w, d, blockW + at);
+                    if constexpr (kMoments) hn::Store(d2, d, blockD2 + at);
                 }
             }
             float* s = running;
@@ -298,16 +332,17 @@ HWY_NOINLINE std::uint64_t GatherGroup(const ValArrays& vals, std::uint32_t valB
                     gR = hn::MulAdd(hn::Set(d, vals.fr[j]), gLobe, gR);
                     gG = hn::MulAdd(hn::Set(d, vals.fg[j]), gLobe, gG);
                     gB = hn::MulAdd(hn::Set(d, vals.fb[j]), gLobe, gB);
-                    const V wS = hn::Mul(hn::Load(d, blockW + at), lobe);
+                    const V r2 = hn::Set(d, vals.r2[j]);
+                    const V wS = hn::Mul(r2, gLobe); // r^2 g lobe
                     const V ox = hn::Sub(hn::Set(d, vals.px[j]), x);
                     const V oy = hn::Sub(hn::Set(d, vals.py[j]), y);
                     const V oz = hn::Sub(hn::Set(d, vals.pz[j]), z);
-                    r2S = hn::MulAdd(hn::Set(d, vals.r2[j]), wS, r2S);
+                    r2S = hn::MulAdd(r2, wS, r2S);
                     oSx = hn::MulAdd(ox, wS, oSx);
                     oSy = hn::MulAdd(oy, wS, oSy);
                     oSz = hn::MulAdd(oz, wS, oSz);
                     wSs = hn::Add(wSs, wS);
-                    if constexpr (kMoments) mS = hn::MulAdd(Dot(ox, oy, oz, ox, oy, oz), wS, mS);
+                    if constexpr (kMoments) mS = hn::MulAdd(hn::Load(d, blockD2 + at), wS, mS); // |l - x|^2 of pass 1
                 }
             }
             const V ck = hn::LoadU(d, &r.ck[i]);
@@ -477,7 +512,7 @@ void ValArrays::reserve(std::size_t capacity) {
 
 void ReceiverArrays::resize(std::size_t paddedCount) {
     padded = paddedCount;
-    for (auto* v : {&px, &py, &pz, &nx, &ny, &ex, &ey, &ez, &nde2, &k, &ck}) v->assign(paddedCount, 0.0f);
+    for (auto* v : {&px, &py, &pz, &nx, &ny, &ex, &ey, &ez, &rx, &ry, &rz, &k, &ck}) v->assign(paddedCount, 0.0f);
     nz.assign(paddedCount, 1.0f);
     index.resize(paddedCount);
     for (std::size_t i = 0; i < paddedCount; ++i) index[i] = std::uint32_t(i);
@@ -576,7 +611,7 @@ void orderReceivers(ReceiverArrays& r, std::size_t count, std::span<const std::u
     }
     for (std::size_t s = at; s < count; ++s) r.grouped_[s] = r.order_[s];
     std::copy_n(r.grouped_.begin(), count, r.order_.begin());
-    for (auto* a : {&r.px, &r.py, &r.pz, &r.nx, &r.ny, &r.nz, &r.ex, &r.ey, &r.ez, &r.nde2, &r.k, &r.ck}) {
+    for (auto* a : {&r.px, &r.py, &r.pz, &r.nx, &r.ny, &r.nz, &r.ex, &r.ey, &r.ez, &r.rx, &r.ry, &r.rz, &r.k, &r.ck}) {
         for (std::size_t s = 0; s < count; ++s) r.scratch_[s] = (*a)[r.order_[s]];
         std::copy_n(r.scratch_.begin(), count, a->begin());
     }

@@ -66,8 +66,9 @@ inline void setVal(ValArrays& vals, std::uint32_t n, const VirtualAreaLight& l) 
 struct ReceiverArrays {
     std::vector<float> px, py, pz, nx, ny, nz;
     std::vector<float> ex, ey, ez; ///< unit vector to the eye
-    std::vector<float> nde2;       ///< 2 n . toEye (eq. 5's mirror cosine: 2 (n.l)(n.e) - l.e; times 2 is exact)
-    std::vector<float> k, ck;      ///< Phong exponent and c (k + 1)
+    /// the eye direction mirrored about n, R = 2 (n . e) n - e: eq. 5's mirror cosine 2 (n.t)(n.e) - t.e = t . R
+    std::vector<float> rx, ry, rz;
+    std::vector<float> k, ck; ///< Phong exponent and c (k + 1)
     /// Receiver (column of the sums) in each slot: the identity as filled, the coherent order after
     /// prepareGather(). The kernels read slots and write the sums of receiver index[slot].
     std::vector<std::uint32_t> index;

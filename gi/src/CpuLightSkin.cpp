@@ -383,7 +383,10 @@ struct CpuLightSkin::Impl {
                 receivers.ex[at] = float(e.x);
                 receivers.ey[at] = float(e.y);
                 receivers.ez[at] = float(e.z);
-                receivers.nde2[at] = float(2.0 * glm::dot(n, e));
+                const glm::dvec3 mirror = 2.0 * glm::dot(n, e) * n - e; // eq. 5: cos(gamma) = t . mirror
+                receivers.rx[at] = float(mirror.x);
+                receivers.ry[at] = float(mirror.y);
+                receivers.rz[at] = float(mirror.z);
                 receivers.k[at] = float(k);
                 receivers.ck[at] = float(c * (k + 1.0));
                 // the occluder discs need no gather result: set here, before the fused region reads them
