@@ -81,12 +81,6 @@ std::size_t padReceivers(std::size_t n) {
     return (n + cpu::kReceiverPadding - 1) / cpu::kReceiverPadding * cpu::kReceiverPadding;
 }
 
-/// VALs per gather tile: 2048 x 44 bytes of SoA = 90 KB, resident in L2 while a thread runs all
-/// its receiver groups over it (with the groups' running sums, 80 bytes per receiver); a block of
-/// 16 VALs (704 bytes) and one group's sums sit in L1.
-constexpr std::uint32_t kValTile = 2048;
-static_assert(kValTile % cpu::kSumBlock == 0);
-
 /// Runs body(begin, end) in `arena` over [0, count) split into one contiguous,
 /// kReceiverPadding-aligned range per thread of the arena. The split only decides who computes a
 /// receiver, never how. oneTBB, not OpenMP: libgomp's idle workers spin between parallel regions
@@ -124,6 +118,38 @@ void parallelRanges(tbb::task_arena& arena, RegionClock& clock, std::size_t coun
                             (c.splits.empty() ? c.groups * (t + 1) / c.n : c.splits[t + 1]) * cpu::kReceiverPadding;
                         if (begin < end) c.body(begin, end);
                     }
+                    c.clock.add(threadCpuMs() - start);
+                    c.region.taskEnd();
+                },
+                tbb::static_partitioner());
+        });
+    }
+    clock.end();
+}
+
+/// Runs body() once on each thread of `arena` (one task per thread); the bodies share out the work
+/// themselves (e.g. an atomic counter over receiver groups), so a thread that starts late or loses its
+/// core to another process leaves its share to the others instead of holding up the join.
+template <class Body>
+void parallelWorkers(tbb::task_arena& arena, RegionClock& clock, const Body& body) {
+    struct Context {
+        const Body& body;
+        RegionClock& clock;
+        detail::TsanParallelRegion region; // last: the fork edge follows the fields above
+    };
+    clock.begin(); // before the fork edge (the context's construction), read after the join (its end)
+    {
+        const std::size_t n = std::size_t(arena.max_concurrency());
+        Context context{body, clock, {}};
+        arena.execute([&context, n] {
+            context.clock.enter();
+            tbb::parallel_for(
+                tbb::blocked_range<std::size_t>(0, n, 1),
+                [ctx = &context](const tbb::blocked_range<std::size_t>& threads) {
+                    const Context& c = *detail::TsanParallelRegion::captured(ctx);
+                    c.region.taskBegin();
+                    const double start = threadCpuMs();
+                    for (std::size_t t = threads.begin(); t < threads.end(); ++t) c.body();
                     c.clock.add(threadCpuMs() - start);
                     c.region.taskEnd();
                 },
@@ -269,24 +295,20 @@ struct CpuLightSkin::Impl {
 
     std::unique_ptr<tbb::task_arena> arena; // settings.threads workers (0: one per hardware thread)
     RegionClock regionClock;                // per-thread CPU time of the parallel regions (stats)
-    RegionClock occlusionClock;             // per-thread CPU time of occludeSlots() (stats)
-    // planLayout(): per slot group its gather time this frame (us); per group of the sorted order its
-    // time estimate (us), bin (thread) and place; the groups by cost; per thread its load and range
-    std::vector<double> groupTime, groupCost;
+    RegionClock occlusionClock;             // per-thread time in occludeSlots() (stats; steady clock)
+    // planLayout(): per group of the sorted order its time estimate (us); the groups in the order the
+    // threads take them (layout, slot group -> sorted group)
+    std::vector<double> groupCost;
     static constexpr std::size_t kCostFrames = 4;
     std::vector<double> recentTimes; // kCostFrames x groups: the last frames' times per sorted group (ring)
     std::size_t costFrame = 0;       // this frame's row of recentTimes
-    std::vector<std::uint32_t> layout, byCost, binOf;
-    std::vector<double> binLoad;
-    std::vector<std::size_t> splits;
+    std::vector<std::uint32_t> layout;
     int threadCount() const { return arena->max_concurrency(); }
     void createArena() {
         arena = std::make_unique<tbb::task_arena>(settings.threads > 0 ? settings.threads
                                                                        : int(tbb::task_arena::automatic));
         regionClock.resize(std::size_t(arena->max_concurrency()));
         occlusionClock.resize(std::size_t(arena->max_concurrency()));
-        splits.assign(std::size_t(arena->max_concurrency()) + 1, 0);
-        binLoad.assign(std::size_t(arena->max_concurrency()), 0.0);
     }
 
     void reserveVals(std::size_t count) {
@@ -399,49 +421,48 @@ struct CpuLightSkin::Impl {
         }
     }
 
-    /// Stage 1: the running sums of every receiver over all VALs, tile by tile.
-    /// Stage 1 and, per point of each thread's range right after its sums are complete, stage 2
-    /// and stage 3's per-point set-up (renormalisePoint, occlusionSetup): both read only the point's
-    /// own sums, so they need no join of their own and run on both cores instead of one.
+    /// Stage 1: the running sums of every receiver over all VALs, group by group, and per group right
+    /// after its sums are complete stage 2 and stage 3 (renormalisePoint, occlusionSetup, occludeSlots) and
+    /// stage 4's per-point terms: all read only the group's own sums (and the occluder discs, set in
+    /// placePoints()), so they need no join of their own and run on both cores instead of one.
+    /// The threads take whole groups from a shared counter in planLayout()'s order (longest first), so the
+    /// split follows the threads' actual progress: a worker that wakes late or loses its core to another
+    /// process hands its groups to the others (a static split waited for it: the 2-thread wall time was
+    /// ~0.8 ms above the critical path from thread CPU clocks). A group is computed whole by one thread in
+    /// one order, so no result depends on who took it.
     void gather(const glm::dvec3& eye) {
-        std::fill(sums.begin(), sums.end(), 0.0f);
         occlusionClock.begin();
-        // receivers in coherent groups, laid out for the split (the VAL boxes were made in stage 0)
+        // receivers in coherent groups, laid out in the order the threads take them (the VAL boxes were
+        // made in stage 0)
         const std::size_t full = pointCount / cpu::kReceiverPadding;
+        const std::size_t groups = receivers.padded / cpu::kReceiverPadding;
         planLayout(full);
         costFrame = (costFrame + 1) % kCostFrames;
         cpu::orderReceivers(receivers, pointCount, std::span<const std::uint32_t>(layout).first(full));
         const cpu::GatherParameters parameters{glossy, moments(), settings.skipHiddenBlocks};
         const std::size_t stride = receivers.padded;
         std::atomic<std::uint64_t> skipped{0};
+        std::atomic<std::size_t> nextGroup{0};
         const bool areas = settings.lightSkin.nearFieldArea;
         if (areas) nearField.index(vals);
-        parallelRanges(
-            *arena, regionClock, receivers.padded,
-            [&](std::size_t begin, std::size_t end) {
-                std::uint64_t n = 0;
-                const std::size_t g0 = begin / cpu::kReceiverPadding, g1 = end / cpu::kReceiverPadding;
-                std::fill(groupTime.begin() + std::ptrdiff_t(g0), groupTime.begin() + std::ptrdiff_t(g1), 0.0);
-                for (std::uint32_t first = 0; first < vals.padded; first += kValTile) {
-                    const std::uint32_t last = std::min(first + kValTile, vals.padded);
-                    // group by group (the same order of operations as one call over the range), timed
-                    // for the next frame's layout (one clock read per call)
-                    auto before = Clock::now();
-                    for (std::size_t i = begin; i < end; i += cpu::kReceiverPadding) {
-                        n += cpu::gather(vals, first, last, receivers, i, i + cpu::kReceiverPadding, parameters,
-                                         sums.data(), stride);
-                        const auto after = Clock::now();
-                        groupTime[i / cpu::kReceiverPadding] +=
-                            std::chrono::duration<double, std::micro>(after - before).count();
-                        before = after;
-                    }
-                }
+        parallelWorkers(*arena, regionClock, [&] {
+            std::uint64_t n = 0;
+            for (std::size_t sg = nextGroup.fetch_add(1, std::memory_order_relaxed); sg < groups;
+                 sg = nextGroup.fetch_add(1, std::memory_order_relaxed)) {
+                const std::size_t begin = sg * cpu::kReceiverPadding, end = begin + cpu::kReceiverPadding;
+                for (std::size_t k = 0; k < cpu::kGatherSums; ++k)
+                    for (std::size_t slot = begin; slot < end; ++slot) sums[k * stride + receivers.index[slot]] = 0.0f;
+                // all VALs in one call (~850 KB of SoA for 19200 VALs stay in a core's L2); timed for the
+                // next frames' order
+                const auto before = Clock::now();
+                n += cpu::gather(vals, 0, vals.padded, receivers, begin, end, parameters, sums.data(), stride);
+                const double us = std::chrono::duration<double, std::micro>(Clock::now() - before).count();
                 // per group of the sorted order, the least of its last kCostFrames frames' times: a time
                 // slice lost to another process only ever adds to a group's time
-                for (std::size_t sg = g0; sg < std::min(g1, full); ++sg) {
+                if (sg < full) {
                     const std::size_t g = layout[sg];
-                    recentTimes[costFrame * groupCost.size() + g] = groupTime[sg];
-                    double least = groupTime[sg];
+                    recentTimes[costFrame * groupCost.size() + g] = us;
+                    double least = us;
                     for (std::size_t f = 0; f < kCostFrames; ++f) {
                         const double t = recentTimes[f * groupCost.size() + g];
                         if (t > 0.0) least = std::min(least, t);
@@ -449,7 +470,6 @@ struct CpuLightSkin::Impl {
                     groupCost[g] = least;
                 }
                 if (areas) nearField.apply(vals, receivers, begin, end, parameters, sums.data(), stride); // G12
-                skipped += n;
                 for (std::size_t slot = begin; slot < end; ++slot) {
                     const std::uint32_t i = receivers.index[slot];
                     if (i >= pointCount) continue; // padding
@@ -459,48 +479,31 @@ struct CpuLightSkin::Impl {
                 if (occlusion) occludeSlots(begin, end);
                 for (std::size_t slot = begin; slot < end; ++slot)
                     if (receivers.index[slot] < pointCount) makePointTerms(receivers.index[slot]);
-            },
-            splits);
+            }
+            skipped += n;
+        });
         pointTermsReady = true;
         const double blocks = double(vals.padded / cpu::kSumBlock) * double(receivers.padded / cpu::kReceiverPadding);
         stats.gatherBlocksSkipped = blocks > 0.0 ? double(skipped.load()) / blocks : 0.0;
     }
 
-    /// The gather region's layout of the `full` whole groups of the sorted order and its split
-    /// (splits): with every group's time of the previous frames known (groupCost), the groups go to
-    /// the threads longest first, each to the least loaded (LPT), and each thread's groups are laid out
-    /// contiguously; else bit-reversed order and equal numbers of groups. With hidden blocks and unlit
-    /// lanes skipped, groups differ several-fold in work: the bit-reversed halves differed by 3 %
-    /// (0.3 ms at 2 threads), about one group, and moving the split point alone cannot do better than
-    /// a group. Decides only where and by whom a group is computed: no result depends on it.
+    /// The order in which the gather region's threads take the `full` whole groups of the sorted order
+    /// (layout[slot group] = sorted group): with every group's time of the previous frames known
+    /// (groupCost), longest first, so the last groups taken are short and the threads finish together
+    /// (list scheduling, LPT); else bit-reversed order. With hidden blocks and unlit lanes skipped, groups
+    /// differ several-fold in work. Decides only where and by whom a group is computed: no result depends
+    /// on it.
     void planLayout(std::size_t full) {
-        const std::size_t groups = receivers.padded / cpu::kReceiverPadding, n = splits.size() - 1;
         const bool known = full > 0 && std::all_of(groupCost.begin(), groupCost.begin() + std::ptrdiff_t(full),
                                                    [](double c) { return c > 0.0; });
         if (!known) {
             cpu::bitReversedLayout(std::span(layout).first(full));
-            for (std::size_t t = 0; t <= n; ++t) splits[t] = groups * t / n;
             return;
         }
-        for (std::size_t g = 0; g < full; ++g) byCost[g] = std::uint32_t(g);
-        std::sort(byCost.begin(), byCost.begin() + std::ptrdiff_t(full), [&](std::uint32_t a, std::uint32_t b) {
+        for (std::size_t g = 0; g < full; ++g) layout[g] = std::uint32_t(g);
+        std::sort(layout.begin(), layout.begin() + std::ptrdiff_t(full), [&](std::uint32_t a, std::uint32_t b) {
             return groupCost[a] != groupCost[b] ? groupCost[a] > groupCost[b] : a < b;
         });
-        std::fill(binLoad.begin(), binLoad.end(), 0.0);
-        for (std::size_t i = 0; i < full; ++i) {
-            const std::uint32_t g = byCost[i];
-            const std::size_t bin = std::size_t(std::min_element(binLoad.begin(), binLoad.end()) - binLoad.begin());
-            binOf[g] = std::uint32_t(bin);
-            binLoad[bin] += groupCost[g];
-        }
-        std::size_t pos = 0;
-        splits[0] = 0;
-        for (std::size_t bin = 0; bin < n; ++bin) {
-            for (std::size_t g = 0; g < full; ++g)
-                if (binOf[g] == bin) layout[pos++] = std::uint32_t(g);
-            splits[bin + 1] = pos;
-        }
-        splits[n] = groups; // the partial group and the padding: last
     }
 
     double sum(std::size_t s, std::size_t i) const { return double(sums[s * receivers.padded + i]); }
@@ -594,10 +597,10 @@ struct CpuLightSkin::Impl {
     }
 
     /// Stage 3 for the slots [begin, end) set up by occlusionSetup(): the occluder sums (SIMD) into
-    /// occlusionSlotD/S, then to each point's entry of occlusionD/S. Adds the thread's CPU time
-    /// spent here to its slot of occlusionClock (the bench's occlusion rate).
+    /// occlusionSlotD/S, then to each point's entry of occlusionD/S. Adds the time spent here
+    /// (steady clock) to the thread's slot of occlusionClock (the bench's occlusion rate).
     void occludeSlots(std::size_t begin, std::size_t end) {
-        const double start = threadCpuMs();
+        const auto start = Clock::now(); // per group of 16 points: a thread CPU clock read is a system call
         cpu::occlusion(occlusionReceivers, begin, end, occluders, glossy, occlusionSlotD.data(), occlusionSlotS.data());
         for (std::size_t slot = begin; slot < end; ++slot) {
             const std::uint32_t i = receivers.index[slot];
@@ -605,7 +608,7 @@ struct CpuLightSkin::Impl {
             occlusionD[i] = occlusionSlotD[slot];
             occlusionS[i] = occlusionSlotS[slot];
         }
-        occlusionClock.add(threadCpuMs() - start);
+        occlusionClock.add(millisecondsSince(start));
     }
 
     /// Stage 3's sums over all occluders after the gather with a cut (its points in their own
@@ -831,9 +834,9 @@ void CpuLightSkin::prepare(std::span<const MeshInstance> instances) {
     impl.pointOccluderRadius.assign(impl.pointCount, 0.0);
     impl.receivers.resize(padded);
     impl.sums.assign(cpu::kGatherSums * padded, 0.0f);
-    for (auto* v : {&impl.groupTime, &impl.groupCost}) v->assign(padded / cpu::kReceiverPadding, 0.0);
+    impl.groupCost.assign(padded / cpu::kReceiverPadding, 0.0);
     impl.recentTimes.assign(Impl::kCostFrames * (padded / cpu::kReceiverPadding), 0.0);
-    for (auto* v : {&impl.layout, &impl.byCost, &impl.binOf}) v->assign(padded / cpu::kReceiverPadding, 0);
+    impl.layout.assign(padded / cpu::kReceiverPadding, 0);
     impl.vplD.assign(impl.pointCount, m::Vpl{});
     impl.gatheredPeakD.assign(impl.pointCount, 0.0);
     impl.pointBuried.assign(impl.pointCount, 0);

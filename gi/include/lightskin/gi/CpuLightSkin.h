@@ -45,7 +45,8 @@ struct CpuLightSkinStats {
     double shadingMs = 0.0; ///< CPU time to issue the GL shading pass (its GPU time: lastStageTimes())
     /// Process CPU time (all threads) of the gather, the occlusion stage and stages 0-4 of
     /// computeVpls(): under load from other processes wall time overstates the work, CPU time does not.
-    /// For the flat gather occlusionCpuMs is its threads' CPU time in the occlusion kernel, and
+    /// For the flat gather occlusionCpuMs is its threads' time in the occlusion kernel (steady clock per
+    /// group of 16 points: equal to their CPU time unless another process takes the core), and
     /// gatherCpuMs the rest of their region (gather, renormalisation, occlusion set-up).
     double gatherCpuMs = 0.0, occlusionCpuMs = 0.0, stagesCpuMs = 0.0;
     /// Stages 0-4 on idle cores, from thread CPU clocks alone: the calling thread's CPU time, with
