@@ -447,6 +447,7 @@ struct CpuLightSkin::Impl {
         if (areas) nearField.index(vals);
         parallelWorkers(*arena, regionClock, [&] {
             std::uint64_t n = 0;
+            double occlusionMs = 0.0; // this thread's time in the occlusion kernel (stats)
             for (std::size_t sg = nextGroup.fetch_add(1, std::memory_order_relaxed); sg < groups;
                  sg = nextGroup.fetch_add(1, std::memory_order_relaxed)) {
                 const std::size_t begin = sg * cpu::kReceiverPadding, end = begin + cpu::kReceiverPadding;
@@ -476,11 +477,12 @@ struct CpuLightSkin::Impl {
                     renormalisePoint(i, eye);
                     if (occlusion) occlusionSetup(i, slot);
                 }
-                if (occlusion) occludeSlots(begin, end);
+                if (occlusion) occlusionMs += occludeSlots(begin, end);
                 for (std::size_t slot = begin; slot < end; ++slot)
                     if (receivers.index[slot] < pointCount) makePointTerms(receivers.index[slot]);
             }
             skipped += n;
+            occlusionClock.add(occlusionMs);
         });
         pointTermsReady = true;
         const double blocks = double(vals.padded / cpu::kSumBlock) * double(receivers.padded / cpu::kReceiverPadding);
@@ -597,10 +599,10 @@ struct CpuLightSkin::Impl {
     }
 
     /// Stage 3 for the slots [begin, end) set up by occlusionSetup(): the occluder sums (SIMD) into
-    /// occlusionSlotD/S, then to each point's entry of occlusionD/S. Adds the time spent here
-    /// (steady clock) to the thread's slot of occlusionClock (the bench's occlusion rate).
-    void occludeSlots(std::size_t begin, std::size_t end) {
-        const auto start = Clock::now(); // per group of 16 points: a thread CPU clock read is a system call
+    /// occlusionSlotD/S, then to each point's entry of occlusionD/S. Returns the time spent here, ms
+    /// (steady clock: a thread CPU clock read is a system call, ~0.8 us here, and this runs per group).
+    double occludeSlots(std::size_t begin, std::size_t end) {
+        const auto start = Clock::now();
         cpu::occlusion(occlusionReceivers, begin, end, occluders, glossy, occlusionSlotD.data(), occlusionSlotS.data());
         for (std::size_t slot = begin; slot < end; ++slot) {
             const std::uint32_t i = receivers.index[slot];
@@ -608,7 +610,7 @@ struct CpuLightSkin::Impl {
             occlusionD[i] = occlusionSlotD[slot];
             occlusionS[i] = occlusionSlotS[slot];
         }
-        occlusionClock.add(millisecondsSince(start));
+        return millisecondsSince(start);
     }
 
     /// Stage 3's sums over all occluders after the gather with a cut (its points in their own
@@ -918,7 +920,7 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
     }
     stats.occlusionMs = millisecondsSince(start);
     stats.occlusionCpuMs = processCpuMs() - cpu;
-    if (impl.occlusion && treeThreshold <= 0.0) { // ran inside the gather's region: its threads' CPU time
+    if (impl.occlusion && treeThreshold <= 0.0) { // ran inside the gather's region: its threads' time there
         double occlusionCpu = 0.0;
         for (const double ms : impl.occlusionClock.slotMs) occlusionCpu += ms;
         stats.occlusionCpuMs = occlusionCpu;

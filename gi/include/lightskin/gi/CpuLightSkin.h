@@ -46,8 +46,10 @@ struct CpuLightSkinStats {
     /// Process CPU time (all threads) of the gather, the occlusion stage and stages 0-4 of
     /// computeVpls(): under load from other processes wall time overstates the work, CPU time does not.
     /// For the flat gather occlusionCpuMs is its threads' time in the occlusion kernel (steady clock per
-    /// group of 16 points: equal to their CPU time unless another process takes the core), and
-    /// gatherCpuMs the rest of their region (gather, renormalisation, occlusion set-up).
+    /// group of 16 points, as a CPU clock read there would cost ~1/10 of what it measures: the CPU time
+    /// unless another process took the core meanwhile, so take the minimum over frames), and gatherCpuMs
+    /// their region's CPU time less that (gather, renormalisation, occlusion set-up; the minimum over
+    /// frames of gatherCpuMs + occlusionCpuMs less that of occlusionCpuMs is robust to such frames).
     double gatherCpuMs = 0.0, occlusionCpuMs = 0.0, stagesCpuMs = 0.0;
     /// Stages 0-4 on idle cores, from thread CPU clocks alone: the calling thread's CPU time, with
     /// its share of each parallel region replaced by the busiest thread's (CLOCK_THREAD_CPUTIME_ID per
