@@ -159,33 +159,18 @@ void parallelWorkers(tbb::task_arena& arena, RegionClock& clock, const Body& bod
     clock.end();
 }
 
-/// body(i) for i in [begin, end) in `arena`, in contiguous chunks (each i independent).
+/// body(i) for i in [begin, end) in `arena` (each i independent), the threads taking `chunk` indices at a
+/// time from a shared counter: a thread that starts late (a sleeping worker's wake-up, ~20-50 us here) or
+/// is preempted leaves its share to the others.
 template <class Body>
-void parallelFor(tbb::task_arena& arena, RegionClock& clock, std::size_t begin, std::size_t end, const Body& body) {
-    struct Context {
-        const Body& body;
-        RegionClock& clock;
-        detail::TsanParallelRegion region;
-    };
-    clock.begin(); // before the fork edge (the context's construction), read after the join (its end)
-    {
-        Context context{body, clock, {}};
-        arena.execute([&] {
-            clock.enter();
-            tbb::parallel_for(
-                tbb::blocked_range<std::size_t>(begin, end),
-                [ctx = &context](const tbb::blocked_range<std::size_t>& r) {
-                    const Context& c = *detail::TsanParallelRegion::captured(ctx);
-                    c.region.taskBegin();
-                    const double start = threadCpuMs();
-                    for (std::size_t i = r.begin(); i < r.end(); ++i) c.body(i);
-                    c.clock.add(threadCpuMs() - start);
-                    c.region.taskEnd();
-                },
-                tbb::static_partitioner());
-        });
-    }
-    clock.end();
+void parallelFor(tbb::task_arena& arena, RegionClock& clock, std::size_t begin, std::size_t end, const Body& body,
+                 std::size_t chunk = 1) {
+    std::atomic<std::size_t> next{begin};
+    parallelWorkers(arena, clock, [&] {
+        for (std::size_t c = next.fetch_add(chunk, std::memory_order_relaxed); c < end;
+             c = next.fetch_add(chunk, std::memory_order_relaxed))
+            for (std::size_t i = c; i < std::min(c + chunk, end); ++i) body(i);
+    });
 }
 
 /// Whether `linear` (world_T_model's 3x3 part) is a similarity: L^T L = s^2 (I + E) with every
@@ -323,9 +308,13 @@ struct CpuLightSkin::Impl {
     }
 
     /// Stage 0: the valid VALs into SoA (input order kept), the eps_l sums, padding to kSumBlock and
-    /// the blocks' boxes (cpu::valBlockBoxes), in the threads by chunks of kValChunk output VALs: a
-    /// serial pass over the areas alone finds each chunk's first input VAL.
-    void buildValArrays(std::span<const VirtualAreaLight> lights) {
+    /// the blocks' boxes (cpu::valBlockBoxes), in the threads by chunks of kValChunk output VALs (a
+    /// serial pass over the areas alone finds each chunk's first input VAL); beside them, as one more
+    /// item of the same region, the sparse points in world space (placePoints) and, for the flat
+    /// gather (`orderGroups`), their coherent groups in the order the gather takes them
+    /// (orderReceivers): both independent of the VALs, they were serial (~0.1 ms) before the region.
+    void buildValArrays(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
+                        const glm::dvec3& eye, bool orderGroups) {
         reserveVals(lights.size());
         std::uint32_t n = 0;
         for (std::size_t i = 0; i < lights.size(); ++i) {
@@ -336,10 +325,19 @@ struct CpuLightSkin::Impl {
         vals.count = n;
         vals.padded = (n + cpu::kSumBlock - 1) / cpu::kSumBlock * cpu::kSumBlock;
         const std::size_t chunks = (vals.padded + kValChunk - 1) / kValChunk;
-        if (chunks > 1)
-            parallelFor(*arena, regionClock, 0, chunks, [&](std::size_t c) { buildValChunk(lights, c); });
-        else if (chunks == 1)
-            buildValChunk(lights, 0);
+        // item 0 (the longest, ~0.1 ms, so first): the points; items 1..chunks: the VAL chunks
+        parallelFor(*arena, regionClock, 0, chunks + 1, [&](std::size_t item) {
+            if (item > 0) {
+                buildValChunk(lights, item - 1);
+                return;
+            }
+            placePoints(instances, eye);
+            if (!orderGroups) return;
+            const std::size_t full = pointCount / cpu::kReceiverPadding;
+            planLayout(full);
+            costFrame = (costFrame + 1) % kCostFrames;
+            cpu::orderReceivers(receivers, pointCount, std::span<const std::uint32_t>(layout).first(full));
+        });
         // per chunk, then the chunks in order: the same bits whichever thread summed a chunk
         std::fill(std::begin(valSums), std::end(valSums), 0.0);
         for (std::size_t c = 0; c < chunks; ++c)
@@ -432,13 +430,10 @@ struct CpuLightSkin::Impl {
     /// one order, so no result depends on who took it.
     void gather(const glm::dvec3& eye) {
         occlusionClock.begin();
-        // receivers in coherent groups, laid out in the order the threads take them (the VAL boxes were
-        // made in stage 0)
+        // the receivers are in coherent groups, in the order the threads take them, and the VAL blocks'
+        // boxes are made (stage 0: buildValArrays)
         const std::size_t full = pointCount / cpu::kReceiverPadding;
         const std::size_t groups = receivers.padded / cpu::kReceiverPadding;
-        planLayout(full);
-        costFrame = (costFrame + 1) % kCostFrames;
-        cpu::orderReceivers(receivers, pointCount, std::span<const std::uint32_t>(layout).first(full));
         const cpu::GatherParameters parameters{glossy, moments(), settings.skipHiddenBlocks};
         const std::size_t stride = receivers.padded;
         std::atomic<std::uint64_t> skipped{0};
@@ -562,7 +557,7 @@ struct CpuLightSkin::Impl {
             if (occlusion) occlusionSetup(i, i);
         };
         if (pointCount > 8192)
-            parallelFor(*arena, regionClock, 0, pointCount, point);
+            parallelFor(*arena, regionClock, 0, pointCount, point, 256);
         else
             for (std::size_t i = 0; i < pointCount; ++i) point(i);
     }
@@ -655,56 +650,59 @@ struct CpuLightSkin::Impl {
             for (std::size_t i = 0; i < pointCount; ++i) makePointTerms(i);
         // one region over every mesh's vertices (one join instead of one per mesh)
         {
-            parallelFor(*arena, regionClock, 0, vertexCount, [&](std::size_t v) {
-                const std::size_t mesh =
-                    std::size_t(std::upper_bound(vertexOffsets.begin(), vertexOffsets.end(), std::uint32_t(v)) -
-                                vertexOffsets.begin() - 1);
-                const glm::dmat4& transform = meshTransforms[mesh];
-                const glm::dmat3& normalMatrix = meshNormalMatrices[mesh];
-                const glm::dvec3 p(transform * glm::dvec4(modelVertexPositions[v], 1.0));
-                const auto& list = neighbours[v];
-                bool anyBuried = false;
-                for (const std::uint32_t i : list) anyBuried = anyBuried || buriedFlags[i] != 0;
-                m::VertexWeights weights;
-                if (meshSimilar[mesh] != 0 && !anyBuried) {
-                    std::copy_n(modelWeights[v].begin(), kVertexNeighbours, weights.w);
-                } else {
-                    const glm::dvec3 nv = glm::normalize(normalMatrix * modelVertexNormals[v]);
-                    double dist[kVertexNeighbours], cosN[kVertexNeighbours];
-                    bool unique[kVertexNeighbours], buried[kVertexNeighbours];
-                    for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
-                        dist[j] = glm::length(p - pointPosition[list[j]]);
-                        cosN[j] = glm::dot(nv, pointNormal[list[j]]);
-                        unique[j] = j == 0 || list[j] != list[j - 1];
-                        buried[j] = buriedFlags[list[j]] != 0; // G11
+            parallelFor(
+                *arena, regionClock, 0, vertexCount,
+                [&](std::size_t v) {
+                    const std::size_t mesh =
+                        std::size_t(std::upper_bound(vertexOffsets.begin(), vertexOffsets.end(), std::uint32_t(v)) -
+                                    vertexOffsets.begin() - 1);
+                    const glm::dmat4& transform = meshTransforms[mesh];
+                    const glm::dmat3& normalMatrix = meshNormalMatrices[mesh];
+                    const glm::dvec3 p(transform * glm::dvec4(modelVertexPositions[v], 1.0));
+                    const auto& list = neighbours[v];
+                    bool anyBuried = false;
+                    for (const std::uint32_t i : list) anyBuried = anyBuried || buriedFlags[i] != 0;
+                    m::VertexWeights weights;
+                    if (meshSimilar[mesh] != 0 && !anyBuried) {
+                        std::copy_n(modelWeights[v].begin(), kVertexNeighbours, weights.w);
+                    } else {
+                        const glm::dvec3 nv = glm::normalize(normalMatrix * modelVertexNormals[v]);
+                        double dist[kVertexNeighbours], cosN[kVertexNeighbours];
+                        bool unique[kVertexNeighbours], buried[kVertexNeighbours];
+                        for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
+                            dist[j] = glm::length(p - pointPosition[list[j]]);
+                            cosN[j] = glm::dot(nv, pointNormal[list[j]]);
+                            unique[j] = j == 0 || list[j] != list[j - 1];
+                            buried[j] = buriedFlags[list[j]] != 0; // G11
+                        }
+                        weights = m::ls_vertexWeightsAboveSurface(dist, cosN, unique, buried);
                     }
-                    weights = m::ls_vertexWeightsAboveSurface(dist, cosN, unique, buried);
-                }
-                glm::dvec4 diffuse(0.0), diffusePosition(0.0), glossyRadiance(0.0), glossyPosition(0.0);
-                double minDD = std::numeric_limits<double>::max(), minDS = minDD; // G8
-                double cap = 0.0;                                                 // G10
-                for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
-                    const double w = weights.w[j];
-                    if (w == 0.0) continue;
-                    const PointTerms& t = pointTerms[list[j]];
-                    minDD = std::min(minDD, t.minDD);
-                    minDS = std::min(minDS, t.minDS);
-                    cap = std::max(cap, t.cap); // G10
-                    diffuse += w * t.diffuse;
-                    diffusePosition += w * t.diffusePosition; // G9
-                    glossyRadiance += w * t.glossy;
-                    glossyPosition += w * t.glossyPosition;
-                }
-                if (settings.lightSkin.vertexDistanceFloor) {
-                    diffuse.w = m::ls_vertexR2Floor(diffuse.w, p, glm::dvec3(diffusePosition), minDD);
-                    glossyRadiance.w = m::ls_vertexR2Floor(glossyRadiance.w, p, glm::dvec3(glossyPosition), minDS);
-                }
-                glm::vec4* out = &vertexVpls[4 * v];
-                out[0] = glm::vec4(diffuse);
-                out[1] = glm::vec4(diffusePosition);
-                out[2] = glm::vec4(glossyRadiance);
-                out[3] = glm::vec4(glm::dvec3(glossyPosition), capOn ? cap : -1.0);
-            });
+                    glm::dvec4 diffuse(0.0), diffusePosition(0.0), glossyRadiance(0.0), glossyPosition(0.0);
+                    double minDD = std::numeric_limits<double>::max(), minDS = minDD; // G8
+                    double cap = 0.0;                                                 // G10
+                    for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
+                        const double w = weights.w[j];
+                        if (w == 0.0) continue;
+                        const PointTerms& t = pointTerms[list[j]];
+                        minDD = std::min(minDD, t.minDD);
+                        minDS = std::min(minDS, t.minDS);
+                        cap = std::max(cap, t.cap); // G10
+                        diffuse += w * t.diffuse;
+                        diffusePosition += w * t.diffusePosition; // G9
+                        glossyRadiance += w * t.glossy;
+                        glossyPosition += w * t.glossyPosition;
+                    }
+                    if (settings.lightSkin.vertexDistanceFloor) {
+                        diffuse.w = m::ls_vertexR2Floor(diffuse.w, p, glm::dvec3(diffusePosition), minDD);
+                        glossyRadiance.w = m::ls_vertexR2Floor(glossyRadiance.w, p, glm::dvec3(glossyPosition), minDS);
+                    }
+                    glm::vec4* out = &vertexVpls[4 * v];
+                    out[0] = glm::vec4(diffuse);
+                    out[1] = glm::vec4(diffusePosition);
+                    out[2] = glm::vec4(glossyRadiance);
+                    out[3] = glm::vec4(glm::dvec3(glossyPosition), capOn ? cap : -1.0);
+                },
+                256); // ~25 ns per vertex: ~6 us per chunk
         }
     }
 
@@ -879,14 +877,13 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
     impl.regionClock.excessMs = 0.0;
     impl.pointTermsReady = false;
     auto start = Clock::now();
-    impl.buildValArrays(lights);
-    impl.placePoints(instances, eye);
+    const double treeThreshold = double(impl.settings.lightSkin.valTreeThreshold);
+    impl.buildValArrays(lights, instances, eye, treeThreshold <= 0.0);
     stats.uploadMs = impl.readbackMs + millisecondsSince(start);
     impl.readbackMs = 0.0;
 
     start = Clock::now();
     double cpu = processCpuMs();
-    const double treeThreshold = double(impl.settings.lightSkin.valTreeThreshold);
     if (treeThreshold > 0.0) {
         impl.treeCut.gather(lights, std::span(impl.pointPosition).first(impl.pointCount),
                             std::span(impl.pointNormal).first(impl.pointCount),
