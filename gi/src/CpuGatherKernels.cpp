@@ -199,30 +199,38 @@ HWY_NOINLINE std::uint64_t GatherGroup(const ValArrays& vals, std::uint32_t valB
     const V k = hn::LoadU(d, &r.k[i]);
     const SquaringLobe squaring = SquaringLobeFor(kGlossy ? UniformIntegerExponent(d, k) : 0);
     const V litFrom = hn::Set(d, squaring.litFrom), floor = hn::Set(d, squaring.floor);
+    // The skip test's per-group terms: n . x per lane, |n|, and the group's part of the margin's scale.
     const V gnx = hn::LoadU(d, &r.nx[i]), gny = hn::LoadU(d, &r.ny[i]), gnz = hn::LoadU(d, &r.nz[i]);
-    const V margin = hn::Set(d, -1e-4f), positionScale = hn::Add(hn::Add(hn::Abs(x), hn::Abs(y)), hn::Abs(z));
+    const V nDotX = Dot(gnx, gny, gnz, x, y, z);
+    const V absNx = hn::Abs(gnx), absNy = hn::Abs(gny), absNz = hn::Abs(gnz);
+    const float groupScale =
+        2.0f * hn::GetLane(hn::MaxOfLanes(d, hn::Add(hn::Add(hn::Abs(x), hn::Abs(y)), hn::Abs(z)))); // 2 max |x|_1
+    // The receivers' halved normals and mirror directions (the pass below), made once per group
+    const V half = hn::Set(d, 0.5f);
+    HWY_ALIGN float halved[6 * kMaxLanes];
+    hn::Store(hn::Mul(gnx, half), d, halved + 0 * lanes);
+    hn::Store(hn::Mul(gny, half), d, halved + 1 * lanes);
+    hn::Store(hn::Mul(gnz, half), d, halved + 2 * lanes);
+    hn::Store(hn::Mul(hn::LoadU(d, &r.rx[i]), half), d, halved + 3 * lanes);
+    hn::Store(hn::Mul(hn::LoadU(d, &r.ry[i]), half), d, halved + 4 * lanes);
+    hn::Store(hn::Mul(hn::LoadU(d, &r.rz[i]), half), d, halved + 5 * lanes);
     std::uint64_t skipped = 0;
     for (std::uint32_t first = valBegin; first < valEnd; first += kSumBlock) {
         // The block behind every receiver of the group: max over its bounding box of n . (l - x) =
-        // n . (c - x) + |n| . h < 0 with a margin of 1e-4 of the distances and positions involved
-        // (float rounding of the box, of l - x and of the kernel's n . l is ~1e-6 of those), so
-        // the kernel's cos theta_i = max(n . l, 0) would be exactly +0 for all 256 pairs: every
-        // term +0 (finite factors times +0), every block sum +0, and running + 0 = running. Skipping
-        // it changes no bit of any sum (the glossy pass needs cos theta_i > 0 too).
-        {
+        // n . c + |n| . h - n . x < 0 with a margin of 1e-4 S, S = 2 |c|_1 + |h|_1 + 2 max |x|_1 >= every
+        // |c|_1 + |h|_1 + |x|_1 of the group (|n_i| <= 1): the rounding of the box, of this bound, of
+        // l - x and of the kernel's n . (l - x) is a few float epsilons (~1e-7) of that, so the kernel's
+        // n . (l - x) is negative for all 256 pairs and cos theta_i = max(., 0) * 2/|l - x| exactly +0:
+        // every term +0 (finite factors times +0), every block sum +0, and running + 0 = running.
+        // Skipping it changes no bit of any sum (the glossy pass needs cos theta_i > 0 too).
+        if (skip) {
             const std::size_t block = first / kSumBlock;
-            const V hx = hn::Set(d, vals.boxHx[block]), hy = hn::Set(d, vals.boxHy[block]),
-                    hz = hn::Set(d, vals.boxHz[block]);
-            const V cx = hn::Set(d, vals.boxCx[block]), cy = hn::Set(d, vals.boxCy[block]),
-                    cz = hn::Set(d, vals.boxCz[block]);
-            const V dx = hn::Sub(cx, x), dy = hn::Sub(cy, y), dz = hn::Sub(cz, z);
-            const V bound =
-                hn::Add(Dot(gnx, gny, gnz, dx, dy, dz), Dot(hn::Abs(gnx), hn::Abs(gny), hn::Abs(gnz), hx, hy, hz));
-            const V scale =
-                hn::Add(hn::Add(hn::Add(hn::Abs(dx), hn::Abs(dy)), hn::Add(hn::Abs(dz), hx)),
-                        hn::Add(hn::Add(hy, hz),
-                                hn::Add(positionScale, hn::Add(hn::Add(hn::Abs(cx), hn::Abs(cy)), hn::Abs(cz)))));
-            if (skip && hn::AllTrue(d, hn::Lt(bound, hn::Mul(margin, scale)))) {
+            const V bound = hn::Sub(hn::Add(Dot(gnx, gny, gnz, hn::Set(d, vals.boxCx[block]),
+                                                hn::Set(d, vals.boxCy[block]), hn::Set(d, vals.boxCz[block])),
+                                            Dot(absNx, absNy, absNz, hn::Set(d, vals.boxHx[block]),
+                                                hn::Set(d, vals.boxHy[block]), hn::Set(d, vals.boxHz[block]))),
+                                    nDotX);
+            if (hn::AllTrue(d, hn::Lt(bound, hn::Set(d, -1e-4f * (vals.boxScale[block] + groupScale))))) {
                 ++skipped;
                 continue;
             }
@@ -241,12 +249,11 @@ HWY_NOINLINE std::uint64_t GatherGroup(const ValArrays& vals, std::uint32_t valB
             //  * w = r^2 g not formed: wD = r^2 (g cos theta_i), wS = r^2 (g lobe);
             //  * the first and second moments from p = (l - x) wD: offset += p (an add), moment += (l - x) p.
             // All rounding only (the bounds in tests/gi/gather/CpuLightSkinGLTest.cpp hold unchanged).
-            const V half = hn::Set(d, 0.5f);
-            const V nx = hn::Mul(hn::LoadU(d, &r.nx[i]), half), ny = hn::Mul(hn::LoadU(d, &r.ny[i]), half),
-                    nz = hn::Mul(hn::LoadU(d, &r.nz[i]), half);
+            const V nx = hn::Load(d, halved + 0 * lanes), ny = hn::Load(d, halved + 1 * lanes),
+                    nz = hn::Load(d, halved + 2 * lanes);
             const V tiny2 = hn::Add(tiny, tiny);
-            const V mirrorX = hn::Mul(hn::LoadU(d, &r.rx[i]), half), mirrorY = hn::Mul(hn::LoadU(d, &r.ry[i]), half),
-                    mirrorZ = hn::Mul(hn::LoadU(d, &r.rz[i]), half);
+            const V mirrorX = hn::Load(d, halved + 3 * lanes), mirrorY = hn::Load(d, halved + 4 * lanes),
+                    mirrorZ = hn::Load(d, halved + 5 * lanes);
             V eR = zero, eG = zero, eB = zero, r2D = zero, oDx = zero, oDy = zero, oDz = zero, wDs = zero;
             V mx = zero, my = zero, mz = zero;
             for (std::uint32_t j = first; j < first + kSumBlock; ++j) {
@@ -507,7 +514,7 @@ HWY_EXPORT(FmaChainsImpl);
 void ValArrays::reserve(std::size_t capacity) {
     for (auto* v : {&px, &py, &pz, &negNx, &negNy, &negNz, &r2, &cr2, &fr, &fg, &fb}) v->resize(capacity);
     const std::size_t blocks = (capacity + kSumBlock - 1) / kSumBlock;
-    for (auto* v : {&boxCx, &boxCy, &boxCz, &boxHx, &boxHy, &boxHz}) v->resize(blocks);
+    for (auto* v : {&boxCx, &boxCy, &boxCz, &boxHx, &boxHy, &boxHz, &boxScale}) v->resize(blocks);
 }
 
 void ReceiverArrays::resize(std::size_t paddedCount) {
@@ -561,6 +568,8 @@ void valBlockBoxes(ValArrays& v, std::uint32_t firstBlock, std::uint32_t endBloc
         v.boxCx[b] = 0.5f * (lo[0] + hi[0]), v.boxHx[b] = 0.5f * (hi[0] - lo[0]);
         v.boxCy[b] = 0.5f * (lo[1] + hi[1]), v.boxHy[b] = 0.5f * (hi[1] - lo[1]);
         v.boxCz[b] = 0.5f * (lo[2] + hi[2]), v.boxHz[b] = 0.5f * (hi[2] - lo[2]);
+        v.boxScale[b] = 2.0f * (std::abs(v.boxCx[b]) + std::abs(v.boxCy[b]) + std::abs(v.boxCz[b])) +
+                        (v.boxHx[b] + v.boxHy[b] + v.boxHz[b]);
     }
 }
 

@@ -41,6 +41,8 @@ struct ValArrays {
     /// Per block of kSumBlock VALs: centre and half extent of the positions' bounding box
     /// (prepareGather()), for the exact skip of blocks behind a whole receiver group.
     std::vector<float> boxCx, boxCy, boxCz, boxHx, boxHy, boxHz;
+    /// Per block: 2 |centre|_1 + |half extent|_1, the block's part of the skip test's rounding margin.
+    std::vector<float> boxScale;
     void reserve(std::size_t capacity);
 };
 
