@@ -235,7 +235,7 @@ HWY_NOINLINE std::uint64_t GatherGroup(const ValArrays& vals, std::uint32_t valB
                 continue;
             }
         }
-        bool anyFacing = false;
+        V facingMax = zero; // the block's largest masked cos(gamma) per lane: > 0 where some VAL faces
         {
             // Shorter dependency chains and fewer multiplies than the GL path's order of operations (a
             // pass over a block ran at ~2/3 of the multiply pipes' rate, waiting on latency):
@@ -294,11 +294,13 @@ HWY_NOINLINE std::uint64_t GatherGroup(const ValArrays& vals, std::uint32_t valB
                 }
                 if constexpr (kGlossy) {
                     // eq. 5: cos(gamma) = mirror(t) . e = t . R
-                    const V cosGamma = hn::Mul(Dot(ox, oy, oz, mirrorX, mirrorY, mirrorZ), invLength2);
-                    const auto facing = hn::And(hn::Gt(cosGamma, zero), hn::Gt(cosI, zero));
-                    anyFacing = anyFacing || !hn::AllFalse(d, facing);
+                    // zeroed where cos theta_i = 0; where cos(gamma) <= 0 it stays <= 0, which the
+                    // glossy pass takes as unlit as it takes 0 (lit needs c >= litFrom > 0, or c > 0)
+                    const V cosGamma = hn::IfThenElseZero(
+                        hn::Gt(cosI, zero), hn::Mul(Dot(ox, oy, oz, mirrorX, mirrorY, mirrorZ), invLength2));
+                    facingMax = hn::Max(facingMax, cosGamma);
                     const std::size_t at = (j - first) * lanes;
-                    hn::Store(hn::IfThenElseZero(facing, cosGamma), d, blockCos + at);
+                    hn::Store(cosGamma, d, blockCos + at);
                     hn::Store(g, d, blockG + at);
                     if constexpr (kMoments) hn::Store(d2, d, blockD2 + at);
                 }
@@ -322,7 +324,7 @@ HWY_NOINLINE std::uint64_t GatherGroup(const ValArrays& vals, std::uint32_t valB
             // A lane with lobe 0 adds exactly +0 to every glossy sum (finite terms times 0; a sum
             // is never -0), so a block (or VAL) that no lane's lobe sees leaves the sums unchanged.
             V gR = zero, gG = zero, gB = zero, r2S = zero, oSx = zero, oSy = zero, oSz = zero, wSs = zero, mS = zero;
-            if (anyFacing) {
+            if (!hn::AllFalse(d, hn::Gt(facingMax, zero))) {
                 for (std::uint32_t j = first; j < first + kSumBlock; ++j) {
                     const std::size_t at = (j - first) * lanes;
                     const V c = hn::Load(d, blockCos + at);
