@@ -89,8 +89,8 @@ private:
 /// group of kReceiverPadding shares its exponent and has nearby normals and positions. A group then
 /// often lies wholly behind a VAL block (cos theta_i <= 0 for every pair), whose terms are all exactly
 /// +0: the kernel skips it, and every sum stays the same bit for bit (x + 0 = x). The groups are then
-/// laid out in bit-reversed order, so that the threads' contiguous ranges get alike mixes of groups
-/// (sorted by exponent and normal, the halves differed by 1.3x in work). No allocation.
+/// laid out in bit-reversed order (CpuLightSkin lays them out in the order its threads take them). No
+/// allocation.
 void prepareGather(ValArrays& vals, ReceiverArrays& receivers, std::size_t receiverCount);
 /// prepareGather()'s two parts: the bounding boxes of the VAL blocks [firstBlock, endBlock) (each block
 /// independent: threads may split them), and the receivers' coherent order (serial: one sort).
@@ -101,7 +101,7 @@ void valBlockBoxes(ValArrays& vals, std::uint32_t firstBlock, std::uint32_t endB
 void orderReceivers(ReceiverArrays& receivers, std::size_t receiverCount, std::span<const std::uint32_t> layout);
 /// The groups 0..layout.size()-1 in bit-reversed order: any contiguous range of slot groups then takes
 /// about every (groups / range)-th group of the sorted order (sorted by exponent and normal, contiguous
-/// halves differed by 1.3x in work).
+/// halves differed by 1.3x in work); CpuLightSkin's order before it knows the groups' times.
 void bitReversedLayout(std::span<std::uint32_t> layout);
 
 struct GatherParameters {
