@@ -227,7 +227,7 @@ void runCpuBench(const CpuBenchOptions& options) {
                                         100.0 * perSecond * setup.gatherFlops * 1e-9 / options.peakGflops,
                                         options.peakGflops);
                         // interactions above count every VAL x point pair, also those of the skipped blocks
-                        std::printf("); %.1f %% of its 16 x 16 blocks skipped as hidden (exact)\n",
+                        std::printf("); %.1f %% of its (16 VALs, point) pairs in blocks skipped as hidden (exact)\n",
                                     100.0 * stats.gatherBlocksSkipped);
                         if (setup.occlusion) {
                             const double pairs = double(stats.points) * double(stats.points);

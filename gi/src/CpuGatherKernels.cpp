@@ -389,7 +389,7 @@ std::uint64_t GatherImpl(const ValArrays& vals, std::uint32_t valBegin, std::uin
         else
             skipped += GatherGroup<false, false>(vals, valBegin, valEnd, receivers, i, sums, stride, skip);
     }
-    return skipped;
+    return skipped * lanes; // (VAL block, receiver) pairs, whatever the vector width
 }
 
 // Hidden fraction of one target (ls_occluderAmount after the shared per-occluder terms).
@@ -406,8 +406,8 @@ HWY_INLINE V TargetAmount(D d, V cx, V cy, V half, V invArea, V dist, V invRadiu
 }
 
 template <bool kGlossy>
-HWY_NOINLINE void OcclusionGroup(const OcclusionReceivers& r, std::size_t i, const Occluders& o, float* outD,
-                                 float* outS) {
+HWY_NOINLINE std::uint64_t OcclusionGroup(const OcclusionReceivers& r, std::size_t i, const Occluders& o, float* outD,
+                                          float* outS, bool skip) {
     namespace m = refmath;
     const D d;
     const V zero = hn::Zero(d);
@@ -421,6 +421,7 @@ HWY_NOINLINE void OcclusionGroup(const OcclusionReceivers& r, std::size_t i, con
     const V dinvArea = hn::LoadU(d, &r.dinvArea[i]), ddist = hn::LoadU(d, &r.ddist[i]),
             dinvRadius = hn::LoadU(d, &r.dinvRadius[i]);
     V sumD = zero, sumS = zero;
+    std::uint64_t skipped = 0;
     for (std::size_t j = 0; j < o.count; ++j) {
         const V vx = hn::Sub(hn::Set(d, o.px[j]), x), vy = hn::Sub(hn::Set(d, o.py[j]), y),
                 vz = hn::Sub(hn::Set(d, o.pz[j]), z);
@@ -431,7 +432,10 @@ HWY_NOINLINE void OcclusionGroup(const OcclusionReceivers& r, std::size_t i, con
         // sum + 0 = sum (a sum is never -0), so skipping it changes no bit; it skips before the
         // reciprocal square root and the normalisation, which these pairs paid before.
         const V nDotV = Dot(nx, ny, nz, vx, vy, vz);
-        if (hn::AllFalse(d, hn::Gt(nDotV, zero))) continue;
+        if (skip && hn::AllFalse(d, hn::Gt(nDotV, zero))) {
+            ++skipped;
+            continue;
+        }
         const V d2 = Dot(vx, vy, vz, vx, vy, vz);
         const auto counts = hn::And(hn::Gt(d2, tiny), hn::Gt(nDotV, zero)); // not the point itself, above
         const V inv = InverseSqrt(d, hn::Max(d2, tiny));
@@ -455,17 +459,20 @@ HWY_NOINLINE void OcclusionGroup(const OcclusionReceivers& r, std::size_t i, con
     }
     hn::StoreU(sumD, d, outD + i);
     hn::StoreU(sumS, d, outS + i);
+    return skipped;
 }
 
-void OcclusionImpl(const OcclusionReceivers& receivers, std::size_t receiverBegin, std::size_t receiverEnd,
-                   const Occluders& occluders, bool glossy, float* outD, float* outS) {
+std::uint64_t OcclusionImpl(const OcclusionReceivers& receivers, std::size_t receiverBegin, std::size_t receiverEnd,
+                            const Occluders& occluders, bool glossy, float* outD, float* outS, bool skip) {
+    std::uint64_t skipped = 0;
     const std::size_t lanes = hn::Lanes(D());
     for (std::size_t i = receiverBegin; i < receiverEnd; i += lanes) {
         if (glossy)
-            OcclusionGroup<true>(receivers, i, occluders, outD, outS);
+            skipped += OcclusionGroup<true>(receivers, i, occluders, outD, outS, skip);
         else
-            OcclusionGroup<false>(receivers, i, occluders, outD, outS);
+            skipped += OcclusionGroup<false>(receivers, i, occluders, outD, outS, skip);
     }
+    return skipped * lanes;
 }
 
 // As the gather chooses per receiver group: squaring where a vector's lanes share an integer k.
@@ -653,9 +660,10 @@ std::uint64_t gather(const ValArrays& vals, std::uint32_t valBegin, std::uint32_
                                             sums, stride);
 }
 
-void occlusion(const OcclusionReceivers& receivers, std::size_t receiverBegin, std::size_t receiverEnd,
-               const Occluders& occluders, bool glossy, float* outD, float* outS) {
-    HWY_DYNAMIC_DISPATCH(OcclusionImpl)(receivers, receiverBegin, receiverEnd, occluders, glossy, outD, outS);
+std::uint64_t occlusion(const OcclusionReceivers& receivers, std::size_t receiverBegin, std::size_t receiverEnd,
+                        const Occluders& occluders, bool glossy, float* outD, float* outS, bool skipHidden) {
+    return HWY_DYNAMIC_DISPATCH(OcclusionImpl)(receivers, receiverBegin, receiverEnd, occluders, glossy, outD, outS,
+                                               skipHidden);
 }
 
 void lobePow(const float* cosGamma, const float* exponent, float* out, std::size_t count) {

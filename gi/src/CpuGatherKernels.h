@@ -115,7 +115,7 @@ struct GatherParameters {
 /// Adds VALs [valBegin, valEnd) (multiples of kSumBlock) to the running sums of receivers
 /// [receiverBegin, receiverEnd) (multiples of kReceiverPadding). sums[s * stride + i] is sum s of
 /// receiver i; must hold the running sums of VALs [0, valBegin) (zero for valBegin = 0). Returns the
-/// number of (VAL block, receiver group) pairs skipped as wholly hidden.
+/// number of (VAL block, receiver) pairs skipped as wholly hidden.
 std::uint64_t gather(const ValArrays& vals, std::uint32_t valBegin, std::uint32_t valEnd,
                      const ReceiverArrays& receivers, std::size_t receiverBegin, std::size_t receiverEnd,
                      const GatherParameters& parameters, float* sums, std::size_t stride);
@@ -139,9 +139,11 @@ struct Occluders {
 };
 
 /// outD[i], outS[i] = sum over all occluders of the hidden fractions of receiver i's targets
-/// (unclamped), for receivers [receiverBegin, receiverEnd) (multiples of kReceiverPadding).
-void occlusion(const OcclusionReceivers& receivers, std::size_t receiverBegin, std::size_t receiverEnd,
-               const Occluders& occluders, bool glossy, float* outD, float* outS);
+/// (unclamped), for receivers [receiverBegin, receiverEnd) (multiples of kReceiverPadding). `skipHidden`:
+/// skip an occluder below every receiver's horizon in a vector (its terms are all exactly +0, so no bit
+/// changes; off only to check that). Returns the number of (occluder, receiver) pairs skipped.
+std::uint64_t occlusion(const OcclusionReceivers& receivers, std::size_t receiverBegin, std::size_t receiverEnd,
+                        const Occluders& occluders, bool glossy, float* outD, float* outS, bool skipHidden = true);
 
 /// The gather's Phong lobe (guard G3 of lightskin_math.glsl): out[i] = cos^k for c = cosGamma[i],
 /// k = exponent[i] >= 1; 0 where c <= 0 or k ln c < kMinLogPow. count: a multiple of

@@ -278,9 +278,10 @@ struct CpuLightSkin::Impl {
     cpu::ValTreeCut treeCut;            // LightSkinSettings::valTreeThreshold > 0 (issue 17)
     cpu::NearFieldCorrection nearField; // guard G12 (LightSkinSettings::nearFieldArea) of the flat gather
 
-    std::unique_ptr<tbb::task_arena> arena; // settings.threads workers (0: one per hardware thread)
-    RegionClock regionClock;                // per-thread CPU time of the parallel regions (stats)
-    RegionClock occlusionClock;             // per-thread time in occludeSlots() (stats; steady clock)
+    std::unique_ptr<tbb::task_arena> arena;         // settings.threads workers (0: one per hardware thread)
+    RegionClock regionClock;                        // per-thread CPU time of the parallel regions (stats)
+    std::atomic<std::uint64_t> occlusionSkipped{0}; // this frame: (occluder, point) pairs skipped (stats)
+    RegionClock occlusionClock;                     // per-thread time in occludeSlots() (stats; steady clock)
     // planLayout(): per group of the sorted order its time estimate (us); the groups in the order the
     // threads take them (layout, slot group -> sorted group)
     std::vector<double> groupCost;
@@ -480,7 +481,7 @@ struct CpuLightSkin::Impl {
             occlusionClock.add(occlusionMs);
         });
         pointTermsReady = true;
-        const double blocks = double(vals.padded / cpu::kSumBlock) * double(receivers.padded / cpu::kReceiverPadding);
+        const double blocks = double(vals.padded / cpu::kSumBlock) * double(receivers.padded); // x receivers
         stats.gatherBlocksSkipped = blocks > 0.0 ? double(skipped.load()) / blocks : 0.0;
     }
 
@@ -598,7 +599,8 @@ struct CpuLightSkin::Impl {
     /// (steady clock: a thread CPU clock read is a system call, ~0.8 us here, and this runs per group).
     double occludeSlots(std::size_t begin, std::size_t end) {
         const auto start = Clock::now();
-        cpu::occlusion(occlusionReceivers, begin, end, occluders, glossy, occlusionSlotD.data(), occlusionSlotS.data());
+        occlusionSkipped += cpu::occlusion(occlusionReceivers, begin, end, occluders, glossy, occlusionSlotD.data(),
+                                           occlusionSlotS.data(), settings.skipHiddenBlocks);
         for (std::size_t slot = begin; slot < end; ++slot) {
             const std::uint32_t i = receivers.index[slot];
             if (i >= pointCount) continue;
@@ -613,7 +615,8 @@ struct CpuLightSkin::Impl {
     void occlude() {
         cpu::OcclusionReceivers& r = occlusionReceivers;
         parallelRanges(*arena, regionClock, r.padded, [&](std::size_t begin, std::size_t end) {
-            cpu::occlusion(r, begin, end, occluders, glossy, occlusionD.data(), occlusionS.data());
+            occlusionSkipped += cpu::occlusion(r, begin, end, occluders, glossy, occlusionD.data(), occlusionS.data(),
+                                               settings.skipHiddenBlocks);
         });
     }
 
@@ -876,6 +879,7 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
     const double cpuStart = processCpuMs(), callerStart = threadCpuMs();
     impl.regionClock.excessMs = 0.0;
     impl.pointTermsReady = false;
+    impl.occlusionSkipped = 0;
     auto start = Clock::now();
     const double treeThreshold = double(impl.settings.lightSkin.valTreeThreshold);
     impl.buildValArrays(lights, instances, eye, treeThreshold <= 0.0);
@@ -917,6 +921,11 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
     }
     stats.occlusionMs = millisecondsSince(start);
     stats.occlusionCpuMs = processCpuMs() - cpu;
+    {
+        const double pairs = double(impl.occluders.count) * double(impl.occlusionReceivers.padded);
+        stats.occlusionPairsSkipped =
+            impl.occlusion && pairs > 0.0 ? double(impl.occlusionSkipped.load()) / pairs : 0.0;
+    }
     if (impl.occlusion && treeThreshold <= 0.0) { // ran inside the gather's region: its threads' time there
         double occlusionCpu = 0.0;
         for (const double ms : impl.occlusionClock.slotMs) occlusionCpu += ms;

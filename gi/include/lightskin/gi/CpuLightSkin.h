@@ -28,8 +28,9 @@ struct CpuLightSkinSettings {
     /// the results do not depend on it.
     int threads = 0;
     /// Skip the gather's blocks of 16 VALs x 16 sparse points that lie wholly behind the points
-    /// (every cos theta_i <= 0, so every term is exactly 0). Exact: the results are the same bit for
-    /// bit either way; false only to check that (tests) or to measure the saving (benchmarks).
+    /// (every cos theta_i <= 0, so every term is exactly 0), and the occlusion's occluders below the
+    /// horizon of every point of a vector (every term exactly 0 too). Exact: the results are the same bit
+    /// for bit either way; false only to check that (tests) or to measure the saving (benchmarks).
     bool skipHiddenBlocks = true;
 };
 
@@ -62,8 +63,11 @@ struct CpuLightSkinStats {
     std::string simdTarget;          ///< the instruction set the runtime dispatch chose, e.g. "AVX3"
     double valTreeCutPerPoint = 0.0; ///< valTreeThreshold > 0 (issue 17): lights taken per sparse point
     bool valTreeQuadtree = false;    ///< the cut went through the image quadtree (CpuValPixelKeys), else the BVH
-    /// Fraction of the gather's (16 VALs x 16 sparse points) blocks skipped as wholly hidden.
+    /// Fraction of the gather's (block of 16 VALs, sparse point) pairs skipped as wholly hidden (the points
+    /// decide in vectors of the dispatched width: 16 with AVX-512).
     double gatherBlocksSkipped = 0.0;
+    /// Fraction of the occlusion's (occluder, sparse point) pairs skipped as below every horizon of a vector.
+    double occlusionPairsSkipped = 0.0;
 };
 
 /// Where VALs on the CPU come from the pixels of an image (gi::CpuValGenerator::lastPixelIndices()):
