@@ -41,6 +41,8 @@ struct ValArrays {
     /// Per block of kSumBlock VALs: centre and half extent of the positions' bounding box
     /// (prepareGather()), for the exact skip of blocks behind a whole receiver group.
     std::vector<float> boxCx, boxCy, boxCz, boxHx, boxHy, boxHz;
+    /// Per block: 2 |centre|_1 + |half extent|_1, the block's part of the skip test's rounding margin.
+    std::vector<float> boxScale;
     void reserve(std::size_t capacity);
 };
 
@@ -66,8 +68,9 @@ inline void setVal(ValArrays& vals, std::uint32_t n, const VirtualAreaLight& l) 
 struct ReceiverArrays {
     std::vector<float> px, py, pz, nx, ny, nz;
     std::vector<float> ex, ey, ez; ///< unit vector to the eye
-    std::vector<float> nde2;       ///< 2 n . toEye (eq. 5's mirror cosine: 2 (n.l)(n.e) - l.e; times 2 is exact)
-    std::vector<float> k, ck;      ///< Phong exponent and c (k + 1)
+    /// the eye direction mirrored about n, R = 2 (n . e) n - e: eq. 5's mirror cosine 2 (n.t)(n.e) - t.e = t . R
+    std::vector<float> rx, ry, rz;
+    std::vector<float> k, ck; ///< Phong exponent and c (k + 1)
     /// Receiver (column of the sums) in each slot: the identity as filled, the coherent order after
     /// prepareGather(). The kernels read slots and write the sums of receiver index[slot].
     std::vector<std::uint32_t> index;
@@ -86,8 +89,8 @@ private:
 /// group of kReceiverPadding shares its exponent and has nearby normals and positions. A group then
 /// often lies wholly behind a VAL block (cos theta_i <= 0 for every pair), whose terms are all exactly
 /// +0: the kernel skips it, and every sum stays the same bit for bit (x + 0 = x). The groups are then
-/// laid out in bit-reversed order, so that the threads' contiguous ranges get alike mixes of groups
-/// (sorted by exponent and normal, the halves differed by 1.3x in work). No allocation.
+/// laid out in bit-reversed order (CpuLightSkin lays them out in the order its threads take them). No
+/// allocation.
 void prepareGather(ValArrays& vals, ReceiverArrays& receivers, std::size_t receiverCount);
 /// prepareGather()'s two parts: the bounding boxes of the VAL blocks [firstBlock, endBlock) (each block
 /// independent: threads may split them), and the receivers' coherent order (serial: one sort).
@@ -98,7 +101,7 @@ void valBlockBoxes(ValArrays& vals, std::uint32_t firstBlock, std::uint32_t endB
 void orderReceivers(ReceiverArrays& receivers, std::size_t receiverCount, std::span<const std::uint32_t> layout);
 /// The groups 0..layout.size()-1 in bit-reversed order: any contiguous range of slot groups then takes
 /// about every (groups / range)-th group of the sorted order (sorted by exponent and normal, contiguous
-/// halves differed by 1.3x in work).
+/// halves differed by 1.3x in work); CpuLightSkin's order before it knows the groups' times.
 void bitReversedLayout(std::span<std::uint32_t> layout);
 
 struct GatherParameters {
@@ -112,7 +115,7 @@ struct GatherParameters {
 /// Adds VALs [valBegin, valEnd) (multiples of kSumBlock) to the running sums of receivers
 /// [receiverBegin, receiverEnd) (multiples of kReceiverPadding). sums[s * stride + i] is sum s of
 /// receiver i; must hold the running sums of VALs [0, valBegin) (zero for valBegin = 0). Returns the
-/// number of (VAL block, receiver group) pairs skipped as wholly hidden.
+/// number of (VAL block, receiver) pairs skipped as wholly hidden.
 std::uint64_t gather(const ValArrays& vals, std::uint32_t valBegin, std::uint32_t valEnd,
                      const ReceiverArrays& receivers, std::size_t receiverBegin, std::size_t receiverEnd,
                      const GatherParameters& parameters, float* sums, std::size_t stride);
@@ -136,9 +139,11 @@ struct Occluders {
 };
 
 /// outD[i], outS[i] = sum over all occluders of the hidden fractions of receiver i's targets
-/// (unclamped), for receivers [receiverBegin, receiverEnd) (multiples of kReceiverPadding).
-void occlusion(const OcclusionReceivers& receivers, std::size_t receiverBegin, std::size_t receiverEnd,
-               const Occluders& occluders, bool glossy, float* outD, float* outS);
+/// (unclamped), for receivers [receiverBegin, receiverEnd) (multiples of kReceiverPadding). `skipHidden`:
+/// skip an occluder below every receiver's horizon in a vector (its terms are all exactly +0, so no bit
+/// changes; off only to check that). Returns the number of (occluder, receiver) pairs skipped.
+std::uint64_t occlusion(const OcclusionReceivers& receivers, std::size_t receiverBegin, std::size_t receiverEnd,
+                        const Occluders& occluders, bool glossy, float* outD, float* outS, bool skipHidden = true);
 
 /// The gather's Phong lobe (guard G3 of lightskin_math.glsl): out[i] = cos^k for c = cosGamma[i],
 /// k = exponent[i] >= 1; 0 where c <= 0 or k ln c < kMinLogPow. count: a multiple of

@@ -81,12 +81,6 @@ std::size_t padReceivers(std::size_t n) {
     return (n + cpu::kReceiverPadding - 1) / cpu::kReceiverPadding * cpu::kReceiverPadding;
 }
 
-/// VALs per gather tile: 2048 x 44 bytes of SoA = 90 KB, resident in L2 while a thread runs all
-/// its receiver groups over it (with the groups' running sums, 80 bytes per receiver); a block of
-/// 16 VALs (704 bytes) and one group's sums sit in L1.
-constexpr std::uint32_t kValTile = 2048;
-static_assert(kValTile % cpu::kSumBlock == 0);
-
 /// Runs body(begin, end) in `arena` over [0, count) split into one contiguous,
 /// kReceiverPadding-aligned range per thread of the arena. The split only decides who computes a
 /// receiver, never how. oneTBB, not OpenMP: libgomp's idle workers spin between parallel regions
@@ -133,26 +127,29 @@ void parallelRanges(tbb::task_arena& arena, RegionClock& clock, std::size_t coun
     clock.end();
 }
 
-/// body(i) for i in [begin, end) in `arena`, in contiguous chunks (each i independent).
+/// Runs body() once on each thread of `arena` (one task per thread); the bodies share out the work
+/// themselves (e.g. an atomic counter over receiver groups), so a thread that starts late or loses its
+/// core to another process leaves its share to the others instead of holding up the join.
 template <class Body>
-void parallelFor(tbb::task_arena& arena, RegionClock& clock, std::size_t begin, std::size_t end, const Body& body) {
+void parallelWorkers(tbb::task_arena& arena, RegionClock& clock, const Body& body) {
     struct Context {
         const Body& body;
         RegionClock& clock;
-        detail::TsanParallelRegion region;
+        detail::TsanParallelRegion region; // last: the fork edge follows the fields above
     };
     clock.begin(); // before the fork edge (the context's construction), read after the join (its end)
     {
+        const std::size_t n = std::size_t(arena.max_concurrency());
         Context context{body, clock, {}};
-        arena.execute([&] {
-            clock.enter();
+        arena.execute([&context, n] {
+            context.clock.enter();
             tbb::parallel_for(
-                tbb::blocked_range<std::size_t>(begin, end),
-                [ctx = &context](const tbb::blocked_range<std::size_t>& r) {
+                tbb::blocked_range<std::size_t>(0, n, 1),
+                [ctx = &context](const tbb::blocked_range<std::size_t>& threads) {
                     const Context& c = *detail::TsanParallelRegion::captured(ctx);
                     c.region.taskBegin();
                     const double start = threadCpuMs();
-                    for (std::size_t i = r.begin(); i < r.end(); ++i) c.body(i);
+                    for (std::size_t t = threads.begin(); t < threads.end(); ++t) c.body();
                     c.clock.add(threadCpuMs() - start);
                     c.region.taskEnd();
                 },
@@ -160,6 +157,20 @@ void parallelFor(tbb::task_arena& arena, RegionClock& clock, std::size_t begin, 
         });
     }
     clock.end();
+}
+
+/// body(i) for i in [begin, end) in `arena` (each i independent), the threads taking `chunk` indices at a
+/// time from a shared counter: a thread that starts late (a sleeping worker's wake-up, ~20-50 us here) or
+/// is preempted leaves its share to the others.
+template <class Body>
+void parallelFor(tbb::task_arena& arena, RegionClock& clock, std::size_t begin, std::size_t end, const Body& body,
+                 std::size_t chunk = 1) {
+    std::atomic<std::size_t> next{begin};
+    parallelWorkers(arena, clock, [&] {
+        for (std::size_t c = next.fetch_add(chunk, std::memory_order_relaxed); c < end;
+             c = next.fetch_add(chunk, std::memory_order_relaxed))
+            for (std::size_t i = c; i < std::min(c + chunk, end); ++i) body(i);
+    });
 }
 
 /// Whether `linear` (world_T_model's 3x3 part) is a similarity: L^T L = s^2 (I + E) with every
@@ -267,26 +278,23 @@ struct CpuLightSkin::Impl {
     cpu::ValTreeCut treeCut;            // LightSkinSettings::valTreeThreshold > 0 (issue 17)
     cpu::NearFieldCorrection nearField; // guard G12 (LightSkinSettings::nearFieldArea) of the flat gather
 
-    std::unique_ptr<tbb::task_arena> arena; // settings.threads workers (0: one per hardware thread)
-    RegionClock regionClock;                // per-thread CPU time of the parallel regions (stats)
-    RegionClock occlusionClock;             // per-thread CPU time of occludeSlots() (stats)
-    // planLayout(): per slot group its gather time this frame (us); per group of the sorted order its
-    // time estimate (us), bin (thread) and place; the groups by cost; per thread its load and range
-    std::vector<double> groupTime, groupCost;
+    std::unique_ptr<tbb::task_arena> arena;         // settings.threads workers (0: one per hardware thread)
+    RegionClock regionClock;                        // per-thread CPU time of the parallel regions (stats)
+    std::atomic<std::uint64_t> occlusionSkipped{0}; // this frame: (occluder, point) pairs skipped (stats)
+    RegionClock occlusionClock;                     // per-thread time in occludeSlots() (stats; steady clock)
+    // planLayout(): per group of the sorted order its time estimate (us); the groups in the order the
+    // threads take them (layout, slot group -> sorted group)
+    std::vector<double> groupCost;
     static constexpr std::size_t kCostFrames = 4;
     std::vector<double> recentTimes; // kCostFrames x groups: the last frames' times per sorted group (ring)
     std::size_t costFrame = 0;       // this frame's row of recentTimes
-    std::vector<std::uint32_t> layout, byCost, binOf;
-    std::vector<double> binLoad;
-    std::vector<std::size_t> splits;
+    std::vector<std::uint32_t> layout;
     int threadCount() const { return arena->max_concurrency(); }
     void createArena() {
         arena = std::make_unique<tbb::task_arena>(settings.threads > 0 ? settings.threads
                                                                        : int(tbb::task_arena::automatic));
         regionClock.resize(std::size_t(arena->max_concurrency()));
         occlusionClock.resize(std::size_t(arena->max_concurrency()));
-        splits.assign(std::size_t(arena->max_concurrency()) + 1, 0);
-        binLoad.assign(std::size_t(arena->max_concurrency()), 0.0);
     }
 
     void reserveVals(std::size_t count) {
@@ -301,9 +309,13 @@ struct CpuLightSkin::Impl {
     }
 
     /// Stage 0: the valid VALs into SoA (input order kept), the eps_l sums, padding to kSumBlock and
-    /// the blocks' boxes (cpu::valBlockBoxes), in the threads by chunks of kValChunk output VALs: a
-    /// serial pass over the areas alone finds each chunk's first input VAL.
-    void buildValArrays(std::span<const VirtualAreaLight> lights) {
+    /// the blocks' boxes (cpu::valBlockBoxes), in the threads by chunks of kValChunk output VALs (a
+    /// serial pass over the areas alone finds each chunk's first input VAL); beside them, as one more
+    /// item of the same region, the sparse points in world space (placePoints) and, for the flat
+    /// gather (`orderGroups`), their coherent groups in the order the gather takes them
+    /// (orderReceivers): both independent of the VALs, they were serial (~0.1 ms) before the region.
+    void buildValArrays(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
+                        const glm::dvec3& eye, bool orderGroups) {
         reserveVals(lights.size());
         std::uint32_t n = 0;
         for (std::size_t i = 0; i < lights.size(); ++i) {
@@ -314,10 +326,19 @@ struct CpuLightSkin::Impl {
         vals.count = n;
         vals.padded = (n + cpu::kSumBlock - 1) / cpu::kSumBlock * cpu::kSumBlock;
         const std::size_t chunks = (vals.padded + kValChunk - 1) / kValChunk;
-        if (chunks > 1)
-            parallelFor(*arena, regionClock, 0, chunks, [&](std::size_t c) { buildValChunk(lights, c); });
-        else if (chunks == 1)
-            buildValChunk(lights, 0);
+        // item 0 (the longest, ~0.1 ms, so first): the points; items 1..chunks: the VAL chunks
+        parallelFor(*arena, regionClock, 0, chunks + 1, [&](std::size_t item) {
+            if (item > 0) {
+                buildValChunk(lights, item - 1);
+                return;
+            }
+            placePoints(instances, eye);
+            if (!orderGroups) return;
+            const std::size_t full = pointCount / cpu::kReceiverPadding;
+            planLayout(full);
+            costFrame = (costFrame + 1) % kCostFrames;
+            cpu::orderReceivers(receivers, pointCount, std::span<const std::uint32_t>(layout).first(full));
+        });
         // per chunk, then the chunks in order: the same bits whichever thread summed a chunk
         std::fill(std::begin(valSums), std::end(valSums), 0.0);
         for (std::size_t c = 0; c < chunks; ++c)
@@ -383,7 +404,10 @@ struct CpuLightSkin::Impl {
                 receivers.ex[at] = float(e.x);
                 receivers.ey[at] = float(e.y);
                 receivers.ez[at] = float(e.z);
-                receivers.nde2[at] = float(2.0 * glm::dot(n, e));
+                const glm::dvec3 mirror = 2.0 * glm::dot(n, e) * n - e; // eq. 5: cos(gamma) = t . mirror
+                receivers.rx[at] = float(mirror.x);
+                receivers.ry[at] = float(mirror.y);
+                receivers.rz[at] = float(mirror.z);
                 receivers.k[at] = float(k);
                 receivers.ck[at] = float(c * (k + 1.0));
                 // the occluder discs need no gather result: set here, before the fused region reads them
@@ -396,49 +420,46 @@ struct CpuLightSkin::Impl {
         }
     }
 
-    /// Stage 1: the running sums of every receiver over all VALs, tile by tile.
-    /// Stage 1 and, per point of each thread's range right after its sums are complete, stage 2
-    /// and stage 3's per-point set-up (renormalisePoint, occlusionSetup): both read only the point's
-    /// own sums, so they need no join of their own and run on both cores instead of one.
+    /// Stage 1: the running sums of every receiver over all VALs, group by group, and per group right
+    /// after its sums are complete stage 2 and stage 3 (renormalisePoint, occlusionSetup, occludeSlots) and
+    /// stage 4's per-point terms: all read only the group's own sums (and the occluder discs, set in
+    /// placePoints()), so they need no join of their own and run on both cores instead of one.
+    /// The threads take whole groups from a shared counter in planLayout()'s order (longest first), so the
+    /// split follows the threads' actual progress: a worker that wakes late or loses its core to another
+    /// process hands its groups to the others (a static split waited for it: the 2-thread wall time was
+    /// ~0.8 ms above the critical path from thread CPU clocks). A group is computed whole by one thread in
+    /// one order, so no result depends on who took it.
     void gather(const glm::dvec3& eye) {
-        std::fill(sums.begin(), sums.end(), 0.0f);
         occlusionClock.begin();
-        // receivers in coherent groups, laid out for the split (the VAL boxes were made in stage 0)
+        // the receivers are in coherent groups, in the order the threads take them, and the VAL blocks'
+        // boxes are made (stage 0: buildValArrays)
         const std::size_t full = pointCount / cpu::kReceiverPadding;
-        planLayout(full);
-        costFrame = (costFrame + 1) % kCostFrames;
-        cpu::orderReceivers(receivers, pointCount, std::span<const std::uint32_t>(layout).first(full));
+        const std::size_t groups = receivers.padded / cpu::kReceiverPadding;
         const cpu::GatherParameters parameters{glossy, moments(), settings.skipHiddenBlocks};
         const std::size_t stride = receivers.padded;
         std::atomic<std::uint64_t> skipped{0};
+        std::atomic<std::size_t> nextGroup{0};
         const bool areas = settings.lightSkin.nearFieldArea;
         if (areas) nearField.index(vals);
-        parallelRanges(
-            *arena, regionClock, receivers.padded,
-            [&](std::size_t begin, std::size_t end) {
-                std::uint64_t n = 0;
-                const std::size_t g0 = begin / cpu::kReceiverPadding, g1 = end / cpu::kReceiverPadding;
-                std::fill(groupTime.begin() + std::ptrdiff_t(g0), groupTime.begin() + std::ptrdiff_t(g1), 0.0);
-                for (std::uint32_t first = 0; first < vals.padded; first += kValTile) {
-                    const std::uint32_t last = std::min(first + kValTile, vals.padded);
-                    // group by group (the same order of operations as one call over the range), timed
-                    // for the next frame's layout (one clock read per call)
-                    auto before = Clock::now();
-                    for (std::size_t i = begin; i < end; i += cpu::kReceiverPadding) {
-                        n += cpu::gather(vals, first, last, receivers, i, i + cpu::kReceiverPadding, parameters,
-                                         sums.data(), stride);
-                        const auto after = Clock::now();
-                        groupTime[i / cpu::kReceiverPadding] +=
-                            std::chrono::duration<double, std::micro>(after - before).count();
-                        before = after;
-                    }
-                }
+        parallelWorkers(*arena, regionClock, [&] {
+            std::uint64_t n = 0;
+            double occlusionMs = 0.0; // this thread's time in the occlusion kernel (stats)
+            for (std::size_t sg = nextGroup.fetch_add(1, std::memory_order_relaxed); sg < groups;
+                 sg = nextGroup.fetch_add(1, std::memory_order_relaxed)) {
+                const std::size_t begin = sg * cpu::kReceiverPadding, end = begin + cpu::kReceiverPadding;
+                for (std::size_t k = 0; k < cpu::kGatherSums; ++k)
+                    for (std::size_t slot = begin; slot < end; ++slot) sums[k * stride + receivers.index[slot]] = 0.0f;
+                // all VALs in one call (~850 KB of SoA for 19200 VALs stay in a core's L2); timed for the
+                // next frames' order
+                const auto before = Clock::now();
+                n += cpu::gather(vals, 0, vals.padded, receivers, begin, end, parameters, sums.data(), stride);
+                const double us = std::chrono::duration<double, std::micro>(Clock::now() - before).count();
                 // per group of the sorted order, the least of its last kCostFrames frames' times: a time
                 // slice lost to another process only ever adds to a group's time
-                for (std::size_t sg = g0; sg < std::min(g1, full); ++sg) {
+                if (sg < full) {
                     const std::size_t g = layout[sg];
-                    recentTimes[costFrame * groupCost.size() + g] = groupTime[sg];
-                    double least = groupTime[sg];
+                    recentTimes[costFrame * groupCost.size() + g] = us;
+                    double least = us;
                     for (std::size_t f = 0; f < kCostFrames; ++f) {
                         const double t = recentTimes[f * groupCost.size() + g];
                         if (t > 0.0) least = std::min(least, t);
@@ -446,58 +467,41 @@ struct CpuLightSkin::Impl {
                     groupCost[g] = least;
                 }
                 if (areas) nearField.apply(vals, receivers, begin, end, parameters, sums.data(), stride); // G12
-                skipped += n;
                 for (std::size_t slot = begin; slot < end; ++slot) {
                     const std::uint32_t i = receivers.index[slot];
                     if (i >= pointCount) continue; // padding
                     renormalisePoint(i, eye);
                     if (occlusion) occlusionSetup(i, slot);
                 }
-                if (occlusion) occludeSlots(begin, end);
+                if (occlusion) occlusionMs += occludeSlots(begin, end);
                 for (std::size_t slot = begin; slot < end; ++slot)
                     if (receivers.index[slot] < pointCount) makePointTerms(receivers.index[slot]);
-            },
-            splits);
+            }
+            skipped += n;
+            occlusionClock.add(occlusionMs);
+        });
         pointTermsReady = true;
-        const double blocks = double(vals.padded / cpu::kSumBlock) * double(receivers.padded / cpu::kReceiverPadding);
+        const double blocks = double(vals.padded / cpu::kSumBlock) * double(receivers.padded); // x receivers
         stats.gatherBlocksSkipped = blocks > 0.0 ? double(skipped.load()) / blocks : 0.0;
     }
 
-    /// The gather region's layout of the `full` whole groups of the sorted order and its split
-    /// (splits): with every group's time of the previous frames known (groupCost), the groups go to
-    /// the threads longest first, each to the least loaded (LPT), and each thread's groups are laid out
-    /// contiguously; else bit-reversed order and equal numbers of groups. With hidden blocks and unlit
-    /// lanes skipped, groups differ several-fold in work: the bit-reversed halves differed by 3 %
-    /// (0.3 ms at 2 threads), about one group, and moving the split point alone cannot do better than
-    /// a group. Decides only where and by whom a group is computed: no result depends on it.
+    /// The order in which the gather region's threads take the `full` whole groups of the sorted order
+    /// (layout[slot group] = sorted group): with every group's time of the previous frames known
+    /// (groupCost), longest first, so the last groups taken are short and the threads finish together
+    /// (list scheduling, LPT); else bit-reversed order. With hidden blocks and unlit lanes skipped, groups
+    /// differ several-fold in work. Decides only where and by whom a group is computed: no result depends
+    /// on it.
     void planLayout(std::size_t full) {
-        const std::size_t groups = receivers.padded / cpu::kReceiverPadding, n = splits.size() - 1;
         const bool known = full > 0 && std::all_of(groupCost.begin(), groupCost.begin() + std::ptrdiff_t(full),
                                                    [](double c) { return c > 0.0; });
         if (!known) {
             cpu::bitReversedLayout(std::span(layout).first(full));
-            for (std::size_t t = 0; t <= n; ++t) splits[t] = groups * t / n;
             return;
         }
-        for (std::size_t g = 0; g < full; ++g) byCost[g] = std::uint32_t(g);
-        std::sort(byCost.begin(), byCost.begin() + std::ptrdiff_t(full), [&](std::uint32_t a, std::uint32_t b) {
+        for (std::size_t g = 0; g < full; ++g) layout[g] = std::uint32_t(g);
+        std::sort(layout.begin(), layout.begin() + std::ptrdiff_t(full), [&](std::uint32_t a, std::uint32_t b) {
             return groupCost[a] != groupCost[b] ? groupCost[a] > groupCost[b] : a < b;
         });
-        std::fill(binLoad.begin(), binLoad.end(), 0.0);
-        for (std::size_t i = 0; i < full; ++i) {
-            const std::uint32_t g = byCost[i];
-            const std::size_t bin = std::size_t(std::min_element(binLoad.begin(), binLoad.end()) - binLoad.begin());
-            binOf[g] = std::uint32_t(bin);
-            binLoad[bin] += groupCost[g];
-        }
-        std::size_t pos = 0;
-        splits[0] = 0;
-        for (std::size_t bin = 0; bin < n; ++bin) {
-            for (std::size_t g = 0; g < full; ++g)
-                if (binOf[g] == bin) layout[pos++] = std::uint32_t(g);
-            splits[bin + 1] = pos;
-        }
-        splits[n] = groups; // the partial group and the padding: last
     }
 
     double sum(std::size_t s, std::size_t i) const { return double(sums[s * receivers.padded + i]); }
@@ -554,7 +558,7 @@ struct CpuLightSkin::Impl {
             if (occlusion) occlusionSetup(i, i);
         };
         if (pointCount > 8192)
-            parallelFor(*arena, regionClock, 0, pointCount, point);
+            parallelFor(*arena, regionClock, 0, pointCount, point, 256);
         else
             for (std::size_t i = 0; i < pointCount; ++i) point(i);
     }
@@ -591,18 +595,19 @@ struct CpuLightSkin::Impl {
     }
 
     /// Stage 3 for the slots [begin, end) set up by occlusionSetup(): the occluder sums (SIMD) into
-    /// occlusionSlotD/S, then to each point's entry of occlusionD/S. Adds the thread's CPU time
-    /// spent here to its slot of occlusionClock (the bench's occlusion rate).
-    void occludeSlots(std::size_t begin, std::size_t end) {
-        const double start = threadCpuMs();
-        cpu::occlusion(occlusionReceivers, begin, end, occluders, glossy, occlusionSlotD.data(), occlusionSlotS.data());
+    /// occlusionSlotD/S, then to each point's entry of occlusionD/S. Returns the time spent here, ms
+    /// (steady clock: a thread CPU clock read is a system call, ~0.8 us here, and this runs per group).
+    double occludeSlots(std::size_t begin, std::size_t end) {
+        const auto start = Clock::now();
+        occlusionSkipped += cpu::occlusion(occlusionReceivers, begin, end, occluders, glossy, occlusionSlotD.data(),
+                                           occlusionSlotS.data(), settings.skipHiddenBlocks);
         for (std::size_t slot = begin; slot < end; ++slot) {
             const std::uint32_t i = receivers.index[slot];
             if (i >= pointCount) continue;
             occlusionD[i] = occlusionSlotD[slot];
             occlusionS[i] = occlusionSlotS[slot];
         }
-        occlusionClock.add(threadCpuMs() - start);
+        return millisecondsSince(start);
     }
 
     /// Stage 3's sums over all occluders after the gather with a cut (its points in their own
@@ -610,7 +615,8 @@ struct CpuLightSkin::Impl {
     void occlude() {
         cpu::OcclusionReceivers& r = occlusionReceivers;
         parallelRanges(*arena, regionClock, r.padded, [&](std::size_t begin, std::size_t end) {
-            cpu::occlusion(r, begin, end, occluders, glossy, occlusionD.data(), occlusionS.data());
+            occlusionSkipped += cpu::occlusion(r, begin, end, occluders, glossy, occlusionD.data(), occlusionS.data(),
+                                               settings.skipHiddenBlocks);
         });
     }
 
@@ -647,56 +653,59 @@ struct CpuLightSkin::Impl {
             for (std::size_t i = 0; i < pointCount; ++i) makePointTerms(i);
         // one region over every mesh's vertices (one join instead of one per mesh)
         {
-            parallelFor(*arena, regionClock, 0, vertexCount, [&](std::size_t v) {
-                const std::size_t mesh =
-                    std::size_t(std::upper_bound(vertexOffsets.begin(), vertexOffsets.end(), std::uint32_t(v)) -
-                                vertexOffsets.begin() - 1);
-                const glm::dmat4& transform = meshTransforms[mesh];
-                const glm::dmat3& normalMatrix = meshNormalMatrices[mesh];
-                const glm::dvec3 p(transform * glm::dvec4(modelVertexPositions[v], 1.0));
-                const auto& list = neighbours[v];
-                bool anyBuried = false;
-                for (const std::uint32_t i : list) anyBuried = anyBuried || buriedFlags[i] != 0;
-                m::VertexWeights weights;
-                if (meshSimilar[mesh] != 0 && !anyBuried) {
-                    std::copy_n(modelWeights[v].begin(), kVertexNeighbours, weights.w);
-                } else {
-                    const glm::dvec3 nv = glm::normalize(normalMatrix * modelVertexNormals[v]);
-                    double dist[kVertexNeighbours], cosN[kVertexNeighbours];
-                    bool unique[kVertexNeighbours], buried[kVertexNeighbours];
-                    for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
-                        dist[j] = glm::length(p - pointPosition[list[j]]);
-                        cosN[j] = glm::dot(nv, pointNormal[list[j]]);
-                        unique[j] = j == 0 || list[j] != list[j - 1];
-                        buried[j] = buriedFlags[list[j]] != 0; // G11
+            parallelFor(
+                *arena, regionClock, 0, vertexCount,
+                [&](std::size_t v) {
+                    const std::size_t mesh =
+                        std::size_t(std::upper_bound(vertexOffsets.begin(), vertexOffsets.end(), std::uint32_t(v)) -
+                                    vertexOffsets.begin() - 1);
+                    const glm::dmat4& transform = meshTransforms[mesh];
+                    const glm::dmat3& normalMatrix = meshNormalMatrices[mesh];
+                    const glm::dvec3 p(transform * glm::dvec4(modelVertexPositions[v], 1.0));
+                    const auto& list = neighbours[v];
+                    bool anyBuried = false;
+                    for (const std::uint32_t i : list) anyBuried = anyBuried || buriedFlags[i] != 0;
+                    m::VertexWeights weights;
+                    if (meshSimilar[mesh] != 0 && !anyBuried) {
+                        std::copy_n(modelWeights[v].begin(), kVertexNeighbours, weights.w);
+                    } else {
+                        const glm::dvec3 nv = glm::normalize(normalMatrix * modelVertexNormals[v]);
+                        double dist[kVertexNeighbours], cosN[kVertexNeighbours];
+                        bool unique[kVertexNeighbours], buried[kVertexNeighbours];
+                        for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
+                            dist[j] = glm::length(p - pointPosition[list[j]]);
+                            cosN[j] = glm::dot(nv, pointNormal[list[j]]);
+                            unique[j] = j == 0 || list[j] != list[j - 1];
+                            buried[j] = buriedFlags[list[j]] != 0; // G11
+                        }
+                        weights = m::ls_vertexWeightsAboveSurface(dist, cosN, unique, buried);
                     }
-                    weights = m::ls_vertexWeightsAboveSurface(dist, cosN, unique, buried);
-                }
-                glm::dvec4 diffuse(0.0), diffusePosition(0.0), glossyRadiance(0.0), glossyPosition(0.0);
-                double minDD = std::numeric_limits<double>::max(), minDS = minDD; // G8
-                double cap = 0.0;                                                 // G10
-                for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
-                    const double w = weights.w[j];
-                    if (w == 0.0) continue;
-                    const PointTerms& t = pointTerms[list[j]];
-                    minDD = std::min(minDD, t.minDD);
-                    minDS = std::min(minDS, t.minDS);
-                    cap = std::max(cap, t.cap); // G10
-                    diffuse += w * t.diffuse;
-                    diffusePosition += w * t.diffusePosition; // G9
-                    glossyRadiance += w * t.glossy;
-                    glossyPosition += w * t.glossyPosition;
-                }
-                if (settings.lightSkin.vertexDistanceFloor) {
-                    diffuse.w = m::ls_vertexR2Floor(diffuse.w, p, glm::dvec3(diffusePosition), minDD);
-                    glossyRadiance.w = m::ls_vertexR2Floor(glossyRadiance.w, p, glm::dvec3(glossyPosition), minDS);
-                }
-                glm::vec4* out = &vertexVpls[4 * v];
-                out[0] = glm::vec4(diffuse);
-                out[1] = glm::vec4(diffusePosition);
-                out[2] = glm::vec4(glossyRadiance);
-                out[3] = glm::vec4(glm::dvec3(glossyPosition), capOn ? cap : -1.0);
-            });
+                    glm::dvec4 diffuse(0.0), diffusePosition(0.0), glossyRadiance(0.0), glossyPosition(0.0);
+                    double minDD = std::numeric_limits<double>::max(), minDS = minDD; // G8
+                    double cap = 0.0;                                                 // G10
+                    for (std::size_t j = 0; j < std::size_t(kVertexNeighbours); ++j) {
+                        const double w = weights.w[j];
+                        if (w == 0.0) continue;
+                        const PointTerms& t = pointTerms[list[j]];
+                        minDD = std::min(minDD, t.minDD);
+                        minDS = std::min(minDS, t.minDS);
+                        cap = std::max(cap, t.cap); // G10
+                        diffuse += w * t.diffuse;
+                        diffusePosition += w * t.diffusePosition; // G9
+                        glossyRadiance += w * t.glossy;
+                        glossyPosition += w * t.glossyPosition;
+                    }
+                    if (settings.lightSkin.vertexDistanceFloor) {
+                        diffuse.w = m::ls_vertexR2Floor(diffuse.w, p, glm::dvec3(diffusePosition), minDD);
+                        glossyRadiance.w = m::ls_vertexR2Floor(glossyRadiance.w, p, glm::dvec3(glossyPosition), minDS);
+                    }
+                    glm::vec4* out = &vertexVpls[4 * v];
+                    out[0] = glm::vec4(diffuse);
+                    out[1] = glm::vec4(diffusePosition);
+                    out[2] = glm::vec4(glossyRadiance);
+                    out[3] = glm::vec4(glm::dvec3(glossyPosition), capOn ? cap : -1.0);
+                },
+                256); // ~25 ns per vertex: ~6 us per chunk
         }
     }
 
@@ -828,9 +837,9 @@ void CpuLightSkin::prepare(std::span<const MeshInstance> instances) {
     impl.pointOccluderRadius.assign(impl.pointCount, 0.0);
     impl.receivers.resize(padded);
     impl.sums.assign(cpu::kGatherSums * padded, 0.0f);
-    for (auto* v : {&impl.groupTime, &impl.groupCost}) v->assign(padded / cpu::kReceiverPadding, 0.0);
+    impl.groupCost.assign(padded / cpu::kReceiverPadding, 0.0);
     impl.recentTimes.assign(Impl::kCostFrames * (padded / cpu::kReceiverPadding), 0.0);
-    for (auto* v : {&impl.layout, &impl.byCost, &impl.binOf}) v->assign(padded / cpu::kReceiverPadding, 0);
+    impl.layout.assign(padded / cpu::kReceiverPadding, 0);
     impl.vplD.assign(impl.pointCount, m::Vpl{});
     impl.gatheredPeakD.assign(impl.pointCount, 0.0);
     impl.pointBuried.assign(impl.pointCount, 0);
@@ -870,15 +879,15 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
     const double cpuStart = processCpuMs(), callerStart = threadCpuMs();
     impl.regionClock.excessMs = 0.0;
     impl.pointTermsReady = false;
+    impl.occlusionSkipped = 0;
     auto start = Clock::now();
-    impl.buildValArrays(lights);
-    impl.placePoints(instances, eye);
+    const double treeThreshold = double(impl.settings.lightSkin.valTreeThreshold);
+    impl.buildValArrays(lights, instances, eye, treeThreshold <= 0.0);
     stats.uploadMs = impl.readbackMs + millisecondsSince(start);
     impl.readbackMs = 0.0;
 
     start = Clock::now();
     double cpu = processCpuMs();
-    const double treeThreshold = double(impl.settings.lightSkin.valTreeThreshold);
     if (treeThreshold > 0.0) {
         impl.treeCut.gather(lights, std::span(impl.pointPosition).first(impl.pointCount),
                             std::span(impl.pointNormal).first(impl.pointCount),
@@ -912,7 +921,12 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
     }
     stats.occlusionMs = millisecondsSince(start);
     stats.occlusionCpuMs = processCpuMs() - cpu;
-    if (impl.occlusion && treeThreshold <= 0.0) { // ran inside the gather's region: its threads' CPU time
+    {
+        const double pairs = double(impl.occluders.count) * double(impl.occlusionReceivers.padded);
+        stats.occlusionPairsSkipped =
+            impl.occlusion && pairs > 0.0 ? double(impl.occlusionSkipped.load()) / pairs : 0.0;
+    }
+    if (impl.occlusion && treeThreshold <= 0.0) { // ran inside the gather's region: its threads' time there
         double occlusionCpu = 0.0;
         for (const double ms : impl.occlusionClock.slotMs) occlusionCpu += ms;
         stats.occlusionCpuMs = occlusionCpu;

@@ -307,8 +307,8 @@ void padSimdDiscs(cpu::ValArrays& simd, std::uint32_t count) {
     simd.count = count;
     simd.padded = (count + cpu::kSumBlock - 1) / cpu::kSumBlock * cpu::kSumBlock;
     for (std::uint32_t j = count; j < simd.padded; ++j) {
-        for (auto* v :
-             {&simd.px, &simd.py, &simd.pz, &simd.negNx, &simd.negNy, &simd.r2, &simd.cr2, &simd.fr, &simd.fg, &simd.fb})
+        for (auto* v : {&simd.px, &simd.py, &simd.pz, &simd.negNx, &simd.negNy, &simd.r2, &simd.cr2, &simd.fr, &simd.fg,
+                        &simd.fb})
             (*v)[j] = 0.0f;
         simd.negNz[j] = -1.0f; // a unit normal (+z), stored negated
     }
@@ -325,7 +325,9 @@ void setSimdReceiver(cpu::ReceiverArrays& r, std::size_t n, const glm::dvec3& x,
     r.ex[n] = r.nx[n];
     r.ey[n] = r.ny[n];
     r.ez[n] = r.nz[n];
-    r.nde2[n] = 2.0f; // 2 n . e with e = n
+    r.rx[n] = r.nx[n]; // the mirror of e = n about n: n
+    r.ry[n] = r.ny[n];
+    r.rz[n] = r.nz[n];
     r.k[n] = 1.0f;
     r.ck[n] = 0.0f;
 }

@@ -28,8 +28,9 @@ struct CpuLightSkinSettings {
     /// the results do not depend on it.
     int threads = 0;
     /// Skip the gather's blocks of 16 VALs x 16 sparse points that lie wholly behind the points
-    /// (every cos theta_i <= 0, so every term is exactly 0). Exact: the results are the same bit for
-    /// bit either way; false only to check that (tests) or to measure the saving (benchmarks).
+    /// (every cos theta_i <= 0, so every term is exactly 0), and the occlusion's occluders below the
+    /// horizon of every point of a vector (every term exactly 0 too). Exact: the results are the same bit
+    /// for bit either way; false only to check that (tests) or to measure the saving (benchmarks).
     bool skipHiddenBlocks = true;
 };
 
@@ -45,8 +46,11 @@ struct CpuLightSkinStats {
     double shadingMs = 0.0; ///< CPU time to issue the GL shading pass (its GPU time: lastStageTimes())
     /// Process CPU time (all threads) of the gather, the occlusion stage and stages 0-4 of
     /// computeVpls(): under load from other processes wall time overstates the work, CPU time does not.
-    /// For the flat gather occlusionCpuMs is its threads' CPU time in the occlusion kernel, and
-    /// gatherCpuMs the rest of their region (gather, renormalisation, occlusion set-up).
+    /// For the flat gather occlusionCpuMs is its threads' time in the occlusion kernel (steady clock per
+    /// group of 16 points, as a CPU clock read there would cost ~1/10 of what it measures: the CPU time
+    /// unless another process took the core meanwhile, so take the minimum over frames), and gatherCpuMs
+    /// their region's CPU time less that (gather, renormalisation, occlusion set-up; the minimum over
+    /// frames of gatherCpuMs + occlusionCpuMs less that of occlusionCpuMs is robust to such frames).
     double gatherCpuMs = 0.0, occlusionCpuMs = 0.0, stagesCpuMs = 0.0;
     /// Stages 0-4 on idle cores, from thread CPU clocks alone: the calling thread's CPU time, with
     /// its share of each parallel region replaced by the busiest thread's (CLOCK_THREAD_CPUTIME_ID per
@@ -59,8 +63,11 @@ struct CpuLightSkinStats {
     std::string simdTarget;          ///< the instruction set the runtime dispatch chose, e.g. "AVX3"
     double valTreeCutPerPoint = 0.0; ///< valTreeThreshold > 0 (issue 17): lights taken per sparse point
     bool valTreeQuadtree = false;    ///< the cut went through the image quadtree (CpuValPixelKeys), else the BVH
-    /// Fraction of the gather's (16 VALs x 16 sparse points) blocks skipped as wholly hidden.
+    /// Fraction of the gather's (block of 16 VALs, sparse point) pairs skipped as wholly hidden (the points
+    /// decide in vectors of the dispatched width: 16 with AVX-512).
     double gatherBlocksSkipped = 0.0;
+    /// Fraction of the occlusion's (occluder, sparse point) pairs skipped as below every horizon of a vector.
+    double occlusionPairsSkipped = 0.0;
 };
 
 /// Where VALs on the CPU come from the pixels of an image (gi::CpuValGenerator::lastPixelIndices()):
