@@ -243,6 +243,7 @@ void runFields(Io& io, R& r) {
     io("vs_brute", r.vsBrute);
     io("vs_truth", r.vsTruth);
     io.withFallback("vs_fine_brute", r.vsFineBrute, std::optional<eval::ImageError>());
+    io.withFallback("brute_vs_fine_brute", r.bruteVsFineBrute, std::optional<eval::ImageError>());
     io("truth_receivers", r.truthReceivers);
 }
 

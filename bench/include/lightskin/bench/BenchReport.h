@@ -64,6 +64,9 @@ struct RunResult {
     /// Against the brute force on the finest (truth-stride) VAL map of the same frame: what the VAL
     /// stride and the approximation cost together, with the same reflectance model.
     std::optional<eval::ImageError> vsFineBrute;
+    /// The brute force on this run's VAL map against the one on the finest map: what the VAL stride alone
+    /// costs, no approximation in it (the "falls as VALs grow" check reads this).
+    std::optional<eval::ImageError> bruteVsFineBrute;
     std::size_t truthReceivers = 0;
     bool isBrute = false; ///< the brute-force row itself (its error against the truth)
 };
