@@ -11,7 +11,7 @@
 //    hole alone): the inside of a nearly closed object is dark. Lighting it without visibility, with the turned
 //    normal (the brute force before) or the outward one (no turn), gives it 17x and 42x the truth;
 //  * so both techniques write 0 there (the nearest they can come without visibility), and light the front
-//    faces as the truth does, beside the hole too;
+//    faces as the truth does, beside the hole too; imperfect volumes and multi-scale PRT as well (second case);
 //  * the speckle measure leaves the back faces out and still finds a black front-face pixel beside the hole.
 #include "../lights/SyntheticDepth.h"
 #include "../lights/TestMeshes.h"
@@ -171,6 +171,7 @@ struct HoledBoxScene {
     gi::SimpleGBuffer gbuffer;
     gl::Texture target;
     cv::Mat position, normal; ///< the G-buffer read back
+    double maxRadius_ = 0.0;
 
     HoledBoxScene() {
         cv::Mat depth, depthNormals;
@@ -203,6 +204,7 @@ struct HoledBoxScene {
         target = gl::Texture::create2D(GL_RGBA32F, kWidth, kHeight);
         gl::readTextureRgba32fInto(gbuffer.position(), position);
         gl::readTextureRgba32fInto(gbuffer.normal(), normal);
+        for (const auto& l : vals) maxRadius_ = std::max(maxRadius_, std::sqrt(double(l.area) / std::numbers::pi));
     }
     HoledBoxScene(const HoledBoxScene&) = delete;
     HoledBoxScene& operator=(const HoledBoxScene&) = delete;
@@ -214,11 +216,7 @@ struct HoledBoxScene {
         gl::readTextureRgba32fInto(target, out);
     }
     /// Largest VAL disc radius, metres.
-    double maxRadius() const {
-        double r = 0.0;
-        for (const auto& l : vals) r = std::max(r, std::sqrt(double(l.area) / std::numbers::pi));
-        return r;
-    }
+    double maxRadius() const { return maxRadius_; }
     /// A front-face pixel compared with the truth: on the face toward the camera (normal -y, the holed one), every
     /// 2nd pixel in u and v. The disc model's bound needs d >= 3 r_max to every VAL (as gi_near_contact_gl_test):
     /// the floor is the nearest; the hole's rim is kept (the techniques beside the hole are what this test is
@@ -227,7 +225,7 @@ struct HoledBoxScene {
         const cv::Vec4f p = position.at<cv::Vec4f>(v, u), n = normal.at<cv::Vec4f>(v, u);
         if (p[3] == 0.0f || n[3] != 0.0f || n[1] > -0.99f || u % 2 != 0 || v % 2 != 0) return false;
         const glm::dvec3 local = glm::dvec3(p[0], p[1], p[2]) - kCentre;
-        return double(p[2]) >= 3.0 * maxRadius() && std::abs(local.x) < kHalf - 0.01 && local.z < kHalf - 0.01;
+        return double(p[2]) >= 3.0 * maxRadius_ && std::abs(local.x) < kHalf - 0.01 && local.z < kHalf - 0.01;
     }
 };
 
@@ -431,8 +429,9 @@ TEST_F(BackFaceHoleGLTest, ImperfectVolumesAndMultiscalePrtLeaveTheInsideDarkAnd
     ASSERT_GT(scene.vals.size(), 1000u);
     cv::Mat volumes, prt;
     scene.run(*gi::ImperfectVolumes::create({}), volumes);
-    gi::MultiscalePrtSettings ps; // no cache directory: precomputed here; the refined box.s 862 vertices are all
-                                  // gather points (directGatherPoints 1024): exact
+    // No cache directory: precomputed here. The refined box's 862 vertices are all gather points
+    // (directGatherPoints 1024): every exit's first bounce is exact.
+    gi::MultiscalePrtSettings ps;
     scene.run(*gi::MultiscalePrt::create(ps), prt);
 
     std::vector<gi::GroundTruthReceiver> receivers;
@@ -479,11 +478,12 @@ TEST_F(BackFaceHoleGLTest, ImperfectVolumesAndMultiscalePrtLeaveTheInsideDarkAnd
     // the convex box; the disc model is within the brute force's 12 % of the truth (first case), the per-vertex
     // interpolation within LightSkin's 20 % budget (gi_truth_gl_test): 32 % in total.
     EXPECT_NEAR(ratioPrt, 1.0, 0.32);
-    // Imperfect volumes: its documented accuracy is a voxel budget, the irradiance at a point moved by
-    // (1/2 + 3 sqrt(3) / 2) s (gi_volumes_truth_gl_test) plus the L1 truncation; on the bench scene that budget
-    // is 65 % of the total light at 32^3 (gi_volumes_bench_scene_gl_test). Here the default 64^3 grid spans the
-    // box + 1 m on every side (s = 3.4 cm) and the face is 5 mm above the floor, whose light falls steeply with
-    // height: lit (> 0) and within that 65 % of the truth in total.
+    // Imperfect volumes: its documented accuracy is a voxel budget, |grad E| times a position error of
+    // (1/2 + 3 sqrt(3) / 2) s (gi_volumes_truth_gl_test), plus the L1 truncation; on the bench scene that budget
+    // is 65 % of the total light (s = 7.8 cm, gi_volumes_bench_scene_gl_test). Here the default grid (64^3 over
+    // the box + 1 m on every side) has s = 3.4 cm, a position error of 10 cm, but the face's lower half lies
+    // within it of the floor, where the light changes faster than around the bench's sphere: the bench's 65 %
+    // is taken as the bound in total (not derived anew for this scene), and the face must be lit (> 0).
     EXPECT_GT(sumVolumes, 0.0);
     EXPECT_NEAR(ratioVolumes, 1.0, 0.65);
     std::printf("%d back-face pixels at 0 in both, %zu front receivers: front vs truth volumes %.4f, PRT %.4f\n",
