@@ -5,6 +5,7 @@
 // are multiplied); it multiplies this indirect light only, the renderer's direct light never sees it. Modes and
 // formulas: gi/include/lightskin/gi/MultiscalePrt.h, "Small scale".
 layout(binding = 0) uniform sampler2D uGPosition; // xyz world, w = coverage
+layout(binding = 1) uniform sampler2D uGNormal;   // w = 1 on a back face
 layout(binding = 2) uniform sampler2D uGAlbedo;
 layout(binding = 3) uniform sampler2D uSmallScaleMap; // mode 1: occlusion in r; mode 2: tangent-space normal rgb
 layout(location = 3) uniform vec3 uEye;
@@ -41,6 +42,11 @@ void main() {
     if (position.w == 0.0) discard;
     const float tolerance = uPositionTolerance + 1e-4 * length(position.xyz - uEye);
     if (length(position.xyz - vWorld) > tolerance) discard;
+    // A back face (w = 1) is the object's inside seen through a hole in its mesh: no light (the target is
+    // cleared to 0), as LightSkin and the brute force; why 0: gi::GBufferView::worldNormal. Its vertices'
+    // exit irradiance is the outside's light. And, as gather_shade.frag, a back-facing fragment within the
+    // position tolerance (a scan folding over itself) never shades a front-face pixel.
+    if (texelFetch(uGNormal, texel, 0).w > 0.5 || !gl_FrontFacing) discard;
     const vec3 radiance = texelFetch(uGAlbedo, texel, 0).rgb / kPi * max(vIrradiance, vec3(0.0));
     outRadiance = vec4(radiance * smallScale, 0.0);
 }

@@ -1,6 +1,7 @@
 #version 450 core
 // Marks the voxels a reconstruction will read (the eight around p + s/2 n): per covered G-buffer
 // pixel (VOLUMES_MARK_PIXELS) or per occupied voxel with a normal (bounces). Only those are ray-marched.
+// A back-face pixel (normal w = 1) reads none: volumes_reconstruct.comp writes 0 there.
 #include "volumes_common.glsl"
 
 #ifdef VOLUMES_MARK_PIXELS
@@ -30,8 +31,9 @@ void main() {
     if (any(greaterThanEqual(pixel, uSize))) return;
     const vec4 position = texelFetch(uPosition, pixel, 0);
     if (position.w <= 0.0) return;
-    const vec3 n = texelFetch(uNormal, pixel, 0).xyz;
-    if (dot(n, n) <= 0.0) return;
+    const vec4 normal = texelFetch(uNormal, pixel, 0);
+    const vec3 n = normal.xyz;
+    if (normal.w > 0.5 || dot(n, n) <= 0.0) return;
     markAround(position.xyz, normalize(n));
 #else
     const uint i = linearIndex();

@@ -13,6 +13,7 @@
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <glm/gtc/type_ptr.hpp>
+#include <glm/matrix.hpp>
 
 #include <chrono>
 #include <cstdio>
@@ -226,6 +227,7 @@ void MultiscalePrt::render(const ValSetView& lights, std::span<const MeshInstanc
     glProgramUniform3fv(program, Uniforms::eye, 1, glm::value_ptr(view.cameraPositionWorld));
     glProgramUniform1f(program, Uniforms::positionTolerance, 1e-4f);
     glBindTextureUnit(0, gbuffer.worldPosition);
+    glBindTextureUnit(1, gbuffer.worldNormal);
     glBindTextureUnit(2, gbuffer.diffuseAlbedo);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, impl.exitBuffer.id());
     for (std::size_t m = 0; m < instances.size(); ++m) {
@@ -236,9 +238,13 @@ void MultiscalePrt::render(const ValSetView& lights, std::span<const MeshInstanc
         glProgramUniform1i(program, Uniforms::smallScaleMode, int(small.mode));
         glProgramUniform1f(program, Uniforms::smallScaleFactor, small.factor);
         glBindTextureUnit(3, small.texture);
+        // prt_shade.frag keeps front-facing fragments only: front = the mesh's counter-clockwise winding,
+        // clockwise on screen under a mirroring placement, whatever the host's state (as the G-buffer pass).
+        glFrontFace(glm::determinant(glm::mat3(instances[m].world_T_model)) < 0.0f ? GL_CW : GL_CCW);
         glBindVertexArray(instances[m].gpu.vertexArray);
         glDrawElements(GL_TRIANGLES, GLsizei(instances[m].gpu.indexCount), GL_UNSIGNED_INT, nullptr);
     }
+    glFrontFace(GL_CCW);
     glBindVertexArray(0);
     glBindTextureUnit(3, 0);
     glBindFramebuffer(GL_FRAMEBUFFER, 0);

@@ -49,9 +49,12 @@ struct GBufferView {
     /// holes: against the ray-traced truth with visibility, the inside of a 16 cm box seen through a
     /// 4 cm hole gets 11 % of its lit outside's light (0 through that hole alone: it looks back at the
     /// room behind the camera, which no depth pixel sees), lit without visibility 17-42x the truth
-    /// (gi_back_face_hole_gl_test). So LightSkin and the brute force write 0 there. A sheet seen from
-    /// behind (an open surface meant to be two-sided) gets no indirect light either (LightSkin's
-    /// sparse points see the light of the front side only).
+    /// (gi_back_face_hole_gl_test). So every technique writes 0 there: LightSkin (GL and CPU), the
+    /// brute force, imperfect volumes (in its reconstruction) and multi-scale PRT (in its per-pixel
+    /// shade pass; its per-vertex exit irradiance is the outside's light). A sheet seen from behind
+    /// (an open surface meant to be two-sided) gets no indirect light either (LightSkin's sparse
+    /// points see the light of the front side only). The differential irradiance of the real surfaces
+    /// does not read this G-buffer (its receivers come from the depth image).
     std::uint32_t worldNormal = 0;
     std::uint32_t diffuseAlbedo = 0; ///< RGBA8 or RGBA16F: rgb linear rho_d
     std::uint32_t specular = 0;      ///< RGBA16F or RGBA32F: rgb f_s, a = Phong exponent k
