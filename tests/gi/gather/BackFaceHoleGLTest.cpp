@@ -30,6 +30,7 @@
 #include <lightskin/gi/ValGenerator.h>
 #include <lightskin/gl/Readback.h>
 #include <lightskin/render/CameraProjection.h>
+#include <lightskin/synth/SceneDescription.h>
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <gtest/gtest.h>
@@ -91,18 +92,7 @@ TriangleMesh holedBox() {
 glm::dvec3 eye() { return kCentre + glm::dvec3(0.06, -0.52, 0.10); }
 
 /// Looking at the hole's centre from the front, a little from the side and above (x right, y down, z forward).
-Pose cameraPose() {
-    const glm::dvec3 target = kCentre + glm::dvec3(0.0, -kHalf, 0.0);
-    const glm::dvec3 z = glm::normalize(target - eye());
-    const glm::dvec3 x = glm::normalize(glm::cross(z, glm::dvec3(0, 0, 1)));
-    const glm::dvec3 y = glm::cross(z, x);
-    glm::dmat4 m(1.0);
-    m[0] = glm::dvec4(x, 0);
-    m[1] = glm::dvec4(y, 0);
-    m[2] = glm::dvec4(z, 0);
-    m[3] = glm::dvec4(eye(), 1);
-    return Pose::fromMatrix(m);
-}
+Pose cameraPose() { return synth::lookAt(eye(), kCentre + glm::dvec3(0.0, -kHalf, 0.0)); }
 
 /// A world plane n . X = offset, in the camera frame, normal toward the camera.
 test::PlaneSurface cameraPlane(const Pose& world_T_camera, const glm::dvec3& nWorld, double offsetWorld) {
