@@ -102,9 +102,7 @@ void shadeVertexVpls(const gl::Program& shade, std::uint32_t vertexVpls, std::sp
         glUniformMatrix4fv(shade.uniformLocation("uWorldFromModel"), 1, GL_FALSE,
                            glm::value_ptr(instances[m].world_T_model));
         glUniform1ui(shade.uniformLocation("uFirstVertex"), vertexOffsets[m]);
-        // gather_shade.frag keeps front-facing fragments only: front = the mesh's counter-clockwise winding,
-        // clockwise on screen under a mirroring placement, whatever the host's state (as the G-buffer pass).
-        glFrontFace(glm::determinant(glm::mat3(instances[m].world_T_model)) < 0.0f ? GL_CW : GL_CCW);
+        setFrontFaceFor(instances[m].world_T_model); // gather_shade.frag keeps front-facing fragments only
         glBindVertexArray(instances[m].gpu.vertexArray);
         glDrawElements(GL_TRIANGLES, GLsizei(instances[m].gpu.indexCount), GL_UNSIGNED_INT, nullptr);
     }

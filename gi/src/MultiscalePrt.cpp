@@ -238,9 +238,7 @@ void MultiscalePrt::render(const ValSetView& lights, std::span<const MeshInstanc
         glProgramUniform1i(program, Uniforms::smallScaleMode, int(small.mode));
         glProgramUniform1f(program, Uniforms::smallScaleFactor, small.factor);
         glBindTextureUnit(3, small.texture);
-        // prt_shade.frag keeps front-facing fragments only: front = the mesh's counter-clockwise winding,
-        // clockwise on screen under a mirroring placement, whatever the host's state (as the G-buffer pass).
-        glFrontFace(glm::determinant(glm::mat3(instances[m].world_T_model)) < 0.0f ? GL_CW : GL_CCW);
+        setFrontFaceFor(instances[m].world_T_model); // prt_shade.frag keeps front-facing fragments only
         glBindVertexArray(instances[m].gpu.vertexArray);
         glDrawElements(GL_TRIANGLES, GLsizei(instances[m].gpu.indexCount), GL_UNSIGNED_INT, nullptr);
     }

@@ -85,7 +85,7 @@ void SimpleGBuffer::render(std::span<const MeshInstance> instances, const glm::m
         glUniform3fv(program_.uniformLocation("uAlbedo"), 1, glm::value_ptr(instance.material.diffuseAlbedo));
         const glm::vec4 specular(instance.material.specularAlbedo, instance.material.specularExponent);
         glUniform4fv(program_.uniformLocation("uSpecular"), 1, glm::value_ptr(specular));
-        glFrontFace(glm::determinant(glm::mat3(instance.world_T_model)) < 0.0f ? GL_CW : GL_CCW); // as the renderer
+        setFrontFaceFor(instance.world_T_model); // the back-face flag, as the renderer
         glBindVertexArray(instance.gpu.vertexArray);
         glDrawElements(GL_TRIANGLES, GLsizei(instance.gpu.indexCount), GL_UNSIGNED_INT, nullptr);
     }

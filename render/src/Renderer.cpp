@@ -273,9 +273,7 @@ void Renderer::renderGBuffer(const Pose& world_T_camera) {
     const GLuint p = gbufferProgram_.id();
     for (const auto& o : objects_) {
         setMat4(gbufferProgram_, "world_T_model", o->world_T_model);
-        // The facing (gl_FrontFacing, the G-buffer's back-face flag) follows the mesh's counter-clockwise
-        // winding: clockwise on screen under a mirroring placement, whatever the host's state.
-        glFrontFace(glm::determinant(glm::mat3(o->world_T_model)) < 0.0f ? GL_CW : GL_CCW);
+        gi::setFrontFaceFor(o->world_T_model); // gl_FrontFacing: the G-buffer's back-face flag
         const glm::mat3 normalMatrix = glm::inverseTranspose(glm::mat3(o->world_T_model));
         glProgramUniformMatrix3fv(p, gbufferProgram_.uniformLocation("normalMatrix"), 1, GL_FALSE, glm::value_ptr(normalMatrix));
         glProgramUniform3fv(p, gbufferProgram_.uniformLocation("diffuseAlbedo"), 1, glm::value_ptr(o->material.diffuseAlbedo));

@@ -39,6 +39,12 @@ struct MeshInstance {
     Material material;
 };
 
+/// Sets glFrontFace for drawing a mesh placed by `world_T_model`: front = the mesh's counter-clockwise
+/// winding, which is clockwise on screen under a mirroring placement (negative determinant), whatever the
+/// host's GL state. Every pass that reads gl_FrontFacing (the G-buffer's back-face flag, the shade passes)
+/// sets it per placement and restores GL_CCW after.
+void setFrontFaceFor(const glm::mat4& world_T_model);
+
 /// The renderer's G-buffer of the virtual content, all textures width x height.
 struct GBufferView {
     std::uint32_t worldPosition = 0; ///< RGBA32F: xyz world metres; w = 1 where virtual content covers the pixel, else 0

@@ -1,2 +1,0 @@
-// Placeholder translation unit until the module gains its first source file.
-namespace lightskin::gi {}
