@@ -26,6 +26,7 @@
 #include <lightskin/gl/Context.h>
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/gl/Objects.h>
+#include <lightskin/gl/Readback.h>
 #include <lightskin/mr/FramePipeline.h>
 #include <lightskin/render/Scene.h>
 #include <lightskin/tracking/PoseTracker.h>
@@ -317,11 +318,10 @@ void dumpValsAndGBuffer(const std::filesystem::path& stem, mr::FramePipeline& pi
     }
     if (!csv) throw Error(stem.string() + "_vals.csv", std::nullopt, "cannot write");
     const gi::GBufferView& g = pipeline.renderer().gbuffer();
-    cv::Mat rgba(g.height, g.width, CV_32FC4);
+    cv::Mat rgba;
     for (const auto& [texture, suffix] :
          {std::pair{g.worldPosition, "_gbuffer_position.f32"}, std::pair{g.worldNormal, "_gbuffer_normal.f32"}}) {
-        glGetTextureImage(texture, 0, GL_RGBA, GL_FLOAT, GLsizei(rgba.total() * rgba.elemSize()), rgba.data);
-        cv::flip(rgba, rgba, 0); // GL rows count from the bottom
+        gl::readTextureRgba32fInto(texture, g.width, g.height, rgba);
         std::ofstream file(stem.string() + suffix, std::ios::binary);
         file.write(reinterpret_cast<const char*>(rgba.data), std::streamsize(rgba.total() * rgba.elemSize()));
         if (!file) throw Error(stem.string() + suffix, std::nullopt, "cannot write");
@@ -365,10 +365,7 @@ void normalSensitivityInto(mr::FramePipeline& pipeline, const cv::Mat& coverage,
                            cv::Mat& positions, cv::Mat& sensitivity) {
     pipeline.downloadDepthValsInto(vals, pixels);
     const gi::GBufferView& g = pipeline.renderer().gbuffer();
-    positions.create(g.height, g.width, CV_32FC4);
-    glGetTextureImage(g.worldPosition, 0, GL_RGBA, GL_FLOAT, GLsizei(positions.total() * positions.elemSize()),
-                      positions.data);
-    cv::flip(positions, positions, 0); // GL rows count from the bottom
+    gl::readTextureRgba32fInto(g.worldPosition, g.width, g.height, positions);
     sensitivity.create(coverage.size(), CV_32FC1);
     sensitivity.setTo(cv::Scalar(0.0));
     for (int v = 0; v < coverage.rows; ++v)
@@ -391,10 +388,8 @@ void dumpTruth(const std::filesystem::path& path, mr::FramePipeline& pipeline, c
     std::vector<std::uint32_t> pixels;
     pipeline.downloadDepthValsInto(vals, pixels);
     const gi::GBufferView& g = pipeline.renderer().gbuffer();
-    cv::Mat positions(g.height, g.width, CV_32FC4);
-    glGetTextureImage(g.worldPosition, 0, GL_RGBA, GL_FLOAT, GLsizei(positions.total() * positions.elemSize()),
-                      positions.data);
-    cv::flip(positions, positions, 0); // GL rows count from the bottom
+    cv::Mat positions;
+    gl::readTextureRgba32fInto(g.worldPosition, g.width, g.height, positions);
     const auto instances = pipeline.renderer().instances();
     if (instances.empty()) throw Error(path.string(), std::nullopt, "no virtual object");
     // The bunny's pixels: G-buffer positions inside its world bounding box (+1 mm); the cube stands ~10 cm away.

@@ -13,6 +13,7 @@
 #include <lightskin/gi/ValOccupancyCull.h>
 #include <lightskin/gi/ValSetMerger.h>
 #include <lightskin/gl/DebugOutput.h>
+#include <lightskin/gl/Readback.h>
 #include <lightskin/mr/FramePipeline.h>
 #include <lightskin/render/NullIndirectIllumination.h>
 #include <lightskin/tracking/TagWorld.h>
@@ -969,9 +970,7 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
         s.compositor.visibleInto(s.virtualColour, s.virtualDepth, realDepth, out.visibleCoverage);
         s.virtualDepth.copyTo(out.virtualDepthMetres);
         const gi::GBufferView& g = r.gbuffer();
-        s.normalsRgba.create(g.height, g.width, CV_32FC4);
-        glGetTextureImage(g.worldNormal, 0, GL_RGBA, GL_FLOAT, GLsizei(s.normalsRgba.total() * s.normalsRgba.elemSize()), s.normalsRgba.data);
-        cv::flip(s.normalsRgba, s.normalsRgba, 0); // GL rows count from the bottom
+        gl::readTextureRgba32fInto(g.worldNormal, g.width, g.height, s.normalsRgba);
         cv::cvtColor(s.normalsRgba, out.virtualNormals, cv::COLOR_RGBA2RGB);
         cv::extractChannel(s.normalsRgba, s.facing, 3); // w = 1 on back faces, 0 on front faces and background
         cv::compare(s.facing, 0.5, out.backFacing, cv::CMP_GT);
