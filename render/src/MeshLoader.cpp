@@ -524,6 +524,31 @@ bool extensionReaderRecognises(const Assimp::Importer& importer, const std::file
     return listing == 1 || recognised;
 }
 
+/// Ids of `count` vertices that two vertices share exactly when their positions are equal (a vertex split
+/// at a crease or a UV seam is one corner; -0 equals +0, a NaN position is a corner of its own).
+struct CornerIds {
+    std::vector<std::uint32_t> id; ///< per vertex
+    std::uint32_t count = 0;       ///< distinct corners, ids 0..count-1
+};
+template <class PositionOf>
+CornerIds cornerIdsByPosition(std::size_t count, PositionOf positionOf) {
+    struct PositionHash {
+        std::size_t operator()(const std::array<float, 3>& p) const noexcept {
+            std::size_t h = 0;
+            for (float f : p) h = h * 1000003u ^ std::hash<float>{}(f);
+            return h;
+        }
+    };
+    std::unordered_map<std::array<float, 3>, std::uint32_t, PositionHash> ids;
+    ids.reserve(count);
+    CornerIds result;
+    result.id.resize(count);
+    for (std::size_t i = 0; i < count; ++i)
+        result.id[i] = ids.try_emplace(positionOf(i), std::uint32_t(ids.size())).first->second;
+    result.count = std::uint32_t(ids.size());
+    return result;
+}
+
 /// Drops all but one of the triangles of `mesh` that span the same three corner positions (a
 /// zero-thickness flap: bun_zipper_res4.ply lists 30 corner sets 2-4 times, 39 extra copies, most wound the other
 /// way). Why before the normals are generated: the copy wound against its neighbours adds its
@@ -535,18 +560,11 @@ bool extensionReaderRecognises(const Assimp::Importer& importer, const std::file
 /// file. Corners are compared by position, as assimp's readers may give each face its own vertices.
 /// Returns the count dropped.
 std::size_t removeDuplicateTriangles(aiMesh& mesh) {
-    struct PositionHash {
-        std::size_t operator()(const std::array<float, 3>& p) const noexcept {
-            std::size_t h = 0;
-            for (float f : p) h = h * 1000003u ^ std::hash<float>{}(f);
-            return h;
-        }
-    };
-    std::unordered_map<std::array<float, 3>, std::uint32_t, PositionHash> ids;
-    const auto idOf = [&](unsigned vertex) {
+    const CornerIds ids = cornerIdsByPosition(mesh.mNumVertices, [&](std::size_t vertex) {
         const aiVector3D& v = mesh.mVertices[vertex];
-        return ids.try_emplace({v.x, v.y, v.z}, std::uint32_t(ids.size())).first->second;
-    };
+        return std::array<float, 3>{v.x, v.y, v.z};
+    });
+    const auto idOf = [&](unsigned vertex) { return ids.id[vertex]; };
     const unsigned faces = mesh.mNumFaces;
     std::vector<std::array<std::uint32_t, 3>> corners(faces, {0u, 0u, 0u});
     std::map<std::array<std::uint32_t, 3>, std::vector<unsigned>> bySet;
@@ -796,19 +814,11 @@ LoadedModel loadModel(const std::filesystem::path& path) {
 }
 
 OpenBoundaries findOpenBoundaries(const TriangleMesh& mesh) {
-    // Corners joined by exact position: sort the vertex indices by position, equal positions share an id.
-    std::vector<std::uint32_t> order(mesh.positions.size()), corner(mesh.positions.size());
-    for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
-    const auto key = [&](std::uint32_t i) {
+    const CornerIds ids = cornerIdsByPosition(mesh.positions.size(), [&](std::size_t i) {
         const glm::vec3& p = mesh.positions[i];
         return std::array<float, 3>{p.x, p.y, p.z};
-    };
-    std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return key(a) < key(b); });
-    std::uint32_t corners = 0;
-    for (std::size_t k = 0; k < order.size(); ++k) {
-        if (k > 0 && key(order[k]) != key(order[k - 1])) ++corners;
-        corner[order[k]] = corners;
-    }
+    });
+    const std::vector<std::uint32_t>& corner = ids.id;
     std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
     edges.reserve(mesh.indices.size());
     for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3)
@@ -818,7 +828,7 @@ OpenBoundaries findOpenBoundaries(const TriangleMesh& mesh) {
         }
     std::sort(edges.begin(), edges.end());
     // Union-find over the corners of boundary edges: one root per loop.
-    std::vector<std::uint32_t> parent(std::size_t(corners) + 1);
+    std::vector<std::uint32_t> parent(ids.count);
     for (std::uint32_t i = 0; i < parent.size(); ++i) parent[i] = i;
     const auto find = [&](std::uint32_t x) {
         while (parent[x] != x) x = parent[x] = parent[parent[x]];
