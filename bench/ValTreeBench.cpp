@@ -9,9 +9,9 @@
 // image, as the CPU backend builds it for depth VALs (issue 17 item 2), instead of the BVH.
 // Scene: an open box room (floor and three walls, 3 m, each a grid of r x r disc VALs of radiance
 // 0.3..0.9) around a sphere of radius 0.3 m whose vertices are the sparse points.
-#include <lightskin/gi/LightSkinReference.h>
-#include <lightskin/gi/ValTree.h>
-#include <lightskin/gi/ValTreeReference.h>
+#include <lightskin/gi/reference/LightSkinReference.h>
+#include <lightskin/gi/lightskin/ValTree.h>
+#include <lightskin/gi/reference/ValTreeReference.h>
 
 #include <glm/geometric.hpp>
 

@@ -27,7 +27,7 @@ target_link_libraries(lightskin_pcl INTERFACE ${PCL_COMMON_LIBRARIES} ${PCL_SEAR
   ${PCL_FEATURES_LIBRARIES} FLANN::FLANN)
 
 find_package(embree 3 REQUIRED)
-# Multi-scale PRT's clustered PCA (gi/src/PrtPrecompute.cpp): header-only.
+# Multi-scale PRT's clustered PCA (gi/prt/src/PrtPrecompute.cpp): header-only.
 find_package(Eigen3 3.3 REQUIRED NO_MODULE)
 find_package(assimp REQUIRED)
 # CPU backend of the GI core (gi::CpuLightSkin): portable SIMD with runtime dispatch, threads.

@@ -4,7 +4,8 @@
 # lightskin_embed_shaders(<target> NAMESPACE <c++ namespace> FILES <paths relative to CMAKE_CURRENT_SOURCE_DIR>)
 # generates a source file defining
 #   std::span<const lightskin::gl::EmbeddedFile> <namespace>::embeddedShaders();
-# whose names are the paths relative to the module's shaders/ folder.
+# whose names are the paths relative to the shaders/ folder each file is in (<module>/shaders/ or, in gi,
+# <module>/<technique>/shaders/); two files with one name are an error.
 
 set(LIGHTSKIN_EMBED_SCRIPT ${CMAKE_CURRENT_LIST_DIR}/EmbedFiles.cmake)
 
@@ -15,7 +16,10 @@ function(lightskin_embed_shaders target)
   set(names "")
   foreach(file IN LISTS ARG_FILES)
     get_filename_component(abs ${file} ABSOLUTE)
-    file(RELATIVE_PATH name ${CMAKE_CURRENT_SOURCE_DIR}/shaders ${abs})
+    string(REGEX REPLACE "^.*/shaders/" "" name ${abs})
+    if(name IN_LIST names)
+      message(FATAL_ERROR "lightskin_embed_shaders(${target}): two shaders named ${name}")
+    endif()
     list(APPEND inputs ${abs})
     list(APPEND names ${name})
   endforeach()

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Mutation check of the GI core's tests (issue 20, "Done when"): applies one plausible formula error
-# at a time to the GI math (gi/shaders/lightskin_math.glsl, shared by the shaders and the double
+# at a time to the GI math (gi/lightskin/shaders/lightskin_math.glsl, shared by the shaders and the double
 # reference gi::reference, and the GPU-only shaders), rebuilds only the GI tests, runs them and
 # records which test binaries fail. Every mutation must be caught by at least one test; the
 # independent ones are gi_paper_reference_test (PaperReference, closed forms), gi_gather_gl_test
@@ -45,18 +45,18 @@ tests=(gi_paper_reference_test gi_gather_reference_test gi_gather_gl_test gi_tru
 if [[ -n "${MUTATE_TESTS:-}" ]]; then read -r -a tests <<<"$MUTATE_TESTS"; fi
 only=",${MUTATE_ONLY:-},"
 declare -A binary=(
-  [gi_paper_reference_test]=tests/gi/gather/gi_paper_reference_test
-  [gi_gather_reference_test]=tests/gi/gather/gi_gather_reference_test
-  [gi_gather_gl_test]=tests/gi/gather/gi_gather_gl_test
-  [gi_truth_gl_test]=tests/gi/gather/gi_truth_gl_test
+  [gi_paper_reference_test]=tests/gi/reference/gi_paper_reference_test
+  [gi_gather_reference_test]=tests/gi/reference/gi_gather_reference_test
+  [gi_gather_gl_test]=tests/gi/lightskin/gi_gather_gl_test
+  [gi_truth_gl_test]=tests/gi/lightskin/gi_truth_gl_test
 )
-math=gi/shaders/lightskin_math.glsl
+math=gi/lightskin/shaders/lightskin_math.glsl
 
 # name | equation | file | exact text | replacement (literal strings, each must occur exactly once)
 mutations=(
   "w without r^2|eq. 3/4|$math|const real w = t.r2 * t.g;|const real w = t.g;"
   "c_k = c, (k + 1) dropped|eq. 5|$math|s.glossy = valid ? mw * (ck * lobe)|s.glossy = valid ? mw * (ck / (k + 1.0) * lobe)"
-  "GPU c_k = c k|eq. 5 (GPU only)|gi/shaders/gather_sparse.frag|const float ck = uC * (k + 1.0);|const float ck = uC * k;"
+  "GPU c_k = c k|eq. 5 (GPU only)|gi/lightskin/shaders/gather_sparse.frag|const float ck = uC * (k + 1.0);|const float ck = uC * k;"
   "mirror without the factor 2|eq. 5|$math|const rvec3 mirror = 2.0 * dot(n, toLight) * n - toLight;|const rvec3 mirror = dot(n, toLight) * n - toLight;"
   "cos^(k+1) in the gather|eq. 5|$math|ls_cosPow(ls_cosGamma(n, t.toLight, toEye), k)|ls_cosPow(ls_cosGamma(n, t.toLight, toEye), k + 1.0)"
   "W_d without cos(theta_i)|eq. 7|$math|s.weightD = valid ? epsL + w * t.cosI : 0.0;|s.weightD = valid ? epsL + w : 0.0;"
@@ -73,12 +73,12 @@ mutations=(
   "occluder area without cos(theta_i)|eq. 14|$math|* r2 / max(r2 + d2, kTinyLength2) * cosI; // pi F_disk, eq. 3|* r2 / max(r2 + d2, kTinyLength2); // pi F_disk, eq. 3"
   "S_o area with cos(theta_i) twice|eq. 14|$math|o.area = kPi * cosI * r2 / max(r2 + d2, kTinyLength2);|o.area = kPi * cosI * cosI * r2 / max(r2 + d2, kTinyLength2);"
   "S_o radius = variance, not sigma|3.3|$math|v.sphereRadius = sqrt(max(max(variance.x, variance.y), variance.z));|v.sphereRadius = max(max(variance.x, variance.y), variance.z);"
-  "GPU interpolation: normals not transformed|eq. 12 (GPU only)|gi/shaders/gather_interpolate.comp|const vec3 nv = normalize(uNormalFromModel * vin.normal.xyz);|const vec3 nv = normalize(vin.normal.xyz);"
+  "GPU interpolation: normals not transformed|eq. 12 (GPU only)|gi/lightskin/shaders/gather_interpolate.comp|const vec3 nv = normalize(uNormalFromModel * vin.normal.xyz);|const vec3 nv = normalize(vin.normal.xyz);"
 )
 
 targets=()
 for t in "${tests[@]}"; do
-  if [[ -f "$root/tests/gi/gather/CMakeLists.txt" ]] && grep -q "lightskin_add_test($t " "$root/tests/gi/gather/CMakeLists.txt"; then
+  if grep -qs "lightskin_add_test($t " "$root"/tests/gi/*/CMakeLists.txt; then
     targets+=("$t")
   fi
 done

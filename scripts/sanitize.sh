@@ -45,7 +45,7 @@ else
   # program they run), the Embree reference's worker threads, read from the CMake and test files so that
   # new capture tests are included, and the CPU GI backend's oneTBB loops (gi::CpuLightSkin, its
   # thread-count and extremes tests; gi::CpuValGenerator). Debian's libtbb is not instrumented: the fork
-  # and join of those loops are declared to TSan (gi/src/TsanParallelRegion.h) and the reports on oneTBB's
+  # and join of those loops are declared to TSan (gi/common/src/TsanParallelRegion.h) and the reports on oneTBB's
   # own objects suppressed by their top frame (cmake/sanitizers/tsan.supp). Not the backend's
   # CpuLightSkinSetupGLTest: its double references take minutes at -O0 under TSan and add no thread count
   # the thread-count test does not run, and its GL-path comparisons exercise only Mesa's threads.
@@ -54,7 +54,7 @@ else
   targets+=(gi_ground_truth_test gi_cpu_lightskin_gl_test gi_cpu_val_generator_gl_test mr_session_gl_test)
   cmake --build "$build" --parallel "$jobs" --target "${targets[@]}"
   suites="$(grep -ho '^TEST\(_F\|_P\)\?([A-Za-z0-9_]*' "$root"/tests/capture/*.cpp \
-    "$root/tests/gi/lights/RayTracedGroundTruthTest.cpp" "$root/tests/gi/lights/CpuValGeneratorGLTest.cpp" \
+    "$root/tests/gi/reference/RayTracedGroundTruthTest.cpp" "$root/tests/gi/common/CpuValGeneratorGLTest.cpp" \
     | sed 's/.*(//' | sort -u | paste -sd'|')|CpuLightSkinGLTest|CpuLightSkinExtremeGLTest"
   ctest --test-dir "$build" --output-on-failure --no-tests=error --parallel "$jobs" --timeout 900 \
     -R "(^|/)(($suites)\.|SessionGLTest\.(Prefetch|GiAhead))" "$@"

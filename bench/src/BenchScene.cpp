@@ -1,7 +1,7 @@
 // The synthetic scene of `lightskin bench` (see BenchScene.h).
 #include <lightskin/bench/BenchScene.h>
 #include <lightskin/core/Error.h>
-#include <lightskin/gi/SparsePointSampler.h>
+#include <lightskin/gi/common/SparsePointSampler.h>
 
 #include <glm/ext/matrix_clip_space.hpp>
 #include <glm/ext/matrix_transform.hpp>

@@ -14,9 +14,9 @@
 #include <lightskin/bench/BenchScene.h>
 #include <lightskin/bench/CullBench.h>
 #include <lightskin/core/Error.h>
-#include <lightskin/gi/LightSkinIllumination.h>
-#include <lightskin/gi/SimpleGBuffer.h>
-#include <lightskin/gi/VertexSparsePoints.h>
+#include <lightskin/gi/lightskin/LightSkinIllumination.h>
+#include <lightskin/gi/common/SimpleGBuffer.h>
+#include <lightskin/gi/common/VertexSparsePoints.h>
 #include <lightskin/gl/Context.h>
 #include <lightskin/gl/DebugOutput.h>
 

@@ -11,11 +11,11 @@
 #include <lightskin/bench/BenchScene.h>
 #include <lightskin/bench/GatherBench.h>
 #include <lightskin/core/Error.h>
-#include <lightskin/gi/BruteForceIllumination.h>
-#include <lightskin/gi/GpuValQuadtree.h>
-#include <lightskin/gi/LightSkinIllumination.h>
-#include <lightskin/gi/SimpleGBuffer.h>
-#include <lightskin/gi/VertexSparsePoints.h>
+#include <lightskin/gi/bruteforce/BruteForceIllumination.h>
+#include <lightskin/gi/lightskin/GpuValQuadtree.h>
+#include <lightskin/gi/lightskin/LightSkinIllumination.h>
+#include <lightskin/gi/common/SimpleGBuffer.h>
+#include <lightskin/gi/common/VertexSparsePoints.h>
 #include <lightskin/gl/Context.h>
 #include <lightskin/gl/DebugOutput.h>
 

@@ -5,9 +5,9 @@
 
 #include <lightskin/bench/LightsBench.h>
 #include <lightskin/core/Error.h>
-#include <lightskin/gi/ReflectiveShadowMap.h>
-#include <lightskin/gi/SparsePointSampler.h>
-#include <lightskin/gi/ValGenerator.h>
+#include <lightskin/gi/common/ReflectiveShadowMap.h>
+#include <lightskin/gi/common/SparsePointSampler.h>
+#include <lightskin/gi/common/ValGenerator.h>
 #include <lightskin/gl/Context.h>
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/gl/GpuTimer.h>

@@ -21,8 +21,8 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/eval/ColourSpace.h>
 #include <lightskin/eval/Speckle.h>
-#include <lightskin/gi/IrradianceSensitivity.h>
-#include <lightskin/gi/RayTracedGroundTruth.h>
+#include <lightskin/gi/reference/IrradianceSensitivity.h>
+#include <lightskin/gi/reference/RayTracedGroundTruth.h>
 #include <lightskin/gl/Context.h>
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/gl/Objects.h>

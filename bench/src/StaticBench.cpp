@@ -18,10 +18,10 @@
 #include <lightskin/capture/DepthFilter.h>
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/Error.h>
-#include <lightskin/gi/LightSkinIllumination.h>
-#include <lightskin/gi/SimpleGBuffer.h>
-#include <lightskin/gi/SparsePointSampler.h>
-#include <lightskin/gi/ValGenerator.h>
+#include <lightskin/gi/lightskin/LightSkinIllumination.h>
+#include <lightskin/gi/common/SimpleGBuffer.h>
+#include <lightskin/gi/common/SparsePointSampler.h>
+#include <lightskin/gi/common/ValGenerator.h>
 #include <lightskin/gl/Context.h>
 #include <lightskin/gl/Objects.h>
 #include <lightskin/render/Compositor.h>

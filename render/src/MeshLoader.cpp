@@ -141,7 +141,7 @@ Material convertMaterial(const aiMaterial& source, const std::filesystem::path& 
         material.normalScale = textureFactor(source, key, aiTextureType_NORMALS, 1.0f, 0.0f, 100.0f, meshFile, name);
     }
     // OBJ's bump/map_Bump is a height map (aiTextureType_HEIGHT); the small scale reads occlusion and normal
-    // maps only (gi/include/lightskin/gi/MultiscalePrt.h says why), so say that it is not used.
+    // maps only (gi/prt/include/lightskin/gi/prt/MultiscalePrt.h says why), so say that it is not used.
     if (source.GetTextureCount(aiTextureType_HEIGHT) > 0)
         log::info(meshFile + ": material '" + name + "': height map (bump) not used");
     return material;

@@ -3,7 +3,7 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/core/ImageFile.h>
 #include <lightskin/core/Log.h>
-#include <lightskin/gi/SparsePointSampler.h>
+#include <lightskin/gi/common/SparsePointSampler.h>
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/gl/Readback.h>
 #include <lightskin/gl/ShaderLibrary.h>

@@ -1,5 +1,5 @@
 #include <lightskin/core/Error.h>
-#include <lightskin/gi/TriangleRayScene.h>
+#include <lightskin/gi/common/TriangleRayScene.h>
 #include <lightskin/render/MeshLoader.h>
 #include <lightskin/render/Scene.h>
 #include <lightskin/synth/PresentObjects.h>

@@ -1,7 +1,7 @@
 // Differential rendering in the per-frame pipeline (compositing.differential): a small virtual cube
 // 16 cm in front of a real grey wall, lit by an in-room point light, pose "fixed" (world = camera
 // frame: x right, y down, z forward). The receivers' numbers are checked against references in
-// tests/gi/lights/DifferentialIrradianceTest.cpp; here: the pipeline darkens the wall in the cube's
+// tests/gi/differential/DifferentialIrradianceTest.cpp; here: the pipeline darkens the wall in the cube's
 // shadow, leaves pixels beyond the stated region bit for bit, writes no NaN/inf, and with the
 // differential off (scene key or live option) gives exactly today's image.
 #include "GlTestEnvironment.h"

@@ -20,9 +20,9 @@
 #include "GlTestEnvironment.h"
 #include "TestPaths.h"
 
-#include <lightskin/gi/BruteForceIllumination.h>
-#include <lightskin/gi/SimpleGBuffer.h>
-#include <lightskin/gi/VirtualAreaLight.h>
+#include <lightskin/gi/bruteforce/BruteForceIllumination.h>
+#include <lightskin/gi/common/SimpleGBuffer.h>
+#include <lightskin/gi/common/VirtualAreaLight.h>
 #include <lightskin/gl/Readback.h>
 #include <lightskin/render/CameraProjection.h>
 #include <lightskin/render/MeshLoader.h>

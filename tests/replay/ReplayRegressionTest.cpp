@@ -234,7 +234,7 @@ void writeSceneWithoutOcclusion(const fs::path& scene, const fs::path& out) {
 /// so only the sparse gather and the eq. 12-13 interpolation differ) has no tight bound on these
 /// scenes: the objects rest on real surfaces, where the smoothing model of gi_truth_gl_test
 /// diverges (l -> 0 at contact), and the cube is glossy (k = 30); the near-contact test's derived
-/// budget (tests/gi/gather/NearContactGLTest.cpp: 20 % of the truth in total for LightSkin, 12 % for
+/// budget (tests/gi/lightskin/NearContactGLTest.cpp: 20 % of the truth in total for LightSkin, 12 % for
 /// the brute force) puts a working technique well inside 0.5.
 constexpr double kMaxRelativeErrorVsBruteForce = 0.5;
 

@@ -5,8 +5,8 @@
 #include "GlTestEnvironment.h"
 #include "PrtScenes.h"
 
-#include <lightskin/gi/MultiscalePrt.h>
-#include <lightskin/gi/SimpleGBuffer.h>
+#include <lightskin/gi/prt/MultiscalePrt.h>
+#include <lightskin/gi/common/SimpleGBuffer.h>
 #include <lightskin/gl/Objects.h>
 #include <lightskin/gl/Readback.h>
 

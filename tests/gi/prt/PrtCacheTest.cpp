@@ -1,9 +1,9 @@
-// Multi-scale PRT's precompute cache (gi/src/PrtCache.cpp): a bitwise round trip, and every kind of bad file
+// Multi-scale PRT's precompute cache (gi/prt/src/PrtCache.cpp): a bitwise round trip, and every kind of bad file
 // (missing, truncated anywhere, a flipped byte, another key, inconsistent arrays with a valid checksum) is
 // refused with a reason instead of crashing or loading wrong data.
 #include "PrtScenes.h"
 
-#include <lightskin/gi/MultiscalePrt.h>
+#include <lightskin/gi/prt/MultiscalePrt.h>
 
 #include <gtest/gtest.h>
 

@@ -5,7 +5,7 @@
 #include "PrtScenes.h"
 
 #include <lightskin/core/Error.h>
-#include <lightskin/gi/MultiscalePrt.h>
+#include <lightskin/gi/prt/MultiscalePrt.h>
 
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>

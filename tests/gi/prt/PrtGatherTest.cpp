@@ -4,7 +4,7 @@
 // constant (computed here separately in double precision).
 #include "PrtScenes.h"
 
-#include <lightskin/gi/MultiscalePrt.h>
+#include <lightskin/gi/prt/MultiscalePrt.h>
 
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>

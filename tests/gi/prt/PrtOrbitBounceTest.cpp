@@ -6,8 +6,8 @@
 // bounce adds under the scene's point light (docs/BENCHMARKS.md, PRT section).
 #include "TestPaths.h"
 
-#include <lightskin/gi/MultiscalePrt.h>
-#include <lightskin/gi/TriangleRayScene.h>
+#include <lightskin/gi/prt/MultiscalePrt.h>
+#include <lightskin/gi/common/TriangleRayScene.h>
 #include <lightskin/render/MeshLoader.h>
 #include <lightskin/render/Scene.h>
 

@@ -1,10 +1,10 @@
-// Multi-scale PRT's precompute (gi/src/PrtPrecompute.cpp) against closed forms and separately written
+// Multi-scale PRT's precompute (gi/prt/src/PrtPrecompute.cpp) against closed forms and separately written
 // quadrature: the furnace (a closed box of uniform albedo), energy conservation in an open box, the clustered
 // PCA's reconstruction error against the uncompressed transfer (Eckart-Young), spectral obscurances of a plane
 // and of a concave corner.
 #include "PrtScenes.h"
 
-#include <lightskin/gi/MultiscalePrt.h>
+#include <lightskin/gi/prt/MultiscalePrt.h>
 
 #include <gtest/gtest.h>
 

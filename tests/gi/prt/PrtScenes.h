@@ -2,9 +2,9 @@
 // Small analytic scenes for the multi-scale PRT tests: quads subdivided into grids (quadGrid of
 // ../lights/TestMeshes.h), boxes of them. World = model space (identity placement), metres, counter-clockwise
 // front faces.
-#include "../lights/TestMeshes.h"
+#include "common/TestMeshes.h"
 
-#include <lightskin/gi/IndirectIllumination.h>
+#include <lightskin/gi/common/IndirectIllumination.h>
 
 #include <glm/geometric.hpp>
 

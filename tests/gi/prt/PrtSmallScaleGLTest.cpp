@@ -1,4 +1,4 @@
-// Multi-scale PRT's small scale (issue 16 item 3; gi/include/lightskin/gi/MultiscalePrt.h, "Small scale") on the
+// Multi-scale PRT's small scale (issue 16 item 3; gi/prt/include/lightskin/gi/prt/MultiscalePrt.h, "Small scale") on the
 // tiles of recordings/scenes/meshes/make_ao_tile.py: a flat unit quad lit by four VAL discs, seen from above.
 // - occlusion map: the indirect target is rho_d / pi * E * (1 + strength (R - 1)) texel for texel, E the VALs' disc
 //   form factor (written here in double: a single plane has no transfer and obscuranceDistance = 0 gives W = 1),
@@ -14,8 +14,8 @@
 
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Pose.h>
-#include <lightskin/gi/MultiscalePrt.h>
-#include <lightskin/gi/SimpleGBuffer.h>
+#include <lightskin/gi/prt/MultiscalePrt.h>
+#include <lightskin/gi/common/SimpleGBuffer.h>
 #include <lightskin/gl/Objects.h>
 #include <lightskin/gl/Readback.h>
 #include <lightskin/render/MeshLoader.h>

@@ -5,8 +5,8 @@
 // rho E A, evaluated by the same ray tracer, for `kTruthBounces` bounces plus the geometric tail bound.
 #include "PrtScenes.h"
 
-#include <lightskin/gi/MultiscalePrt.h>
-#include <lightskin/gi/RayTracedGroundTruth.h>
+#include <lightskin/gi/prt/MultiscalePrt.h>
+#include <lightskin/gi/reference/RayTracedGroundTruth.h>
 
 #include <gtest/gtest.h>
 

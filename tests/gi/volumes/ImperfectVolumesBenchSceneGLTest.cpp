@@ -8,17 +8,17 @@
 // LightSkin (gi::LightSkinIllumination, default settings but glossy off: the volumes are diffuse, so
 // both are compared on the irradiance) runs on the same scene and VALs against the same Embree truth in
 // its disc model (discRings = 1, as gi_truth_gl_test), within the budget derived in
-// tests/gi/gather/LightSkinTruthGLTest.cpp (interpolation reach and horizon terms, + the blocked light
+// tests/gi/lightskin/LightSkinTruthGLTest.cpp (interpolation reach and horizon terms, + the blocked light
 // B since occlusion is on), asserted like there on the relative L1 error. Then the two techniques must
 // agree within the sum of their budgets (+ the difference of the two truths' disc and point models).
 #include "GlTestEnvironment.h"
 #include "VolumesTestSupport.h"
 
 #include <lightskin/bench/BenchScene.h>
-#include <lightskin/gi/ImperfectVolumes.h>
-#include <lightskin/gi/LightSkinIllumination.h>
-#include <lightskin/gi/RayTracedGroundTruth.h>
-#include <lightskin/gi/SparsePointSampler.h>
+#include <lightskin/gi/volumes/ImperfectVolumes.h>
+#include <lightskin/gi/lightskin/LightSkinIllumination.h>
+#include <lightskin/gi/reference/RayTracedGroundTruth.h>
+#include <lightskin/gi/common/SparsePointSampler.h>
 #include <lightskin/gl/Objects.h>
 #include <lightskin/gl/Readback.h>
 
@@ -46,7 +46,7 @@ IncidentL1 incident(const gi::RayTracedGroundTruth& rt, std::span<const gi::Virt
 }
 
 /// LightSkin's interpolation budget at one receiver as a fraction of its diffuse light: the diffuse
-/// part of interpolationBudget() in tests/gi/gather/LightSkinTruthGLTest.cpp (derivation there):
+/// part of interpolationBudget() in tests/gi/lightskin/LightSkinTruthGLTest.cpp (derivation there):
 /// parallax 3 (delta / r_eff)^2 plus the horizon term sin(Delta) of the lights within Delta of the
 /// horizon, capped at 1. `reach` = delta (metres), `normalTurn` = Delta (rad).
 double lightSkinDiffuseBudget(std::span<const gi::VirtualAreaLight> vals, const dvec3& p, const dvec3& n, double reach,

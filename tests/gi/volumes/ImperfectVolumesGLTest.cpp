@@ -1,20 +1,20 @@
 // gi::ImperfectVolumes on the GPU against the double-precision reference
-// (gi/include/lightskin/gi/ImperfectVolumesReference.h, written separately from the shaders): the
+// (gi/reference/include/lightskin/gi/reference/ImperfectVolumesReference.h, written separately from the shaders): the
 // same points (shared hash), the same grid and directions; occupancy, normals and every covered
 // pixel compared, for one bounce, two bounces, ambient occlusion and with scene lights on the mesh
 // points. Direct light of a mesh point against the closed form (point and spot lights, inside and
 // outside the volume), shadowing by a cube map, VALs outside the grid clipped. Extremes: an empty
 // volume, an all-occupied one, a 1^3 and a 128^3 volume (one ray), a 256^3 volume (the maximum) against
 // the L1 AO of an open plane, stage times, bad settings.
-#include "../lights/TestMeshes.h"
+#include "common/TestMeshes.h"
 #include "ExpectError.h"
 #include "GlTestEnvironment.h"
 #include "VolumesTestSupport.h"
 
 #include <lightskin/core/Error.h>
-#include <lightskin/gi/ImperfectVolumes.h>
-#include <lightskin/gi/ImperfectVolumesReference.h>
-#include <lightskin/gi/SimpleGBuffer.h>
+#include <lightskin/gi/volumes/ImperfectVolumes.h>
+#include <lightskin/gi/reference/ImperfectVolumesReference.h>
+#include <lightskin/gi/common/SimpleGBuffer.h>
 #include <lightskin/gl/Objects.h>
 #include <lightskin/gl/Readback.h>
 

@@ -4,13 +4,13 @@
 // Embree visibility), which is what a perfect voxelisation would give; the budget holds the
 // errors the volume adds, each derived from the voxel size or the ray count. Separately, the
 // truth's own irradiance lies within that budget plus the L1 band-limit bound.
-#include "../lights/TestMeshes.h"
+#include "common/TestMeshes.h"
 #include "GlTestEnvironment.h"
 #include "VolumesTestSupport.h"
 
-#include <lightskin/gi/ImperfectVolumes.h>
-#include <lightskin/gi/RayTracedGroundTruth.h>
-#include <lightskin/gi/SimpleGBuffer.h>
+#include <lightskin/gi/volumes/ImperfectVolumes.h>
+#include <lightskin/gi/reference/RayTracedGroundTruth.h>
+#include <lightskin/gi/common/SimpleGBuffer.h>
 #include <lightskin/gl/Objects.h>
 #include <lightskin/gl/Readback.h>
 

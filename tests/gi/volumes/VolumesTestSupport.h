@@ -2,9 +2,9 @@
 // projection of the Embree truth's incident light at a receiver.
 #pragma once
 
-#include <lightskin/gi/IndirectIllumination.h>
-#include <lightskin/gi/RayTracedGroundTruth.h>
-#include <lightskin/gi/VirtualAreaLight.h>
+#include <lightskin/gi/common/IndirectIllumination.h>
+#include <lightskin/gi/reference/RayTracedGroundTruth.h>
+#include <lightskin/gi/common/VirtualAreaLight.h>
 #include <lightskin/gl/Objects.h>
 
 #include <glm/geometric.hpp>

@@ -4,8 +4,8 @@
 // table benches (bench-gather, bench-cpu, bench-realdepth) write the same JSON (Report with their
 // rows in runs/temporal); its keys: docs/bench/SCHEMA.md.
 #include <lightskin/eval/ImageMetrics.h>
-#include <lightskin/gi/ImperfectVolumes.h>
-#include <lightskin/gi/MultiscalePrt.h>
+#include <lightskin/gi/volumes/ImperfectVolumes.h>
+#include <lightskin/gi/prt/MultiscalePrt.h>
 
 #include <cstddef>
 #include <optional>

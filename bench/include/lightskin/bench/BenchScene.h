@@ -9,9 +9,9 @@
 #include <lightskin/core/Material.h>
 #include <lightskin/core/Pose.h>
 #include <lightskin/core/TriangleMesh.h>
-#include <lightskin/gi/IndirectIllumination.h>
-#include <lightskin/gi/SimpleGBuffer.h>
-#include <lightskin/gi/VirtualAreaLight.h>
+#include <lightskin/gi/common/IndirectIllumination.h>
+#include <lightskin/gi/common/SimpleGBuffer.h>
+#include <lightskin/gi/common/VirtualAreaLight.h>
 
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>

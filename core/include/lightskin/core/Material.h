@@ -2,7 +2,7 @@
 // The paper's Phong material (LightSkin eq. 4, 5, 10): diffuse albedo, specular reflectance f_s
 // and exponent k. Linear RGB, unitless reflectances in [0,1]. Optional small-scale maps (glTF
 // occlusionTexture / normalTexture, OBJ norm) for the small-scale ambient occlusion of multi-scale PRT
-// (gi/include/lightskin/gi/MultiscalePrt.h); texture paths are absolute, empty = none.
+// (gi/prt/include/lightskin/gi/prt/MultiscalePrt.h); texture paths are absolute, empty = none.
 
 #include <glm/vec3.hpp>
 

@@ -5,7 +5,7 @@
 // Deterministic: no clock inside (the caller measures and observes). The cost and error models,
 // the online update and the hysteresis: docs/PLUGIN.md, "Frame-time budget".
 
-#include <lightskin/gi/IndirectIllumination.h>
+#include <lightskin/gi/common/IndirectIllumination.h>
 #include <lightskin/render/Scene.h>
 
 #include <cstdint>

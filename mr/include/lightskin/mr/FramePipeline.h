@@ -8,9 +8,9 @@
 
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/RgbdFrame.h>
-#include <lightskin/gi/IndirectIllumination.h>
-#include <lightskin/gi/MultiscalePrt.h>
-#include <lightskin/gi/ReflectiveShadowMap.h>
+#include <lightskin/gi/common/IndirectIllumination.h>
+#include <lightskin/gi/prt/MultiscalePrt.h>
+#include <lightskin/gi/common/ReflectiveShadowMap.h>
 #include <lightskin/gl/GpuTimer.h>
 #include <lightskin/render/Compositor.h>
 #include <lightskin/render/Renderer.h>

@@ -8,7 +8,7 @@
 // visibility()); where a == 0 the camera pixel is copied, so without virtual content output == input bit for bit.
 
 #include <lightskin/core/CameraIntrinsics.h>
-#include <lightskin/gi/DifferentialIrradiance.h>
+#include <lightskin/gi/differential/DifferentialIrradiance.h>
 #include <lightskin/render/Scene.h>
 
 #include <opencv2/core/mat.hpp>

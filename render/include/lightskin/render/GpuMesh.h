@@ -4,7 +4,7 @@
 // has none) and a GL_UNSIGNED_INT element buffer. Move-only; owns its buffers. Needs a current context.
 
 #include <lightskin/core/TriangleMesh.h>
-#include <lightskin/gi/IndirectIllumination.h>
+#include <lightskin/gi/common/IndirectIllumination.h>
 #include <lightskin/gl/Objects.h>
 
 namespace lightskin::render {

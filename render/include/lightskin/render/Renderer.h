@@ -21,8 +21,8 @@
 
 #include <lightskin/core/CameraIntrinsics.h>
 #include <lightskin/core/Pose.h>
-#include <lightskin/gi/IndirectIllumination.h>
-#include <lightskin/gi/SparsePointSet.h>
+#include <lightskin/gi/common/IndirectIllumination.h>
+#include <lightskin/gi/common/SparsePointSet.h>
 #include <lightskin/gl/GpuTimer.h>
 #include <lightskin/gl/Objects.h>
 #include <lightskin/render/GpuMesh.h>

@@ -11,8 +11,8 @@
 // and says what was expected. Unknown keys are errors too (typos would otherwise be silently ignored),
 // except inside "tracking", which is passed to the tracking module as it is.
 
-#include <lightskin/gi/ImperfectVolumes.h>
-#include <lightskin/gi/MultiscalePrt.h>
+#include <lightskin/gi/volumes/ImperfectVolumes.h>
+#include <lightskin/gi/prt/MultiscalePrt.h>
 
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>

@@ -1,0 +1,384 @@
+// LightSkin on the GPU against the Embree ground truth (gi::RayTracedGroundTruth) on three scenes:
+// a convex object over a floor, a concave object (a trough) and an object close to a VAL wall.
+// Setups as in the paper: diffuse; + glossy; + occlusion. The first two approximate the
+// unoccluded integral and are compared with the truth without visibility; the third with
+// visibility (shadow rays against the virtual meshes).
+//
+// The truth uses the same disc model (eq. 3, disc-centre mode) and, since issue 20, the same
+// glossy term (eq. 5) as the core, so what is measured is the technique's approximation only:
+// sparse gather + averaged VPLs + eq. 12-13 interpolation + per-pixel eq. 10, and the occlusion
+// model of section 3.3. Every pixel the G-buffer covers is a truth receiver (its G-buffer
+// position, normal and view direction), so both sides see the same points.
+//
+// Error budgets, derived from the scene before the run (not from measured errors), per pixel from
+// the scene's VALs and geometry (interpolationBudget() below), then summed like the error:
+//  * reach: a pixel's value comes from the sparse points eq. 12-13 average at the vertices of its
+//    triangle: the distance term (1 - d_j / d_max) gives the farthest of the 8 neighbours weight 0,
+//    so they lie within d_8 ~ sqrt(8 / pi) h = 1.6 h of the vertex (h = sqrt(A / N), the nominal
+//    spacing). Every term below is second order in the offsets (the first order cancels between
+//    neighbours on several sides), so what counts is the weighted mean square offset: with weights
+//    (1 - d / d_8) over a uniformly filled disc it is 0.3 d_8^2 (int (1 - r/R) r^3 dr / int (1 -
+//    r/R) r dr = R^2 (1/20) / (1/6)), and the rasteriser's linear interpolation of the vertices
+//    adds at most the circumradius^2 e^2 / 3 of a triangle of longest edge e:
+//    delta^2 = 0.3 (1.6 h)^2 + e^2 / 3.
+//  * what is interpolated is the averaged VPL (position, flux, rbar^2), and eq. 10 re-evaluates
+//    distance and both cosines at the pixel; the renormalisation (eq. 11) makes it exact at each
+//    sparse point. For one light the VPL is the light at every sparse point (no error at all); for
+//    many, their weights change with the receiver through 1/r^2 and the cosines, and the error
+//    is at most the whole second-order change of the irradiance, 3 (delta / r_eff)^2 (3 = the
+//    second-order coefficient of 1/r^2 along the displacement), with 1 / r_eff^2 the
+//    irradiance-weighted mean of 1 / r_j^2 over the VALs.
+//  * horizon: the pixel normal differs from its neighbours' by up to Delta = delta / R (R the
+//    surface's radius of curvature; 0 on planes; across the trough's 90-degree creases eq. 12's
+//    normal term clamp(n_v . n_j, 0, 1) gives the other face's points weight 0). Lights within
+//    Delta of the pixel's horizon may be above one sparse point's horizon and below the pixel's:
+//    each is wrong by at most its light at elevation Delta, M_j w_j sin(Delta).
+//  * glossy: the mirror direction turns by Delta_g = 2 Delta + delta / |eye - x| (normal twice,
+//    plus the view direction); a cos^k lobe's relative second derivative in the angle is
+//    k^2 tan^2(gamma) - k / cos^2(gamma), so each light's glossy term may be off by
+//    (1/2) Delta_g^2 (k + k^2 tan^2 gamma) (capped at 1), on top of the diffuse terms.
+//  * occlusion: the quads-on-the-unit-circle model of S_o and the occluder discs (section 3.3)
+//    has no error bound that follows from the scene (an occluder's disc may cover a light the
+//    real occluder misses, and the reverse). What it must achieve is to be no worse than no
+//    occlusion, whose error is the light the occluders really block: + B, with B = 1 - (truth
+//    with visibility) / (truth without), computed by the truth itself. (The first version
+//    claimed 0.5 B; the tighter interpolation budget showed the convex scene at 1.0 B: LightSkin
+//    over-occludes there, 0.91 of the truth where the truth blocks 12 %.)
+//  The light weights use the point-disc form factor M_j A_j cos_e cos_i / (pi r^2), the glossy
+//  weights eq. 5. Each pixel's diffuse part (of the truth) is allowed min(1, parallax + horizon)
+//  of itself, its glossy part min(1, parallax + horizon + lobe); the image budget is their sum
+//  over the pixels divided by the truth's sum, plus B; asserted on the relative L1 error
+//  sum |LightSkin - truth| / sum truth over all covered pixels (which also bounds the bias). The
+//  model before (issue 20, first version: (1/2) (1.5 h / l)^2 with l the distance to the nearest
+//  VAL or the curvature radius, the worst mesh for the whole image) sat 30-100x above the errors.
+#include "common/GatherTestScenes.h"
+#include "GlTestEnvironment.h"
+#include "common/GpuRig.h"
+
+#include <lightskin/gi/lightskin/LightSkinIllumination.h>
+#include <lightskin/gi/reference/RayTracedGroundTruth.h>
+#include <lightskin/gi/common/SimpleGBuffer.h>
+#include <lightskin/gi/common/SparsePointSampler.h>
+#include <lightskin/gl/Objects.h>
+
+#include <glm/ext/matrix_transform.hpp>
+#include <glm/geometric.hpp>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numbers>
+#include <string>
+#include <vector>
+
+namespace lightskin::test {
+namespace {
+
+/// A rectangle corner + s u + t v (s, t in [0, 1]), cellsU x cellsV quads, normal u x v.
+TriangleMesh makeRectangle(const glm::vec3& corner, const glm::vec3& u, const glm::vec3& v, int cellsU, int cellsV) {
+    TriangleMesh mesh;
+    const glm::vec3 n = glm::normalize(glm::cross(u, v));
+    for (int j = 0; j <= cellsV; ++j)
+        for (int i = 0; i <= cellsU; ++i) {
+            mesh.positions.push_back(corner + u * (float(i) / float(cellsU)) + v * (float(j) / float(cellsV)));
+            mesh.normals.push_back(n);
+        }
+    const auto at = [&](int i, int j) { return std::uint32_t(j * (cellsU + 1) + i); };
+    for (int j = 0; j < cellsV; ++j)
+        for (int i = 0; i < cellsU; ++i) {
+            mesh.indices.insert(mesh.indices.end(), {at(i, j), at(i + 1, j), at(i + 1, j + 1)});
+            mesh.indices.insert(mesh.indices.end(), {at(i, j), at(i + 1, j + 1), at(i, j + 1)});
+        }
+    return mesh;
+}
+
+/// Appends `b` to `a` (one mesh of several parts).
+void append(TriangleMesh& a, const TriangleMesh& b) {
+    const auto offset = std::uint32_t(a.positions.size());
+    a.positions.insert(a.positions.end(), b.positions.begin(), b.positions.end());
+    a.normals.insert(a.normals.end(), b.normals.begin(), b.normals.end());
+    for (std::uint32_t i : b.indices) a.indices.push_back(i + offset);
+}
+
+constexpr float kExponent = 2.0f; // Phong k of every material (glossy budget: l / (2 sqrt(k)))
+
+Material material() {
+    Material m;
+    m.diffuseAlbedo = glm::vec3(0.7f);
+    m.specularAlbedo = glm::vec3(0.3f);
+    m.specularExponent = kExponent;
+    return m;
+}
+
+struct TruthScene : GpuRig {
+    std::vector<gi::VirtualAreaLight> vals;
+    /// per mesh: radius of curvature R of the budget (metres; infinity for planes)
+    std::vector<double> curvatureRadius;
+    void addMesh(TriangleMesh mesh, const glm::mat4& transform, std::size_t points, double radius) {
+        add(std::move(mesh), transform, material(), points);
+        curvatureRadius.push_back(radius);
+    }
+};
+
+/// A sphere of radius 0.3 m 5 cm above a 2 x 2 m floor; a VAL wall on one side (x = -1.2 m,
+/// z 0.2..1.4 m) and a VAL ceiling (the sphere changes the floor's light only by occlusion, which
+/// has its own budget term).
+TruthScene convexOverFloor() {
+    TruthScene s;
+    s.addMesh(makeSphere(0.3f, 24, 48), glm::translate(glm::mat4(1.0f), {0.0f, 0.0f, 0.35f}), 512, 0.3);
+    s.addMesh(makeGrid(2.0f, 24), glm::mat4(1.0f), 1024, std::numeric_limits<double>::infinity());
+    s.vals = squareEmitter({-1.2f, 0.0f, 0.8f}, {1.0f, 0.0f, 0.0f}, 1.2f, 16, {1.0f, 0.9f, 0.8f});
+    const auto ceiling = squareEmitter({0.2f, 0.3f, 1.6f}, {0.0f, 0.0f, -1.0f}, 1.5f, 12, {0.8f, 0.8f, 1.0f});
+    s.vals.insert(s.vals.end(), ceiling.begin(), ceiling.end());
+    s.eye = {1.6f, -1.8f, 1.5f};
+    s.target = {0.0f, 0.0f, 0.3f};
+    return s;
+}
+
+/// A U-shaped trough (floor 1 x 0.5 m, walls 0.4 m high, normals inward): concave, its walls
+/// shadow its floor; three planes (R infinite; the creases are cut by eq. 12's normal term); VALs
+/// above and to one side.
+TruthScene concaveTrough() {
+    TruthScene s;
+    TriangleMesh trough = makeRectangle({-0.5f, -0.25f, 0.0f}, {1.0f, 0.0f, 0.0f}, {0.0f, 0.5f, 0.0f}, 20, 10);
+    append(trough, makeRectangle({-0.5f, -0.25f, 0.4f}, {1.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -0.4f}, 20, 8));
+    append(trough, makeRectangle({-0.5f, 0.25f, 0.0f}, {1.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.4f}, 20, 8));
+    s.addMesh(std::move(trough), glm::mat4(1.0f), 512, std::numeric_limits<double>::infinity());
+    s.vals = squareEmitter({0.0f, 0.0f, 1.2f}, {0.0f, 0.2f, -1.0f}, 1.5f, 16, {1.0f, 1.0f, 1.0f});
+    const auto side = squareEmitter({0.0f, -1.2f, 0.8f}, {0.0f, 1.0f, -0.5f}, 1.2f, 12, {1.0f, 0.7f, 0.5f});
+    s.vals.insert(s.vals.end(), side.begin(), side.end());
+    s.eye = {1.2f, 0.6f, 1.6f};
+    s.target = {0.0f, 0.0f, 0.15f};
+    return s;
+}
+
+/// A sphere of radius 0.3 m with its side 10 cm from a wall of VALs (the real wall next to a
+/// virtual object, x = -0.4 m, z 0.15..1.35 m), over a floor that ends at the wall. The sphere
+/// gets 1024 sparse points (h = 0.033 m) for its 10 cm to the wall.
+TruthScene nearWall() {
+    TruthScene s;
+    s.addMesh(makeSphere(0.3f, 32, 64), glm::translate(glm::mat4(1.0f), {0.0f, 0.0f, 0.4f}), 1024, 0.3);
+    s.addMesh(makeGrid(1.6f, 24), glm::translate(glm::mat4(1.0f), {0.4f, 0.0f, 0.0f}), 512,
+              std::numeric_limits<double>::infinity());
+    s.vals = squareEmitter({-0.4f, 0.0f, 0.75f}, {1.0f, 0.0f, 0.0f}, 1.2f, 30, {1.0f, 0.9f, 0.8f});
+    s.eye = {1.5f, -1.2f, 1.2f};
+    s.target = {0.0f, 0.0f, 0.35f};
+    return s;
+}
+
+struct Setup {
+    const char* name;
+    bool glossy;
+    bool occlusion;
+};
+
+struct Image {
+    std::vector<glm::vec4> radiance, position, normal;
+};
+
+std::vector<glm::vec4> readTexels(std::uint32_t texture, int width, int height) {
+    std::vector<glm::vec4> texels(std::size_t(width) * std::size_t(height));
+    glGetTextureImage(texture, 0, GL_RGBA, GL_FLOAT, GLsizei(texels.size() * sizeof(glm::vec4)), texels.data());
+    return texels;
+}
+
+Image renderLightSkin(TruthScene& scene, const Setup& setup) {
+    scene.upload();
+    gi::LightSkinSettings settings;
+    settings.glossy = setup.glossy;
+    settings.occlusion = setup.occlusion;
+    auto technique = scene.technique(settings);
+    const gi::ViewParameters view = scene.view();
+    scene.gbuffer.render(scene.instances, view.clip_T_world);
+    const gl::Buffer vals =
+        gl::Buffer::create(GLsizeiptr(scene.vals.size() * sizeof(gi::VirtualAreaLight)), scene.vals.data(), 0);
+    technique->render({vals.id(), std::uint32_t(scene.vals.size())}, scene.instances, scene.gbuffer.view(), view,
+                      scene.output.id());
+    return {readTexels(scene.output.id(), scene.width, scene.height),
+            readTexels(scene.gbuffer.position().id(), scene.width, scene.height),
+            readTexels(scene.gbuffer.normal().id(), scene.width, scene.height)};
+}
+
+/// Per covered pixel: truth radiance with and without visibility, and the diffuse part of each.
+struct Truth {
+    std::vector<std::size_t> pixels;
+    /// Back faces (G-buffer normal w = 1), left out of the comparison: the concave trough is an open sheet, and the
+    /// camera sees the outside of its far wall from behind. LightSkin gives back faces 0 (gi::GBufferView::worldNormal:
+    /// right for the inside of a nearly closed object, gi_back_face_hole_gl_test; a sheet's back side is its
+    /// documented exception, as LightSkin's sparse points gather the front side's light only), so there they are
+    /// asserted 0. (Before the facing flag gi::SimpleGBuffer kept the front side's normal on them, and this test
+    /// compared the light of the side the camera does not see.)
+    std::vector<std::size_t> backFacePixels;
+    std::vector<gi::GroundTruthReceiver> receivers;
+    std::vector<gi::GroundTruthResult> visible, unoccluded;
+};
+
+Truth groundTruth(const TruthScene& scene, const Image& image) {
+    std::vector<gi::GroundTruthMesh> meshes;
+    for (const gi::MeshInstance& instance : scene.instances)
+        meshes.push_back({instance.mesh, glm::dmat4(instance.world_T_model)});
+    const gi::RayTracedGroundTruth truth = gi::RayTracedGroundTruth::create(meshes);
+    Truth t;
+    std::vector<gi::GroundTruthReceiver> receivers;
+    for (std::size_t i = 0; i < image.position.size(); ++i) {
+        if (image.position[i].w == 0.0f) continue;
+        if (image.normal[i].w == 1.0f) {
+            t.backFacePixels.push_back(i);
+            continue;
+        }
+        gi::GroundTruthReceiver r;
+        r.position = glm::dvec3(image.position[i]);
+        r.normal = glm::normalize(glm::dvec3(image.normal[i]));
+        r.toViewer = glm::normalize(glm::dvec3(scene.eye) - r.position);
+        r.material = material();
+        receivers.push_back(r);
+        t.pixels.push_back(i);
+    }
+    gi::GroundTruthSettings settings;
+    settings.discRings = settings.discSectors = 1; // the core's disc model (eq. 3), disc-centre visibility
+    settings.threads = 2;
+    t.visible.resize(receivers.size());
+    t.unoccluded.resize(receivers.size());
+    truth.compute(scene.vals, receivers, t.visible, settings);
+    settings.visibility = false;
+    truth.compute(scene.vals, receivers, t.unoccluded, settings);
+    t.receivers = std::move(receivers);
+    return t;
+}
+
+/// The interpolation model's allowed error at one receiver (derivation at the top): the allowed
+/// fractions of its diffuse and of its glossy light. `reach` = delta, `normalTurn` = Delta.
+struct PixelBudget {
+    double diffuse = 0.0, glossy = 0.0;
+};
+PixelBudget interpolationBudget(const std::vector<gi::VirtualAreaLight>& vals, const gi::GroundTruthReceiver& r,
+                                double reach, double normalTurn, double viewTurn) {
+    const double k = double(r.material.specularExponent),
+                 sinTurn = std::sin(std::min(normalTurn, 0.5 * std::numbers::pi));
+    const double glossyTurn = 2.0 * normalTurn + viewTurn;
+    double irradiance = 0.0, inverseR2 = 0.0, horizon = 0.0, glossy = 0.0, glossyOff = 0.0;
+    for (const gi::VirtualAreaLight& v : vals) {
+        const glm::dvec3 d = glm::dvec3(v.position) - r.position;
+        const double r2 = glm::dot(d, d), dist = std::sqrt(r2);
+        const glm::dvec3 toLight = d / dist;
+        const double cosE = std::max(0.0, -glm::dot(glm::dvec3(v.normal), toLight));
+        const double cosI = glm::dot(r.normal, toLight);
+        const double mw = double(v.flux.x + v.flux.y + v.flux.z) * cosE / (std::numbers::pi * r2); // M_j w_j
+        if (std::abs(cosI) < sinTurn) horizon += mw * sinTurn;
+        if (cosI <= 0.0) continue;
+        irradiance += mw * cosI;
+        inverseR2 += mw * cosI / r2;
+        const glm::dvec3 mirror = 2.0 * cosI * r.normal - toLight;
+        const double cosGamma = glm::dot(mirror, r.toViewer);
+        if (cosGamma <= 0.0) continue;
+        const double lobe = mw * std::pow(cosGamma, k); // eq. 5 up to the constant f_s c (k + 1)
+        const double tan2 = (1.0 - cosGamma * cosGamma) / (cosGamma * cosGamma);
+        glossy += lobe;
+        glossyOff += lobe * std::min(1.0, 0.5 * glossyTurn * glossyTurn * (k + k * k * tan2));
+    }
+    if (!(irradiance > 0.0)) return {};
+    const double parallax = 3.0 * reach * reach * inverseR2 / irradiance;
+    const double diffuse = std::min(1.0, parallax + horizon / irradiance);
+    return {diffuse, glossy > 0.0 ? std::min(1.0, diffuse + glossyOff / glossy) : diffuse};
+}
+
+/// Index of the mesh whose (world) vertex is nearest to `p`: which surface a G-buffer pixel shows.
+std::size_t nearestMesh(const TruthScene& scene, const glm::dvec3& p) {
+    std::size_t best = 0;
+    double bestD2 = std::numeric_limits<double>::infinity();
+    for (std::size_t m = 0; m < scene.meshes.size(); ++m)
+        for (const glm::vec3& v : scene.meshes[m].positions) {
+            const glm::dvec3 w = glm::dvec3(scene.instances[m].world_T_model * glm::vec4(v, 1.0f));
+            const double d2 = glm::dot(w - p, w - p);
+            if (d2 < bestD2) {
+                bestD2 = d2;
+                best = m;
+            }
+        }
+    return best;
+}
+
+void checkScene(TruthScene scene, const char* name) {
+    scene.productionSampler = true;
+    scene.width = scene.height = 64;
+    // per mesh: the rms reach delta = sqrt(0.3 (1.6 h)^2 + e^2 / 3) and the normal turn Delta = delta / R
+    std::vector<double> reach, normalTurn;
+    for (std::size_t m = 0; m < scene.meshes.size(); ++m) {
+        const double d8 = 1.6 * gi::nominalSpacing(scene.meshes[m], int(scene.sparseCounts[m]));
+        const double e = gi::longestEdge(scene.meshes[m]);
+        reach.push_back(std::sqrt(0.3 * d8 * d8 + e * e / 3.0));
+        normalTurn.push_back(reach.back() / scene.curvatureRadius[m]);
+    }
+    const double rho = double(material().diffuseAlbedo.x) / std::numbers::pi;
+    double previousOccludedError = -1.0;
+    for (const Setup& setup :
+         {Setup{"diffuse", false, false}, Setup{"glossy", true, false}, Setup{"occlusion", true, true}}) {
+        SCOPED_TRACE(std::string(name) + ", " + setup.name);
+        const Image image = renderLightSkin(scene, setup);
+        const Truth truth = groundTruth(scene, image);
+        ASSERT_GT(truth.pixels.size(), image.position.size() / 8) << "the scene must fill the image";
+        for (const std::size_t pixel : truth.backFacePixels) {
+            ASSERT_EQ(image.radiance[pixel], glm::vec4(0.0f)) << "back-face pixel " << pixel;
+        }
+        double sumTruth = 0.0, sumTechnique = 0.0, sumError = 0.0, sumDiffuse = 0.0, sumGlossy = 0.0;
+        double sumVisible = 0.0, sumUnoccluded = 0.0, sumErrorVsVisible = 0.0;
+        double allowedDiffuse = 0.0, allowedGlossy = 0.0; // the interpolation budget, summed like the error
+        for (std::size_t k = 0; k < truth.pixels.size(); ++k) {
+            const gi::GroundTruthResult& reference = setup.occlusion ? truth.visible[k] : truth.unoccluded[k];
+            const gi::GroundTruthReceiver& receiver = truth.receivers[k];
+            const std::size_t m = nearestMesh(scene, receiver.position);
+            const PixelBudget allowed =
+                interpolationBudget(scene.vals, receiver, reach[m], normalTurn[m],
+                                    reach[m] / glm::length(glm::dvec3(scene.eye) - receiver.position));
+            for (int c = 0; c < 3; ++c) {
+                const double diffusePart = rho * reference.irradiance[c];
+                const double expected = setup.glossy ? reference.radiance[c] : diffusePart;
+                const double actual = double(image.radiance[truth.pixels[k]][c]);
+                ASSERT_TRUE(std::isfinite(actual));
+                sumTruth += expected;
+                sumTechnique += actual;
+                sumError += std::abs(actual - expected);
+                sumDiffuse += diffusePart;
+                sumGlossy += expected - diffusePart;
+                allowedDiffuse += diffusePart * allowed.diffuse;
+                allowedGlossy += (expected - diffusePart) * allowed.glossy;
+                sumVisible += truth.visible[k].radiance[c];
+                sumUnoccluded += truth.unoccluded[k].radiance[c];
+                sumErrorVsVisible += std::abs(actual - truth.visible[k].radiance[c]);
+            }
+        }
+        ASSERT_GT(sumTruth, 0.0);
+        const double blocked = 1.0 - sumVisible / sumUnoccluded;
+        const double budget = (allowedDiffuse + allowedGlossy) / sumTruth + (setup.occlusion ? blocked : 0.0);
+        const double diffuseBudget = allowedDiffuse / sumDiffuse,
+                     glossyBudget = sumGlossy > 0.0 ? allowedGlossy / sumGlossy : 0.0;
+        const double error = sumError / sumTruth;
+        std::printf("%s, %s: relative L1 %.4f (budget %.4f: diffuse %.4f, glossy %.4f, blocked %.4f), "
+                    "mean ratio %.4f, glossy share %.3f\n",
+                    name, setup.name, error, budget, diffuseBudget, glossyBudget, blocked, sumTechnique / sumTruth,
+                    sumGlossy / sumTruth);
+        EXPECT_LE(error, budget);
+        EXPECT_GT(sumTechnique, 0.5 * sumTruth) << "LightSkin must deliver the light, not zeros";
+        if (setup.glossy) {
+            EXPECT_GT(sumGlossy, 0.05 * sumTruth) << "the glossy channel must matter";
+        }
+        // occlusion must bring the image closer to the truth with visibility than no occlusion
+        // (the technique's claim, section 3.3): compare with the glossy setup's error
+        if (setup.glossy && !setup.occlusion) previousOccludedError = sumErrorVsVisible / sumVisible;
+        if (setup.occlusion) {
+            EXPECT_GT(blocked, 0.02) << "the scene must shadow itself";
+            EXPECT_LT(error, previousOccludedError) << "occlusion on must beat occlusion off against visibility";
+        }
+    }
+}
+
+using LightSkinTruthGLTest = GlTest;
+
+TEST_F(LightSkinTruthGLTest, ConvexObjectOverAFloor) { checkScene(convexOverFloor(), "convex over floor"); }
+TEST_F(LightSkinTruthGLTest, ConcaveObject) { checkScene(concaveTrough(), "concave trough"); }
+TEST_F(LightSkinTruthGLTest, ObjectCloseToAWall) { checkScene(nearWall(), "near wall"); }
+
+} // namespace
+} // namespace lightskin::test
