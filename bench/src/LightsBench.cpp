@@ -8,6 +8,7 @@
 #include <lightskin/gi/common/ReflectiveShadowMap.h>
 #include <lightskin/gi/common/SparsePointSampler.h>
 #include <lightskin/gi/common/ValGenerator.h>
+#include <lightskin/gi/reference/ValGeneratorReference.h>
 #include <lightskin/gl/Context.h>
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/gl/GpuTimer.h>

@@ -5,12 +5,13 @@
 #include "ValTreeMath.h"
 
 #include <lightskin/core/Error.h>
-#include <lightskin/gi/reference/ValTreeReference.h>
+#include <lightskin/gi/lightskin/GatherSums.h>
+#include <lightskin/gi/lightskin/ValTree.h>
 
 #include <array>
 #include <span>
 
-namespace lightskin::gi::reference::walk {
+namespace lightskin::gi::gather::walk {
 
 namespace m = refmath;
 
@@ -106,7 +107,7 @@ inline void walkCut(const ValTreeD& tree, std::span<const VirtualAreaLight> ligh
         // nearer child on top: judged first, while the farther one still counts in the estimate
         const bool firstNearer =
             boxDistance2(tree.nodes[c.child0], x.position) <= boxDistance2(tree.nodes[c.child1], x.position);
-        LIGHTSKIN_ASSERT(top + 2 <= kValTreeMaxDepth + 1, "lightskin::gi::reference::walk::walkCut(): stack");
+        LIGHTSKIN_ASSERT(top + 2 <= kValTreeMaxDepth + 1, "lightskin::gi::gather::walk::walkCut(): stack");
         for (const std::uint32_t child : {firstNearer ? c.child1 : c.child0, firstNearer ? c.child0 : c.child1}) {
             stack[top] = approximate(child);
             pendingD += stack[top].irradiance;
@@ -116,4 +117,4 @@ inline void walkCut(const ValTreeD& tree, std::span<const VirtualAreaLight> ligh
     }
 }
 
-} // namespace lightskin::gi::reference::walk
+} // namespace lightskin::gi::gather::walk

@@ -3,6 +3,7 @@
 // other per-pixel math as documented in ValGenerator.h.
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/common/ValGenerator.h>
+#include <lightskin/gi/reference/ValGeneratorReference.h>
 
 #include <pcl/features/integral_image_normal.h>
 #include <pcl/point_cloud.h>
@@ -30,7 +31,8 @@ std::vector<ReferenceVal> generateValsReference(const cv::Mat& depth, double dep
         return (z > double(settings.minDepth) && z <= double(settings.maxDepth)) ? z : nan;
     };
 
-    pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>(std::uint32_t(width), std::uint32_t(height)));
+    pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(
+        new pcl::PointCloud<pcl::PointXYZ>(std::uint32_t(width), std::uint32_t(height)));
     cloud->is_dense = false;
     for (int v = 0; v < height; ++v)
         for (int u = 0; u < width; ++u) {
@@ -64,7 +66,8 @@ std::vector<ReferenceVal> generateValsReference(const cv::Mat& depth, double dep
             const int u = i * s + s / 2, v = j * s + s / 2;
             const double z = depthAt(u, v);
             const pcl::Normal& pn = normals.at(u, v);
-            if (std::isnan(z) || !std::isfinite(pn.normal_x) || !std::isfinite(pn.normal_y) || !std::isfinite(pn.normal_z))
+            if (std::isnan(z) || !std::isfinite(pn.normal_x) || !std::isfinite(pn.normal_y) ||
+                !std::isfinite(pn.normal_z))
                 continue;
             glm::dvec3 n(pn.normal_x, pn.normal_y, pn.normal_z);
             const double nLength = glm::length(n);

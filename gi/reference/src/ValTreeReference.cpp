@@ -8,7 +8,7 @@
 namespace lightskin::gi::reference {
 
 namespace m = refmath;
-using walk::add;
+using gather::walk::add;
 
 CutBound clusterErrorBound(const ValClusterD& c, const Receiver& x, const glm::dvec3& eye,
                            const GatherParameters& parameters) {
@@ -40,8 +40,8 @@ void gatherWithCutInto(const ValTreeD& tree, std::span<const VirtualAreaLight> l
     CutStatistics totals;
     for (std::size_t i = 0; i < receivers.size(); ++i) {
         CutBound certified;
-        walk::walkCut(tree, lights, receivers[i], m::ls_toEye(receivers[i].position, eye), parameters, threshold,
-                      out[i], certified, totals);
+        gather::walk::walkCut(tree, lights, receivers[i], m::ls_toEye(receivers[i].position, eye), parameters,
+                              threshold, out[i], certified, totals);
         if (bounds) (*bounds)[i] = certified;
     }
     if (statistics) *statistics = totals;

@@ -4,6 +4,7 @@
 #include "TestPaths.h"
 
 #include <lightskin/gi/common/ValGenerator.h>
+#include <lightskin/gi/reference/ValGeneratorReference.h>
 
 #include <glm/gtc/quaternion.hpp>
 #include <gtest/gtest.h>
@@ -84,7 +85,8 @@ TEST_F(ValGeneratorDataGLTest, GpuNormalsAgreeWithPclOnRealKinectDepth) {
         generator.generate(frame.depth, 1.0, frame.colour, frame.intrinsics, pose);
         const auto vals = generator.downloadVals();
         const auto pixels = generator.downloadPixelIndices();
-        const auto reference = gi::generateValsReference(frame.depth, 1.0, frame.colour, frame.intrinsics, pose, settings);
+        const auto reference =
+            gi::generateValsReference(frame.depth, 1.0, frame.colour, frame.intrinsics, pose, settings);
         std::unordered_map<std::uint32_t, std::size_t> byPixel;
         for (std::size_t k = 0; k < reference.size(); ++k) byPixel[reference[k].pixelIndex] = k;
         double angleSum = 0.0, fluxGpu = 0.0, fluxCpu = 0.0;
@@ -131,8 +133,8 @@ TEST_F(ValGeneratorDataGLTest, TotalFluxIsStrideInvariantOnRealDepth) {
         for (const auto& val : generator.downloadVals()) flux[i] += glm::dvec3(val.flux), area[i] += double(val.area);
         ++i;
     }
-    std::printf("total area %.4f / %.4f / %.4f m^2, green flux %.4f / %.4f / %.4f\n", area[0], area[1], area[2], flux[0].g,
-                flux[1].g, flux[2].g);
+    std::printf("total area %.4f / %.4f / %.4f m^2, green flux %.4f / %.4f / %.4f\n", area[0], area[1], area[2],
+                flux[0].g, flux[1].g, flux[2].g);
     for (int k = 1; k < 3; ++k) {
         EXPECT_NEAR(area[k] / area[0], 1.0, 0.02) << k;
         for (int c = 0; c < 3; ++c) EXPECT_NEAR(flux[k][c] / flux[0][c], 1.0, 0.02) << k << " " << c;

@@ -5,6 +5,7 @@
 
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/common/ValGenerator.h>
+#include <lightskin/gi/reference/ValGeneratorReference.h>
 
 #include <glm/gtc/quaternion.hpp>
 #include <gtest/gtest.h>

@@ -31,7 +31,7 @@ void ValTreeCut::gather(std::span<const VirtualAreaLight> lights, std::span<cons
         buildValTreeInto(lights, tree_);
     }
     stats_.nodes = std::uint32_t(tree_.nodes.size());
-    reference::GatherParameters parameters;
+    gather::GatherParameters parameters;
     parameters.cParameter = c;
     parameters.epsilonL = 0.0; // folded in later, as on the GL path
     parameters.glossy = glossy;
@@ -42,14 +42,14 @@ void ValTreeCut::gather(std::span<const VirtualAreaLight> lights, std::span<cons
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 16) reduction(+ : visited, taken)
     for (std::ptrdiff_t p = 0; p < points; ++p) {
         const auto i = std::size_t(p);
-        reference::Receiver x;
+        gather::Receiver x;
         x.position = positions[i];
         x.normal = normals[i];
         x.exponent = exponents[i];
-        reference::GatherSums s;
-        reference::CutBound certified;
-        reference::CutStatistics counts;
-        reference::walk::walkCut(tree_, lights, x, refmath::ls_toEye(x.position, eye), parameters, threshold, s,
+        gather::GatherSums s;
+        gather::CutBound certified;
+        gather::CutStatistics counts;
+        gather::walk::walkCut(tree_, lights, x, refmath::ls_toEye(x.position, eye), parameters, threshold, s,
                                  certified, counts);
         visited += counts.visited;
         taken += counts.clusters + counts.skipped + counts.leaves;

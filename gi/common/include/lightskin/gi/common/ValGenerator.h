@@ -126,23 +126,6 @@ private:
     gl::GpuStageTimer* timer_ = nullptr;
 };
 
-/// One VAL of the CPU reference, double precision.
-struct ReferenceVal {
-    glm::dvec3 position{0.0};
-    double area = 0.0;
-    glm::dvec3 normal{0.0, 0.0, 1.0};
-    glm::dvec3 flux{0.0};
-    std::uint32_t pixelIndex = 0;
-};
-
-/// CPU reference in double precision: same sampling, validity of depth, area, flux and transform
-/// as the GPU, but the normal (and its validity, incl. edges) is PCL's
-/// IntegralImageNormalEstimation (AVERAGE_3D_GRADIENT, smoothing 2R, pclMaxDepthChangeFactor, no
-/// depth-dependent smoothing, border ignored), oriented toward the camera. Output in raster order.
-std::vector<ReferenceVal> generateValsReference(const cv::Mat& depth, double depthScaleMetres, const cv::Mat& colourBgr,
-                                                const CameraIntrinsics& depthIntrinsics, const Pose& world_T_camera,
-                                                const ValGeneratorSettings& settings);
-
 /// sRGB transfer function decoded to linear (IEC 61966-2-1), for one channel in [0, 1].
 double srgbToLinear(double encoded) noexcept;
 

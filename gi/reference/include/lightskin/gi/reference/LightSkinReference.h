@@ -10,6 +10,7 @@
 // Slow by design (O(receivers x VALs)); for tests, benchmarks' error measurements and debugging.
 
 #include <lightskin/gi/common/SparsePointSet.h>
+#include <lightskin/gi/lightskin/GatherSums.h>
 #include <lightskin/gi/common/VirtualAreaLight.h>
 
 #include <glm/mat4x4.hpp>
@@ -24,39 +25,13 @@
 
 namespace lightskin::gi::reference {
 
-/// Parameters shared by the gather and the brute force.
-struct GatherParameters {
-    double cParameter = 1.0 / (2.0 * std::numbers::pi); ///< c of c_k = c (k + 1), 1/sr (normalised Phong)
-    double epsilonL = 1e-20; ///< eps_l of eq. 7 (dimensionless weight added per VAL)
-    bool glossy = true;      ///< false: the glossy sums stay 0 (the paper's "diffuse" setup)
-    bool nearField = false;  ///< guard G12 of lightskin_math.glsl (near-field VALs as areas); false: point model
-};
-
-/// A receiver: a sparse point in world space with its material exponent.
-struct Receiver {
-    glm::dvec3 position{0.0};          ///< world metres
-    glm::dvec3 normal{0.0, 0.0, 1.0};  ///< unit, world
-    double exponent = 1.0;             ///< Phong k of the point's material
-    double occluderRadius = 0.0;       ///< world metres (section 3.3 occluder disc)
-};
+using gather::GatherParameters;
+using gather::GatherSums;
+using gather::Receiver;
 
 /// World-space receivers of one mesh's sparse points (rigid + uniform-scale world_T_model).
 std::vector<Receiver> receiversFromSparsePoints(const SparsePointSet& points, const glm::mat4& world_T_model,
                                                 double exponent);
-
-/// The eq.-7 sums of one receiver (positions relative to the receiver).
-struct GatherSums {
-    glm::dvec3 irradiance{0.0};  ///< L'_d = sum E_j, W/m^2
-    double weightD = 0.0;        ///< W_d
-    glm::dvec3 offsetD{0.0};     ///< sum (l_j - x) w_d,j
-    double r2D = 0.0;            ///< sum r_j^2 w_d,j
-    glm::dvec3 momentD{0.0};     ///< sum (l_j - x)^2 w_d,j per axis (S_o)
-    glm::dvec3 glossy{0.0};      ///< L'_s = c_k sum M_j w_j cos^k(gamma), W/(sr m^2) per unit f_s
-    double weightS = 0.0;        ///< W_s
-    glm::dvec3 offsetS{0.0};     ///< sum (l_j - x) w_s,j
-    double r2S = 0.0;            ///< sum r_j^2 w_s,j
-    double momentS = 0.0;        ///< sum |l_j - x|^2 w_s,j
-};
 
 /// eq. 3-5, 7 for every receiver over every VAL; `out` resized to receivers.size().
 void gatherInto(std::span<const VirtualAreaLight> lights, std::span<const Receiver> receivers,

@@ -1,5 +1,5 @@
 #pragma once
-// Double-precision reference of the gather with a cut through the VAL tree (issue 17): the same walk
+// Double-precision reference of the gather with a cut through the VAL tree: the same walk
 // as gi/lightskin/shaders/gather_tree.comp, the same formulas (gi/lightskin/shaders/val_tree_math.glsl). Each receiver
 // walks the tree depth first, the nearer child first; a leaf adds its VAL exactly (eq. 3-5, 7 as
 // reference::gatherInto); an inner cluster is taken as one light when its error bound U (per channel,
@@ -19,19 +19,8 @@
 
 namespace lightskin::gi::reference {
 
-/// Per receiver: the sum of the error bounds of the clusters it took (|cut - flat| <= this).
-struct CutBound {
-    glm::dvec3 irradiance{0.0}; ///< W/m^2
-    glm::dvec3 glossy{0.0};     ///< W/(sr m^2) per unit f_s
-};
-
-/// Totals over all receivers of one gather.
-struct CutStatistics {
-    std::uint64_t clusters = 0; ///< inner clusters taken as one light (those with U > 0)
-    std::uint64_t skipped = 0;  ///< inner clusters taken with U = 0 (add nothing)
-    std::uint64_t leaves = 0;   ///< VALs added exactly
-    std::uint64_t visited = 0;  ///< nodes visited (the walk's loop iterations)
-};
+using gather::CutBound;
+using gather::CutStatistics;
 
 /// The bound U of one cluster at one receiver (val_tree_math.glsl): sum_j E_j and the cluster's
 /// approximation both lie in [0, U] per channel. `glossy` as GatherParameters::glossy.
