@@ -1,4 +1,4 @@
-// K_cache-invariant summation of the gather (issue 6: "changing K_cache changes results by
+// K_cache-invariant summation of the gather (a requirement: "changing K_cache changes results by
 // <= 1e-5 relative"). Float addition is not associative, so the sums may depend on how the VALs
 // are split into passes only if the grouping does. Both gather variants therefore add the VALs
 // in one fixed grouping, whatever the pass size:

@@ -1,5 +1,5 @@
 #version 450 core
-// Gather with a cut through the VAL tree (issue 17; ValTree.h, val_tree_math.glsl): one thread per sparse
+// Gather with a cut through the VAL tree (ValTree.h, val_tree_math.glsl): one thread per sparse
 // point walks the tree depth first, the nearer child first; a leaf adds its VAL exactly (eq. 3-5, 7), an
 // inner cluster is taken as one light when its error bound U <= uThreshold x the running estimate (per
 // channel, diffuse and, with GLOSSY, glossy), else the walk descends. The estimate is lightcuts': the

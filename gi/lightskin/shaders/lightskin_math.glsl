@@ -60,7 +60,7 @@
 //     the farthest is the only one facing the vertex) fall back to the normal term alone, then to
 //     the nearest neighbour with weight 1: model-space geometry only, so never flickers.
 //  G7 occlusion: projected sphere area <= kTinyArea => no occlusion; total o clamped to [0, 1].
-//  G8 vertex VPL distance floor (eq. 13, issue 12): eq. 13 averages the VPL positions of up to 8
+//  G8 vertex VPL distance floor (eq. 13): eq. 13 averages the VPL positions of up to 8
 //     sparse points linearly; where the neighbours' VPLs lie in different directions (thin parts,
 //     rims, contact with real surfaces), the averaged l''' can land far nearer the vertex than any
 //     gathered VPL was to its own sparse point, and eq. 10's 1/D then multiplies L''' (renormalised
@@ -69,8 +69,8 @@
 //     D >= Dmin = min_j (|x_j - l'_j|^2 + rbar_j^2) over its contributing neighbours, by raising its
 //     rbar^2 (ls_vertexR2Floor). No change wherever the averaged VPL is at least as far as the
 //     nearest gathered one (e.g. one neighbour, or neighbours with equal VPLs). Off: #define
-//     LS_VERTEX_DISTANCE_FLOOR 0 (the model before issue 12).
-//  G9 extended VPL at the horizon (eq. 10/11, issue 12): an averaged VPL stands for VALs spread
+//     LS_VERTEX_DISTANCE_FLOOR 0 (the plain model).
+//  G9 extended VPL at the horizon (eq. 10/11): an averaged VPL stands for VALs spread
 //     around l' (S_o's radius R, section 3.3), but eq. 10 shades it as a point, so a receiver whose
 //     l' lies just below its horizon gets exactly 0 while most of the VALs behind l' are still above
 //     it: holes (black pixels) with a hard edge in smoothly lit objects, measured on TUM fr2 and the
@@ -81,7 +81,7 @@
 //     below, smooth in between. Renormalisation (eq. 11) uses the same factor, so eq. 10 still
 //     reproduces L' at the sparse point. Vertices interpolate R like l' (eq. 13). Needs the second
 //     moments (gathered for occlusion, and for G9). Off (horizonSpread 0, R not handed on): points.
-//  G10 vertex irradiance cap (eq. 10/13, issue 12): each sparse point's renormalised VPL reproduces
+//  G10 vertex irradiance cap (eq. 10/13): each sparse point's renormalised VPL reproduces
 //     exactly the irradiance E_j it gathered (eq. 11), but only at its own position and normal; the
 //     vertex shades the averaged VPL at another position and normal. Where a sparse point sees its
 //     light at a grazing angle, eq. 11 has divided by a small cos (down to kMinRenormCos), and a
@@ -96,7 +96,7 @@
 //     exceeds every gathered sample around it: for VALs at distance d from the surface the
 //     irradiance varies across the sparse-point spacing h by at most the factor (1 + h/d)^2 (inverse
 //     square law), which bounds the cap's error there. Off: cap < 0 (the model before it).
-//  G11 buried sparse points (eq. 12/13, issue 12): a virtual object sunk into a real surface has sparse
+//  G11 buried sparse points (eq. 12/13): a virtual object sunk into a real surface has sparse
 //     points under it (behind the registered depth, seen from the camera); no VAL of that surface
 //     lights them (they are behind its emitting side), so as neighbours of the vertices above the
 //     surface they pull the interpolated light down (speckle on ICL-NUIM along a sunk cube's contact
@@ -106,7 +106,7 @@
 //     buried. A point hidden behind a real object in front of the virtual one counts as buried too
 //     (the depth cannot tell "under" from "behind"); its vertex then interpolates its other neighbours.
 //     Off: no depth handed in, or LightSkinSettings::buriedSparsePoints false (the model before it).
-//  G12 near-field VALs as areas (eq. 3/4, issue 12): eq. 3 treats a VAL as a point-like disc; beside
+//  G12 near-field VALs as areas (eq. 3/4): eq. 3 treats a VAL as a point-like disc; beside
 //     its rim, 0.1 r above its plane, it gives w cos = 0.0049 where the disc's exact form factor is
 //     0.475 (Howell), and a receiver whose tangent plane cuts the disc gets 0 or all of it by where
 //     the centre lies. Real surfaces touching virtual objects put thousands of VALs there (black or
@@ -580,7 +580,7 @@ LS_FN rvec2 ls_projectToPixel(rvec3 pc, real fx, real fy, real cx, real cy) {
     return rvec2(fx * pc.x / pc.z + cx, fy * pc.y / pc.z + cy);
 }
 
-// G11 (eq. 12/13, issue 12): the weights with the neighbours buried under the real surface left out
+// G11 (eq. 12/13): the weights with the neighbours buried under the real surface left out
 // (weight 0): a sparse point under a real floor gathers no light from it (its VALs face away from it),
 // so as a neighbour it darkens the vertices above the surface. A vertex whose neighbours are all
 // buried keeps the paper's weights (nothing better is known there).

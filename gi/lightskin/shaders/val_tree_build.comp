@@ -1,5 +1,5 @@
 #version 450 core
-// The depth image's VAL quadtree built on the GPU (issue 17; lightskin::gi::GpuValQuadtree, ValTree.h):
+// The depth image's VAL quadtree built on the GPU (lightskin::gi::GpuValQuadtree, ValTree.h):
 // the same levels as the CPU builder buildValQuadtreeInto (neighbours paired alternately along u and v,
 // a cell with one non-empty child IS that child), so the same tree, with the statistics combined in
 // float instead of double. One variant per pass (prepended #define):

@@ -1,5 +1,5 @@
 // A cluster of VALs standing in for its members at one receiver, and a conservative bound on the
-// error of doing so (issue 17, lightcuts-style: Walter et al. 2005, section 4.1). Written once in the
+// error of doing so (lightcuts-style: Walter et al. 2005, section 4.1). Written once in the
 // common subset of GLSL 4.50 and C++/GLM like lightskin_math.glsl (which must be included first):
 // gather_tree.comp includes it with real = float, the double reference (gi/lightskin/src/ValTreeMath.h)
 // with real = double.

@@ -1,11 +1,11 @@
 #pragma once
-// CpuLightSkin's gather with a cut through the VAL tree (issue 17; LightSkinSettings::valTreeThreshold
+// CpuLightSkin's gather with a cut through the VAL tree (LightSkinSettings::valTreeThreshold
 // > 0): the tree of the frame's VALs (double, ValTree.h) and, per sparse point, the walk of the double
 // reference (gi/lightskin/src/ValTreeWalk.h), threads over the points. Writes the flat gather's sum
 // layout (CpuGatherKernels.h, kGatherSums, eps_l not included). Kept apart from the flat SIMD kernels
 // (CpuGatherKernels.cpp): the walk is branchy, per point, and not vectorised across points.
-#include <lightskin/gi/lightskin/ValTree.h>
 #include <lightskin/gi/common/VirtualAreaLight.h>
+#include <lightskin/gi/lightskin/ValTree.h>
 
 #include <glm/vec3.hpp>
 

@@ -1,5 +1,5 @@
 #pragma once
-// The GL path's gather with a cut through the VAL tree (issue 17; gi/lightskin/shaders/gather_tree.comp): for
+// The GL path's gather with a cut through the VAL tree (gi/lightskin/shaders/gather_tree.comp): for
 // VALs keyed by image pixels (depth VALs) the image's quadtree, built on the GPU (GpuValQuadtree: no
 // read-back); for any other set the BVH, built on the CPU from a read-back of the VAL buffer and
 // uploaded. Then it runs the walk in dispatches of bounded length until every sparse point is done. Writes the same

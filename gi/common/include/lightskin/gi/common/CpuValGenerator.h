@@ -1,5 +1,5 @@
 #pragma once
-// Virtual area lights from a depth map on the CPU (issue 18): the per-pixel definition of
+// Virtual area lights from a depth map on the CPU: the per-pixel definition of
 // ValGenerator.h, written as gi/common/shaders/val_from_depth.comp computes it (float, the same operations
 // in the same order: sampling, validity, edge walk, gradient normal, area, flux, transform), so a
 // frame's set equals the GL pass's up to float rounding of the few operations the GPU may evaluate

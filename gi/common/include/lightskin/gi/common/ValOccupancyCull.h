@@ -1,5 +1,5 @@
 #pragma once
-// Removes the depth VALs whose space the virtual content now occupies (issue 12): a real surface
+// Removes the depth VALs whose space the virtual content now occupies: a real surface
 // enclosed by or pressed against a virtual object sends no light to the visible world, and as a VAL
 // within millimetres of the object's receivers it is where the disc model is least accurate. Such
 // VALs get area 0 (every consumer skips them). The test and its Kinect-noise margin (metres along the

@@ -1,5 +1,5 @@
 #pragma once
-// Differential rendering (issue 13; Debevec 1998, Knecht et al. 2010): how the virtual objects
+// Differential rendering (Debevec 1998, Knecht et al. 2010): how the virtual objects
 // change the light on the real surfaces around them. At sparse receivers of the depth frame the
 // irradiance is gathered without and with the virtual objects (their shadows of the room's VALs and
 // of the scene lights, their own bounce) and dE = E_with - E_without is interpolated to the pixels;

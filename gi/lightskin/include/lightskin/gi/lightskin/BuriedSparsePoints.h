@@ -1,5 +1,5 @@
 #pragma once
-// Guard G11 of gi/lightskin/shaders/lightskin_math.glsl (issue 12) on the CPU: which points lie under the real
+// Guard G11 of gi/lightskin/shaders/lightskin_math.glsl on the CPU: which points lie under the real
 // surface, i.e. more than the depth noise (3 sigma of the Kinect v1 model) behind the registered depth
 // of the pixel they project to. Points behind the camera, outside the image or on a hole (depth <= 0
 // or NaN) are not buried. Double precision, with the shaders' formulas (the same source file); the

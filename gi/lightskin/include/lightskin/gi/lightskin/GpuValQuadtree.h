@@ -1,5 +1,5 @@
 #pragma once
-// The depth image's VAL quadtree built on the GPU (issue 17), in compute passes right after the VAL
+// The depth image's VAL quadtree built on the GPU, in compute passes right after the VAL
 // generation (gi/lightskin/shaders/val_tree_build.comp): no read-back of the VALs and no upload of the nodes.
 // The same tree as the CPU builder buildValQuadtreeInto (ValTree.h: same levels, same clusters, same
 // children order); the statistics are combined in float, the cone angle rounded outward so that the
@@ -8,8 +8,8 @@
 // and inner nodes sit in 2 count + 1 slots, of which 2 n - 1 are used for n valid VALs.
 // Units and frames as VirtualAreaLight (world metres, m^2, linear RGB W; angles in radians).
 
-#include <lightskin/gi/lightskin/ValTree.h>
 #include <lightskin/gi/common/VirtualAreaLight.h>
+#include <lightskin/gi/lightskin/ValTree.h>
 #include <lightskin/gl/Objects.h>
 
 #include <cstdint>

@@ -1,5 +1,5 @@
 #pragma once
-// A cluster tree over a VAL set (issue 17): each node stands for the VALs below it (total flux, representative
+// A cluster tree over a VAL set: each node stands for the VALs below it (total flux, representative
 // position and normal, bounding box, normal cone), so that a gather can take a far or dim cluster as one light (a
 // "cut", as in lightcuts). Approximation and error bound: gi/lightskin/shaders/val_tree_math.glsl.
 // Layout: node 0 is the root, an inner node has two children (always after their parent), a leaf is one valid VAL

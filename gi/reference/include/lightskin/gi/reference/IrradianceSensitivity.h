@@ -1,6 +1,6 @@
 #pragma once
 // How strongly the brute force's irradiance at a receiver depends on the receiver's normal: the
-// relative change of E per radian of normal tilt, in the steepest direction (issue 12, TUM fr3).
+// relative change of E per radian of normal tilt, in the steepest direction (TUM fr3).
 //
 // With the point model (eq. 3, 4) E(n) = sum_j c_j max(n . t_j, 0), c_j = M_j w_j / cos(theta_i) >= 0
 // and t_j the unit direction to VAL j, neither depending on n. Tilting n by a small angle delta toward
