@@ -61,7 +61,7 @@ std::string statusLine(double fps, const mr::FrameOutput& out, const mr::FramePi
     }
     line += " ms | GI ";
     // Glossy and occlusion are channels of a GI technique: without one they do nothing, so say nothing.
-    const bool gi = options.giEnabled && pipeline.techniqueName() != "none";
+    const bool gi = options.giEnabled && pipeline.technique() != lightskin::gi::Technique::None;
     line += options.giEnabled ? pipeline.techniqueName() : std::string("off");
     line += gi && pipeline.giSettings().glossy ? " +glossy" : "";
     line += gi && pipeline.giSettings().occlusion ? " +occl" : "";

@@ -313,19 +313,22 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     capture::FrameSource* source = session->source();
     const render::Scene& scene = session->scene();
     mr::FramePipeline* pipeline = &session->pipeline();
-    if (!args.cacheDir.empty() && scene.gi.technique != "multiscale-prt")
-        log::warning("--cache-dir: " + scenePath.string() + " has gi.technique \"" + scene.gi.technique +
+    const std::string sceneTechnique(gi::toString(scene.gi.technique));
+    if (!args.cacheDir.empty() && scene.gi.technique != gi::Technique::MultiscalePrt)
+        log::warning("--cache-dir: " + scenePath.string() + " has gi.technique \"" + sceneTechnique +
                      "\", which has no precompute to cache; ignored");
     if (!args.backend.empty()) {
-        if (args.backend != "gl" && args.backend != "cpu")
-            throw Error("--backend", std::nullopt, "expected gl or cpu, got '" + args.backend + "'");
-        if (args.backend == "cpu" && scene.gi.technique != "lightskin")
+        const std::optional<gi::Backend> backend = gi::parseBackend(args.backend);
+        if (!backend)
+            throw Error("--backend", std::nullopt,
+                        "expected " + gi::backendNames(false) + ", got '" + args.backend + "'");
+        if (!gi::runsOn(scene.gi.technique, *backend))
             throw Error("--backend", std::nullopt,
                         "the CPU backend exists for technique lightskin only (" + scenePath.string() +
-                            " has gi.technique \"" + scene.gi.technique + "\")");
-        render::GiSettings gi = pipeline->giSettings();
-        gi.backend = args.backend;
-        pipeline->setGiSettings(gi);
+                            " has gi.technique \"" + sceneTechnique + "\")");
+        render::GiSettings settings = pipeline->giSettings();
+        settings.backend = *backend;
+        pipeline->setGiSettings(settings);
     }
     // --write-frames past the frames that will be read would silently write nothing.
     if (!chosen.empty()) {
@@ -343,12 +346,13 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     prepareOutputFolder(out, args.overwrite, "--out"); // every input is valid: from here on, outputs
     std::filesystem::create_directories(out / "frames");
     // Without a GI technique both halves of the comparison would be the same image.
-    const bool compare = options.compare && pipeline->techniqueName() != "none";
+    const bool compare = options.compare && pipeline->technique() != gi::Technique::None;
     pipeline->options().compare = compare;
     const std::string compareFolder = compareLabels(args.view, pipeline->techniqueName()).folder;
     if (compare) std::filesystem::create_directories(out / compareFolder);
     if (args.linearOut) std::filesystem::create_directories(out / "linear");
-    if (args.linearOut && pipeline->techniqueName() != "none") std::filesystem::create_directories(out / "linear-indirect");
+    if (args.linearOut && pipeline->technique() != gi::Technique::None)
+        std::filesystem::create_directories(out / "linear-indirect");
 
     std::string videoPath, videoCodec;
     cv::VideoWriter video;
@@ -356,10 +360,14 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     summary.recording = args.recording;
     summary.scene = scenePath.string();
     summary.renderer = rendererName;
-    const std::string asked =
-        scene.gi.technique + (scene.gi.technique == "lightskin" && pipeline->giSettings().backend == "cpu" ? "-cpu" : "");
-    summary.technique = pipeline->techniqueName() +
-                        (asked != pipeline->techniqueName() ? " (scene asked for " + asked + ", not available)" : "");
+    // A frame budget may start on another technique than the scene's.
+    const bool askedCpu = pipeline->giSettings().backend == gi::Backend::Cpu &&
+                          gi::runsOn(scene.gi.technique, gi::Backend::Cpu);
+    const bool asGiven = pipeline->technique() == scene.gi.technique &&
+                         (pipeline->backend() == gi::Backend::Cpu) == askedCpu;
+    const std::string asked = sceneTechnique + (askedCpu ? "-cpu" : "");
+    summary.technique =
+        pipeline->techniqueName() + (asGiven ? "" : " (scene asked for " + asked + ", not available)");
     summary.poseMode = mr::toString(poseMode);
     summary.prtPrepare = pipeline->prtPrepareStats();
     summary.command = commandLine;

@@ -87,7 +87,8 @@ def method_of(run):
 
 
 def backend_of(run):
-    return run.get("backend") or "GL"
+    # Backends are spelled "gl"/"cpu" (gi::toString(Backend)); files before that said "GL"/"CPU".
+    return (run.get("backend") or "GL").upper()
 
 
 def time_of(run, where):

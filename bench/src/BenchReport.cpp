@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
@@ -223,7 +224,7 @@ void runFields(Io& io, R& r) {
     io("is_brute", r.isBrute);
     // Files from before the method/backend keys: the sweep's rows were LightSkin or brute force on GL.
     io.withFallback("method", r.method, std::string(r.isBrute ? "brute force" : "LightSkin"));
-    io.withFallback("backend", r.backend, std::string("GL"));
+    io.withFallback("backend", r.backend, std::string(gi::toString(gi::Backend::Gl)));
     io.withFallback("series", r.series, std::string());
     io("sparse_per_model", c.sparse);
     io("val_stride", c.stride);
@@ -258,7 +259,7 @@ void temporalFields(Io& io, T& t) {
     io("excess_flicker", t.excessFlicker);
     io.withFallback("method", t.method,
                     std::string(t.technique.starts_with("brute force") ? "brute force" : "LightSkin"));
-    io.withFallback("backend", t.backend, std::string("GL"));
+    io.withFallback("backend", t.backend, std::string(gi::toString(gi::Backend::Gl)));
 }
 
 template <typename Io, typename C>
@@ -286,7 +287,10 @@ RunResult runFromJson(const nlohmann::json& j) {
     runFields(reader, r);
     const std::string channels = j.at("channels");
     r.config.channels = channels == "diffuse" ? 1 : channels == "+glossy" ? 2 : 3;
-    r.config.backend = r.backend;
+    // the config's backend follows the row's ("GL"/"CPU" in files from before the one spelling)
+    std::string backend = r.backend;
+    for (char& ch : backend) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+    r.config.backend = gi::parseBackend(backend).value_or(gi::Backend::Gl);
     if (j.contains("stages_ms"))
         for (const auto& [name, ms] : j.at("stages_ms").items()) r.stages.emplace_back(name, ms.get<double>());
     return r;

@@ -100,10 +100,10 @@ void readImage(std::uint32_t texture, std::vector<glm::vec4>& out) {
 }
 
 /// A JSON row of bench-cpu: wall time per frame (the minimum) as the row's time, CPU time beside it.
-RunResult timedRow(const Timing& t, const std::string& backend, const std::string& series, std::size_t vals, int sparse,
+RunResult timedRow(const Timing& t, gi::Backend backend, const std::string& series, std::size_t vals, int sparse,
                    int channels, int width, int height) {
     RunResult r;
-    r.backend = backend;
+    r.backend = gi::toString(backend);
     r.series = series;
     r.config.axis = "vals";
     r.config.value = std::to_string(vals);
@@ -176,7 +176,7 @@ void runCpuBench(const CpuBenchOptions& options) {
                     const Timing t =
                         timeFrames(*gl, valSet, instances, gbuffer.view(), view, target.id(), options.repeat);
                     printTiming("GL (llvmpipe)", t);
-                    report.runs.push_back(timedRow(t, "GL", setup.name, vals.size(), sparse, channels,
+                    report.runs.push_back(timedRow(t, gi::Backend::Gl, setup.name, vals.size(), sparse, channels,
                                                    options.outputWidth, options.outputHeight));
                     const double gatherMs = minimum(t.stages.at("gather"));
                     std::printf("      GL gather %.3g interactions/s (timer query)\n",
@@ -198,7 +198,7 @@ void runCpuBench(const CpuBenchOptions& options) {
                             timeFrames(*cpu, valSet, instances, gbuffer.view(), view, target.id(), options.repeat);
                         const std::string label = "CPU " + gi::cpuSimdTarget() + " " + std::to_string(threads) + " thr";
                         printTiming(label.c_str(), t);
-                        report.runs.push_back(timedRow(t, "CPU",
+                        report.runs.push_back(timedRow(t, gi::Backend::Cpu,
                                                        std::string(setup.name) + ", " + std::to_string(threads) +
                                                            " threads, " + gi::cpuSimdTarget(),
                                                        vals.size(), sparse, channels, options.outputWidth,

@@ -669,7 +669,7 @@ std::vector<TemporalResult> temporalRows(const std::vector<CaseResult>& results)
                              r.flickerBrute,
                              0.0,
                              "brute force",
-                             "GL"};
+                             std::string(gi::toString(gi::Backend::Gl))};
         TemporalResult lightSkin{sequence,
                                  "LightSkin (" + r.model + " light model)",
                                  r.frames,
@@ -678,7 +678,7 @@ std::vector<TemporalResult> temporalRows(const std::vector<CaseResult>& results)
                                  r.flickerBrute,
                                  r.excessFlicker,
                                  "LightSkin",
-                                 "GL"};
+                                 std::string(gi::toString(gi::Backend::Gl))};
         rows.push_back(brute);
         rows.push_back(lightSkin);
     }

@@ -11,15 +11,16 @@
 #include <lightskin/bench/BenchScene.h>
 #include <lightskin/bench/SweepBench.h>
 #include <lightskin/core/Error.h>
+#include <lightskin/gi/Techniques.h>
 #include <lightskin/gi/bruteforce/BruteForceIllumination.h>
-#include <lightskin/gi/lightskin/CpuLightSkin.h>
-#include <lightskin/gi/volumes/ImperfectVolumes.h>
-#include <lightskin/gi/lightskin/LightSkinIllumination.h>
-#include <lightskin/gi/prt/MultiscalePrt.h>
-#include <lightskin/gi/reference/RayTracedGroundTruth.h>
 #include <lightskin/gi/common/SimpleGBuffer.h>
 #include <lightskin/gi/common/SparsePointSampler.h>
 #include <lightskin/gi/common/ValGenerator.h>
+#include <lightskin/gi/lightskin/CpuLightSkin.h>
+#include <lightskin/gi/lightskin/LightSkinIllumination.h>
+#include <lightskin/gi/prt/MultiscalePrt.h>
+#include <lightskin/gi/reference/RayTracedGroundTruth.h>
+#include <lightskin/gi/volumes/ImperfectVolumes.h>
 #include <lightskin/gl/Context.h>
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/gl/GpuTimer.h>
@@ -446,21 +447,21 @@ RunResult runConfig(World& world, const SweepBenchOptions& options, const Config
     gi::ValSetView set = world.vals(c.stride);
     r.vals = set.count;
     const auto prepStart = Clock::now();
-    r.backend = c.backend;
+    r.backend = gi::toString(c.backend);
     // Both backends share the technique's settings and interface; the CPU backend's stage times are the
     // wall times of its CPU stages plus the GPU time of its shading pass, so their sum is its frame time.
-    std::unique_ptr<gi::IndirectIllumination> technique;
-    if (c.technique == "imperfect-volumes") {
-        r.method = "imperfect volumes";
-        technique = gi::ImperfectVolumes::create(c.volumes);
-    } else if (c.technique == "multiscale-prt") {
-        r.method = "multiscale-prt"; // prepareMs: its precompute, or the cache load with --cache-dir
-        r.backend = "CPU";           // its per-frame part runs on the CPU (the shading pass on GL)
-        technique = gi::MultiscalePrt::create(c.prt);
-    } else if (c.backend == "CPU")
-        technique = gi::CpuLightSkin::create({settingsFor(c, set.count), 0}, world.provider(c.sparse));
-    else
-        technique = gi::LightSkinIllumination::create(settingsFor(c, set.count), world.provider(c.sparse));
+    gi::TechniqueConfig config;
+    config.technique = c.technique;
+    config.backend = c.backend;
+    config.lightSkin = settingsFor(c, set.count);
+    config.imperfectVolumes = c.volumes;
+    config.multiscalePrt = c.prt;
+    if (c.technique == gi::Technique::ImperfectVolumes) r.method = "imperfect volumes";
+    if (c.technique == gi::Technique::MultiscalePrt) {
+        r.method = "multiscale-prt";                // prepareMs: its precompute, or the cache load with --cache-dir
+        r.backend = gi::toString(gi::Backend::Cpu); // its per-frame part runs on the CPU (the shading pass on GL)
+    }
+    std::unique_ptr<gi::IndirectIllumination> technique = gi::createTechnique(config, world.provider(c.sparse));
     technique->prepare(inst);
     r.prepareMs = msSince(prepStart);
     auto& g = world.gbuffer(c.width, c.height);
@@ -586,9 +587,10 @@ std::vector<Config> buildSweep(const SweepBenchOptions& o) {
         add("adaptive", a, [a](Config& c) { c.adaptive = a == "on"; });
     }
     for (const std::string& b : splitList<std::string>(o.backends, [](const std::string& x) { return x; })) {
-        if (b != "gl" && b != "cpu") throw Error("--backends", std::nullopt, "expected gl or cpu, got '" + b + "'");
-        const std::string name = b == "gl" ? "GL" : "CPU";
-        add("backend", name, [name](Config& c) { c.backend = name; });
+        const std::optional<gi::Backend> backend = gi::parseBackend(b);
+        if (!backend)
+            throw Error("--backends", std::nullopt, "expected " + gi::backendNames(false) + ", got '" + b + "'");
+        add("backend", b, [backend](Config& c) { c.backend = *backend; });
     }
     for (const std::string& t : splitList<std::string>(o.trees, [](const std::string& x) { return x; })) {
         char* end = nullptr;
@@ -604,7 +606,7 @@ std::vector<Config> buildSweep(const SweepBenchOptions& o) {
             throw Error("--volumes", std::nullopt, "expected resolution:points:rays:bounces, got '" + v + "'");
         gi::validate(s);
         add("volumes", v, [s](Config& c) {
-            c.technique = "imperfect-volumes";
+            c.technique = gi::Technique::ImperfectVolumes;
             c.volumes = s;
             c.channels = 1;
         });
@@ -618,7 +620,7 @@ std::vector<Config> buildSweep(const SweepBenchOptions& o) {
         s.cacheDirectory = o.prtCacheDir;
         gi::validate(s);
         add("prt", v, [s](Config& c) {
-            c.technique = "multiscale-prt";
+            c.technique = gi::Technique::MultiscalePrt;
             c.prt = s;
             c.channels = 1;
         });
@@ -756,7 +758,7 @@ std::vector<TemporalResult> runTemporal(World& world, const SweepBenchOptions& o
         std::size_t samples = 0;
         const double referenceFlicker = flickerOf(reference, nullptr, samples);
         results.push_back({sequence, "brute force (reference, diffuse)", n, samples, referenceFlicker, referenceFlicker,
-                           0.0, "brute force", "GL"});
+                           0.0, "brute force", std::string(gi::toString(gi::Backend::Gl))});
         for (std::size_t k = 0; k < techniques.size(); ++k) {
             TemporalResult t;
             t.sequence = sequence;

@@ -10,12 +10,8 @@
 
 namespace lightskin::mr {
 
-const char* toString(Technique technique) noexcept {
-    return technique == Technique::LightSkin ? "lightskin" : "brute-force";
-}
-
 std::string describe(const QualitySettings& s) {
-    std::string text = toString(s.technique);
+    std::string text(gi::toString(s.technique));
     if (s.technique == Technique::LightSkin) text += " sparse=" + std::to_string(s.sparsePoints);
     text += " stride=" + std::to_string(s.valStride);
     if (s.glossy) text += " +glossy";
@@ -24,7 +20,7 @@ std::string describe(const QualitySettings& s) {
 }
 
 render::GiSettings applyTo(const QualitySettings& s, render::GiSettings gi) {
-    gi.technique = toString(s.technique);
+    gi.technique = s.technique;
     if (s.technique == Technique::LightSkin) gi.sparsePoints = s.sparsePoints;
     gi.valStride = s.valStride;
     gi.glossy = s.glossy;

@@ -2,20 +2,15 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
 #include <lightskin/eval/ColourSpace.h>
-#include <lightskin/gi/bruteforce/BruteForceIllumination.h>
-#include <lightskin/gi/lightskin/CpuLightSkin.h>
+#include <lightskin/gi/Techniques.h>
 #include <lightskin/gi/common/CpuValGenerator.h>
-#include <lightskin/gi/differential/DifferentialIrradiance.h>
-#include <lightskin/gi/volumes/ImperfectVolumes.h>
-#include <lightskin/gi/lightskin/LightSkinIllumination.h>
-#include <lightskin/gi/prt/MultiscalePrt.h>
 #include <lightskin/gi/common/ValGenerator.h>
 #include <lightskin/gi/common/ValOccupancyCull.h>
 #include <lightskin/gi/common/ValSetMerger.h>
+#include <lightskin/gi/differential/DifferentialIrradiance.h>
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/gl/Readback.h>
 #include <lightskin/mr/FramePipeline.h>
-#include <lightskin/render/NullIndirectIllumination.h>
 #include <lightskin/tracking/TagWorld.h>
 
 #include <epoxy/gl.h>
@@ -62,22 +57,26 @@ tracking::PoseTracker trackerFromScene(const render::Scene& scene) {
     const std::string source = (scene.file.empty() ? std::string("scene") : scene.file.string());
     nlohmann::json tracking = nlohmann::json::parse(scene.trackingJson);
     if (tracking.empty())
-        throw Error(source, std::nullopt, "/tracking: --pose tracking needs a \"tracking\" object in the scene (tag family, size, bundle); "
-                                          "without tags use --pose fixed (the world is the camera frame) or --pose ground-truth");
+        throw Error(source, std::nullopt,
+                    "/tracking: --pose tracking needs a \"tracking\" object in the scene (tag family, size, bundle); "
+                    "without tags use --pose fixed (the world is the camera frame) or --pose ground-truth");
     tracking::TrackerSettings settings;
     if (tracking.contains("detector")) {
-        settings.detector = tracking::detectorSettingsFromJson(tracking["detector"].dump(), source, "/tracking/detector");
+        settings.detector =
+            tracking::detectorSettingsFromJson(tracking["detector"].dump(), source, "/tracking/detector");
         tracking.erase("detector");
     }
     if (tracking.contains("useDepth")) {
         if (!tracking["useDepth"].is_boolean())
-            throw Error(source, std::nullopt, "/tracking/useDepth: expected true or false, got " + tracking["useDepth"].dump());
+            throw Error(source, std::nullopt,
+                        "/tracking/useDepth: expected true or false, got " + tracking["useDepth"].dump());
         settings.useDepth = tracking["useDepth"].get<bool>();
         tracking.erase("useDepth");
     }
     if (tracking.contains("file")) {
         if (tracking.size() != 1 || !tracking["file"].is_string())
-            throw Error(source, std::nullopt, "/tracking/file: expected a path string, beside only detector and useDepth");
+            throw Error(source, std::nullopt,
+                        "/tracking/file: expected a path string, beside only detector and useDepth");
         const std::filesystem::path world = scene.file.parent_path() / tracking["file"].get<std::string>();
         if (!std::filesystem::is_regular_file(world)) // name the scene key, not only the missing file
             throw Error(source, std::nullopt, "/tracking/file: tag world '" + world.string() + "' does not exist");
@@ -90,9 +89,12 @@ tracking::PoseTracker trackerFromScene(const render::Scene& scene) {
 
 const char* toString(PoseMode mode) noexcept {
     switch (mode) {
-    case PoseMode::GroundTruth: return "ground-truth";
-    case PoseMode::Tracking: return "tracking";
-    case PoseMode::Fixed: return "fixed";
+    case PoseMode::GroundTruth:
+        return "ground-truth";
+    case PoseMode::Tracking:
+        return "tracking";
+    case PoseMode::Fixed:
+        return "fixed";
     }
     return "?";
 }
@@ -104,43 +106,36 @@ PoseMode parsePoseMode(const std::string& text) {
     throw Error("--pose", std::nullopt, "expected ground-truth, tracking or fixed, got '" + text + "'");
 }
 
-std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettings& settings, const render::Renderer& renderer) {
-    if (!settings.diffuse && settings.technique != "none")
-        log::warning("gi.diffuse = false is not supported by the techniques: the diffuse channel stays on");
-    if (settings.technique == "lightskin") {
-        gi::LightSkinSettings s;
-        s.kCache = settings.kCache;
-        s.glossy = settings.glossy;
-        s.occlusion = settings.occlusion;
-        s.vertexDistanceFloor = settings.robustRealDepth;
-        s.extendedVplHorizon = settings.robustRealDepth;
-        s.valTreeThreshold = settings.valTreeThreshold;
-        s.vertexIrradianceCap = settings.robustRealDepth && settings.robustIrradianceCap;
-        s.buriedSparsePoints = settings.robustRealDepth && settings.robustBuriedSparsePoints;
-        s.nearFieldArea = settings.robustRealDepth && settings.robustNearField;
-        const gi::SparsePointProvider provider = [&renderer](const gi::MeshInstance& instance) {
-            const gi::SparsePointSet* points = renderer.sparsePoints(instance.meshId);
-            LIGHTSKIN_ASSERT(points != nullptr, "lightskin::mr::createTechnique(): the renderer prepared no sparse points");
-            return *points;
-        };
-        if (settings.backend == "cpu") {
-            gi::CpuLightSkinSettings cpu;
-            cpu.lightSkin = s;
-            return gi::CpuLightSkin::create(cpu, provider);
-        }
-        return gi::LightSkinIllumination::create(s, provider);
-    }
-    if (settings.technique == "brute-force") {
-        gi::BruteForceSettings s;
-        s.kCache = settings.kCache;
-        s.glossy = settings.glossy;
-        s.nearFieldArea = settings.robustRealDepth && settings.robustNearField;
-        return gi::BruteForceIllumination::create(s);
-    }
-    if (settings.technique == "imperfect-volumes") return gi::ImperfectVolumes::create(settings.imperfectVolumes);
-    if (settings.technique == "multiscale-prt") return gi::MultiscalePrt::create(settings.multiscalePrt);
-    return std::make_unique<render::NullIndirectIllumination>();
+namespace {
+/// The sparse points the renderer prepared for each mesh (Renderer::setScene with sparse points).
+gi::SparsePointProvider sparsePointsOf(const render::Renderer& renderer) {
+    return [&renderer](const gi::MeshInstance& instance) {
+        const gi::SparsePointSet* points = renderer.sparsePoints(instance.meshId);
+        LIGHTSKIN_ASSERT(points != nullptr, "lightskin::mr: the renderer prepared no sparse points");
+        return *points;
+    };
 }
+
+/// The real surface of a frame for the techniques (ViewParameters::realDepth): `depth` in metres,
+/// registered to colour; `texture` the same map on the GPU, if uploaded (0 = none).
+gi::RealDepthView realDepthView(const cv::Mat& depth, const CameraIntrinsics& k, const Pose& world_T_camera,
+                                std::uint32_t texture) {
+    return gi::RealDepthView{
+        .texture = texture,
+        .data = depth.ptr<float>(),
+        .width = depth.cols,
+        .height = depth.rows,
+        .intrinsics = glm::vec4(float(k.fx), float(k.fy), float(k.cx), float(k.cy)),
+        .camera_T_world = world_T_camera.inverse().matrixFloat(),
+    };
+}
+
+/// The brute force on the pipeline's settings (the error and reference views).
+std::unique_ptr<gi::IndirectIllumination> bruteForceFor(render::GiSettings settings, const render::Renderer& renderer) {
+    settings.technique = gi::Technique::BruteForce;
+    return gi::createTechnique(gi::configFor(settings), sparsePointsOf(renderer));
+}
+} // namespace
 
 // The scene lights as multi-scale PRT's entry-point lights (their transfer between the virtual objects).
 std::vector<gi::PrtLight> prtLightsFromScene(const render::Scene& scene) {
@@ -198,10 +193,14 @@ std::vector<gi::VolumeLight> volumeLightsFromScene(const render::Scene& scene) {
 void parseView(const std::string& text, render::DebugView& view, Overlay& overlay) {
     overlay = Overlay::None;
     view = render::DebugView::Final;
-    if (text == "vals") overlay = Overlay::Vals;
-    else if (text == "sparse") overlay = Overlay::SparsePoints;
-    else if (text == "error") overlay = Overlay::ErrorVsBruteForce;
-    else if (text == "vpl") overlay = Overlay::VertexVpls;
+    if (text == "vals")
+        overlay = Overlay::Vals;
+    else if (text == "sparse")
+        overlay = Overlay::SparsePoints;
+    else if (text == "error")
+        overlay = Overlay::ErrorVsBruteForce;
+    else if (text == "vpl")
+        overlay = Overlay::VertexVpls;
     else if (text == "differential")
         overlay = Overlay::Differential;
     else {
@@ -229,7 +228,8 @@ bool projectToPixel(const CameraIntrinsics& k, const Pose& camera_T_world, const
     return true;
 }
 
-void drawVals(cv::Mat& image, const std::vector<gi::VirtualAreaLight>& vals, const CameraIntrinsics& k, const Pose& world_T_camera) {
+void drawVals(cv::Mat& image, const std::vector<gi::VirtualAreaLight>& vals, const CameraIntrinsics& k,
+              const Pose& world_T_camera) {
     float brightest = 0.0f;
     for (const auto& v : vals) brightest = std::max({brightest, v.flux.x, v.flux.y, v.flux.z});
     if (!(brightest > 0.0f)) return;
@@ -242,7 +242,8 @@ void drawVals(cv::Mat& image, const std::vector<gi::VirtualAreaLight>& vals, con
     }
 }
 
-void drawSparsePoints(cv::Mat& image, const render::Renderer& renderer, const CameraIntrinsics& k, const Pose& world_T_camera) {
+void drawSparsePoints(cv::Mat& image, const render::Renderer& renderer, const CameraIntrinsics& k,
+                      const Pose& world_T_camera) {
     const Pose camera_T_world = world_T_camera.inverse();
     for (const gi::MeshInstance& instance : renderer.instances()) {
         const gi::SparsePointSet* set = renderer.sparsePoints(instance.meshId);
@@ -283,15 +284,16 @@ struct VplViewResult {
 /// The vpl view: per-vertex interpolated diffuse VPLs (layout: LightSkinIllumination.cpp, 4 vec4 per
 /// vertex: (L'''_d, rbar^2), (l'''_d world, 0), glossy...). Debug view only: the GPU->CPU readback
 /// of the per-vertex buffer stalls the pipeline every frame; no other view does this.
-/// Technique: gi::LightSkinIllumination or gi::CpuLightSkin (the same readback and layout).
-template <class Technique>
-VplViewResult drawVertexVpls(cv::Mat& image, const Technique& technique, std::span<const gi::MeshInstance> instances,
-                             const CameraIntrinsics& k, const Pose& world_T_camera, std::vector<glm::vec4>& vpls) {
+/// Any technique whose capabilities() say vertexVpls (LightSkin on either backend: the same layout).
+VplViewResult drawVertexVpls(cv::Mat& image, const gi::IndirectIllumination& technique,
+                             std::span<const gi::MeshInstance> instances, const CameraIntrinsics& k,
+                             const Pose& world_T_camera, std::vector<glm::vec4>& vpls) {
     VplViewResult result;
     technique.readVertexVpls(vpls);
     const std::size_t vertexCount = vpls.size() / 4;
     const std::vector<std::uint32_t>& offsets = technique.vertexOffsets();
-    LIGHTSKIN_ASSERT(offsets.size() == instances.size(), "lightskin::apps: the technique was prepared with other instances");
+    LIGHTSKIN_ASSERT(offsets.size() == instances.size(),
+                     "lightskin::apps: the technique was prepared with other instances");
     float brightest = 0.0f;
     for (std::size_t v = 0; v < vertexCount; ++v) {
         const glm::vec3 radiance(vpls[4 * v]), position(vpls[4 * v + 1]);
@@ -358,7 +360,7 @@ void drawDifferential(cv::Mat& image, const cv::Mat& camera, const gi::Different
 
 /// computeVpls()'s arguments for one frame: VALs in one of the pipeline's CPU generators, depth in the frame's slot.
 struct GiJob {
-    gi::CpuLightSkin* technique = nullptr;
+    gi::CpuValTechnique* technique = nullptr;
     std::span<const gi::VirtualAreaLight> vals;
     std::span<const gi::MeshInstance> instances;
     glm::vec3 cameraPositionWorld{0.0f};
@@ -506,8 +508,9 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
     const CameraIntrinsics& colour = source.colourIntrinsics;
     if (!colour.isValid()) throw Error(source.uri, std::nullopt, "the source has no valid colour intrinsics");
     p->renderer_ = render::Renderer::create(colour);
-    p->renderer_->setScene(scene, scene.gi.technique == "lightskin");
-    s.preparedSparsePoints = scene.gi.technique == "lightskin" ? scene.gi.sparsePoints : 0;
+    const bool sparsePoints = gi::needsSparsePoints(scene.gi.technique);
+    p->renderer_->setScene(scene, sparsePoints);
+    s.preparedSparsePoints = sparsePoints ? scene.gi.sparsePoints : 0;
     s.compositor = render::Compositor::create(colour, scene.compositing);
     if (options.poseMode == PoseMode::Tracking) s.tracker = trackerFromScene(scene);
 
@@ -520,10 +523,11 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
     } else {
         log::warning(source.uri + ": depth is not registered to colour; no VALs and no occlusion by real geometry");
     }
-    if (scene.gi.virtualBounce && scene.gi.technique == "multiscale-prt")
+    if (scene.gi.virtualBounce && scene.gi.technique == gi::Technique::MultiscalePrt)
         log::warning("gi.virtualBounce with technique multiscale-prt: the lights' bounce between the virtual objects "
                      "is counted twice (RSM VALs and the precomputed transfer); turn virtualBounce off");
-    if (scene.gi.virtualBounce && scene.lights.empty()) log::info("gi.virtualBounce: the scene has no lights, nothing to bounce");
+    if (scene.gi.virtualBounce && scene.lights.empty())
+        log::info("gi.virtualBounce: the scene has no lights, nothing to bounce");
     if (scene.gi.virtualBounce && !scene.lights.empty()) {
         s.virtualLights = virtualLightsFromScene(scene);
         gi::RsmSettings rsm;
@@ -534,8 +538,9 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
         const std::uint32_t depthCapacity = s.vals ? s.vals->capacity() : 0u;
         s.merger = gi::ValSetMerger::create(depthCapacity + s.rsm->capacity());
         s.rsmTimer = gl::GpuStageTimer::create(1);
-        log::info("gi.virtualBounce: " + std::to_string(s.virtualLights.size()) + " light(s), RSM " + std::to_string(rsm.resolution) + "^2 per face, " +
-                  std::to_string(s.merger->capacity()) + " VALs merged at most");
+        log::info("gi.virtualBounce: " + std::to_string(s.virtualLights.size()) + " light(s), RSM " +
+                  std::to_string(rsm.resolution) + "^2 per face, " + std::to_string(s.merger->capacity()) +
+                  " VALs merged at most");
     }
     if (scene.compositing.differential && s.valsUsable && !scene.objects.empty()) {
         s.differential = gi::DifferentialIrradiance::create(p->renderer_->instances());
@@ -578,7 +583,7 @@ void FramePipeline::setGiSettings(const render::GiSettings& settings) {
     // again (Renderer::setScene: the sparse points may refine the meshes). Both are rare (the frame
     // budget switches with hysteresis), not per frame.
     if (st.vals && settings.valStride != st.valStride) createValGenerator(settings.valStride);
-    if (settings.technique == "lightskin" && settings.sparsePoints != st.preparedSparsePoints) {
+    if (gi::needsSparsePoints(settings.technique) && settings.sparsePoints != st.preparedSparsePoints) {
         render::Scene scene = *st.scene;
         scene.gi.sparsePoints = settings.sparsePoints;
         renderer_->setScene(scene, true);
@@ -586,26 +591,18 @@ void FramePipeline::setGiSettings(const render::GiSettings& settings) {
         st.bruteForce.reset(); // prepared for the old instances
     }
     gi_ = settings;
-    state_->technique = createTechnique(settings, *renderer_);
-    // Imperfect volumes: the mesh points carry the scene lights' direct light, shadowed by the
-    // renderer's own shadow maps (lights are static: set once per technique).
-    if (auto* volumes = dynamic_cast<gi::ImperfectVolumes*>(state_->technique.get()); volumes)
-        volumes->setDirectLights(volumeLightsFromScene(*st.scene), renderer_->shadowMapTexture());
-    if (auto* lightSkin = dynamic_cast<gi::LightSkinIllumination*>(state_->technique.get()); lightSkin && options_.adaptive) {
-        gi::LightSkinSettings s = lightSkin->settings();
-        s.adaptive = true;
-        s.staticTolerance = options_.staticTolerance;
-        s.staticChangeTest = options_.staticProbes ? gi::StaticChangeTest::Probes : gi::StaticChangeTest::Bound;
-        lightSkin->setSettings(s);
-    }
-    if (auto* cpu = dynamic_cast<gi::CpuLightSkin*>(state_->technique.get()); cpu && options_.adaptive) {
-        gi::CpuLightSkinSettings s = cpu->settings();
-        s.lightSkin.adaptive = true; // channel choices only: the CPU backend has no static-content reuse
-        cpu->setSettings(s);
-    }
-    if (auto* prt = dynamic_cast<gi::MultiscalePrt*>(state_->technique.get()))
-        prt->setLights(prtLightsFromScene(*st.scene));
-    state_->technique->prepare(renderer_->instances());
+    const gi::AdaptiveOptions adaptive{.on = options_.adaptive,
+                                       .staticTolerance = options_.staticTolerance,
+                                       .staticChangeTest = options_.staticProbes ? gi::StaticChangeTest::Probes
+                                                                                 : gi::StaticChangeTest::Bound};
+    gi::TechniqueConfig config = gi::configFor(settings, adaptive);
+    // Imperfect volumes' mesh points carry the scene lights' direct light, shadowed by the renderer's own
+    // shadow maps; multi-scale PRT takes them at its entry points (lights are static: set once per technique).
+    config.volumeLights = volumeLightsFromScene(*st.scene);
+    config.volumeShadowCubes = renderer_->shadowMapTexture();
+    config.prtLights = prtLightsFromScene(*st.scene);
+    st.technique = gi::createTechnique(config, sparsePointsOf(*renderer_));
+    st.technique->prepare(renderer_->instances());
 }
 
 void FramePipeline::applyDifferential(const RgbdFrame& frame, const cv::Mat& depthMetres, const Pose& world_T_camera,
@@ -624,10 +621,11 @@ void FramePipeline::applyDifferential(const RgbdFrame& frame, const cv::Mat& dep
 
 std::string FramePipeline::techniqueName() const { return std::string(state_->technique->name()); }
 
+gi::Technique FramePipeline::technique() const noexcept { return state_->technique->technique(); }
+gi::Backend FramePipeline::backend() const noexcept { return state_->technique->backend(); }
+
 std::optional<gi::PrtPrepareStats> FramePipeline::prtPrepareStats() const {
-    if (const auto* prt = dynamic_cast<const gi::MultiscalePrt*>(state_->technique.get()))
-        return prt->lastPrepareStats();
-    return std::nullopt;
+    return gi::prtPrepareStatsOf(*state_->technique);
 }
 
 void FramePipeline::process(const RgbdFrame& frame, FrameOutput& out) {
@@ -669,11 +667,61 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
     render(frame, prepared, out, nullptr);
 }
 
+/// One frame's state between the stages of render(), in the order they fill it.
+struct FramePipeline::FrameWork {
+    FrameWork(const RgbdFrame& f, const PreparedFrame& p, FrameOutput& o)
+        : frame(f)
+        , prepared(p)
+        , out(o) {}
+    const RgbdFrame& frame;
+    const PreparedFrame& prepared;
+    FrameOutput& out;
+    Clock::time_point start = Clock::now();
+    Clock::time_point compositeStart;
+    std::size_t usedTimes = 0; // entries of out.cpuTimes written
+    const Pose* world_T_camera = nullptr;
+    // VALs
+    bool runGi = false, runDifferential = false;
+    gi::CpuValTechnique* cpuTechnique = nullptr; // the technique's CPU VAL input, when GI runs
+    bool valsOnCpu = false;                      // the VALs come from the CPU generator this frame
+    bool useAhead = false;                       // this frame's VALs and stages 0-4 were made ahead
+    gi::CpuValGenerator* frameVals = nullptr;    // this frame's CPU VALs
+    gi::ValSetView valSet;
+    bool gbufferReady = false, depthOnGpu = false;
+    // GI and composite
+    bool rsmTimed = false, stageTimesTaken = false;
+    const cv::Mat* camera = nullptr; // the camera image the composites use (with the differential, if any)
+    cv::Mat realDepth;
+    render::ShadeOptions shade;
+};
+
 void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared, FrameOutput& out, NextFrame* next) {
-    State& s = *state_;
-    const auto frameStart = Clock::now();
-    std::size_t used = 0;
-    out.frameIndex = frame.index;
+    FrameWork w(frame, prepared, out);
+    beginFrame(w);
+    if (!out.world_T_camera) {
+        passThrough(w);
+        return;
+    }
+    w.world_T_camera = &*out.world_T_camera;
+    makeVals(w);
+    applyDifferentialStage(w);
+    addVirtualBounceVals(w);
+    explainGiActivity(w);
+    makeNextFrameVals(w, next);
+    renderGi(w);
+    composite(w);
+    renderReferenceIndirect(w);
+    drawOverlays(w);
+    if (options_.compare) compositeWithoutGi(w);
+    addTime(out.cpuTimes, w.usedTimes, "shade+composite", msSince(w.compositeStart));
+    collectStageTimes(w);
+    out.totalMs = msSince(w.start);
+}
+
+// Capture, filter and pose: the prepared frame's results and their times; every per-frame output reset.
+void FramePipeline::beginFrame(FrameWork& w) {
+    FrameOutput& out = w.out;
+    out.frameIndex = w.frame.index;
     out.valCount = 0;
     out.giActive = false;
     out.giInactiveCause = nullptr;
@@ -692,258 +740,266 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
     if (!out.linearIndirect.empty()) out.linearIndirect.setTo(cv::Scalar::all(0)); // keeps the buffer, no stale light
     if (!out.linearIndirectReference.empty()) out.linearIndirectReference.setTo(cv::Scalar::all(0));
     if (!out.coverage.empty()) out.coverage.setTo(cv::Scalar::all(0));
-
-    const bool haveDepth = prepared.haveDepth;
-    const cv::Mat& depthMetres = prepared.depthMetres;
-    addTime(out.cpuTimes, used, "depth filter", prepared.filterMs);
-    out.tracking = prepared.tracking;
+    addTime(out.cpuTimes, w.usedTimes, "depth filter", w.prepared.filterMs);
+    out.tracking = w.prepared.tracking;
     out.world_T_camera = out.tracking.world_T_camera;
-    addTime(out.cpuTimes, used, "pose", prepared.poseMs);
+    addTime(out.cpuTimes, w.usedTimes, "pose", w.prepared.poseMs);
+}
 
-    if (!out.world_T_camera) {
-        // Lost: nothing virtual can be placed; the frame passes through unchanged.
-        out.giInactiveCause = kGiCauseNoPose;
-        frame.colour.copyTo(out.withGi);
-        if (options_.compare) frame.colour.copyTo(out.withoutGi);
-        if (s.srgbToLinearTable.empty()) {
-            s.srgbToLinearTable.create(1, 256, CV_32FC1);
-            for (int i = 0; i < 256; ++i) s.srgbToLinearTable.at<float>(0, i) = eval::srgbToLinear(float(i) / 255.0f);
-        }
-        if (options_.linearComposite) cv::LUT(frame.colour, s.srgbToLinearTable, out.linearWithGi);
-        out.cpuTimes.resize(used);
-        out.gpuTimes.clear();
-        out.totalMs = msSince(frameStart);
-        return;
+// Lost: nothing virtual can be placed; the frame passes through unchanged.
+void FramePipeline::passThrough(FrameWork& w) {
+    State& s = *state_;
+    FrameOutput& out = w.out;
+    out.giInactiveCause = kGiCauseNoPose;
+    w.frame.colour.copyTo(out.withGi);
+    if (options_.compare) w.frame.colour.copyTo(out.withoutGi);
+    if (s.srgbToLinearTable.empty()) {
+        s.srgbToLinearTable.create(1, 256, CV_32FC1);
+        for (int i = 0; i < 256; ++i) s.srgbToLinearTable.at<float>(0, i) = eval::srgbToLinear(float(i) / 255.0f);
     }
-    const Pose& world_T_camera = *out.world_T_camera;
+    if (options_.linearComposite) cv::LUT(w.frame.colour, s.srgbToLinearTable, out.linearWithGi);
+    out.cpuTimes.resize(w.usedTimes);
+    out.gpuTimes.clear();
+    out.totalMs = msSince(w.start);
+}
 
-    // VALs from the depth map.
-    auto t = Clock::now();
-    gi::ValSetView valSet;
-    const bool runGi = options_.giEnabled && gi_.technique != "none";
-    const bool runDifferential = options_.differential && s.differential && haveDepth && s.vals;
+// The CPU VALs of the frame `sequence` (this frame's, or the next one's for the GI ahead) into its generator,
+// culled where the virtual content is (gi.robustRealDepth; the view's clip_T_world as renderGBuffer() sets it).
+gi::CpuValGenerator& FramePipeline::generateCpuVals(std::uint64_t sequence, const RgbdFrame& frame,
+                                                    const cv::Mat& depth, const Pose& pose, int threads) {
+    State& s = *state_;
     render::Renderer& r = *renderer_;
-    bool gbufferReady = false;
-    bool depthOnGpu = false; // the ValGenerator's depth texture holds this frame's filtered depth
-    // The CPU backend takes its VALs from the CPU generator unless a GL consumer of the VAL buffer
-    // runs this frame (occupancy cull, RSM merge, brute-force views, the VAL overlay).
-    auto* cpuTechnique = runGi ? dynamic_cast<gi::CpuLightSkin*>(s.technique.get()) : nullptr;
-    const bool valsOnCpu = cpuTechnique && !s.rsm && !options_.referenceIndirect &&
-                           options_.overlay != Overlay::ErrorVsBruteForce && options_.overlay != Overlay::Vals;
-    // The CPU VALs of the frame `sequence` (this frame's, or the next one's for the GI ahead) into its generator,
-    // culled where the virtual content is (gi.robustRealDepth; the view's clip_T_world as renderGBuffer() sets it).
-    const auto generateCpuVals = [&](std::uint64_t sequence, const RgbdFrame& f, const cv::Mat& depth,
-                                     const Pose& pose) -> gi::CpuValGenerator& {
-        std::optional<gi::CpuValGenerator>& generator = s.cpuVals[sequence % 2];
-        gi::ValGeneratorSettings settings = s.vals->settings();
-        settings.skipUnchangedInput = false;
-        if (!generator || generator->settings().stride != settings.stride)
-            generator =
-                gi::CpuValGenerator::create(f.colour.cols, f.colour.rows, settings, cpuTechnique->settings().threads);
-        else
-            generator->setSettings(settings);
-        generator->generate(depth, 1.0, f.colour, f.colourIntrinsics, pose);
-        if (gi_.robustRealDepth && s.occupancy)
-            s.occupancy->applyOnCpu(generator->mutableLastVals(), generator->lastPixelIndices(), r.instances(),
-                                    r.clipFromWorldAt(pose), pose.inverse().matrixFloat());
-        return *generator;
-    };
+    std::optional<gi::CpuValGenerator>& generator = s.cpuVals[sequence % 2];
+    gi::ValGeneratorSettings settings = s.vals->settings();
+    settings.skipUnchangedInput = false;
+    if (!generator || generator->settings().stride != settings.stride)
+        generator = gi::CpuValGenerator::create(frame.colour.cols, frame.colour.rows, settings, threads);
+    else
+        generator->setSettings(settings);
+    generator->generate(depth, 1.0, frame.colour, frame.colourIntrinsics, pose);
+    if (gi_.robustRealDepth && s.occupancy)
+        s.occupancy->applyOnCpu(generator->mutableLastVals(), generator->lastPixelIndices(), r.instances(),
+                                r.clipFromWorldAt(pose), pose.inverse().matrixFloat());
+    return *generator;
+}
+
+// VALs from the depth map: on the CPU for a technique that takes them there (unless a GL consumer of the VAL
+// buffer runs this frame: occupancy cull, RSM merge, brute-force views, the VAL overlay), else on GL.
+void FramePipeline::makeVals(FrameWork& w) {
+    State& s = *state_;
+    render::Renderer& r = *renderer_;
+    const auto t = Clock::now();
+    const bool haveDepth = w.prepared.haveDepth;
+    w.runGi = options_.giEnabled && gi_.technique != gi::Technique::None;
+    w.runDifferential = options_.differential && s.differential && haveDepth && s.vals;
+    w.cpuTechnique = w.runGi ? s.technique->cpuValInput() : nullptr;
+    w.valsOnCpu = w.cpuTechnique && !s.rsm && !options_.referenceIndirect &&
+                  options_.overlay != Overlay::ErrorVsBruteForce && options_.overlay != Overlay::Vals;
     // The GI ahead made this frame's VALs and started its GI with this frame's settings (the worker may still
-    // run it: it only reads the VALs, the GI stage below waits for it). Any other job must end before this
-    // frame touches the technique or a VAL generator.
+    // run it: it only reads the VALs, the GI stage waits for it). Any other job must end before this frame
+    // touches the technique or a VAL generator.
     GiAhead& ahead = s.giAhead;
     const bool aheadForThisFrame =
         (ahead.stage == GiAhead::Stage::Launched || ahead.stage == GiAhead::Stage::ValsFailed) &&
-        ahead.sequence == prepared.sequence && ahead.generation == s.generation;
-    const bool useAhead = aheadForThisFrame && haveDepth && valsOnCpu && s.vals && s.cpuVals[prepared.sequence % 2] &&
-                          options_.overlay != Overlay::VertexVpls;
-    if (!useAhead) ahead.waitIdle();
+        ahead.sequence == w.prepared.sequence && ahead.generation == s.generation;
+    w.useAhead = aheadForThisFrame && haveDepth && w.valsOnCpu && s.vals && s.cpuVals[w.prepared.sequence % 2] &&
+                 options_.overlay != Overlay::VertexVpls;
+    if (!w.useAhead) ahead.waitIdle();
     ahead.stage = GiAhead::Stage::None;
-    if (useAhead && ahead.valsError) std::rethrow_exception(std::exchange(ahead.valsError, nullptr));
-    out.giComputedAhead = useAhead;
+    if (w.useAhead && ahead.valsError) std::rethrow_exception(std::exchange(ahead.valsError, nullptr));
+    w.out.giComputedAhead = w.useAhead;
     s.cpuValSet = {};
-    gi::CpuValGenerator* frameVals = nullptr; // this frame's CPU VALs
-    if (haveDepth && valsOnCpu && s.vals) {
-        frameVals = useAhead ? &*s.cpuVals[prepared.sequence % 2]
-                             : &generateCpuVals(prepared.sequence, frame, depthMetres, world_T_camera);
-        s.cpuValSet = frameVals->lastVals();
-        valSet = gi::ValSetView{0, std::uint32_t(s.cpuValSet.size()), 0, 0, 0};
-        out.valCount = valSet.count;
-    } else if (haveDepth && (runGi || runDifferential) && s.vals) {
-        valSet = s.vals->generate(depthMetres, 1.0, frame.colour, frame.colourIntrinsics, world_T_camera);
-        out.valCount = valSet.count;
-        depthOnGpu = true;
+    if (haveDepth && w.valsOnCpu && s.vals) {
+        w.frameVals = w.useAhead ? &*s.cpuVals[w.prepared.sequence % 2]
+                                 : &generateCpuVals(w.prepared.sequence, w.frame, w.prepared.depthMetres,
+                                                    *w.world_T_camera, w.cpuTechnique->threads());
+        s.cpuValSet = w.frameVals->lastVals();
+        w.valSet = gi::ValSetView{0, std::uint32_t(s.cpuValSet.size()), 0, 0, 0};
+        w.out.valCount = w.valSet.count;
+    } else if (haveDepth && (w.runGi || w.runDifferential) && s.vals) {
+        w.valSet =
+            s.vals->generate(w.prepared.depthMetres, 1.0, w.frame.colour, w.frame.colourIntrinsics, *w.world_T_camera);
+        w.out.valCount = w.valSet.count;
+        w.depthOnGpu = true;
         if (gi_.robustRealDepth && s.occupancy) {
-            // The VALs whose space the virtual content occupies (gi/ValOccupancyCull.h); needs the view.
-            r.renderGBuffer(world_T_camera);
-            gbufferReady = true;
-            s.occupancy->apply(valSet, r.instances(), r.viewParameters().clip_T_world, world_T_camera.inverse().matrixFloat());
+            // The VALs whose space the virtual content occupies (gi/common/ValOccupancyCull.h); needs the view.
+            r.renderGBuffer(*w.world_T_camera);
+            w.gbufferReady = true;
+            s.occupancy->apply(w.valSet, r.instances(), r.viewParameters().clip_T_world,
+                               w.world_T_camera->inverse().matrixFloat());
         }
     }
     // With the GI ahead: the time the VALs took then (this thread's wait for the GI goes to "gbuffer+gi").
-    addTime(out.cpuTimes, used, "vals", useAhead ? ahead.valsMs : msSince(t));
+    addTime(w.out.cpuTimes, w.usedTimes, "vals", w.useAhead ? ahead.valsMs : msSince(t));
+}
 
-    // Differential rendering: the camera image with the virtual objects' shadows and bounce.
-    out.differentialReceivers = -1;
-    out.differentialPixels = -1;
-    const cv::Mat* camera = &frame.colour;
-    if (runDifferential) {
-        t = Clock::now();
-        applyDifferential(frame, depthMetres, world_T_camera, valSet, out);
-        camera = &s.cameraWithDifferential;
-        addTime(out.cpuTimes, used, "differential", msSince(t));
+// Differential rendering: the camera image with the virtual objects' shadows and bounce.
+void FramePipeline::applyDifferentialStage(FrameWork& w) {
+    w.out.differentialReceivers = -1;
+    w.out.differentialPixels = -1;
+    w.camera = &w.frame.colour;
+    if (!w.runDifferential) return;
+    const auto t = Clock::now();
+    applyDifferential(w.frame, w.prepared.depthMetres, *w.world_T_camera, w.valSet, w.out);
+    w.camera = &state_->cameraWithDifferential;
+    addTime(w.out.cpuTimes, w.usedTimes, "differential", msSince(t));
+}
+
+// VALs from the virtual lights (one bounce between virtual objects), after the depth VALs.
+void FramePipeline::addVirtualBounceVals(FrameWork& w) {
+    State& s = *state_;
+    if (!(w.runGi && gi_.virtualBounce && s.rsm)) return;
+    const auto t = Clock::now();
+    s.rsmTimer.beginFrame();
+    s.rsmTimer.begin("rsm");
+    const gi::ValSetView sets[2] = {w.valSet, s.rsm->generate(s.virtualLights, renderer_->instances())};
+    w.valSet = s.merger->merge(sets);
+    s.rsmTimer.end();
+    w.rsmTimed = true;
+    w.out.rsmValCount = sets[1].count;
+    w.out.valsDropped = s.merger->lastDropped();
+    if (w.out.valsDropped > 0)
+        log::warning("frame " + std::to_string(w.frame.index) + ": " + std::to_string(w.out.valsDropped) + " of " +
+                     std::to_string(sets[0].count + sets[1].count) + " VALs dropped (merged set full)");
+    addTime(w.out.cpuTimes, w.usedTimes, "rsm", msSince(t));
+}
+
+// Say when GI does nothing this frame, and why (reports and the console show it).
+void FramePipeline::explainGiActivity(FrameWork& w) {
+    const State& s = *state_;
+    FrameOutput& out = w.out;
+    out.giActive = w.runGi && w.valSet.count > 0;
+    if (out.giActive) return;
+    if (!options_.giEnabled)
+        out.giInactiveCause = kGiCauseSwitchedOff;
+    else if (gi_.technique == gi::Technique::None || s.technique->technique() == gi::Technique::None)
+        out.giInactiveCause = kGiCauseNoTechnique;
+    else if (!s.valsUsable)
+        out.giInactiveCause = kGiCauseUnregistered;
+    else if (!w.frame.hasDepth())
+        out.giInactiveCause = kGiCauseNoDepth;
+    else
+        out.giInactiveCause = kGiCauseNoVals;
+}
+
+// The GI ahead, first half: the next frame's VALs and their cull into the other generator, before this
+// frame queues GL work (the cull's read-back then waits for its own pass only). Nothing of this frame after
+// here uses the technique's VPLs once its GI is shaded (the vpl overlay does: no GI ahead with it).
+void FramePipeline::makeNextFrameVals(FrameWork& w, NextFrame* next) {
+    State& s = *state_;
+    GiAhead& ahead = s.giAhead;
+    if (!(ahead.on && next != nullptr && w.runGi && w.cpuTechnique && w.valsOnCpu && s.vals &&
+          options_.overlay != Overlay::VertexVpls))
+        return;
+    const RgbdFrame* nextFrame = nullptr;
+    const PreparedFrame* nextPrepared = nullptr;
+    if (!next->wait(nextFrame, nextPrepared) || !nextPrepared->haveDepth || !nextPrepared->tracking.world_T_camera)
+        return;
+    const Pose& pose = *nextPrepared->tracking.world_T_camera;
+    const cv::Mat& depth = nextPrepared->depthMetres;
+    const auto valsStart = Clock::now();
+    ahead.sequence = nextPrepared->sequence;
+    ahead.generation = s.generation;
+    try {
+        const gi::CpuValGenerator& generator =
+            generateCpuVals(nextPrepared->sequence, *nextFrame, depth, pose, w.cpuTechnique->threads());
+        GiJob& job = ahead.next;
+        job.technique = w.cpuTechnique;
+        job.vals = generator.lastVals();
+        job.instances = renderer_->instances();
+        job.cameraPositionWorld = glm::vec3(pose.translation()); // as renderGBuffer's view
+        job.pixels = {};
+        if (!job.vals.empty())
+            job.pixels = {generator.lastPixelIndices(), std::uint32_t(generator.depthWidth()),
+                          std::uint32_t(generator.depthHeight())};
+        job.realDepth = {};
+        if (depth.isContinuous()) // as the GI stage's view.realDepth
+            job.realDepth = realDepthView(depth, nextFrame->colourIntrinsics, pose, 0u);
+        ahead.stage = GiAhead::Stage::ValsReady;
+    } catch (...) {
+        ahead.valsError = std::current_exception(); // the next frame's: its render() throws it
+        ahead.stage = GiAhead::Stage::ValsFailed;
     }
+    ahead.valsMs = msSince(valsStart);
+}
 
-    // VALs from the virtual lights (one bounce between virtual objects), after the depth VALs.
-    bool rsmTimed = false;
-    if (runGi && gi_.virtualBounce && s.rsm) {
-        t = Clock::now();
-        s.rsmTimer.beginFrame();
-        s.rsmTimer.begin("rsm");
-        const gi::ValSetView sets[2] = {valSet, s.rsm->generate(s.virtualLights, renderer_->instances())};
-        valSet = s.merger->merge(sets);
-        s.rsmTimer.end();
-        rsmTimed = true;
-        out.rsmValCount = sets[1].count;
-        out.valsDropped = s.merger->lastDropped();
-        if (out.valsDropped > 0)
-            log::warning("frame " + std::to_string(frame.index) + ": " + std::to_string(out.valsDropped) + " of " +
-                         std::to_string(sets[0].count + sets[1].count) + " VALs dropped (merged set full)");
-        addTime(out.cpuTimes, used, "rsm", msSince(t));
-    }
-
-    // Say when GI does nothing this frame, and why (reports and the console show it).
-    out.giActive = runGi && valSet.count > 0;
-    if (!out.giActive) {
-        if (!options_.giEnabled)
-            out.giInactiveCause = kGiCauseSwitchedOff;
-        else if (gi_.technique == "none" || s.technique->name() == std::string_view("none"))
-            out.giInactiveCause = kGiCauseNoTechnique;
-        else if (!s.valsUsable)
-            out.giInactiveCause = kGiCauseUnregistered;
-        else if (!frame.hasDepth())
-            out.giInactiveCause = kGiCauseNoDepth;
-        else
-            out.giInactiveCause = kGiCauseNoVals;
-    }
-
-    // The GI ahead, first half: the next frame's VALs and their cull into the other generator, before this
-    // frame queues GL work (the cull's read-back then waits for its own pass only). Nothing of this frame after
-    // here uses the technique's VPLs once its GI is shaded (the vpl overlay does: no GI ahead with it).
-    if (ahead.on && next != nullptr && runGi && cpuTechnique && valsOnCpu && s.vals &&
-        options_.overlay != Overlay::VertexVpls) {
-        const RgbdFrame* nextFrame = nullptr;
-        const PreparedFrame* nextPrepared = nullptr;
-        if (next->wait(nextFrame, nextPrepared) && nextPrepared->haveDepth && nextPrepared->tracking.world_T_camera) {
-            const Pose& pose = *nextPrepared->tracking.world_T_camera;
-            const cv::Mat& depth = nextPrepared->depthMetres;
-            const auto valsStart = Clock::now();
-            ahead.sequence = nextPrepared->sequence;
-            ahead.generation = s.generation;
-            try {
-                const gi::CpuValGenerator& generator = generateCpuVals(nextPrepared->sequence, *nextFrame, depth, pose);
-                GiJob& job = ahead.next;
-                job.technique = cpuTechnique;
-                job.vals = generator.lastVals();
-                job.instances = r.instances();
-                job.cameraPositionWorld = glm::vec3(pose.translation()); // as renderGBuffer's view
-                job.pixels = {};
-                if (!job.vals.empty())
-                    job.pixels = {generator.lastPixelIndices(), std::uint32_t(generator.depthWidth()),
-                                  std::uint32_t(generator.depthHeight())};
-                job.realDepth = {};
-                if (depth.isContinuous()) { // as the GI stage's view.realDepth below
-                    const CameraIntrinsics& k = nextFrame->colourIntrinsics;
-                    job.realDepth = gi::RealDepthView{
-                        .texture = 0u,
-                        .data = depth.ptr<float>(),
-                        .width = depth.cols,
-                        .height = depth.rows,
-                        .intrinsics = glm::vec4(float(k.fx), float(k.fy), float(k.cx), float(k.cy)),
-                        .camera_T_world = pose.inverse().matrixFloat(),
-                    };
-                }
-                ahead.stage = GiAhead::Stage::ValsReady;
-            } catch (...) {
-                ahead.valsError = std::current_exception(); // the next frame's: its render() throws it
-                ahead.stage = GiAhead::Stage::ValsFailed;
-            }
-            ahead.valsMs = msSince(valsStart);
-        }
-    }
-
-    // G-buffer and indirect light.
-    t = Clock::now();
-    if (!gbufferReady) r.renderGBuffer(world_T_camera);
-    if (runGi) {
+// G-buffer and indirect light; then the GI ahead's second half: the next frame's stages 0-4 on the worker
+// from now on (its VPLs replace this frame's in the technique, uploaded here), while this frame shades,
+// reads back and composites.
+void FramePipeline::renderGi(FrameWork& w) {
+    State& s = *state_;
+    render::Renderer& r = *renderer_;
+    const auto t = Clock::now();
+    if (!w.gbufferReady) r.renderGBuffer(*w.world_T_camera);
+    if (w.runGi) {
         // The filtered registered depth for LightSkin's buried sparse points (guard G11); the other
         // techniques ignore it. On the GPU where the VAL pass uploaded it, always on the CPU.
         gi::ViewParameters view = r.viewParameters();
-        if (haveDepth && depthMetres.isContinuous()) {
-            const CameraIntrinsics& k = frame.colourIntrinsics;
-            view.realDepth = gi::RealDepthView{
-                .texture = depthOnGpu ? s.vals->depthTexture() : 0u,
-                .data = depthMetres.ptr<float>(),
-                .width = depthMetres.cols,
-                .height = depthMetres.rows,
-                .intrinsics = glm::vec4(float(k.fx), float(k.fy), float(k.cx), float(k.cy)),
-                .camera_T_world = world_T_camera.inverse().matrixFloat(),
-            };
+        if (w.prepared.haveDepth && w.prepared.depthMetres.isContinuous())
+            view.realDepth = realDepthView(w.prepared.depthMetres, w.frame.colourIntrinsics, *w.world_T_camera,
+                                           w.depthOnGpu ? s.vals->depthTexture() : 0u);
+        if (w.cpuTechnique && w.valSet.buffer == 0)
+            renderGiFromCpuVals(w, view);
+        else
+            s.technique->render(w.valSet, r.instances(), r.gbuffer(), view, r.indirectTarget());
+        const gi::TechniqueFrameStatistics statistics = s.technique->lastFrameStatistics();
+        if (statistics.reused >= 0) {
+            w.out.giReused = statistics.reused;
+            w.out.giChangeMeasure = statistics.changeMeasure;
         }
-        if (cpuTechnique && valSet.buffer == 0) {
-            // the depth pixels of this frame's CPU VALs: the gather with a cut builds their quadtree
-            gi::CpuValPixelKeys pixels;
-            if (frameVals && !s.cpuValSet.empty())
-                pixels = {frameVals->lastPixelIndices(), std::uint32_t(frameVals->depthWidth()),
-                          std::uint32_t(frameVals->depthHeight())};
-            if (useAhead) {
-                ahead.waitIdle(); // for the worker to finish this frame's stages 0-4
-                if (ahead.jobError) std::rethrow_exception(std::exchange(ahead.jobError, nullptr));
-                cpuTechnique->shadeVpls(r.instances(), r.gbuffer(), view, r.indirectTarget());
-            } else
-                cpuTechnique->renderCpuVals(s.cpuValSet, r.instances(), r.gbuffer(), view, r.indirectTarget(), pixels);
-        } else
-            s.technique->render(valSet, r.instances(), r.gbuffer(), view, r.indirectTarget());
-        if (const auto* lightSkin = dynamic_cast<const gi::LightSkinIllumination*>(s.technique.get());
-            lightSkin && lightSkin->settings().adaptive) {
-            out.giReused = lightSkin->lastChoice().reused ? 1 : 0;
-            out.giChangeMeasure = lightSkin->lastChoice().staticChangeBound;
-        }
-        if (const auto* volumes = dynamic_cast<const gi::ImperfectVolumes*>(s.technique.get()); volumes) {
-            const glm::uvec2 dropped = volumes->lastDroppedVoxels();
-            out.volumeVoxelsDropped = std::int64_t(dropped.x) + std::int64_t(dropped.y);
-        }
+        if (statistics.voxelsDropped >= 0) w.out.volumeVoxelsDropped = statistics.voxelsDropped;
     }
-    // The GI ahead, second half: the next frame's stages 0-4 on the worker from now on (its VPLs replace this
-    // frame's in the technique, uploaded above), while this frame shades, reads back and composites.
-    bool stageTimesTaken = false;
-    if (ahead.stage == GiAhead::Stage::ValsReady) {
+    if (s.giAhead.stage == GiAhead::Stage::ValsReady) {
         s.technique->lastStageTimes(s.scratchTimes); // this frame's, before the worker replaces them
-        stageTimesTaken = true;
-        ahead.launch();
+        w.stageTimesTaken = true;
+        s.giAhead.launch();
     }
-    addTime(out.cpuTimes, used, "gbuffer+gi", msSince(t)); // with the GI ahead: the wait for the worker
+    addTime(w.out.cpuTimes, w.usedTimes, "gbuffer+gi", msSince(t)); // with the GI ahead: the wait for the worker
+}
 
-    // Shade, read back, composite.
-    t = Clock::now();
-    const cv::Mat realDepth = haveDepth ? depthMetres : cv::Mat();
-    render::ShadeOptions shade{.includeIndirect = runGi, .exposureStops = s.scene->exposureStops, .view = options_.view,
-                               .linearOutput = options_.linearComposite};
-    r.shade(shade);
+// The GI of a technique with CPU VALs: shade what the worker computed ahead, or compute and shade now.
+void FramePipeline::renderGiFromCpuVals(FrameWork& w, const gi::ViewParameters& view) {
+    State& s = *state_;
+    render::Renderer& r = *renderer_;
+    // the depth pixels of this frame's CPU VALs: the gather with a cut builds their quadtree
+    gi::CpuValPixelKeys pixels;
+    if (w.frameVals && !s.cpuValSet.empty())
+        pixels = {w.frameVals->lastPixelIndices(), std::uint32_t(w.frameVals->depthWidth()),
+                  std::uint32_t(w.frameVals->depthHeight())};
+    if (w.useAhead) {
+        s.giAhead.waitIdle(); // for the worker to finish this frame's stages 0-4
+        if (s.giAhead.jobError) std::rethrow_exception(std::exchange(s.giAhead.jobError, nullptr));
+        w.cpuTechnique->shadeVpls(r.instances(), r.gbuffer(), view, r.indirectTarget());
+    } else
+        w.cpuTechnique->renderCpuVals(s.cpuValSet, r.instances(), r.gbuffer(), view, r.indirectTarget(), pixels);
+}
+
+// Shade, read back, composite (and the linear composite with its NaN/inf counts).
+void FramePipeline::composite(FrameWork& w) {
+    State& s = *state_;
+    render::Renderer& r = *renderer_;
+    FrameOutput& out = w.out;
+    w.compositeStart = Clock::now();
+    w.realDepth = w.prepared.haveDepth ? w.prepared.depthMetres : cv::Mat();
+    w.shade = render::ShadeOptions{.includeIndirect = w.runGi,
+                                   .exposureStops = s.scene->exposureStops,
+                                   .view = options_.view,
+                                   .linearOutput = options_.linearComposite};
+    r.shade(w.shade);
     r.readOutputsInto(s.virtualColour, s.virtualDepth);
     cv::extractChannel(s.virtualColour, s.coverage, 3);
     out.coveredPixels = cv::countNonZero(s.coverage);
-    s.compositor.compositeInto(*camera, s.virtualColour, s.virtualDepth, realDepth, out.withGi);
+    s.compositor.compositeInto(*w.camera, s.virtualColour, s.virtualDepth, w.realDepth, out.withGi);
     if (options_.differentialBaseline) {
-        if (runDifferential)
-            s.compositor.compositeInto(frame.colour, s.virtualColour, s.virtualDepth, realDepth,
+        if (w.runDifferential)
+            s.compositor.compositeInto(w.frame.colour, s.virtualColour, s.virtualDepth, w.realDepth,
                                        out.withGiWithoutDifferential);
         else
             out.withGi.copyTo(out.withGiWithoutDifferential);
     }
     if (options_.linearComposite) {
         r.readLinearOutputInto(s.virtualLinear);
-        s.compositor.compositeLinearInto(*camera, s.virtualLinear, s.virtualColour, s.virtualDepth, realDepth,
+        s.compositor.compositeLinearInto(*w.camera, s.virtualLinear, s.virtualColour, s.virtualDepth, w.realDepth,
                                          out.linearWithGi);
     }
     for (int v = 0; v < (options_.linearComposite ? out.linearWithGi.rows : 0); ++v) {
@@ -956,132 +1012,133 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
             out.linearInfPixels += !nan && inf ? 1 : 0;
         }
     }
-    if ((options_.linearIndirect || options_.referenceIndirect) && runGi) {
+    if ((options_.linearIndirect || options_.referenceIndirect) && w.runGi) {
         r.readIndirectInto(s.indirectTechnique);
         cv::cvtColor(s.indirectTechnique, out.linearIndirect, cv::COLOR_RGBA2BGR);
         out.linearIndirect.convertTo(out.linearIndirect, -1, double(std::exp2(s.scene->exposureStops)));
     }
-    if (options_.referenceIndirect) {
-        // Coverage from the shaded output's alpha (the G-buffer's coverage), not from the light:
-        // a covered pixel with no indirect light must still count.
-        out.coverage.create(s.virtualColour.size(), CV_8UC1);
-        cv::extractChannel(s.virtualColour, out.coverage, 3);
-        cv::threshold(out.coverage, out.coverage, 0, 255, cv::THRESH_BINARY);
-        s.compositor.visibleInto(s.virtualColour, s.virtualDepth, realDepth, out.visibleCoverage);
-        s.virtualDepth.copyTo(out.virtualDepthMetres);
-        const gi::GBufferView& g = r.gbuffer();
-        gl::readTextureRgba32fInto(g.worldNormal, g.width, g.height, s.normalsRgba);
-        cv::cvtColor(s.normalsRgba, out.virtualNormals, cv::COLOR_RGBA2RGB);
-        cv::extractChannel(s.normalsRgba, s.facing, 3); // w = 1 on back faces, 0 on front faces and background
-        cv::compare(s.facing, 0.5, out.backFacing, cv::CMP_GT);
-        if (runGi) {
-            if (!s.bruteForce) {
-                render::GiSettings reference = gi_;
-                reference.technique = "brute-force";
-                s.bruteForce = createTechnique(reference, r);
-                s.bruteForce->prepare(r.instances());
-            }
-            s.bruteForce->render(valSet, r.instances(), r.gbuffer(), r.viewParameters(), r.indirectTarget());
-            r.readIndirectInto(s.indirectReference);
-            cv::cvtColor(s.indirectReference, out.linearIndirectReference, cv::COLOR_RGBA2BGR);
-            out.linearIndirectReference.convertTo(out.linearIndirectReference, -1, double(std::exp2(s.scene->exposureStops)));
-        }
-    }
-    if (options_.overlay == Overlay::Vals && out.valCount > 0 && s.vals)
-        drawVals(out.withGi, s.vals->downloadVals(), frame.colourIntrinsics, world_T_camera);
-    if (options_.overlay == Overlay::Differential && runDifferential)
-        drawDifferential(out.withGi, frame.colour, s.differentialImages);
-    if (options_.overlay == Overlay::SparsePoints) drawSparsePoints(out.withGi, r, frame.colourIntrinsics, world_T_camera);
-    if (options_.overlay == Overlay::VertexVpls && runGi) {
-        if (const auto* lightSkin = dynamic_cast<const gi::LightSkinIllumination*>(s.technique.get())) {
-            const VplViewResult vpl = drawVertexVpls(out.withGi, *lightSkin, r.instances(), frame.colourIntrinsics, world_T_camera, s.vertexVpls);
-            out.vplSegments = vpl.drawn;
-            out.vplNonFinite = vpl.nonFinite;
-        } else if (const auto* cpu = dynamic_cast<const gi::CpuLightSkin*>(s.technique.get())) {
-            const VplViewResult vpl =
-                drawVertexVpls(out.withGi, *cpu, r.instances(), frame.colourIntrinsics, world_T_camera, s.vertexVpls);
-            out.vplSegments = vpl.drawn;
-            out.vplNonFinite = vpl.nonFinite;
-        }
-    }
-    if (options_.overlay == Overlay::ErrorVsBruteForce && runGi) {
-        if (!s.bruteForce) {
-            render::GiSettings reference = gi_;
-            reference.technique = "brute-force";
-            s.bruteForce = createTechnique(reference, r);
-            s.bruteForce->prepare(r.instances());
-        }
-        r.readIndirectInto(s.indirectTechnique);
-        s.bruteForce->render(valSet, r.instances(), r.gbuffer(), r.viewParameters(), r.indirectTarget());
-        r.readIndirectInto(s.indirectReference);
-        // Luminance of |a - b| mapped to a colour ramp over covered pixels; the mean relative error in text.
-        s.errorMap.create(s.indirectTechnique.size(), CV_8UC3);
-        double sumError = 0.0, sumReference = 0.0;
-        for (int v = 0; v < s.errorMap.rows; ++v)
-            for (int u = 0; u < s.errorMap.cols; ++u) {
-                const cv::Vec4f a = s.indirectTechnique.at<cv::Vec4f>(v, u), b = s.indirectReference.at<cv::Vec4f>(v, u);
-                const float la = 0.2126f * a[0] + 0.7152f * a[1] + 0.0722f * a[2];
-                const float lb = 0.2126f * b[0] + 0.7152f * b[1] + 0.0722f * b[2];
-                if (s.virtualColour.at<cv::Vec4b>(v, u)[3] == 0) continue;
-                sumError += std::abs(double(la) - double(lb));
-                sumReference += std::abs(double(lb));
-                const float level = std::clamp(std::abs(la - lb) / options_.errorScale, 0.0f, 1.0f);
-                out.withGi.at<cv::Vec3b>(v, u) = cv::Vec3b(std::uint8_t(255.0f * (1.0f - level)), 0, std::uint8_t(255.0f * level));
-            }
-        out.meanRelativeErrorVsBruteForce = sumReference > 0.0 ? sumError / sumReference : 0.0;
-        char text[96];
-        std::snprintf(text, sizeof text, "|%s - brute force| / brute force: %.3f", std::string(s.technique->name()).c_str(),
-                      out.meanRelativeErrorVsBruteForce);
-        cv::putText(out.withGi, text, cv::Point(6, 16), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
-    }
-    if (options_.compare) {
-        shade.includeIndirect = false;
-        shade.linearOutput = false;
-        if (shade.view == render::DebugView::IndirectOnly) shade.view = render::DebugView::Final;
-        r.shade(shade);
-        r.readOutputsInto(s.virtualColour, s.virtualDepth);
-        s.compositor.compositeInto(frame.colour, s.virtualColour, s.virtualDepth, realDepth, out.withoutGi);
-    }
-    addTime(out.cpuTimes, used, "shade+composite", msSince(t));
-    if (runGi && dynamic_cast<const gi::CpuLightSkin*>(s.technique.get())) {
-        // the CPU backend's stages 0-4 are CPU wall times (inside "gbuffer+gi"); its shading is GL
-        static constexpr std::pair<const char*, const char*> kCpuStages[] = {{"upload", "gi upload"},
-                                                                             {"gather", "gi gather"},
-                                                                             {"normalisation", "gi normalisation"},
-                                                                             {"occlusion", "gi occlusion"},
-                                                                             {"interpolation", "gi interpolation"}};
-        if (!stageTimesTaken) s.technique->lastStageTimes(s.scratchTimes);
-        for (const auto& [stage, label] : kCpuStages)
-            for (const gl::StageTime& st : s.scratchTimes)
-                if (st.name == stage) addTime(out.cpuTimes, used, label, st.milliseconds);
-    }
-    if (runGi && dynamic_cast<const gi::MultiscalePrt*>(s.technique.get())) {
-        // multi-scale PRT's per-frame part is CPU work (inside "gbuffer+gi"); its shading pass is timed as the
-        // CPU wall time of issuing it
-        static constexpr std::pair<const char*, const char*> kPrtStages[] = {{"read-back", "gi prt read-back"},
-                                                                             {"entry", "gi prt entry"},
-                                                                             {"lights", "gi prt lights"},
-                                                                             {"exit", "gi prt exit"},
-                                                                             {"shade", "gi prt shade"}};
-        s.technique->lastStageTimes(s.scratchTimes);
-        for (const auto& [stage, label] : kPrtStages)
-            for (const gl::StageTime& st : s.scratchTimes)
-                if (st.name == stage) addTime(out.cpuTimes, used, label, st.milliseconds);
-    }
-    out.cpuTimes.resize(used);
+}
 
-    r.lastStageTimes(out.gpuTimes);
-    if (rsmTimed) {
+// The brute force beside the technique on the same VALs and G-buffer (options.referenceIndirect), with the
+// coverage, normals and facing of the frame's virtual pixels.
+void FramePipeline::renderReferenceIndirect(FrameWork& w) {
+    if (!options_.referenceIndirect) return;
+    State& s = *state_;
+    render::Renderer& r = *renderer_;
+    FrameOutput& out = w.out;
+    // Coverage from the shaded output's alpha (the G-buffer's coverage), not from the light:
+    // a covered pixel with no indirect light must still count.
+    out.coverage.create(s.virtualColour.size(), CV_8UC1);
+    cv::extractChannel(s.virtualColour, out.coverage, 3);
+    cv::threshold(out.coverage, out.coverage, 0, 255, cv::THRESH_BINARY);
+    s.compositor.visibleInto(s.virtualColour, s.virtualDepth, w.realDepth, out.visibleCoverage);
+    s.virtualDepth.copyTo(out.virtualDepthMetres);
+    const gi::GBufferView& g = r.gbuffer();
+    gl::readTextureRgba32fInto(g.worldNormal, g.width, g.height, s.normalsRgba);
+    cv::cvtColor(s.normalsRgba, out.virtualNormals, cv::COLOR_RGBA2RGB);
+    cv::extractChannel(s.normalsRgba, s.facing, 3); // w = 1 on back faces, 0 on front faces and background
+    cv::compare(s.facing, 0.5, out.backFacing, cv::CMP_GT);
+    if (!w.runGi) return;
+    renderBruteForce(w);
+    cv::cvtColor(s.indirectReference, out.linearIndirectReference, cv::COLOR_RGBA2BGR);
+    out.linearIndirectReference.convertTo(out.linearIndirectReference, -1, double(std::exp2(s.scene->exposureStops)));
+}
+
+// The brute force into the renderer's indirect target, read back into State::indirectReference.
+void FramePipeline::renderBruteForce(FrameWork& w) {
+    State& s = *state_;
+    render::Renderer& r = *renderer_;
+    if (!s.bruteForce) {
+        s.bruteForce = bruteForceFor(gi_, r);
+        s.bruteForce->prepare(r.instances());
+    }
+    s.bruteForce->render(w.valSet, r.instances(), r.gbuffer(), r.viewParameters(), r.indirectTarget());
+    r.readIndirectInto(s.indirectReference);
+}
+
+void FramePipeline::drawOverlays(FrameWork& w) {
+    State& s = *state_;
+    FrameOutput& out = w.out;
+    const CameraIntrinsics& k = w.frame.colourIntrinsics;
+    if (options_.overlay == Overlay::Vals && out.valCount > 0 && s.vals)
+        drawVals(out.withGi, s.vals->downloadVals(), k, *w.world_T_camera);
+    if (options_.overlay == Overlay::Differential && w.runDifferential)
+        drawDifferential(out.withGi, w.frame.colour, s.differentialImages);
+    if (options_.overlay == Overlay::SparsePoints) drawSparsePoints(out.withGi, *renderer_, k, *w.world_T_camera);
+    if (options_.overlay == Overlay::VertexVpls && w.runGi && s.technique->capabilities().vertexVpls) {
+        const VplViewResult vpl =
+            drawVertexVpls(out.withGi, *s.technique, renderer_->instances(), k, *w.world_T_camera, s.vertexVpls);
+        out.vplSegments = vpl.drawn;
+        out.vplNonFinite = vpl.nonFinite;
+    }
+    if (options_.overlay == Overlay::ErrorVsBruteForce && w.runGi) drawErrorVsBruteForce(w);
+}
+
+// Luminance of |technique - brute force| mapped to a colour ramp over covered pixels; the mean relative
+// error in text.
+void FramePipeline::drawErrorVsBruteForce(FrameWork& w) {
+    State& s = *state_;
+    FrameOutput& out = w.out;
+    renderer_->readIndirectInto(s.indirectTechnique);
+    renderBruteForce(w);
+    s.errorMap.create(s.indirectTechnique.size(), CV_8UC3);
+    double sumError = 0.0, sumReference = 0.0;
+    for (int v = 0; v < s.errorMap.rows; ++v)
+        for (int u = 0; u < s.errorMap.cols; ++u) {
+            const cv::Vec4f a = s.indirectTechnique.at<cv::Vec4f>(v, u), b = s.indirectReference.at<cv::Vec4f>(v, u);
+            const float la = 0.2126f * a[0] + 0.7152f * a[1] + 0.0722f * a[2];
+            const float lb = 0.2126f * b[0] + 0.7152f * b[1] + 0.0722f * b[2];
+            if (s.virtualColour.at<cv::Vec4b>(v, u)[3] == 0) continue;
+            sumError += std::abs(double(la) - double(lb));
+            sumReference += std::abs(double(lb));
+            const float level = std::clamp(std::abs(la - lb) / options_.errorScale, 0.0f, 1.0f);
+            out.withGi.at<cv::Vec3b>(v, u) =
+                cv::Vec3b(std::uint8_t(255.0f * (1.0f - level)), 0, std::uint8_t(255.0f * level));
+        }
+    out.meanRelativeErrorVsBruteForce = sumReference > 0.0 ? sumError / sumReference : 0.0;
+    char text[96];
+    std::snprintf(text, sizeof text, "|%s - brute force| / brute force: %.3f", std::string(s.technique->name()).c_str(),
+                  out.meanRelativeErrorVsBruteForce);
+    cv::putText(out.withGi, text, cv::Point(6, 16), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(255, 255, 255), 1,
+                cv::LINE_AA);
+}
+
+// The figure-4 comparison: the same frame without indirect light, over the plain camera image.
+void FramePipeline::compositeWithoutGi(FrameWork& w) {
+    State& s = *state_;
+    w.shade.includeIndirect = false;
+    w.shade.linearOutput = false;
+    if (w.shade.view == render::DebugView::IndirectOnly) w.shade.view = render::DebugView::Final;
+    renderer_->shade(w.shade);
+    renderer_->readOutputsInto(s.virtualColour, s.virtualDepth);
+    s.compositor.compositeInto(w.frame.colour, s.virtualColour, s.virtualDepth, w.realDepth, w.out.withoutGi);
+}
+
+// The technique's stage times: those it measures on the CPU into the frame's CPU times under their labels,
+// the others (GL timers) into its GPU times, after the renderer's and the RSM's.
+void FramePipeline::collectStageTimes(FrameWork& w) {
+    State& s = *state_;
+    FrameOutput& out = w.out;
+    const std::span<const gi::CpuStageLabel> cpuStages = s.technique->capabilities().cpuStages;
+    if (w.runGi && !cpuStages.empty()) {
+        if (!w.stageTimesTaken) s.technique->lastStageTimes(s.scratchTimes);
+        for (const gi::CpuStageLabel& stage : cpuStages)
+            for (const gl::StageTime& st : s.scratchTimes)
+                if (st.name == stage.stage) addTime(out.cpuTimes, w.usedTimes, stage.label, st.milliseconds);
+    }
+    out.cpuTimes.resize(w.usedTimes);
+    renderer_->lastStageTimes(out.gpuTimes);
+    if (w.rsmTimed) {
         s.rsmTimer.collect(s.rsmTimes);
         out.gpuTimes.insert(out.gpuTimes.end(), s.rsmTimes.begin(), s.rsmTimes.end());
     }
-    if (runGi && !dynamic_cast<const gi::MultiscalePrt*>(s.technique.get())) {
-        if (!stageTimesTaken) s.technique->lastStageTimes(s.scratchTimes);
-        for (const gl::StageTime& st : s.scratchTimes)
-            if (!dynamic_cast<const gi::CpuLightSkin*>(s.technique.get()) || st.name == "shading")
-                out.gpuTimes.push_back(st);
+    if (!w.runGi) return;
+    if (!w.stageTimesTaken) s.technique->lastStageTimes(s.scratchTimes);
+    for (const gl::StageTime& st : s.scratchTimes) {
+        bool onCpu = false;
+        for (const gi::CpuStageLabel& stage : cpuStages) onCpu = onCpu || st.name == stage.stage;
+        if (!onCpu) out.gpuTimes.push_back(st);
     }
-    out.totalMs = msSince(frameStart);
 }
 
 } // namespace lightskin::mr

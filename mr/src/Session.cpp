@@ -30,7 +30,7 @@ std::string describeCamera(const CameraIntrinsics& k) {
 
 QualitySettings qualityOf(const render::GiSettings& gi) {
     QualitySettings q;
-    q.technique = gi.technique == "brute-force" ? Technique::BruteForce : Technique::LightSkin;
+    q.technique = gi.technique == Technique::BruteForce ? Technique::BruteForce : Technique::LightSkin;
     q.sparsePoints = gi.sparsePoints;
     q.valStride = gi.valStride;
     q.glossy = gi.glossy;
@@ -81,12 +81,12 @@ std::unique_ptr<Session> Session::createWith(const SessionOptions& options, cons
     if (options.prtCacheDirectory)
         s->scene_->gi.multiscalePrt.cacheDirectory = options.prtCacheDirectory->lexically_normal();
     const double budgetMs = options.budgetMs > 0.0 ? options.budgetMs : s->scene_->gi.budgetMs;
-    if (budgetMs > 0.0 && s->scene_->gi.technique == "none") {
+    if (budgetMs > 0.0 && s->scene_->gi.technique == gi::Technique::None) {
         log::warning("frame budget: the scene's technique is \"none\"; no budget applies");
     }
     s->pipeline_ = FramePipeline::create(*s->scene_, info, options.pipeline);
     s->applied_ = qualityOf(s->pipeline_->giSettings());
-    if (budgetMs > 0.0 && s->scene_->gi.technique != "none") {
+    if (budgetMs > 0.0 && s->scene_->gi.technique != gi::Technique::None) {
         BudgetOptions budget = options.budget;
         budget.budgetMs = budgetMs;
         s->budget_.emplace(budget, sceneNeeds(s->pipeline_->renderer().instances()), s->applied_);
@@ -240,6 +240,8 @@ void Session::processWith(const RgbdFrame& frame, const PreparedFrame* prepared,
     report_.coveredPixels = output_.coveredPixels;
     report_.totalMs = output_.totalMs;
     report_.settings = applied_;
+    report_.technique = pipeline_->technique();
+    report_.backend = pipeline_->backend();
     report_.budgetActive = budget_.has_value();
     report_.budgetMs = budget_ ? budget_->budgetMs() : 0.0;
     report_.predictedMs = predictedMs;
@@ -316,7 +318,7 @@ void Session::setBudgetMs(double budgetMs) {
         budget_->setBudgetMs(budgetMs);
         return;
     }
-    if (pipeline_->giSettings().technique == "none")
+    if (pipeline_->giSettings().technique == gi::Technique::None)
         throw Error("frame budget", std::nullopt, "the scene's technique is \"none\": nothing to budget");
     BudgetOptions budget = options_.budget;
     budget.budgetMs = budgetMs;

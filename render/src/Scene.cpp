@@ -8,6 +8,7 @@
 #include <cmath>
 #include <fstream>
 #include <initializer_list>
+#include <optional>
 #include <sstream>
 
 namespace lightskin::render {
@@ -279,19 +280,17 @@ GiSettings readGi(const Reader& r, const json& value, const std::string& p, cons
                  "valTreeThreshold"});
     GiSettings g;
     if (value.contains("technique")) {
-        g.technique = r.string(value["technique"], p + "/technique");
-        if (g.technique != "lightskin" && g.technique != "brute-force" && g.technique != "imperfect-volumes" &&
-            g.technique != "multiscale-prt" && g.technique != "none")
-            r.fail(p + "/technique",
-                   "\"lightskin\", \"brute-force\", \"imperfect-volumes\", \"multiscale-prt\" or \"none\"",
-                   &value["technique"]);
+        const std::optional<gi::Technique> technique = gi::parseTechnique(r.string(value["technique"], p + "/technique"));
+        if (!technique) r.fail(p + "/technique", gi::techniqueNames(true), &value["technique"]);
+        g.technique = *technique;
     }
     if (value.contains("backend")) {
-        g.backend = r.string(value["backend"], p + "/backend");
-        if (g.backend != "gl" && g.backend != "cpu") r.fail(p + "/backend", "\"gl\" or \"cpu\"", &value["backend"]);
-        if (g.backend == "cpu" && g.technique != "lightskin")
+        const std::optional<gi::Backend> backend = gi::parseBackend(r.string(value["backend"], p + "/backend"));
+        if (!backend) r.fail(p + "/backend", gi::backendNames(true), &value["backend"]);
+        if (!gi::runsOn(g.technique, *backend))
             r.fail(p + "/backend", "\"gl\" (the CPU backend exists for technique \"lightskin\" only)",
                    &value["backend"]);
+        g.backend = *backend;
     }
     if (value.contains("sparsePoints")) g.sparsePoints = r.integer(value["sparsePoints"], p + "/sparsePoints", 16, 65536);
     if (value.contains("valStride")) g.valStride = r.integer(value["valStride"], p + "/valStride", 1, 64);
@@ -311,12 +310,12 @@ GiSettings readGi(const Reader& r, const json& value, const std::string& p, cons
     if (value.contains("valTreeThreshold"))
         g.valTreeThreshold = r.number(value["valTreeThreshold"], p + "/valTreeThreshold", 0.0f, 100.0f, "in [0, 100]");
     if (value.contains("imperfectVolumes")) {
-        if (g.technique != "imperfect-volumes")
+        if (g.technique != gi::Technique::ImperfectVolumes)
             r.fail(p + "/imperfectVolumes", "gi.technique \"imperfect-volumes\" (the key belongs to that technique)",
                    nullptr);
         g.imperfectVolumes = readImperfectVolumes(r, value["imperfectVolumes"], p + "/imperfectVolumes");
     }
-    if (value.contains("multiscalePrt") && g.technique != "multiscale-prt")
+    if (value.contains("multiscalePrt") && g.technique != gi::Technique::MultiscalePrt)
         r.fail(p + "/multiscalePrt", "gi.technique \"multiscale-prt\" (the key belongs to that technique)", nullptr);
     // Read also when absent: the default cache folder depends on the scene's folder.
     g.multiscalePrt = readMultiscalePrt(r, value.contains("multiscalePrt") ? value["multiscalePrt"] : json::object(),

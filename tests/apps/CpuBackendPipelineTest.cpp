@@ -36,7 +36,7 @@ struct Recording {
 // gtest would print the case as raw bytes (pointers), which ctest puts into the test's name.
 void PrintTo(const Recording& recording, std::ostream* out) { *out << recording.name; }
 
-std::vector<cv::Mat> indirectFrames(const Recording& recording, const std::string& backend, int frames) {
+std::vector<cv::Mat> indirectFrames(const Recording& recording, gi::Backend backend, int frames) {
     render::Scene scene = render::loadScene(test::sourceDir() / "recordings" / "scenes" / recording.sceneFile);
     scene.gi.backend = backend;
     auto source = capture::openFrameSource((test::sourceDir() / recording.path).string(), {});
@@ -61,8 +61,8 @@ class CpuBackendPipeline : public test::GlTest, public ::testing::WithParamInter
 
 TEST_P(CpuBackendPipeline, IndirectLightMatchesTheGlBackend) {
     constexpr int kFrames = 2;
-    const std::vector<cv::Mat> gl = indirectFrames(GetParam(), "gl", kFrames);
-    const std::vector<cv::Mat> cpu = indirectFrames(GetParam(), "cpu", kFrames);
+    const std::vector<cv::Mat> gl = indirectFrames(GetParam(), gi::Backend::Gl, kFrames);
+    const std::vector<cv::Mat> cpu = indirectFrames(GetParam(), gi::Backend::Cpu, kFrames);
     ASSERT_EQ(gl.size(), std::size_t(kFrames));
     ASSERT_EQ(cpu.size(), gl.size());
     for (std::size_t f = 0; f < gl.size(); ++f) {

@@ -64,16 +64,16 @@ Report threeTechniques() {
         double msPerKiloVal; ///< time per frame per 1000 VALs
         double error;        ///< relative MSE at stride 8
     };
-    const std::vector<Technique> techniques = {{"LightSkin", "GL", 2.0, 2e-2},
-                                               {"LightSkin", "CPU", 6.0, 2.1e-2},
-                                               {"imperfect volumes", "GL", 0.5, 5e-2},
-                                               {"multiscale-prt", "GL", 0.15, 9e-2}};
+    const std::vector<Technique> techniques = {{"LightSkin", "gl", 2.0, 2e-2},
+                                               {"LightSkin", "cpu", 6.0, 2.1e-2},
+                                               {"imperfect volumes", "gl", 0.5, 5e-2},
+                                               {"multiscale-prt", "gl", 0.15, 9e-2}};
     for (const Technique& t : techniques)
         for (int stride : {8, 4, 2}) {
             RunResult r;
             r.method = t.method;
             r.backend = t.backend;
-            r.config.backend = t.backend;
+            r.config.backend = *lightskin::gi::parseBackend(t.backend);
             r.config.axis = stride == 4 ? "default" : "stride";
             r.config.value = std::to_string(stride);
             r.config.stride = stride;
@@ -82,7 +82,7 @@ Report threeTechniques() {
             r.gpuMs = t.msPerKiloVal * double(r.vals) / 1000.0;
             r.vsTruth = error(t.error * 8.0 / (8.0 + 8.0 / stride), 0.9);
             r.vsBrute = error(t.error * 0.5 * 8.0 / (8.0 + 8.0 / stride), 0.95);
-            if (t.method == "LightSkin" && t.backend == "GL") r.bruteMs = 0.2 * double(r.vals); // brute force
+            if (t.method == "LightSkin" && t.backend == "gl") r.bruteMs = 0.2 * double(r.vals); // brute force
             report.runs.push_back(r);
         }
     RunResult brute;
@@ -139,7 +139,7 @@ TEST(BenchJson, ATableReportReadsBackFieldForField) {
     report.seconds = 12.5;
     RunResult run;
     run.method = "LightSkin";
-    run.backend = "CPU";
+    run.backend = "cpu";
     run.series = "sparse 256, K_cache 128, +occlusion";
     run.config.axis = "vals";
     run.config.value = "40x30";
@@ -181,7 +181,7 @@ TEST(BenchJson, ATableReportReadsBackFieldForField) {
     const RunResult& r = back.runs[0];
     EXPECT_EQ(r.method, run.method);
     EXPECT_EQ(r.backend, run.backend);
-    EXPECT_EQ(r.config.backend, run.backend); // the config's backend follows the row's
+    EXPECT_EQ(r.config.backend, lightskin::gi::Backend::Cpu); // the config's backend follows the row's
     EXPECT_EQ(r.series, run.series);
     EXPECT_EQ(r.config.axis, run.config.axis);
     EXPECT_EQ(r.config.value, run.config.value);

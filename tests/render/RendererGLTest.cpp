@@ -1,5 +1,5 @@
 #include <lightskin/render/Compositor.h>
-#include <lightskin/render/NullIndirectIllumination.h>
+#include <lightskin/gi/common/NullIndirectIllumination.h>
 #include <lightskin/render/Renderer.h>
 
 #include "GlTestEnvironment.h"
@@ -219,7 +219,7 @@ TEST_F(RendererGLTest, NullTechniqueWritesZeroAndNoVirtualContentLeavesTheFrame)
     auto renderer = Renderer::create(kCamera);
     renderer->setScene(render::Scene{});
     renderer->renderGBuffer(kWorld_T_camera);
-    render::NullIndirectIllumination none;
+    gi::NullIndirectIllumination none;
     none.render({}, renderer->instances(), renderer->gbuffer(), renderer->viewParameters(), renderer->indirectTarget());
     renderer->shade({});
     cv::Mat colour, depth;

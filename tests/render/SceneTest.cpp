@@ -38,7 +38,7 @@ TEST(Scene, SampleScenesLoad) {
     ASSERT_EQ(tabletop.lights.size(), 1u);
     EXPECT_EQ(tabletop.lights[0].type, LightType::Spot);
     EXPECT_NEAR(glm::length(tabletop.lights[0].direction), 1.0f, 1e-6f);
-    EXPECT_EQ(tabletop.gi.technique, "lightskin");
+    EXPECT_EQ(tabletop.gi.technique, lightskin::gi::Technique::LightSkin);
     EXPECT_EQ(tabletop.gi.kCache, 128);
     EXPECT_NE(tabletop.trackingJson.find("tag36h11"), std::string::npos);
     ASSERT_TRUE(tabletop.objects[1].material.specularExponent.has_value());
@@ -46,7 +46,7 @@ TEST(Scene, SampleScenesLoad) {
     EXPECT_EQ(*tabletop.objects[1].material.specularAlbedo, glm::vec3(0.3f));
 
     const Scene cube = loadScene(folder / "cube_no_gi.json");
-    EXPECT_EQ(cube.gi.technique, "none");
+    EXPECT_EQ(cube.gi.technique, lightskin::gi::Technique::None);
     EXPECT_EQ(cube.lights[0].type, LightType::Point);
 
     int scenes = 0;
@@ -78,10 +78,10 @@ TEST(Scene, TransformComposesTranslationRotationScale) {
 }
 
 TEST(Scene, GiBackendDefaultsToGlAndAcceptsCpu) {
-    EXPECT_EQ(parseScene(R"({"version": 1})", meshDir(), "t").gi.backend, "gl");
+    EXPECT_EQ(parseScene(R"({"version": 1})", meshDir(), "t").gi.backend, lightskin::gi::Backend::Gl);
     const Scene cpu = parseScene(R"({"version": 1, "gi": {"backend": "cpu"}})", meshDir(), "t");
-    EXPECT_EQ(cpu.gi.backend, "cpu");
-    EXPECT_EQ(cpu.gi.technique, "lightskin");
+    EXPECT_EQ(cpu.gi.backend, lightskin::gi::Backend::Cpu);
+    EXPECT_EQ(cpu.gi.technique, lightskin::gi::Technique::LightSkin);
 }
 
 TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
@@ -134,7 +134,7 @@ TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
 
 TEST(Scene, ImperfectVolumesSettingsAreReadAndCheckedByKey) {
     const Scene defaults = parseScene(R"({"version": 1, "gi": {"technique": "imperfect-volumes"}})", meshDir(), "t");
-    EXPECT_EQ(defaults.gi.technique, "imperfect-volumes");
+    EXPECT_EQ(defaults.gi.technique, lightskin::gi::Technique::ImperfectVolumes);
     EXPECT_EQ(defaults.gi.imperfectVolumes.resolution, 64); // the paper's 64^3, 12 points, 100 rays
     EXPECT_EQ(defaults.gi.imperfectVolumes.pointsPerTriangle, 12);
     EXPECT_EQ(defaults.gi.imperfectVolumes.raysPerVoxel, 100);

@@ -1,8 +1,8 @@
 // Multi-scale PRT as an IndirectIllumination technique: prepare() loads or computes the transfer, render()
 // runs the per-frame CPU part and shades on GL. Design and formulas: gi/prt/include/lightskin/gi/prt/MultiscalePrt.h.
-#include "common/src/LightsShaders.h"
 #include "PrtGeometry.h"
 #include "PrtSmallScale.h"
+#include "common/src/LightsShaders.h"
 
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
@@ -250,6 +250,14 @@ void MultiscalePrt::render(const ValSetView& lights, std::span<const MeshInstanc
 }
 
 void MultiscalePrt::lastStageTimes(std::vector<gl::StageTime>& out) const { out = impl_->stageTimes; }
+TechniqueCapabilities MultiscalePrt::capabilities() const noexcept {
+    static constexpr CpuStageLabel kStages[] = {{"read-back", "gi prt read-back"},
+                                                {"entry", "gi prt entry"},
+                                                {"lights", "gi prt lights"},
+                                                {"exit", "gi prt exit"},
+                                                {"shade", "gi prt shade"}};
+    return {.glossy = false, .occlusion = false, .sparsePoints = false, .vertexVpls = false, .cpuStages = kStages};
+}
 const PrtData& MultiscalePrt::data() const { return impl_->data; }
 bool MultiscalePrt::loadedFromCache() const { return impl_->fromCache; }
 std::filesystem::path MultiscalePrt::cacheFile() const { return impl_->cacheFile; }

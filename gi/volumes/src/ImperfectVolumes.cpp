@@ -524,6 +524,11 @@ std::vector<glm::vec4> ImperfectVolumes::downloadIncoming() const {
 
 std::uint32_t ImperfectVolumes::slotCapacity() const { return impl_->capacity; }
 glm::uvec2 ImperfectVolumes::lastDroppedVoxels() const { return impl_->dropped; }
+TechniqueFrameStatistics ImperfectVolumes::lastFrameStatistics() const {
+    TechniqueFrameStatistics s;
+    s.voxelsDropped = std::int64_t(impl_->dropped.x) + std::int64_t(impl_->dropped.y);
+    return s;
+}
 
 glm::uvec2 ImperfectVolumes::downloadVoxelCounts() const {
     glm::uvec2 counts(0u);

@@ -3,6 +3,7 @@
 // BenchPlots.h) and the Markdown section regenerated into docs/BENCHMARKS.md between markers. The
 // table benches (bench-gather, bench-cpu, bench-realdepth) write the same JSON (Report with their
 // rows in runs/temporal); its keys: docs/bench/SCHEMA.md.
+#include <lightskin/gi/common/Technique.h>
 #include <lightskin/eval/ImageMetrics.h>
 #include <lightskin/gi/volumes/ImperfectVolumes.h>
 #include <lightskin/gi/prt/MultiscalePrt.h>
@@ -29,13 +30,13 @@ struct Config {
     bool adaptive = false;
     /// LightSkinSettings::valTreeThreshold (issue 17; axis "tree"); 0 = the flat gather.
     float valTree = 0.0f;
-    std::string backend = "GL"; ///< LightSkin on "GL" or on the "CPU" backend (gi::CpuLightSkin)
+    gi::Backend backend = gi::Backend::Gl; ///< LightSkin on gl or on the cpu backend (gi::CpuLightSkin)
     bool isDefault = false;
-    /// "lightskin", or "imperfect-volumes" (issue 15; its knobs in `volumes`, axis "volumes": value
-    /// resolution:points per triangle:rays per voxel:bounces; diffuse only, so channels = 1).
-    std::string technique = "lightskin";
+    /// LightSkin, or imperfect volumes (its knobs in `volumes`, axis "volumes": value resolution:points per
+    /// triangle:rays per voxel:bounces; diffuse only, so channels = 1).
+    gi::Technique technique = gi::Technique::LightSkin;
     gi::ImperfectVolumesSettings volumes;
-    /// "multiscale-prt" (issue 16): its knobs, axis "prt": value entries:walks:clusters:D; diffuse only.
+    /// Multi-scale PRT: its knobs, axis "prt": value entries:walks:clusters:D; diffuse only.
     gi::MultiscalePrtSettings prt;
 };
 
@@ -43,10 +44,10 @@ const char* channelName(int channels);
 
 struct RunResult {
     Config config;
-    /// The technique and the backend that produced this row ("LightSkin"/"brute force", "GL"/"CPU"): the
+    /// The technique and the backend that produced this row ("LightSkin"/"brute force", "gl"/"cpu"): the
     /// plots draw one series per pair, so a new technique or backend needs no plotting code.
     std::string method = "LightSkin";
-    std::string backend = "GL";
+    std::string backend = "gl";
     /// Rows of one method and backend that differ in other knobs than the VAL count (bench-gather's
     /// "sparse 1024, +occlusion"): one line each in the scaling plot. "" for the sweep's rows.
     std::string series;

@@ -275,7 +275,7 @@ struct CpuLightSkin::Impl {
     bool pointTermsReady = false;       // this frame's pointTerms are made
     bool glossy = true, occlusion = true;
     double readbackMs = 0.0;            // render(): the VAL read-back, counted in the upload stage
-    cpu::ValTreeCut treeCut;            // LightSkinSettings::valTreeThreshold > 0 (issue 17)
+    cpu::ValTreeCut treeCut;            // LightSkinSettings::valTreeThreshold > 0
     cpu::NearFieldCorrection nearField; // guard G12 (LightSkinSettings::nearFieldArea) of the flat gather
 
     std::unique_ptr<tbb::task_arena> arena;         // settings.threads workers (0: one per hardware thread)
@@ -548,7 +548,7 @@ struct CpuLightSkin::Impl {
                                           pointExponent[i]);
     }
 
-    /// Stage 2 for every point, and stage 3's set-up if on: after the gather with a cut (issue 17),
+    /// Stage 2 for every point, and stage 3's set-up if on: after the gather with a cut,
     /// which has its own threads; the flat gather does both inside its parallel region.
     void renormalise(const glm::dvec3& eye) {
         // ~0.1 us per point: threads pay off only for many points (a fork/join costs ~10 us idle,
@@ -777,6 +777,17 @@ std::unique_ptr<CpuLightSkin> CpuLightSkin::create(const CpuLightSkinSettings& s
 }
 
 const CpuLightSkinSettings& CpuLightSkin::settings() const noexcept { return impl_->settings; }
+int CpuLightSkin::threads() const noexcept { return impl_->settings.threads; }
+
+TechniqueCapabilities CpuLightSkin::capabilities() const noexcept {
+    // Stages 0-4 are CPU wall times; the shading is the GL timer's.
+    static constexpr CpuStageLabel kStages[] = {{"upload", "gi upload"},
+                                                {"gather", "gi gather"},
+                                                {"normalisation", "gi normalisation"},
+                                                {"occlusion", "gi occlusion"},
+                                                {"interpolation", "gi interpolation"}};
+    return {.glossy = true, .occlusion = true, .sparsePoints = true, .vertexVpls = true, .cpuStages = kStages};
+}
 void CpuLightSkin::setSettings(const CpuLightSkinSettings& settings) {
     if (settings.threads < 0)
         throw Error("CpuLightSkinSettings.threads", std::nullopt,

@@ -86,7 +86,7 @@ struct LightSkinIllumination::Impl {
     GatherProgram gather[2][2];
     gl::Program gatherCompute[2][2];
     gl::Program renormalise, occlusion[2], interpolate, shade, valSums;
-    detail::ValTreeGather treeGather; // valTreeThreshold > 0 (issue 17)
+    detail::ValTreeGather treeGather; // valTreeThreshold > 0
     gl::Program cullCount, cullScan, cullScatter, cullAppend; // adaptive VAL culling (gather_cull.glsl)
     gl::Buffer valSumsBuffer; // 2 vec4: (sum l, sum r^2), (sum l^2, count) over all valid VALs
     gl::VertexArray emptyVertexArray;
@@ -522,6 +522,19 @@ std::unique_ptr<LightSkinIllumination> LightSkinIllumination::create(const Light
 
 const LightSkinSettings& LightSkinIllumination::settings() const noexcept { return impl_->settings; }
 const LightSkinChoice& LightSkinIllumination::lastChoice() const noexcept { return impl_->choice; }
+
+TechniqueCapabilities LightSkinIllumination::capabilities() const noexcept {
+    return {.glossy = true, .occlusion = true, .sparsePoints = true, .vertexVpls = true, .cpuStages = {}};
+}
+
+TechniqueFrameStatistics LightSkinIllumination::lastFrameStatistics() const {
+    TechniqueFrameStatistics s;
+    if (impl_->settings.adaptive) {
+        s.reused = impl_->choice.reused ? 1 : 0;
+        s.changeMeasure = impl_->choice.staticChangeBound;
+    }
+    return s;
+}
 const std::vector<SparsePointSet>& LightSkinIllumination::sparsePoints() const noexcept { return impl_->sparse; }
 const std::vector<std::uint32_t>& LightSkinIllumination::sparseOffsets() const noexcept { return impl_->sparseOffsets; }
 const std::vector<std::uint32_t>& LightSkinIllumination::vertexOffsets() const noexcept { return impl_->vertexOffsets; }

@@ -6,6 +6,7 @@
 // the online update and the hysteresis: docs/PLUGIN.md, "Frame-time budget".
 
 #include <lightskin/gi/common/IndirectIllumination.h>
+#include <lightskin/gi/common/Technique.h>
 #include <lightskin/render/Scene.h>
 
 #include <cstdint>
@@ -15,8 +16,8 @@
 
 namespace lightskin::mr {
 
-enum class Technique : std::uint8_t { LightSkin, BruteForce };
-const char* toString(Technique technique) noexcept;
+/// The budget chooses between LightSkin and the brute force (the techniques with its knobs).
+using Technique = gi::Technique;
 
 /// One configuration the budget can choose.
 struct QualitySettings {

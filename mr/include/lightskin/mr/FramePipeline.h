@@ -2,15 +2,17 @@
 // The per-frame pipeline shared by `lightskin replay` and `lightskin live`:
 //   depth (metres, filtered) -> pose (ground truth | AprilTag tracking | fixed) -> VALs from depth
 //   [+ VALs from reflective shadow maps of the virtual meshes per scene light (gi.virtualBounce),
-//   merged after the depth VALs] -> G-buffer -> GI technique (gi::IndirectIllumination) -> direct + indirect, tone mapped
+//   merged after the depth VALs] -> G-buffer -> GI technique (gi::IndirectIllumination) -> direct + indirect, tone
+//   mapped
 //   -> composite over the colour image (with GI, and without GI for the figure-4 comparison).
 // Everything is sized on the first frame and reused; needs a current GL 4.5 context.
 
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/RgbdFrame.h>
+#include <lightskin/gi/common/CpuValGenerator.h>
 #include <lightskin/gi/common/IndirectIllumination.h>
-#include <lightskin/gi/prt/MultiscalePrt.h>
 #include <lightskin/gi/common/ReflectiveShadowMap.h>
+#include <lightskin/gi/prt/MultiscalePrt.h>
 #include <lightskin/gl/GpuTimer.h>
 #include <lightskin/render/Compositor.h>
 #include <lightskin/render/Renderer.h>
@@ -28,11 +30,6 @@ enum class PoseMode { GroundTruth, Tracking, Fixed };
 const char* toString(PoseMode mode) noexcept;
 /// "ground-truth", "tracking", "fixed"; throws lightskin::Error otherwise.
 PoseMode parsePoseMode(const std::string& text);
-
-/// Creates the scene's GI technique ("lightskin", "brute-force", "none"). Techniques that this
-/// build does not have fall back to "none" with a warning (the pipeline runs without GI).
-/// LightSkin takes the sparse points the renderer prepared (Renderer::setScene with sparse points).
-std::unique_ptr<gi::IndirectIllumination> createTechnique(const render::GiSettings& settings, const render::Renderer& renderer);
 
 /// The scene's lights as RSM lights: intensity I = power / (4 pi) W/sr (as the renderer's direct
 /// light, for points and spots alike); a spot's uniform RSM cone has the half angle
@@ -65,11 +62,11 @@ void parseView(const std::string& text, render::DebugView& view, Overlay& overla
 
 struct PipelineOptions {
     PoseMode poseMode = PoseMode::GroundTruth;
-    bool compare = true;           ///< also render without GI (the side-by-side comparison)
+    bool compare = true; ///< also render without GI (the side-by-side comparison)
     render::DebugView view = render::DebugView::Final;
     Overlay overlay = Overlay::None;
     float errorScale = 0.05f; ///< radiance difference shown as full red in the error view
-    bool giEnabled = true;         ///< live toggle; off = direct light only
+    bool giEnabled = true;    ///< live toggle; off = direct light only
     /// LightSkin's adaptive mode (LightSkinSettings::adaptive) incl. static-content reuse, and its
     /// tolerance (0 = exact reuse only; > 0 with staticProbes: the probe test, else the bound).
     bool adaptive = false;
@@ -105,8 +102,8 @@ inline constexpr const char* kGiCauseNoVals = "no depth pixel became a VAL (all 
 
 struct FrameOutput {
     std::int64_t frameIndex = 0;
-    cv::Mat withGi;       ///< CV_8UC3 BGR composite (GI on, or direct only when GI is off)
-    cv::Mat withoutGi;    ///< CV_8UC3 BGR composite without GI (when compare)
+    cv::Mat withGi;    ///< CV_8UC3 BGR composite (GI on, or direct only when GI is off)
+    cv::Mat withoutGi; ///< CV_8UC3 BGR composite without GI (when compare)
     /// options.differentialBaseline: withGi composited over the plain camera image (no differential;
     /// equal to withGi when the differential did not run), no overlays.
     cv::Mat withGiWithoutDifferential;
@@ -146,9 +143,10 @@ struct FrameOutput {
     std::uint32_t valCount = 0;     ///< VALs from depth
     std::int64_t coveredPixels = 0; ///< pixels the virtual content covers (before occlusion by real depth)
     std::int64_t rsmValCount = -1;  ///< gi.virtualBounce: VALs from the virtual lights' RSMs, else -1
-    std::int64_t valsDropped = -1;  ///< gi.virtualBounce: VALs beyond the merged set's capacity (logged; 0 normally), else -1
+    std::int64_t valsDropped =
+        -1; ///< gi.virtualBounce: VALs beyond the merged set's capacity (logged; 0 normally), else -1
     double meanRelativeErrorVsBruteForce = -1.0; ///< error view only: mean |a-b| / mean |b| over covered pixels
-    std::int64_t vplSegments = -1;  ///< vpl view only: vertex VPLs drawn (in front of the camera), else -1
+    std::int64_t vplSegments = -1;               ///< vpl view only: vertex VPLs drawn (in front of the camera), else -1
     std::int64_t vplNonFinite = -1; ///< vpl view only: vertices (of all) whose l'''_d or L'''_d is not finite, else -1
     std::vector<gl::StageTime> cpuTimes; ///< wall-clock per stage, ms (incl. waiting for the GPU)
     std::vector<gl::StageTime> gpuTimes; ///< GL timer queries, ms
@@ -158,8 +156,8 @@ struct FrameOutput {
     /// The CPU backend's VALs and GI stages 0-4 of this frame ran while the previous frame rendered (the GI
     /// ahead, FramePipeline::render with a NextFrame); cpuTimes "vals" and "gi ..." are the times they took then.
     bool giComputedAhead = false;
-    int giReused = -1;                ///< adaptive LightSkin: 1 = VPLs reused (static content), 0 = recomputed, else -1
-    float giChangeMeasure = -1.0f;    ///< adaptive LightSkin: LightSkinChoice::staticChangeBound
+    int giReused = -1;             ///< adaptive LightSkin: 1 = VPLs reused (static content), 0 = recomputed, else -1
+    float giChangeMeasure = -1.0f; ///< adaptive LightSkin: LightSkinChoice::staticChangeBound
     /// imperfect volumes: occupied + ray-marched voxels dropped for want of slots (256^3), else -1
     std::int64_t volumeVoxelsDropped = -1;
     std::int64_t differentialReceivers = -1; ///< differential ran: receivers gathered (in the affected region), else -1
@@ -226,7 +224,10 @@ public:
     /// (LightSkin) prepare the meshes again (Renderer::setScene): both cost a one-off stall.
     void setGiSettings(const render::GiSettings& settings);
     const render::GiSettings& giSettings() const noexcept { return gi_; }
+    /// The technique's display name for reports ("lightskin-cpu" for LightSkin on the CPU).
     std::string techniqueName() const;
+    gi::Technique technique() const noexcept;
+    gi::Backend backend() const noexcept;
     /// Technique multiscale-prt: its last prepare() (precompute or cache load), else nullopt.
     std::optional<gi::PrtPrepareStats> prtPrepareStats() const;
     render::Renderer& renderer() noexcept { return *renderer_; }
@@ -243,6 +244,27 @@ private:
     /// camera image (State::cameraWithDifferential), which the composites then use.
     void applyDifferential(const RgbdFrame& frame, const cv::Mat& depthMetres, const Pose& world_T_camera,
                            const gi::ValSetView& depthVals, FrameOutput& out);
+    // The stages of render(), in order (docs/ARCHITECTURE.md: capture -> filter -> pose -> VALs -> GI ->
+    // composite; filter and pose ran in prepare()). FrameWork carries one frame's state between them.
+    struct FrameWork;
+    void beginFrame(FrameWork& w);
+    void passThrough(FrameWork& w);
+    void makeVals(FrameWork& w);
+    gi::CpuValGenerator& generateCpuVals(std::uint64_t sequence, const RgbdFrame& frame, const cv::Mat& depth,
+                                         const Pose& pose, int threads);
+    void applyDifferentialStage(FrameWork& w);
+    void addVirtualBounceVals(FrameWork& w);
+    void explainGiActivity(FrameWork& w);
+    void makeNextFrameVals(FrameWork& w, NextFrame* next);
+    void renderGi(FrameWork& w);
+    void renderGiFromCpuVals(FrameWork& w, const gi::ViewParameters& view);
+    void composite(FrameWork& w);
+    void renderReferenceIndirect(FrameWork& w);
+    void renderBruteForce(FrameWork& w);
+    void drawOverlays(FrameWork& w);
+    void drawErrorVsBruteForce(FrameWork& w);
+    void compositeWithoutGi(FrameWork& w);
+    void collectStageTimes(FrameWork& w);
     struct State;
     std::unique_ptr<State> state_;
     std::unique_ptr<render::Renderer> renderer_;

@@ -82,8 +82,10 @@ struct FrameReport {
     std::optional<Pose> world_T_camera;
     std::uint32_t valCount = 0;
     std::int64_t coveredPixels = 0;
-    double totalMs = 0.0;     ///< wall clock of the whole frame
-    QualitySettings settings; ///< the GI settings this frame ran with
+    double totalMs = 0.0;                               ///< wall clock of the whole frame
+    QualitySettings settings;                           ///< the GI settings this frame ran with (the budget's knobs)
+    gi::Technique technique = gi::Technique::LightSkin; ///< the technique this frame ran
+    gi::Backend backend = gi::Backend::Gl;              ///< and its backend
     bool budgetActive = false;
     double budgetMs = 0.0;      ///< 0 without a budget
     double predictedMs = 0.0;   ///< the budget's prediction for this frame (before it ran)
@@ -157,6 +159,7 @@ public:
     glm::mat4 viewMatrix() const;
 
     FramePipeline& pipeline() noexcept { return *pipeline_; }
+    const FramePipeline& pipeline() const noexcept { return *pipeline_; }
     const render::Scene& scene() const noexcept { return *scene_; }
     /// Sets the frame budget (ms > 0; throws lightskin::Error otherwise), starting budget mode
     /// if the session had none (not with the technique "none"). Takes effect from the next frame.

@@ -11,8 +11,7 @@
 // and says what was expected. Unknown keys are errors too (typos would otherwise be silently ignored),
 // except inside "tracking", which is passed to the tracking module as it is.
 
-#include <lightskin/gi/volumes/ImperfectVolumes.h>
-#include <lightskin/gi/prt/MultiscalePrt.h>
+#include <lightskin/gi/Techniques.h>
 
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
@@ -56,58 +55,15 @@ struct SceneLight {
     bool inRoom = true;
 };
 
-struct GiSettings {
-    std::string technique =
-        "lightskin"; ///< "lightskin", "brute-force", "imperfect-volumes", "multiscale-prt" or "none"
-    /// Where LightSkin's stages 0-4 run: "gl" (gi::LightSkinIllumination) or "cpu"
-    /// (gi::CpuLightSkin: SIMD + threads on the CPU; shading stays on GL). Only for "lightskin".
-    std::string backend = "gl";
-    int sparsePoints = 4096;             ///< sparse scene points per mesh (paper: 4k or 16k)
-    int valStride = 4;                   ///< one VAL per valStride x valStride depth pixels
-    int kCache = 128;                    ///< the paper's K_cache (VALs per cache block)
-    bool diffuse = true;
-    bool glossy = true;
-    bool occlusion = true;
-    /// One bounce between virtual objects: per frame, a reflective shadow map of the virtual
-    /// meshes per scene light gives VALs (gi::ReflectiveShadowMap) that are merged after the
-    /// depth VALs. Off by default: opt-in, so existing scenes keep their images and frame times.
-    bool virtualBounce = false;
-    int rsmResolution = 64;              ///< RSM texels per side per light face (spot: 1 face, point: 6)
-    /// Frame-time budget in milliseconds ("budgetMs"; 0 = none): a mr::Session then picks technique,
-    /// sparse points, VAL stride and channels per frame to meet it (mr/FrameBudget.h).
-    double budgetMs = 0.0;
-    /// The light model for real depth (issue 12; docs/BENCHMARKS.md "Indirect light on real depth"):
-    /// on by default; false = the model before it, for measurement (`lightskin bench-realdepth`).
-    bool robustRealDepth = true;
-    /// LightSkin's gather with a cut through the VAL tree (issue 17; gi::LightSkinSettings::valTreeThreshold,
-    /// both backends): 0 = the flat gather over every VAL (the default).
-    float valTreeThreshold = 0.0f;
-    /// Not a scene key: with robustRealDepth, false drops only its vertex irradiance cap (guard G10)
-    /// for measurement (`lightskin bench-realdepth --models robust-nocap`).
-    bool robustIrradianceCap = true;
-    /// Not a scene key: with robustRealDepth, false drops only its rule for sparse points buried under the
-    /// real surface (guard G11) for measurement (`lightskin bench-realdepth --models robust-noburied`).
-    bool robustBuriedSparsePoints = true;
-    /// Not a scene key: with robustRealDepth, true adds near-field VALs as areas (guard G12:
-    /// gi::LightSkinSettings::nearFieldArea, gi::BruteForceSettings::nearFieldArea; `lightskin
-    /// bench-realdepth --models robust-area`). Off by default for now: on llvmpipe the polygon's loop
-    /// inside the per-VAL loop makes the gather ~3x and the brute force ~4x slower even where no VAL is
-    /// near (docs/BENCHMARKS.md "Near-field VALs as areas"), for no measured gain in speckle on the
-    /// bundled real recordings.
-    bool robustNearField = false;
-    /// Technique "imperfect-volumes" (gi/ImperfectVolumes.h): the "imperfectVolumes" object.
-    gi::ImperfectVolumesSettings imperfectVolumes;
-    /// Technique "multiscale-prt" (gi/MultiscalePrt.h): the "multiscalePrt" object. Its cacheDirectory is
-    /// "prt-cache" beside the scene file unless the scene says otherwise (empty for scenes parsed from text).
-    gi::MultiscalePrtSettings multiscalePrt;
-};
+/// The scene's "gi" object: the technique registry's settings (lightskin/gi/Techniques.h).
+using GiSettings = gi::GiSettings;
 
 struct CompositeSettings {
     /// Soft occlusion band half-width in multiples of the Kinect axial noise sigma_z(z)
     /// (see render/Compositor.h); and its lower bound in metres.
     float softBandSigmas = 3.0f;
     float minSoftBandMetres = 0.005f;
-    /// Differential rendering (gi/DifferentialIrradiance.h, render::applyDifferentialInto): the
+    /// Differential rendering (gi/differential/DifferentialIrradiance.h, render::applyDifferentialInto): the
     /// virtual objects' shadows and reflected light on the real surfaces around them.
     bool differential = true;
 };

@@ -11,10 +11,10 @@
 namespace lightskin::gi {
 
 struct BruteForceSettings {
-    int kCache = 128;     ///< VALs per pass (multiple of 16)
-    bool glossy = true;   ///< add the glossy term (eq. 5)
+    int kCache = 128;                                         ///< VALs per pass (multiple of 16)
+    bool glossy = true;                                       ///< add the glossy term (eq. 5)
     float cParameter = float(1.0 / (2.0 * std::numbers::pi)); ///< c of c_k = c (k+1), 1/sr
-    std::uint32_t valCapacity = 1u << 16; ///< reserved in prepare(), grows if exceeded
+    std::uint32_t valCapacity = 1u << 16;                     ///< reserved in prepare(), grows if exceeded
     /// Guard G12 of lightskin_math.glsl: VALs within 4 of their radii of a pixel integrated as areas
     /// (LightSkinSettings::nearFieldArea); false = the point model (the default, for its cost).
     bool nearFieldArea = false;
@@ -27,6 +27,10 @@ public:
     ~BruteForceIllumination() override;
 
     std::string_view name() const override { return "brute-force"; }
+    Technique technique() const noexcept override { return Technique::BruteForce; }
+    TechniqueCapabilities capabilities() const noexcept override {
+        return {.glossy = true, .occlusion = false, .sparsePoints = false, .vertexVpls = false, .cpuStages = {}};
+    }
     void prepare(std::span<const MeshInstance> instances) override;
     void render(const ValSetView& lights, std::span<const MeshInstance> instances, const GBufferView& gbuffer,
                 const ViewParameters& view, std::uint32_t targetTexture) override;

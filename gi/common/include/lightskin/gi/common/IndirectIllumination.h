@@ -1,18 +1,20 @@
 #pragma once
-// The interface every indirect-illumination technique implements: LightSkin (sparse gather +
-// interpolation), the brute-force path, and later imperfect volumes, multi-scale PRT, a CPU
-// vectorised backend and hierarchical VALs. The renderer owns meshes, G-buffer and target; a
-// technique owns only its own GPU resources (created in prepare(), reused every frame).
+// The interface every indirect-illumination technique implements (the list: lightskin/gi/Techniques.h).
+// The renderer owns meshes, G-buffer and target; a technique owns only its own GPU resources (created in
+// prepare(), reused every frame). What a technique can do beyond render() it says in capabilities(), so
+// that a pipeline needs to know no concrete technique.
 //
 // GL objects are passed as GL names (std::uint32_t) so that engines owning the context can hand
 // in their own. All need a current OpenGL 4.5 core context on the calling thread.
 
 #include <lightskin/core/Material.h>
 #include <lightskin/core/TriangleMesh.h>
+#include <lightskin/gi/common/Technique.h>
 #include <lightskin/gi/common/VirtualAreaLight.h>
 #include <lightskin/gl/GpuTimer.h>
 
 #include <glm/mat4x4.hpp>
+#include <glm/vec4.hpp>
 
 #include <cstdint>
 #include <span>
@@ -32,10 +34,10 @@ struct GpuMeshView {
 
 /// One placed virtual object.
 struct MeshInstance {
-    std::uint32_t meshId = 0;            ///< stable id of the mesh across frames (prepared data key)
-    const TriangleMesh* mesh = nullptr;  ///< CPU copy, model space; must outlive the technique's use
+    std::uint32_t meshId = 0;           ///< stable id of the mesh across frames (prepared data key)
+    const TriangleMesh* mesh = nullptr; ///< CPU copy, model space; must outlive the technique's use
     GpuMeshView gpu;
-    glm::mat4 world_T_model{1.0f};       ///< rigid (+ uniform scale) placement in the world, metres
+    glm::mat4 world_T_model{1.0f}; ///< rigid (+ uniform scale) placement in the world, metres
     Material material;
 };
 
@@ -47,7 +49,8 @@ void setFrontFaceFor(const glm::mat4& world_T_model);
 
 /// The renderer's G-buffer of the virtual content, all textures width x height.
 struct GBufferView {
-    std::uint32_t worldPosition = 0; ///< RGBA32F: xyz world metres; w = 1 where virtual content covers the pixel, else 0
+    std::uint32_t worldPosition =
+        0; ///< RGBA32F: xyz world metres; w = 1 where virtual content covers the pixel, else 0
     /// RGBA16F or RGBA32F: xyz unit world normal, turned toward the viewer on back faces (two-sided
     /// surfaces, for the direct light); w = 1 where the pixel shows a back face, 0 on a front face.
     /// A back face of a mesh with outward normals is the object's inside, seen through a hole in the
@@ -98,6 +101,61 @@ struct ViewParameters {
     RealDepthView realDepth;             ///< the real surface for LightSkin's guard G11; none by default
 };
 
+/// Where VALs on the CPU come from the pixels of an image (gi::CpuValGenerator::lastPixelIndices()):
+/// keys[i] = v * width + u names VAL i's pixel, one key per VAL, no pixel twice. With
+/// valTreeThreshold > 0 the gather then cuts through the image's quadtree (O(pixels) to build)
+/// instead of the BVH (O(n log n)); ValTree.h. Not kept after the call.
+struct CpuValPixelKeys {
+    std::span<const std::uint32_t> keys; ///< empty: the VALs are not an image's (BVH)
+    std::uint32_t width = 0, height = 0; ///< the image, pixels
+};
+
+/// A technique that takes its VALs on the CPU (no read-back of a GL buffer) and can split a frame into
+/// the CPU stages (computeVpls, no GL call, any thread) and the GL shading (shadeVpls).
+class CpuValTechnique {
+public:
+    /// Worker threads of the CPU stages (0 = all hardware threads); the CPU VAL generator uses as many.
+    virtual int threads() const noexcept = 0;
+    /// render() with the VALs already on the CPU; `pixels`: the VALs' image pixels, if any.
+    virtual void renderCpuVals(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
+                               const GBufferView& gbuffer, const ViewParameters& view, std::uint32_t targetTexture,
+                               const CpuValPixelKeys& pixels) = 0;
+    /// The CPU stages alone (no GL call; may run on another thread for a later frame once shadeVpls() returned).
+    virtual void computeVpls(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
+                             const glm::vec3& cameraPositionWorld, const CpuValPixelKeys& pixels,
+                             const RealDepthView& realDepth) = 0;
+    /// The GL half: uploads the last computeVpls()'s result and shades into `targetTexture`.
+    virtual void shadeVpls(std::span<const MeshInstance> instances, const GBufferView& gbuffer,
+                           const ViewParameters& view, std::uint32_t targetTexture) = 0;
+
+protected:
+    ~CpuValTechnique() = default;
+};
+
+/// A stage of lastStageTimes() measured on the CPU (wall clock) and the label a frame report gives it.
+struct CpuStageLabel {
+    const char* stage;
+    const char* label;
+};
+
+/// What a technique can do, for pipelines and the frame budget.
+struct TechniqueCapabilities {
+    bool glossy = false;       ///< renders the glossy channel (the budget's "glossy" knob)
+    bool occlusion = false;    ///< has an occlusion stage (the budget's "occlusion" knob)
+    bool sparsePoints = false; ///< needs the renderer's sparse points of every mesh (the "sparse points" knob)
+    bool vertexVpls = false;   ///< readVertexVpls() and vertexOffsets() (the per-vertex VPL debug view)
+    /// The stages of lastStageTimes() that are CPU wall times, with their frame-report labels; every
+    /// other stage is a GPU time. Empty: all are GPU times.
+    std::span<const CpuStageLabel> cpuStages;
+};
+
+/// What the last render() did beyond its image (-1: the technique does not say).
+struct TechniqueFrameStatistics {
+    int reused = -1;                 ///< adaptive LightSkin: 1 = the last light reused (static content), 0 = computed
+    float changeMeasure = -1.0f;     ///< its bound on the change since the reused frame
+    std::int64_t voxelsDropped = -1; ///< imperfect volumes: voxels dropped for lack of capacity
+};
+
 class IndirectIllumination {
 public:
     virtual ~IndirectIllumination() = default;
@@ -105,7 +163,11 @@ public:
     IndirectIllumination(const IndirectIllumination&) = delete;
     IndirectIllumination& operator=(const IndirectIllumination&) = delete;
 
+    /// A display name for reports ("lightskin", "lightskin-cpu", ...); choices use technique() and backend().
     virtual std::string_view name() const = 0;
+    virtual Technique technique() const noexcept = 0;
+    virtual Backend backend() const noexcept { return Backend::Gl; }
+    virtual TechniqueCapabilities capabilities() const noexcept { return {}; }
 
     /// Model-space preparation when the set of meshes changes (not per frame): sparse points,
     /// neighbour tables, GPU buffers sized for these meshes. Throws lightskin::Error on bad meshes.
@@ -117,8 +179,18 @@ public:
     virtual void render(const ValSetView& lights, std::span<const MeshInstance> instances, const GBufferView& gbuffer,
                         const ViewParameters& view, std::uint32_t targetTexture) = 0;
 
-    /// GPU stage times of the last render(), in execution order (GL timer queries).
+    /// Stage times of the last render(), in execution order (GL timer queries; capabilities().cpuStages
+    /// names those measured on the CPU).
     virtual void lastStageTimes(std::vector<gl::StageTime>& out) const = 0;
+    virtual TechniqueFrameStatistics lastFrameStatistics() const { return {}; }
+
+    /// Not null when the technique takes VALs on the CPU (CpuValTechnique).
+    virtual CpuValTechnique* cpuValInput() noexcept { return nullptr; }
+
+    /// capabilities().vertexVpls: the per-vertex VPLs of the last render(), 4 vec4 per vertex ((L_d, rbar^2),
+    /// (l_d world, 0), glossy ...), and each prepared instance's first vertex in them. Otherwise empty.
+    virtual void readVertexVpls(std::vector<glm::vec4>& out) const { out.clear(); }
+    virtual const std::vector<std::uint32_t>& vertexOffsets() const noexcept;
 };
 
 } // namespace lightskin::gi

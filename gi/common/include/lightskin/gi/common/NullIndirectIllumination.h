@@ -4,15 +4,16 @@
 
 #include <lightskin/gi/common/IndirectIllumination.h>
 
-namespace lightskin::render {
+namespace lightskin::gi {
 
-class NullIndirectIllumination final : public gi::IndirectIllumination {
+class NullIndirectIllumination final : public IndirectIllumination {
 public:
     std::string_view name() const override { return "none"; }
-    void prepare(std::span<const gi::MeshInstance>) override {}
-    void render(const gi::ValSetView& lights, std::span<const gi::MeshInstance> instances, const gi::GBufferView& gbuffer,
-                const gi::ViewParameters& view, std::uint32_t targetTexture) override;
+    Technique technique() const noexcept override { return Technique::None; }
+    void prepare(std::span<const MeshInstance>) override {}
+    void render(const ValSetView& lights, std::span<const MeshInstance> instances, const GBufferView& gbuffer,
+                const ViewParameters& view, std::uint32_t targetTexture) override;
     void lastStageTimes(std::vector<gl::StageTime>& out) const override { out.clear(); }
 };
 
-} // namespace lightskin::render
+} // namespace lightskin::gi

@@ -1,5 +1,5 @@
 #pragma once
-// LightSkin (Lensing & Broll, sections 3-4) with stages 0-4 on the CPU (issue 18): for machines without a GPU,
+// LightSkin (Lensing & Broll, sections 3-4) with stages 0-4 on the CPU: for machines without a GPU,
 // where the GL gather on llvmpipe reaches a small fraction of the cores' FMA peak. The gather and occlusion are
 // SIMD across sparse points (Google Highway), threads (oneTBB) split points and vertices; the per-pixel shading
 // stays the GL path's. Results are bit-for-bit independent of the thread count.
@@ -61,7 +61,7 @@ struct CpuLightSkinStats {
     /// are not counted (criticalPathCpuMs then understates).
     double criticalPathCpuMs = 0.0;
     std::string simdTarget;          ///< the instruction set the runtime dispatch chose, e.g. "AVX3"
-    double valTreeCutPerPoint = 0.0; ///< valTreeThreshold > 0 (issue 17): lights taken per sparse point
+    double valTreeCutPerPoint = 0.0; ///< valTreeThreshold > 0: lights taken per sparse point
     bool valTreeQuadtree = false;    ///< the cut went through the image quadtree (CpuValPixelKeys), else the BVH
     /// Fraction of the gather's (block of 16 VALs, sparse point) pairs skipped as wholly hidden (the points
     /// decide in vectors of the dispatched width: 16 with AVX-512).
@@ -70,22 +70,18 @@ struct CpuLightSkinStats {
     double occlusionPairsSkipped = 0.0;
 };
 
-/// Where VALs on the CPU come from the pixels of an image (gi::CpuValGenerator::lastPixelIndices()):
-/// keys[i] = v * width + u names VAL i's pixel, one key per VAL, no pixel twice. With
-/// valTreeThreshold > 0 the gather then cuts through the image's quadtree (O(pixels) to build)
-/// instead of the BVH (O(n log n)); ValTree.h. Not kept after the call.
-struct CpuValPixelKeys {
-    std::span<const std::uint32_t> keys; ///< empty: the VALs are not an image's (BVH)
-    std::uint32_t width = 0, height = 0; ///< the image, pixels
-};
-
-class CpuLightSkin final : public IndirectIllumination {
+class CpuLightSkin final : public IndirectIllumination, public CpuValTechnique {
 public:
     /// Needs a current GL 4.5 context (the shading pass). Throws lightskin::Error on bad settings.
     static std::unique_ptr<CpuLightSkin> create(const CpuLightSkinSettings& settings, SparsePointProvider provider);
     ~CpuLightSkin() override;
 
     std::string_view name() const override { return "lightskin-cpu"; }
+    Technique technique() const noexcept override { return Technique::LightSkin; }
+    Backend backend() const noexcept override { return Backend::Cpu; }
+    TechniqueCapabilities capabilities() const noexcept override;
+    CpuValTechnique* cpuValInput() noexcept override { return this; }
+    int threads() const noexcept override;
     void prepare(std::span<const MeshInstance> instances) override;
     void render(const ValSetView& lights, std::span<const MeshInstance> instances, const GBufferView& gbuffer,
                 const ViewParameters& view, std::uint32_t targetTexture) override;
@@ -94,7 +90,7 @@ public:
     /// `pixels`: the VALs' image pixels, if any (CpuValPixelKeys).
     void renderCpuVals(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
                        const GBufferView& gbuffer, const ViewParameters& view, std::uint32_t targetTexture,
-                       const CpuValPixelKeys& pixels = {});
+                       const CpuValPixelKeys& pixels = {}) override;
     /// upload, gather, normalisation, occlusion, interpolation: CPU wall clock; shading: GL timer.
     void lastStageTimes(std::vector<gl::StageTime>& out) const override;
 
@@ -109,21 +105,21 @@ public:
     /// point buried.
     void computeVpls(std::span<const VirtualAreaLight> lights, std::span<const MeshInstance> instances,
                      const glm::vec3& cameraPositionWorld, const CpuValPixelKeys& pixels = {},
-                     const RealDepthView& realDepth = {});
+                     const RealDepthView& realDepth = {}) override;
 
     /// The second half of renderCpuVals(): uploads the per-vertex VPLs of the last computeVpls() and runs the
     /// per-pixel shading pass into `targetTexture` (needs the GL context). computeVpls() may run on another
     /// thread (no GL) for a later frame only after this call has returned (mr::FramePipeline's GI ahead).
     void shadeVpls(std::span<const MeshInstance> instances, const GBufferView& gbuffer, const ViewParameters& view,
-                   std::uint32_t targetTexture);
+                   std::uint32_t targetTexture) override;
 
     /// The same readbacks, in the same layouts, as LightSkinIllumination's (see its header; cheap
     /// here: the data are on the CPU).
     void readGatherSums(std::vector<glm::vec4>& out) const; ///< 5 vec4 per point, eps_l terms included
     void readSparseVpls(std::vector<glm::vec4>& out) const; ///< 4 vec4 per point (before occlusion)
     void readOcclusion(std::vector<glm::vec4>& out) const;  ///< 1 vec4 per point: x = o_d, y = o_s (unclamped)
-    void readVertexVpls(std::vector<glm::vec4>& out) const; ///< 4 vec4 per vertex
-    const std::vector<std::uint32_t>& vertexOffsets() const noexcept;
+    void readVertexVpls(std::vector<glm::vec4>& out) const override; ///< 4 vec4 per vertex
+    const std::vector<std::uint32_t>& vertexOffsets() const noexcept override;
 
 private:
     CpuLightSkin();

@@ -60,7 +60,7 @@ struct LightSkinSettings {
     /// VALs per compute dispatch (compute variant; each thread loops over them), rounded down
     /// to a multiple of 64 (one shared-memory tile); clamped to [64, 32768].
     int computeValsPerDispatch = 16384;
-    /// Issue 17: gather with a cut through a VAL tree (ValTree.h): at each sparse point a cluster of VALs
+    /// Gather with a cut through a VAL tree (ValTree.h): at each sparse point a cluster of VALs
     /// is taken as one light when the bound on the error of doing so is <= valTreeThreshold x the point's
     /// running estimate (gi/lightskin/shaders/val_tree_math.glsl); else its children are examined. 0 = the flat
     /// gather over every VAL (exact; the default). Larger: fewer lights per point, larger error
@@ -80,27 +80,27 @@ struct LightSkinSettings {
     StaticChangeTest staticChangeTest = StaticChangeTest::Bound;
     /// Probes: every n-th sparse point is a probe (re-gathering them costs ~1/n of the gather).
     int staticProbeStride = 16;
-    /// Guard G8 of lightskin_math.glsl (issue 12): a vertex VPL (eq. 13) is never nearer, in
+    /// Guard G8 of lightskin_math.glsl: a vertex VPL (eq. 13) is never nearer, in
     /// D = |x - l|^2 + rbar^2, than the nearest VPL of the sparse points it interpolates. false = the
     /// model before it (for measurement, `lightskin bench-realdepth`).
     bool vertexDistanceFloor = true;
-    /// Guard G9 of lightskin_math.glsl (issue 12): eq. 10 and 11 treat an averaged VPL as a sphere of
+    /// Guard G9 of lightskin_math.glsl: eq. 10 and 11 treat an averaged VPL as a sphere of
     /// its spread (the radius of S_o) clipped by the receiver's horizon instead of a point, so a
     /// receiver whose light arrives near its horizon gets a smooth falloff, not 0. Needs the second
     /// moments of the gather (gathered when this or `occlusion` is on). false = point VPLs (the model
     /// before it).
     bool extendedVplHorizon = true;
-    /// Guard G10 of lightskin_math.glsl (issue 12): a pixel's diffuse irradiance is capped at the
+    /// Guard G10 of lightskin_math.glsl: a pixel's diffuse irradiance is capped at the
     /// largest irradiance its vertices' sparse points gathered (W/m^2, peak RGB channel, times their
     /// unoccluded share), so eq. 11's division by a grazing cos cannot amplify light at the vertex.
     /// false = no cap (the model before it).
     bool vertexIrradianceCap = true;
-    /// Guard G11 of lightskin_math.glsl (issue 12): sparse points more than the depth noise (3 sigma of
+    /// Guard G11 of lightskin_math.glsl: sparse points more than the depth noise (3 sigma of
     /// the Kinect v1 model) under the real surface of ViewParameters::realDepth get weight 0 in the
     /// vertex interpolation (eq. 12-13); a vertex whose neighbours are all buried keeps the paper's
     /// weights. No effect without a depth map. false = the model before it.
     bool buriedSparsePoints = true;
-    /// Guard G12 of lightskin_math.glsl (issue 12): a VAL nearer than 4 of its radii to a sparse point
+    /// Guard G12 of lightskin_math.glsl: a VAL nearer than 4 of its radii to a sparse point
     /// is integrated as an area (a 32-gon of its area, clipped by the point's tangent plane, Lambert's
     /// closed form) instead of eq. 3's point-like disc. false = the point model. Off by default: on
     /// llvmpipe it costs ~3x the gather (docs/BENCHMARKS.md "Near-field VALs as areas").
@@ -138,10 +138,14 @@ public:
     ~LightSkinIllumination() override;
 
     std::string_view name() const override { return "lightskin"; }
+    Technique technique() const noexcept override { return Technique::LightSkin; }
+    TechniqueCapabilities capabilities() const noexcept override;
     void prepare(std::span<const MeshInstance> instances) override;
     void render(const ValSetView& lights, std::span<const MeshInstance> instances, const GBufferView& gbuffer,
                 const ViewParameters& view, std::uint32_t targetTexture) override;
     void lastStageTimes(std::vector<gl::StageTime>& out) const override;
+    /// With `adaptive`: whether the last frame reused the light of static content, and its change bound.
+    TechniqueFrameStatistics lastFrameStatistics() const override;
 
     const LightSkinSettings& settings() const noexcept;
     /// Changes switches and knobs between frames (kCache is validated like in create()).
@@ -152,14 +156,14 @@ public:
     /// global sparse-point numbering used by the readbacks below.
     const std::vector<SparsePointSet>& sparsePoints() const noexcept;
     const std::vector<std::uint32_t>& sparseOffsets() const noexcept;
-    const std::vector<std::uint32_t>& vertexOffsets() const noexcept;
+    const std::vector<std::uint32_t>& vertexOffsets() const noexcept override;
 
     /// Readbacks for tests (slow; not for per-frame use). Each vector has one entry per sparse
     /// point (or vertex) and four vec4 per entry, in the layout documented in LightSkinIllumination.cpp.
     void readGatherSums(std::vector<glm::vec4>& out) const;   ///< 5 vec4 per point
     void readSparseVpls(std::vector<glm::vec4>& out) const;   ///< 4 vec4 per point (before occlusion)
     void readOcclusion(std::vector<glm::vec4>& out) const;    ///< 1 vec4 per point: x = o_d, y = o_s (unclamped sums)
-    void readVertexVpls(std::vector<glm::vec4>& out) const;   ///< 4 vec4 per vertex
+    void readVertexVpls(std::vector<glm::vec4>& out) const override; ///< 4 vec4 per vertex
     /// The VALs the last full computation gathered (with `adaptive`: those kept by the cull), in
     /// gather order (with `stableCull`: their input order).
     void readGatheredVals(std::vector<VirtualAreaLight>& out) const;

@@ -1,6 +1,6 @@
 #pragma once
 // Multi-scale precomputed radiance transfer (Umenhoffer, Szirmay-Kalos et al., "Global Illumination in Games with
-// Multi-scale PRT"; issue 16), the third indirect-illumination technique behind gi::IndirectIllumination. The
+// Multi-scale PRT"), the third indirect-illumination technique behind gi::IndirectIllumination. The
 // virtual content is rigid and placed once: its own multi-bounce transfer (entry points -> mesh vertices, random
 // walks with Embree visibility, compressed by clustered PCA) and spectral obscurances are precomputed in prepare()
 // and cached on disk (a bad cache file is recomputed with a warning naming it); per frame the VALs' and the scene
@@ -178,6 +178,9 @@ public:
     ~MultiscalePrt() override;
 
     std::string_view name() const override { return "multiscale-prt"; }
+    Technique technique() const noexcept override { return Technique::MultiscalePrt; }
+    /// Every stage of lastStageTimes() is a CPU time.
+    TechniqueCapabilities capabilities() const noexcept override;
     /// Loads the precompute from the cache or computes it (and writes the cache); sizes the per-frame buffers.
     void prepare(std::span<const MeshInstance> instances) override;
     /// As IndirectIllumination::render(); an empty VAL set gives exactly 0 only without setLights() (the scene

@@ -1,5 +1,5 @@
 #pragma once
-// Imperfect volumes (Mavridis & Papaioannou, GRAPP 2011; issue 15), the second indirect-illumination technique
+// Imperfect volumes (Mavridis & Papaioannou, GRAPP 2011), the second indirect-illumination technique
 // behind gi::IndirectIllumination: a voxel grid of the virtual triangles' points and the VALs, ray-marched into
 // L1 SH per voxel (one or more bounces, or ambient occlusion), reconstructed per G-buffer pixel. Compute shaders
 // gi/volumes/shaders/volumes_*; model choices shared with ImperfectVolumesReference.h. Output: rho_d / pi * E in
@@ -75,6 +75,9 @@ public:
     ~ImperfectVolumes() override;
 
     std::string_view name() const override { return "imperfect-volumes"; }
+    Technique technique() const noexcept override { return Technique::ImperfectVolumes; }
+    /// voxelsDropped: lastDroppedVoxels(), both kinds.
+    TechniqueFrameStatistics lastFrameStatistics() const override;
     /// Uploads each mesh's positions, normals and indices (model space) for the point sampling.
     void prepare(std::span<const MeshInstance> instances) override;
     void render(const ValSetView& lights, std::span<const MeshInstance> instances, const GBufferView& gbuffer,
