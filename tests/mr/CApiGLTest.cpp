@@ -123,6 +123,11 @@ TEST_F(CApiGLTest, HostFrameRoundTripAndVersionedReport) {
     ASSERT_GE(report.stage_count, 4u);
     EXPECT_STREQ(report.stages[0].name, "depth filter");
     EXPECT_EQ(report.technique, LSK_TECHNIQUE_LIGHTSKIN);
+    std::int32_t technique = -1, backend = -1;
+    ASSERT_EQ(lsk_session_technique(session, &technique, &backend), LSK_OK) << lsk_last_error();
+    EXPECT_EQ(technique, LSK_TECHNIQUE_LIGHTSKIN);
+    EXPECT_EQ(backend, LSK_BACKEND_GL);
+    EXPECT_EQ(lsk_session_technique(nullptr, &technique, nullptr), LSK_ERROR_INVALID_ARGUMENT);
 
     // The composite in host memory: the camera image bit for bit wherever no virtual content is
     // (render/Compositor.h: a == 0 copies the camera pixel), something else where it is.

@@ -43,7 +43,8 @@ if(rows EQUAL 0)
   message(FATAL_ERROR "no .dynsym rows parsed from readelf's output for ${LIBRARY}:\n${table}")
 endif()
 foreach(required lsk_version lsk_last_error lsk_session_create lsk_session_create_from_source lsk_session_destroy
-                 lsk_session_submit lsk_session_process_next lsk_session_report lsk_session_render)
+                 lsk_session_submit lsk_session_process_next lsk_session_report lsk_session_render
+                 lsk_session_technique)
   if(NOT required IN_LIST exported)
     message(FATAL_ERROR "liblightskin.so does not export ${required}")
   endif()

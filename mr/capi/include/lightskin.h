@@ -42,7 +42,7 @@ extern "C" {
 #endif
 
 #define LSK_VERSION_MAJOR 0
-#define LSK_VERSION_MINOR 1
+#define LSK_VERSION_MINOR 2
 #define LSK_VERSION_PATCH 0
 
 typedef enum lsk_status {
@@ -61,7 +61,17 @@ typedef enum lsk_pose_mode {
 } lsk_pose_mode;
 
 typedef enum lsk_tracking_state { LSK_TRACKING = 0, LSK_TRACKING_HELD = 1, LSK_TRACKING_LOST = 2 } lsk_tracking_state;
-typedef enum lsk_technique { LSK_TECHNIQUE_LIGHTSKIN = 0, LSK_TECHNIQUE_BRUTE_FORCE = 1 } lsk_technique;
+/* The GI techniques (scene gi.technique: "lightskin", "brute-force", "imperfect-volumes", "multiscale-prt",
+ * "none") and the backends they run on (gi.backend: "gl", "cpu"; only LightSkin runs on the CPU). Values are
+ * never renumbered: new ones are appended. */
+typedef enum lsk_technique {
+    LSK_TECHNIQUE_LIGHTSKIN = 0,
+    LSK_TECHNIQUE_BRUTE_FORCE = 1,
+    LSK_TECHNIQUE_IMPERFECT_VOLUMES = 2, /* since 0.2 */
+    LSK_TECHNIQUE_MULTISCALE_PRT = 3,    /* since 0.2 */
+    LSK_TECHNIQUE_NONE = 4               /* since 0.2: direct light only */
+} lsk_technique;
+typedef enum lsk_backend { LSK_BACKEND_GL = 0, LSK_BACKEND_CPU = 1 } lsk_backend; /* since 0.2 */
 
 typedef enum lsk_content {
     LSK_CONTENT_VIRTUAL_ONLY = 0, /* lit virtual objects over what the target holds (uncovered pixels untouched) */
@@ -123,7 +133,7 @@ typedef struct lsk_frame_report {
     uint32_t stage_count;
     lsk_stage_time stages[LSK_MAX_STAGES];
     /* The GI settings this frame ran with (chosen by the budget when one is active). */
-    int32_t technique;     /* lsk_technique */
+    int32_t technique;     /* the frame budget's choice: LIGHTSKIN or BRUTE_FORCE (lsk_session_technique: the technique) */
     int32_t sparse_points; /* per object (LightSkin) */
     int32_t val_stride;
     int32_t glossy, occlusion;
@@ -144,7 +154,7 @@ typedef struct lsk_render_target {
 
 typedef struct lsk_session lsk_session;
 
-/* "0.1.0"; compare with LSK_VERSION_* to detect a header/library mismatch. Never fails. */
+/* "0.2.0"; compare with LSK_VERSION_* to detect a header/library mismatch. Never fails. */
 LSK_API const char* lsk_version(void);
 /* The last error on this thread ("" if none); valid until the next lsk_* call on this thread. */
 LSK_API const char* lsk_last_error(void);
@@ -184,6 +194,9 @@ LSK_API lsk_status lsk_session_projection(const lsk_session* session, double nea
 LSK_API lsk_status lsk_session_view(const lsk_session* session, float out[16]);
 /* Sets the frame budget in ms (> 0); starts budget mode if the session had none. Needs no GL. */
 LSK_API lsk_status lsk_session_set_budget(lsk_session* session, double budget_ms);
+/* Since 0.2: the technique (lsk_technique) and backend (lsk_backend) the last frame ran, or the scene's before
+ * the first frame. Either pointer may be NULL. No GL. */
+LSK_API lsk_status lsk_session_technique(const lsk_session* session, int32_t* technique, int32_t* backend);
 
 #ifdef __cplusplus
 }

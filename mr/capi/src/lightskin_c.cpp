@@ -23,6 +23,23 @@ struct lsk_session {
 namespace {
 
 namespace mr = lightskin::mr;
+namespace gi = lightskin::gi;
+
+int32_t techniqueOf(gi::Technique technique) {
+    switch (technique) {
+    case gi::Technique::LightSkin:
+        return LSK_TECHNIQUE_LIGHTSKIN;
+    case gi::Technique::BruteForce:
+        return LSK_TECHNIQUE_BRUTE_FORCE;
+    case gi::Technique::ImperfectVolumes:
+        return LSK_TECHNIQUE_IMPERFECT_VOLUMES;
+    case gi::Technique::MultiscalePrt:
+        return LSK_TECHNIQUE_MULTISCALE_PRT;
+    case gi::Technique::None:
+        return LSK_TECHNIQUE_NONE;
+    }
+    return LSK_TECHNIQUE_NONE;
+}
 
 thread_local std::string lastError;
 
@@ -154,7 +171,11 @@ lsk_status createSession(const char* function, const lsk_session_options* option
 
 extern "C" {
 
-const char* lsk_version(void) { return "0.1.0"; }
+#define LSK_STRINGIFY_(x) #x
+#define LSK_STRINGIFY(x) LSK_STRINGIFY_(x)
+const char* lsk_version(void) {
+    return LSK_STRINGIFY(LSK_VERSION_MAJOR) "." LSK_STRINGIFY(LSK_VERSION_MINOR) "." LSK_STRINGIFY(LSK_VERSION_PATCH);
+}
 
 const char* lsk_last_error(void) { return lastError.c_str(); }
 
@@ -272,7 +293,7 @@ lsk_status lsk_session_report(const lsk_session* session, lsk_frame_report* repo
             full.stages[i].cpu_ms = o.cpuTimes[i].milliseconds;
         }
         full.technique =
-            r.settings.technique == mr::Technique::LightSkin ? LSK_TECHNIQUE_LIGHTSKIN : LSK_TECHNIQUE_BRUTE_FORCE;
+            r.settings.technique == gi::Technique::BruteForce ? LSK_TECHNIQUE_BRUTE_FORCE : LSK_TECHNIQUE_LIGHTSKIN;
         full.sparse_points = r.settings.sparsePoints;
         full.val_stride = r.settings.valStride;
         full.glossy = r.settings.glossy ? 1 : 0;
@@ -366,6 +387,19 @@ lsk_status lsk_session_set_budget(lsk_session* session, double budgetMs) {
     return guardedSession(function, session, [&](mr::Session& s) -> lsk_status {
         if (!(budgetMs > 0.0)) return invalidArgument(function, "budget_ms must be > 0");
         s.setBudgetMs(budgetMs);
+        return LSK_OK;
+    });
+}
+
+lsk_status lsk_session_technique(const lsk_session* session, int32_t* technique, int32_t* backend) {
+    constexpr const char* function = "lsk_session_technique";
+    return guardedSession(function, session, [&](const mr::Session& s) -> lsk_status {
+        const mr::FrameReport& r = s.report();
+        const bool ran = r.frameIndex >= 0;
+        const gi::Technique t = ran ? r.technique : s.pipeline().technique();
+        const gi::Backend b = ran ? r.backend : s.pipeline().backend();
+        if (technique != nullptr) *technique = techniqueOf(t);
+        if (backend != nullptr) *backend = b == gi::Backend::Cpu ? LSK_BACKEND_CPU : LSK_BACKEND_GL;
         return LSK_OK;
     });
 }
