@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Frames per second and CPU ms per frame of whole replays (issue 18): the .oni (640x480, fixed pose) and
+# Frames per second and CPU ms per frame of whole replays: the .oni (640x480, fixed pose) and
 # synth-orbit (320x240, AprilTag tracking), GL and CPU backends, side by side in one run, alternated per round.
 # Per frame without the setup: wall clock from the end of the first frame to the end of the last (the replay
 # report's steadyMsPerFrame, measured in the process), and the process's CPU time (user + system, every thread:

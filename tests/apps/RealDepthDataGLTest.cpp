@@ -1,4 +1,4 @@
-// Issue 12's targets for the indirect light on real depth, on the bundled real recordings: a bunny
+// The targets for the indirect light on real depth, on the bundled real recordings: a bunny
 // and a cube placed on real surfaces (as `lightskin bench-realdepth` places them: the plane fitted to
 // frame 0's depth around an anchor pixel, resting on it or sunk into it), every frame through the
 // production per-frame pipeline (mr::FramePipeline, default = robust light model) with the brute

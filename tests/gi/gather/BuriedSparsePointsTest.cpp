@@ -1,4 +1,4 @@
-// Guard G11 (issue 12): sparse points under the real surface, and their weight 0 in eq. 12-13.
+// Guard G11: sparse points under the real surface, and their weight 0 in eq. 12-13.
 // Flags: a synthetic depth image (a plane at 1 m with a hole, a NaN and a step) and points placed
 // by construction above it, on it, inside and beyond the noise tolerance, outside the image, behind
 // the camera and on the holes. The tolerance is written here from the published noise model (Nguyen,

@@ -4,7 +4,7 @@
 // unoccluded integral and are compared with the truth without visibility; the third with
 // visibility (shadow rays against the virtual meshes).
 //
-// The truth uses the same disc model (eq. 3, disc-centre mode) and, since issue 20, the same
+// The truth uses the same disc model (eq. 3, disc-centre mode) and the same
 // glossy term (eq. 5) as the core, so what is measured is the technique's approximation only:
 // sparse gather + averaged VPLs + eq. 12-13 interpolation + per-pixel eq. 10, and the occlusion
 // model of section 3.3. Every pixel the G-buffer covers is a truth receiver (its G-buffer
@@ -41,16 +41,14 @@
 //    has no error bound that follows from the scene (an occluder's disc may cover a light the
 //    real occluder misses, and the reverse). What it must achieve is to be no worse than no
 //    occlusion, whose error is the light the occluders really block: + B, with B = 1 - (truth
-//    with visibility) / (truth without), computed by the truth itself. (The first version
-//    claimed 0.5 B; the tighter interpolation budget showed the convex scene at 1.0 B: LightSkin
-//    over-occludes there, 0.91 of the truth where the truth blocks 12 %.)
+//    with visibility) / (truth without), computed by the truth itself. (LightSkin
+//    over-occludes on the convex scene: 0.91 of the truth where the truth blocks 12 %, so 0.5 B
+//    would be too tight.)
 //  The light weights use the point-disc form factor M_j A_j cos_e cos_i / (pi r^2), the glossy
 //  weights eq. 5. Each pixel's diffuse part (of the truth) is allowed min(1, parallax + horizon)
 //  of itself, its glossy part min(1, parallax + horizon + lobe); the image budget is their sum
 //  over the pixels divided by the truth's sum, plus B; asserted on the relative L1 error
-//  sum |LightSkin - truth| / sum truth over all covered pixels (which also bounds the bias). The
-//  model before (issue 20, first version: (1/2) (1.5 h / l)^2 with l the distance to the nearest
-//  VAL or the curvature radius, the worst mesh for the whole image) sat 30-100x above the errors.
+//  sum |LightSkin - truth| / sum truth over all covered pixels (which also bounds the bias).
 #include "GatherTestScenes.h"
 #include "GlTestEnvironment.h"
 #include "GpuRig.h"

@@ -27,15 +27,15 @@ struct Config {
     int width = 640, height = 480;
     std::size_t sphereTriangles = 20000;
     bool adaptive = false;
-    /// LightSkinSettings::valTreeThreshold (issue 17; axis "tree"); 0 = the flat gather.
+    /// LightSkinSettings::valTreeThreshold (axis "tree"); 0 = the flat gather.
     float valTree = 0.0f;
     std::string backend = "GL"; ///< LightSkin on "GL" or on the "CPU" backend (gi::CpuLightSkin)
     bool isDefault = false;
-    /// "lightskin", or "imperfect-volumes" (issue 15; its knobs in `volumes`, axis "volumes": value
+    /// "lightskin", or "imperfect-volumes" (its knobs in `volumes`, axis "volumes": value
     /// resolution:points per triangle:rays per voxel:bounces; diffuse only, so channels = 1).
     std::string technique = "lightskin";
     gi::ImperfectVolumesSettings volumes;
-    /// "multiscale-prt" (issue 16): its knobs, axis "prt": value entries:walks:clusters:D; diffuse only.
+    /// "multiscale-prt": its knobs, axis "prt": value entries:walks:clusters:D; diffuse only.
     gi::MultiscalePrtSettings prt;
 };
 

@@ -76,10 +76,10 @@ struct GiSettings {
     /// Frame-time budget in milliseconds ("budgetMs"; 0 = none): a mr::Session then picks technique,
     /// sparse points, VAL stride and channels per frame to meet it (mr/FrameBudget.h).
     double budgetMs = 0.0;
-    /// The light model for real depth (issue 12; docs/BENCHMARKS.md "Indirect light on real depth"):
+    /// The light model for real depth (docs/BENCHMARKS.md "Indirect light on real depth"):
     /// on by default; false = the model before it, for measurement (`lightskin bench-realdepth`).
     bool robustRealDepth = true;
-    /// LightSkin's gather with a cut through the VAL tree (issue 17; gi::LightSkinSettings::valTreeThreshold,
+    /// LightSkin's gather with a cut through the VAL tree (gi::LightSkinSettings::valTreeThreshold,
     /// both backends): 0 = the flat gather over every VAL (the default).
     float valTreeThreshold = 0.0f;
     /// Not a scene key: with robustRealDepth, false drops only its vertex irradiance cap (guard G10)
