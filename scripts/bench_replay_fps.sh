@@ -8,7 +8,7 @@
 # gather dominates otherwise; docs/BENCHMARKS.md).
 #
 #   scripts/bench_replay_fps.sh ROUNDS VARIANT=BINARY[:EXTRA_ARGS] ...
-#   e.g. scripts/bench_replay_fps.sh 3 before=/tmp/lightskin-main:--sequential after=build/apps/lightskin
+#   e.g. scripts/bench_replay_fps.sh 3 before=../main/build/apps/lightskin:--sequential after=build/apps/lightskin
 # Prints one line per variant, recording and backend: medians over the rounds, and the fastest round's wall
 # time (the round least disturbed by other jobs on a shared machine). BENCH_RECORDINGS="oni orbit" and
 # BENCH_BACKENDS="gl cpu" (the defaults) choose what runs.

@@ -2,7 +2,7 @@
 // Flags: a synthetic depth image (a plane at 1 m with a hole, a NaN and a step) and points placed
 // by construction above it, on it, inside and beyond the noise tolerance, outside the image, behind
 // the camera and on the holes. The tolerance is written here from the published noise model (Nguyen,
-// Izadi, Lovell 2012; /work/shared/FACTS.md), 3 sigma as the VAL occupancy cull, not taken from the
+// Izadi, Lovell 2012), 3 sigma as the VAL occupancy cull, not taken from the
 // code. Interpolation: eq. 12-13's weights by hand.
 #include <lightskin/gi/BuriedSparsePoints.h>
 #include <lightskin/gi/LightSkinReference.h>

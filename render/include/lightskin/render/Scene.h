@@ -92,7 +92,7 @@ struct GiSettings {
     /// gi::LightSkinSettings::nearFieldArea, gi::BruteForceSettings::nearFieldArea; `lightskin
     /// bench-realdepth --models robust-area`). Off by default for now: on llvmpipe the polygon's loop
     /// inside the per-VAL loop makes the gather ~3x and the brute force ~4x slower even where no VAL is
-    /// near (docs/BENCHMARKS.md "Near-field VALs as areas"), for no measured gain in speckle on the
+    /// near (docs/bench/history/real-depth.md "Near-field VALs as areas"), for no measured gain in speckle on the
     /// bundled real recordings.
     bool robustNearField = false;
     /// Technique "imperfect-volumes" (gi/ImperfectVolumes.h): the "imperfectVolumes" object.
