@@ -1,5 +1,5 @@
-// lightskin_bench_cpu_libs (issue 18): the library choices of the CPU GI backend, measured side by
-// side in one run (docs/BENCHMARKS.md, "CPU backend: SIMD and thread libraries"):
+// lightskin_bench_cpu_libs: the library choices of the CPU GI backend, measured side by
+// side in one run (docs/bench/history/cpu-backend.md, "Decision: Highway stays"):
 //  1. SIMD: Google Highway against xsimd on the diffuse gather kernel of CpuGatherKernels.cpp
 //     (eq. 3-4, 7; the same operations in the same order: 1/sqrt estimate + one Newton step, a
 //     division for g, fused multiply-adds, 16-VAL summation blocks), one thread;

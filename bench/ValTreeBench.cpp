@@ -1,4 +1,4 @@
-// lightskin_bench_valtree (issue 17): the gather with a cut through the VAL tree against the flat gather,
+// lightskin_bench_valtree: the gather with a cut through the VAL tree against the flat gather,
 // both on the double-precision CPU reference (gi/src/reference), one run, side by side: time against the
 // VAL count (18k, 72k, 291k, 512k: Kinect VAL maps at strides 4, 2, 1 and 1080p at stride 2), the
 // error of the cut against the flat gather (relative MSE of L'_d and L'_s over the sparse points), the
@@ -6,7 +6,7 @@
 // never a test; the numbers go to docs/BENCHMARKS.md with this command:
 //   build/bench/lightskin_bench_valtree [points-per-side=16] [glossy=1] [quadtree=0]
 // quadtree=1: the image quadtree (buildValQuadtreeInto) of the four r x r grids stacked into an r x 4r
-// image, as the CPU backend builds it for depth VALs (issue 17 item 2), instead of the BVH.
+// image, as the CPU backend builds it for depth VALs, instead of the BVH.
 // Scene: an open box room (floor and three walls, 3 m, each a grid of r x r disc VALs of radiance
 // 0.3..0.9) around a sphere of radius 0.3 m whose vertices are the sparse points.
 #include <lightskin/gi/reference/LightSkinReference.h>

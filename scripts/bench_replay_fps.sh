@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Frames per second and CPU ms per frame of whole replays (issue 18): the .oni (640x480, fixed pose) and
+# Frames per second and CPU ms per frame of whole replays: the .oni (640x480, fixed pose) and
 # synth-orbit (320x240, AprilTag tracking), GL and CPU backends, side by side in one run, alternated per round.
 # Per frame without the setup: wall clock from the end of the first frame to the end of the last (the replay
 # report's steadyMsPerFrame, measured in the process), and the process's CPU time (user + system, every thread:
@@ -8,7 +8,7 @@
 # gather dominates otherwise; docs/BENCHMARKS.md).
 #
 #   scripts/bench_replay_fps.sh ROUNDS VARIANT=BINARY[:EXTRA_ARGS] ...
-#   e.g. scripts/bench_replay_fps.sh 3 before=/tmp/lightskin-main:--sequential after=build/apps/lightskin
+#   e.g. scripts/bench_replay_fps.sh 3 before=../main/build/apps/lightskin:--sequential after=build/apps/lightskin
 # Prints one line per variant, recording and backend: medians over the rounds, and the fastest round's wall
 # time (the round least disturbed by other jobs on a shared machine). BENCH_RECORDINGS="oni orbit" and
 # BENCH_BACKENDS="gl cpu" (the defaults) choose what runs.

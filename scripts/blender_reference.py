@@ -1,4 +1,4 @@
-"""Blender Cycles as an independent reference for `lightskin bench` (issues 8, 20). Not run in CI.
+"""Blender Cycles as an independent reference for `lightskin bench`. Not run in CI.
 
 Run through scripts/blender_reference.sh, or by hand:
     lightskin bench --export-blender DIR [--default-width 320 --default-height 240 --default-stride 4 ...]

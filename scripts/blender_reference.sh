@@ -1,5 +1,5 @@
 #!/bin/sh
-# Blender Cycles reference for `lightskin bench` (issues 8 and 20; documented in docs/BENCHMARKS.md).
+# Blender Cycles reference for `lightskin bench` (documented in docs/BENCHMARKS.md).
 # An offline reference tool, not a build or CI dependency (so not in scripts/debian-packages.txt):
 # needs Debian's `blender` (3.4.1, CPU only, no OSL) and, for the glossy model bound, python3-numpy:
 #   apt-get install -y blender python3-numpy

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Recorder under load, the long version (issue 21 part 3): 10 minutes of paced 30 fps 640x480 RGB-D
+# Recorder under load, the long version: 10 minutes of paced 30 fps 640x480 RGB-D
 # into the recorder while one thread saturates a core. Usage: scripts/recorder_load.sh [SECONDS=600]
 # [BUSY_THREADS=1]. Needs the build (cmake --build build --target lightskin_bench_recorder_load).
 # Writes ~1.5 GB per 10 minutes into build/recorder-load/ (removed first). Fails when a frame was lost.

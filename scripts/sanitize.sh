@@ -50,7 +50,7 @@ else
   # CpuLightSkinSetupGLTest: its double references take minutes at -O0 under TSan and add no thread count
   # the thread-count test does not run, and its GL-path comparisons exercise only Mesa's threads.
   mapfile -t targets < <(grep -ho 'lightskin_add_test(capture_[a-z_]*' "$root/tests/capture/CMakeLists.txt" | sed 's/.*(//')
-  # mr::Session's prefetch and GI-ahead workers (issue 18): their sessions' tests only, not the whole suite.
+  # mr::Session's prefetch and GI-ahead workers: their sessions' tests only, not the whole suite.
   targets+=(gi_ground_truth_test gi_cpu_lightskin_gl_test gi_cpu_val_generator_gl_test mr_session_gl_test)
   cmake --build "$build" --parallel "$jobs" --target "${targets[@]}"
   suites="$(grep -ho '^TEST\(_F\|_P\)\?([A-Za-z0-9_]*' "$root"/tests/capture/*.cpp \

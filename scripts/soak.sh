@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The 10,000-frame soak (issue 21 part 4): the replay pipeline with GI on over a looping synthetic
+# The 10,000-frame soak: the replay pipeline with GI on over a looping synthetic
 # source, RSS, open descriptors and GL objects sampled and asserted flat within 5 % after warm-up
 # (tests/mr/SoakGLTest.cpp). The default suite runs the same test for 500 frames; this one is
 # registered only with -DLIGHTSKIN_SOAK=ON (ctest label `soak`), so no default run starts it.

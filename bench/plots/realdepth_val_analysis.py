@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Where the brute force's speckle pixels on real depth come from (issue 12, TUM fr3): reads the files
+"""Where the brute force's speckle pixels on real depth come from (TUM fr3): reads the files
 `lightskin-tools bench-realdepth --maps` writes per case and frame (STEM = <out>/images/<case>_frame<N>):
 
     STEM_vals.csv               the depth VALs as the techniques got them (culled ones: area 0)
@@ -20,7 +20,7 @@ K times by the step between the last two rows; a what-if, not a light model).
     python3 bench/plots/realdepth_val_analysis.py truth NEW_TRUTH_CSV OLD_TRUTH_CSV
     python3 bench/plots/realdepth_val_analysis.py loop-subdivide IN.ply OUT.ply [--levels 2]
 
-normals (issue 12, why total light fell with the loader's smooth normals): two runs of the same case and frame whose
+normals (why total light fell with the loader's smooth normals): two runs of the same case and frame whose
 only difference is the mesh's normals (NEW_STEM, OLD_STEM); per covered pixel in the image columns [a, b) (one
 object) the brute force in double (as decompose) with the new normals, the old ones, and the new ones turned by
 the measured old-new angles, shuffled over the pixels, about random axes (scatter without the old normals' own

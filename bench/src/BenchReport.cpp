@@ -234,7 +234,7 @@ void runFields(Io& io, R& r) {
     io("height", c.height);
     io("triangles", r.triangles);
     io("adaptive", c.adaptive);
-    io.withFallback("val_tree_threshold", c.valTree, 0.0f); // files from before issue 17: the flat gather
+    io.withFallback("val_tree_threshold", c.valTree, 0.0f); // files without a tree threshold: the flat gather
     io("covered_pixels", r.covered);
     io("gpu_ms", r.gpuMs);
     io("cpu_ms", r.cpuMs);

@@ -1,4 +1,4 @@
-// `lightskin bench-cpu`: the CPU backend (gi::CpuLightSkin, issue 18) beside the GL path in one
+// `lightskin bench-cpu`: the CPU backend (gi::CpuLightSkin) beside the GL path in one
 // run, on bench-gather's scene (a sphere over a floor, 2/3 of the sparse points on the sphere, lit
 // by a depth-camera-like VAL map): per setup (diffuse; + glossy; + occlusion) the stage times of
 // both backends, the CPU gather's and occlusion's interactions per second and their share of the

@@ -1,4 +1,4 @@
-// `lightskin bench-lights`: times the light-side GI stages (issue 6) on this machine: VAL generation
+// `lightskin bench-lights`: times the light-side GI stages on this machine: VAL generation
 // from a 640x480 depth frame for VAL maps 160x120 / 320x240 / 640x480 on the GPU (GL timer queries)
 // and the double CPU reference, reflective-shadow-map VALs, and sparse-point preparation for
 // 64..16k points on a ~70k-triangle mesh. Prints a markdown table (docs/BENCHMARKS.md).

@@ -1,5 +1,5 @@
 // `lightskin bench-realdepth`: the indirect light of virtual objects standing on real surfaces of the
-// bundled real RGB-D recordings (issue 12, parts 3 and 4). For every recording the bunny and the cube of
+// bundled real RGB-D recordings. For every recording the bunny and the cube of
 // recordings/scenes/on_real_surface.json are placed on the plane fitted to the depth around an anchor
 // pixel of frame 0 (resting on it, or sunk into it by --sink), and every frame runs through the
 // production per-frame pipeline (mr::FramePipeline: bilateral filter, VALs, G-buffer, GI). Per light
@@ -86,7 +86,7 @@ std::vector<RealCase> realCases() {
     };
 }
 
-/// The light models compared. "old": before issue 12 (render::GiSettings::robustRealDepth off);
+/// The light models compared. "old": the guards for real depth off (render::GiSettings::robustRealDepth off);
 /// "robust": the fixes on (the default).
 struct LightModel {
     std::string name;

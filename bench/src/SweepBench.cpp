@@ -1,4 +1,4 @@
-// `lightskin bench`: the speed/accuracy trade-off of LightSkin (issue 8). Sweeps one knob at a time
+// `lightskin bench`: the speed/accuracy trade-off of LightSkin. Sweeps one knob at a time
 // around a default configuration (sparse points per model, VAL stride, K_cache, channels, output
 // resolution, mesh size, adaptive mode) on the synthetic mixed-reality scene of BenchScene.h and, for
 // every configuration, measures GPU stage times (timer queries) and CPU times (median of several frames
@@ -677,7 +677,7 @@ std::vector<TemporalResult> runTemporal(World& world, const SweepBenchOptions& o
         c.width = width;
         c.height = height;
         c.stride = stride;
-        // Imperfect volumes (issue 15) at the paper's settings, without and with the temporal
+        // Imperfect volumes at the paper's settings, without and with the temporal
         // mitigation (jitter + temporal blend), after the LightSkin entries.
         const std::vector<std::pair<std::string, gi::ImperfectVolumesSettings>> volumeVariants = [] {
             gi::ImperfectVolumesSettings paper, mitigated;

@@ -1,6 +1,6 @@
 // How fast the .oni player delivers a whole recording (Google Benchmark), as fast as possible
-// against realtime pacing, side by side: the claim OniSourceTest used to assert with a wall-clock
-// bound ("as fast as possible, the end detected without waiting a frame period").
+// against realtime pacing, side by side ("as fast as possible, the end detected without waiting a
+// frame period"): a timing claim, so a benchmark and not a test.
 //   build/capture/lightskin_bench_oni_read [--benchmark_repetitions=3]
 // Input: tests/data/oni-kinect-v1/3dj_test.oni (12 frames, 30 fps, 640x480 depth + colour).
 #include <lightskin/capture/FrameSource.h>

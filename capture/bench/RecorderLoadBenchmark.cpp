@@ -1,4 +1,4 @@
-// Recorder under load (issue 21 part 3), the long run: a paced synthetic 640x480 RGB-D source at
+// Recorder under load, the long run: a paced synthetic 640x480 RGB-D source at
 // 30 fps into capture::Recorder for SECONDS while BUSY threads spin (default 1: "the other core
 // saturated" on a 2-core machine), then the recorder's figures: frames pushed/written/dropped,
 // queue high-water mark, write-latency percentiles. Exit status 1 when a frame was lost.

@@ -283,8 +283,8 @@ void checkPlyHeader(const std::filesystem::path& path) {
                 !std::all_of(count.begin(), count.end(), [](char c) { return c >= '0' && c <= '9'; }))
                 throw Error(source, std::nullopt, "PLY header: malformed element line '" + line + "'");
             // assimp 5.2.5 does not skip an element name it does not know before reading the count, so
-            // the leading digits of a name like "3333...vertex" became a count of billions (fuzz finding
-            // 13: a 53 GB allocation); a name starting with a letter gives it a count of 0, as before.
+            // the leading digits of a name like "3333...vertex" becomes a count of billions (a 53 GB
+            // allocation); a name starting with a letter gives it a count of 0.
             if (!std::isalpha(static_cast<unsigned char>(name.front())) && name.front() != '_')
                 throw Error(source, std::nullopt,
                             "PLY header: element name '" + name.substr(0, 32) + "' does not start with a letter");
@@ -554,7 +554,7 @@ CornerIds cornerIdsByPosition(std::size_t count, PositionOf positionOf) {
 /// way). Why before the normals are generated: the copy wound against its neighbours adds its
 /// reversed face normal to its corners, which turns their smooth normals by up to ~170 degrees and the
 /// interpolated per-pixel normal of every triangle around them by tens of degrees; under light
-/// from near a receiver's horizon that turns a lit pixel black (issue 12: the brute force's black
+/// from near a receiver's horizon that turns a lit pixel black (the brute force's black
 /// pixel on the PCL TIFF). The copy kept is the one whose edges run opposite to the edges of the
 /// other triangles that share them (the winding its neighbours agree on); ties keep the first in the
 /// file. Corners are compared by position, as assimp's readers may give each face its own vertices.
@@ -635,7 +635,7 @@ std::size_t removeDuplicateTriangles(aiMesh& mesh) {
 /// slots (for a vertex shared by several faces the last face wins) and then averages only over the
 /// distinct vertices at the same position; on an indexed mesh (PLY: bun_zipper_res4.ply) a shared vertex
 /// so kept the normal of one adjacent face (378 of its 451 vertices), and the G-buffer's normal field
-/// kinked by 2-13 degrees within 1-2 px (issue 12, TUM fr3's speckle). Un-shared, each corner averages the
+/// kinked by 2-13 degrees within 1-2 px (TUM fr3's speckle). Un-shared, each corner averages the
 /// normals of all faces around its position within the crease angle, and JoinIdenticalVertices re-joins
 /// the corners that end up equal. Only for a mesh without normals and without bones or morph targets
 /// (their per-vertex data would need remapping; assimp's PLY, OBJ and glTF readers give such meshes

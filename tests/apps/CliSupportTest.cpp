@@ -60,7 +60,7 @@ void writeBothWays() {
 
 } // namespace
 
-// Issue 14: a library that writes to descriptor 2 directly (write(2, ...)) is captured like one that
+// A library that writes to descriptor 2 directly (write(2, ...)) is captured like one that
 // uses C's `stderr`: no raw line on the terminal, the line in the log with its source; our own lines
 // pass unchanged whichever way they are written.
 TEST(ThirdPartyOutputCapture, CoversWritesToDescriptorTwo) {

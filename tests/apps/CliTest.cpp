@@ -1,4 +1,4 @@
-// Issue 14: the command line a user can trust. Golden CLI transcripts of the built program: the exit
+// The command line a user can trust. Golden CLI transcripts of the built program: the exit
 // code, the one error line, and the files left behind, for each point of the issue and for the
 // general rules on every subcommand (docs/CLI.md). Set LIGHTSKIN_TEST_PROGRAM to run them against
 // another build (e.g. main's, to see them fail there).
@@ -473,7 +473,7 @@ TEST(Cli, SynthReadsObjectsPresentBeforeWritingAnything) {
     EXPECT_TRUE(fs::exists(out / "synth" / "present" / "000000.png")) << listing(out);
 }
 
-// Third-party logs (issue 14): OpenNI2's (a corrupt .oni) and assimp's (a garbage mesh) reach our log
+// Third-party logs: OpenNI2's (a corrupt .oni) and assimp's (a garbage mesh) reach our log
 // with their source, shown with -v, and never the terminal raw: stdout is clean, every stderr line is
 // ours (the log's "[level]" lines or the one error line).
 TEST(Cli, OpenNi2AndAssimpLogsGoIntoOurLogWithTheirSource) {
@@ -569,7 +569,7 @@ TEST(Cli, LiveSnapshotHasNoStatusLine) {
     EXPECT_LE(largest, 1.0);
 }
 
-// A new user's walk (issue 14): bad values are named with the option and what was expected; words from a
+// A new user's walk: bad values are named with the option and what was expected; words from a
 // fixed list are checked while the command line is parsed (exit 64, before the scene or GL is touched).
 TEST(Cli, BadOptionValuesNameTheOptionAndWhatWasExpected) {
     const Fixture f("cli_bad_values");

@@ -1,4 +1,4 @@
-// gi.backend "cpu" in the per-frame pipeline (issue 18): the bundled synthetic recordings with
+// gi.backend "cpu" in the per-frame pipeline: the bundled synthetic recordings with
 // their scenes (synth-orbit: bunny and cube, ~3.7k depth VALs, glossy + occlusion; synth-pan;
 // synth-clean-channels) and the real Kinect v1 `.oni` (640x480, depth registered in software, the
 // real-depth guards at work) through mr::FramePipeline with the GL and the CPU LightSkin backend;

@@ -1,4 +1,4 @@
-// Issue 12's targets for the indirect light on real depth, on the bundled real recordings: a bunny
+// The targets for the indirect light on real depth, on the bundled real recordings: a bunny
 // and a cube placed on real surfaces (as `lightskin bench-realdepth` places them: the plane fitted to
 // frame 0's depth around an anchor pixel, resting on it or sunk into it), every frame through the
 // production per-frame pipeline (mr::FramePipeline, default = robust light model) with the brute
@@ -237,7 +237,7 @@ INSTANTIATE_TEST_SUITE_P(BundledRecordings, RealDepthDataGLTest, ::testing::Valu
     // pixel (281,384) is the true light, not a defect: the bunny's underside at its contact line, below the
     // measured desk in front of it (the VALs there face away from it), where the Embree truth with visibility is
     // as dark (0.0041 against the brute force's 0.0049 and 0.17-0.24 one row up); the composite's soft occlusion
-    // band shows it (docs/BENCHMARKS.md, "The brute force's black pixel at the contact").
+    // band shows it (docs/bench/history/real-depth.md, "The brute force's black pixel at the contact").
     RealCase{"tum_fr2_desk_sunk_1cm", "tum-fr2-desk", mr::PoseMode::Fixed, {{300, 365}, {150, 335}}, 0.01, 2, true, true, false, true, 0.03, false, true, true},
     RealCase{"pcl_kinect_tiff", "pcl-kinect-tiff", mr::PoseMode::Fixed, {{250, 380}, {520, 380}}, 0.0, 1, true, true, true, true, 0.03, false, true, true},
     // Sunk 1 cm: the brute force's black pixel on the bunny's upper side was the mesh's, not the light's:

@@ -448,7 +448,7 @@ TEST(ReplayCommand, BudgetReportsTheChosenSettingsPerFrame) {
     EXPECT_NE(r3.err.find("--budget-ms"), std::string::npos) << r3.err;
 }
 
-// Issue 13's acceptance in small: a synthetic room rendered with a cube really on the table
+// The differential composite's acceptance in small: a synthetic room rendered with a cube really on the table
 // (`synth --objects-present`), replayed with the same cube virtual: the report gives the error of
 // the composite against that truth, and with the differential it is smaller on the real pixels
 // (the cube's shadow on the table exists in the truth; without the differential the table stays lit).

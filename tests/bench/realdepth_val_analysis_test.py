@@ -198,7 +198,7 @@ class LoopSubdivide(unittest.TestCase):
             np.testing.assert_allclose(vertices[0], p[0] / 4.0, atol=1e-6)
             # edge rule: 3/8 (a + b) + 1/8 (c + d); for edge (0, 1) c, d = 2, 3: (3/8)(2, 0, 0) + (1/8)(-2, 0, 0)
             self.assertTrue(any(np.allclose(v, [0.5, 0.0, 0.0], atol=1e-6) for v in vertices[4:]))
-        out = run("loop-subdivide", "/nonexistent.ply", "/tmp/x.ply")
+        out = run("loop-subdivide", "/nonexistent.ply", os.path.join(tempfile.gettempdir(), "x.ply"))
         self.assertEqual(out.returncode, 2)
         self.assertIn("/nonexistent.ply", out.stderr)
 

@@ -1,4 +1,4 @@
-// Bad input, issue 21 part 5: each case names the file (or source), the frame where there is one,
+// Bad input: each case names the file (or source), the frame where there is one,
 // and the cause; none crashes or is silently accepted. Complements BadInputTest.cpp.
 #include "CaptureTestUtil.h"
 #include "ExpectError.h"
@@ -161,8 +161,7 @@ TEST(MalformedInputTest, LinesAfterTheEndMarker) {
     writeLines(folder / kIndex, lines);
     expectError([&] { capture::openFrameSource(folder.string()); }, {kIndex, 3, "lines after the end marker"});
 
-    // An end marker that is not one (a json type error before the fix, found by reading the code
-    // after the fuzzer's finding in the header).
+    // An end marker that is not one (a json type error unless the reader checks the type).
     auto marker = lines;
     marker.pop_back();
     marker.back() = R"({"end":"yes","frames":3})";

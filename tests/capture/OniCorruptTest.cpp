@@ -1,4 +1,4 @@
-// Issue 21 part 5, .oni files damaged in the middle (the reader is OpenNI2's; ours must turn what it
+// .oni files damaged in the middle (the reader is OpenNI2's; ours must turn what it
 // reports into an Error naming the file, or deliver well-formed frames, never crash or hang).
 #include "OniStreams.h"
 #include "TestPaths.h"
@@ -102,7 +102,7 @@ int recordSingleStream(const std::filesystem::path& out, openni::SensorType sens
     return read;
 }
 
-// Issue 21 part 5: an .oni with one stream, made by OpenNI2's recorder from the two-stream sample.
+// An .oni with one stream, made by OpenNI2's recorder from the two-stream sample.
 // Depth only: frames without colour (our source's documented behaviour for a depth-only device).
 // Colour only: no VALs without depth, so opening it is an error naming the file and the cause.
 TEST(OniCorruptTest, SingleStreamFiles) {

@@ -1,4 +1,4 @@
-// Issue 21 part 3, disk full: the recorder's writes hit a file-size limit (RLIMIT_FSIZE, the
+// Disk full: the recorder's writes hit a file-size limit (RLIMIT_FSIZE, the
 // per-process stand-in for a full disk that needs no mount: write(2) fails with EFBIG instead of
 // ENOSPC, through the same error paths). Every frame is written or counted as dropped, the first
 // error names the file and the cause, and every frame completed before the limit reads back exactly.

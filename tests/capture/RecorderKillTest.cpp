@@ -1,4 +1,4 @@
-// Issue 21 part 3, durability: `lightskin record`'s recorder (capture::Recorder over a
+// Durability: `lightskin record`'s recorder (capture::Recorder over a
 // RecordingWriter with RecordingDurability) is SIGKILLed at random points, many times. After each
 // kill the recording must open, every frame its index lists must read back bit-exact (a torn file
 // or a listed frame whose files are not there would fail), the listed frames must be in source

@@ -1,4 +1,4 @@
-// Issue 21 part 3, recorder under load (short CI version; the 10-minute run is
+// Recorder under load (short CI version; the 10-minute run is
 // capture/bench/RecorderLoadBenchmark.cpp, scripts/recorder_load.sh). A paced synthetic source at
 // 30 fps, 640x480 RGB-D, while another thread keeps a core busy. Asserted: the bookkeeping (every
 // frame written or counted as dropped, the high-water mark within the queue and at its capacity

@@ -1,5 +1,5 @@
-// lightskin::readImageFile, the guard in front of OpenCV's decoders for scene textures and goldens
-// (issue 21, fuzz follow-up): only PNG, TIFF and JPEG are decoded, their header's size is checked
+// lightskin::readImageFile, the guard in front of OpenCV's decoders for scene textures and goldens:
+// only PNG, TIFF and JPEG are decoded, their header's size is checked
 // first, and every refusal names the file and the cause.
 #include "TestPaths.h"
 

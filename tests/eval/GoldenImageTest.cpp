@@ -126,7 +126,7 @@ TEST(GoldenImageTest, SixteenBitEncodingRoundTripsWithinQuantisation) {
     EXPECT_LE(cv::norm(back, gradient(), cv::NORM_INF), 2.0 / 65535.0);
 }
 
-// Issue 21 part 5: a golden whose sidecar is missing or malformed, or whose PNG is not 16-bit, is an
+// A golden whose sidecar is missing or malformed, or whose PNG is not 16-bit, is an
 // error naming the file and the cause (never a golden read with a made-up peak).
 TEST(GoldenImageTest, MalformedSidecarOrPngIsAnErrorNamingTheFile) {
     const auto folder = scratchDir("golden_malformed");
@@ -158,7 +158,7 @@ TEST(GoldenImageTest, MalformedSidecarOrPngIsAnErrorNamingTheFile) {
     expectError(read, {"g.png", std::nullopt, "file is empty (0 bytes)"});
     std::filesystem::remove(png);
     expectError(read, {"g.png", std::nullopt, "missing or unreadable PNG"});
-    // Fuzz follow-up: a golden (or its coverage) in another format never reaches OpenCV's other
+    // A golden (or its coverage) in another format never reaches OpenCV's other
     // decoders (Debian's GDCM aborts the process on some bytes): a BMP is refused by its magic.
     cv::imwrite(png.string() + ".bmp", cv::Mat(3, 4, CV_16UC1, cv::Scalar(7)));
     std::filesystem::rename(png.string() + ".bmp", png);

@@ -1,4 +1,4 @@
-// Issue 21 part 5: a camera that stops delivering in the middle of `live` (mr::LiveFrameReader,
+// A camera that stops delivering in the middle of `live` (mr::LiveFrameReader,
 // which LiveCommand reads its source through). A fake live source follows a script of frames and
 // stalls (what OpenNI2Source and FreenectSource throw after their live timeout): the stall is shown
 // with its cause, the run goes on, the recovery is shown when frames come back and then cleared;

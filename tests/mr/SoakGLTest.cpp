@@ -1,4 +1,4 @@
-// Issue 21 part 4, soak: the replay pipeline (mr::Session over the per-frame FramePipeline, GI on:
+// Soak: the replay pipeline (mr::Session over the per-frame FramePipeline, GI on:
 // LightSkin with glossy and occlusion) runs a looping synthetic source for many frames while
 // resident memory (/proc/self/statm), open file descriptors (/proc/self/fd) and live GL objects are
 // sampled; after a warm-up every sample must stay within 5 % of the first sample after it (the

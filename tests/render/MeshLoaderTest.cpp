@@ -53,8 +53,8 @@ TEST(MeshLoader, StanfordBunnyPlyHasItsPublishedCountsAndGetsNormals) {
     // Normals are smooth within the 60 degree crease angle, per corner (each corner averages the faces around
     // its position within 60 degrees of its own face): counted from the file with a script (numpy, the 907
     // distinct triangles): 452 used vertices, 177 of them with adjacent faces more than 60 degrees apart, and
-    // 913 distinct (vertex, face set within 60 degrees of a corner's face) pairs, so 913 vertices. (Before
-    // issue 12 part 3 a shared vertex kept one face's normal: 452.)
+    // 913 distinct (vertex, face set within 60 degrees of a corner's face) pairs, so 913 vertices. (Were a shared
+    // vertex to keep one face's normal, there would be 452.)
     EXPECT_EQ(model.vertexCount(), 913u);
     // Each corner's normal is a mean of face normals within 60 degrees of its own face's, so it lies within 60
     // degrees of that face's geometric normal (cos 60 = 0.5, less 1e-4 for float rounding).
@@ -90,7 +90,7 @@ TEST(MeshLoader, StanfordBunnyPlyHasItsPublishedCountsAndGetsNormals) {
 namespace {
 
 /// A roof of 8 triangles over a 3x3 grid (x, y in {0, 1, 2}), its ridge along x = 1 raised so that the
-/// two planes meet at a 13 degree crease (the bunny's, issue 12), all wound counter-clockwise seen
+/// two planes meet at a 13 degree crease (the bunny's), all wound counter-clockwise seen
 /// from +z; plus one copy of a ridge triangle wound the other way, listed first or last. ASCII PLY
 /// with shared vertices (as bun_zipper_res4.ply): assimp then writes each face's normal into the
 /// shared vertex slots, so a reversed copy listed last decides its corners' normals.
@@ -114,7 +114,7 @@ std::string roofPly(bool reversedCopyFirst) {
 
 } // namespace
 
-// Issue 12 (the brute force's black pixel on the PCL TIFF): a triangle listed twice, once wound the
+// The brute force's black pixel on the PCL TIFF: a triangle listed twice, once wound the
 // other way, turned its corners' generated normals by up to ~170 degrees. The reference is the roof's
 // own geometry: generated normals average the normals of adjacent faces (within the crease angle), so each
 // lies within the 13 degree crease of every outward face around it, and every kept face faces +z.
@@ -260,7 +260,7 @@ TEST(MeshLoader, BadFilesGiveErrorsNamingTheFileAndCause) {
     EXPECT_NE(missingFace.find("ASCII PLY: the body ends before element 'face' 0 (the header counts 1"),
               std::string::npos)
         << missingFace;
-    // Fuzz finding 13: assimp read the leading digits of an element name as its count (53 GB).
+    // assimp reads the leading digits of an element name as its count (53 GB): refused first.
     std::ofstream(bodyScratch / "element_name_digits.ply")
         << "ply\nformat ascii 1.0\nelement 33333333333333333333vertex 3\nproperty float x\nproperty float y\n"
            "property float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n";
@@ -352,7 +352,7 @@ TEST(MeshLoader, RemoveDegenerateTrianglesOnAHandMadeMesh) {
     EXPECT_NO_THROW(mesh.validate("hand-made"));
 }
 
-// Issue 21 part 5: files a mesh depends on, missing or corrupt. Each names the mesh file and the cause.
+// Files a mesh depends on, missing or corrupt. Each names the mesh file and the cause.
 TEST(MeshLoader, MissingMaterialLibraryOrCorruptGltfBufferIsAnError) {
     const auto dir = lightskin::test::scratchDir("mesh_dependencies");
     const auto expectCause = [](const std::filesystem::path& path, const std::string& cause) {
@@ -404,7 +404,7 @@ TEST(MeshLoader, MissingMaterialLibraryOrCorruptGltfBufferIsAnError) {
     expectCause(dir / "tri.gltf", "malformed glTF JSON");
 }
 
-// Issue 16 item 3: the small-scale maps of recordings/scenes/meshes/make_ao_tile.py's tiles. assimp 5.2.5 hands
+// The small-scale maps of recordings/scenes/meshes/make_ao_tile.py's tiles. assimp 5.2.5 hands
 // glTF's occlusionTexture over as a lightmap and flips glTF's v (uv (0, 0) = the image's top-left) to v = 1 - v.
 TEST(MeshLoader, GltfOcclusionAndNormalMapsKeepTheirFilesStrengthAndScale) {
     const auto meshes = lightskin::test::sourceDir() / "recordings/scenes/meshes";
@@ -486,9 +486,9 @@ TEST(MeshLoader, ObjNormalMapKeepsItsBumpMultiplierAndMissingMapsAreErrorsNaming
                 "material 'ao_checker': occlusion texture '" + (dir / "gone.png").string() + "' does not exist");
 }
 
-// Issue 12 part 3: smooth normals for meshes whose faces share vertices. assimp 5.2.5's GenSmoothNormals
-// averages over distinct vertices at a position only, so on an indexed PLY a shared vertex kept the normal of
-// its last face; the loader now gives every corner its own vertex first (render/src/MeshLoader.cpp).
+// Smooth normals for meshes whose faces share vertices. assimp 5.2.5's GenSmoothNormals
+// averages over distinct vertices at a position only, so on an indexed PLY a shared vertex would keep the normal of
+// its last face; the loader gives every corner its own vertex first (render/src/MeshLoader.cpp).
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;

@@ -1,4 +1,4 @@
-// Issue 12 (the brute force's black pixel on the PCL Kinect TIFF, objects sunk 1 cm): a mesh file that
+// The brute force's black pixel on the PCL Kinect TIFF (objects sunk 1 cm): a mesh file that
 // lists a triangle twice, the copy wound the other way (bun_zipper_res4.ply holds 39 such copies), got
 // generated vertex normals turned by up to ~170 degrees at the copy's corners; the G-buffer interpolates
 // them, and under light from near a receiver's horizon the brute force (and LightSkin's per-pixel

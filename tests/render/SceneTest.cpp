@@ -96,7 +96,7 @@ TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
         {head + R"("objects": [{"mesh": "box_no_normals.obj", "material": {"specularExponent": "shiny"}}]})",
          "/objects/0/material/specularExponent: expected a number >= 1 (Phong exponent k), got \"shiny\""},
         {head + R"("objects": [{"mesh": "no_such_mesh.obj"}]})", "/objects/0/mesh: mesh file '"},
-        // A missing texture (issue 21 part 5): named with its key before anything is loaded.
+        // A missing texture: named with its key before anything is loaded.
         {head + R"("objects": [{"mesh": "box_no_normals.obj", "material": {"diffuseTexture": "gone.png"}}]})",
          "/objects/0/material/diffuseTexture: texture '"},
         {head + R"("objects": [{"mesh": "box_no_normals.obj", "materail": {}}]})", "/objects/0/materail: unknown key"},

@@ -1,4 +1,4 @@
-// The replay regression suite (issue 5): runs `lightskin replay` on every sample recording (the
+// The replay regression suite: runs `lightskin replay` on every sample recording (the
 // synthetic ones in recordings/, real TUM fr2 frames and the real Kinect v1 .oni with a fixed pose,
 // ICL-NUIM frames with their ground-truth trajectory) through capture -> depth filter -> pose -> VALs
 // -> GI -> composite, headless, and checks what users see:
@@ -778,7 +778,7 @@ TEST(ReplayTracking, SynthPanLosesTheTagAndReacquiresIt) {
             EXPECT_LT(frames[i].acrossErrorMetres, 0.0) << "a lost frame has no pose, frame " << i;
         }
     }
-    // FINDING (issue 20, reported to the lead, not re-fitted): the filtered pose breaks the rotation
+    // Known finding, not re-fitted: the filtered pose breaks the rotation
     // budget in frame 29 (3.16 degrees > 2.25), the second frame after re-acquisition while the
     // camera pans: the One-Euro filter restarted at frame 28 and lags (the unfiltered measurement is
     // within 0.74 degrees in every frame, tests/tracking/SynthReplayTest.cpp). Listed exactly, so
@@ -789,7 +789,7 @@ TEST(ReplayTracking, SynthPanLosesTheTagAndReacquiresIt) {
         EXPECT_GT(std::count(expected.begin(), expected.end(), state), 0) << state;
 }
 
-// Issue 12: the real Kinect v1 .oni (unregistered depth, registered in software) has VALs and
+// The real Kinect v1 .oni (unregistered depth, registered in software) has VALs and
 // visible GI on every one of its 12 frames, with the oni_room.json scene (objects on its floor).
 TEST(ReplayRealData, OniKinectV1HasValsAndVisibleGiOnEveryFrame) {
     const fs::path root = sourceDir(), scratch = scratchDir("replay_oni_every_frame");
@@ -864,7 +864,7 @@ TEST(ReplayRealData, OniKinectV1HasValsAndVisibleGiOnEveryFrame) {
     }
 }
 
-// Issue 12: when GI does nothing the console, report.json and report.md say so per frame and in the
+// When GI does nothing the console, report.json and report.md say so per frame and in the
 // summary, with the cause. The .oni with --raw-depth (no software registration): no VALs.
 TEST(ReplayGiActive, UnregisteredDepthIsReportedAsGiInactive) {
     const fs::path root = sourceDir(), scratch = scratchDir("replay_gi_inactive");
@@ -894,8 +894,8 @@ TEST(ReplayGiActive, UnregisteredDepthIsReportedAsGiInactive) {
     EXPECT_NE(out.find("GI INACTIVE in 2 of 2 frames"), std::string::npos) << out;
 }
 
-// A scene without a GI technique: inactive, with that cause (the report used to name no technique
-// problem at all; a reader could not tell "no GI" from "GI that happens to be dark").
+// A scene without a GI technique: inactive, with that cause, so that a reader can tell "no GI" from
+// "GI that happens to be dark".
 TEST(ReplayGiActive, SceneWithoutTechniqueIsReportedAsGiInactive) {
     const fs::path root = sourceDir(), scratch = scratchDir("replay_gi_none");
     const std::string args = (root / "recordings/synth-clean-channels").string() + " --scene " +

@@ -30,7 +30,7 @@ TEST(DetectorSettingsJsonTest, ReadsEveryKeyOverTheDefaults) {
     EXPECT_EQ(partial.upsample, 1);
 }
 
-// Issue 14: the scene file's format, "<file>: <JSON pointer>: expected ..., got ..." (render/src/Scene.cpp),
+// The scene file's format, "<file>: <JSON pointer>: expected ..., got ..." (render/src/Scene.cpp),
 // for unknown keys, wrong types and values out of the library's range alike.
 TEST(DetectorSettingsJsonTest, ErrorsNameTheFileKeyPathAndCauseLikeSceneErrors) {
     const auto errorOf = [](const std::string& text) {

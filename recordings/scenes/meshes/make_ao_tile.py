@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the small-scale ambient-occlusion test tiles (issue 16, item 3), Python standard library only.
+"""Writes the small-scale ambient-occlusion test tiles, Python standard library only.
 
 Outputs, beside this script (licence: CC0, written for lightskin):
   ao_tile.bin            the shared geometry: the unit quad [0, 1]^2 at z = 0 (normal +z) as an 8 x 8 grid of

@@ -1,4 +1,4 @@
-// Back faces seen through holes in a closed mesh (issue 12 part 3: the bunny's scan holes). A 16 cm box of 8 x 8
+// Back faces seen through holes in a closed mesh (the bunny's scan holes). A 16 cm box of 8 x 8
 // quads per face with two 4 x 4 cm holes (the 2 x 2 quads at the centre of the face toward the camera and of the
 // bottom removed) floats 5 mm above a real floor in front of a real wall (ray-cast planes whose VALs come from
 // the production ValGenerator). Through the front hole the camera sees the box's inside: back faces.
@@ -506,7 +506,7 @@ TriangleMesh slab() {
     return mesh;
 }
 
-// A surface that folds back within the shading tolerance (found on the real recordings, issue 12 part 3): LightSkin's
+// A surface that folds back within the shading tolerance (found on the real recordings): LightSkin's
 // per-pixel shading re-rasterises the meshes without a depth test and keeps the last fragment within
 // LightSkinSettings::shadingPositionTolerance (0.1 mm + 1e-4 x distance) of the G-buffer's position. Where a scan
 // folds over itself (bun_zipper_res4.ply at the rims of its holes: a front-facing and a back-facing triangle meeting

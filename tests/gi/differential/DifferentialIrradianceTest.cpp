@@ -1,4 +1,4 @@
-// Differential irradiance on real receivers (issue 13): a virtual cube on a real floor casts an
+// Differential irradiance on real receivers: a virtual cube on a real floor casts an
 // indirect shadow that matches the Embree ground truth with stratified discs, and a direct shadow
 // of an in-room point light that matches the closed form; a red panel tints the floor with the
 // panel's albedo ratio and the magnitude of a separate quadrature over the lit face; receivers

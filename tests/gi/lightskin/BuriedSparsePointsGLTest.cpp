@@ -1,4 +1,4 @@
-// Guard G11 (issue 12) on both backends: a sphere sunk 15 cm into a real floor (the floor given as a
+// Guard G11 on both backends: a sphere sunk 15 cm into a real floor (the floor given as a
 // depth image seen from the view's camera, ray-cast here), lit from above and from a wall. The GL
 // technique (depth texture) and the CPU backend (depth on the CPU) must give the vertex VPLs of the
 // double reference with the buried sparse points left out of eq. 12-13 (gi::markBuriedInto for the

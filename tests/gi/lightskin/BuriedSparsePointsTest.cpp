@@ -1,8 +1,8 @@
-// Guard G11 (issue 12): sparse points under the real surface, and their weight 0 in eq. 12-13.
+// Guard G11: sparse points under the real surface, and their weight 0 in eq. 12-13.
 // Flags: a synthetic depth image (a plane at 1 m with a hole, a NaN and a step) and points placed
 // by construction above it, on it, inside and beyond the noise tolerance, outside the image, behind
 // the camera and on the holes. The tolerance is written here from the published noise model (Nguyen,
-// Izadi, Lovell 2012; /work/shared/FACTS.md), 3 sigma as the VAL occupancy cull, not taken from the
+// Izadi, Lovell 2012), 3 sigma as the VAL occupancy cull, not taken from the
 // code. Interpolation: eq. 12-13's weights by hand.
 #include <lightskin/gi/lightskin/BuriedSparsePoints.h>
 #include <lightskin/gi/reference/LightSkinReference.h>

@@ -1,4 +1,4 @@
-// gi::CpuLightSkin (issue 18) against both double references (gi::reference and the independent
+// gi::CpuLightSkin against both double references (gi::reference and the independent
 // PaperReference, LightSkinComparison.h) and the GL path, stage by stage, on
 // the GL tests' scenes (the paper's three setups, the numerical extremes); bit-for-bit
 // independence of the thread count; the empty VAL set.

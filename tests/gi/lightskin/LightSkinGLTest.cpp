@@ -324,11 +324,9 @@ void expectNonTrivial(const GpuRun& run, const Scene& scene, bool glossy, const 
 }
 
 TEST_F(LightSkinInvarianceGLTest, KCacheChangesResultsByAtMost1e5Relative) {
-    // K_cache only changes how the VALs are split into gather passes. With additive blending of
-    // per-pass sums that changed the float summation order: the sums moved by up to 2e-6 (L'_d)
-    // and 7e-6 (sum (l - x) w, floor 1e-2), the averaged positions l' by 3e-5, the pixels by
-    // 2.3e-5 (diffuse) and 1.5e-5 (glossy). The gather now adds the VALs in fixed blocks of 16
-    // and carries the running sums from pass to pass (gather_sum_block.glsl), so every stage is
+    // K_cache only changes how the VALs are split into gather passes. The gather adds the VALs in
+    // fixed blocks of 16 and carries the running sums from pass to pass (gather_sum_block.glsl), so
+    // the float summation order, and every stage, is
     // K_cache-invariant: measured bitwise equal on llvmpipe, held to 1e-5 at every stage, in the
     // diffuse and the glossy + occlusion setup, for K_cache from one pass per 16 VALs to a
     // single pass (the scene has ~1000 VALs).

@@ -4,7 +4,7 @@
 // unoccluded integral and are compared with the truth without visibility; the third with
 // visibility (shadow rays against the virtual meshes).
 //
-// The truth uses the same disc model (eq. 3, disc-centre mode) and, since issue 20, the same
+// The truth uses the same disc model (eq. 3, disc-centre mode) and the same
 // glossy term (eq. 5) as the core, so what is measured is the technique's approximation only:
 // sparse gather + averaged VPLs + eq. 12-13 interpolation + per-pixel eq. 10, and the occlusion
 // model of section 3.3. Every pixel the G-buffer covers is a truth receiver (its G-buffer
@@ -49,7 +49,7 @@
 //  of itself, its glossy part min(1, parallax + horizon + lobe); the image budget is their sum
 //  over the pixels divided by the truth's sum, plus B; asserted on the relative L1 error
 //  sum |LightSkin - truth| / sum truth over all covered pixels (which also bounds the bias). The
-//  model before (issue 20, first version: (1/2) (1.5 h / l)^2 with l the distance to the nearest
+//  model before (first version: (1/2) (1.5 h / l)^2 with l the distance to the nearest
 //  VAL or the curvature radius, the worst mesh for the whole image) sat 30-100x above the errors.
 #include "common/GatherTestScenes.h"
 #include "GlTestEnvironment.h"

@@ -1,4 +1,4 @@
-// Near contact (issue 12): a virtual cube resting on, and sunk 1 cm into, a real floor beside a real
+// Near contact: a virtual cube resting on, and sunk 1 cm into, a real floor beside a real
 // wall. The real surfaces are a depth image (ray-cast planes) whose VALs come from the production
 // ValGenerator; the virtual content takes its VALs away through the production ValOccupancyCull.
 // Reference: gi::RayTracedGroundTruth (Embree, double precision, each VAL disc integrated over
@@ -76,7 +76,7 @@ struct ContactRun {
     cv::Mat lightSkinCpu; // the CPU backend (gi::CpuLightSkin), G12 on, culled VALs
     std::vector<gi::VirtualAreaLight> vals;
     std::uint32_t culled = 0;
-    std::vector<gi::VirtualAreaLight> valsCulledGl, valsCulledCpu; // the CPU backend's cull (issue 18)
+    std::vector<gi::VirtualAreaLight> valsCulledGl, valsCulledCpu; // the CPU backend's cull
     std::uint32_t culledCpu = 0;
 };
 

@@ -1,4 +1,4 @@
-// The VAL cluster tree (ValTree.h) and the gather with a cut (ValTreeReference.h, issue 17): the tree's
+// The VAL cluster tree (ValTree.h) and the gather with a cut (ValTreeReference.h): the tree's
 // invariants checked member by member, threshold 0 against the flat double gather, the measured error
 // of a cut against its certified bound on every scene, and the extremes of the issue.
 #include "common/GatherTestScenes.h"

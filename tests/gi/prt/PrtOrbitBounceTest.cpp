@@ -1,4 +1,4 @@
-// The virtual-to-virtual bounce of recordings/scenes/orbit_prt.json (issue 16, "visible multi-bounce") as a
+// The virtual-to-virtual bounce of recordings/scenes/orbit_prt.json ("visible multi-bounce") as a
 // number: the bunny lit by unit irradiance on every entry point, no VALs (so the exit irradiance is the
 // transfer alone), and the transfer's irradiance on the cube face that faces the bunny against the furnace-
 // style estimate rho_bunny x F(face point -> bunny), F by a separately written double-precision quadrature
@@ -186,8 +186,8 @@ TEST(PrtOrbitBounce, CubeFaceGetsAlbedoTimesFormFactorOfTheBunny) {
     // Tolerance 25 %: 4 standard errors of at most 5.5 % each (22 %) plus the rank-8 PCA's relative error
     // (gi_prt_precompute_test's bound, a few %). A missing albedo (x 1.5), a 1/pi (x 3) or a lost bounce (0)
     // is far outside it. The entry count is what brings the standard error (relativeSpread / sqrt(E), above)
-    // to 5.5 % (~6000 entries). At the scene's 512, 4 sigma is ~75 %: a seed, or a changed triangle list (the
-    // 39 duplicate triangles the loader now drops move every entry), swung the old check from pass to fail.
+    // to 5.5 % (~6000 entries). At the scene's 512, 4 sigma is ~75 %: a seed or a changed triangle list (which
+    // moves every entry) could swing a check at that count from pass to fail.
     ASSERT_TRUE(std::isfinite(relativeSpread) && relativeSpread > 0.0) << relativeSpread;
     constexpr double kSigmaBudget = 0.055;
     const int entryPoints = int(std::ceil(relativeSpread * relativeSpread / (kSigmaBudget * kSigmaBudget)));

@@ -1,4 +1,4 @@
-// Multi-scale PRT's small scale (issue 16 item 3; gi/prt/include/lightskin/gi/prt/MultiscalePrt.h, "Small scale") on the
+// Multi-scale PRT's small scale (gi/prt/include/lightskin/gi/prt/MultiscalePrt.h, "Small scale") on the
 // tiles of recordings/scenes/meshes/make_ao_tile.py: a flat unit quad lit by four VAL discs, seen from above.
 // - occlusion map: the indirect target is rho_d / pi * E * (1 + strength (R - 1)) texel for texel, E the VALs' disc
 //   form factor (written here in double: a single plane has no transfer and obscuranceDistance = 0 gives W = 1),

@@ -53,7 +53,7 @@ double parallelDiscFormFactor(double r, double h, double s) {
     return 0.5 * (1.0 - (h * h + s * s - r * r) / std::sqrt(a * a - 4.0 * r * r * s * s));
 }
 
-// Issue 12 part 4 (near field: a VAL nearer to a receiver than its own size), for the point model
+// Near field (a VAL nearer to a receiver than its own size), for the point model
 // (eq. 3, guard G12 off; G12 itself is checked by the NearFieldArea tests below). The candidate clamp
 // "bound the form factor by the disc's exact on-axis form factor r^2 / (r^2 + h^2)" can never bind
 // for eq. 3: w cos(theta_i) = r^2 cos(theta_j) cos(theta_i) / (r^2 + d^2) <= r^2 / (r^2 + d^2) <=
@@ -149,7 +149,7 @@ TEST(GatherReference, NearFieldAreaMatchesHowellsParallelDisc) {
             EXPECT_NEAR(f, parallelDiscFormFactor(r, h, s), polygonTolerance(r, h))
                 << "h = " << c[0] << " r, s = " << c[1] << " r, azimuth " << azimuth;
         }
-    // the case of the issue: exact 0.475, now within 0.7 % instead of 1 %
+    // beside the rim, 0.1 r above the plane: exact 0.475, within 1 %
     const double f = ref::irradiance(std::span(&l, 1), dvec3(r, 0, 0.1 * r), dvec3(0, 0, -1), 0, true) / m;
     EXPECT_NEAR(f, 0.475, 0.475 * 0.01);
 }
@@ -368,7 +368,7 @@ TEST(GatherReference, VertexWeightsNeverProduceNaN) {
     EXPECT_DOUBLE_EQ(out[2].diffuse.radiance.x, 3.0) << "facing away: nearest neighbour";
 }
 
-// G8 (issue 12): two sparse points 20 cm apart whose VPLs lie 1 m away on opposite sides, 5 cm above
+// G8: two sparse points 20 cm apart whose VPLs lie 1 m away on opposite sides, 5 cm above
 // their plane. eq. 13 alone puts the vertex VPL 5 cm above the vertex between them: D = 0.0025 m^2
 // against D_j = 1.0025 at the sparse points, so eq. 10 would give 400 L'' at the vertex where each
 // sparse point received 0.05 L'' (a blown pixel). The floor raises rbar^2 to Dmin - |v - l|^2 = 1.
@@ -405,7 +405,7 @@ TEST(GatherReference, VertexVplIsNeverNearerThanTheNearestGatheredVpl) {
     EXPECT_EQ(far[0].diffuse.r2, 0.0);
 }
 
-// G10 (issue 12): one sparse point x at the origin facing +z, one VAL 1 m away, 2 cm above its
+// G10: one sparse point x at the origin facing +z, one VAL 1 m away, 2 cm above its
 // plane, facing it: x sees the light at cos_x = 0.02, so eq. 11 divides by 0.02. A vertex at x whose
 // normal is tilted 60 deg toward the light shades L'' cos_v / D = E cos_v / cos_x ~ 43 E without the
 // cap; with it, at most the peak channel of what x gathered (colour kept). At x's own normal eq. 10

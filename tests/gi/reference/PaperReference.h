@@ -37,7 +37,7 @@ struct Options {
     double epsilonL = 1e-20;                   ///< eps_l of eq. 7
     bool glossy = true;                        ///< false: the glossy channel stays 0
     double renormalisationFloor = 1e-3;        ///< eq. 11 divides by max(cos, this) (core guard G4)
-    /// The core's guard G9 (issue 12): the diffuse VPL is a uniformly bright sphere of its S_o radius,
+    /// The core's guard G9: the diffuse VPL is a uniformly bright sphere of its S_o radius,
     /// clipped by the receiver's horizon, in eq. 10 and 11 (horizonFactor); false: a point.
     bool extendedVplHorizon = true;
 };
@@ -95,7 +95,7 @@ glm::dvec2 occlusion(std::span<const Point> points, std::span<const LightPair> l
 std::array<double, gi::kVertexNeighbours>
 vertexWeights(const glm::dvec3& vertex, const glm::dvec3& vertexNormal,
               const std::array<std::uint32_t, gi::kVertexNeighbours>& neighbours, std::span<const Point> points);
-/// eq. 13: the weighted VPLs of one vertex. With `distanceFloor` (the core's guard G8, issue 12)
+/// eq. 13: the weighted VPLs of one vertex. With `distanceFloor` (the core's guard G8)
 /// the vertex VPL is never nearer, in D = |v - l|^2 + rbar^2, than the nearest VPL of the sparse
 /// points it averages was to its own point: rbar^2 grows by the shortfall.
 LightPair interpolate(const glm::dvec3& vertex, const glm::dvec3& vertexNormal,

@@ -1,4 +1,4 @@
-// Independent references for every equation of the GI core (issue 20, part 1): closed forms for
+// Independent references for every equation of the GI core: closed forms for
 // eq. 5, 7, 11, 12-13 and 14, each checked on the independent implementation (PaperReference.h)
 // AND on the shared-math double reference (gi::reference, compiled from lightskin_math.glsl);
 // then the two implementations stage by stage on a sphere over a floor. A formula error in
@@ -122,7 +122,7 @@ TEST(PaperReference, AveragedAndRenormalisedVplsOfTwoSymmetricDiscsAreTheClosedF
 // eq. 12-13 by hand: 8 neighbours at distances 1..8 on the x axis, all normals +z except the
 // third (cos = 0.5). w_j = (1 - d_j / 8) cos_j = (14, 12, 5, 8, 6, 4, 2, 0) / 16, W_v = 51/16.
 // With L''_j = j + 1 and l''_j = (j, 0, 1): L''' = 153 / 51 = 3, l'''.x = 102 / 51 = 2.
-// Guard G9 (issue 12): eq. 10 of gi::reference (the shaders' closed form, Snyder's sphere
+// Guard G9: eq. 10 of gi::reference (the shaders' closed form, Snyder's sphere
 // irradiance clipped by the horizon) against the independent quadrature of its definition
 // (paper::horizonFactor: projected solid angle of a cone / pi sin^2 sigma), for a VPL of spread R at
 // distance d swept from above to below the receiver's horizon. Tolerance: the quadrature's relative
@@ -130,7 +130,7 @@ TEST(PaperReference, AveragedAndRenormalisedVplsOfTwoSymmetricDiscsAreTheClosedF
 // closed form is double arithmetic: 1e-6 of the unclipped value. Above the horizon by more than
 // sigma the factor must be cos(theta) exactly (no change to the paper's model there), below it by
 // more than sigma exactly 0, and in between strictly positive: no receiver with light partly
-// above its horizon gets 0 (the black pixels of issue 12).
+// above its horizon gets 0 (the black pixels seen on real depth).
 TEST(PaperReference, ExtendedVplHorizonFactorIsTheClippedConeIntegral) {
     const double d = 0.8;
     for (const double R : {0.002, 0.05, 0.3, 0.8, 3.0}) {

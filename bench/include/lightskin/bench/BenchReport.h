@@ -28,7 +28,7 @@ struct Config {
     int width = 640, height = 480;
     std::size_t sphereTriangles = 20000;
     bool adaptive = false;
-    /// LightSkinSettings::valTreeThreshold (issue 17; axis "tree"); 0 = the flat gather.
+    /// LightSkinSettings::valTreeThreshold (axis "tree"); 0 = the flat gather.
     float valTree = 0.0f;
     gi::Backend backend = gi::Backend::Gl; ///< LightSkin on gl or on the cpu backend (gi::CpuLightSkin)
     bool isDefault = false;

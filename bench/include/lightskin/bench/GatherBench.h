@@ -15,7 +15,7 @@ struct GatherBenchOptions {
     bool brute = true;
     bool compute = false;
     std::string out; ///< folder for bench-gather.json and its scaling plot ("" = print only)
-    /// LightSkinSettings::valTreeThreshold values (issue 17, `--tree`); 0 = the flat gather.
+    /// LightSkinSettings::valTreeThreshold values (`--tree`); 0 = the flat gather.
     std::vector<float> treeThresholds{0.0f};
     /// Only the "diffuse" setup (`--diffuse-only`): the one compared with the brute force.
     bool diffuseOnly = false;

@@ -21,11 +21,11 @@ struct SweepBenchOptions {
     std::string meshes = "20000,200000,730000";
     std::string adaptive = "off,on";
     std::string backends = "gl,cpu"; ///< backends of LightSkin to sweep: gl, cpu (gi::CpuLightSkin)
-    /// LightSkinSettings::valTreeThreshold values to sweep (issue 17, axis "tree"); empty = none.
+    /// LightSkinSettings::valTreeThreshold values to sweep (axis "tree"); empty = none.
     std::string trees = "0.01,0.1";
     /// Imperfect-volumes rows (resolution:points/triangle:rays/voxel:bounces); the first is the paper's.
     std::string volumes = "64:12:100:1,32:12:100:1,64:6:100:1,64:12:36:1,64:12:100:2";
-    /// Multi-scale PRT rows (entry points:walks per entry:clusters:D, issue 16). Their precompute (the rows'
+    /// Multi-scale PRT rows (entry points:walks per entry:clusters:D). Their precompute (the rows'
     /// prepare time) grows with entries x walks x exit vertices: the 20k-triangle sphere's ~10k vertices make
     /// it seconds to minutes, so the default is two small rows.
     /// An optional fifth field sets the per-frame gather points (MultiscalePrtSettings::directGatherPoints,

@@ -1,59 +1,11 @@
 #pragma once
-// Speckle of an indirect-light image (issue 12): how many pixels of the virtual content stand out
-// from their neighbourhood, the "grey patches, dark streaks and isolated black pixels" a noisy VAL
-// set or an unstable gather produce, while a smooth indirect image has none.
-//
-// Definition (all on linear luminance Y = 0.2126 R + 0.7152 G + 0.0722 B of a CV_32FC3 BGR image):
-//  * Interior: covered pixels whose whole 5x5 neighbourhood is covered (the coverage mask eroded by
-//    2 px), so object borders, where the median mixes in background, never count.
-//  * m = the median of Y over the 5x5 neighbourhood (the pixel included).
-//  * Speckle pixel: |Y - m| > 0.5 max(m, floor), floor = 0.1 x the mean Y of the interior, and the
-//    pixel is not on a smooth profile (below). The floor
-//    restricts the measure to lit neighbourhoods: where m is below a tenth of the object's mean
-//    indirect level (shadowed sides, receivers facing away from all VALs) a 50 % change is a step
-//    of < 5 % of that level, and smooth but steep falloffs toward 0 there (cos(theta_i) -> 0 for
-//    every VAL) would count although nothing is blotchy. (With a floor of 0.01 the bench's real
-//    scenes measure 0.3-1.4 %, all of it in such regions; docs/BENCHMARKS.md.)
-//  * Smooth profile (issue 12: the median alone flags true light that falls steeply over 1-2 px where
-//    its contour curves, e.g. on an object 2 m away, TUM fr3): the pixel is explained by its
-//    neighbours if, along one of the four directions e (horizontal, vertical, both diagonals), it
-//    lies on the straight line through its +-1 neighbours and on the one through its +-2 neighbours
-//    (each within the same 50 % of the floored line value), and across e it is no extremum of its
-//    two +-1 neighbours (within 50 % of the nearer one, floored). Any straight ramp, however steep,
-//    and a falloff whose contour is straight at the 2 px scale are explained; an isolated outlier,
-//    a 1 px streak (an extremum across it), every pixel of a 2x2 blotch and every pixel of a 3x3
-//    blotch are not, because in each direction one of the two pairs reaches background on at least
-//    one side: at the median's own contrast (> 1.5x or < 0.5x the background) for outliers, streaks
-//    and 2x2 blotches; > 3x or < 1/3 for the edge pixels of a 3x3 blotch (a pair half in it), its
-//    centre at 1.5x / 0.5x. Proof by construction: tests/eval/SpeckleTest.cpp.
-//  * Back faces (optional mask, issue 12): pixels where the G-buffer shows a back face are the inside of
-//    an object seen through a hole in its mesh (a scan's holes). Light reaches an object's inside only
-//    through its holes: against the ray-traced truth with visibility, the inside of a 16 cm box seen
-//    through a 4 x 4 cm hole gets 11 % of its lit outside's light on average, bounded by the holes'
-//    solid angle (gi_back_face_hole_gl_test; a scan's holes of a few mm let in far less), and both GI
-//    techniques write 0 there (gi::GBufferView::worldNormal). So they are not "inside a lit object":
-//    they leave the interior, and the median of a front-face pixel is taken over the front-face pixels
-//    of its window only (the upper middle of an even count), and a smooth-profile direction that
-//    would use a back-face pixel explains nothing, so that the dark inside neither drags a
-//    neighbour's median down nor passes a black front-face pixel beside a hole as a dark profile:
-//    every front-face pixel is measured against its front-face neighbourhood. Back-face pixels
-//    still count as covered for the 5x5 erosion (a front pixel beside a hole stays interior).
-//  * Speckle fraction = speckle pixels / interior pixels.
-//  * Black pixel (subset): Y < 0.1 m in a lit neighbourhood (m >= 0.1 x mean Y): a hole in the light.
-//  * Blown pixel (subset): Y > 10 max(m, floor): a spike. Non-finite Y counts as blown and speckle.
-//  * What the user sees (issue 12: the measure is about the composite): a covered pixel that the
-//    composite hides behind the real depth (render::Compositor::visibleInto: share a = coverage x
-//    visibility(z_virtual, z_real) == 0, the camera pixel is copied) is not counted; one that it shows
-//    with any a > 0, the soft occlusion band included, is. Callers pass the composite's mask
-//    (mr::FrameOutput::visibleCoverage, made by the compositor's own code, so no second tolerance)
-//    ANDed into `smooth`: it restricts the pixels counted, while the 5x5 windows and the median still
-//    see every covered pixel, so a visible pixel next to a hidden one is measured as before and every
-//    visible black pixel still counts (tests/eval/SpeckleTest.cpp). Passing the visible mask as
-//    `coverage` instead would erode it and drop the visible pixels along every contact line.
-// A median (not a mean) of 25 samples tolerates up to 12 outliers, so a speckle pixel is one that
-// differs from the bulk of its neighbourhood, and an isolated outlier in a smooth image is found
-// exactly once. A smooth image (|grad Y| * 2 px < 0.5 m everywhere) has speckle 0, and so has any
-// image that is linear along one direction at every pixel.
+// Speckle of an indirect-light image: the share of the virtual content's pixels that stand out
+// from their neighbourhood (grey patches, dark streaks, isolated black pixels), which a noisy VAL
+// set or an unstable gather produce and a smooth indirect image does not. A pixel is speckle when
+// its luminance differs from its 5x5 median by more than 50 % (floored at a tenth of the mean, so
+// shadowed regions do not count) and no straight profile through its neighbours explains it; the
+// median tolerates 12 outliers of 25, so an isolated outlier is found exactly once. The full
+// definition, and why each rule is there: docs/TESTING.md, "The speckle measure".
 
 #include <opencv2/core/mat.hpp>
 
@@ -95,18 +47,11 @@ SpeckleStats measureSpeckle(const cv::Mat& linearBgr, const cv::Mat& coverage, c
 /// pixels say nothing about speckle. `normals`: CV_32FC3 unit normals; `depth`: CV_32FC1 metres;
 /// `mask` (sized by the call): CV_8UC1 255 = smooth. Throws lightskin::Error on bad types or sizes.
 ///
-/// `normalSensitivity` (optional, CV_32FC1 of the same size; a proposal, issue 12 / TUM fr3, not used
-/// by the bench's headline numbers): per pixel S = the relative change of the true irradiance per
-/// radian of normal tilt (gi::reference::irradianceNormalSensitivity; S = tan(theta_i) for one light
-/// at incidence theta_i). To first order the median of the window is the light at the window's mean
-/// normal, and a pixel whose normal is Delta away from that mean can differ from it by S Delta from
-/// its normal alone; the measure flags > 50 %, so the pixel is also left out where S Delta > 0.5.
-/// A normal field that turns linearly across the window (Delta = 0 at its centre) stays in for any S
-/// (its light is then linear too, to first order, which the smooth-profile test explains); kinks and
-/// valleys of the shading normals under grazing light (S = 5-18 on the bunny's underside at TUM fr3,
-/// kinks of 2-13 degrees) are left out. S <= 0 adds nothing; S = +inf (no light above the horizon)
-/// keeps only pixels whose window's normals are all equal; NaN drops the pixel. A patch whose normals
-/// are all equal stays in for any S, so defects there are still counted pixel for pixel.
+/// `normalSensitivity` (optional, CV_32FC1 of the same size; a proposal, not in the bench's headline
+/// numbers): per pixel S = the relative change of the true irradiance per radian of normal tilt
+/// (gi::reference::irradianceNormalSensitivity). A pixel whose normal is Delta from its window's mean
+/// normal is left out where S Delta > 0.5, as its light may then differ by the measure's 50 % from its
+/// normal alone. S <= 0 adds nothing; S = +inf keeps only windows of equal normals; NaN drops the pixel.
 void smoothSurfaceMaskInto(const cv::Mat& coverage, const cv::Mat& normals, const cv::Mat& depth,
                            double maxNormalAngleDegrees, double maxRelativeDepthStep, cv::Mat& mask,
                            const cv::Mat& normalSensitivity = cv::Mat());

@@ -1,5 +1,5 @@
 #pragma once
-// "The virtual objects really there" (issue 13): the ground truth a differential composite is
+// "The virtual objects really there": the ground truth a differential composite is
 // compared with. Recomputes each frame of the synthetic room as if a lightskin scene's virtual
 // objects stood in it, in the room's own one-bounce model (Embree visibility against the objects).
 // The formulas for room and object pixels and what is not modelled: docs/SYNTH.md, "Objects present".

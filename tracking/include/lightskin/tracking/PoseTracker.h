@@ -49,21 +49,12 @@ struct TrackerSettings {
     /// onto a wrong branch inherited from earlier noisy frames, while the better fit was right
     /// at ratios 2.2-3.7; at ratios 1.0-1.7 the fit was a coin toss and history was better.
     double historyRatio = 2.0;
-    /// Measurements that place the world's own tags worse than this are not accepted: the frame is
-    /// Held (reason "pose poorly determined") instead of Tracking with a pose that may be many
-    /// centimetres off. Measured by PoseUncertainty::worldCornerStdPx (first-order, corner noise =
-    /// max(RMS error, 0.1 px)), the projection std of every corner of every world tag, seen or
-    /// not. This refuses a bundle seen only through one small or distant tag, and never a
-    /// single-tag world, whose only corners are the measured ones (std about the corner noise:
-    /// those views stay Tracking, flagged ambiguous with their rotation std). Infinity switches the
-    /// check off.
-    /// Derived from the pose-error budget (a requirement, docs/TESTING.md "Pose-error budget"): a
-    /// tracked pose may displace the world's content in the image by at most 1.5 degrees of view
-    /// angle at 2 sigma, i.e. 2 * std <= f tan(1.5 deg). At the smallest focal length the project
-    /// runs (the 320x240 sample recordings, f = 262.5 px; 0.092 m at their 3.5 m) that is
-    /// 262.5 * 0.02619 / 2 = 3.44 px, rounded down. At 640x480 (f = 525) the same budget would
-    /// allow 6.9 px: there this default holds more frames than needed, never fewer. (It was 6 px,
-    /// chosen between values measured on synth-orbit: 1 sigma of the budget there.)
+    /// Measurements that place the world's own tags worse than this are Held ("pose poorly
+    /// determined") instead of Tracking with a pose that may be centimetres off. Measured by
+    /// PoseUncertainty::worldCornerStdPx, the projection std of every corner of every world tag, seen
+    /// or not: it refuses a bundle seen through one small or distant tag, never a single-tag world.
+    /// 3.4 px = f tan(1.5 deg) / 2 at the smallest focal length run (262.5 px), the pose-error budget
+    /// at 2 sigma (docs/TESTING.md "Pose-error budget"). Infinity switches the check off.
     double maxWorldCornerStdPx = 3.4;
     /// Largest orientation change accepted for an ambiguous measurement, degrees per frame.
     double maxJumpDegrees = 25.0;
