@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Mutation check of the GI core's tests : applies one plausible formula error
+# Mutation check of the GI core's tests: applies one plausible formula error
 # at a time to the GI math (gi/lightskin/shaders/lightskin_math.glsl, shared by the shaders and the double
 # reference gi::reference, and the GPU-only shaders), rebuilds only the GI tests, runs them and
 # records which test binaries fail. Every mutation must be caught by at least one test; the
