@@ -79,7 +79,7 @@ void restrictSimdTarget(std::string_view name) {
         return;
     }
     std::string available;
-    for (const std::string& target : simdTargets()) available += (available.empty() ? "" : ", ") + target;
+    for (const std::string& supported : simdTargets()) available += (available.empty() ? "" : ", ") + supported;
     throw Error("SIMD target", std::nullopt,
                 "'" + std::string(name) + "' is not one this build and CPU support (" + available + ")");
 }

@@ -240,7 +240,7 @@ TEST_P(DepthFilterSimdTest, MatchesADoublePrecisionFilterWithinItsRoundingBound)
 }
 
 INSTANTIATE_TEST_SUITE_P(EveryInstructionSet, DepthFilterSimdTest, ::testing::ValuesIn(core::simdTargets()),
-                         [](const ::testing::TestParamInfo<std::string>& info) { return info.param; });
+                         [](const ::testing::TestParamInfo<std::string>& target) { return target.param; });
 
 TEST(DepthFilterTest, KeepsAKinectStepEdgeAndReducesItsNoiseAsTheSpatialWeightsPredict) {
     cv::Mat truth;

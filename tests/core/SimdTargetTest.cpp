@@ -34,7 +34,9 @@ TEST(SimdTargetTest, ListsSupportedTargetsBestFirstEndingWithTheFallback) {
         const std::int64_t bit = bitOf(targets[i]);
         ASSERT_NE(bit, 0) << targets[i] << " is not a target of this build";
         EXPECT_NE(hwy::SupportedTargets() & bit, 0) << targets[i] << " is not supported by this CPU";
-        if (i > 0) EXPECT_GT(bit, bitOf(targets[i - 1])) << targets[i] << " listed after a worse target";
+        if (i > 0) {
+            EXPECT_GT(bit, bitOf(targets[i - 1])) << targets[i] << " listed after a worse target";
+        }
     }
     EXPECT_EQ(core::activeSimdTarget(), targets.front());
 }

@@ -251,7 +251,7 @@ TEST_P(CpuLightSkinThreadCountGLTest, ResultsAreBitwiseIndependentOfTheThreadCou
 }
 
 INSTANTIATE_TEST_SUITE_P(EveryInstructionSet, CpuLightSkinThreadCountGLTest, ::testing::ValuesIn(core::simdTargets()),
-                         [](const ::testing::TestParamInfo<std::string>& info) { return info.param; });
+                         [](const ::testing::TestParamInfo<std::string>& target) { return target.param; });
 
 // The gather skips blocks of 16 VALs x 16 sparse points wholly behind the points (CpuGatherKernels.h,
 // prepareGather), and the occlusion skips occluders below the horizon of every point of a vector
@@ -332,8 +332,9 @@ TEST_F(CpuLightSkinGLTest, ReportsTheDispatchedInstructionSet) {
     ASSERT_FALSE(targets.empty());
     EXPECT_EQ(gi::cpuSimdTarget(), targets.front());
     const char* cap = std::getenv(core::kSimdTargetVariable);
-    if (cap != nullptr && std::find(targets.begin(), targets.end(), cap) != targets.end())
+    if (cap != nullptr && std::find(targets.begin(), targets.end(), cap) != targets.end()) {
         EXPECT_EQ(gi::cpuSimdTarget(), cap);
+    }
     std::printf("dispatched instruction set: %s\n", gi::cpuSimdTarget().c_str());
 }
 
