@@ -1,12 +1,15 @@
 // The machine's arithmetic peak, the yardstick for the GI gather's throughput (docs/BENCHMARKS.md):
 //   build/bench/lightskin_bench_peak [--benchmark_repetitions=3]
 //
-// CPU: single-precision FMA in vector registers, kChains independent accumulator chains (more than
-// FMA latency x FMA ports, so the loop is throughput-bound), on 1 and 2 threads. Two widths: 256-bit
-// (AVX2 + FMA3: the width llvmpipe's LLVM back end uses, "256 bits" in its renderer string) and 512-bit
-// (AVX-512F, when the compiler targets it). Counter GFLOP/s = 2 flops per FMA lane over the
-// benchmark's time: wall time for the /real_time rows, CPU time of the threads otherwise (the rate per
-// core while it runs, independent of other jobs on a shared machine).
+// CPU: single-precision FMA in vector registers, 12 independent accumulator chains (more than FMA
+// latency x FMA ports, so the loop is throughput-bound), on 1 and 2 threads, once per instruction set
+// with FMA units that this CPU supports: AVX2 (256-bit, the width llvmpipe's LLVM back end uses) and
+// AVX-512 (512-bit) where present. The kernel is compiled per instruction set by Highway and picked at
+// run time, like the GI backend's kernels: nothing here is built for the build machine's CPU, and
+// the peak is measured with the same code generation as the kernels compared with it. Counter
+// GFLOP/s = 2 flops per FMA lane over the benchmark's time: wall time for the /real_time rows, CPU
+// time of the threads otherwise (the rate per core while it runs, independent of other jobs on a
+// shared machine).
 //
 // llvmpipe: a fragment shader (bench/shaders/fma_peak.frag) of 8 independent vec4 FMA chains per
 // fragment over a 1024x1024 RGBA32F viewport (one draw), timed by wall clock from the draw call to
@@ -28,54 +31,83 @@
 #include <chrono>
 #include <cstdint>
 #include <ctime>
-#include <immintrin.h>
 #include <memory>
 #include <span>
 #include <string>
 #include <vector>
 
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "PeakFlopsBenchmark.cpp"
+#include <hwy/foreach_target.h> // re-includes this file once per target
+#include <hwy/highway.h>
+
+HWY_BEFORE_NAMESPACE();
+namespace lightskin::bench::HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+/// 12 independent accumulators, `steps` FMA steps each; returns the flops (2 per FMA lane).
+double FmaChains(std::uint64_t steps, float start, float* sink) {
+    constexpr int kChains = 12; // FMA latency 4 x 2 ports = 8 chains in flight needed; 12 leaves margin
+    const hn::ScalableTag<float> d;
+    const auto a = hn::Set(d, 0.999999f), b = hn::Set(d, 1.0e-3f); // converges to b / (1 - a): never denormal
+    hn::Vec<decltype(d)> acc[kChains];
+    for (int c = 0; c < kChains; ++c) acc[c] = hn::Set(d, start + float(c));
+    for (std::uint64_t i = 0; i < steps; ++i)
+        for (int c = 0; c < kChains; ++c) acc[c] = hn::MulAdd(acc[c], a, b);
+    auto sum = acc[0];
+    for (int c = 1; c < kChains; ++c) sum = hn::Add(sum, acc[c]);
+    *sink = hn::GetLane(sum);
+    return 2.0 * kChains * double(hn::Lanes(d)) * double(steps);
+}
+
+} // namespace lightskin::bench::HWY_NAMESPACE
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
 namespace lightskin::bench {
 std::span<const gl::EmbeddedFile> embeddedShaders();
-} // namespace lightskin::bench
 
 namespace {
 
-using namespace lightskin;
+HWY_EXPORT(FmaChains);
 
-constexpr int kChains = 12;         // independent accumulators (FMA latency 4 x 2 ports = 8 needed)
-constexpr int kStepsPerCall = 4096; // FMA steps per chain per benchmark iteration
+using FmaChainsFunction = double (*)(std::uint64_t, float, float*);
 
-template <typename V, V (*Set1)(float), V (*Fma)(V, V, V), int Lanes>
-void cpuFma(benchmark::State& state) {
-    const V a = Set1(0.999999f), b = Set1(1.0e-3f); // converges to b / (1 - a): finite, never denormal
-    V acc[kChains];
-    for (int c = 0; c < kChains; ++c) acc[c] = Set1(float(c + state.thread_index()));
-    for (auto _ : state) {
-        for (int i = 0; i < kStepsPerCall; ++i) {
-            for (int c = 0; c < kChains; ++c) acc[c] = Fma(acc[c], a, b);
-        }
-        for (int c = 0; c < kChains; ++c) benchmark::DoNotOptimize(acc[c]);
-    }
-    const double flops = 2.0 * Lanes * kChains * double(kStepsPerCall) * double(state.iterations());
-    state.counters["GFLOP/s"] = benchmark::Counter(flops * 1e-9, benchmark::Counter::kIsRate);
-    state.SetLabel(std::to_string(Lanes * 32) + "-bit FMA, " + std::to_string(kChains) + " chains");
+/// The kernel compiled for `target` (one of hwy::SupportedAndGeneratedTargets()).
+FmaChainsFunction fmaChainsFor(std::int64_t target) {
+    hwy::SetSupportedTargetsForTest(target);
+    hwy::GetChosenTarget().Update(hwy::SupportedTargets());
+    const FmaChainsFunction function = &HWY_DYNAMIC_DISPATCH(FmaChains);
+    hwy::SetSupportedTargetsForTest(0);
+    return function;
 }
 
-#if defined(__AVX2__) && defined(__FMA__)
-__m256 set1x8(float v) { return _mm256_set1_ps(v); }
-__m256 fmax8(__m256 a, __m256 b, __m256 c) { return _mm256_fmadd_ps(a, b, c); }
-void BM_CpuFma256(benchmark::State& state) { cpuFma<__m256, set1x8, fmax8, 8>(state); }
-BENCHMARK(BM_CpuFma256)->Threads(1)->Threads(2)->UseRealTime();
-BENCHMARK(BM_CpuFma256)->Threads(1)->Threads(2);
-#endif
+constexpr std::uint64_t kStepsPerCall = 4096; // FMA steps per chain per benchmark iteration
 
-#if defined(__AVX512F__)
-__m512 set1x16(float v) { return _mm512_set1_ps(v); }
-__m512 fmax16(__m512 a, __m512 b, __m512 c) { return _mm512_fmadd_ps(a, b, c); }
-void BM_CpuFma512(benchmark::State& state) { cpuFma<__m512, set1x16, fmax16, 16>(state); }
-BENCHMARK(BM_CpuFma512)->Threads(1)->Threads(2)->UseRealTime();
-BENCHMARK(BM_CpuFma512)->Threads(1)->Threads(2);
-#endif
+void cpuFma(benchmark::State& state, FmaChainsFunction fmaChains, int bits) {
+    float sink = 0.0f;
+    double flops = 0.0;
+    for (auto _ : state) {
+        flops += fmaChains(kStepsPerCall, float(state.thread_index()), &sink);
+        benchmark::DoNotOptimize(sink);
+    }
+    state.counters["GFLOP/s"] = benchmark::Counter(flops * 1e-9, benchmark::Counter::kIsRate);
+    state.SetLabel(std::to_string(bits) + "-bit FMA, 12 chains");
+}
+
+/// One benchmark per instruction set with FMA instructions that this CPU supports, on 1 and 2 threads,
+/// by wall time and by the threads' CPU time.
+void registerCpuFmaBenchmarks() {
+    for (const std::int64_t target : hwy::SupportedAndGeneratedTargets()) {
+        if ((target & (HWY_AVX2 | HWY_AVX3 | HWY_AVX3_DL)) == 0) continue; // SSE4 and below have no FMA
+        const FmaChainsFunction function = fmaChainsFor(target);
+        const int bits = target == HWY_AVX2 ? 256 : 512;
+        const std::string name = std::string("BM_CpuFma/") + hwy::TargetName(target);
+        const auto run = [function, bits](benchmark::State& state) { cpuFma(state, function, bits); };
+        benchmark::RegisterBenchmark(name.c_str(), run)->Threads(1)->Threads(2)->UseRealTime();
+        benchmark::RegisterBenchmark(name.c_str(), run)->Threads(1)->Threads(2);
+    }
+}
 
 /// The headless context and the peak program, made once (benchmarks run on the main thread).
 struct GlPeak {
@@ -164,5 +196,14 @@ void BM_LlvmpipeFma(benchmark::State& state) {
 BENCHMARK(BM_LlvmpipeFma)->Arg(256)->Arg(1024)->UseManualTime()->Unit(benchmark::kMillisecond);
 
 } // namespace
+} // namespace lightskin::bench
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+    lightskin::bench::registerCpuFmaBenchmarks();
+    benchmark::Initialize(&argc, argv);
+    if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+    benchmark::RunSpecifiedBenchmarks();
+    benchmark::Shutdown();
+    return 0;
+}
+#endif // HWY_ONCE

@@ -8,6 +8,8 @@
 // 2^y by Cephes' exp2f polynomial (core/Exp2-inl.h: relative error <= 2.9e-7 including its roundings).
 #include "BilateralDepthKernel.h"
 
+#include <lightskin/core/SimdTarget.h>
+
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "BilateralDepthKernel.cpp"
 #include <hwy/foreach_target.h> // re-includes this file once per target
@@ -74,10 +76,14 @@ HWY_EXPORT(TargetNameImpl);
 
 void bilateralRows(const float* in, std::size_t inStride, std::size_t rows, std::size_t width,
                    const BilateralTaps& taps, float rangeScale, float* out, std::size_t outStride) {
+    core::applySimdTargetCap();
     HWY_DYNAMIC_DISPATCH(BilateralRowsImpl)(in, inStride, rows, width, taps, rangeScale, out, outStride);
 }
 
-std::string bilateralTargetName() { return HWY_DYNAMIC_DISPATCH(TargetNameImpl)(); }
+std::string bilateralTargetName() {
+    core::applySimdTargetCap();
+    return HWY_DYNAMIC_DISPATCH(TargetNameImpl)();
+}
 
 } // namespace lightskin::capture::detail
 #endif

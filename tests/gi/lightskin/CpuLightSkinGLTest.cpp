@@ -19,12 +19,15 @@
 #include "LightSkinComparison.h"
 
 #include <lightskin/core/Error.h>
+#include <lightskin/core/SimdTarget.h>
 #include <lightskin/gi/lightskin/CpuLightSkin.h>
 #include <lightskin/gi/lightskin/LightSkinIllumination.h>
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 
 namespace lightskin::test {
@@ -217,7 +220,12 @@ bool bitwiseEqual(const std::vector<T>& a, const std::vector<T>& b) {
     return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
 }
 
-TEST_F(CpuLightSkinGLTest, ResultsAreBitwiseIndependentOfTheThreadCount) {
+// On every instruction set this CPU supports (core/SimdTarget.h): the test's name carries the target.
+class CpuLightSkinThreadCountGLTest : public GlTest, public ::testing::WithParamInterface<std::string> {};
+
+TEST_P(CpuLightSkinThreadCountGLTest, ResultsAreBitwiseIndependentOfTheThreadCount) {
+    const core::SimdTargetScope target(GetParam());
+    ASSERT_EQ(gi::cpuSimdTarget(), GetParam());
     Scene scene = sphereOverFloor();
     // more than 2048 VALs (a group's pass over all of them) and a count that is no multiple of 16: padding
     const auto extra = randomVals(2601, {-1.5f, -1.5f, 1.0f}, {1.5f, 1.5f, 2.0f}, {0, 0, 0}, 0.002f, 5);
@@ -241,6 +249,9 @@ TEST_F(CpuLightSkinGLTest, ResultsAreBitwiseIndependentOfTheThreadCount) {
         EXPECT_TRUE(bitwiseEqual(one.image, other.image)) << threads << " threads: image";
     }
 }
+
+INSTANTIATE_TEST_SUITE_P(EveryInstructionSet, CpuLightSkinThreadCountGLTest, ::testing::ValuesIn(core::simdTargets()),
+                         [](const ::testing::TestParamInfo<std::string>& target) { return target.param; });
 
 // The gather skips blocks of 16 VALs x 16 sparse points wholly behind the points (CpuGatherKernels.h,
 // prepareGather), and the occlusion skips occluders below the horizon of every point of a vector
@@ -314,7 +325,18 @@ TEST_F(CpuLightSkinGLTest, RejectsANegativeThreadCount) {
     EXPECT_THROW(gi::CpuLightSkin::create(settings, scene.provider()), Error);
 }
 
-TEST_F(CpuLightSkinGLTest, ReportsTheDispatchedInstructionSet) { EXPECT_FALSE(gi::cpuSimdTarget().empty()); }
+// The kernels dispatch to the best instruction set allowed, and honour LIGHTSKIN_SIMD_TARGET (the capped
+// runs of this program, tests/gi/gather/CMakeLists.txt).
+TEST_F(CpuLightSkinGLTest, ReportsTheDispatchedInstructionSet) {
+    const std::vector<std::string> targets = core::simdTargets();
+    ASSERT_FALSE(targets.empty());
+    EXPECT_EQ(gi::cpuSimdTarget(), targets.front());
+    const char* cap = std::getenv(core::kSimdTargetVariable);
+    if (cap != nullptr && std::find(targets.begin(), targets.end(), cap) != targets.end()) {
+        EXPECT_EQ(gi::cpuSimdTarget(), cap);
+    }
+    std::printf("dispatched instruction set: %s\n", gi::cpuSimdTarget().c_str());
+}
 
 } // namespace
 } // namespace lightskin::test

@@ -18,6 +18,8 @@
 // An invalid VAL never reaches these kernels (dropped when the arrays are built).
 #include "CpuGatherKernels.h"
 
+#include <lightskin/core/SimdTarget.h>
+
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -656,42 +658,31 @@ void Occluders::resize(std::size_t n) {
 std::uint64_t gather(const ValArrays& vals, std::uint32_t valBegin, std::uint32_t valEnd,
                      const ReceiverArrays& receivers, std::size_t receiverBegin, std::size_t receiverEnd,
                      const GatherParameters& parameters, float* sums, std::size_t stride) {
+    core::applySimdTargetCap(); // once per process; the CPU backend's first frame applies it
     return HWY_DYNAMIC_DISPATCH(GatherImpl)(vals, valBegin, valEnd, receivers, receiverBegin, receiverEnd, parameters,
                                             sums, stride);
 }
 
 std::uint64_t occlusion(const OcclusionReceivers& receivers, std::size_t receiverBegin, std::size_t receiverEnd,
                         const Occluders& occluders, bool glossy, float* outD, float* outS, bool skipHidden) {
+    core::applySimdTargetCap();
     return HWY_DYNAMIC_DISPATCH(OcclusionImpl)(receivers, receiverBegin, receiverEnd, occluders, glossy, outD, outS,
                                                skipHidden);
 }
 
 void lobePow(const float* cosGamma, const float* exponent, float* out, std::size_t count) {
+    core::applySimdTargetCap();
     HWY_DYNAMIC_DISPATCH(LobePowImpl)(cosGamma, exponent, out, count);
 }
 
-std::string simdTargetName() { return HWY_DYNAMIC_DISPATCH(TargetNameImpl)(); }
-
-double fmaChains(std::uint64_t steps, float* sink) { return HWY_DYNAMIC_DISPATCH(FmaChainsImpl)(steps, sink); }
-
-std::vector<std::string> simdTargetNames() {
-    std::vector<std::string> names;
-    for (const std::int64_t target : hwy::SupportedAndGeneratedTargets()) names.emplace_back(hwy::TargetName(target));
-    return names;
+std::string simdTargetName() {
+    core::applySimdTargetCap();
+    return HWY_DYNAMIC_DISPATCH(TargetNameImpl)();
 }
 
-bool restrictSimdTarget(const std::string& name) {
-    if (name.empty()) {
-        hwy::SetSupportedTargetsForTest(0);
-        return true;
-    }
-    hwy::SetSupportedTargetsForTest(0);
-    for (const std::int64_t target : hwy::SupportedAndGeneratedTargets())
-        if (name == hwy::TargetName(target)) {
-            hwy::SetSupportedTargetsForTest(target);
-            return true;
-        }
-    return false;
+double fmaChains(std::uint64_t steps, float* sink) {
+    core::applySimdTargetCap();
+    return HWY_DYNAMIC_DISPATCH(FmaChainsImpl)(steps, sink);
 }
 
 } // namespace lightskin::gi::cpu

@@ -155,9 +155,5 @@ std::string simdTargetName();
 /// `steps` x 12 independent vector FMA chains at the dispatched width; returns the flops done
 /// (2 per FMA lane), writes a lane of the result to *sink.
 double fmaChains(std::uint64_t steps, float* sink);
-/// Instruction sets compiled in and supported by this CPU, best first.
-std::vector<std::string> simdTargetNames();
-/// Limits the dispatch to one of simdTargetNames() ("" = all again); false for an unknown name.
-bool restrictSimdTarget(const std::string& name);
 
 } // namespace lightskin::gi::cpu

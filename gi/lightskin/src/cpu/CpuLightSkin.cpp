@@ -10,6 +10,7 @@
 
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
+#include <lightskin/core/SimdTarget.h>
 #include <lightskin/gi/lightskin/BuriedSparsePoints.h>
 #include <lightskin/gi/lightskin/CpuLightSkin.h>
 #include <lightskin/gl/ShaderLibrary.h>
@@ -726,7 +727,7 @@ CpuLightSkin::CpuLightSkin()
 CpuLightSkin::~CpuLightSkin() = default;
 
 std::string cpuSimdTarget() { return cpu::simdTargetName(); }
-std::vector<std::string> cpuSimdTargets() { return cpu::simdTargetNames(); }
+std::vector<std::string> cpuSimdTargets() { return core::simdTargets(); }
 double cpuFmaPeakGflops(double milliseconds) {
     float sink = 0.0f;
     double flops = 0.0;
@@ -752,10 +753,7 @@ void cpuLobePow(std::span<const float> cosGamma, std::span<const float> exponent
         std::copy_n(o.begin(), n, out.begin() + std::ptrdiff_t(first));
     }
 }
-void setCpuSimdTarget(const std::string& name) {
-    if (!cpu::restrictSimdTarget(name))
-        throw Error("SIMD target", std::nullopt, "'" + name + "' is not one this build and CPU support");
-}
+void setCpuSimdTarget(const std::string& name) { core::restrictSimdTarget(name); }
 
 std::unique_ptr<CpuLightSkin> CpuLightSkin::create(const CpuLightSkinSettings& settings, SparsePointProvider provider) {
     LIGHTSKIN_ASSERT(bool(provider), "lightskin::gi::CpuLightSkin::create(): a sparse point provider is required");
