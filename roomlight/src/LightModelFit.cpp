@@ -1,0 +1,334 @@
+#include "LightModelFit.h"
+
+#include <glm/geometric.hpp>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace lightskin::roomlight {
+namespace {
+
+using NormalMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxColumns, kMaxColumns>;
+using RightHandSide = Eigen::Matrix<double, Eigen::Dynamic, 3, 0, kMaxColumns, 3>;
+using SearchMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 1 + kMaxEmitters + 4, 1 + kMaxEmitters + 4>;
+using SearchVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 1 + kMaxEmitters + 4, 1>;
+
+constexpr double kTukeyConstant = 4.685;  // 95 % efficiency under Gaussian noise
+constexpr double kMadToSigma = 1.4826;    // MAD of a Gaussian = 0.6745 sigma
+constexpr double kMinRelativeScale = 0.02; // 8-bit quantisation and normal noise: a few % of a pixel value
+constexpr double kMaxInverseDistance = 5.0; // lights closer than 0.2 m to the reference are not searched
+constexpr std::size_t kSearchSamples = 1500;
+
+double luminance(const glm::dvec3& rgb) noexcept { return (rgb.x + rgb.y + rgb.z) / 3.0; }
+
+/// G(x) of the free light (RoomLightEstimator.h). |v|^2 is floored so that a sample next to the light
+/// does not dominate the fit.
+double freeLightTerm(const FreeLight& light, const glm::dvec3& reference, const glm::dvec3& position,
+                     const glm::dvec3& normal) noexcept {
+    const glm::dvec3 v = light.direction - light.inverseDistance * (position - reference);
+    const double cosine = glm::dot(normal, v);
+    if (cosine <= 0.0) return 0.0;
+    const double squared = std::max(glm::dot(v, v), 0.05);
+    return cosine / (squared * std::sqrt(squared));
+}
+
+double emitterTerm(const AreaEmitter& emitter, const glm::dvec3& position, const glm::dvec3& normal) noexcept {
+    const glm::dvec3 toSample = position - emitter.positionWorld;
+    const double squared = glm::dot(toSample, toSample);
+    if (!(squared > 0.0)) return 0.0;
+    const double distance = std::sqrt(squared);
+    const double cosEmitter = glm::dot(emitter.normalWorld, toSample) / distance;
+    const double cosSample = -glm::dot(normal, toSample) / distance;
+    if (cosEmitter <= 0.0 || cosSample <= 0.0) return 0.0;
+    return emitter.areaSquareMetres * cosEmitter * cosSample / (squared + emitter.areaSquareMetres / kPi);
+}
+
+glm::dvec3 rotateToward(const glm::dvec3& direction, const glm::dvec3& tangent, double angle) noexcept {
+    return glm::normalize(direction * std::cos(angle) + tangent * std::sin(angle));
+}
+
+std::array<glm::dvec3, 2> tangentsOf(const glm::dvec3& direction) noexcept {
+    const glm::dvec3 helper = std::abs(direction.z) < 0.9 ? glm::dvec3(0.0, 0.0, 1.0) : glm::dvec3(1.0, 0.0, 0.0);
+    const glm::dvec3 first = glm::normalize(glm::cross(direction, helper));
+    return {first, glm::cross(direction, first)};
+}
+
+} // namespace
+
+void LightModelFit::designRow(std::size_t i, const FreeLight& light, double* row) const noexcept {
+    const glm::dvec3& position = samples_->positionWorld[i];
+    const glm::dvec3& normal = samples_->normalWorld[i];
+    row[0] = freeLightTerm(light, reference_, position, normal);
+    for (int e = 0; e < emitterCount_; ++e)
+        row[1 + e] = emitterTerm(emitters_[static_cast<std::size_t>(e)], position, normal);
+    const ShBasis y = shBasis(normal);
+    for (int k = 0; k < kShCount; ++k)
+        row[1 + emitterCount_ + k] = irradianceConvolution(k) * y[static_cast<std::size_t>(k)];
+}
+
+// Variable projection: the weighted residual of the luminance fit with the light's (d, u) fixed, on the search
+// subset, with the ambient reduced to bands 0 and 1 (what a box room's few normals can tell apart from a light).
+double LightModelFit::lightSearchCost(const FreeLight& light) const noexcept {
+    const int columns = 1 + emitterCount_ + 4;
+    SearchMatrix normalMatrix = SearchMatrix::Zero(columns, columns);
+    SearchVector rhs = SearchVector::Zero(columns);
+    double targetSquares = 0.0;
+    std::array<double, kMaxColumns> row{};
+    for (const std::size_t i : searchIndex_) {
+        const glm::dvec3& albedo = albedo_[static_cast<std::size_t>(samples_->segment[i])];
+        const double meanAlbedo = luminance(albedo);
+        const double w = weight_[i] * meanAlbedo * meanAlbedo;
+        if (w <= 0.0) continue;
+        designRow(i, light, row.data());
+        const double target = luminance(samples_->radiance[i] / albedo);
+        const Eigen::Map<const SearchVector> x(row.data(), columns);
+        normalMatrix.selfadjointView<Eigen::Lower>().rankUpdate(x, w);
+        rhs += w * target * x;
+        targetSquares += w * target * target;
+    }
+    normalMatrix.triangularView<Eigen::StrictlyUpper>() = normalMatrix.transpose();
+    const double ridge = options_->ambientRidge * normalMatrix(1 + emitterCount_, 1 + emitterCount_);
+    for (int k = 2 + emitterCount_; k < columns; ++k) normalMatrix(k, k) += ridge;
+    Eigen::LDLT<SearchMatrix> solver(normalMatrix);
+    SearchVector beta = solver.solve(rhs);
+    if (beta(0) < 0.0) { // a light may not be negative: the model without it
+        normalMatrix.row(0).setZero();
+        normalMatrix.col(0).setZero();
+        normalMatrix(0, 0) = 1.0;
+        rhs(0) = 0.0;
+        beta = Eigen::LDLT<SearchMatrix>(normalMatrix).solve(rhs);
+    }
+    const double cost = targetSquares - rhs.dot(beta);
+    return std::isfinite(cost) ? cost : std::numeric_limits<double>::max();
+}
+
+// 128 directions (a Fibonacci sphere) times four inverse distances: 0 (directional), 0.3, 0.7, 1.5 per metre.
+FreeLight LightModelFit::globalSearch() const noexcept {
+    constexpr int kDirections = 128;
+    constexpr std::array<double, 4> kInverseDistances{0.0, 0.3, 0.7, 1.5};
+    const double goldenAngle = kPi * (3.0 - std::sqrt(5.0));
+    FreeLight best;
+    double bestCost = std::numeric_limits<double>::max();
+    for (int i = 0; i < kDirections; ++i) {
+        const double z = 1.0 - (2.0 * i + 1.0) / kDirections;
+        const double ring = std::sqrt(1.0 - z * z);
+        const double phi = goldenAngle * i;
+        const glm::dvec3 direction{ring * std::cos(phi), ring * std::sin(phi), z};
+        for (const double u : kInverseDistances) {
+            const FreeLight candidate{direction, u};
+            const double cost = lightSearchCost(candidate);
+            if (cost < bestCost) {
+                bestCost = cost;
+                best = candidate;
+            }
+        }
+    }
+    return best;
+}
+
+// Compass search on (d, u): try +-step along two tangents and along u, keep any improvement, halve the steps
+// when none helps, stop below 0.1 degree.
+FreeLight LightModelFit::patternSearch(FreeLight current, double angleStep, double inverseDistanceStep) const noexcept {
+    double currentCost = lightSearchCost(current);
+    constexpr double kMinAngleStep = 0.1 * kPi / 180.0;
+    for (int evaluations = 0; angleStep > kMinAngleStep && evaluations < 120;) {
+        bool improved = false;
+        const auto tangents = tangentsOf(current.direction);
+        std::array<FreeLight, 6> moves{};
+        for (int s = 0; s < 2; ++s) {
+            const double sign = s == 0 ? 1.0 : -1.0;
+            moves[static_cast<std::size_t>(s)] = {rotateToward(current.direction, tangents[0], sign * angleStep),
+                                                  current.inverseDistance};
+            moves[static_cast<std::size_t>(2 + s)] = {rotateToward(current.direction, tangents[1], sign * angleStep),
+                                                      current.inverseDistance};
+            moves[static_cast<std::size_t>(4 + s)] = {
+                current.direction,
+                std::clamp(current.inverseDistance + sign * inverseDistanceStep, 0.0, kMaxInverseDistance)};
+        }
+        for (const FreeLight& move : moves) {
+            const double cost = lightSearchCost(move);
+            ++evaluations;
+            if (cost < currentCost) {
+                currentCost = cost;
+                current = move;
+                improved = true;
+            }
+        }
+        if (!improved) {
+            angleStep *= 0.5;
+            inverseDistanceStep *= 0.5;
+        }
+    }
+    return current;
+}
+
+bool LightModelFit::solveLinear(const FreeLight& light, std::array<glm::dvec3, kMaxColumns>& beta) const noexcept {
+    const int columns = columnCount();
+    NormalMatrix normalMatrix = NormalMatrix::Zero(columns, columns);
+    RightHandSide rhs = RightHandSide::Zero(columns, 3);
+    std::array<double, kMaxColumns> row{};
+    for (const std::size_t i : fitIndex_) {
+        const glm::dvec3& albedo = albedo_[static_cast<std::size_t>(samples_->segment[i])];
+        const double meanAlbedo = luminance(albedo);
+        const double w = weight_[i] * meanAlbedo * meanAlbedo;
+        if (w <= 0.0) continue;
+        designRow(i, light, row.data());
+        const glm::dvec3 target = samples_->radiance[i] / albedo;
+        const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxColumns, 1>> x(row.data(), columns);
+        normalMatrix.selfadjointView<Eigen::Lower>().rankUpdate(x, w);
+        rhs.col(0) += (w * target.x) * x;
+        rhs.col(1) += (w * target.y) * x;
+        rhs.col(2) += (w * target.z) * x;
+    }
+    normalMatrix.triangularView<Eigen::StrictlyUpper>() = normalMatrix.transpose();
+    const int firstSh = 1 + emitterCount_;
+    const double ridge = options_->ambientRidge * normalMatrix(firstSh, firstSh);
+    for (int k = firstSh + 1; k < columns; ++k) normalMatrix(k, k) += ridge;
+    // Lights may not be negative: a light column whose luminance comes out negative is removed and the rest refitted.
+    for (int attempt = 0; attempt <= firstSh; ++attempt) {
+        Eigen::LDLT<NormalMatrix> solver(normalMatrix);
+        if (solver.info() != Eigen::Success) return false;
+        const RightHandSide solution = solver.solve(rhs);
+        if (!solution.allFinite()) return false;
+        int negative = -1;
+        for (int c = 0; c < firstSh && negative < 0; ++c)
+            if (solution.row(c).sum() < 0.0) negative = c;
+        if (negative < 0) {
+            for (int c = 0; c < columns; ++c) {
+                beta[static_cast<std::size_t>(c)] = {solution(c, 0), solution(c, 1), solution(c, 2)};
+                if (c < firstSh) beta[static_cast<std::size_t>(c)] = glm::max(beta[static_cast<std::size_t>(c)], 0.0);
+            }
+            return true;
+        }
+        normalMatrix.row(negative).setZero();
+        normalMatrix.col(negative).setZero();
+        normalMatrix(negative, negative) = 1.0;
+        rhs.row(negative).setZero();
+    }
+    return false;
+}
+
+void LightModelFit::updateWeights(const FreeLight& light, const std::array<glm::dvec3, kMaxColumns>& beta) noexcept {
+    std::array<double, kMaxColumns> row{};
+    scratch_.clear();
+    const int columns = columnCount();
+    for (const std::size_t i : fitIndex_) {
+        designRow(i, light, row.data());
+        glm::dvec3 shading{0.0};
+        for (int c = 0; c < columns; ++c) shading += row[static_cast<std::size_t>(c)] * beta[static_cast<std::size_t>(c)];
+        const glm::dvec3 predicted = albedo_[static_cast<std::size_t>(samples_->segment[i])] * shading;
+        const double relative =
+            (luminance(samples_->radiance[i]) - luminance(predicted)) / std::max(luminance(predicted), 1e-3);
+        weight_[i] = relative; // kept for the second pass below
+        scratch_.push_back(std::abs(relative));
+    }
+    if (scratch_.empty()) return;
+    const auto middle = scratch_.begin() + static_cast<std::ptrdiff_t>(scratch_.size() / 2);
+    std::nth_element(scratch_.begin(), middle, scratch_.end());
+    const double scale = kTukeyConstant * std::max(kMadToSigma * *middle, kMinRelativeScale);
+    for (const std::size_t i : fitIndex_) {
+        const double t = weight_[i] / scale;
+        weight_[i] = std::abs(t) < 1.0 ? (1.0 - t * t) * (1.0 - t * t) : 0.0;
+    }
+}
+
+// Albedo per segment given the shading, then the reference segment brought back to referenceAlbedo
+// (the shading takes the inverse factor, so the prediction is unchanged).
+void LightModelFit::updateAlbedo(const FreeLight& light, std::array<glm::dvec3, kMaxColumns>& beta) noexcept {
+    std::array<glm::dvec3, kMaxSegments> numerator{}, denominator{};
+    std::array<double, kMaxColumns> row{};
+    const int columns = columnCount();
+    for (const std::size_t i : fitIndex_) {
+        if (weight_[i] <= 0.0) continue;
+        designRow(i, light, row.data());
+        glm::dvec3 shading{0.0};
+        for (int c = 0; c < columns; ++c) shading += row[static_cast<std::size_t>(c)] * beta[static_cast<std::size_t>(c)];
+        const auto s = static_cast<std::size_t>(samples_->segment[i]);
+        numerator[s] += weight_[i] * samples_->radiance[i] * shading;
+        denominator[s] += weight_[i] * shading * shading;
+    }
+    for (std::size_t s = 0; s < static_cast<std::size_t>(segmentCount_); ++s) {
+        const glm::dvec3 albedo = numerator[s] / denominator[s];
+        if (glm::all(glm::greaterThan(albedo, glm::dvec3(1e-4))) && std::isfinite(albedo.x + albedo.y + albedo.z))
+            albedo_[s] = albedo;
+    }
+    const glm::dvec3 toReference = options_->referenceAlbedo / albedo_[0];
+    for (std::size_t s = 0; s < static_cast<std::size_t>(segmentCount_); ++s) albedo_[s] *= toReference;
+    for (int c = 0; c < columns; ++c) beta[static_cast<std::size_t>(c)] /= toReference;
+}
+
+double LightModelFit::residual(const FreeLight& light, const std::array<glm::dvec3, kMaxColumns>& beta) const noexcept {
+    std::array<double, kMaxColumns> row{};
+    double squares = 0.0, observed = 0.0;
+    const int columns = columnCount();
+    for (const std::size_t i : fitIndex_) {
+        designRow(i, light, row.data());
+        glm::dvec3 shading{0.0};
+        for (int c = 0; c < columns; ++c) shading += row[static_cast<std::size_t>(c)] * beta[static_cast<std::size_t>(c)];
+        const glm::dvec3 error = samples_->radiance[i] - albedo_[static_cast<std::size_t>(samples_->segment[i])] * shading;
+        squares += weight_[i] * glm::dot(error, error);
+        observed += weight_[i] * glm::dot(samples_->radiance[i], samples_->radiance[i]);
+    }
+    return observed > 0.0 ? std::sqrt(squares / observed) : 0.0;
+}
+
+bool LightModelFit::run(const SurfaceSamples& samples, int segmentCount,
+                        const std::array<AreaEmitter, kMaxEmitters>& emitters, int emitterCount,
+                        const glm::dvec3& reference, const std::optional<FreeLight>& warmStart,
+                        const RoomLightOptions& options, ModelFitResult& result) {
+    samples_ = &samples;
+    options_ = &options;
+    emitters_ = emitters;
+    emitterCount_ = emitterCount;
+    segmentCount_ = segmentCount;
+    reference_ = reference;
+    fitIndex_.clear();
+    std::array<glm::dvec3, kMaxSegments> meanColour{};
+    std::array<int, kMaxSegments> members{};
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+        if (samples.segment[i] < 0) continue;
+        fitIndex_.push_back(i);
+        meanColour[static_cast<std::size_t>(samples.segment[i])] += samples.radiance[i];
+        ++members[static_cast<std::size_t>(samples.segment[i])];
+    }
+    if (fitIndex_.size() < static_cast<std::size_t>(options.minSamples) || segmentCount < 1) return false;
+    const std::size_t every = std::max<std::size_t>(1, fitIndex_.size() / kSearchSamples);
+    searchIndex_.clear();
+    for (std::size_t j = 0; j < fitIndex_.size(); j += every) searchIndex_.push_back(fitIndex_[j]);
+    weight_.assign(samples.size(), 1.0);
+    scratch_.reserve(fitIndex_.size());
+    // Start: segments as bright as they look relative to the reference (the same average light on each).
+    const glm::dvec3 referenceMean = meanColour[0] / static_cast<double>(members[0]);
+    for (std::size_t s = 0; s < static_cast<std::size_t>(segmentCount); ++s)
+        albedo_[s] = options.referenceAlbedo * (meanColour[s] / static_cast<double>(members[s])) / referenceMean;
+
+    constexpr double kDegree = kPi / 180.0;
+    FreeLight light = warmStart ? patternSearch(*warmStart, 2.0 * kDegree, 0.05)
+                                : patternSearch(globalSearch(), 8.0 * kDegree, 0.2);
+    std::array<glm::dvec3, kMaxColumns> beta{};
+    for (int pass = 0; pass < 2; ++pass) {
+        for (int iteration = 0; iteration < 3; ++iteration) {
+            if (!solveLinear(light, beta)) return false;
+            updateWeights(light, beta);
+            updateAlbedo(light, beta);
+        }
+        if (pass == 0) light = patternSearch(light, 2.0 * kDegree, 0.05);
+    }
+    if (!solveLinear(light, beta)) return false;
+
+    result.light = light;
+    result.lightIrradiance = beta[0];
+    for (int e = 0; e < emitterCount; ++e) result.emitterRadiance[static_cast<std::size_t>(e)] = beta[static_cast<std::size_t>(1 + e)];
+    for (int k = 0; k < kShCount; ++k)
+        result.ambientRadiance[static_cast<std::size_t>(k)] = beta[static_cast<std::size_t>(1 + emitterCount + k)];
+    result.albedo = albedo_;
+    result.residual = residual(light, beta);
+    result.samplesFitted = static_cast<int>(fitIndex_.size());
+    return std::isfinite(result.residual);
+}
+
+} // namespace lightskin::roomlight
