@@ -1,10 +1,11 @@
 #include "LightModelFit.h"
 
+#include "ModelTerms.h"
+
 #include <glm/geometric.hpp>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -14,38 +15,16 @@ namespace {
 
 using NormalMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxColumns, kMaxColumns>;
 using RightHandSide = Eigen::Matrix<double, Eigen::Dynamic, 3, 0, kMaxColumns, 3>;
-using SearchMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 1 + kMaxEmitters + 4, 1 + kMaxEmitters + 4>;
-using SearchVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 1 + kMaxEmitters + 4, 1>;
+using SearchMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 2 + kMaxEmitters, 2 + kMaxEmitters>;
+using SearchVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 2 + kMaxEmitters, 1>;
 
-constexpr double kTukeyConstant = 4.685;  // 95 % efficiency under Gaussian noise
-constexpr double kMadToSigma = 1.4826;    // MAD of a Gaussian = 0.6745 sigma
-constexpr double kMinRelativeScale = 0.02; // 8-bit quantisation and normal noise: a few % of a pixel value
+constexpr double kTukeyConstant = 4.685;    // 95 % efficiency under Gaussian noise
+constexpr double kMadToSigma = 1.4826;      // MAD of a Gaussian = 0.6745 sigma
+constexpr double kMinRelativeScale = 0.02;  // 8-bit quantisation and normal noise: a few % of a pixel value
 constexpr double kMaxInverseDistance = 5.0; // lights closer than 0.2 m to the reference are not searched
 constexpr std::size_t kSearchSamples = 1500;
 
 double luminance(const glm::dvec3& rgb) noexcept { return (rgb.x + rgb.y + rgb.z) / 3.0; }
-
-/// G(x) of the free light (RoomLightEstimator.h). |v|^2 is floored so that a sample next to the light
-/// does not dominate the fit.
-double freeLightTerm(const FreeLight& light, const glm::dvec3& reference, const glm::dvec3& position,
-                     const glm::dvec3& normal) noexcept {
-    const glm::dvec3 v = light.direction - light.inverseDistance * (position - reference);
-    const double cosine = glm::dot(normal, v);
-    if (cosine <= 0.0) return 0.0;
-    const double squared = std::max(glm::dot(v, v), 0.05);
-    return cosine / (squared * std::sqrt(squared));
-}
-
-double emitterTerm(const AreaEmitter& emitter, const glm::dvec3& position, const glm::dvec3& normal) noexcept {
-    const glm::dvec3 toSample = position - emitter.positionWorld;
-    const double squared = glm::dot(toSample, toSample);
-    if (!(squared > 0.0)) return 0.0;
-    const double distance = std::sqrt(squared);
-    const double cosEmitter = glm::dot(emitter.normalWorld, toSample) / distance;
-    const double cosSample = -glm::dot(normal, toSample) / distance;
-    if (cosEmitter <= 0.0 || cosSample <= 0.0) return 0.0;
-    return emitter.areaSquareMetres * cosEmitter * cosSample / (squared + emitter.areaSquareMetres / kPi);
-}
 
 glm::dvec3 rotateToward(const glm::dvec3& direction, const glm::dvec3& tangent, double angle) noexcept {
     return glm::normalize(direction * std::cos(angle) + tangent * std::sin(angle));
@@ -71,38 +50,54 @@ void LightModelFit::designRow(std::size_t i, const FreeLight& light, double* row
 }
 
 // Variable projection: the weighted residual of the luminance fit with the light's (d, u) fixed, on the search
-// subset, with the ambient reduced to bands 0 and 1 (what a box room's few normals can tell apart from a light).
+// subset. Every segment gets its own light and ambient scale (columns light, emitters, constant), so the cost does
+// not depend on the albedos: only the light's geometry is shared, and each segment's shading pattern must agree
+// with it. (A joint fit from guessed albedos trades the albedos against the light's direction.)
 double LightModelFit::lightSearchCost(const FreeLight& light) const noexcept {
-    const int columns = 1 + emitterCount_ + 4;
-    SearchMatrix normalMatrix = SearchMatrix::Zero(columns, columns);
-    SearchVector rhs = SearchVector::Zero(columns);
-    double targetSquares = 0.0;
+    // The free light is another light than the emitters: it may not sit on one (it would split its light).
+    constexpr double kMinDistanceToEmitter = 0.5; // metres
+    if (light.inverseDistance > 0.0) {
+        const glm::dvec3 position = reference_ + light.direction / light.inverseDistance;
+        for (int e = 0; e < emitterCount_; ++e)
+            if (glm::distance(position, emitters_[static_cast<std::size_t>(e)].positionWorld) < kMinDistanceToEmitter)
+                return std::numeric_limits<double>::max();
+    }
+    const int columns = 2 + emitterCount_;
+    std::array<SearchMatrix, kMaxSegments> normalMatrix;
+    std::array<SearchVector, kMaxSegments> rhs;
+    std::array<double, kMaxSegments> targetSquares{};
+    for (std::size_t s = 0; s < static_cast<std::size_t>(segmentCount_); ++s) {
+        normalMatrix[s] = SearchMatrix::Zero(columns, columns);
+        rhs[s] = SearchVector::Zero(columns);
+    }
     std::array<double, kMaxColumns> row{};
     for (const std::size_t i : searchIndex_) {
-        const glm::dvec3& albedo = albedo_[static_cast<std::size_t>(samples_->segment[i])];
-        const double meanAlbedo = luminance(albedo);
-        const double w = weight_[i] * meanAlbedo * meanAlbedo;
+        const double w = weight_[i];
         if (w <= 0.0) continue;
         designRow(i, light, row.data());
-        const double target = luminance(samples_->radiance[i] / albedo);
+        row[static_cast<std::size_t>(1 + emitterCount_)] = 1.0;
+        const auto s = static_cast<std::size_t>(samples_->segment[i]);
+        const double target = luminance(samples_->radiance[i]);
         const Eigen::Map<const SearchVector> x(row.data(), columns);
-        normalMatrix.selfadjointView<Eigen::Lower>().rankUpdate(x, w);
-        rhs += w * target * x;
-        targetSquares += w * target * target;
+        normalMatrix[s].selfadjointView<Eigen::Lower>().rankUpdate(x, w);
+        rhs[s] += w * target * x;
+        targetSquares[s] += w * target * target;
     }
-    normalMatrix.triangularView<Eigen::StrictlyUpper>() = normalMatrix.transpose();
-    const double ridge = options_->ambientRidge * normalMatrix(1 + emitterCount_, 1 + emitterCount_);
-    for (int k = 2 + emitterCount_; k < columns; ++k) normalMatrix(k, k) += ridge;
-    Eigen::LDLT<SearchMatrix> solver(normalMatrix);
-    SearchVector beta = solver.solve(rhs);
-    if (beta(0) < 0.0) { // a light may not be negative: the model without it
-        normalMatrix.row(0).setZero();
-        normalMatrix.col(0).setZero();
-        normalMatrix(0, 0) = 1.0;
-        rhs(0) = 0.0;
-        beta = Eigen::LDLT<SearchMatrix>(normalMatrix).solve(rhs);
+    double cost = 0.0;
+    for (std::size_t s = 0; s < static_cast<std::size_t>(segmentCount_); ++s) {
+        SearchMatrix& a = normalMatrix[s];
+        a.triangularView<Eigen::StrictlyUpper>() = a.transpose();
+        a.diagonal().array() += 1e-9 * (a.diagonal().maxCoeff() + 1e-30); // segments that see no light
+        SearchVector beta = Eigen::LDLT<SearchMatrix>(a).solve(rhs[s]);
+        if (beta(0) < 0.0) { // a light may not be negative: the model without it
+            a.row(0).setZero();
+            a.col(0).setZero();
+            a(0, 0) = 1.0;
+            rhs[s](0) = 0.0;
+            beta = Eigen::LDLT<SearchMatrix>(a).solve(rhs[s]);
+        }
+        cost += targetSquares[s] - rhs[s].dot(beta);
     }
-    const double cost = targetSquares - rhs.dot(beta);
     return std::isfinite(cost) ? cost : std::numeric_limits<double>::max();
 }
 
@@ -167,6 +162,7 @@ FreeLight LightModelFit::patternSearch(FreeLight current, double angleStep, doub
 }
 
 bool LightModelFit::solveLinear(const FreeLight& light, std::array<glm::dvec3, kMaxColumns>& beta) const noexcept {
+    const bool withFreeLight = freeLightEnabled_;
     const int columns = columnCount();
     NormalMatrix normalMatrix = NormalMatrix::Zero(columns, columns);
     RightHandSide rhs = RightHandSide::Zero(columns, 3);
@@ -177,7 +173,7 @@ bool LightModelFit::solveLinear(const FreeLight& light, std::array<glm::dvec3, k
         const double w = weight_[i] * meanAlbedo * meanAlbedo;
         if (w <= 0.0) continue;
         designRow(i, light, row.data());
-        const glm::dvec3 target = samples_->radiance[i] / albedo;
+        const glm::dvec3 target = kPi * samples_->radiance[i] / albedo;
         const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxColumns, 1>> x(row.data(), columns);
         normalMatrix.selfadjointView<Eigen::Lower>().rankUpdate(x, w);
         rhs.col(0) += (w * target.x) * x;
@@ -187,7 +183,16 @@ bool LightModelFit::solveLinear(const FreeLight& light, std::array<glm::dvec3, k
     normalMatrix.triangularView<Eigen::StrictlyUpper>() = normalMatrix.transpose();
     const int firstSh = 1 + emitterCount_;
     const double ridge = options_->ambientRidge * normalMatrix(firstSh, firstSh);
-    for (int k = firstSh + 1; k < columns; ++k) normalMatrix(k, k) += ridge;
+    // Band 1 is held only while the free light is in the model (the two would trade); band 2 always (the normals
+    // a camera sees in one frame rarely constrain it).
+    for (int k = firstSh + 1; k < columns; ++k)
+        if (withFreeLight || k >= firstSh + 4) normalMatrix(k, k) += ridge;
+    if (!withFreeLight) {
+        normalMatrix.row(0).setZero();
+        normalMatrix.col(0).setZero();
+        normalMatrix(0, 0) = 1.0;
+        rhs.row(0).setZero();
+    }
     // Lights may not be negative: a light column whose luminance comes out negative is removed and the rest refitted.
     for (int attempt = 0; attempt <= firstSh; ++attempt) {
         Eigen::LDLT<NormalMatrix> solver(normalMatrix);
@@ -219,8 +224,9 @@ void LightModelFit::updateWeights(const FreeLight& light, const std::array<glm::
     for (const std::size_t i : fitIndex_) {
         designRow(i, light, row.data());
         glm::dvec3 shading{0.0};
-        for (int c = 0; c < columns; ++c) shading += row[static_cast<std::size_t>(c)] * beta[static_cast<std::size_t>(c)];
-        const glm::dvec3 predicted = albedo_[static_cast<std::size_t>(samples_->segment[i])] * shading;
+        for (int c = 0; c < columns; ++c)
+            shading += row[static_cast<std::size_t>(c)] * beta[static_cast<std::size_t>(c)];
+        const glm::dvec3 predicted = albedo_[static_cast<std::size_t>(samples_->segment[i])] * shading / kPi;
         const double relative =
             (luminance(samples_->radiance[i]) - luminance(predicted)) / std::max(luminance(predicted), 1e-3);
         weight_[i] = relative; // kept for the second pass below
@@ -246,9 +252,10 @@ void LightModelFit::updateAlbedo(const FreeLight& light, std::array<glm::dvec3, 
         if (weight_[i] <= 0.0) continue;
         designRow(i, light, row.data());
         glm::dvec3 shading{0.0};
-        for (int c = 0; c < columns; ++c) shading += row[static_cast<std::size_t>(c)] * beta[static_cast<std::size_t>(c)];
+        for (int c = 0; c < columns; ++c)
+            shading += row[static_cast<std::size_t>(c)] * beta[static_cast<std::size_t>(c)];
         const auto s = static_cast<std::size_t>(samples_->segment[i]);
-        numerator[s] += weight_[i] * samples_->radiance[i] * shading;
+        numerator[s] += weight_[i] * kPi * samples_->radiance[i] * shading;
         denominator[s] += weight_[i] * shading * shading;
     }
     for (std::size_t s = 0; s < static_cast<std::size_t>(segmentCount_); ++s) {
@@ -268,12 +275,23 @@ double LightModelFit::residual(const FreeLight& light, const std::array<glm::dve
     for (const std::size_t i : fitIndex_) {
         designRow(i, light, row.data());
         glm::dvec3 shading{0.0};
-        for (int c = 0; c < columns; ++c) shading += row[static_cast<std::size_t>(c)] * beta[static_cast<std::size_t>(c)];
-        const glm::dvec3 error = samples_->radiance[i] - albedo_[static_cast<std::size_t>(samples_->segment[i])] * shading;
+        for (int c = 0; c < columns; ++c)
+            shading += row[static_cast<std::size_t>(c)] * beta[static_cast<std::size_t>(c)];
+        const glm::dvec3 error =
+            samples_->radiance[i] - albedo_[static_cast<std::size_t>(samples_->segment[i])] * shading / kPi;
         squares += weight_[i] * glm::dot(error, error);
         observed += weight_[i] * glm::dot(samples_->radiance[i], samples_->radiance[i]);
     }
     return observed > 0.0 ? std::sqrt(squares / observed) : 0.0;
+}
+
+void LightModelFit::selectSamples(int segments) {
+    fitIndex_.clear();
+    for (std::size_t i = 0; i < samples_->size(); ++i)
+        if (samples_->segment[i] >= 0 && samples_->segment[i] < segments) fitIndex_.push_back(i);
+    const std::size_t every = std::max<std::size_t>(1, fitIndex_.size() / kSearchSamples);
+    searchIndex_.clear();
+    for (std::size_t j = 0; j < fitIndex_.size(); j += every) searchIndex_.push_back(fitIndex_[j]);
 }
 
 bool LightModelFit::run(const SurfaceSamples& samples, int segmentCount,
@@ -286,43 +304,65 @@ bool LightModelFit::run(const SurfaceSamples& samples, int segmentCount,
     emitterCount_ = emitterCount;
     segmentCount_ = segmentCount;
     reference_ = reference;
-    fitIndex_.clear();
     std::array<glm::dvec3, kMaxSegments> meanColour{};
     std::array<int, kMaxSegments> members{};
     for (std::size_t i = 0; i < samples.size(); ++i) {
         if (samples.segment[i] < 0) continue;
-        fitIndex_.push_back(i);
         meanColour[static_cast<std::size_t>(samples.segment[i])] += samples.radiance[i];
         ++members[static_cast<std::size_t>(samples.segment[i])];
     }
-    if (fitIndex_.size() < static_cast<std::size_t>(options.minSamples) || segmentCount < 1) return false;
-    const std::size_t every = std::max<std::size_t>(1, fitIndex_.size() / kSearchSamples);
-    searchIndex_.clear();
-    for (std::size_t j = 0; j < fitIndex_.size(); j += every) searchIndex_.push_back(fitIndex_[j]);
+    if (segmentCount < 1 || members[0] < options.minSamples) return false;
     weight_.assign(samples.size(), 1.0);
-    scratch_.reserve(fitIndex_.size());
+    scratch_.reserve(samples.size());
     // Start: segments as bright as they look relative to the reference (the same average light on each).
     const glm::dvec3 referenceMean = meanColour[0] / static_cast<double>(members[0]);
     for (std::size_t s = 0; s < static_cast<std::size_t>(segmentCount); ++s)
         albedo_[s] = options.referenceAlbedo * (meanColour[s] / static_cast<double>(members[s])) / referenceMean;
 
+    // The light's geometry from the albedo-free search over all segments, its strength and the ambient from the
+    // reference segment alone (albedo known, so linear), then the other segments' albedos from that shading, then
+    // all segments, alternating light and albedo.
     constexpr double kDegree = kPi / 180.0;
-    FreeLight light = warmStart ? patternSearch(*warmStart, 2.0 * kDegree, 0.05)
-                                : patternSearch(globalSearch(), 8.0 * kDegree, 0.2);
+    selectSamples(segmentCount);
+    FreeLight light =
+        warmStart ? patternSearch(*warmStart, 2.0 * kDegree, 0.05) : patternSearch(globalSearch(), 8.0 * kDegree, 0.2);
     std::array<glm::dvec3, kMaxColumns> beta{};
+    selectSamples(1);
+    for (int iteration = 0; iteration < 2; ++iteration) {
+        if (!solveLinear(light, beta)) return false;
+        updateWeights(light, beta);
+    }
+    selectSamples(segmentCount);
+    updateAlbedo(light, beta);
     for (int pass = 0; pass < 2; ++pass) {
+        if (pass == 0) light = patternSearch(light, 2.0 * kDegree, 0.05);
         for (int iteration = 0; iteration < 3; ++iteration) {
             if (!solveLinear(light, beta)) return false;
             updateWeights(light, beta);
             updateAlbedo(light, beta);
         }
-        if (pass == 0) light = patternSearch(light, 2.0 * kDegree, 0.05);
     }
     if (!solveLinear(light, beta)) return false;
-
+    // Model selection: the free light stays only if it explains a good part of what the ambient and the emitters
+    // leave (an ambient sky or a visible lamp alone would otherwise lend it a spurious share).
+    constexpr double kMinExplainedFraction = 0.5;
+    const double withLight = residual(light, beta);
+    std::array<glm::dvec3, kMaxColumns> betaWithout{};
+    freeLightEnabled_ = false;
+    if (solveLinear(light, betaWithout) &&
+        !(withLight * withLight < (1.0 - kMinExplainedFraction) * std::pow(residual(light, betaWithout), 2.0))) {
+        for (int iteration = 0; iteration < 2; ++iteration) {
+            updateWeights(light, betaWithout);
+            updateAlbedo(light, betaWithout);
+            if (!solveLinear(light, betaWithout)) return false;
+        }
+        beta = betaWithout;
+    }
+    freeLightEnabled_ = true;
     result.light = light;
     result.lightIrradiance = beta[0];
-    for (int e = 0; e < emitterCount; ++e) result.emitterRadiance[static_cast<std::size_t>(e)] = beta[static_cast<std::size_t>(1 + e)];
+    for (int e = 0; e < emitterCount; ++e)
+        result.emitterRadiance[static_cast<std::size_t>(e)] = beta[static_cast<std::size_t>(1 + e)];
     for (int k = 0; k < kShCount; ++k)
         result.ambientRadiance[static_cast<std::size_t>(k)] = beta[static_cast<std::size_t>(1 + emitterCount + k)];
     result.albedo = albedo_;

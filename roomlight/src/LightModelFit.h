@@ -23,9 +23,9 @@ inline constexpr int kMaxColumns = 1 + kMaxEmitters + kShCount;
 
 struct ModelFitResult {
     FreeLight light;
-    glm::dvec3 lightIrradiance{0.0};                     ///< F per channel (>= 0)
+    glm::dvec3 lightIrradiance{0.0};                        ///< F per channel (>= 0)
     std::array<glm::dvec3, kMaxEmitters> emitterRadiance{}; ///< L_e per channel (>= 0)
-    ShRgb ambientRadiance{};                             ///< R_k per channel
+    ShRgb ambientRadiance{};                                ///< R_k per channel
     std::array<glm::dvec3, kMaxSegments> albedo{};
     double residual = 0.0;
     int samplesFitted = 0;
@@ -41,6 +41,8 @@ public:
 
 private:
     int columnCount() const noexcept { return 1 + emitterCount_ + kShCount; }
+    /// fitIndex_ and searchIndex_ from the samples of segments [0, segments).
+    void selectSamples(int segments);
     void designRow(std::size_t sample, const FreeLight& light, double* row) const noexcept;
     double lightSearchCost(const FreeLight& light) const noexcept;
     FreeLight globalSearch() const noexcept;
@@ -60,7 +62,9 @@ private:
     std::vector<std::size_t> fitIndex_;    ///< samples with a segment
     std::vector<std::size_t> searchIndex_; ///< a subset of fitIndex_ for the free light's search
     std::vector<double> weight_;           ///< robust weight per sample (indexed like samples)
-    std::vector<double> scratch_;          ///< |relative residual| for the median
+    std::vector<double> scratch_;
+    bool freeLightEnabled_ = true; ///< solveLinear fits the free light's column (else it is held at 0)          ///<
+                                   ///< |relative residual| for the median
 };
 
 } // namespace lightskin::roomlight

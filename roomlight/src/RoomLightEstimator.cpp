@@ -1,4 +1,5 @@
 #include "LightModelFit.h"
+#include "ModelTerms.h"
 #include "SurfaceSamples.h"
 
 #include <lightskin/core/Error.h>
@@ -14,30 +15,42 @@ namespace lightskin::roomlight {
 
 const char* toString(EstimateState state) noexcept {
     switch (state) {
-    case EstimateState::Fitted: return "fitted";
-    case EstimateState::KeptLast: return "kept-last";
-    case EstimateState::NeutralAmbient: return "neutral-ambient";
+    case EstimateState::Fitted:
+        return "fitted";
+    case EstimateState::KeptLast:
+        return "kept-last";
+    case EstimateState::NeutralAmbient:
+        return "neutral-ambient";
     }
     return "?";
 }
 
 const char* toString(FrameProblem problem) noexcept {
     switch (problem) {
-    case FrameProblem::None: return "none";
-    case FrameProblem::NoDepth: return "no-depth";
-    case FrameProblem::Dark: return "dark";
-    case FrameProblem::MostlyClipped: return "mostly-clipped";
-    case FrameProblem::FitFailed: return "fit-failed";
+    case FrameProblem::None:
+        return "none";
+    case FrameProblem::NoDepth:
+        return "no-depth";
+    case FrameProblem::Dark:
+        return "dark";
+    case FrameProblem::MostlyClipped:
+        return "mostly-clipped";
+    case FrameProblem::FitFailed:
+        return "fit-failed";
     }
     return "?";
 }
 
 const char* toString(DominantSource source) noexcept {
     switch (source) {
-    case DominantSource::None: return "none";
-    case DominantSource::LocalLight: return "local-light";
-    case DominantSource::Emitter: return "emitter";
-    case DominantSource::ShLinearBand: return "sh-linear-band";
+    case DominantSource::None:
+        return "none";
+    case DominantSource::LocalLight:
+        return "local-light";
+    case DominantSource::Emitter:
+        return "emitter";
+    case DominantSource::ShLinearBand:
+        return "sh-linear-band";
     }
     return "?";
 }
@@ -122,13 +135,13 @@ glm::dvec3 emitterIrradianceAt(const AreaEmitter& emitter, const glm::dvec3& ref
 }
 
 /// The irradiance SH at the reference point from the model's terms.
-void assembleSh(LightEstimate& estimate, const ShRgb& ambientRadiance) {
-    for (int k = 0; k < kShCount; ++k)
-        estimate.sh[static_cast<std::size_t>(k)] = irradianceConvolution(k) * ambientRadiance[static_cast<std::size_t>(k)];
+void assembleSh(LightEstimate& estimate) {
+    estimate.sh = estimate.ambientSh;
     addDirectionalLight(estimate.sh, estimate.localLightDirectionWorld, estimate.localLightIrradiance);
     for (int e = 0; e < estimate.emitterCount; ++e) {
         glm::dvec3 toward{0.0};
-        const glm::dvec3 e0 = emitterIrradianceAt(estimate.emitters[static_cast<std::size_t>(e)], estimate.referencePointWorld, toward);
+        const glm::dvec3 e0 =
+            emitterIrradianceAt(estimate.emitters[static_cast<std::size_t>(e)], estimate.referencePointWorld, toward);
         addDirectionalLight(estimate.sh, toward, e0);
     }
 }
@@ -163,7 +176,8 @@ void chooseDominant(LightEstimate& estimate, double minDominantRatio) {
     }
     const ShDominantLight fromSh = extractDominantLight(estimate.sh);
     if (luminance(fromSh.irradianceFacing) > threshold && luminance(fromSh.irradianceFacing) > 0.0) {
-        estimate.dominant = makeDominant(fromSh.towardLight, std::nullopt, fromSh.irradianceFacing, DominantSource::ShLinearBand);
+        estimate.dominant =
+            makeDominant(fromSh.towardLight, std::nullopt, fromSh.irradianceFacing, DominantSource::ShLinearBand);
         return;
     }
     estimate.dominant = DominantLight{};
@@ -189,7 +203,7 @@ struct RoomLightEstimator::Impl {
     LightModelFit fit;
     ModelFitResult fitResult;
     LightEstimate current;
-    bool hasFit = false;       ///< current holds a fitted estimate (Fitted or KeptLast)
+    bool hasFit = false; ///< current holds a fitted estimate (Fitted or KeptLast)
     double lastFitTime = std::nan("");
 
     FrameProblem checkFrame();
@@ -220,6 +234,7 @@ void RoomLightEstimator::Impl::keepLast(FrameProblem problem) {
         current = LightEstimate{};
         current.state = EstimateState::NeutralAmbient;
         current.sh[0] = glm::dvec3(options.neutralIrradiance / shBasis({0.0, 0.0, 1.0})[0]);
+        current.ambientSh = current.sh;
     } else {
         current.state = EstimateState::KeptLast;
     }
@@ -242,7 +257,9 @@ void RoomLightEstimator::Impl::buildRaw(LightEstimate& raw, const glm::dvec3& re
         raw.emitters[static_cast<std::size_t>(e)].radiance = fitResult.emitterRadiance[static_cast<std::size_t>(e)];
     raw.residual = fitResult.residual;
     raw.samplesFitted = fitResult.samplesFitted;
-    assembleSh(raw, fitResult.ambientRadiance);
+    for (int k = 0; k < kShCount; ++k)
+        raw.ambientSh[static_cast<std::size_t>(k)] =
+            irradianceConvolution(k) * fitResult.ambientRadiance[static_cast<std::size_t>(k)];
 }
 
 // Exposure and white balance scale every real pixel at once, so the previous estimate is first brought to this
@@ -254,11 +271,13 @@ void RoomLightEstimator::Impl::filterInto(LightEstimate& raw, double elapsedSeco
     for (int c = 0; c < 3; ++c)
         if (previous.sh[0][c] > 0.0 && raw.sh[0][c] > 0.0) gain[c] = raw.sh[0][c] / previous.sh[0][c];
     raw.exposureGain = gain;
+    // The gain is measured on the whole irradiance at the reference (sh, before filtering), as the camera sees it.
     const double alpha = 1.0 - std::exp(-elapsedSeconds / options.timeConstantSeconds);
     const auto blend = [&](const glm::dvec3& before, const glm::dvec3& now) {
         return gain * before + alpha * (now - gain * before);
     };
-    for (std::size_t k = 0; k < raw.sh.size(); ++k) raw.sh[k] = blend(previous.sh[k], raw.sh[k]);
+    for (std::size_t k = 0; k < raw.ambientSh.size(); ++k)
+        raw.ambientSh[k] = blend(previous.ambientSh[k], raw.ambientSh[k]);
     raw.localLightIrradiance = blend(previous.localLightIrradiance, raw.localLightIrradiance);
     const glm::dvec3 direction = glm::mix(previous.localLightDirectionWorld, raw.localLightDirectionWorld, alpha);
     if (glm::length(direction) > 1e-6) raw.localLightDirectionWorld = glm::normalize(direction);
@@ -272,7 +291,25 @@ void RoomLightEstimator::Impl::filterInto(LightEstimate& raw, double elapsedSeco
     }
 }
 
-RoomLightEstimator::RoomLightEstimator(RoomLightOptions options) : impl_(std::make_unique<Impl>()) {
+glm::dvec3 predictIrradiance(const LightEstimate& estimate, const glm::dvec3& positionWorld,
+                             const glm::dvec3& normalWorld) noexcept {
+    FreeLight light{estimate.localLightDirectionWorld, 0.0};
+    if (estimate.localLightPositionWorld) {
+        const glm::dvec3 toLight = *estimate.localLightPositionWorld - estimate.referencePointWorld;
+        light = {glm::normalize(toLight), 1.0 / glm::length(toLight)};
+    }
+    glm::dvec3 irradiance =
+        evaluateSh(estimate.ambientSh, normalWorld) +
+        estimate.localLightIrradiance * freeLightTerm(light, estimate.referencePointWorld, positionWorld, normalWorld);
+    for (int e = 0; e < estimate.emitterCount; ++e) {
+        const AreaEmitter& emitter = estimate.emitters[static_cast<std::size_t>(e)];
+        irradiance += emitter.radiance * emitterTerm(emitter, positionWorld, normalWorld);
+    }
+    return irradiance;
+}
+
+RoomLightEstimator::RoomLightEstimator(RoomLightOptions options)
+    : impl_(std::make_unique<Impl>()) {
     LIGHTSKIN_ASSERT(options.stride >= 1 && options.normalRadius >= 1 && options.timeConstantSeconds > 0.0,
                      "stride and normalRadius must be >= 1, the time constant > 0");
     impl_->options = options;
@@ -327,7 +364,11 @@ const LightEstimate& RoomLightEstimator::estimate(const RgbdFrame& frame, const 
     const double time = frame.colourTimestampSeconds;
     double elapsed = time - m.lastFitTime;
     if (!std::isfinite(elapsed) || elapsed <= 0.0 || elapsed > 1.0) elapsed = m.options.nominalFrameSeconds;
-    if (m.hasFit) m.filterInto(raw, elapsed);
+    assembleSh(raw); // the unfiltered sh: filterInto measures the camera's gain on it
+    if (m.hasFit) {
+        m.filterInto(raw, elapsed);
+        assembleSh(raw);
+    }
     chooseDominant(raw, m.options.minDominantRatio);
     if (!allFinite(raw)) {
         m.keepLast(FrameProblem::FitFailed);

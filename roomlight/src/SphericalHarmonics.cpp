@@ -41,7 +41,8 @@ glm::dvec3 evaluateSh(const ShRgb& coefficients, const glm::dvec3& normal) noexc
     return sum;
 }
 
-void addDirectionalLight(ShRgb& irradiance, const glm::dvec3& towardLight, const glm::dvec3& irradianceFacing) noexcept {
+void addDirectionalLight(ShRgb& irradiance, const glm::dvec3& towardLight,
+                         const glm::dvec3& irradianceFacing) noexcept {
     const ShBasis y = shBasis(towardLight);
     for (std::size_t k = 0; k < kShCount; ++k)
         irradiance[k] += irradianceConvolution(static_cast<int>(k)) * y[k] * irradianceFacing;

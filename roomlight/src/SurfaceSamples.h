@@ -14,12 +14,12 @@
 namespace lightskin::roomlight {
 
 struct SurfaceSamples {
-    std::vector<glm::dvec3> positionWorld; ///< metres
-    std::vector<glm::dvec3> normalWorld;   ///< unit, facing the camera
-    std::vector<glm::dvec3> radiance;      ///< linear RGB in [0, 1] (sRGB decoded); clipped channels read 1
-    std::vector<std::uint8_t> clipped;     ///< 1 when a channel is at or above RoomLightOptions::clippedCode
+    std::vector<glm::dvec3> positionWorld;     ///< metres
+    std::vector<glm::dvec3> normalWorld;       ///< unit, facing the camera
+    std::vector<glm::dvec3> radiance;          ///< linear RGB in [0, 1] (sRGB decoded); clipped channels read 1
+    std::vector<std::uint8_t> clipped;         ///< 1 when a channel is at or above RoomLightOptions::clippedCode
     std::vector<double> footprintSquareMetres; ///< surface area the sample stands for (stride^2 pixels)
-    std::vector<int> segment; ///< chromaticity segment (segmentSamples), -1 = not used for the fit
+    std::vector<int> segment;                  ///< chromaticity segment (segmentSamples), -1 = not used for the fit
 
     std::size_t size() const noexcept { return positionWorld.size(); }
     void clear() noexcept;

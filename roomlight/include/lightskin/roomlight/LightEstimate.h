@@ -54,7 +54,7 @@ struct DominantLight {
 /// A light source the camera sees: a clipped region with valid depth, modelled as a flat Lambertian
 /// emitter (disc) of the region's area at its centroid.
 struct AreaEmitter {
-    glm::dvec3 positionWorld{0.0}; ///< centroid, metres
+    glm::dvec3 positionWorld{0.0};         ///< centroid, metres
     glm::dvec3 normalWorld{0.0, 0.0, 1.0}; ///< unit, the side that emits
     double areaSquareMetres = 0.0;
     /// Radiance recovered from the light it casts on the real surfaces (the pixels themselves are clipped),
@@ -72,6 +72,9 @@ struct LightEstimate {
     /// the local light, the emitters and the fitted ambient projected together.
     ShRgb sh{};
     glm::dvec3 referencePointWorld{0.0};
+    /// The distant ambient part of sh alone (irradiance coefficients): what is left for virtual objects once the
+    /// dominant light and the emitters are drawn as lights of their own.
+    ShRgb ambientSh{};
     DominantLight dominant;
     /// The free light of the model (DominantSource::LocalLight): irradiance facing it at the reference point
     /// (camera units per channel, zero when the fit found none) and its position (none when distant).

@@ -6,7 +6,7 @@
 //   const roomlight::LightEstimate& light = estimator.estimate(frame, world_T_camera, objectCentreWorld);
 //
 // The model, per colour channel c, for a real surface sample x (world position, unit normal n):
-//   observed_c(x) = a_c(s(x)) * [ F_c G(x) + sum_e L_e,c G_e(x) + sum_k R_k,c Ahat_l Y_k(n) ]
+//   observed_c(x) = a_c(s(x)) / pi * [ F_c G(x) + sum_e L_e,c G_e(x) + sum_k R_k,c Ahat_l Y_k(n) ]
 //   - a_c(s): albedo of x's chromaticity segment s (the albedo model: constant albedo per segment of
 //     similar chromaticity; the largest segment is taken to be neutral grey of albedo referenceAlbedo, which
 //     fixes the one scale per channel that shading alone cannot tell from albedo);
@@ -67,6 +67,12 @@ struct RoomLightOptions {
     /// A light whose E0 is below this fraction of the mean ambient irradiance is not a dominant light.
     double minDominantRatio = 0.1;
 };
+
+/// Irradiance the estimate predicts on a surface at `positionWorld` (metres) with unit `normalWorld`, camera
+/// units: the local light and the emitters at their positions (no shadows) plus the ambient SH. A Lambertian
+/// surface of albedo rho there shows rho / pi times this.
+glm::dvec3 predictIrradiance(const LightEstimate& estimate, const glm::dvec3& positionWorld,
+                             const glm::dvec3& normalWorld) noexcept;
 
 class RoomLightEstimator {
 public:
