@@ -162,7 +162,6 @@ FreeLight LightModelFit::patternSearch(FreeLight current, double angleStep, doub
 }
 
 bool LightModelFit::solveLinear(const FreeLight& light, std::array<glm::dvec3, kMaxColumns>& beta) const noexcept {
-    const bool withFreeLight = freeLightEnabled_;
     const int columns = columnCount();
     NormalMatrix normalMatrix = NormalMatrix::Zero(columns, columns);
     RightHandSide rhs = RightHandSide::Zero(columns, 3);
@@ -183,15 +182,15 @@ bool LightModelFit::solveLinear(const FreeLight& light, std::array<glm::dvec3, k
     normalMatrix.triangularView<Eigen::StrictlyUpper>() = normalMatrix.transpose();
     const int firstSh = 1 + emitterCount_;
     const double ridge = options_->ambientRidge * normalMatrix(firstSh, firstSh);
-    // Band 1 is held only while the free light is in the model (the two would trade); band 2 always (the normals
-    // a camera sees in one frame rarely constrain it).
-    for (int k = firstSh + 1; k < columns; ++k)
-        if (withFreeLight || k >= firstSh + 4) normalMatrix(k, k) += ridge;
-    if (!withFreeLight) {
-        normalMatrix.row(0).setZero();
-        normalMatrix.col(0).setZero();
-        normalMatrix(0, 0) = 1.0;
-        rhs.row(0).setZero();
+    // Bands 1 and 2 are held toward 0: the normals one frame shows rarely constrain them (half the sphere is never
+    // seen), and unheld they would trade with the free light.
+    for (int k = firstSh + 1; k < columns; ++k) normalMatrix(k, k) += ridge;
+    for (int c = 0; c < firstSh; ++c) {
+        if (lightEnabled_[static_cast<std::size_t>(c)]) continue;
+        normalMatrix.row(c).setZero();
+        normalMatrix.col(c).setZero();
+        normalMatrix(c, c) = 1.0;
+        rhs.row(c).setZero();
     }
     // Lights may not be negative: a light column whose luminance comes out negative is removed and the rest refitted.
     for (int attempt = 0; attempt <= firstSh; ++attempt) {
@@ -294,12 +293,38 @@ void LightModelFit::selectSamples(int segments) {
     for (std::size_t j = 0; j < fitIndex_.size(); j += every) searchIndex_.push_back(fitIndex_[j]);
 }
 
+// Model selection: each light (the free light, then each emitter) stays only if it explains a good part of what
+// the rest of the model leaves: an ambient sky would otherwise lend the free light a spurious share, and a clipped
+// white surface that is no lamp would become an emitter whose near field predicts halos nobody sees.
+bool LightModelFit::selectLights(const FreeLight& light, std::array<glm::dvec3, kMaxColumns>& beta) {
+    constexpr double kMinExplainedFraction = 0.5;
+    std::array<glm::dvec3, kMaxColumns> without{};
+    for (std::size_t c = 0; c < static_cast<std::size_t>(1 + emitterCount_); ++c) {
+        const double withAll = residual(light, beta);
+        lightEnabled_[c] = false;
+        if (!solveLinear(light, without)) return false;
+        const double withoutLight = residual(light, without);
+        if (withAll * withAll < (1.0 - kMinExplainedFraction) * withoutLight * withoutLight) {
+            lightEnabled_[c] = true;
+            continue;
+        }
+        for (int iteration = 0; iteration < 2; ++iteration) {
+            updateWeights(light, without);
+            updateAlbedo(light, without);
+            if (!solveLinear(light, without)) return false;
+        }
+        beta = without;
+    }
+    return true;
+}
+
 bool LightModelFit::run(const SurfaceSamples& samples, int segmentCount,
                         const std::array<AreaEmitter, kMaxEmitters>& emitters, int emitterCount,
                         const glm::dvec3& reference, const std::optional<FreeLight>& warmStart,
                         const RoomLightOptions& options, ModelFitResult& result) {
     samples_ = &samples;
     options_ = &options;
+    lightEnabled_.fill(true);
     emitters_ = emitters;
     emitterCount_ = emitterCount;
     segmentCount_ = segmentCount;
@@ -343,22 +368,7 @@ bool LightModelFit::run(const SurfaceSamples& samples, int segmentCount,
         }
     }
     if (!solveLinear(light, beta)) return false;
-    // Model selection: the free light stays only if it explains a good part of what the ambient and the emitters
-    // leave (an ambient sky or a visible lamp alone would otherwise lend it a spurious share).
-    constexpr double kMinExplainedFraction = 0.5;
-    const double withLight = residual(light, beta);
-    std::array<glm::dvec3, kMaxColumns> betaWithout{};
-    freeLightEnabled_ = false;
-    if (solveLinear(light, betaWithout) &&
-        !(withLight * withLight < (1.0 - kMinExplainedFraction) * std::pow(residual(light, betaWithout), 2.0))) {
-        for (int iteration = 0; iteration < 2; ++iteration) {
-            updateWeights(light, betaWithout);
-            updateAlbedo(light, betaWithout);
-            if (!solveLinear(light, betaWithout)) return false;
-        }
-        beta = betaWithout;
-    }
-    freeLightEnabled_ = true;
+    if (!selectLights(light, beta)) return false;
     result.light = light;
     result.lightIrradiance = beta[0];
     for (int e = 0; e < emitterCount; ++e)

@@ -48,6 +48,7 @@ private:
     FreeLight globalSearch() const noexcept;
     FreeLight patternSearch(FreeLight start, double angleStep, double inverseDistanceStep) const noexcept;
     bool solveLinear(const FreeLight& light, std::array<glm::dvec3, kMaxColumns>& beta) const noexcept;
+    bool selectLights(const FreeLight& light, std::array<glm::dvec3, kMaxColumns>& beta);
     void updateWeights(const FreeLight& light, const std::array<glm::dvec3, kMaxColumns>& beta) noexcept;
     void updateAlbedo(const FreeLight& light, std::array<glm::dvec3, kMaxColumns>& beta) noexcept;
     double residual(const FreeLight& light, const std::array<glm::dvec3, kMaxColumns>& beta) const noexcept;
@@ -63,8 +64,9 @@ private:
     std::vector<std::size_t> searchIndex_; ///< a subset of fitIndex_ for the free light's search
     std::vector<double> weight_;           ///< robust weight per sample (indexed like samples)
     std::vector<double> scratch_;
-    bool freeLightEnabled_ = true; ///< solveLinear fits the free light's column (else it is held at 0)          ///<
-                                   ///< |relative residual| for the median
+    /// solveLinear fits these light columns (free light, emitters); a disabled one is held at 0.
+    std::array<bool, 1 + kMaxEmitters> lightEnabled_{};
+    ///< |relative residual| for the median
 };
 
 } // namespace lightskin::roomlight

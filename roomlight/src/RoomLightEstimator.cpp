@@ -251,10 +251,13 @@ void RoomLightEstimator::Impl::buildRaw(LightEstimate& raw, const glm::dvec3& re
     raw.localLightIrradiance = fitResult.lightIrradiance;
     if (fitResult.light.inverseDistance > 0.0)
         raw.localLightPositionWorld = reference + fitResult.light.direction / fitResult.light.inverseDistance;
-    raw.emitterCount = emitterCount;
-    raw.emitters = emitters;
-    for (int e = 0; e < emitterCount; ++e)
-        raw.emitters[static_cast<std::size_t>(e)].radiance = fitResult.emitterRadiance[static_cast<std::size_t>(e)];
+    raw.emitterCount = 0; // the emitters the model selection kept
+    for (std::size_t e = 0; e < static_cast<std::size_t>(emitterCount); ++e) {
+        if (!(luminance(fitResult.emitterRadiance[e]) > 0.0)) continue;
+        AreaEmitter& kept = raw.emitters[static_cast<std::size_t>(raw.emitterCount++)];
+        kept = emitters[e];
+        kept.radiance = fitResult.emitterRadiance[e];
+    }
     raw.residual = fitResult.residual;
     raw.samplesFitted = fitResult.samplesFitted;
     for (int k = 0; k < kShCount; ++k)

@@ -43,6 +43,7 @@ void SurfaceSamples::clear() noexcept {
     clipped.clear();
     footprintSquareMetres.clear();
     segment.clear();
+    pixelIndex.clear();
 }
 
 void SurfaceSamples::reserve(std::size_t count) {
@@ -52,6 +53,7 @@ void SurfaceSamples::reserve(std::size_t count) {
     clipped.reserve(count);
     footprintSquareMetres.reserve(count);
     segment.reserve(count);
+    pixelIndex.reserve(count);
 }
 
 void extractSurfaceSamples(const RgbdFrame& frame, const Pose& world_T_camera, const RoomLightOptions& options,
@@ -92,6 +94,7 @@ void extractSurfaceSamples(const RgbdFrame& frame, const Pose& world_T_camera, c
             out.clipped.push_back(brightest >= options.clippedCode ? 1 : 0);
             out.footprintSquareMetres.push_back(z * z * pixelArea / std::max(cosView, 0.2));
             out.segment.push_back(-1);
+            out.pixelIndex.push_back(v * k.width + u);
         }
     }
 }
