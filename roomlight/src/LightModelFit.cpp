@@ -39,14 +39,25 @@ std::array<glm::dvec3, 2> tangentsOf(const glm::dvec3& direction) noexcept {
 } // namespace
 
 void LightModelFit::designRow(std::size_t i, const FreeLight& light, double* row) const noexcept {
-    const glm::dvec3& position = samples_->positionWorld[i];
-    const glm::dvec3& normal = samples_->normalWorld[i];
-    row[0] = freeLightTerm(light, reference_, position, normal);
-    for (int e = 0; e < emitterCount_; ++e)
-        row[1 + e] = emitterTerm(emitters_[static_cast<std::size_t>(e)], position, normal);
-    const ShBasis y = shBasis(normal);
-    for (int k = 0; k < kShCount; ++k)
-        row[1 + emitterCount_ + k] = irradianceConvolution(k) * y[static_cast<std::size_t>(k)];
+    row[0] = freeLightTerm(light, reference_, samples_->positionWorld[i], samples_->normalWorld[i]);
+    const double* fixed = &fixedColumns_[i * kFixedColumns];
+    std::copy(fixed, fixed + emitterCount_ + kShCount, row + 1);
+}
+
+// The emitter and SH columns do not change during a frame's fit: computed once per sample.
+void LightModelFit::cacheFixedColumns() {
+    fixedColumns_.resize(samples_->size() * kFixedColumns);
+    for (std::size_t i = 0; i < samples_->size(); ++i) {
+        if (samples_->segment[i] < 0) continue;
+        double* fixed = &fixedColumns_[i * kFixedColumns];
+        const glm::dvec3& position = samples_->positionWorld[i];
+        const glm::dvec3& normal = samples_->normalWorld[i];
+        for (int e = 0; e < emitterCount_; ++e)
+            fixed[e] = emitterTerm(emitters_[static_cast<std::size_t>(e)], position, normal);
+        const ShBasis y = shBasis(normal);
+        for (int k = 0; k < kShCount; ++k)
+            fixed[emitterCount_ + k] = irradianceConvolution(k) * y[static_cast<std::size_t>(k)];
+    }
 }
 
 // Variable projection: the weighted residual of the luminance fit with the light's (d, u) fixed, on the search
@@ -78,9 +89,11 @@ double LightModelFit::lightSearchCost(const FreeLight& light) const noexcept {
         row[static_cast<std::size_t>(1 + emitterCount_)] = 1.0;
         const auto s = static_cast<std::size_t>(samples_->segment[i]);
         const double target = luminance(samples_->radiance[i]);
-        const Eigen::Map<const SearchVector> x(row.data(), columns);
-        normalMatrix[s].selfadjointView<Eigen::Lower>().rankUpdate(x, w);
-        rhs[s] += w * target * x;
+        for (int r = 0; r < columns; ++r) {
+            const double wr = w * row[static_cast<std::size_t>(r)];
+            for (int c = 0; c <= r; ++c) normalMatrix[s](r, c) += wr * row[static_cast<std::size_t>(c)];
+            rhs[s](r) += wr * target;
+        }
         targetSquares[s] += w * target * target;
     }
     double cost = 0.0;
@@ -165,6 +178,8 @@ bool LightModelFit::solveLinear(const FreeLight& light, std::array<glm::dvec3, k
     const int columns = columnCount();
     NormalMatrix normalMatrix = NormalMatrix::Zero(columns, columns);
     RightHandSide rhs = RightHandSide::Zero(columns, 3);
+    std::array<std::array<double, kMaxColumns>, kMaxColumns> lower{};
+    std::array<glm::dvec3, kMaxColumns> moments{};
     std::array<double, kMaxColumns> row{};
     for (const std::size_t i : fitIndex_) {
         const glm::dvec3& albedo = albedo_[static_cast<std::size_t>(samples_->segment[i])];
@@ -173,13 +188,23 @@ bool LightModelFit::solveLinear(const FreeLight& light, std::array<glm::dvec3, k
         if (w <= 0.0) continue;
         designRow(i, light, row.data());
         const glm::dvec3 target = kPi * samples_->radiance[i] / albedo;
-        const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxColumns, 1>> x(row.data(), columns);
-        normalMatrix.selfadjointView<Eigen::Lower>().rankUpdate(x, w);
-        rhs.col(0) += (w * target.x) * x;
-        rhs.col(1) += (w * target.y) * x;
-        rhs.col(2) += (w * target.z) * x;
+        // Plain loops over the lower triangle: for <= 12 columns they beat Eigen's dynamic-size rank update.
+        for (int r = 0; r < columns; ++r) {
+            const double wr = w * row[static_cast<std::size_t>(r)];
+            for (int c = 0; c <= r; ++c)
+                lower[static_cast<std::size_t>(r)][static_cast<std::size_t>(c)] +=
+                    wr * row[static_cast<std::size_t>(c)];
+            moments[static_cast<std::size_t>(r)] += wr * target;
+        }
     }
-    normalMatrix.triangularView<Eigen::StrictlyUpper>() = normalMatrix.transpose();
+    for (int r = 0; r < columns; ++r) {
+        for (int c = 0; c <= r; ++c)
+            normalMatrix(r, c) = normalMatrix(c, r) = lower[static_cast<std::size_t>(r)][static_cast<std::size_t>(c)];
+        const glm::dvec3& moment = moments[static_cast<std::size_t>(r)];
+        rhs(r, 0) = moment.x;
+        rhs(r, 1) = moment.y;
+        rhs(r, 2) = moment.z;
+    }
     const int firstSh = 1 + emitterCount_;
     const double ridge = options_->ambientRidge * normalMatrix(firstSh, firstSh);
     // Bands 1 and 2 are held toward 0: the normals one frame shows rarely constrain them (half the sphere is never
@@ -285,9 +310,17 @@ double LightModelFit::residual(const FreeLight& light, const std::array<glm::dve
 }
 
 void LightModelFit::selectSamples(int segments) {
-    fitIndex_.clear();
+    std::size_t candidates = 0;
     for (std::size_t i = 0; i < samples_->size(); ++i)
-        if (samples_->segment[i] >= 0 && samples_->segment[i] < segments) fitIndex_.push_back(i);
+        candidates += samples_->segment[i] >= 0 && samples_->segment[i] < segments ? 1U : 0U;
+    // Every n-th candidate, so that the fit sees at most maxFitSamples spread over the whole image.
+    const std::size_t fitEvery =
+        std::max<std::size_t>(1, (candidates + static_cast<std::size_t>(options_->maxFitSamples) - 1) /
+                                     static_cast<std::size_t>(options_->maxFitSamples));
+    fitIndex_.clear();
+    for (std::size_t i = 0, candidate = 0; i < samples_->size(); ++i)
+        if (samples_->segment[i] >= 0 && samples_->segment[i] < segments && candidate++ % fitEvery == 0)
+            fitIndex_.push_back(i);
     const std::size_t every = std::max<std::size_t>(1, fitIndex_.size() / kSearchSamples);
     searchIndex_.clear();
     for (std::size_t j = 0; j < fitIndex_.size(); j += every) searchIndex_.push_back(fitIndex_[j]);
@@ -325,6 +358,9 @@ bool LightModelFit::run(const SurfaceSamples& samples, int segmentCount,
     samples_ = &samples;
     options_ = &options;
     lightEnabled_.fill(true);
+    emitters_ = emitters;
+    emitterCount_ = emitterCount;
+    cacheFixedColumns();
     emitters_ = emitters;
     emitterCount_ = emitterCount;
     segmentCount_ = segmentCount;

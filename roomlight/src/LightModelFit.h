@@ -43,6 +43,7 @@ private:
     int columnCount() const noexcept { return 1 + emitterCount_ + kShCount; }
     /// fitIndex_ and searchIndex_ from the samples of segments [0, segments).
     void selectSamples(int segments);
+    void cacheFixedColumns();
     void designRow(std::size_t sample, const FreeLight& light, double* row) const noexcept;
     double lightSearchCost(const FreeLight& light) const noexcept;
     FreeLight globalSearch() const noexcept;
@@ -64,6 +65,8 @@ private:
     std::vector<std::size_t> searchIndex_; ///< a subset of fitIndex_ for the free light's search
     std::vector<double> weight_;           ///< robust weight per sample (indexed like samples)
     std::vector<double> scratch_;
+    static constexpr std::size_t kFixedColumns = kMaxEmitters + kShCount;
+    std::vector<double> fixedColumns_; ///< per sample: emitter and SH columns, kFixedColumns apart
     /// solveLinear fits these light columns (free light, emitters); a disabled one is held at 0.
     std::array<bool, 1 + kMaxEmitters> lightEnabled_{};
     ///< |relative residual| for the median

@@ -37,6 +37,9 @@ namespace lightskin::roomlight {
 struct RoomLightOptions {
     /// Every stride-th pixel in x and y is a sample (4: 19200 samples at 640x480). Trade-off: time ~ 1/stride^2.
     int stride = 4;
+    /// At most this many samples enter the robust fit (every n-th of those with a segment). Trade-off: the fit's
+    /// time is ~ proportional; its noise ~ 1 / sqrt(maxFitSamples) (0.5 % of a coefficient at 2 % pixel noise).
+    int maxFitSamples = 20000;
     /// Normal from the 3-D points normalRadius pixels left/right/up/down (central differences), pixels.
     int normalRadius = 3;
     /// Neighbours whose depth differs from the centre by more than this fraction of it break the normal
