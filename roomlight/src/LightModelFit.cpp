@@ -241,15 +241,20 @@ bool LightModelFit::solveLinear(const FreeLight& light, std::array<glm::dvec3, k
     return false;
 }
 
-void LightModelFit::updateWeights(const FreeLight& light, const std::array<glm::dvec3, kMaxColumns>& beta) noexcept {
+glm::dvec3 LightModelFit::shadingAt(std::size_t sample, const FreeLight& light,
+                                    const std::array<glm::dvec3, kMaxColumns>& beta) const noexcept {
     std::array<double, kMaxColumns> row{};
+    designRow(sample, light, row.data());
+    glm::dvec3 shading{0.0};
+    for (int c = 0; c < columnCount(); ++c)
+        shading += row[static_cast<std::size_t>(c)] * beta[static_cast<std::size_t>(c)];
+    return shading;
+}
+
+void LightModelFit::updateWeights(const FreeLight& light, const std::array<glm::dvec3, kMaxColumns>& beta) noexcept {
     scratch_.clear();
-    const int columns = columnCount();
     for (const std::size_t i : fitIndex_) {
-        designRow(i, light, row.data());
-        glm::dvec3 shading{0.0};
-        for (int c = 0; c < columns; ++c)
-            shading += row[static_cast<std::size_t>(c)] * beta[static_cast<std::size_t>(c)];
+        const glm::dvec3 shading = shadingAt(i, light, beta);
         const glm::dvec3 predicted = albedo_[static_cast<std::size_t>(samples_->segment[i])] * shading / kPi;
         const double relative =
             (luminance(samples_->radiance[i]) - luminance(predicted)) / std::max(luminance(predicted), 1e-3);
@@ -270,14 +275,9 @@ void LightModelFit::updateWeights(const FreeLight& light, const std::array<glm::
 // (the shading takes the inverse factor, so the prediction is unchanged).
 void LightModelFit::updateAlbedo(const FreeLight& light, std::array<glm::dvec3, kMaxColumns>& beta) noexcept {
     std::array<glm::dvec3, kMaxSegments> numerator{}, denominator{};
-    std::array<double, kMaxColumns> row{};
-    const int columns = columnCount();
     for (const std::size_t i : fitIndex_) {
         if (weight_[i] <= 0.0) continue;
-        designRow(i, light, row.data());
-        glm::dvec3 shading{0.0};
-        for (int c = 0; c < columns; ++c)
-            shading += row[static_cast<std::size_t>(c)] * beta[static_cast<std::size_t>(c)];
+        const glm::dvec3 shading = shadingAt(i, light, beta);
         const auto s = static_cast<std::size_t>(samples_->segment[i]);
         numerator[s] += weight_[i] * kPi * samples_->radiance[i] * shading;
         denominator[s] += weight_[i] * shading * shading;
@@ -289,18 +289,13 @@ void LightModelFit::updateAlbedo(const FreeLight& light, std::array<glm::dvec3, 
     }
     const glm::dvec3 toReference = options_->referenceAlbedo / albedo_[0];
     for (std::size_t s = 0; s < static_cast<std::size_t>(segmentCount_); ++s) albedo_[s] *= toReference;
-    for (int c = 0; c < columns; ++c) beta[static_cast<std::size_t>(c)] /= toReference;
+    for (int c = 0; c < columnCount(); ++c) beta[static_cast<std::size_t>(c)] /= toReference;
 }
 
 double LightModelFit::residual(const FreeLight& light, const std::array<glm::dvec3, kMaxColumns>& beta) const noexcept {
-    std::array<double, kMaxColumns> row{};
     double squares = 0.0, observed = 0.0;
-    const int columns = columnCount();
     for (const std::size_t i : fitIndex_) {
-        designRow(i, light, row.data());
-        glm::dvec3 shading{0.0};
-        for (int c = 0; c < columns; ++c)
-            shading += row[static_cast<std::size_t>(c)] * beta[static_cast<std::size_t>(c)];
+        const glm::dvec3 shading = shadingAt(i, light, beta);
         const glm::dvec3 error =
             samples_->radiance[i] - albedo_[static_cast<std::size_t>(samples_->segment[i])] * shading / kPi;
         squares += weight_[i] * glm::dot(error, error);

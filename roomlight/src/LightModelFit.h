@@ -44,6 +44,9 @@ private:
     /// fitIndex_ and searchIndex_ from the samples of segments [0, segments).
     void selectSamples(int segments);
     void cacheFixedColumns();
+    /// The shading (irradiance) the model gives sample `sample`, per channel.
+    glm::dvec3 shadingAt(std::size_t sample, const FreeLight& light,
+                         const std::array<glm::dvec3, kMaxColumns>& beta) const noexcept;
     void designRow(std::size_t sample, const FreeLight& light, double* row) const noexcept;
     double lightSearchCost(const FreeLight& light) const noexcept;
     FreeLight globalSearch() const noexcept;

@@ -115,15 +115,7 @@ Pose lookAt(const glm::dvec3& eye, const glm::dvec3& target) {
     return Pose(glm::quat_cast(glm::dmat3(right, down, forward)), eye);
 }
 
-CameraIntrinsics testIntrinsics() {
-    CameraIntrinsics k;
-    k.width = 640;
-    k.height = 480;
-    k.fx = k.fy = 525.0;
-    k.cx = 319.5;
-    k.cy = 239.5;
-    return k;
-}
+CameraIntrinsics testIntrinsics() { return CameraIntrinsics::kinectV1Default(); }
 
 RgbdFrame render(const SyntheticRoom& room, const CameraShot& shot, const CameraIntrinsics& k) {
     RgbdFrame frame;

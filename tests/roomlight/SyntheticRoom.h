@@ -71,7 +71,7 @@ struct CameraShot {
 
 /// OpenCV camera at `eye` looking at `target`, world up +z.
 Pose lookAt(const glm::dvec3& eye, const glm::dvec3& target);
-/// 640x480, fx = fy = 525.
+/// 640x480, fx = fy = 525, no distortion (the Kinect v1 default).
 CameraIntrinsics testIntrinsics();
 /// Renders one registered frame (BGR sRGB colour, millimetre depth).
 RgbdFrame render(const SyntheticRoom& room, const CameraShot& shot, const CameraIntrinsics& intrinsics);
