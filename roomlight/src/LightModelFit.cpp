@@ -45,15 +45,53 @@ void LightModelFit::designRow(std::size_t i, const FreeLight& light, double* row
 }
 
 // The emitter and SH columns do not change during a frame's fit: computed once per sample.
+// An emitter's light on the samples as the sum over its clipped samples (at most kMaxPatchesPerEmitter, each
+// standing for its share of the region's area), each a small disc with the region's normal: the square light of a
+// lamp or a window subtends a wide angle from the walls next to it, where one disc at the centroid is wrong.
+void LightModelFit::buildEmitterPatches() {
+    constexpr std::size_t kMaxPatchesPerEmitter = 64;
+    emitterPatches_.clear();
+    std::array<std::size_t, kMaxEmitters> clippedOf{};
+    const auto nearestEmitter = [&](const glm::dvec3& position) {
+        std::size_t nearest = 0;
+        for (std::size_t e = 1; e < static_cast<std::size_t>(emitterCount_); ++e)
+            if (glm::distance(position, emitters_[e].positionWorld) <
+                glm::distance(position, emitters_[nearest].positionWorld))
+                nearest = e;
+        return nearest;
+    };
+    for (std::size_t i = 0; i < samples_->size(); ++i)
+        if (samples_->clipped[i] != 0) ++clippedOf[nearestEmitter(samples_->positionWorld[i])];
+    std::array<std::size_t, kMaxEmitters> seen{};
+    for (std::size_t i = 0; i < samples_->size(); ++i) {
+        if (samples_->clipped[i] == 0) continue;
+        const std::size_t e = nearestEmitter(samples_->positionWorld[i]);
+        const std::size_t every = (clippedOf[e] + kMaxPatchesPerEmitter - 1) / kMaxPatchesPerEmitter;
+        if (seen[e]++ % every != 0) continue;
+        AreaEmitter disc = emitters_[e];
+        disc.positionWorld = samples_->positionWorld[i];
+        disc.areaSquareMetres = 0.0;
+        emitterPatches_.push_back({disc, e});
+    }
+    // Patch areas: the region's area shared evenly (the footprints of the skipped samples are not known per patch).
+    std::array<std::size_t, kMaxEmitters> patches{};
+    for (const EmitterPatch& patch : emitterPatches_) ++patches[patch.emitter];
+    for (EmitterPatch& patch : emitterPatches_)
+        patch.disc.areaSquareMetres =
+            emitters_[patch.emitter].areaSquareMetres / static_cast<double>(patches[patch.emitter]);
+}
+
 void LightModelFit::cacheFixedColumns() {
+    buildEmitterPatches();
     fixedColumns_.resize(samples_->size() * kFixedColumns);
     for (std::size_t i = 0; i < samples_->size(); ++i) {
         if (samples_->segment[i] < 0) continue;
         double* fixed = &fixedColumns_[i * kFixedColumns];
         const glm::dvec3& position = samples_->positionWorld[i];
         const glm::dvec3& normal = samples_->normalWorld[i];
-        for (int e = 0; e < emitterCount_; ++e)
-            fixed[e] = emitterTerm(emitters_[static_cast<std::size_t>(e)], position, normal);
+        for (int e = 0; e < emitterCount_; ++e) fixed[e] = 0.0;
+        for (const EmitterPatch& patch : emitterPatches_)
+            fixed[patch.emitter] += emitterTerm(patch.disc, position, normal);
         const ShBasis y = shBasis(normal);
         for (int k = 0; k < kShCount; ++k)
             fixed[emitterCount_ + k] = irradianceConvolution(k) * y[static_cast<std::size_t>(k)];

@@ -43,6 +43,7 @@ private:
     int columnCount() const noexcept { return 1 + emitterCount_ + kShCount; }
     /// fitIndex_ and searchIndex_ from the samples of segments [0, segments).
     void selectSamples(int segments);
+    void buildEmitterPatches();
     void cacheFixedColumns();
     /// The shading (irradiance) the model gives sample `sample`, per channel.
     glm::dvec3 shadingAt(std::size_t sample, const FreeLight& light,
@@ -69,6 +70,11 @@ private:
     std::vector<double> weight_;           ///< robust weight per sample (indexed like samples)
     std::vector<double> scratch_;
     static constexpr std::size_t kFixedColumns = kMaxEmitters + kShCount;
+    struct EmitterPatch {
+        AreaEmitter disc;    ///< a small part of an emitter region (position, area; the region's normal)
+        std::size_t emitter; ///< which region
+    };
+    std::vector<EmitterPatch> emitterPatches_;
     std::vector<double> fixedColumns_; ///< per sample: emitter and SH columns, kFixedColumns apart
     /// solveLinear fits these light columns (free light, emitters); a disabled one is held at 0.
     std::array<bool, 1 + kMaxEmitters> lightEnabled_{};
