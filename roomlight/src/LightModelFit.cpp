@@ -49,7 +49,7 @@ void LightModelFit::designRow(std::size_t i, const FreeLight& light, double* row
 // standing for its share of the region's area), each a small disc with the region's normal: the square light of a
 // lamp or a window subtends a wide angle from the walls next to it, where one disc at the centroid is wrong.
 void LightModelFit::buildEmitterPatches() {
-    constexpr std::size_t kMaxPatchesPerEmitter = 64;
+    constexpr std::size_t kMaxPatchesPerEmitter = 32;
     emitterPatches_.clear();
     std::array<std::size_t, kMaxEmitters> clippedOf{};
     const auto nearestEmitter = [&](const glm::dvec3& position) {
@@ -123,7 +123,10 @@ double LightModelFit::lightSearchCost(const FreeLight& light) const noexcept {
     for (const std::size_t i : searchIndex_) {
         const double w = weight_[i];
         if (w <= 0.0) continue;
-        designRow(i, light, row.data());
+        // The search's columns only: the free light, the emitters (cached), a constant.
+        row[0] = freeLightTerm(light, reference_, samples_->positionWorld[i], samples_->normalWorld[i]);
+        const double* fixed = &fixedColumns_[i * kFixedColumns];
+        for (int e = 0; e < emitterCount_; ++e) row[static_cast<std::size_t>(1 + e)] = fixed[e];
         row[static_cast<std::size_t>(1 + emitterCount_)] = 1.0;
         const auto s = static_cast<std::size_t>(samples_->segment[i]);
         const double target = luminance(samples_->radiance[i]);
@@ -429,7 +432,8 @@ bool LightModelFit::run(const SurfaceSamples& samples, int segmentCount,
     selectSamples(segmentCount);
     updateAlbedo(light, beta);
     for (int pass = 0; pass < 2; ++pass) {
-        if (pass == 0) light = patternSearch(light, 2.0 * kDegree, 0.05);
+        // A cold start refines the light once more with the albedos it fixed; a warm one already had last frame's.
+        if (pass == 0 && !warmStart) light = patternSearch(light, 2.0 * kDegree, 0.05);
         for (int iteration = 0; iteration < 3; ++iteration) {
             if (!solveLinear(light, beta)) return false;
             updateWeights(light, beta);

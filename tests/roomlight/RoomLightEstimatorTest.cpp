@@ -11,10 +11,10 @@
 // - the model is exact for a point or directional light (same Lambert law, no interreflection in the renderer)
 //   except shadows (the sphere's shadow, ~3 % of the samples), which the Tukey weights reject, and the ridge on
 //   the ambient bands 1-2: it shrinks only what the true ambient does not have (uniform here).
-// - an area light is fitted as the sum of small discs at its clipped samples (<= 64): its area from the samples'
+// - an area light is fitted as the sum of small discs at its clipped samples (<= 32): its area from the samples'
 //   footprints (stride 4: the region's edge costs about one sample row, ~8 % of the area of a 0.6 m square 2 m
-//   away), which the fitted radiance absorbs (L_e A is what the lit surfaces measure); 64 patches of a 0.6 m
-//   square are 7.5 cm apart, a quadrature error < 1 % beyond 0.5 m.
+//   away), which the fitted radiance absorbs (L_e A is what the lit surfaces measure); 32 patches of a 0.6 m
+//   square are ~11 cm apart, a midpoint-quadrature error < 1 % beyond 0.6 m.
 // So the expected errors are a few degrees at most and ~1-5 %, inside the bounds with a margin; the
 // bounds are the issue's, not tuned to these numbers.
 #include "SyntheticRoom.h"

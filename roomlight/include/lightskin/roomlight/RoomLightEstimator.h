@@ -13,7 +13,7 @@
 //   - G: the free light, a point light at inverse distance u in direction d from the reference point
 //     (u = 0: a directional light), G(x) = max(0, n.v) / |v|^3 with v = d - u (x - reference), so that
 //     F_c is the irradiance it gives at the reference point facing it;
-//   - G_e: emitter e (a clipped region seen with depth), the sum over its clipped samples j (at most 64, each a
+//   - G_e: emitter e (a clipped region seen with depth), the sum over its clipped samples j (at most 32, each a
 //     disc of area A_j = A / count at p_j with the region's normal n_e):
 //     G_e(x) = sum_j A_j max(0, n_e.(x - p_j)/r) max(0, n.(p_j - x)/r) / (r^2 + A_j/pi), r = |x - p_j|
 //     (the A_j/pi makes the on-axis value exact for a disc of radiance 1 near its surface);
