@@ -15,6 +15,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 
 namespace lightskin::roomlight {
@@ -55,6 +56,30 @@ TEST(RoomLightRealData, PclKinectTiff) {
 }
 TEST(RoomLightRealData, KinectV1Oni) {
     expectEstimateBeatsAmbient("oni-kinect-v1", test::dataPath("oni-kinect-v1/3dj_test.oni"));
+}
+
+// The Kinect v1 recording (12 frames) frame after frame through one estimator (the temporal path, real auto-exposure):
+// every estimate finite, fitted or kept (never back to the neutral ambient after a fit), its reference-point irradiance
+// never negative on average over the sphere.
+TEST(RoomLightRealData, KinectV1OniSequenceStaysFinite) {
+    auto source = capture::openFrameSource(test::dataPath("oni-kinect-v1/3dj_test.oni").string());
+    RgbdFrame frame;
+    RoomLightEstimator estimator({});
+    int fitted = 0, kept = 0;
+    for (int index = 0; index < 60 && source->next(frame); ++index) {
+        const LightEstimate& estimate = estimator.estimate(frame, Pose());
+        for (const glm::dvec3& coefficient : estimate.sh)
+            ASSERT_TRUE(std::isfinite(coefficient.x + coefficient.y + coefficient.z)) << "frame " << index;
+        ASSERT_TRUE(std::isfinite(estimate.dominant.intensity)) << "frame " << index;
+        EXPECT_GE(estimate.sh[0].x + estimate.sh[0].y + estimate.sh[0].z, 0.0) << "frame " << index;
+        if (fitted > 0) {
+            EXPECT_NE(estimate.state, EstimateState::NeutralAmbient) << "frame " << index;
+        }
+        fitted += estimate.state == EstimateState::Fitted ? 1 : 0;
+        kept += estimate.state == EstimateState::KeptLast ? 1 : 0;
+    }
+    std::printf("oni sequence: %d fitted, %d kept\n", fitted, kept);
+    EXPECT_GT(fitted, 0);
 }
 
 } // namespace
