@@ -45,7 +45,9 @@ std::vector<cv::Mat> indirectFrames(const Recording& recording, gi::Backend back
     options.compare = false;
     options.linearIndirect = true;
     auto pipeline = mr::FramePipeline::create(scene, source->info(), options);
-    EXPECT_EQ(pipeline->techniqueName(), backend == "cpu" ? "lightskin-cpu" : "lightskin");
+    EXPECT_EQ(pipeline->techniqueName(), backend == gi::Backend::Cpu ? "lightskin-cpu" : "lightskin");
+    EXPECT_EQ(pipeline->technique(), gi::Technique::LightSkin);
+    EXPECT_EQ(pipeline->backend(), backend);
     std::vector<cv::Mat> out;
     RgbdFrame frame;
     mr::FrameOutput output;
