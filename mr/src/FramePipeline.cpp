@@ -605,7 +605,9 @@ void FramePipeline::setGiSettings(const render::GiSettings& settings) {
     }
     if (auto* prt = dynamic_cast<gi::MultiscalePrt*>(state_->technique.get()))
         prt->setLights(prtLightsFromScene(*st.scene));
-    state_->technique->prepare(renderer_->instances());
+    // A scene without virtual objects is valid (the real room alone): GI has nothing to light and stays
+    // idle (runGi below), so the technique is not prepared for nothing.
+    if (!renderer_->instances().empty()) state_->technique->prepare(renderer_->instances());
 }
 
 void FramePipeline::applyDifferential(const RgbdFrame& frame, const cv::Mat& depthMetres, const Pose& world_T_camera,
@@ -720,7 +722,7 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
     // VALs from the depth map.
     auto t = Clock::now();
     gi::ValSetView valSet;
-    const bool runGi = options_.giEnabled && gi_.technique != "none";
+    const bool runGi = options_.giEnabled && gi_.technique != "none" && !renderer_->instances().empty();
     const bool runDifferential = options_.differential && s.differential && haveDepth && s.vals;
     render::Renderer& r = *renderer_;
     bool gbufferReady = false;
@@ -817,6 +819,8 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
     if (!out.giActive) {
         if (!options_.giEnabled)
             out.giInactiveCause = kGiCauseSwitchedOff;
+        else if (renderer_->instances().empty())
+            out.giInactiveCause = kGiCauseNoObjects;
         else if (gi_.technique == "none" || s.technique->name() == std::string_view("none"))
             out.giInactiveCause = kGiCauseNoTechnique;
         else if (!s.valsUsable)
