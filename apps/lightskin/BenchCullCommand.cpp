@@ -1,4 +1,5 @@
 // `lightskin bench-cull`: argument parsing only; the benchmark is lightskin::bench (CullBench.h).
+#include "CliSupport.h"
 #include "Commands.h"
 #include "ToolCommands.h"
 
@@ -18,15 +19,13 @@ void addBenchCullCommand(CLI::App& app, int& exitCode) {
     auto* command = app.add_subcommand("bench-cull", toolDescription("bench-cull"));
     auto options = std::make_shared<bench::CullBenchOptions>();
     auto counts = std::make_shared<std::string>("16384,65536,524288");
-    command->add_option("--vals", *counts, "Comma-separated VAL counts");
-    command->add_option("--repeat", options->repeat, "Frames per variant (the minimum upload stage time is reported)");
+    command->add_option("--vals", *counts, "Comma-separated VAL counts")->check(integerList(1, 16 * 1024 * 1024));
+    command->add_option("--repeat", options->repeat, "Frames per variant (the minimum upload stage time is reported)")
+        ->check(CLI::Range(1, 1000));
     command->callback([=, &exitCode] {
-        options->counts = bench::splitList<std::uint32_t>(*counts, [](const std::string& s) {
-            const unsigned long n = std::stoul(s);
-            if (n > 16u * 1024u * 1024u) throw Error("--vals", std::nullopt, "at most 16M VALs, got " + s);
-            return std::uint32_t(n);
-        });
-        if (options->repeat < 1) throw Error("--repeat", std::nullopt, "must be at least 1");
+        // --vals is checked by the parser (integerList): every item converts.
+        options->counts =
+            bench::splitList<std::uint32_t>(*counts, [](const std::string& s) { return std::uint32_t(std::stoul(s)); });
         bench::runCullBench(*options);
         exitCode = 0;
     });

@@ -23,9 +23,10 @@ void addBenchEmbedCommand(CLI::App& app, int& exitCode) {
         "--scene", o->scene,
         "Scene file (relative paths of the default: beside the program or the build, never the current folder)");
     resolveShippedData(command, {{"--recording", &o->recording, "sample recording"}, {"--scene", &o->scene, "scene"}});
-    command->add_option("--frames", o->frames, "Frames per run");
-    command->add_option("--warm-up", o->warmUp, "Budget runs: frames before the statistics");
-    command->add_option("--budgets", o->budgets, "Budgets in ms, one run each");
+    command->add_option("--frames", o->frames, "Frames per run")->check(CLI::Range(1, 100000));
+    command->add_option("--warm-up", o->warmUp, "Budget runs: frames before the statistics")
+        ->check(CLI::Range(0, 100000));
+    command->add_option("--budgets", o->budgets, "Budgets in ms, one run each")->check(finiteIn(0.001, 1e6));
     command->callback([o, &exitCode] {
         if (o->frames < 1 || o->warmUp < 0 || o->warmUp >= o->frames)
             throw Error("--frames/--warm-up", std::nullopt, "need frames >= 1 and 0 <= warm-up < frames");

@@ -1,4 +1,5 @@
 // `lightskin bench-lights`: argument parsing only; the benchmark is lightskin::bench (LightsBench.h).
+#include "CliSupport.h"
 #include "Commands.h"
 #include "ToolCommands.h"
 
@@ -16,9 +17,11 @@ void addBenchLightsCommand(CLI::App& app, int& exitCode) {
     auto options = std::make_shared<bench::LightsBenchOptions>();
     command->add_option("--repeat", options->repeat, "Timed repetitions per case (median reported)")
         ->check(CLI::Range(1, 1000));
-    command->add_option("--mesh", options->mesh, "OBJ mesh for sparse points (default: a 70k-triangle UV sphere)");
+    command->add_option("--mesh", options->mesh, "OBJ mesh for sparse points (default: a 70k-triangle UV sphere)")
+        ->check(CLI::ExistingFile);
     command->add_option("--out", options->out, "Also write the markdown table to this file");
     command->callback([options, &exitCode] {
+        if (!options->out.empty()) checkOutputFile(options->out, {options->mesh}, "--out");
         bench::runLightsBench(*options);
         exitCode = 0;
     });

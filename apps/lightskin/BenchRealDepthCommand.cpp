@@ -5,6 +5,7 @@
 
 #include <lightskin/bench/RealDepthBench.h>
 
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -29,9 +30,12 @@ void addBenchRealDepthCommand(CLI::App& app, int& exitCode) {
         "Comma-separated light models: old, robust, robust-nocap (robust without the vertex irradiance cap G10), "
         "robust-noburied (robust without the buried sparse-point rule G11), "
         "robust-area (robust with the near-field VALs as areas G12, off by default)");
-    command->add_option("--sink", options->sinks, "Depths the objects are sunk into the surface, metres");
-    command->add_option("--max-frames", options->maxFrames,
-                        "Cap on the frames per recording (each has its own count: ICL-NUIM 5, the .oni all)");
+    command->add_option("--sink", options->sinks, "Depths the objects are sunk into the surface, metres")
+        ->check(finiteIn(-1.0, 1.0));
+    command
+        ->add_option("--max-frames", options->maxFrames,
+                     "Cap on the frames per recording (each has its own count: ICL-NUIM 5, the .oni all)")
+        ->check(CLI::Range(1, 1000000));
     command->add_option("--recordings", options->recordings,
                         "Comma-separated recordings (tum-fr2-desk, icl-nuim, pcl-kinect-tiff, tum-fr3-office, "
                         "oni-kinect-v1; default all)");
@@ -41,12 +45,15 @@ void addBenchRealDepthCommand(CLI::App& app, int& exitCode) {
         "a CSV of the speckle pixels and one of the tracked points that flicker most, and for each case's "
         "first frame the depth VALs (CSV) and the G-buffer's world positions and normals (raw float32; "
         "bench/plots/realdepth_val_analysis.py reads them)");
-    command->add_option("--truth", options->truthReceivers,
-                        "At this many bunny pixels of each case's first frame, the Embree truth with visibility "
-                        "(4 x 8 cells per VAL) into images/<case>_truth.csv with the G-buffer position and normal");
+    command
+        ->add_option("--truth", options->truthReceivers,
+                     "At this many bunny pixels of each case's first frame, the Embree truth with visibility "
+                     "(4 x 8 cells per VAL) into images/<case>_truth.csv with the G-buffer position and normal")
+        ->check(CLI::Range(0, 1 << 24));
     command->add_option("--truth-pixels", options->truthPixels,
                         "Pixels \"u,v;u,v\" added to --truth's (16 x 32 cells per VAL)");
     command->callback([options, &exitCode] {
+        checkOutputFile(std::filesystem::path(options->out) / "report.md", {options->data, options->scene}, "--out");
         bench::runRealDepthBench(*options);
         exitCode = 0;
     });

@@ -15,13 +15,15 @@ namespace {
 void addBenchStaticCommand(CLI::App& app, int& exitCode) {
     auto* command = app.add_subcommand("bench-static", toolDescription("bench-static"));
     auto o = std::make_shared<bench::StaticBenchOptions>();
-    command->add_option("--frames", o->frames, "Frames per stream after one warm-up frame");
-    command->add_option("--stride", o->stride, "VAL stride");
-    command->add_option("--sparse", o->sparse, "Sparse points per object");
-    command->add_option("--width", o->width, "Output width");
-    command->add_option("--height", o->height, "Output height");
-    command->add_option("--tolerances", o->tolerances, "staticTolerance values");
-    command->add_option("--probe-stride", o->probeStride, "staticProbeStride of the probe modes");
+    command->add_option("--frames", o->frames, "Frames per stream after one warm-up frame")
+        ->check(CLI::Range(1, 100000));
+    command->add_option("--stride", o->stride, "VAL stride")->check(CLI::Range(1, 64));
+    command->add_option("--sparse", o->sparse, "Sparse points per object")->check(CLI::Range(1, 1 << 20));
+    command->add_option("--width", o->width, "Output width")->check(CLI::Range(16, 8192));
+    command->add_option("--height", o->height, "Output height")->check(CLI::Range(16, 8192));
+    command->add_option("--tolerances", o->tolerances, "staticTolerance values")->check(numberList(0.0, 1.0));
+    command->add_option("--probe-stride", o->probeStride, "staticProbeStride of the probe modes")
+        ->check(CLI::Range(1, 1024));
     command->add_flag("--diffuse", o->diffuse,
                       "Drop f_s from all materials (the tolerance mode needs the glossy channel off)");
     command->add_option("--recording", o->recording,

@@ -1,15 +1,23 @@
 #include "CliSupport.h"
 
+#include "Commands.h"
+
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
+#include <lightskin/core/OutputMarker.h>
 
 #include <atomic>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <fcntl.h>
+#include <fstream>
 #include <iostream>
+#include <iterator>
 #include <mutex>
+#include <optional>
 #include <poll.h>
+#include <sstream>
 #include <streambuf>
 #include <system_error>
 #include <unistd.h>
@@ -69,11 +77,149 @@ fs::path nearestExisting(const fs::path& folder) {
     return at;
 }
 
+/// `path` with symbolic links resolved as far as it exists (weakly_canonical), absolute either way.
+fs::path canonicalPath(const fs::path& path) {
+    std::error_code ec;
+    fs::path canonical = fs::weakly_canonical(fs::absolute(path, ec), ec);
+    return ec ? fs::absolute(path).lexically_normal() : canonical;
+}
+
+/// Whether `outer` is `inner` or one of its ancestors (whole path components).
+bool holds(const fs::path& outer, const fs::path& inner) {
+    auto o = outer.begin(), i = inner.begin();
+    for (; o != outer.end(); ++o, ++i) {
+        if (o->empty() && std::next(o) == outer.end()) break; // a trailing separator
+        if (i == inner.end() || *o != *i) return false;
+    }
+    return true;
+}
+
+/// The text of a CLI11 validator's failure for one list item, or "" when every item passes.
+template <typename CheckItem>
+std::string checkListItems(const std::string& text, bool allowEmpty, CheckItem checkItem) {
+    if (text.empty()) return allowEmpty ? "" : "expected a comma-separated list, got an empty value";
+    std::stringstream stream(text);
+    std::string item;
+    std::size_t items = 0;
+    while (std::getline(stream, item, ',')) {
+        ++items;
+        if (std::string failure = checkItem(item); !failure.empty()) return failure;
+    }
+    if (items == 0 || text.back() == ',') return "expected a comma-separated list, got '" + text + "'";
+    return {};
+}
+
+/// `text` as a whole as a finite number, or nullopt.
+std::optional<double> finiteNumber(const std::string& text) {
+    if (text.empty() || std::isspace(static_cast<unsigned char>(text.front())) != 0) return std::nullopt;
+    char* end = nullptr;
+    errno = 0;
+    const double value = std::strtod(text.c_str(), &end);
+    if (end != text.c_str() + text.size() || errno == ERANGE || !std::isfinite(value)) return std::nullopt;
+    return value;
+}
+
+std::string numberText(double value) {
+    std::ostringstream text;
+    text << value;
+    return text.str();
+}
+
 } // namespace
 
-void checkOutputFolder(const fs::path& folder, bool overwrite, std::string_view option) {
+std::string commandLineText() {
+    std::string line;
+    for (const char* argument : programArguments()) {
+        const std::string word(argument);
+        const bool plain =
+            !word.empty() && word.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                                    "0123456789-_./=,:+@%") == std::string::npos;
+        std::string quoted = "'";
+        for (const char c : word) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+        line += (line.empty() ? "" : " ") + (plain ? word : quoted + "'");
+    }
+    return line;
+}
+
+void checkNotAnInput(const fs::path& output, const InputPaths& inputs, std::string_view option) {
+    const fs::path target = canonicalPath(output);
+    std::error_code ec;
+    for (const fs::path& input : inputs) {
+        if (input.empty() || !fs::exists(input, ec)) continue;
+        const fs::path source = canonicalPath(input);
+        const char* relation = target == source        ? "is the input "
+                               : holds(target, source) ? "holds the input "
+                               : holds(source, target) ? "lies inside the input "
+                                                       : nullptr;
+        if (relation != nullptr)
+            throw Error(output.string(), std::nullopt,
+                        std::string(option) + " " + relation + input.string() +
+                            ": an output never replaces what the command reads; choose another path");
+    }
+}
+
+CLI::Validator finiteIn(double minimum, double maximum) {
+    const std::string range = "[" + numberText(minimum) + ", " + numberText(maximum) + "]";
+    return CLI::Validator(
+        [minimum, maximum, range](std::string& text) -> std::string {
+            const std::optional<double> value = finiteNumber(text);
+            if (!value || *value < minimum || *value > maximum)
+                return "expected a number in " + range + ", got '" + text + "'";
+            return {};
+        },
+        "in " + range);
+}
+
+CLI::Validator integerList(std::int64_t minimum, std::int64_t maximum, bool allowEmpty) {
+    const std::string range = "[" + std::to_string(minimum) + ", " + std::to_string(maximum) + "]";
+    return CLI::Validator(
+        [=](std::string& text) -> std::string {
+            return checkListItems(text, allowEmpty, [&](const std::string& item) -> std::string {
+                const std::optional<double> value = finiteNumber(item);
+                if (!value || *value != std::floor(*value) || *value < double(minimum) || *value > double(maximum))
+                    return "expected integers in " + range + ", got '" + item + "'";
+                return {};
+            });
+        },
+        "");
+}
+
+CLI::Validator numberList(double minimum, double maximum, bool allowEmpty) {
+    const std::string range = "[" + numberText(minimum) + ", " + numberText(maximum) + "]";
+    return CLI::Validator(
+        [=](std::string& text) -> std::string {
+            return checkListItems(text, allowEmpty, [&](const std::string& item) -> std::string {
+                const std::optional<double> value = finiteNumber(item);
+                if (!value || *value < minimum || *value > maximum)
+                    return "expected numbers in " + range + ", got '" + item + "'";
+                return {};
+            });
+        },
+        "");
+}
+
+CLI::Validator sizeList(int maximumSide) {
+    return CLI::Validator(
+        [maximumSide](std::string& text) -> std::string {
+            return checkListItems(text, false, [&](const std::string& item) -> std::string {
+                const std::size_t x = item.find('x');
+                const auto side = [&](const std::string& part) {
+                    const std::optional<double> value = finiteNumber(part);
+                    return value && *value == std::floor(*value) && *value >= 1 && *value <= maximumSide;
+                };
+                if (x == std::string::npos || !side(item.substr(0, x)) || !side(item.substr(x + 1)))
+                    return "expected sizes WxH with sides in [1, " + std::to_string(maximumSide) + "], got '" + item +
+                           "'";
+                return {};
+            });
+        },
+        "");
+}
+
+void checkOutputFolder(const fs::path& folder, bool overwrite, std::string_view option, const InputPaths& inputs) {
     const std::string name = folder.string();
     if (folder.empty()) throw Error(std::string(option), std::nullopt, "needs a folder name");
+    checkNotAnInput(folder, inputs, option);
     std::error_code ec;
     const fs::file_status status = fs::status(folder, ec);
     if (fs::exists(status)) {
@@ -89,12 +235,14 @@ void checkOutputFolder(const fs::path& folder, bool overwrite, std::string_view 
                 "output folder is not empty: choose a new one, or add --overwrite to delete its contents first");
         if (!empty) {
             // Deleting the folder we run in, or one holding it, would delete the caller's work.
-            const fs::path target = fs::weakly_canonical(folder, ec), cwd = fs::current_path(ec);
-            const auto [end, rest] = std::mismatch(target.begin(), target.end(), cwd.begin(), cwd.end());
-            if (end == target.end())
+            if (holds(canonicalPath(folder), canonicalPath(fs::current_path(ec))))
                 throw Error(name, std::nullopt,
                             "--overwrite refuses to delete the current folder or one that holds it");
-            (void)rest;
+            if (!fs::is_regular_file(folder / kOutputMarkerName, ec))
+                throw Error(name, std::nullopt,
+                            std::string("--overwrite deletes only a folder a lightskin command wrote (it holds ") +
+                                kOutputMarkerName +
+                                "), and this one does not: choose a new folder, or empty it yourself");
         }
         return;
     }
@@ -116,8 +264,8 @@ void checkOutputFolder(const fs::path& folder, bool overwrite, std::string_view 
                         ")");
 }
 
-void prepareOutputFolder(const fs::path& folder, bool overwrite, std::string_view option) {
-    checkOutputFolder(folder, overwrite, option);
+void prepareOutputFolder(const fs::path& folder, bool overwrite, std::string_view option, const InputPaths& inputs) {
+    checkOutputFolder(folder, overwrite, option, inputs);
     const std::string name = folder.string();
     std::error_code ec;
     if (overwrite && fs::is_directory(folder, ec)) {
@@ -129,6 +277,28 @@ void prepareOutputFolder(const fs::path& folder, bool overwrite, std::string_vie
     }
     fs::create_directories(folder, ec);
     if (ec) throw Error(name, std::nullopt, "cannot create the output folder: " + ec.message());
+    std::ofstream marker(folder / kOutputMarkerName);
+    marker << commandLineText() << "\n";
+    if (!marker.flush())
+        throw Error((folder / kOutputMarkerName).string(), std::nullopt, "cannot write the output folder's marker");
+}
+
+void checkOutputFile(const fs::path& file, const InputPaths& inputs, std::string_view option) {
+    const std::string name = file.string();
+    if (file.empty() || file.filename().empty())
+        throw Error(std::string(option), std::nullopt, "needs a file name, got '" + name + "'");
+    checkNotAnInput(file, inputs, option);
+    std::error_code ec;
+    if (fs::is_directory(file, ec))
+        throw Error(name, std::nullopt, "is a folder (" + std::string(option) + " needs a file name)");
+    const fs::path folder = file.has_parent_path() ? file.parent_path() : fs::path(".");
+    if (!fs::exists(folder, ec))
+        checkOutputFolder(folder, false, option); // can it be made (nothing written)?
+    else if (!fs::is_directory(folder, ec))
+        throw Error(folder.string(), std::nullopt,
+                    "is not a folder (" + std::string(option) + " needs a file in a folder)");
+    else if (::access(folder.c_str(), W_OK | X_OK) != 0)
+        throw Error(folder.string(), std::nullopt, "folder is not writable (" + std::string(option) + ")");
 }
 
 fs::path findData(const fs::path& relative, std::string_view what) {
@@ -157,6 +327,9 @@ void resolveShippedData(CLI::App* command, std::vector<ShippedData> data) {
 
 bool warnIfDeprecatedUsed(const CLI::App& command, const std::string& old, const std::string& replacement) {
     if (command.count(old) == 0) return false;
+    // Both spellings given: neither may silently win.
+    if (command.count(replacement) > 0)
+        throw CLI::ValidationError(old, "is the deprecated spelling of " + replacement + "; give only " + replacement);
     log::warning(command.get_name() + ": " + old + " is deprecated, use " + replacement);
     return true;
 }
@@ -265,6 +438,44 @@ protected:
 };
 
 } // namespace
+
+namespace {
+std::atomic<int> stopSignal{0};
+std::atomic<bool> stopRequested{false};
+std::atomic<bool> progressLines{true};
+
+extern "C" void onStopSignal(int number) {
+    stopSignal = number;
+    stopRequested = true;
+}
+} // namespace
+
+StopSignals::StopSignals() {
+    stopSignal = 0;
+    stopRequested = false;
+    struct sigaction action {};
+    action.sa_handler = &onStopSignal;
+    sigemptyset(&action.sa_mask);
+    action.sa_flags = SA_RESTART;
+    ::sigaction(SIGINT, &action, &previousInterrupt_);
+    ::sigaction(SIGTERM, &action, &previousTerminate_);
+}
+
+StopSignals::~StopSignals() {
+    ::sigaction(SIGINT, &previousInterrupt_, nullptr);
+    ::sigaction(SIGTERM, &previousTerminate_, nullptr);
+}
+
+bool StopSignals::requested() { return stopRequested.load(); }
+int StopSignals::signal() { return stopSignal.load(); }
+int StopSignals::exitCode() {
+    if (!stopRequested.load()) return 0;
+    return 128 + (stopSignal.load() != 0 ? stopSignal.load() : SIGINT);
+}
+void StopSignals::request() { stopRequested = true; }
+
+bool progressWanted() { return progressLines.load(); }
+void setProgressWanted(bool wanted) { progressLines = wanted; }
 
 bool stderrIsTerminal() { return ::isatty(terminalFd.load()) != 0; }
 

@@ -3,6 +3,8 @@
 //  - an output folder is new or empty, or refused unless --overwrite, which clears it first; the
 //    check runs before anything is written (checkOutputFolder), the folder is made only after every
 //    input was validated (prepareOutputFolder);
+//  - an output (folder or file) is never an input, never holds one and never lies inside one, and
+//    --overwrite deletes only a folder a lightskin command made (it holds kOutputMarker);
 //  - data the program ships (the bunny PLY, sample recordings) is found relative to the installed
 //    program or the build tree, never the current directory (findData);
 //  - third-party libraries' console output (libpng, OpenCV, OpenNI2, assimp, Mesa) goes into our
@@ -11,6 +13,7 @@
 #include <CLI/CLI.hpp>
 
 #include <atomic>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -23,6 +26,37 @@ namespace lightskin::apps {
 /// Adds `--overwrite` to `command` (clear an existing, non-empty output folder first).
 CLI::Option* addOverwriteFlag(CLI::App* command, bool& overwrite);
 
+/// The file prepareOutputFolder writes first into every output folder (holding the command line that
+/// made it): --overwrite deletes the contents of a non-empty folder only when it is there, so it never
+/// deletes a folder of the user's that a mistyped --out names.
+inline constexpr const char* kOutputMarker = ".lightskin-output";
+
+/// The files and folders a command reads (recording, scene file, meshes, textures, tag world,
+/// caches, goldens...). Paths that do not exist are skipped; symbolic links are resolved.
+using InputPaths = std::vector<std::filesystem::path>;
+
+/// The process's command line as typed, words quoted for a POSIX shell where needed (report.json's
+/// `command`, the output marker): running it again reproduces the run.
+std::string commandLineText();
+
+/// Throws lightskin::Error naming `option`, `output` and the input unless `output` is none of
+/// `inputs`, holds none of them and lies inside none of them (compared as canonical paths).
+void checkNotAnInput(const std::filesystem::path& output, const InputPaths& inputs, std::string_view option);
+
+/// Validator for a finite number in [minimum, maximum] (NaN, inf and text refused with the range).
+CLI::Validator finiteIn(double minimum, double maximum);
+
+/// Validators for comma-separated lists, every item checked (the command converts them afterwards
+/// without failing): integers in [minimum, maximum], finite numbers in [minimum, maximum], sizes
+/// "WxH" with both sides in [1, maximumSide]. `allowEmpty`: "" is the empty list.
+CLI::Validator integerList(std::int64_t minimum, std::int64_t maximum, bool allowEmpty = false);
+CLI::Validator numberList(double minimum, double maximum, bool allowEmpty = false);
+CLI::Validator sizeList(int maximumSide);
+
+/// Throws lightskin::Error unless `file` can be written as a new or replaced file: not a folder, its
+/// folder exists or can be made, and it is none of `inputs` (checkNotAnInput). Writes nothing.
+void checkOutputFile(const std::filesystem::path& file, const InputPaths& inputs, std::string_view option);
+
 /// Validator for counts and indices: an integer >= `minimum` ("expected an integer >= 1, got -1").
 CLI::Validator atLeast(std::int64_t minimum);
 
@@ -31,14 +65,17 @@ CLI::Validator atLeast(std::int64_t minimum);
 CLI::Validator oneOf(std::vector<std::string> words);
 
 /// Throws lightskin::Error (naming `option` and `folder`) unless `folder` can become this command's
-/// output folder: it does not exist and its nearest existing parent is a writable folder, or it is
-/// an empty writable folder, or (`overwrite`) a writable folder whose contents may be deleted.
+/// output folder: it is none of `inputs`, holds none and lies inside none (checkNotAnInput), and it
+/// does not exist and its nearest existing parent is a writable folder, or it is an empty writable
+/// folder, or (`overwrite`) a writable folder a lightskin command made (it holds kOutputMarker).
 /// Writes nothing.
-void checkOutputFolder(const std::filesystem::path& folder, bool overwrite, std::string_view option);
+void checkOutputFolder(const std::filesystem::path& folder, bool overwrite, std::string_view option,
+                       const InputPaths& inputs = {});
 
-/// checkOutputFolder, then (`overwrite`) deletes the folder's contents and creates it. Call it once
-/// every input is validated, right before the first write.
-void prepareOutputFolder(const std::filesystem::path& folder, bool overwrite, std::string_view option);
+/// checkOutputFolder, then (`overwrite`) deletes the folder's contents, creates it and writes
+/// kOutputMarker into it. Call it once every input is validated, right before the first write.
+void prepareOutputFolder(const std::filesystem::path& folder, bool overwrite, std::string_view option,
+                         const InputPaths& inputs = {});
 
 /// A file shipped with lightskin, given relative to the source tree (e.g.
 /// "tests/data/stanford-bunny/bun_zipper_res4.ply"): looked up in <prefix>/share/lightskin/ beside
@@ -57,7 +94,8 @@ struct ShippedData {
 void resolveShippedData(CLI::App* command, std::vector<ShippedData> data);
 
 /// When the deprecated spelling `old` of an option was given to `command`, logs a warning naming
-/// `replacement` and returns true. Deprecated spellings are hidden from --help (docs/CLI.md lists them).
+/// `replacement` and returns true; given together with `replacement`, a usage error (CLI::ValidationError). Deprecated
+/// spellings are hidden from --help (docs/CLI.md lists them).
 bool warnIfDeprecatedUsed(const CLI::App& command, const std::string& old, const std::string& replacement);
 
 /// While alive, everything written to standard error goes through a filter: C's `stderr`, std::cerr
@@ -92,6 +130,33 @@ private:
     std::atomic<bool> stopping_{false};
     std::thread reader_;
 };
+
+/// While alive, SIGINT (Ctrl-C, also a second and third one) and SIGTERM do not kill the process: they
+/// ask the command to stop after the current frame, so it closes its video and writes its report
+/// marked interrupted, then exits with exitCode() (128 + the signal: 130, 143). One at a time.
+class StopSignals {
+public:
+    StopSignals();
+    ~StopSignals();
+    StopSignals(const StopSignals&) = delete;
+    StopSignals& operator=(const StopSignals&) = delete;
+
+    static bool requested();
+    /// The signal that asked to stop (SIGINT, SIGTERM), or 0 when none did.
+    static int signal();
+    /// 128 + signal() when a signal asked to stop, 130 (as Ctrl-C) after request(), else 0.
+    static int exitCode();
+    /// Asks to stop as Ctrl-C would, without a signal (a closed window).
+    static void request();
+
+private:
+    struct sigaction previousInterrupt_ {
+    }, previousTerminate_{};
+};
+
+/// Whether progress lines are wanted: not with -q (log level warning or above).
+bool progressWanted();
+void setProgressWanted(bool wanted);
 
 /// Whether standard error is a terminal (progress lines that rewrite themselves): the terminal's
 /// descriptor, not descriptor 2, which ThirdPartyOutputCapture replaces by a pipe.

@@ -2,6 +2,7 @@
 // compute shaders, framebuffer readback) and writes a self-test image.
 #include "CliSupport.h"
 #include "Commands.h"
+#include "ImageOutput.h"
 
 #include <lightskin/core/Error.h>
 #include <lightskin/gl/Context.h>
@@ -26,19 +27,7 @@ void addDoctorCommand(CLI::App& app, int& exitCode) {
     command->add_option("--out", *output, "Write the self-test triangle as a PNG to this path");
     command->callback([output, &exitCode] {
         // --out is checked before the checks run: a path that cannot be written fails at once.
-        if (!output->empty()) {
-            const std::filesystem::path path(*output);
-            const std::filesystem::path folder = path.has_parent_path() ? path.parent_path() : ".";
-            std::error_code ec;
-            if (!std::filesystem::exists(folder, ec))
-                checkOutputFolder(folder, false, "--out"); // can it be made (nothing written)?
-            else if (!std::filesystem::is_directory(folder, ec))
-                throw Error(folder.string(), std::nullopt, "is not a folder (--out needs a PNG path in a folder)");
-            else if (::access(folder.c_str(), W_OK | X_OK) != 0)
-                throw Error(folder.string(), std::nullopt, "folder is not writable (--out)");
-            if (std::filesystem::is_directory(path))
-                throw Error(path.string(), std::nullopt, "is a folder (--out needs a PNG file name)");
-        }
+        if (!output->empty()) checkImageOutput(*output, {}, "--out");
         auto context = gl::createHeadlessContext();
         std::printf("renderer: %s\n", context->describe().c_str());
 

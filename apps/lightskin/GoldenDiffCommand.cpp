@@ -5,7 +5,9 @@
 // over the covered pixels (and of what each adds to the baseline, e.g. the indirect light in a
 // composite), the metrics, and writes the amplified difference image. A missing golden is reported
 // as new (nothing to compare); a missing or unreadable actual image is an error (exit 1).
+#include "CliSupport.h"
 #include "Commands.h"
+#include "ImageOutput.h"
 
 #include <lightskin/core/Error.h>
 #include <lightskin/eval/GoldenImage.h>
@@ -33,6 +35,7 @@ double coveredMean(const cv::Mat& image, const cv::Mat& coverage) {
 }
 
 int runGoldenDiff(const GoldenDiffArgs& args) {
+    if (!args.diff.empty()) checkImageOutput(args.diff, {args.actual, args.golden}, "--diff");
     const eval::GoldenCandidate candidate = eval::readGoldenCandidate(args.actual);
     const cv::Mat& coverage = candidate.coverage;
     const std::size_t covered =

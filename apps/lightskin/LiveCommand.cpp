@@ -5,10 +5,13 @@
 // Keys: G GI on/off, L glossy on/off, O occlusion on/off, V next debug view, C with/without-GI
 // comparison side by side, P snapshot (PNG in --snapshot-dir), Q or Esc quit.
 // --headless runs the same loop without a window (EGL), for tests and machines without a display.
+// Ctrl-C or SIGTERM stops after the current frame and finishes the --record recording (exit 130 or 143).
 #include "CliSupport.h"
 #include "Commands.h"
+#include "ImageOutput.h"
 #include "LiveWindowDisplay.h"
 #include "PoseLabel.h"
+#include "SceneInputs.h"
 
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/capture/Recording.h>
@@ -24,9 +27,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include <atomic>
 #include <chrono>
-#include <csignal>
 #include <cstdio>
 #include <filesystem>
 
@@ -37,20 +38,15 @@ namespace {
 // GLFW key codes (printable keys are their upper-case ASCII codes; GLFW_KEY_ESCAPE = 256).
 constexpr int kKeyEscape = 256;
 
-std::atomic<bool> liveInterrupt{false};
-extern "C" void onLiveInterrupt(int) {
-    liveInterrupt = true;
-    std::signal(SIGINT, SIG_DFL);
-}
-
 struct LiveArgs {
     std::string device = "freenect://0", scene, pose, snapshot, snapshotDir = ".", record;
     bool headless = false, loop = false, fast = false, overwrite = false;
     std::optional<std::int64_t> maxFrames, snapshotAfter; ///< unset: all frames / no automatic snapshot
-    double budgetMs = 0.0; ///< --budget-ms (0: the scene's gi.budgetMs, if any)
+    double budgetMs = 0.0;                                ///< --budget-ms (0: the scene's gi.budgetMs, if any)
 };
 
-std::string statusLine(double fps, const mr::FrameOutput& out, const mr::FramePipeline& pipeline, const mr::PipelineOptions& options) {
+std::string statusLine(double fps, const mr::FrameOutput& out, const mr::FramePipeline& pipeline,
+                       const mr::PipelineOptions& options) {
     std::string line;
     char text[64];
     std::snprintf(text, sizeof text, "%.1f fps |", fps);
@@ -92,7 +88,14 @@ void writePng(const std::filesystem::path& path, const cv::Mat& image) {
 
 int runLive(const LiveArgs& args) {
     if (args.scene.empty()) throw Error("--scene", std::nullopt, "live needs a scene file (docs/SCENE_FORMAT.md)");
-    if (!args.record.empty()) checkOutputFolder(args.record, args.overwrite, "--record");
+    if (!args.record.empty()) checkOutputFolder(args.record, args.overwrite, "--record", {args.device, args.scene});
+    // Where snapshots go is checked before the camera and GL start (a file there fails at once).
+    const std::filesystem::path firstSnapshot = args.snapshot.empty()
+                                                    ? std::filesystem::path(args.snapshotDir) / "snapshot-0.png"
+                                                    : std::filesystem::path(args.snapshot);
+    checkImageOutput(firstSnapshot, {args.device, args.scene}, args.snapshot.empty() ? "--snapshot-dir" : "--snapshot");
+    if (!args.snapshot.empty())
+        checkImageOutput(std::filesystem::path(args.snapshotDir) / "snapshot-0.png", {}, "--snapshot-dir");
     const std::string uri = args.device == "freenect" ? "freenect://0" : args.device;
     capture::FrameSourceOptions sourceOptions;
     sourceOptions.pacing = args.fast ? capture::Pacing::AsFastAsPossible : capture::Pacing::Realtime;
@@ -104,8 +107,9 @@ int runLive(const LiveArgs& args) {
         const std::optional<std::int64_t> count = args.loop ? std::nullopt : source->frameCount();
         if (args.maxFrames && *args.snapshotAfter >= *args.maxFrames)
             throw Error("--snapshot-after", std::nullopt,
-                        std::to_string(*args.snapshotAfter) + " frames: --max-frames " + std::to_string(*args.maxFrames) +
-                            " stops before (at most " + std::to_string(*args.maxFrames - 1) + ")");
+                        std::to_string(*args.snapshotAfter) + " frames: --max-frames " +
+                            std::to_string(*args.maxFrames) + " stops before (at most " +
+                            std::to_string(*args.maxFrames - 1) + ")");
         if (count && *args.snapshotAfter >= *count)
             throw Error("--snapshot-after", std::nullopt,
                         std::to_string(*args.snapshotAfter) + " frames: " + uri + " has " + std::to_string(*count) +
@@ -120,11 +124,11 @@ int runLive(const LiveArgs& args) {
         window = gl::createWindowContext(info.colourIntrinsics.width, info.colourIntrinsics.height, "lightskin live");
     }
     mr::PipelineOptions options;
-    options.poseMode = args.pose.empty() ? (info.hasGroundTruth ? mr::PoseMode::GroundTruth : mr::PoseMode::Tracking) : mr::parsePoseMode(args.pose);
+    options.poseMode = args.pose.empty() ? (info.hasGroundTruth ? mr::PoseMode::GroundTruth : mr::PoseMode::Tracking)
+                                         : mr::parsePoseMode(args.pose);
     options.compare = false;
     mr::SessionOptions sessionOptions;
     sessionOptions.pipeline = options;
-    if (args.budgetMs < 0.0) throw Error("--budget-ms", std::nullopt, "expected a positive number of milliseconds, got " + std::to_string(args.budgetMs));
     sessionOptions.budgetMs = args.budgetMs;
     // The session runs the frames this command reads (it also records them).
     auto session = mr::Session::create(sessionOptions, mr::SceneInput::fromFile(args.scene), info);
@@ -144,7 +148,9 @@ int runLive(const LiveArgs& args) {
         recordingInfo.depthScaleMetres = info.depthScaleMetres;
         recordingInfo.registration = info.registration;
         recordingInfo.colour_T_depth = info.colour_T_depth;
-        prepareOutputFolder(args.record, args.overwrite, "--record");
+        InputPaths inputs = sceneInputs(session->scene());
+        inputs.push_back(args.device);
+        prepareOutputFolder(args.record, args.overwrite, "--record", inputs);
         recorder = capture::RecordingWriter::create(args.record, recordingInfo);
     }
 
@@ -155,9 +161,17 @@ int runLive(const LiveArgs& args) {
             mr::PipelineOptions& o = pipeline->options();
             render::GiSettings gi = pipeline->giSettings();
             switch (key) {
-            case 'G': o.giEnabled = !o.giEnabled; break;
-            case 'L': gi.glossy = !gi.glossy; pipeline->setGiSettings(gi); break;
-            case 'O': gi.occlusion = !gi.occlusion; pipeline->setGiSettings(gi); break;
+            case 'G':
+                o.giEnabled = !o.giEnabled;
+                break;
+            case 'L':
+                gi.glossy = !gi.glossy;
+                pipeline->setGiSettings(gi);
+                break;
+            case 'O':
+                gi.occlusion = !gi.occlusion;
+                pipeline->setGiSettings(gi);
+                break;
             case 'V':
                 // final, direct, indirect, normals, albedo, then the overlays vals, sparse, error, vpl, differential.
                 if (o.overlay != mr::Overlay::None) {
@@ -169,20 +183,26 @@ int runLive(const LiveArgs& args) {
                     o.view = render::DebugView(int(o.view) + 1);
                 }
                 break;
-            case 'C': o.compare = !o.compare; break;
+            case 'C':
+                o.compare = !o.compare;
+                break;
             case 'D':
                 o.differential = !o.differential;
                 break;
-            case 'P': snapshotRequested = true; break;
+            case 'P':
+                snapshotRequested = true;
+                break;
             case 'Q':
-            case kKeyEscape: quit = true; break;
-            default: break;
+            case kKeyEscape:
+                quit = true;
+                break;
+            default:
+                break;
             }
         });
     }
 
-    liveInterrupt = false;
-    const auto previous = std::signal(SIGINT, onLiveInterrupt);
+    const StopSignals stopSignals;
     WindowDisplay display;
     mr::LiveFrameReader reader(*source);
     RgbdFrame frame;
@@ -191,7 +211,7 @@ int runLive(const LiveArgs& args) {
     double fps = 0.0;
     auto last = std::chrono::steady_clock::now();
     try {
-        while (!quit && !liveInterrupt && (!args.maxFrames || count < *args.maxFrames)) {
+        while (!quit && !StopSignals::requested() && (!args.maxFrames || count < *args.maxFrames)) {
             const mr::LiveFrameReader::Result result = reader.next(frame);
             if (result == mr::LiveFrameReader::Result::Ended) break;
             if (result == mr::LiveFrameReader::Result::Stalled) {
@@ -214,8 +234,10 @@ int runLive(const LiveArgs& args) {
             if (recorder) recorder->write(frame);
             session->process(frame);
             const mr::FrameOutput& out = session->output();
-            if (pipeline->options().compare) render::sideBySideInto(out.withGi, "with GI", out.withoutGi, "without GI", shown);
-            else out.withGi.copyTo(shown);
+            if (pipeline->options().compare)
+                render::sideBySideInto(out.withGi, "with GI", out.withoutGi, "without GI", shown);
+            else
+                out.withGi.copyTo(shown);
             const auto now = std::chrono::steady_clock::now();
             const double seconds = std::chrono::duration<double>(now - last).count();
             last = now;
@@ -231,49 +253,70 @@ int runLive(const LiveArgs& args) {
                 if (autoSnapshot || snapshotRequested) {
                     const std::filesystem::path path = autoSnapshot && !args.snapshot.empty()
                                                            ? std::filesystem::path(args.snapshot)
-                                                           : std::filesystem::path(args.snapshotDir) / ("snapshot-" + std::to_string(snapshots++) + ".png");
+                                                           : std::filesystem::path(args.snapshotDir) /
+                                                                 ("snapshot-" + std::to_string(snapshots++) + ".png");
                     writePng(path, clean);
                 }
                 window->swapBuffers();
                 window->pollEvents();
                 if (window->shouldClose()) quit = true;
             } else {
-                if (autoSnapshot) writePng(args.snapshot.empty() ? std::filesystem::path(args.snapshotDir) / "snapshot-0.png" : std::filesystem::path(args.snapshot), clean);
-                if (count % 30 == 1) std::fprintf(stderr, "live: frame %lld: %s\n", static_cast<long long>(count), statusLine(fps, out, *pipeline, pipeline->options()).c_str());
+                if (autoSnapshot)
+                    writePng(args.snapshot.empty() ? std::filesystem::path(args.snapshotDir) / "snapshot-0.png"
+                                                   : std::filesystem::path(args.snapshot),
+                             clean);
+                if (count % 30 == 1 && progressWanted())
+                    std::fprintf(stderr, "live: frame %lld: %s\n", static_cast<long long>(count),
+                                 statusLine(fps, out, *pipeline, pipeline->options()).c_str());
             }
             snapshotRequested = false;
             gl::DebugOutput::throwIfErrors("live frame");
         }
     } catch (...) {
-        std::signal(SIGINT, previous);
+        try {
+            if (recorder) recorder->finish(); // keep what was recorded
+        } catch (const std::exception&) {
+            // the first failure is the one to report
+        }
         throw;
     }
-    std::signal(SIGINT, previous);
     if (recorder) recorder->finish();
     std::printf("live: %lld frames, %lld dropped by the source, %lld camera stalls survived\n",
                 static_cast<long long>(count), static_cast<long long>(source->framesDropped()),
                 static_cast<long long>(reader.stalls()));
-    return 0;
+    return StopSignals::exitCode();
 }
 
 void addLiveCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand("live", "AR demo in a window: camera or file input, scene lit with GI, keys to toggle");
+    auto* command =
+        app.add_subcommand("live", "AR demo in a window: camera or file input, scene lit with GI, keys to toggle");
     auto args = std::make_shared<LiveArgs>();
-    command->add_option("--device", args->device, "freenect (Kinect v1), freenect://<n>, openni2://[uri], a .oni file, a recording or TUM folder");
+    command->add_option(
+        "--device", args->device,
+        "freenect (Kinect v1), freenect://<n>, openni2://[uri], a .oni file, a recording or TUM folder");
     command->add_option("--scene", args->scene, "Scene file (docs/SCENE_FORMAT.md)")->required();
-    command->add_option("--pose", args->pose, "ground-truth | tracking | fixed (default: ground truth when the input has it, else tracking)")
+    command
+        ->add_option("--pose", args->pose,
+                     "ground-truth | tracking | fixed (default: ground truth when the input has it, else tracking)")
         ->check(oneOf({"ground-truth", "tracking", "fixed"}));
     command->add_flag("--headless", args->headless, "No window: render through EGL (tests, no display)");
     command->add_flag("--loop", args->loop, "Start file input again at its end");
     command->add_flag("--fast", args->fast, "File input as fast as possible instead of at the recorded speed");
-    command->add_option("--max-frames", args->maxFrames, "Stop after this many frames (>= 1; default: all)")->check(atLeast(1));
-    auto* after = command->add_option("--snapshot-after", args->snapshotAfter,
-                                      "Write a snapshot of what is shown (without the status line) after this many frames")
+    command->add_option("--max-frames", args->maxFrames, "Stop after this many frames (>= 1; default: all)")
+        ->check(atLeast(1));
+    auto* after = command
+                      ->add_option("--snapshot-after", args->snapshotAfter,
+                                   "Write a snapshot of what is shown (without the status line) after this many frames")
                       ->check(atLeast(0));
-    command->add_option("--snapshot", args->snapshot, "Path of that snapshot (default <snapshot-dir>/snapshot-0.png)")->needs(after);
+    command->add_option("--snapshot", args->snapshot, "Path of that snapshot (default <snapshot-dir>/snapshot-0.png)")
+        ->needs(after);
     command->add_option("--snapshot-dir", args->snapshotDir, "Folder for snapshots (key P)");
-    command->add_option("--budget-ms", args->budgetMs, "Frame-time budget in ms: the session picks the GI settings per frame (docs/PLUGIN.md)");
-    command->add_option("--record", args->record, "Also record the input frames into this recording folder: new or empty (see --overwrite)");
+    command
+        ->add_option("--budget-ms", args->budgetMs,
+                     "Frame-time budget in ms: the session picks the GI settings per frame (docs/PLUGIN.md)")
+        ->check(finiteIn(0.0, 1e6));
+    command->add_option("--record", args->record,
+                        "Also record the input frames into this recording folder: new or empty (see --overwrite)");
     addOverwriteFlag(command, args->overwrite);
     command->callback([args, &exitCode] { exitCode = runLive(*args); });
 }

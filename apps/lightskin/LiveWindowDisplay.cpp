@@ -19,7 +19,8 @@ void WindowDisplay::show(gl::WindowContext& window, const cv::Mat& bgr) {
     window.framebufferSize(width, height);
     const float black[4] = {0, 0, 0, 1};
     glClearNamedFramebufferfv(0, GL_COLOR, 0, black);
-    glBlitNamedFramebuffer(framebuffer_.id(), 0, 0, 0, bgr.cols, bgr.rows, 0, height, width, 0, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+    glBlitNamedFramebuffer(framebuffer_.id(), 0, 0, 0, bgr.cols, bgr.rows, 0, height, width, 0, GL_COLOR_BUFFER_BIT,
+                           GL_NEAREST);
 }
 
 cv::Mat WindowDisplay::readBack(gl::WindowContext& window) {

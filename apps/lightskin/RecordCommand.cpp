@@ -1,10 +1,10 @@
 // `lightskin record --source <uri|file> --out <dir>`: records any frame source (live camera,
 // .oni, TUM folder, recording) into the lightskin recording format (recordings/README.md), or
 // into a fakenect dump with --to-fakenect. Capture never waits for the disk (capture::Recorder);
-// frames that cannot be queued or written are counted and reported. Ctrl-C stops cleanly; after a
-// hard kill or a power loss every frame in the index is complete, and at most the last
-// --sync-frames / --sync-seconds (plus the queue) are lost (capture::RecordingDurability). Exit code 0, or 3 when
-// frames were dropped.
+// frames that cannot be queued or written are counted and reported. Ctrl-C or SIGTERM stops cleanly
+// (exit 130 or 143, the recording finished); after a hard kill or a power loss every frame in the
+// index is complete, and at most the last --sync-frames / --sync-seconds (plus the queue) are lost
+// (capture::RecordingDurability). Exit code 0, or 3 when frames were dropped.
 #include "CliSupport.h"
 #include "Commands.h"
 
@@ -14,21 +14,12 @@
 #include <lightskin/capture/Recording.h>
 #include <lightskin/core/Error.h>
 
-#include <atomic>
-#include <csignal>
 #include <cstdio>
 #include <memory>
 
 namespace lightskin::apps {
 
 namespace {
-
-volatile std::sig_atomic_t stopRequested = 0;
-
-extern "C" void onInterrupt(int) {
-    stopRequested = 1;
-    std::signal(SIGINT, SIG_DFL); // a second Ctrl-C kills at once
-}
 
 struct RecordArguments {
     std::string source, out;
@@ -72,21 +63,37 @@ void addRecordCommand(CLI::App& app, int& exitCode) {
     command->add_flag("--register-depth", args->registerDepth,
                       "Write depth registered to colour (software registration where the device did not register); "
                       "default: the source's depth as delivered, with its colour_T_depth in the header");
-    command->add_flag("--to-fakenect", args->toFakenect,
-                      "Write a fakenect dump (640x480) instead of a lightskin recording");
+    auto* fakenect = command->add_flag("--to-fakenect", args->toFakenect,
+                                       "Write a fakenect dump (640x480) instead of a lightskin recording");
+    // A fakenect dump has its own format: the recording's options would do nothing.
+    for (const char* option : {"--jpeg", "--queue", "--sync-frames", "--sync-seconds", "--no-fsync"})
+        fakenect->excludes(option);
     command->callback([args, &exitCode, command] {
         warnIfDeprecatedUsed(*command, "--frames", "--max-frames");
-        checkOutputFolder(args->out, args->overwrite, "--out"); // before the source opens: nothing written yet
+        const InputPaths inputs{args->source};
+        checkOutputFolder(args->out, args->overwrite, "--out", inputs); // before the source opens: nothing written yet
         capture::FrameSourceOptions options;
         options.pacing = args->realtime ? capture::Pacing::Realtime : capture::Pacing::AsFastAsPossible;
         options.softwareRegistration = args->registerDepth;
         auto source = capture::openFrameSource(args->source, options);
-        prepareOutputFolder(args->out, args->overwrite, "--out");
+        if (args->toFakenect) {
+            // The sizes are known from the source's header: refuse before writing anything.
+            const capture::FrameSourceInfo& info = source->info();
+            for (const auto& [stream, intrinsics] :
+                 {std::pair{"colour", &info.colourIntrinsics}, {"depth", &info.depthIntrinsics}})
+                if (intrinsics->isValid() && (intrinsics->width != 640 || intrinsics->height != 480))
+                    throw Error(args->source, std::nullopt,
+                                std::string("--to-fakenect needs 640x480 frames (fakenect's only resolution); the ") +
+                                    stream + " images are " + std::to_string(intrinsics->width) + "x" +
+                                    std::to_string(intrinsics->height));
+        }
+        prepareOutputFolder(args->out, args->overwrite, "--out", inputs);
+        const StopSignals stopSignals; // Ctrl-C and SIGTERM: finish the recording, then exit 130 / 143
         if (args->toFakenect) {
             const auto frames = capture::writeFakenectDump(*source, args->out, args->maxFrames.value_or(-1));
             std::printf("wrote %lld frames as a fakenect dump to %s\n", static_cast<long long>(frames),
                         args->out.c_str());
-            exitCode = 0;
+            exitCode = StopSignals::exitCode();
             return;
         }
         const auto& info = source->info();
@@ -102,28 +109,26 @@ void addRecordCommand(CLI::App& app, int& exitCode) {
         durability.fsync = !args->noFsync;
         auto recorder = capture::Recorder::start(capture::RecordingWriter::create(args->out, recording, durability),
                                                  capture::RecorderOptions{args->queue});
-        stopRequested = 0;
-        const auto previous = std::signal(SIGINT, onInterrupt);
         std::printf("recording %s (%s) to %s; Ctrl-C stops\n", args->source.c_str(), info.kind.c_str(),
                     args->out.c_str());
         std::fflush(stdout);
         RgbdFrame frame;
         std::string sourceError;
         try {
-            while (!stopRequested && (!args->maxFrames || source->framesDelivered() < *args->maxFrames) &&
+            while (!StopSignals::requested() && (!args->maxFrames || source->framesDelivered() < *args->maxFrames) &&
                    source->next(frame))
                 recorder->push(frame);
         } catch (const Error& error) {
             sourceError = error.what(); // keep what was recorded: finish the recording first
         }
         const capture::RecorderStats stats = recorder->finish();
-        std::signal(SIGINT, previous);
         std::printf("recorded %lld frames to %s; dropped %lld (queue full or write failed); source dropped %lld%s\n",
                     static_cast<long long>(stats.written), args->out.c_str(), static_cast<long long>(stats.dropped),
-                    static_cast<long long>(source->framesDropped()), stopRequested ? "; stopped by Ctrl-C" : "");
+                    static_cast<long long>(source->framesDropped()),
+                    StopSignals::requested() ? "; stopped by a signal" : "");
         if (!stats.firstError.empty()) std::printf("first write error: %s\n", stats.firstError.c_str());
         if (!sourceError.empty()) throw Error(sourceError);
-        exitCode = stats.dropped > 0 ? 3 : 0;
+        exitCode = StopSignals::requested() ? StopSignals::exitCode() : stats.dropped > 0 ? 3 : 0;
     });
 }
 

@@ -1,13 +1,15 @@
 // `lightskin replay <recording>`: the main job. Reads every frame of a recording (any FrameSource),
 // places the scene's virtual content with the recorded or tracked pose, lights it with direct
 // light and the GI technique, composites it over the colour image and writes PNGs, a video and
-// a report (JSON + Markdown). Headless (EGL) unless --window. Ctrl-C stops after the current frame
-// and keeps everything written so far (video finalised, report marked "interrupted"; exit 130).
+// a report (JSON + Markdown). Headless (EGL) unless --window. Ctrl-C or SIGTERM stops after the
+// current frame and keeps everything written so far (video finalised, report marked "interrupted";
+// exit 130 or 143).
 #include "CliSupport.h"
 #include "Commands.h"
 #include "LiveWindowDisplay.h"
 #include "PoseLabel.h"
 #include "ReplayReport.h"
+#include "SceneInputs.h"
 
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/Error.h>
@@ -65,12 +67,6 @@ CompareLabels compareLabels(const std::string& view, const std::string& techniqu
             "The " + what + " drawn over the composite / the composite without GI", folder};
 }
 
-std::atomic<bool> interruptRequested{false};
-extern "C" void onReplayInterrupt(int) {
-    interruptRequested = true;
-    std::signal(SIGINT, SIG_DFL); // a second Ctrl-C kills at once
-}
-
 struct ReplayArgs {
     std::string recording, scene, out = "replay-out", writeFrames = "all", pose, view = "final", videoFormat = "auto";
     bool overwrite = false, window = false, noVideo = false, sideBySideVideo = false, noCompare = false;
@@ -80,7 +76,7 @@ struct ReplayArgs {
     std::string staticTest = "probes";
     std::string backend; ///< overrides the scene's gi.backend when set
     std::string differential = "scene";
-    std::string cacheDir; ///< --cache-dir: overrides the scene's multi-scale PRT cache folder when set
+    std::string cacheDir;                  ///< --cache-dir: overrides the scene's multi-scale PRT cache folder when set
     std::optional<std::int64_t> maxFrames; ///< --max-frames (>= 1); all frames when unset
 };
 
@@ -132,7 +128,10 @@ void presentErrorInto(const cv::Mat& truth, const cv::Mat& camera, const cv::Mat
 /// "all" or a comma list of indices and ranges: "0,5,10-20". Empty set = all.
 std::set<std::int64_t> parseFrameList(const std::string& text) {
     std::set<std::int64_t> frames;
-    if (text.empty() || text == "all") return frames;
+    if (text.empty())
+        throw Error("--write-frames", std::nullopt,
+                    "expected 'all' or indices and ranges like 0,5,10-20, got an empty value");
+    if (text == "all") return frames;
     std::stringstream stream(text);
     std::string item;
     while (std::getline(stream, item, ',')) {
@@ -159,7 +158,8 @@ std::set<std::int64_t> parseFrameList(const std::string& text) {
         } catch (const Error&) {
             throw;
         } catch (const std::exception&) {
-            throw Error("--write-frames", std::nullopt, "expected 'all' or indices and ranges like 0,5,10-20; cannot read '" + item + "'");
+            throw Error("--write-frames", std::nullopt,
+                        "expected 'all' or indices and ranges like 0,5,10-20; cannot read '" + item + "'");
         }
     }
     return frames;
@@ -167,12 +167,15 @@ std::set<std::int64_t> parseFrameList(const std::string& text) {
 
 class Progress {
 public:
-    Progress(std::optional<std::int64_t> total) : total_(total), tty_(stderrIsTerminal()), start_(Clock::now()) {}
+    Progress(std::optional<std::int64_t> total)
+        : total_(total)
+        , tty_(stderrIsTerminal())
+        , start_(Clock::now()) {}
     void update(std::int64_t done, bool last = false) {
         const double seconds = std::chrono::duration<double>(Clock::now() - start_).count();
         const double fps = seconds > 0 ? double(done) / seconds : 0.0;
         const bool due = std::chrono::duration<double>(Clock::now() - lastPrint_).count() >= (tty_ ? 0.1 : 2.0);
-        if (!due && !last) return;
+        if ((!due && !last) || !progressWanted()) return;
         lastPrint_ = Clock::now();
         char eta[32] = "?";
         if (total_ && fps > 0) std::snprintf(eta, sizeof eta, "%.0f s", double(*total_ - done) / fps);
@@ -180,7 +183,8 @@ public:
             std::string bar;
             if (total_ && *total_ > 0) {
                 const int width = 30, filled = int(double(width) * double(done) / double(*total_));
-                bar = "[" + std::string(std::size_t(std::min(filled, width)), '#') + std::string(std::size_t(std::max(0, width - filled)), '.') + "] ";
+                bar = "[" + std::string(std::size_t(std::min(filled, width)), '#') +
+                      std::string(std::size_t(std::max(0, width - filled)), '.') + "] ";
             }
             std::fprintf(stderr, "\r%sframe %lld%s  %.1f fps  ETA %s   ", bar.c_str(), static_cast<long long>(done),
                          total_ ? (" / " + std::to_string(*total_)).c_str() : "", fps, eta);
@@ -209,8 +213,9 @@ cv::VideoWriter openVideo(const std::filesystem::path& folder, const std::string
         throw Error("--video-format", std::nullopt, "expected auto, mp4 or avi, got '" + format + "'");
     if (format == "auto" || format == "mp4") {
         path = (folder / "replay.mp4").string();
-        const std::pair<int, const char*> codecs[] = {{cv::VideoWriter::fourcc('a', 'v', 'c', '1'), "H.264 (avc1) in MP4"},
-                                                      {cv::VideoWriter::fourcc('m', 'p', '4', 'v'), "MPEG-4 part 2 (mp4v) in MP4"}};
+        const std::pair<int, const char*> codecs[] = {
+            {cv::VideoWriter::fourcc('a', 'v', 'c', '1'), "H.264 (avc1) in MP4"},
+            {cv::VideoWriter::fourcc('m', 'p', '4', 'v'), "MPEG-4 part 2 (mp4v) in MP4"}};
         for (const auto& [fourcc, name] : codecs) {
             if (writer.open(path, cv::CAP_FFMPEG, fourcc, fps, size)) {
                 codec = name;
@@ -242,17 +247,19 @@ std::string writeLinear(const std::filesystem::path& folder, const std::string& 
     static const std::vector<int> exrParams{cv::IMWRITE_EXR_TYPE, cv::IMWRITE_EXR_TYPE_FLOAT};
     const std::filesystem::path path = folder / (stem + (exr ? ".exr" : ".png"));
     if (exr) {
-        if (!cv::imwrite(path.string(), linear, exrParams)) throw Error(path.string(), std::nullopt, "could not write the EXR image");
+        if (!cv::imwrite(path.string(), linear, exrParams))
+            throw Error(path.string(), std::nullopt, "could not write the EXR image");
     } else {
         eval::writeLinearPng16(path, linear, renderer);
     }
     return path.filename().string();
 }
 
-int runReplay(const ReplayArgs& args, const std::string& commandLine) {
+int runReplay(const ReplayArgs& args) {
     const auto start = std::chrono::steady_clock::now();
     const std::filesystem::path out(args.out);
-    checkOutputFolder(out, args.overwrite, "--out"); // writes nothing; the folder is made once all inputs are checked
+    // Writes nothing; the folder is made once all inputs are checked (then against the scene's files too).
+    checkOutputFolder(out, args.overwrite, "--out", {args.recording, args.scene, args.cacheDir});
     // Scene: --scene, else <recording>/scene.json.
     std::filesystem::path scenePath = args.scene;
     if (scenePath.empty()) {
@@ -272,7 +279,16 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
         log::info(args.recording + ": depth is registered to colour in software (" + opened->info().calibrationSource +
                   ")");
     const capture::FrameSourceInfo info = opened->info();
-    mr::PoseMode poseMode = args.pose.empty() ? (info.hasGroundTruth ? mr::PoseMode::GroundTruth : mr::PoseMode::Tracking) : mr::parsePoseMode(args.pose);
+    mr::PoseMode poseMode = args.pose.empty()
+                                ? (info.hasGroundTruth ? mr::PoseMode::GroundTruth : mr::PoseMode::Tracking)
+                                : mr::parsePoseMode(args.pose);
+    // Options that would do nothing with this input are refused with the reason.
+    if (poseMode == mr::PoseMode::GroundTruth && !info.hasGroundTruth)
+        throw Error("--pose", std::nullopt,
+                    "ground-truth: " + args.recording + " has no ground-truth poses (use tracking or fixed)");
+    if (args.rawDepth && info.registration == DepthRegistration::RegisteredToColour)
+        throw Error("--raw-depth", std::nullopt,
+                    "would do nothing: the depth of " + args.recording + " is registered to colour already");
 
     std::unique_ptr<gl::Context> context;
     std::unique_ptr<gl::WindowContext> window;
@@ -301,9 +317,6 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     if (args.staticTest != "probes" && args.staticTest != "bound")
         throw Error("--static-test", std::nullopt, "expected probes or bound, got '" + args.staticTest + "'");
     options.staticProbes = args.staticTest == "probes";
-    if (args.budgetMs < 0.0)
-        throw Error("--budget-ms", std::nullopt,
-                    "expected a positive number of milliseconds, got " + std::to_string(args.budgetMs));
     mr::SessionOptions sessionOptions;
     sessionOptions.pipeline = options;
     sessionOptions.budgetMs = args.budgetMs;
@@ -315,8 +328,9 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     mr::FramePipeline* pipeline = &session->pipeline();
     const std::string sceneTechnique(gi::toString(scene.gi.technique));
     if (!args.cacheDir.empty() && scene.gi.technique != gi::Technique::MultiscalePrt)
-        log::warning("--cache-dir: " + scenePath.string() + " has gi.technique \"" + sceneTechnique +
-                     "\", which has no precompute to cache; ignored");
+        throw Error("--cache-dir", std::nullopt,
+                    "would do nothing: " + scenePath.string() + " has gi.technique \"" + sceneTechnique +
+                        "\", which has no precompute to cache");
     if (!args.backend.empty()) {
         const std::optional<gi::Backend> backend = gi::parseBackend(args.backend);
         if (!backend)
@@ -330,6 +344,8 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
         settings.backend = *backend;
         pipeline->setGiSettings(settings);
     }
+    if (source->frameCount() == std::optional<std::int64_t>(0))
+        throw Error(args.recording, std::nullopt, "the recording has no frames: nothing to replay");
     // --write-frames past the frames that will be read would silently write nothing.
     if (!chosen.empty()) {
         const std::optional<std::int64_t> available = source->frameCount();
@@ -343,7 +359,9 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
                                  : args.recording + " has " + std::to_string(*available) + " frames (0-" +
                                        std::to_string(*available - 1) + ")"));
     }
-    prepareOutputFolder(out, args.overwrite, "--out"); // every input is valid: from here on, outputs
+    InputPaths inputs = sceneInputs(scene);
+    inputs.insert(inputs.end(), {args.recording, args.cacheDir});
+    prepareOutputFolder(out, args.overwrite, "--out", inputs); // every input is valid: from here on, outputs
     std::filesystem::create_directories(out / "frames");
     // Without a GI technique both halves of the comparison would be the same image.
     const bool compare = options.compare && pipeline->technique() != gi::Technique::None;
@@ -370,7 +388,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
         pipeline->techniqueName() + (asGiven ? "" : " (scene asked for " + asked + ", not available)");
     summary.poseMode = mr::toString(poseMode);
     summary.prtPrepare = pipeline->prtPrepareStats();
-    summary.command = commandLine;
+    summary.command = commandLineText(); // the exact argv: running it again reproduces the run
     summary.framesInSource = source->frameCount();
     std::int64_t total = summary.framesInSource.value_or(-1);
     if (args.maxFrames && (total < 0 || *args.maxFrames < total)) total = *args.maxFrames;
@@ -383,15 +401,14 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
     summary.compareLeft = labels.left;
     summary.compareRight = labels.right;
     summary.compareTitle = labels.title;
-    interruptRequested = false;
-    const auto previous = std::signal(SIGINT, onReplayInterrupt);
+    const StopSignals stopSignals; // Ctrl-C and SIGTERM: finish this frame, close the video, write the report
     std::vector<ReportFrame> frames;
     Progress progress(total >= 0 ? std::optional<std::int64_t>(total) : std::nullopt);
     cv::Mat sideBySide, presentPair, presentTriple, presentFigure;
     std::int64_t read = 0;
     std::chrono::steady_clock::time_point firstFrameEnd;
     try {
-        while (!interruptRequested && (!args.maxFrames || read < *args.maxFrames) && session->processNext()) {
+        while (!StopSignals::requested() && (!args.maxFrames || read < *args.maxFrames) && session->processNext()) {
             ++read;
             const mr::FrameOutput& output = session->output();
             const RgbdFrame& frame = session->sourceFrame();
@@ -416,8 +433,9 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
             rf.giActive = output.giActive;
             if (!output.giActive) {
                 rf.giInactiveCause = output.giInactiveCause;
-                std::fprintf(stderr, "replay: frame %lld: GI inactive: %s\n", static_cast<long long>(frame.index),
-                             output.giInactiveCause);
+                if (progressWanted()) // per frame, like the progress; the report keeps every cause
+                    std::fprintf(stderr, "replay: frame %lld: GI inactive: %s\n", static_cast<long long>(frame.index),
+                                 output.giInactiveCause);
             }
             rf.rsmValCount = output.rsmValCount;
             rf.valsDropped = output.valsDropped;
@@ -470,13 +488,14 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
                     const std::string stem(name, std::strlen(name) - 4); // without ".png"
                     rf.linearImage = "linear/" + writeLinear(out / "linear", stem, output.linearWithGi, rendererName);
                     if (!output.linearIndirect.empty())
-                        rf.linearIndirectImage =
-                            "linear-indirect/" + writeLinear(out / "linear-indirect", stem, output.linearIndirect, rendererName);
+                        rf.linearIndirectImage = "linear-indirect/" + writeLinear(out / "linear-indirect", stem,
+                                                                                  output.linearIndirect, rendererName);
                 }
             }
             if (!args.noVideo) {
                 const cv::Mat& videoFrame = args.sideBySideVideo && compare ? sideBySide : output.withGi;
-                if (!video.isOpened()) video = openVideo(out, args.videoFormat, videoFrame.size(), 30.0, videoPath, videoCodec);
+                if (!video.isOpened())
+                    video = openVideo(out, args.videoFormat, videoFrame.size(), 30.0, videoPath, videoCodec);
                 video.write(videoFrame);
             }
             if (window) {
@@ -484,7 +503,7 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
                 display->show(*window, args.sideBySideVideo && compare ? sideBySide : output.withGi);
                 window->swapBuffers();
                 window->pollEvents();
-                if (window->shouldClose()) interruptRequested = true;
+                if (window->shouldClose()) StopSignals::request();
             }
             frames.push_back(std::move(rf));
             progress.update(read);
@@ -497,7 +516,6 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
         }
     } catch (const std::exception& error) {
         // Keep what was written: close the video, write the report marked failed, say what is kept.
-        std::signal(SIGINT, previous);
         video.release();
         summary.failure = error.what();
         summary.framesRead = read;
@@ -514,11 +532,10 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
         }
         throw Error(std::string(error.what()) + "; " + kept);
     }
-    std::signal(SIGINT, previous);
     progress.update(read, true);
     video.release();
     summary.framesRead = read;
-    summary.interrupted = interruptRequested;
+    summary.interrupted = StopSignals::requested();
     summary.video = videoPath.empty() ? "" : std::filesystem::path(videoPath).filename().string();
     summary.videoCodec = videoCodec;
     summary.wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -535,49 +552,78 @@ int runReplay(const ReplayArgs& args, const std::string& commandLine) {
                         static_cast<long long>(frames.size()));
     }
     std::printf("replay: %lld frames read%s; outputs in %s (report.md, report.json%s)\n", static_cast<long long>(read),
-                summary.interrupted ? " (interrupted)" : "", out.string().c_str(), videoPath.empty() ? "" : (", " + summary.video).c_str());
-    return summary.interrupted ? 130 : 0;
+                summary.interrupted ? " (interrupted)" : "", out.string().c_str(),
+                videoPath.empty() ? "" : (", " + summary.video).c_str());
+    return summary.interrupted ? StopSignals::exitCode() : 0;
 }
 
 void addReplayCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand("replay", "Render a scene into a recording: PNGs, a video and a report (headless by default)");
+    auto* command = app.add_subcommand(
+        "replay", "Render a scene into a recording: PNGs, a video and a report (headless by default)");
     auto args = std::make_shared<ReplayArgs>();
     command->add_option("recording", args->recording, "Recording folder, TUM folder or .oni file")->required();
     command->add_option("--scene", args->scene, "Scene file (docs/SCENE_FORMAT.md); default <recording>/scene.json");
     command->add_option("--out", args->out, "Output folder: new or empty (see --overwrite)");
     addOverwriteFlag(command, args->overwrite);
     command->add_flag("--window", args->window, "Show a GLFW window while rendering (default: headless EGL)");
-    command->add_option("--write-frames", args->writeFrames, "Frames to write as PNG: all, or indices and ranges like 0,5,10-20");
-    command->add_option("--frames", args->writeFrames, "Deprecated spelling of --write-frames")->group("");
-    command->add_option("--max-frames", args->maxFrames, "Stop after this many frames (>= 1; default: all)")->check(atLeast(1));
-    command->add_option("--pose", args->pose, "ground-truth | tracking | fixed (default: ground truth when the recording has it, else tracking)")
+    const CLI::Validator frameList(
+        [](std::string& text) -> std::string {
+            try {
+                (void)parseFrameList(text);
+            } catch (const Error& error) {
+                return error.cause();
+            }
+            return {};
+        },
+        "");
+    command
+        ->add_option("--write-frames", args->writeFrames,
+                     "Frames to write as PNG: all, or indices and ranges like 0,5,10-20")
+        ->check(frameList);
+    command->add_option("--frames", args->writeFrames, "Deprecated spelling of --write-frames")
+        ->group("")
+        ->check(frameList);
+    command->add_option("--max-frames", args->maxFrames, "Stop after this many frames (>= 1; default: all)")
+        ->check(atLeast(1));
+    command
+        ->add_option("--pose", args->pose,
+                     "ground-truth | tracking | fixed (default: ground truth when the recording has it, else tracking)")
         ->check(oneOf({"ground-truth", "tracking", "fixed"}));
-    command->add_option("--view", args->view,
-                        "Debug view: final | direct | indirect | normals | albedo | vals (VALs by flux) | sparse "
-                        "(sparse points) | error (vs brute force) | vpl (interpolated vertex VPLs) | differential "
-                        "(change of the real light by the virtual objects)")
-        ->check(oneOf({"final", "direct", "indirect", "normals", "albedo", "vals", "sparse", "error", "vpl",
-                       "differential"}));
-    command->add_flag("--no-video", args->noVideo, "Do not write a video");
+    command
+        ->add_option("--view", args->view,
+                     "Debug view: final | direct | indirect | normals | albedo | vals (VALs by flux) | sparse "
+                     "(sparse points) | error (vs brute force) | vpl (interpolated vertex VPLs) | differential "
+                     "(change of the real light by the virtual objects)")
+        ->check(oneOf(
+            {"final", "direct", "indirect", "normals", "albedo", "vals", "sparse", "error", "vpl", "differential"}));
+    auto* noVideo = command->add_flag("--no-video", args->noVideo, "Do not write a video");
     command->add_option("--video-format", args->videoFormat, "auto (MP4, falling back to MJPG AVI) | mp4 | avi")
-        ->check(CLI::IsMember({"auto", "mp4", "avi"}));
-    command->add_flag("--side-by-side-video", args->sideBySideVideo, "Video frames show with GI | without GI");
-    command->add_flag("--no-compare", args->noCompare, "Do not render the without-GI comparison");
+        ->check(CLI::IsMember({"auto", "mp4", "avi"}))
+        ->excludes(noVideo);
+    auto* sideBySide =
+        command->add_flag("--side-by-side-video", args->sideBySideVideo, "Video frames show with GI | without GI")
+            ->excludes(noVideo);
+    command->add_flag("--no-compare", args->noCompare, "Do not render the without-GI comparison")->excludes(sideBySide);
     command
         ->add_option("--differential", args->differential,
                      "Differential rendering (virtual shadows and bounce on the real surfaces): scene (its "
                      "compositing.differential, default) | off")
         ->check(CLI::IsMember({"scene", "off"}));
-    command->add_flag("--linear-out", args->linearOut,
-                      "Also write each written frame's linear-light composite (linear/) and indirect-only light (linear-indirect/) "
-                      "as 32-bit float OpenEXR (NaN, inf and values > 1 kept; 16-bit PNG clamped to [0,1] if this OpenCV has no EXR)");
-    command->add_option(
-        "--budget-ms", args->budgetMs,
-        "Frame-time budget in ms (overrides the scene's gi.budgetMs): per frame pick technique, sparse points, VAL "
-        "stride and channels that meet it (docs/PLUGIN.md); report.json lists the choice per frame");
-    command->add_option(
-        "--backend", args->backend,
-        "LightSkin's stages 0-4 on gl (default: the scene's gi.backend) or cpu (SIMD + threads; shading stays on GL)")
+    command->add_flag(
+        "--linear-out", args->linearOut,
+        "Also write each written frame's linear-light composite (linear/) and indirect-only light (linear-indirect/) "
+        "as 32-bit float OpenEXR (NaN, inf and values > 1 kept; 16-bit PNG clamped to [0,1] if this OpenCV has no "
+        "EXR)");
+    command
+        ->add_option(
+            "--budget-ms", args->budgetMs,
+            "Frame-time budget in ms (overrides the scene's gi.budgetMs): per frame pick technique, sparse points, VAL "
+            "stride and channels that meet it (docs/PLUGIN.md); report.json lists the choice per frame")
+        ->check(finiteIn(0.0, 1e6));
+    command
+        ->add_option("--backend", args->backend,
+                     "LightSkin's stages 0-4 on gl (default: the scene's gi.backend) or cpu (SIMD + threads; shading "
+                     "stays on GL)")
         ->check(oneOf({"gl", "cpu"}));
     command->add_flag("--sequential", args->sequential,
                       "Read, depth-filter and track frame n+1 after frame n on one thread (default: on a worker thread "
@@ -590,27 +636,23 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
         "--raw-depth", args->rawDepth,
         "Do not register unregistered depth (.oni, fakenect, raw recordings) to colour in software: shows what "
         "the pipeline does without registration (no VALs, no GI)");
-    auto* adaptive = command->add_flag("--adaptive", args->adaptive,
-                      "LightSkin's adaptive mode: turn off what cannot change the image and reuse the VPLs for static content");
-    auto* tolerance = command->add_option("--static-tolerance", args->staticTolerance,
-                        "With --adaptive: also reuse when the gathered irradiance changed by at most this fraction of its maximum (0: exact only; diffuse channel only)")
-        ->check(CLI::Range(0.0f, 1.0f))
-        ->needs(adaptive);
-    command->add_option("--static-test", args->staticTest, "With --static-tolerance: probes (re-gather every 16th sparse point) or bound (guaranteed, keyed)")
+    auto* adaptive = command->add_flag(
+        "--adaptive", args->adaptive,
+        "LightSkin's adaptive mode: turn off what cannot change the image and reuse the VPLs for static content");
+    auto* tolerance = command
+                          ->add_option("--static-tolerance", args->staticTolerance,
+                                       "With --adaptive: also reuse when the gathered irradiance changed by at most "
+                                       "this fraction of its maximum (0: exact only; diffuse channel only)")
+                          ->check(CLI::Range(0.0f, 1.0f))
+                          ->needs(adaptive);
+    command
+        ->add_option("--static-test", args->staticTest,
+                     "With --static-tolerance: probes (re-gather every 16th sparse point) or bound (guaranteed, keyed)")
         ->check(CLI::IsMember({"probes", "bound"}))
         ->needs(tolerance);
     command->callback([args, &exitCode, command] {
-        std::string line = "lightskin replay";
-        for (const auto& [name, value] : std::vector<std::pair<std::string, std::string>>{{"", args->recording},
-                                                                                          {"--scene", args->scene},
-                                                                                          {"--out", args->out},
-                                                                                          {"--write-frames", args->writeFrames == "all" ? "" : args->writeFrames},
-                                                                                          {"--pose", args->pose},
-                                                                                          {"--backend", args->backend},
-                                                                                          {"--cache-dir", args->cacheDir}})
-            if (!value.empty()) line += (name.empty() ? " " : " " + name + " ") + value;
         warnIfDeprecatedUsed(*command, "--frames", "--write-frames");
-        exitCode = runReplay(*args, line);
+        exitCode = runReplay(*args);
     });
 }
 

@@ -39,7 +39,8 @@ void writeFile(const std::filesystem::path& path, const std::string& text) {
 
 } // namespace
 
-void writeReplayReport(const std::filesystem::path& folder, const ReportSummary& s, const std::vector<ReportFrame>& frames) {
+void writeReplayReport(const std::filesystem::path& folder, const ReportSummary& s,
+                       const std::vector<ReportFrame>& frames) {
     // Stage names in first-seen order, and their means.
     std::vector<std::string> cpuStages, gpuStages;
     std::map<std::string, double> cpuSum, gpuSum;
@@ -226,14 +227,17 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
     md += "| GI active | " + giSummary + " |\n";
     md += "| pose | " + s.poseMode + " |\n";
     md += "| frames read | " + std::to_string(s.framesRead) +
-          (s.framesInSource ? " of " + std::to_string(*s.framesInSource) : std::string()) + (s.interrupted ? " (interrupted by Ctrl-C)" : "") + " |\n";
-    md += "| wall time | " + fixed(s.wallSeconds, 1) + " s" + " (" + fixed(s.wallSeconds > 0 ? double(s.framesRead) / s.wallSeconds : 0.0, 2) + " frames/s) |\n";
+          (s.framesInSource ? " of " + std::to_string(*s.framesInSource) : std::string()) +
+          (s.interrupted ? " (interrupted)" : "") + " |\n";
+    md += "| wall time | " + fixed(s.wallSeconds, 1) + " s" + " (" +
+          fixed(s.wallSeconds > 0 ? double(s.framesRead) / s.wallSeconds : 0.0, 2) + " frames/s) |\n";
     if (s.steadyMsPerFrame > 0.0)
         md += "| after the first frame | " + fixed(s.steadyMsPerFrame, 1) + " ms per frame (" +
               fixed(1000.0 / s.steadyMsPerFrame, 2) + " frames/s) |\n";
     md += "| video | " + (s.video.empty() ? std::string("none") : "`" + s.video + "` (" + s.videoCodec + ")") + " |\n";
     std::string states;
-    for (const auto& [state, count] : trackingCounts) states += (states.empty() ? "" : ", ") + state + " " + std::to_string(count);
+    for (const auto& [state, count] : trackingCounts)
+        states += (states.empty() ? "" : ", ") + state + " " + std::to_string(count);
     md += "| tracking states | " + states + " |\n";
     if (!poseMetres.empty())
         md += "| pose error vs ground truth | translation mean " + fixed(poseMetresStats["mean"].get<double>(), 3) +
@@ -258,8 +262,8 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
             infPixels += f.linearInfPixels;
             badFrames += f.linearNanPixels + f.linearInfPixels > 0 ? 1 : 0;
         }
-        md += "| non-finite linear pixels | " + std::to_string(nanPixels) + " NaN, " + std::to_string(infPixels) + " inf (" +
-              std::to_string(badFrames) + " frames) |\n";
+        md += "| non-finite linear pixels | " + std::to_string(nanPixels) + " NaN, " + std::to_string(infPixels) +
+              " inf (" + std::to_string(badFrames) + " frames) |\n";
     }
     std::size_t adaptiveFrames = 0, reusedFrames = 0;
     for (const ReportFrame& f : frames)
@@ -268,8 +272,8 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
             if (f.giReused == 1) ++reusedFrames;
         }
     if (adaptiveFrames > 0)
-        md += "| static-content reuse (adaptive) | " + std::to_string(reusedFrames) + " of " + std::to_string(adaptiveFrames) +
-              " frames reused the VPLs |\n";
+        md += "| static-content reuse (adaptive) | " + std::to_string(reusedFrames) + " of " +
+              std::to_string(adaptiveFrames) + " frames reused the VPLs |\n";
     std::int64_t bounceFrames = 0, rsmVals = 0, dropped = 0;
     for (const ReportFrame& f : frames)
         if (f.rsmValCount >= 0) {
@@ -278,8 +282,9 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
             dropped += std::max<std::int64_t>(0, f.valsDropped);
         }
     if (bounceFrames > 0)
-        md += "| virtual bounce (RSM) | " + fixed(double(rsmVals) / double(bounceFrames), 0) + " RSM VALs per frame (mean of " +
-              std::to_string(bounceFrames) + " frames), " + std::to_string(dropped) + " VALs dropped in all" + (dropped > 0 ? " (merged set full!)" : "") + " |\n";
+        md += "| virtual bounce (RSM) | " + fixed(double(rsmVals) / double(bounceFrames), 0) +
+              " RSM VALs per frame (mean of " + std::to_string(bounceFrames) + " frames), " + std::to_string(dropped) +
+              " VALs dropped in all" + (dropped > 0 ? " (merged set full!)" : "") + " |\n";
     for (const bool realOnly : {false, true}) {
         std::int64_t presentFrames = 0, pixels = 0;
         double maeWith = 0.0, maeWithout = 0.0, rmseWith = 0.0, rmseWithout = 0.0;
@@ -331,7 +336,8 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
         if (f.compareImage.empty() && f.image.empty()) continue;
         if (++shown > 8) break;
         const std::string& image = f.compareImage.empty() ? f.image : f.compareImage;
-        md += "Frame " + std::to_string(f.index) + " (" + f.trackingState + ")\n\n![frame " + std::to_string(f.index) + "](" + image + ")\n\n";
+        md += "Frame " + std::to_string(f.index) + " (" + f.trackingState + ")\n\n![frame " + std::to_string(f.index) +
+              "](" + image + ")\n\n";
     }
     if (shown == 0) md += "No images were written (see `--frames`).\n\n";
 
@@ -358,16 +364,22 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
                                            : std::string("- | - | ");
         md += std::to_string(f.valCount) + " | " +
               (f.giActive ? std::string("active") : "inactive: " + escapeCell(f.giInactiveCause)) + " |";
-        if (bounceFrames > 0) md += " " + (f.rsmValCount >= 0 ? std::to_string(f.rsmValCount) : std::string("-")) + " |";
+        if (bounceFrames > 0)
+            md += " " + (f.rsmValCount >= 0 ? std::to_string(f.rsmValCount) : std::string("-")) + " |";
         for (const auto& name : cpuStages) {
             double v = NAN;
-            for (const auto& st : f.cpuTimes) if (st.name == name) v = st.milliseconds;
+            for (const auto& st : f.cpuTimes)
+                if (st.name == name) v = st.milliseconds;
             md += " " + (std::isnan(v) ? std::string("-") : fixed(v, 2)) + " |";
         }
         for (const auto& name : gpuStages) {
             double v = 0.0;
             bool seen = false;
-            for (const auto& st : f.gpuTimes) if (st.name == name) { v += st.milliseconds; seen = true; }
+            for (const auto& st : f.gpuTimes)
+                if (st.name == name) {
+                    v += st.milliseconds;
+                    seen = true;
+                }
             md += " " + (seen ? fixed(v, 2) : std::string("-")) + " |";
         }
         md += " " + fixed(f.totalMs, 2) + " |\n";

@@ -19,23 +19,23 @@ struct ReportFrame {
     /// Pose error against the recording's ground truth (frames with both): translation distance,
     /// metres, and relative rotation angle, degrees; < 0 when not available.
     double poseErrorMetres = -1.0, poseErrorDegrees = -1.0;
-    std::uint32_t valCount = 0;      ///< VALs from depth
-    bool giActive = false;           ///< GI lit this frame (mr::FrameOutput::giActive)
-    std::string giInactiveCause;     ///< why not, when !giActive
-    std::int64_t rsmValCount = -1;   ///< gi.virtualBounce: VALs from the virtual lights' RSMs, else < 0
-    std::int64_t valsDropped = -1;   ///< gi.virtualBounce: VALs that did not fit the merged set, else < 0
+    std::uint32_t valCount = 0;    ///< VALs from depth
+    bool giActive = false;         ///< GI lit this frame (mr::FrameOutput::giActive)
+    std::string giInactiveCause;   ///< why not, when !giActive
+    std::int64_t rsmValCount = -1; ///< gi.virtualBounce: VALs from the virtual lights' RSMs, else < 0
+    std::int64_t valsDropped = -1; ///< gi.virtualBounce: VALs that did not fit the merged set, else < 0
     std::vector<gl::StageTime> cpuTimes, gpuTimes;
     double totalMs = 0.0;
-    std::int64_t vplSegments = -1;  ///< --view vpl: vertex VPLs drawn, else < 0
-    std::int64_t vplNonFinite = -1; ///< --view vpl: vertices with a non-finite VPL, else < 0
+    std::int64_t vplSegments = -1;   ///< --view vpl: vertex VPLs drawn, else < 0
+    std::int64_t vplNonFinite = -1;  ///< --view vpl: vertices with a non-finite VPL, else < 0
     double errorVsBruteForce = -1.0; ///< --view error: mean relative error of the technique's indirect light, else < 0
     int giReused = -1;               ///< --adaptive: 1 = static content, VPLs reused; 0 = recomputed; else < 0
     float giChangeMeasure = -1.0f;   ///< --adaptive with a tolerance: LightSkinChoice::staticChangeBound, else < 0
     std::int64_t volumeVoxelsDropped = -1; ///< imperfect volumes: voxels dropped for want of slots, else < 0
-    std::int64_t linearNanPixels = 0; ///< pixels of the linear composite with a NaN channel (mr::FrameOutput)
-    std::int64_t linearInfPixels = 0; ///< ... with an infinite channel (and no NaN)
-    std::string linearImage;          ///< --linear-out: linear composite written for this frame, or empty
-    std::string linearIndirectImage;  ///< --linear-out: linear indirect-only image, or empty
+    std::int64_t linearNanPixels = 0;      ///< pixels of the linear composite with a NaN channel (mr::FrameOutput)
+    std::int64_t linearInfPixels = 0;      ///< ... with an infinite channel (and no NaN)
+    std::string linearImage;               ///< --linear-out: linear composite written for this frame, or empty
+    std::string linearIndirectImage;       ///< --linear-out: linear indirect-only image, or empty
     /// Recordings with synth/present/ (the objects really in the room): the error of the composite
     /// against it in linear light over the pixels the objects affect (the truth differs from the
     /// camera image, or virtual content covers the pixel), with and without the differential.
@@ -47,10 +47,10 @@ struct ReportFrame {
         double rmseWith = 0.0, rmseWithout = 0.0; ///< root mean square of the same
     };
     PresentError present, presentReal;
-    std::string presentImage; ///< truth | with differential | without, or empty
-    std::string image;        ///< PNG written for this frame (relative to the output folder), or empty
-    std::string compareImage; ///< side-by-side PNG, or empty
-    std::string giSettings;   ///< --budget-ms: the settings the frame budget chose (mr::describe), else empty
+    std::string presentImage;  ///< truth | with differential | without, or empty
+    std::string image;         ///< PNG written for this frame (relative to the output folder), or empty
+    std::string compareImage;  ///< side-by-side PNG, or empty
+    std::string giSettings;    ///< --budget-ms: the settings the frame budget chose (mr::describe), else empty
     double predictedMs = -1.0; ///< --budget-ms: the budget's prediction for the frame, else < 0
 };
 
@@ -74,6 +74,7 @@ struct ReportSummary {
 };
 
 /// Writes report.json and report.md into `folder`. Throws lightskin::Error when a file cannot be written.
-void writeReplayReport(const std::filesystem::path& folder, const ReportSummary& summary, const std::vector<ReportFrame>& frames);
+void writeReplayReport(const std::filesystem::path& folder, const ReportSummary& summary,
+                       const std::vector<ReportFrame>& frames);
 
 } // namespace lightskin::apps

@@ -1,6 +1,7 @@
 // `lightskin synth <scene.json> --out <folder>`: renders a synthetic RGB-D recording with exact
 // ground truth (poses, depth, optional normals/positions/radiance) from a scene description
-// (docs/SYNTH.md). Headless: OpenGL 4.5 through EGL, no GPU needed.
+// (docs/SYNTH.md). Headless: OpenGL 4.5 through EGL, no GPU needed. Ctrl-C or SIGTERM stops after the
+// current frame with a finished recording of the frames written (exit 130 or 143).
 #include "CliSupport.h"
 #include "Commands.h"
 #include "ToolCommands.h"
@@ -57,8 +58,12 @@ void addSynthCommand(CLI::App& app, int& exitCode) {
         "new or empty, see --overwrite)");
     command->callback([arguments, &exitCode, command] {
         warnIfDeprecatedUsed(*command, "--frames", "--max-frames");
-        checkOutputFolder(arguments->out, arguments->overwrite, "--out");
-        if (!arguments->fakenect.empty()) checkOutputFolder(arguments->fakenect, arguments->overwrite, "--fakenect");
+        const InputPaths inputs{arguments->scene, arguments->objectsPresent};
+        checkOutputFolder(arguments->out, arguments->overwrite, "--out", inputs);
+        if (!arguments->fakenect.empty()) {
+            checkOutputFolder(arguments->fakenect, arguments->overwrite, "--fakenect", inputs);
+            checkNotAnInput(arguments->fakenect, {arguments->out}, "--fakenect");
+        }
         std::ifstream file(arguments->scene, std::ios::binary);
         if (!file) throw Error(arguments->scene, std::nullopt, "cannot open the scene description");
         std::ostringstream text;
@@ -83,25 +88,28 @@ void addSynthCommand(CLI::App& app, int& exitCode) {
         auto lastPrint = started - std::chrono::hours(1);
         options.progress = [tty, started, lastPrint](int written, int total) mutable {
             const auto now = std::chrono::steady_clock::now();
-            if (written != total && now - lastPrint < std::chrono::seconds(tty ? 1 : 5)) return;
+            if (!progressWanted() || (written != total && now - lastPrint < std::chrono::seconds(tty ? 1 : 5))) return;
             lastPrint = now;
             const double seconds = std::chrono::duration<double>(now - started).count();
             const double left = written > 0 ? seconds / written * (total - written) : 0.0;
             std::fprintf(stderr, "%ssynth: frame %d of %d, %.1f s, ETA %.0f s%s", tty ? "\r" : "", written, total,
                          seconds, left, tty && written != total ? "   " : "\n");
         };
-        prepareOutputFolder(arguments->out, arguments->overwrite, "--out");
-        if (!arguments->fakenect.empty()) prepareOutputFolder(arguments->fakenect, arguments->overwrite, "--fakenect");
+        options.stopRequested = [] { return StopSignals::requested(); };
+        prepareOutputFolder(arguments->out, arguments->overwrite, "--out", inputs);
+        const StopSignals stopSignals; // Ctrl-C and SIGTERM: finish the recording with the frames written
+        if (!arguments->fakenect.empty())
+            prepareOutputFolder(arguments->fakenect, arguments->overwrite, "--fakenect", inputs);
         const std::int64_t frames = synth::writeSynthRecording(scene, text.str(), arguments->out, options);
         std::printf("wrote %lld frames of %s (%s) to %s\n", static_cast<long long>(frames), scene.name.c_str(),
                     scene.intrinsics.describe().c_str(), arguments->out.c_str());
-        if (!arguments->fakenect.empty()) {
+        if (!arguments->fakenect.empty() && !StopSignals::requested()) {
             auto source = capture::openFrameSource(arguments->out);
             const std::int64_t dumped = capture::writeFakenectDump(*source, arguments->fakenect);
             std::printf("wrote %lld frames as a fakenect dump to %s\n", static_cast<long long>(dumped),
                         arguments->fakenect.c_str());
         }
-        exitCode = 0;
+        exitCode = StopSignals::exitCode();
     });
 }
 

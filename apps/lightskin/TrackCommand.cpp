@@ -13,6 +13,7 @@
 // reason. A last comment line counts the states and the frames whose measurement --max-corner-std
 // refused (held, or lost before the first pose): "# frames N tracking T held H lost L; measurements
 // refused as poorly determined P".
+#include "CliSupport.h"
 #include "Commands.h"
 
 #include <lightskin/capture/FrameSource.h>
@@ -24,6 +25,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <memory>
@@ -189,23 +191,49 @@ void addTrackCommand(CLI::App& app, int& exitCode) {
     auto* command =
         app.add_subcommand("track", "Camera poses from AprilTags in a sequence of images (one line per frame)");
     auto options = std::make_shared<TrackOptions>();
-    command->add_option("--world", options->worldPath, "Tag world config (JSON, see tracking/TagWorld.h)");
-    command->add_option("--tag-id", options->tagId, "Single tag id (instead of --world)");
-    command->add_option("--tag-size", options->tagSize, "Single tag black-border edge length, metres");
-    command->add_option("--family", options->family, "Tag family for --tag-id")->capture_default_str();
-    command->add_option("--intrinsics", options->intrinsics, "fx fy cx cy in pixels (no distortion)")->expected(4);
-    command->add_option("--decimate", options->decimate, "quad_decimate (1 for small tags)")->capture_default_str();
+    auto* world =
+        command->add_option("--world", options->worldPath, "Tag world config (JSON, see tracking/TagWorld.h)");
+    auto* tagId = command->add_option("--tag-id", options->tagId, "Single tag id (instead of --world)")
+                      ->check(CLI::Range(0, 1 << 20))
+                      ->excludes(world);
+    auto* tagSize = command->add_option("--tag-size", options->tagSize, "Single tag black-border edge length, metres")
+                        ->check(finiteIn(1e-4, 100.0))
+                        ->excludes(world)
+                        ->needs(tagId);
+    tagId->needs(tagSize);
+    command->add_option("--family", options->family, "Tag family for --tag-id")->capture_default_str()->excludes(world);
+    command->add_option("--intrinsics", options->intrinsics, "fx fy cx cy in pixels (no distortion)")
+        ->expected(4)
+        ->check(finiteIn(0.0, 1e6));
+    command->add_option("--decimate", options->decimate, "quad_decimate (1 for small tags)")
+        ->capture_default_str()
+        ->check(finiteIn(1.0, 16.0));
     command
         ->add_option("--upsample", options->upsample,
                      "Detect on the image enlarged by this factor (1-4; 2 finds small tags, ~3.6x the time)")
-        ->capture_default_str();
-    command->add_option("--threads", options->threads, "Detector threads")->capture_default_str();
+        ->capture_default_str()
+        ->check(CLI::Range(1, 4));
+    command->add_option("--threads", options->threads, "Detector threads")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 64));
     command
         ->add_option(
             "--max-corner-std", options->maxCornerStd,
             "Hold frames whose pose places the world's tag corners worse than this std, pixels (> 0; inf = off)")
-        ->capture_default_str();
-    command->add_option("--fps", options->fps, "Frame rate the images were taken at")->capture_default_str();
+        ->capture_default_str()
+        ->check(CLI::Validator(
+            [](std::string& text) -> std::string {
+                if (text == "inf" || text == "infinity") return {};
+                char* end = nullptr;
+                const double value = std::strtod(text.c_str(), &end);
+                if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(value) || !(value > 0.0))
+                    return "expected a number of pixels > 0 (or inf), got '" + text + "'";
+                return {};
+            },
+            ""));
+    command->add_option("--fps", options->fps, "Frame rate the images were taken at")
+        ->capture_default_str()
+        ->check(finiteIn(0.01, 10000.0));
     command->add_flag("--no-filter", options->noFilter, "Report unfiltered poses");
     command->add_option("images", options->images, "Images in order, or one recording folder / .oni file")->required();
     command->callback([options, &exitCode] { runTrack(*options, exitCode); });

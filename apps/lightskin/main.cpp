@@ -6,9 +6,14 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
 
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <filesystem>
+#include <string>
 #include <string_view>
 
 namespace {
@@ -16,6 +21,12 @@ namespace {
 /// Exit codes (docs/CLI.md): 0 done, 1 failed (bad input or a run-time failure; what was written is
 /// kept and said), 2 internal error, 3 done with losses (command-specific), 64 bad command line.
 constexpr int kExitFailed = 1, kExitInternal = 2, kExitUsage = 64;
+
+/// nlohmann-json's message without its "[json.exception.parse_error.101] " prefix.
+std::string withoutJsonPrefix(const std::string& message) {
+    const std::size_t end = message.find("] ");
+    return message.starts_with("[json.exception") && end != std::string::npos ? message.substr(end + 2) : message;
+}
 
 /// The first argument that is no option of the main program, or nullptr.
 const char* firstCommandWord(int argc, char** argv) {
@@ -39,10 +50,17 @@ int main(int argc, char** argv) {
     bool verbose = false, quiet = false;
     app.add_flag("-v,--verbose", verbose, "Log debug messages (also what libraries print: libpng, OpenCV, ...)");
     app.add_flag("-q,--quiet", quiet, "Log warnings and errors only");
+    // Runs once every option of the command is parsed and validated, before the command's callback.
     app.parse_complete_callback([&] {
         lightskin::log::setLevel(verbose ? lightskin::log::Level::Debug
                                  : quiet ? lightskin::log::Level::Warning
                                          : lightskin::log::Level::Info);
+        lightskin::apps::setProgressWanted(!quiet);
+        // For tests of the command line (tests/apps/CliFuzzTest.cpp): stop once the values are checked.
+        // (A forwarded tool command is checked by lightskin-tools, which this program runs.)
+        bool forwarded = false;
+        for (const CLI::App* command : app.get_subcommands()) forwarded = forwarded || command->get_prefix_command();
+        if (std::getenv("LIGHTSKIN_CHECK_ARGUMENTS_ONLY") != nullptr && !forwarded) throw CLI::Success();
     });
 
     int exitCode = 0;
@@ -78,6 +96,15 @@ int main(int argc, char** argv) {
         // Names the path and the cause ("Permission denied"), like lightskin::Error.
         std::fprintf(stderr, "lightskin: error: %s: %s\n", error.path1().string().c_str(),
                      error.code().message().c_str());
+        return kExitFailed;
+    } catch (const nlohmann::json::exception& error) {
+        // A JSON file's error that its reader did not name the file for: the cause, without the
+        // library's "[json.exception...]" prefix.
+        std::fprintf(stderr, "lightskin: error: cannot read a JSON file: %s\n",
+                     withoutJsonPrefix(error.what()).c_str());
+        return kExitFailed;
+    } catch (const cv::Exception& error) {
+        std::fprintf(stderr, "lightskin: error: OpenCV cannot do it: %s\n", error.err.c_str());
         return kExitFailed;
     } catch (const std::exception& error) {
         std::fprintf(stderr, "lightskin: internal error: %s\n", error.what());

@@ -2,6 +2,7 @@
 #include <lightskin/bench/BenchPlots.h>
 #include <lightskin/bench/BenchReport.h>
 #include <lightskin/core/Error.h>
+#include <lightskin/core/JsonError.h>
 #include <lightskin/core/Log.h>
 
 #include <nlohmann/json.hpp>
@@ -348,7 +349,7 @@ Report readReport(const std::string& jsonFile) {
         r.checks = listFromJson<CheckResult>(j, "checks", [](JsonReader& io, CheckResult& c) { checkFields(io, c); });
         return r;
     } catch (const nlohmann::json::exception& e) {
-        throw Error(jsonFile, std::nullopt, std::string("malformed bench JSON: ") + e.what());
+        throw Error(jsonFile, std::nullopt, "malformed bench JSON: " + jsonErrorCause(e.what()));
     }
 }
 

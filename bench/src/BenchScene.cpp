@@ -141,7 +141,7 @@ TriangleMesh uvSphere(float radius, std::size_t triangles) {
 
 TriangleMesh bunny(const std::string& path) {
     std::ifstream in(path);
-    if (!in) throw Error(path, std::nullopt, "cannot open the bunny PLY (pass --bunny or run from the source folder)");
+    if (!in) throw Error(path, std::nullopt, "cannot open the bunny PLY (--bunny)");
     std::string line;
     std::size_t vertices = 0, faces = 0;
     while (std::getline(in, line)) {

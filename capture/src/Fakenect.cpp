@@ -3,6 +3,7 @@
 
 #include <lightskin/capture/Fakenect.h>
 #include <lightskin/core/Error.h>
+#include <lightskin/core/OutputMarker.h>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -18,7 +19,7 @@ namespace lightskin::capture {
 std::int64_t writeFakenectDump(FrameSource& source, const std::filesystem::path& folder, std::int64_t maxFrames) {
     const std::string name = folder.string();
     std::error_code error;
-    if (std::filesystem::exists(folder, error) && !std::filesystem::is_empty(folder, error))
+    if (std::filesystem::exists(folder, error) && !isEmptyOutputFolder(folder))
         throw Error(name, std::nullopt, "folder is not empty: refusing to write a fakenect dump into it");
     std::filesystem::create_directories(folder, error);
     if (error) throw Error(name, std::nullopt, "cannot create the folder: " + error.message());

@@ -4,6 +4,7 @@
 
 #include <lightskin/capture/Recording.h>
 #include <lightskin/core/Error.h>
+#include <lightskin/core/OutputMarker.h>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -164,7 +165,7 @@ RecordingWriter RecordingWriter::create(const std::filesystem::path& folder, con
     std::error_code error;
     if (std::filesystem::exists(folder, error)) {
         if (!std::filesystem::is_directory(folder)) throw Error(name, std::nullopt, "exists and is not a folder");
-        if (!std::filesystem::is_empty(folder))
+        if (!isEmptyOutputFolder(folder))
             throw Error(name, std::nullopt, "folder is not empty: refusing to mix a new recording into it");
     }
     std::filesystem::create_directories(folder / "depth", error);

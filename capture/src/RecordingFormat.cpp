@@ -3,6 +3,7 @@
 #include "ImageIo.h"
 
 #include <lightskin/core/Error.h>
+#include <lightskin/core/JsonError.h>
 
 #include <algorithm>
 #include <cmath>
@@ -116,7 +117,7 @@ RecordingInfo readHeader(const std::filesystem::path& folder, int& version) {
     try {
         header = json::parse(bytes.begin(), bytes.end());
     } catch (const json::exception& error) {
-        throw Error(file, std::nullopt, std::string("malformed JSON: ") + error.what());
+        throw Error(file, std::nullopt, "malformed JSON: " + jsonErrorCause(error.what()));
     }
     // Not header.value("format", ...): it throws a json type_error outside the try below when
     // "format" is not a string (a fuzz finding).
@@ -153,7 +154,7 @@ RecordingInfo readHeader(const std::filesystem::path& folder, int& version) {
             throw Error(file, std::nullopt, "'colourEncoding' must be \"png\" or \"jpeg\"");
         info.jpegColour = encoding == "jpeg";
     } catch (const json::exception& error) {
-        throw Error(file, std::nullopt, std::string("malformed header: ") + error.what());
+        throw Error(file, std::nullopt, "malformed header: " + jsonErrorCause(error.what()));
     }
     if (info.registration == DepthRegistration::RegisteredToColour &&
         (info.colourIntrinsics.width != info.depthIntrinsics.width ||
@@ -210,7 +211,7 @@ ParsedIndex readIndex(const std::filesystem::path& folder) {
             line = json::parse(bytes.begin() + std::ptrdiff_t(begin), bytes.begin() + std::ptrdiff_t(end));
         } catch (const json::exception& error) {
             // The parser saw one line: its "at line 1, column C" is column C of this file's line.
-            std::string what = error.what();
+            std::string what = jsonErrorCause(error.what());
             if (const auto at = what.find("at line 1, "); at != std::string::npos)
                 what.replace(at, std::strlen("at line 1, "), "at ");
             throw Error(file, expectedFrame, "line " + std::to_string(lineNumber) + ": malformed index line: " + what);
@@ -262,7 +263,7 @@ ParsedIndex readIndex(const std::filesystem::path& folder) {
                 entry.world_T_camera = poseFromJson(line["world_T_camera"], file, expectedFrame);
             index.entries.push_back(std::move(entry));
         } catch (const json::exception& error) {
-            throw Error(file, expectedFrame, "line " + std::to_string(lineNumber) + ": malformed index line: " + error.what());
+            throw Error(file, expectedFrame, "line " + std::to_string(lineNumber) + ": malformed index line: " + jsonErrorCause(error.what()));
         }
     }
     return index;

@@ -8,6 +8,7 @@
 #include "Sources.h"
 
 #include <lightskin/core/Error.h>
+#include <lightskin/core/JsonError.h>
 #include <lightskin/core/Log.h>
 
 #include <glm/gtc/quaternion.hpp>
@@ -250,7 +251,7 @@ std::unique_ptr<FrameSource> openTumSource(const std::filesystem::path& folder, 
                 info.deviceName = json["device"].get<std::string>();
             }
         } catch (const nlohmann::json::exception& error) {
-            throw Error(sidecar.string(), std::nullopt, std::string("malformed JSON: ") + error.what());
+            throw Error(sidecar.string(), std::nullopt, "malformed JSON: " + jsonErrorCause(error.what()));
         }
     }
     if (options.depthScaleMetres) info.depthScaleMetres = *options.depthScaleMetres;

@@ -1,4 +1,5 @@
 #include <lightskin/core/Error.h>
+#include <lightskin/core/JsonError.h>
 #include <lightskin/core/ImageFile.h>
 #include <lightskin/eval/GoldenImage.h>
 
@@ -63,7 +64,7 @@ cv::Mat readLinearPng16(const std::filesystem::path& path, std::string& renderer
         renderer = sidecar.at("renderer").get<std::string>();
         linearPeak = sidecar.at("linearPeak").get<double>();
     } catch (const nlohmann::json::exception& error) {
-        throw Error(sidecarOf(path).string(), std::nullopt, std::string("malformed sidecar: ") + error.what());
+        throw Error(sidecarOf(path).string(), std::nullopt, "malformed sidecar: " + jsonErrorCause(error.what()));
     }
     if (!(linearPeak > 0.0)) throw Error(sidecarOf(path).string(), std::nullopt, "linearPeak must be positive");
     cv::Mat linear;

@@ -602,7 +602,9 @@ void FramePipeline::setGiSettings(const render::GiSettings& settings) {
     config.volumeShadowCubes = renderer_->shadowMapTexture();
     config.prtLights = prtLightsFromScene(*st.scene);
     st.technique = gi::createTechnique(config, sparsePointsOf(*renderer_));
-    st.technique->prepare(renderer_->instances());
+    // A scene without virtual objects is valid (the real room alone): GI has nothing to light and stays
+    // idle (runGi), so the technique is not prepared for nothing.
+    if (!renderer_->instances().empty()) st.technique->prepare(renderer_->instances());
 }
 
 void FramePipeline::applyDifferential(const RgbdFrame& frame, const cv::Mat& depthMetres, const Pose& world_T_camera,
@@ -790,7 +792,7 @@ void FramePipeline::makeVals(FrameWork& w) {
     render::Renderer& r = *renderer_;
     const auto t = Clock::now();
     const bool haveDepth = w.prepared.haveDepth;
-    w.runGi = options_.giEnabled && gi_.technique != gi::Technique::None;
+    w.runGi = options_.giEnabled && gi_.technique != gi::Technique::None && !renderer_->instances().empty();
     w.runDifferential = options_.differential && s.differential && haveDepth && s.vals;
     w.cpuTechnique = w.runGi ? s.technique->cpuValInput() : nullptr;
     w.valsOnCpu = w.cpuTechnique && !s.rsm && !options_.referenceIndirect &&
@@ -872,6 +874,8 @@ void FramePipeline::explainGiActivity(FrameWork& w) {
     if (out.giActive) return;
     if (!options_.giEnabled)
         out.giInactiveCause = kGiCauseSwitchedOff;
+    else if (renderer_->instances().empty())
+        out.giInactiveCause = kGiCauseNoObjects;
     else if (gi_.technique == gi::Technique::None || s.technique->technique() == gi::Technique::None)
         out.giInactiveCause = kGiCauseNoTechnique;
     else if (!s.valsUsable)

@@ -1,4 +1,5 @@
 #include <lightskin/core/Error.h>
+#include <lightskin/core/JsonError.h>
 #include <lightskin/core/Log.h>
 #include <lightskin/render/MeshLoader.h>
 
@@ -352,7 +353,7 @@ void checkGltfBuffers(const std::filesystem::path& path) {
         std::ifstream file(path, std::ios::binary);
         gltf = nlohmann::json::parse(file);
     } catch (const nlohmann::json::exception& error) {
-        throw Error(source, std::nullopt, std::string("malformed glTF JSON: ") + error.what());
+        throw Error(source, std::nullopt, "malformed glTF JSON: " + jsonErrorCause(error.what()));
     }
     if (!gltf.is_object() || !gltf.contains("buffers")) return;
     const nlohmann::json& buffers = gltf["buffers"];

@@ -1,4 +1,5 @@
 #include <lightskin/core/Error.h>
+#include <lightskin/core/JsonError.h>
 #include <lightskin/render/Scene.h>
 
 #include <nlohmann/json.hpp>
@@ -338,7 +339,7 @@ Scene parseScene(std::string_view text, const std::filesystem::path& baseFolder,
     try {
         root = json::parse(text.begin(), text.end());
     } catch (const json::exception& error) { // parse_error, and out_of_range for a number that overflows
-        throw Error(sourceName, std::nullopt, std::string("not valid JSON: ") + error.what());
+        throw Error(sourceName, std::nullopt, "not valid JSON: " + jsonErrorCause(error.what()));
     }
     const Reader r(sourceName, baseFolder);
     r.object(root, "");

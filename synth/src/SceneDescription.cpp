@@ -1,4 +1,5 @@
 #include <lightskin/core/Error.h>
+#include <lightskin/core/JsonError.h>
 #include <lightskin/synth/SceneDescription.h>
 
 #include <nlohmann/json.hpp>
@@ -248,8 +249,8 @@ SceneDescription parseSceneDescription(const std::string& jsonText, const std::s
     Json json;
     try {
         json = Json::parse(jsonText);
-    } catch (const Json::parse_error& error) {
-        throw Error(sourceName, std::nullopt, std::string("not valid JSON: ") + error.what());
+    } catch (const Json::exception& error) { // parse_error, and out_of_range for a number that overflows
+        throw Error(sourceName, std::nullopt, "not valid JSON: " + jsonErrorCause(error.what()));
     }
     SceneDescription scene;
     {

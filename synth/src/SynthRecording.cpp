@@ -128,7 +128,7 @@ std::int64_t writeSynthRecording(const SceneDescription& scene, const std::strin
         options.maxFrames > 0 ? std::min(options.maxFrames, generator.frameCount()) : generator.frameCount();
     SynthFrame frame;
     cv::Mat presentRadiance, presentColour;
-    for (int index = 0; index < total; ++index) {
+    for (int index = 0; index < total && !(options.stopRequested && options.stopRequested()); ++index) {
         generator.renderFrameInto(index, frame);
         writer.write(frame.frame);
         if (scene.writeNormals) writeChannel(folder, "normals", index, frame.exact.worldNormal);

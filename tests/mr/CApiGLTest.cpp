@@ -167,4 +167,51 @@ TEST_F(CApiGLTest, HostFrameRoundTripAndVersionedReport) {
     lsk_session_destroy(session);
 }
 
+// A scene without virtual objects is valid: the real room composited alone (the camera image bit for
+// bit), GI idle, for every technique.
+TEST_F(CApiGLTest, ASceneWithoutObjectsShowsTheRoomAlone) {
+    auto source = lightskin::capture::openFrameSource(sourceDir() / "recordings/synth-orbit", {});
+    lightskin::RgbdFrame frame;
+    ASSERT_TRUE(source->next(frame));
+    const lightskin::CameraIntrinsics& k = frame.colourIntrinsics;
+    const lsk_camera camera{k.width, k.height, k.fx, k.fy, k.cx, k.cy};
+    cv::Mat rgb;
+    cv::cvtColor(frame.colour, rgb, cv::COLOR_BGR2RGB);
+    for (const std::string technique : {"lightskin", "brute-force", "imperfect-volumes", "multiscale-prt", "none"}) {
+        for (const std::string objects : {"\"objects\": [], ", ""}) {
+            SCOPED_TRACE(technique + (objects.empty() ? ", no objects key" : ", objects []"));
+            const std::string text = "{\"version\": 1, " + objects +
+                                     "\"lights\": [{\"type\": \"point\", \"position\": [2, 1.6, 2.3], \"power\": 60}], "
+                                     "\"gi\": {\"technique\": \"" +
+                                     technique + "\"}}";
+            lsk_scene scene;
+            lsk_scene_init(&scene);
+            scene.json = text.c_str();
+            lsk_session* session = nullptr;
+            ASSERT_EQ(lsk_session_create(nullptr, &scene, &camera, &session), LSK_OK) << lsk_last_error();
+            lsk_frame f;
+            lsk_frame_init(&f);
+            f.rgb = rgb.data;
+            f.depth = frame.depth.ptr<std::uint16_t>();
+            f.depth_scale_metres = frame.depthScaleMetres;
+            f.camera = camera;
+            f.has_pose = 1;
+            const glm::dmat4 pose = frame.groundTruth_world_T_camera->matrix();
+            std::memcpy(f.world_T_camera, glm::value_ptr(pose), sizeof f.world_T_camera);
+            ASSERT_EQ(lsk_session_submit(session, &f), LSK_OK) << lsk_last_error();
+            lsk_frame_report report;
+            lsk_frame_report_init(&report);
+            ASSERT_EQ(lsk_session_report(session, &report), LSK_OK);
+            EXPECT_EQ(report.covered_pixels, 0);
+            std::vector<std::uint8_t> composite(std::size_t(k.width) * std::size_t(k.height) * 3);
+            ASSERT_EQ(lsk_session_read_composite(session, composite.data(), 0), LSK_OK) << lsk_last_error();
+            cv::Mat difference, changed;
+            cv::absdiff(cv::Mat(k.height, k.width, CV_8UC3, composite.data()), rgb, difference);
+            cv::cvtColor(difference, changed, cv::COLOR_RGB2GRAY);
+            EXPECT_EQ(cv::countNonZero(changed), 0);
+            lsk_session_destroy(session);
+        }
+    }
+}
+
 } // namespace

@@ -1,4 +1,5 @@
 #include <lightskin/core/Error.h>
+#include <lightskin/core/JsonError.h>
 #include <lightskin/tracking/TagDetector.h>
 
 #include <nlohmann/json.hpp>
@@ -60,7 +61,7 @@ DetectorSettings detectorSettingsFromJson(const std::string& jsonObjectText, con
     try {
         json = nlohmann::json::parse(jsonObjectText);
     } catch (const nlohmann::json::exception& error) {
-        throw Error(sourceName, std::nullopt, std::string("not valid JSON: ") + error.what());
+        throw Error(sourceName, std::nullopt, "not valid JSON: " + jsonErrorCause(error.what()));
     }
     if (!json.is_object())
         fail({}, "expected an object of detector settings (e.g. {\"quadDecimate\": 1}), got " + json.dump());

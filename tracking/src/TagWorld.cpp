@@ -1,4 +1,5 @@
 #include <lightskin/core/Error.h>
+#include <lightskin/core/JsonError.h>
 #include <lightskin/tracking/TagFamily.h>
 #include <lightskin/tracking/TagWorld.h>
 
@@ -155,7 +156,7 @@ TagWorld TagWorld::parse(const std::string& text, const std::string& sourceName)
     try {
         root = Json::parse(text);
     } catch (const Json::exception& error) { // parse_error, and out_of_range for a number that overflows
-        throw Error(sourceName, std::nullopt, std::string("not valid JSON: ") + error.what());
+        throw Error(sourceName, std::nullopt, "not valid JSON: " + jsonErrorCause(error.what()));
     }
     if (!root.is_object()) fail(sourceName, "", "expected an object with \"tag\" or \"tags\", got " + shown(root));
     for (const auto& [name, value] : root.items()) {

@@ -94,6 +94,7 @@ struct PipelineOptions {
 /// Why a frame had no GI (FrameOutput::giInactiveCause); stable strings for reports and tests.
 inline constexpr const char* kGiCauseNoPose = "no camera pose (tracking lost): the camera image passes through";
 inline constexpr const char* kGiCauseSwitchedOff = "GI switched off";
+inline constexpr const char* kGiCauseNoObjects = "the scene has no virtual objects: the real room is shown alone";
 inline constexpr const char* kGiCauseNoTechnique =
     "the GI technique is \"none\" (scene gi.technique, or not in this build)";
 inline constexpr const char* kGiCauseUnregistered = "depth is not registered to colour: no VALs";

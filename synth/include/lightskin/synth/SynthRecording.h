@@ -20,6 +20,8 @@ struct SynthRecordingOptions {
     int maxFrames = 0;
     /// Called after each frame with (frames written, total).
     std::function<void(int, int)> progress;
+    /// Asked before each frame: true stops there and finishes the recording with the frames written.
+    std::function<bool()> stopRequested;
     /// A lightskin scene file: also write synth/present/ with its objects really in the room.
     std::filesystem::path presentObjects;
 };
