@@ -287,10 +287,9 @@ RunResult runFromJson(const nlohmann::json& j) {
     runFields(reader, r);
     const std::string channels = j.at("channels");
     r.config.channels = channels == "diffuse" ? 1 : channels == "+glossy" ? 2 : 3;
-    // the config's backend follows the row's ("GL"/"CPU" in files from before the one spelling)
-    std::string backend = r.backend;
-    for (char& ch : backend) ch = char(std::tolower(static_cast<unsigned char>(ch)));
-    r.config.backend = gi::parseBackend(backend).value_or(gi::Backend::Gl);
+    // One spelling on read too: files from before it say "GL"/"CPU". The config's backend follows the row's.
+    for (char& ch : r.backend) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+    r.config.backend = gi::parseBackend(r.backend).value_or(gi::Backend::Gl);
     if (j.contains("stages_ms"))
         for (const auto& [name, ms] : j.at("stages_ms").items()) r.stages.emplace_back(name, ms.get<double>());
     return r;
