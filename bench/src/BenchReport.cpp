@@ -342,8 +342,10 @@ Report readReport(const std::string& jsonFile) {
         JsonReader reader{j};
         reportFields(reader, r);
         for (const auto& x : j.value("runs", nlohmann::json::array())) r.runs.push_back(runFromJson(x));
-        r.temporal = listFromJson<TemporalResult>(j, "temporal",
-                                                  [](JsonReader& io, TemporalResult& t) { temporalFields(io, t); });
+        r.temporal = listFromJson<TemporalResult>(j, "temporal", [](JsonReader& io, TemporalResult& t) {
+            temporalFields(io, t);
+            for (char& ch : t.backend) ch = char(std::tolower(static_cast<unsigned char>(ch))); // older files: "GL"
+        });
         r.checks = listFromJson<CheckResult>(j, "checks", [](JsonReader& io, CheckResult& c) { checkFields(io, c); });
         return r;
     } catch (const nlohmann::json::exception& e) {
