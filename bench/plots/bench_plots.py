@@ -42,9 +42,9 @@ except ImportError as error:
 # Keys are compared without case, spaces, '-' and '_': "multiscale-prt" = "multi-scale PRT".
 TECHNIQUES = [
     # (key, display name, marker, {backend: colour})
-    ("lightskin", "LightSkin", "o", {"GL": "#0072B2", "CPU": "#56B4E9"}),
-    ("imperfectvolumes", "imperfect volumes", "^", {"GL": "#D55E00", "CPU": "#E69F00"}),
-    ("multiscaleprt", "multi-scale PRT", "D", {"GL": "#009E73", "CPU": "#66C2A5"}),
+    ("lightskin", "LightSkin", "o", {"gl": "#0072B2", "cpu": "#56B4E9"}),
+    ("imperfectvolumes", "imperfect volumes", "^", {"gl": "#D55E00", "cpu": "#E69F00"}),
+    ("multiscaleprt", "multi-scale PRT", "D", {"gl": "#009E73", "cpu": "#66C2A5"}),
 ]
 # For any other (method, backend): colours and markers no known technique uses.
 SPARE_COLOURS = ["#CC79A7", "#882255", "#F0E442", "#44AA99", "#999933", "#AA4499"]
@@ -88,7 +88,7 @@ def method_of(run):
 
 def backend_of(run):
     # Backends are spelled "gl"/"cpu" (gi::toString(Backend)); files before that said "GL"/"CPU".
-    return (run.get("backend") or "GL").upper()
+    return (run.get("backend") or "gl").lower()
 
 
 def time_of(run, where):
@@ -255,7 +255,7 @@ def pareto_plot(report, truth, path, manifest, styles):
         technique_first = any(p is q for q in first_of_technique.values())
         if is_default or other_backend_default or r.get("is_brute") or technique_first or any(p is q for q in front):
             text = "default" if other_backend_default else r.get("label", "?")
-            if p["key"] != ("LightSkin", "GL") and p["key"][0] != BRUTE:
+            if p["key"] != ("LightSkin", "gl") and p["key"][0] != BRUTE:
                 text = f"{series_name(p['key'])}: {text}"  # the same knob label on several series
             labelled.append((p["t"], p["e"], text, "bold" if is_default or r.get("is_brute") else "normal"))
     handles = [Line2D([], [], ls="none", marker=styles(k)[1], color=styles(k)[0], markersize=7, label=series_name(k))
@@ -349,7 +349,7 @@ def flicker_plot(report, path, manifest, styles):
     colours, hatches, variants = {}, {}, {}
     for name in techniques:
         row = next(t for t in temporal if t["technique"] == name)
-        key = (temporal_method(row), row.get("backend") or "GL")
+        key = (temporal_method(row), backend_of(row))
         colours[name] = styles(key)[0]
         same = variants.setdefault(key, [])
         same.append(name)
@@ -400,7 +400,7 @@ def main(argv):
         runs = field(report, "runs", json_path)
         keys = [(method_of(r), backend_of(r)) for r in runs]
         keys += [(BRUTE, backend_of(r)) for r in runs if r.get("brute_ms")]
-        keys += [(temporal_method(t), t.get("backend") or "GL") for t in report.get("temporal") or []]
+        keys += [(temporal_method(t), backend_of(t)) for t in report.get("temporal") or []]
         styles = Styles(keys)
         os.makedirs(out, exist_ok=True)
         manifest = {"source": json_path, "drawn": []}

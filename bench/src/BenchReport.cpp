@@ -288,10 +288,9 @@ RunResult runFromJson(const nlohmann::json& j) {
     runFields(reader, r);
     const std::string channels = j.at("channels");
     r.config.channels = channels == "diffuse" ? 1 : channels == "+glossy" ? 2 : 3;
-    // the config's backend follows the row's ("GL"/"CPU" in files from before the one spelling)
-    std::string backend = r.backend;
-    for (char& ch : backend) ch = char(std::tolower(static_cast<unsigned char>(ch)));
-    r.config.backend = gi::parseBackend(backend).value_or(gi::Backend::Gl);
+    // One spelling on read too: files from before it say "GL"/"CPU". The config's backend follows the row's.
+    for (char& ch : r.backend) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+    r.config.backend = gi::parseBackend(r.backend).value_or(gi::Backend::Gl);
     if (j.contains("stages_ms"))
         for (const auto& [name, ms] : j.at("stages_ms").items()) r.stages.emplace_back(name, ms.get<double>());
     return r;
@@ -344,8 +343,10 @@ Report readReport(const std::string& jsonFile) {
         JsonReader reader{j};
         reportFields(reader, r);
         for (const auto& x : j.value("runs", nlohmann::json::array())) r.runs.push_back(runFromJson(x));
-        r.temporal = listFromJson<TemporalResult>(j, "temporal",
-                                                  [](JsonReader& io, TemporalResult& t) { temporalFields(io, t); });
+        r.temporal = listFromJson<TemporalResult>(j, "temporal", [](JsonReader& io, TemporalResult& t) {
+            temporalFields(io, t);
+            for (char& ch : t.backend) ch = char(std::tolower(static_cast<unsigned char>(ch))); // older files: "GL"
+        });
         r.checks = listFromJson<CheckResult>(j, "checks", [](JsonReader& io, CheckResult& c) { checkFields(io, c); });
         return r;
     } catch (const nlohmann::json::exception& e) {

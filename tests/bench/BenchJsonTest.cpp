@@ -95,12 +95,12 @@ Report threeTechniques() {
     brute.vsTruth = error(1e-2, 0.99);
     report.runs.push_back(brute);
     for (const char* sequence : {"camera", "light", "edges"}) {
-        report.temporal.push_back({sequence, "brute force (reference)", 8, 4000, 0.10, 0.10, 0.0, "brute force", "GL"});
-        report.temporal.push_back({sequence, "lightskin, 1024 sparse", 8, 4000, 0.11, 0.10, 0.02, "LightSkin", "GL"});
+        report.temporal.push_back({sequence, "brute force (reference)", 8, 4000, 0.10, 0.10, 0.0, "brute force", "gl"});
+        report.temporal.push_back({sequence, "lightskin, 1024 sparse", 8, 4000, 0.11, 0.10, 0.02, "LightSkin", "gl"});
         report.temporal.push_back(
-            {sequence, "imperfect volumes, 64^3", 8, 4000, 0.12, 0.10, 0.03, "imperfect volumes", "GL"});
+            {sequence, "imperfect volumes, 64^3", 8, 4000, 0.12, 0.10, 0.03, "imperfect volumes", "gl"});
         report.temporal.push_back(
-            {sequence, "multi-scale PRT, D 8", 8, 4000, 0.13, 0.10, 0.04, "multi-scale PRT", "GL"});
+            {sequence, "multi-scale PRT, D 8", 8, 4000, 0.13, 0.10, 0.04, "multi-scale PRT", "gl"});
     }
     return report;
 }
@@ -164,7 +164,7 @@ TEST(BenchJson, ATableReportReadsBackFieldForField) {
     brute.bruteMs = 80.0;
     report.runs = {run, brute};
     report.temporal.push_back(
-        {"icl-nuim, sink 0 mm", "LightSkin (robust light model)", 5, 777, 0.2, 0.1, 0.05, "LightSkin", "GL"});
+        {"icl-nuim, sink 0 mm", "LightSkin (robust light model)", 5, 777, 0.2, 0.1, 0.05, "LightSkin", "gl"});
     report.checks.push_back({"error falls", false, false, "reported only"});
 
     const auto dir = scratchDir("bench_json_roundtrip");
@@ -240,11 +240,11 @@ TEST(BenchPlots, ThreeTechniquesKeepOneColourEachAcrossPlotsAndReadCleanly) {
     const auto& pareto = manifest.at("bench.png").at("series");
     std::map<std::pair<std::string, std::string>, int> points;
     for (const auto& s : pareto) points[{s.at("method"), s.at("backend")}] = s.at("points").get<int>();
-    const std::map<std::pair<std::string, std::string>, int> expected = {{{"LightSkin", "GL"}, 3},
-                                                                         {{"LightSkin", "CPU"}, 3},
-                                                                         {{"imperfect volumes", "GL"}, 3},
-                                                                         {{"multi-scale PRT", "GL"}, 3},
-                                                                         {{"brute force", "GL"}, 1}};
+    const std::map<std::pair<std::string, std::string>, int> expected = {{{"LightSkin", "gl"}, 3},
+                                                                         {{"LightSkin", "cpu"}, 3},
+                                                                         {{"imperfect volumes", "gl"}, 3},
+                                                                         {{"multi-scale PRT", "gl"}, 3},
+                                                                         {{"brute force", "gl"}, 1}};
     EXPECT_EQ(points, expected);
 
     // Distinct colours and, between techniques, distinct markers.
@@ -293,5 +293,5 @@ TEST(BenchPlots, ThreeTechniquesKeepOneColourEachAcrossPlotsAndReadCleanly) {
                                                             {"imperfect volumes, 64^3", "imperfect volumes"},
                                                             {"multi-scale PRT, D 8", "multi-scale PRT"}};
     for (std::size_t i = 0; i < techniques.size(); ++i)
-        EXPECT_EQ(flickerColours[i], colourOf(pareto, methodOfRow.at(techniques[i]), "GL")) << techniques[i];
+        EXPECT_EQ(flickerColours[i], colourOf(pareto, methodOfRow.at(techniques[i]), "gl")) << techniques[i];
 }

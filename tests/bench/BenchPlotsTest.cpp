@@ -15,6 +15,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -37,10 +38,12 @@ nlohmann::json readJson(const std::filesystem::path& path) {
 }
 
 /// The rules of bench.json (BenchReport.h), restated: rows without method/backend are the sweep's own.
+/// As the report reads a row: the backend in its one spelling ("gl"/"cpu"; older files say "GL"/"CPU").
 Series seriesOf(const nlohmann::json& run) {
     const bool brute = run.at("is_brute").get<bool>();
-    return {run.value("method", std::string(brute ? "brute force" : "LightSkin")),
-            run.value("backend", std::string("GL"))};
+    std::string backend = run.value("backend", std::string("gl"));
+    for (char& ch : backend) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+    return {run.value("method", std::string(brute ? "brute force" : "LightSkin")), backend};
 }
 
 double timeOf(const nlohmann::json& run) {

@@ -81,7 +81,7 @@ struct TemporalResult {
     double referenceFlicker = 0.0;    ///< the same for the reference (brute force)
     double excessFlicker = 0.0;       ///< RMS of (our change - reference change) / mean reference level
     std::string method = "LightSkin"; ///< technique family, as RunResult::method
-    std::string backend = "GL";
+    std::string backend = "gl";
 };
 
 struct CheckResult {
