@@ -5,6 +5,7 @@
 
 #include <lightskin/bench/StaticBench.h>
 
+#include <limits>
 #include <memory>
 #include <string>
 
@@ -32,7 +33,8 @@ void addBenchStaticCommand(CLI::App& app, int& exitCode) {
                         "Stanford bunny PLY (relative paths of the default: beside the program or the build, never the "
                         "current folder)");
     resolveShippedData(command, {{"--bunny", &o->bunnyPath, "Stanford bunny PLY"}});
-    command->add_option("--seed", o->seed, "Noise seed");
+    command->add_option("--seed", o->seed, "Noise seed")
+        ->check(CLI::Range(std::uint64_t{0}, std::numeric_limits<std::uint64_t>::max()));
     command->callback([o, &exitCode] {
         bench::runStaticBench(*o);
         exitCode = 0;

@@ -16,6 +16,7 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <unistd.h>
 
@@ -47,7 +48,8 @@ void addSynthCommand(CLI::App& app, int& exitCode) {
         ->group("")
         ->check(atLeast(1));
     command->add_flag("--no-noise", arguments->noNoise, "Exact depth: switch the depth noise model off");
-    command->add_option("--noise-seed", arguments->noiseSeed, "Override the noise seed");
+    command->add_option("--noise-seed", arguments->noiseSeed, "Override the noise seed")
+        ->check(CLI::Range(std::uint64_t{0}, std::numeric_limits<std::uint64_t>::max()));
     command->add_option(
         "--objects-present", arguments->objectsPresent,
         "A lightskin scene file: also render every frame with its virtual objects really in the room into "

@@ -226,8 +226,9 @@ void addTrackCommand(CLI::App& app, int& exitCode) {
                 if (text == "inf" || text == "infinity") return {};
                 char* end = nullptr;
                 const double value = std::strtod(text.c_str(), &end);
-                if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(value) || !(value > 0.0))
-                    return "expected a number of pixels > 0 (or inf), got '" + text + "'";
+                if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(value) || !(value > 0.0) ||
+                    value > 1e6)
+                    return "expected a number of pixels in (0, 1e6], or inf, got '" + text + "'";
                 return {};
             },
             ""));

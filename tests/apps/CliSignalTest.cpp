@@ -130,16 +130,18 @@ TEST(CliSignal, RecordFinishesTheRecording) {
 }
 
 TEST(CliSignal, LiveFinishesItsRecording) {
-    const Fixture f("cli_signal_live");
+    const fs::path scratch = test::scratchDir("cli_signal_live");
+    const fs::path orbit = test::sourceDir() / "recordings" / "synth-orbit";
+    const fs::path scene = test::sourceDir() / "recordings" / "scenes" / "orbit.json";
     std::mt19937 random(33);
     for (const SignalPlan& plan : kPlans) {
-        const fs::path out = f.scratch / ("rec-" + std::to_string(plan.signal) + "-" + std::to_string(plan.times));
+        const fs::path out = scratch / ("rec-" + std::to_string(plan.signal) + "-" + std::to_string(plan.times));
         SCOPED_TRACE(out.filename().string());
-        const int code = runAndSignal("live --headless --loop --device " + f.recording.string() + " --scene " +
-                                          f.scene.string() + " --record " + out.string(),
-                                      f.scratch, out / "colour" / "000000.png", plan, random);
-        EXPECT_EQ(code, 128 + plan.signal) << test::readText(f.scratch / "stderr.txt");
-        expectFinishedRecording(out, f.scratch);
+        const int code = runAndSignal("live --headless --device " + orbit.string() + " --scene " + scene.string() +
+                                          " --record " + out.string(),
+                                      scratch, out / "colour" / "000000.png", plan, random);
+        EXPECT_EQ(code, 128 + plan.signal) << test::readText(scratch / "stderr.txt");
+        expectFinishedRecording(out, scratch);
     }
 }
 
