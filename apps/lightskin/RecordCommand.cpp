@@ -55,7 +55,7 @@ void addRecordCommand(CLI::App& app, int& exitCode) {
     command
         ->add_option("--sync-seconds", args->durability.syncEverySeconds,
                      "... or when the oldest unlisted frame is this old (seconds)")
-        ->check(CLI::Range(0.001, 3600.0));
+        ->check(finiteIn(0.001, 3600.0));
     command->add_flag("--no-fsync", args->noFsync,
                       "Batch the index the same way but never fsync (survives a kill, not a power loss)");
     command->add_flag("--jpeg", args->jpeg, "Store colour as JPEG (lossy, smaller) instead of PNG");

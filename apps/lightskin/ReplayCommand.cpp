@@ -643,7 +643,7 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
                           ->add_option("--static-tolerance", args->staticTolerance,
                                        "With --adaptive: also reuse when the gathered irradiance changed by at most "
                                        "this fraction of its maximum (0: exact only; diffuse channel only)")
-                          ->check(CLI::Range(0.0f, 1.0f))
+                          ->check(finiteIn(0.0, 1.0))
                           ->needs(adaptive);
     command
         ->add_option("--static-test", args->staticTest,
