@@ -29,7 +29,7 @@ TriangleMesh unitSquare() {
 } // namespace
 
 TEST(TriangleRayScene, ClosestHitNamesMeshTriangleBarycentricsAndDistance) {
-    const double kTEps = 4.0 * std::numeric_limits<float>::epsilon();
+    const double kTEps = 4.0 * double(std::numeric_limits<float>::epsilon());
     const TriangleMesh empty; // no triangles: skipped, yet the square keeps index 1
     const TriangleMesh square = unitSquare();
     // The square lifted to z = 1 and a second copy at z = 3 (behind it along +z).
