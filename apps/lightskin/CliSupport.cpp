@@ -17,6 +17,7 @@
 #include <mutex>
 #include <optional>
 #include <poll.h>
+#include <signal.h>
 #include <sstream>
 #include <streambuf>
 #include <system_error>
@@ -462,6 +463,13 @@ StopSignals::StopSignals() {
 }
 
 StopSignals::~StopSignals() {
+    // Once a stop was asked for, the command is finishing and about to exit with 130/143: a repeated Ctrl-C
+    // (or SIGTERM) in those last moments must not kill it with the default action instead.
+    if (stopRequested.load()) {
+        ::signal(SIGINT, SIG_IGN);
+        ::signal(SIGTERM, SIG_IGN);
+        return;
+    }
     ::sigaction(SIGINT, &previousInterrupt_, nullptr);
     ::sigaction(SIGTERM, &previousTerminate_, nullptr);
 }
