@@ -1,7 +1,8 @@
 #pragma once
 // The heavy library headers every command file includes, precompiled once per program
-// (apps/CMakeLists.txt): CLI11 is header-only and with nlohmann::json and OpenCV's core took most of
-// each command file's compile. Only stable library headers belong here.
+// (apps/CMakeLists.txt): parsing CLI11 (header-only), nlohmann::json, OpenCV's core and the standard
+// library was a third of a command file's compile (docs/TESTING.md "Build and CI times"). Only stable
+// library headers belong here: a header of ours would rebuild every command on each change.
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
