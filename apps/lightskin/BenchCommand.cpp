@@ -126,7 +126,10 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
         if (!o->docs.empty()) checkOutputFile(o->docs, {o->bunnyPath, o->fromJson}, "--docs");
         if (!o->exportBlender.empty())
             checkOutputFile(std::filesystem::path(o->exportBlender) / "scene.json", {o->bunnyPath}, "--export-blender");
-        exitCode = bench::runSweepCommand(*o);
+        const StopSignals stopSignals; // Ctrl-C and SIGTERM: finish the measurement, output what was measured
+        o->stopRequested = [] { return StopSignals::requested(); };
+        const int code = bench::runSweepCommand(*o);
+        exitCode = StopSignals::requested() ? StopSignals::exitCode() : code;
     });
 }
 

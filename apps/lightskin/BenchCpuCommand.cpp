@@ -51,8 +51,10 @@ void addBenchCpuCommand(CLI::App& app, int& exitCode) {
         options->valMaps = bench::splitList<std::string>(*maps, [](const std::string& s) { return s; });
         options->threads = bench::splitList<int>(*threads, [](const std::string& s) { return std::stoi(s); });
         options->targets = bench::splitList<std::string>(*targets, [](const std::string& s) { return s; });
+        const StopSignals stopSignals; // Ctrl-C and SIGTERM: finish the measurement, output what was measured
+        options->stopRequested = [] { return StopSignals::requested(); };
         bench::runCpuBench(*options);
-        exitCode = 0;
+        exitCode = StopSignals::exitCode();
     });
 }
 

@@ -26,8 +26,10 @@ void addBenchCullCommand(CLI::App& app, int& exitCode) {
         // --vals is checked by the parser (integerList): every item converts.
         options->counts =
             bench::splitList<std::uint32_t>(*counts, [](const std::string& s) { return std::uint32_t(std::stoul(s)); });
+        const StopSignals stopSignals; // Ctrl-C and SIGTERM: finish the measurement, output what was measured
+        options->stopRequested = [] { return StopSignals::requested(); };
         bench::runCullBench(*options);
-        exitCode = 0;
+        exitCode = StopSignals::exitCode();
     });
 }
 

@@ -30,7 +30,10 @@ void addBenchEmbedCommand(CLI::App& app, int& exitCode) {
     command->callback([o, &exitCode] {
         if (o->frames < 1 || o->warmUp < 0 || o->warmUp >= o->frames)
             throw Error("--frames/--warm-up", std::nullopt, "need frames >= 1 and 0 <= warm-up < frames");
-        exitCode = bench::runEmbedBench(*o);
+        const StopSignals stopSignals; // Ctrl-C and SIGTERM: finish the measurement, output what was measured
+        o->stopRequested = [] { return StopSignals::requested(); };
+        const int code = bench::runEmbedBench(*o);
+        exitCode = StopSignals::requested() ? StopSignals::exitCode() : code;
     });
 }
 

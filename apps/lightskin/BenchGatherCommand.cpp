@@ -58,8 +58,10 @@ void addBenchGatherCommand(CLI::App& app, int& exitCode) {
         options->sparse = bench::splitList<int>(*sparse, [](const std::string& s) { return std::stoi(s); });
         options->kCache = bench::splitList<int>(*kCache, [](const std::string& s) { return std::stoi(s); });
         options->valMaps = bench::splitList<std::string>(*maps, [](const std::string& s) { return s; });
+        const StopSignals stopSignals; // Ctrl-C and SIGTERM: finish the measurement, output what was measured
+        options->stopRequested = [] { return StopSignals::requested(); };
         bench::runGatherBench(*options);
-        exitCode = 0;
+        exitCode = StopSignals::exitCode();
     });
 }
 

@@ -22,8 +22,10 @@ void addBenchLightsCommand(CLI::App& app, int& exitCode) {
     command->add_option("--out", options->out, "Also write the markdown table to this file");
     command->callback([options, &exitCode] {
         if (!options->out.empty()) checkOutputFile(options->out, {options->mesh}, "--out");
+        const StopSignals stopSignals; // Ctrl-C and SIGTERM: finish the measurement, output what was measured
+        options->stopRequested = [] { return StopSignals::requested(); };
         bench::runLightsBench(*options);
-        exitCode = 0;
+        exitCode = StopSignals::exitCode();
     });
 }
 

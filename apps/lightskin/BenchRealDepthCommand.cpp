@@ -54,8 +54,10 @@ void addBenchRealDepthCommand(CLI::App& app, int& exitCode) {
                         "Pixels \"u,v;u,v\" added to --truth's (16 x 32 cells per VAL)");
     command->callback([options, &exitCode] {
         checkOutputFile(std::filesystem::path(options->out) / "report.md", {options->data, options->scene}, "--out");
+        const StopSignals stopSignals; // Ctrl-C and SIGTERM: finish the measurement, output what was measured
+        options->stopRequested = [] { return StopSignals::requested(); };
         bench::runRealDepthBench(*options);
-        exitCode = 0;
+        exitCode = StopSignals::exitCode();
     });
 }
 

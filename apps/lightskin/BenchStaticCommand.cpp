@@ -36,8 +36,10 @@ void addBenchStaticCommand(CLI::App& app, int& exitCode) {
     command->add_option("--seed", o->seed, "Noise seed")
         ->check(CLI::Range(std::uint64_t{0}, std::numeric_limits<std::uint64_t>::max()));
     command->callback([o, &exitCode] {
+        const StopSignals stopSignals; // Ctrl-C and SIGTERM: finish the measurement, output what was measured
+        o->stopRequested = [] { return StopSignals::requested(); };
         bench::runStaticBench(*o);
-        exitCode = 0;
+        exitCode = StopSignals::exitCode();
     });
 }
 

@@ -50,11 +50,15 @@ std::optional<int> run(const std::vector<std::string>& argv) {
 
 } // namespace
 
-PlotOutcome drawPlots(const std::string& jsonFile, const std::string& outDir, const std::string& prefix) {
+void removePlots(const std::string& outDir, const std::string& prefix) {
     for (const char* suffix : {".png", "-vs-brute.png", "-scaling.png", "-flicker.png", "-plots.json"}) {
         std::error_code ignored;
         std::filesystem::remove(std::filesystem::path(outDir) / (prefix + suffix), ignored);
     }
+}
+
+PlotOutcome drawPlots(const std::string& jsonFile, const std::string& outDir, const std::string& prefix) {
+    removePlots(outDir, prefix);
     const std::string script = environmentOr("LIGHTSKIN_BENCH_PLOTS", LIGHTSKIN_BENCH_PLOT_SCRIPT);
     const std::string python = interpreter();
     const std::string howTo =

@@ -14,6 +14,7 @@
 #include <lightskin/bench/BenchReport.h>
 #include <lightskin/bench/BenchScene.h>
 #include <lightskin/bench/CpuBench.h>
+#include <lightskin/bench/StopRequest.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/lightskin/CpuLightSkin.h>
 #include <lightskin/gi/lightskin/LightSkinIllumination.h>
@@ -122,6 +123,7 @@ RunResult timedRow(const Timing& t, gi::Backend backend, const std::string& seri
 } // namespace
 
 void runCpuBench(const CpuBenchOptions& options) {
+    StopCheck stop(options.stopRequested);
     const auto started = Clock::now();
     Report report = startReport("bench-cpu", options.repeat);
     auto context = gl::createHeadlessContext();
@@ -130,6 +132,7 @@ void runCpuBench(const CpuBenchOptions& options) {
     std::printf("SIMD targets: dispatched %s; available", gi::cpuSimdTarget().c_str());
     for (const std::string& t : gi::cpuSimdTargets()) std::printf(" %s", t.c_str());
     std::printf("\n");
+    std::fflush(stdout);
     bench::GatherScene scene = bench::gatherScene(options.outputWidth, options.outputHeight);
     const std::vector<TriangleMesh>& meshes = scene.meshes;
     const std::vector<gi::MeshInstance>& instances = scene.instances;
@@ -144,12 +147,14 @@ void runCpuBench(const CpuBenchOptions& options) {
     if (targets.empty()) targets.push_back("");
 
     for (const std::string& mapName : options.valMaps) {
+        if (stop()) break;
         const auto [mapWidth, mapHeight] = bench::parseValMapSize(mapName);
         const auto vals = bench::valMap(mapWidth, mapHeight);
         const gl::Buffer valBuffer =
             gl::Buffer::create(GLsizeiptr(vals.size() * sizeof(gi::VirtualAreaLight)), vals.data(), 0);
         const gi::ValSetView valSet{valBuffer.id(), std::uint32_t(vals.size())};
         for (int sparse : options.sparse) {
+            if (stop()) break;
             const auto sparseSphere = std::size_t(sparse) * 2 / 3;
             const gi::SparsePointProvider provider = [&](const gi::MeshInstance& instance) {
                 return gi::sparsePointsFromVertices(
@@ -164,6 +169,7 @@ void runCpuBench(const CpuBenchOptions& options) {
             for (const SetupSpec setup :
                  {SetupSpec{"diffuse", false, false, 48.0, 0.0}, SetupSpec{"+glossy", true, false, 80.0, 0.0},
                   SetupSpec{"+occlusion", true, true, 91.0, 74.0}}) {
+                if (stop()) break;
                 std::printf("  %s\n", setup.name);
                 const int channels = setup.occlusion ? 3 : setup.glossy ? 2 : 1;
                 gi::LightSkinSettings settings;
@@ -184,8 +190,10 @@ void runCpuBench(const CpuBenchOptions& options) {
                     readImage(target.id(), glImage);
                 }
                 for (const std::string& simd : targets) {
+                    if (stop()) break;
                     gi::setCpuSimdTarget(simd);
                     for (int threads : options.threads) {
+                        if (stop()) break;
                         gi::CpuLightSkinSettings cpuSettings;
                         cpuSettings.lightSkin = settings;
                         cpuSettings.threads = threads;
@@ -275,7 +283,9 @@ void runCpuBench(const CpuBenchOptions& options) {
     std::printf("\nload average at end: %s\n", report.loadEnd.c_str());
     gl::DebugOutput::throwIfErrors("bench-cpu");
     report.seconds = std::chrono::duration<double>(Clock::now() - started).count();
+    report.interrupted = stop();
     if (!options.out.empty()) writeJsonAndPlots(report, options.out);
+    if (report.interrupted) printInterrupted("bench-cpu");
 }
 
 } // namespace lightskin::bench

@@ -13,6 +13,7 @@
 
 #include <lightskin/bench/BenchScene.h>
 #include <lightskin/bench/CullBench.h>
+#include <lightskin/bench/StopRequest.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/lightskin/LightSkinIllumination.h>
 #include <lightskin/gi/common/SimpleGBuffer.h>
@@ -78,6 +79,7 @@ double stage(const std::vector<gl::StageTime>& stages, const char* name) {
 } // namespace
 
 void runCullBench(const CullBenchOptions& options) {
+    StopCheck stop(options.stopRequested);
     auto context = gl::createHeadlessContext();
     std::printf("renderer: %s\n", context->describe().c_str());
     TriangleMesh mesh = floorGrid(16);
@@ -107,7 +109,9 @@ void runCullBench(const CullBenchOptions& options) {
                 options.repeat);
     std::printf("| VALs | kept | %s | %s | %s |\n|---|---|---|---|---|\n", variants[0].name, variants[1].name,
                 variants[2].name);
+    std::fflush(stdout);
     for (const std::uint32_t count : options.counts) {
+        if (stop()) break;
         const auto vals = randomVals(count);
         const gl::Buffer buffer =
             gl::Buffer::create(GLsizeiptr(std::max<std::size_t>(vals.size(), 1) * sizeof(gi::VirtualAreaLight)),
@@ -127,7 +131,7 @@ void runCullBench(const CullBenchOptions& options) {
             techniques.back()->prepare(instances);
         }
         std::vector<gl::StageTime> stages;
-        for (int r = 0; r < options.repeat; ++r)
+        for (int r = 0; r < options.repeat && !stop(); ++r)
             for (std::size_t k = 0; k < techniques.size(); ++k) { // interleaved: load changes hit all variants
                 glFinish();
                 const auto start = std::chrono::steady_clock::now();
@@ -140,11 +144,13 @@ void runCullBench(const CullBenchOptions& options) {
                 best[k] = std::min(best[k], stage(stages, "upload"));
                 if (k == 2) kept = techniques[k]->lastChoice().valsGathered;
             }
+        if (stop.stopped()) break; // a row cut short is not shown: its minimum would be over fewer frames
         std::printf("| %u | %u | %.2f / %.1f ms | %.2f / %.1f ms | %.2f / %.1f ms |\n", count, kept, best[0], wall[0],
                     best[1], wall[1], best[2], wall[2]);
         std::fflush(stdout);
     }
     gl::DebugOutput::throwIfErrors("bench-cull");
+    if (stop()) printInterrupted("bench-cull");
 }
 
 } // namespace lightskin::bench

@@ -9,6 +9,7 @@
 // median frame time against the budget.
 
 #include <lightskin/bench/EmbedBench.h>
+#include <lightskin/bench/StopRequest.h>
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
@@ -45,8 +46,10 @@ double timedMs(F&& f) {
 } // namespace
 
 int runEmbedBench(const EmbedBenchOptions& o) {
+    StopCheck stop(o.stopRequested);
     auto context = gl::createHeadlessContext();
     std::printf("bench-embed: %s, %s on %s\n", o.recording.c_str(), o.scene.c_str(), context->describe().c_str());
+    std::fflush(stdout);
     {
         auto session =
             mr::Session::create({}, mr::SceneInput::fromFile(o.scene), capture::openFrameSource(o.recording, {}));
@@ -58,7 +61,7 @@ int runEmbedBench(const EmbedBenchOptions& o) {
         host.attach(GL_DEPTH_ATTACHMENT, depth);
         host.checkComplete("bench host framebuffer");
         std::vector<double> frame, virtualOnly, composite, guard;
-        for (int f = 0; f < o.frames; ++f) {
+        for (int f = 0; f < o.frames && !stop(); ++f) {
             bool more = true;
             frame.push_back(timedMs([&] { more = session->processNext(); }));
             if (!more) break;
@@ -76,11 +79,17 @@ int runEmbedBench(const EmbedBenchOptions& o) {
                     k.width, k.height, frame.size());
         std::printf("| %s | %.1f | %.2f | %.2f | %.3f |\n", mr::describe(session->report().settings).c_str(),
                     median(frame), median(virtualOnly), median(composite), median(guard));
+        std::fflush(stdout);
+    }
+    if (stop.stopped()) {
+        printInterrupted("bench-embed");
+        return 0;
     }
     std::printf("\n| budget ms | settings after warm-up (frames %d..%d) | median frame ms | frames over budget "
                 "|\n|---|---|---|---|\n",
                 o.warmUp, o.frames - 1);
     for (double budget : o.budgets) {
+        if (stop()) break;
         mr::SessionOptions options;
         options.budgetMs = budget;
         auto session =
@@ -88,17 +97,20 @@ int runEmbedBench(const EmbedBenchOptions& o) {
         std::vector<double> times;
         std::map<std::string, int> chosen;
         int over = 0;
-        for (int f = 0; f < o.frames && session->processNext(); ++f) {
+        for (int f = 0; f < o.frames && !stop() && session->processNext(); ++f) {
             if (f < o.warmUp) continue;
             times.push_back(session->report().totalMs);
             over += session->report().totalMs > budget ? 1 : 0;
             ++chosen[mr::describe(session->report().settings)];
         }
+        if (times.empty() && stop.stopped()) break; // stopped during the warm-up: nothing measured
         std::string settings;
         for (const auto& [name, count] : chosen)
             settings += (settings.empty() ? "" : "; ") + name + " (" + std::to_string(count) + ")";
         std::printf("| %.0f | %s | %.1f | %d of %zu |\n", budget, settings.c_str(), median(times), over, times.size());
+        std::fflush(stdout);
     }
+    if (stop()) printInterrupted("bench-embed");
     return 0;
 }
 

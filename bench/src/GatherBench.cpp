@@ -10,6 +10,7 @@
 #include <lightskin/bench/BenchReport.h>
 #include <lightskin/bench/BenchScene.h>
 #include <lightskin/bench/GatherBench.h>
+#include <lightskin/bench/StopRequest.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/bruteforce/BruteForceIllumination.h>
 #include <lightskin/gi/lightskin/GpuValQuadtree.h>
@@ -144,6 +145,7 @@ SubsetError subsetError(const BruteSubset& b, const std::vector<glm::vec4>& imag
 } // namespace
 
 void runGatherBench(const GatherBenchOptions& options) {
+    StopCheck stop(options.stopRequested);
     const auto started = std::chrono::steady_clock::now();
     Report report = startReport("bench-gather", options.repeat);
     auto context = gl::createHeadlessContext();
@@ -161,6 +163,7 @@ void runGatherBench(const GatherBenchOptions& options) {
         std::size_t(std::count_if(positions.begin(), positions.end(), [](const glm::vec4& p) { return p.w != 0.0f; }));
     std::printf("output %dx%d, %zu covered pixels; meshes: sphere %zu + floor %zu vertices\n", options.outputWidth,
                 options.outputHeight, covered, meshes[0].vertexCount(), meshes[1].vertexCount());
+    std::fflush(stdout);
     gl::Texture target = gl::Texture::create2D(GL_RGBA32F, options.outputWidth, options.outputHeight);
     std::vector<glm::vec4> image(positions.size()), reference(positions.size());
     auto readImage = [&](std::vector<glm::vec4>& out) {
@@ -174,6 +177,7 @@ void runGatherBench(const GatherBenchOptions& options) {
     std::vector<std::uint32_t> keysBack;
     gl::Buffer nodeUpload;
     for (const std::string& mapName : options.valMaps) {
+        if (stop()) break;
         const auto [mapWidth, mapHeight] = bench::parseValMapSize(mapName);
         const auto vals = bench::valMap(mapWidth, mapHeight);
         const gl::Buffer valBuffer =
@@ -301,6 +305,8 @@ void runGatherBench(const GatherBenchOptions& options) {
                         for (const SetupSpec setup :
                              {SetupSpec{"diffuse", false, false}, SetupSpec{"+glossy", true, false},
                               SetupSpec{"+occlusion", true, true}}) {
+                            // A stop stays asked: the loops around this one pass over their remaining values.
+                            if (stop()) break;
                             if (options.diffuseOnly && setup.glossy) continue;
                             if (bvh && (threshold <= 0.0f || !options.treeBvh)) continue;
                             const gi::ValSetView& lightSet = threshold > 0.0f && !bvh ? keyedSet : valSet;
@@ -409,7 +415,9 @@ void runGatherBench(const GatherBenchOptions& options) {
     gl::DebugOutput::throwIfErrors("bench-gather");
     report.loadEnd = loadAverage();
     report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    report.interrupted = stop();
     if (!options.out.empty()) writeJsonAndPlots(report, options.out);
+    if (report.interrupted) printInterrupted("bench-gather");
 }
 
 } // namespace lightskin::bench

@@ -4,6 +4,7 @@
 // 64..16k points on a ~70k-triangle mesh. Prints a markdown table (docs/BENCHMARKS.md).
 
 #include <lightskin/bench/LightsBench.h>
+#include <lightskin/bench/StopRequest.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/common/ReflectiveShadowMap.h>
 #include <lightskin/gi/common/SparsePointSampler.h>
@@ -107,8 +108,26 @@ TriangleMesh sphereMesh(int rings, int segments) {
 } // namespace
 
 void runLightsBench(const LightsBenchOptions& options) {
+    StopCheck stop(options.stopRequested);
     auto context = gl::createHeadlessContext();
     std::ostringstream report;
+    // Each row is printed once measured (a long run shows its progress, a stopped one keeps its rows); the whole
+    // report goes to --out at the end.
+    std::size_t printed = 0;
+    const auto printNew = [&report, &printed] {
+        const std::string text = report.str();
+        std::fputs(text.c_str() + printed, stdout);
+        std::fflush(stdout);
+        printed = text.size();
+    };
+    const auto finish = [&] {
+        gl::DebugOutput::throwIfErrors("bench-lights");
+        if (stop()) report << "\n" << interruptedLine("bench-lights") << "\n";
+        printNew();
+        if (options.out.empty()) return;
+        std::ofstream file(options.out);
+        if (!(file << report.str())) throw Error(options.out, std::nullopt, "could not write the report");
+    };
     report << "Renderer: " << context->describe() << "\n\n";
     report << "### VALs from a 640x480 depth frame (synthetic sphere, floor, wall), median of " << options.repeat
            << "\n\n| VAL map | stride | VALs | GPU upload ms | GPU pass ms | wall ms (upload + pass + count read-back) "
@@ -118,14 +137,16 @@ void runLightsBench(const LightsBenchOptions& options) {
     syntheticFrame(K, depth, colour);
     gl::GpuStageTimer timer = gl::GpuStageTimer::create(2);
     std::vector<gl::StageTime> stages;
+    printNew();
     for (int stride : {4, 2, 1}) {
+        if (stop()) break;
         gi::ValGeneratorSettings settings;
         settings.stride = stride;
         gi::ValGenerator generator = gi::ValGenerator::create(K.width, K.height, settings);
         generator.setStageTimer(&timer);
         std::vector<double> upload, gpu, wall, cpu;
         std::uint32_t count = 0;
-        for (int i = 0; i < options.repeat + 2; ++i) {
+        for (int i = 0; i < options.repeat + 2 && !stop(); ++i) {
             timer.beginFrame();
             const auto start = std::chrono::steady_clock::now();
             count = generator.generate(depth, 1.0, colour, K, Pose{}).count;
@@ -135,23 +156,28 @@ void runLightsBench(const LightsBenchOptions& options) {
                 upload.push_back(stages[0].milliseconds), gpu.push_back(stages[1].milliseconds),
                     wall.push_back(seconds * 1e3);
         }
-        for (int i = 0; i < std::max(1, options.repeat / 5); ++i) {
+        for (int i = 0; i < std::max(1, options.repeat / 5) && !stop(); ++i) {
             const auto start = std::chrono::steady_clock::now();
             const auto reference = gi::generateValsReference(depth, 1.0, colour, K, Pose{}, settings);
             cpu.push_back(secondsSince(start) * 1e3);
         }
+        if (stop.stopped()) break; // a row cut short is not shown: its median would be over fewer runs
         char row[256];
         std::snprintf(row, sizeof row, "| %dx%d | %d | %u | %.2f | %.2f | %.2f | %.1f |\n", K.width / stride,
                       K.height / stride, stride, count, median(upload), median(gpu), median(wall), median(cpu));
         report << row;
+        printNew();
     }
+    if (stop()) return finish();
 
     const TriangleMesh mesh = options.mesh.empty() ? sphereMesh(150, 234) : readObj(options.mesh);
     const std::string meshName = options.mesh.empty() ? "UV sphere r = 0.1 m" : options.mesh;
     report << "\n### Sparse-point preparation (refine + FPS + 8 neighbours + occluder radii), mesh " << meshName << ", "
            << mesh.triangleCount() << " triangles, " << mesh.vertexCount() << " vertices\n\n"
            << "| N | refined triangles | tessellation ratio | seconds |\n|---|---|---|---|\n";
+    printNew();
     for (int n : {64, 256, 1024, 4096, 16384}) {
+        if (stop()) return finish();
         TriangleMesh copy = mesh;
         gi::SparsePointSettings settings;
         settings.pointCount = n;
@@ -162,7 +188,9 @@ void runLightsBench(const LightsBenchOptions& options) {
         std::snprintf(row, sizeof row, "| %d | %zu | %.2f | %.3f |\n", n, copy.triangleCount(),
                       double(set.tessellationRatio), seconds);
         report << row;
+        printNew();
     }
+    if (stop()) return finish();
     // RSM VALs: one spot light looking at the (unrefined) mesh from 3 bounding radii away.
     {
         glm::vec3 lo(1e30f), hi(-1e30f);
@@ -194,14 +222,16 @@ void runLightsBench(const LightsBenchOptions& options) {
         spot.spotHalfAngle = 0.4f;
         report << "\n### RSM VALs (one spot light on the mesh above), median of " << options.repeat
                << "\n\n| RSM resolution | VALs | GPU ms (raster + compaction) |\n|---|---|---|\n";
+        printNew();
         for (int resolution : {64, 128, 256}) {
+            if (stop()) break;
             gi::RsmSettings settings;
             settings.resolution = resolution;
             settings.maxLights = 1;
             gi::ReflectiveShadowMap rsm = gi::ReflectiveShadowMap::create(settings);
             std::vector<double> gpu;
             std::uint32_t count = 0;
-            for (int i = 0; i < options.repeat + 2; ++i) {
+            for (int i = 0; i < options.repeat + 2 && !stop(); ++i) {
                 timer.beginFrame();
                 timer.begin("rsm");
                 count = rsm.generate(std::span(&spot, 1), std::span(&instance, 1)).count;
@@ -209,17 +239,14 @@ void runLightsBench(const LightsBenchOptions& options) {
                 timer.collect(stages);
                 if (i >= 2) gpu.push_back(stages[0].milliseconds);
             }
+            if (stop.stopped()) break;
             char row[128];
             std::snprintf(row, sizeof row, "| %dx%d | %u | %.2f |\n", resolution, resolution, count, median(gpu));
             report << row;
+            printNew();
         }
     }
-    gl::DebugOutput::throwIfErrors("bench-lights");
-    std::fputs(report.str().c_str(), stdout);
-    if (!options.out.empty()) {
-        std::ofstream file(options.out);
-        if (!(file << report.str())) throw Error(options.out, std::nullopt, "could not write the report");
-    }
+    finish();
 }
 
 } // namespace lightskin::bench

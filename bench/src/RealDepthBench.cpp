@@ -17,6 +17,7 @@
 
 #include <lightskin/bench/BenchReport.h>
 #include <lightskin/bench/RealDepthBench.h>
+#include <lightskin/bench/StopRequest.h>
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/eval/ColourSpace.h>
@@ -467,7 +468,9 @@ void dumpTruth(const std::filesystem::path& path, mr::FramePipeline& pipeline, c
     if (!csv) throw Error(path.string(), std::nullopt, "cannot write");
 }
 
-CaseResult runCase(const RealCase& c, const LightModel& model, double sink, const RealDepthBenchOptions& options) {
+/// One case over its frames; a stop ends it after the current frame (its results then over the frames run).
+CaseResult runCase(const RealCase& c, const LightModel& model, double sink, const RealDepthBenchOptions& options,
+                   StopCheck& stop) {
     const std::filesystem::path recording = std::filesystem::path(options.data) / c.recording;
     render::Scene scene = render::loadScene(options.scene);
     scene.gi.robustRealDepth = model.robust;
@@ -539,7 +542,7 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
             << "frame,u,v,technique,Y,median5x5,Y_other_technique,normal_x,normal_y,normal_z,depth_m,real_depth_m,"
                "back_face\n";
     }
-    while (r.frames < std::min(c.frames, options.maxFrames) && source->next(frame)) {
+    while (r.frames < std::min(c.frames, options.maxFrames) && !stop() && source->next(frame)) {
         pipeline->process(frame, out);
         if (!out.world_T_camera || out.linearIndirect.empty() || out.linearIndirectReference.empty())
             throw Error(recording.string(), frame.index, "no pose or no GI in this frame");
@@ -688,6 +691,7 @@ std::vector<TemporalResult> temporalRows(const std::vector<CaseResult>& results)
 } // namespace
 
 void runRealDepthBench(const RealDepthBenchOptions& options) {
+    StopCheck stop(options.stopRequested);
     const auto started = std::chrono::steady_clock::now();
     Report report = startReport("bench-realdepth", options.maxFrames);
     auto context = gl::createHeadlessContext();
@@ -716,7 +720,12 @@ void runRealDepthBench(const RealDepthBenchOptions& options) {
             continue;
         for (double sink : options.sinks)
             for (const LightModel& m : models) {
-                results.push_back(runCase(c, m, sink, options));
+                if (stop()) break; // a stop stays asked: the loops around this one pass over their remaining values
+                results.push_back(runCase(c, m, sink, options, stop));
+                if (results.back().frames == 0 && stop.stopped()) { // stopped before its first frame
+                    results.pop_back();
+                    break;
+                }
                 const CaseResult& r = results.back();
                 std::printf("%s, %s, sink %.0f mm, %d frames: LightSkin %s | brute force %s\n", r.recording.c_str(),
                             r.model.c_str(), r.sink * 1e3, r.frames, r.lightSkin.speckle.describe().c_str(),
@@ -770,7 +779,10 @@ void runRealDepthBench(const RealDepthBenchOptions& options) {
                       r.excessFlicker);
         md << row;
     }
+    report.interrupted = stop();
+    if (report.interrupted) md << "\n" << interruptedLine("bench-realdepth") << "\n";
     std::printf("\n%s", md.str().c_str());
+    std::fflush(stdout);
     std::ofstream(std::filesystem::path(options.out) / "realdepth.md") << md.str();
     // The flicker comparison as JSON and its plot (the speckle table stays in realdepth.md).
     report.temporal = temporalRows(results);

@@ -15,6 +15,7 @@
 // b over covered pixels). Materials are made diffuse with --diffuse (the tolerance mode needs the glossy channel off).
 #include <lightskin/bench/BenchScene.h>
 #include <lightskin/bench/StaticBench.h>
+#include <lightskin/bench/StopRequest.h>
 #include <lightskin/capture/DepthFilter.h>
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/Error.h>
@@ -104,7 +105,10 @@ cv::Mat readRgba(std::uint32_t texture, int width, int height) {
     return image;
 }
 
-void runStream(const Stream& stream, const StaticBenchOptions& o, Meshes& meshes, std::vector<Mode>& modes) {
+/// Runs every mode on the stream and prints its table; a stop ends it after the current frame, the table then
+/// over the frames measured (none: no table).
+void runStream(const Stream& stream, const StaticBenchOptions& o, Meshes& meshes, std::vector<Mode>& modes,
+               StopCheck& stop) {
     gi::ValGeneratorSettings vs;
     vs.stride = o.stride;
     vs.exposure = 2.0f;
@@ -124,7 +128,7 @@ void runStream(const Stream& stream, const StaticBenchOptions& o, Meshes& meshes
     std::vector<gl::StageTime> stages;
     int skipped = 0;
     std::uint32_t vals = 0;
-    for (int t = 0; t <= o.frames; ++t) { // t = 0: warm-up (first full computation), not counted
+    for (int t = 0; t <= o.frames && !stop(); ++t) { // t = 0: warm-up (first full computation), not counted
         stream.frame(t, depth, colour);
         const gi::ValSetView set = generator.generate(depth, 1.0, colour, stream.K, stream.world_T_camera);
         vals = set.count;
@@ -160,9 +164,11 @@ void runStream(const Stream& stream, const StaticBenchOptions& o, Meshes& meshes
             m.meanErrorSum += sumRef > 0.0 ? sumDiff / sumRef : 0.0;
         }
     }
+    const int frames = modes.front().frames;
+    if (frames == 0) return; // stopped in the warm-up
     std::printf("\n### stream %s: %d frames, %u VALs (stride %d), %d sparse points per object, %dx%d, "
                 "ValGenerator skipped %d of %d passes\n\n",
-                stream.name.c_str(), o.frames, vals, o.stride, o.sparse, o.width, o.height, skipped, o.frames);
+                stream.name.c_str(), frames, vals, o.stride, o.sparse, o.width, o.height, skipped, frames);
     std::printf("| mode | reused | GI GPU ms/frame | speed-up vs full | max image error | mean image error | mean "
                 "change measure |\n");
     std::printf("|---|---|---|---|---|---|---|\n");
@@ -180,6 +186,7 @@ void runStream(const Stream& stream, const StaticBenchOptions& o, Meshes& meshes
 } // namespace
 
 void runStaticBench(const StaticBenchOptions& o) {
+    StopCheck stop(o.stopRequested);
     auto context = gl::createHeadlessContext();
     std::vector<Mode> modes;
     const auto addMode = [&](std::string name, bool reuse, float tolerance,
@@ -222,13 +229,15 @@ void runStaticBench(const StaticBenchOptions& o) {
     cv::Mat roomDepth, roomColour;
     bench::renderRoom(room.K, room.world_T_camera, 0.0, roomDepth, roomColour);
     std::printf("## lightskin bench-static (%s materials)\n", o.diffuse ? "diffuse" : "scene");
+    std::fflush(stdout);
 
     room.name = "repeat (synthetic room, identical frames)";
     room.frame = [&](int, cv::Mat& depth, cv::Mat& colour) {
         depth = roomDepth;
         colour = roomColour;
     };
-    runStream(room, o, meshes, modes);
+    runStream(room, o, meshes, modes, stop);
+    if (stop()) return printInterrupted("bench-static");
 
     capture::BilateralDepthFilter filter;
     cv::Mat noisy, filtered;
@@ -245,7 +254,8 @@ void runStaticBench(const StaticBenchOptions& o) {
         depth = filtered;
         colour = roomColour;
     };
-    runStream(room, o, meshes, modes);
+    runStream(room, o, meshes, modes, stop);
+    if (stop()) return printInterrupted("bench-static");
 
     if (!o.recording.empty()) {
         auto source = capture::openFrameSource(o.recording);
@@ -285,8 +295,9 @@ void runStaticBench(const StaticBenchOptions& o) {
             depth = depths[std::size_t(i)];
             colour = colours[std::size_t(i)];
         };
-        runStream(real, o, meshes, modes);
+        runStream(real, o, meshes, modes, stop);
     }
+    if (stop()) printInterrupted("bench-static");
 }
 
 } // namespace lightskin::bench

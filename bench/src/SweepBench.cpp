@@ -11,6 +11,7 @@
 #include <lightskin/bench/BenchScene.h>
 #include <lightskin/bench/SweepBench.h>
 #include <lightskin/core/Error.h>
+#include <lightskin/core/Log.h>
 #include <lightskin/gi/Techniques.h>
 #include <lightskin/gi/bruteforce/BruteForceIllumination.h>
 #include <lightskin/gi/common/SimpleGBuffer.h>
@@ -656,7 +657,8 @@ void sampleTracked(const std::vector<glm::vec3>& points, const glm::mat4& clip, 
     }
 }
 
-std::vector<TemporalResult> runTemporal(World& world, const SweepBenchOptions& options) {
+/// The flicker rows of the three sequences; a stop skips the sequences not started.
+std::vector<TemporalResult> runTemporal(World& world, const SweepBenchOptions& options, StopCheck& stop) {
     const int width = 320, height = 240, n = std::max(2, options.temporalFrames), stride = options.temporalStride;
     const auto sparseList =
         splitList<int>(options.temporalSparse, [](const std::string& x) { return parseInt(x, "--temporal-sparse"); });
@@ -670,6 +672,7 @@ std::vector<TemporalResult> runTemporal(World& world, const SweepBenchOptions& o
     }
     std::vector<TemporalResult> results;
     for (const std::string sequence : {"camera", "light", "edges"}) {
+        if (stop()) break;
         std::printf("  temporal sequence '%s' (%d frames, %zu tracked points)\n", sequence.c_str(), n, points.size());
         std::fflush(stdout);
         std::vector<std::unique_ptr<gi::IndirectIllumination>> techniques;
@@ -1180,6 +1183,7 @@ std::string tableMarkdown(const TableSpec& spec, const std::vector<TableRow>& ro
 }
 
 void runTable(const SweepBenchOptions& options, const TableSpec& spec, const std::string& title) {
+    StopCheck stop(options.stopRequested);
     const auto start = Clock::now();
     auto context = gl::createHeadlessContext();
     const std::string header = "### " + title + "\n\n- Command: `" + commandLine() + "`\n- Date: " + utcNow() +
@@ -1205,7 +1209,7 @@ void runTable(const SweepBenchOptions& options, const TableSpec& spec, const std
 
     std::vector<TableRow> rows;
     std::vector<TableBrute> brutes;
-    for (std::size_t m = 0; m < spec.valMaps.size(); ++m) {
+    for (std::size_t m = 0; m < spec.valMaps.size() && !stop(); ++m) {
         const auto map = spec.valMaps[m];
         gi::ValSetView set = world.valMap(map.first, map.second);
         TableBrute b;
@@ -1236,7 +1240,7 @@ void runTable(const SweepBenchOptions& options, const TableSpec& spec, const std
             std::fflush(stdout);
         }
         for (const int total : spec.sparseTotals) {
-            for (int channels = 1; channels <= 3; ++channels) {
+            for (int channels = 1; channels <= 3 && !stop(); ++channels) {
                 Config c = base;
                 c.sparse = std::max(1, total / 2);
                 c.channels = channels;
@@ -1302,9 +1306,10 @@ void runTable(const SweepBenchOptions& options, const TableSpec& spec, const std
         brutes.push_back(std::move(b));
     }
     gl::DebugOutput::throwIfErrors("bench table");
-    const std::string md = tableMarkdown(spec, rows, brutes, view.covered, subset.covered,
-                                         header + "- Load average at end: " + loadAverage() + "; run time " +
-                                             std::to_string(long(std::lround(msSince(start) / 1000.0))) + " s\n");
+    std::string md = tableMarkdown(spec, rows, brutes, view.covered, subset.covered,
+                                   header + "- Load average at end: " + loadAverage() + "; run time " +
+                                       std::to_string(long(std::lround(msSince(start) / 1000.0))) + " s\n");
+    if (stop()) md += "\n" + interruptedLine("bench") + "\n";
     std::filesystem::create_directories(options.out);
     const std::string file = options.out + "/table.md";
     std::ofstream(file) << md;
@@ -1321,6 +1326,7 @@ std::vector<std::pair<int, int>> parseSizes(const std::string& text, const char*
 }
 
 int runSweep(const SweepBenchOptions& options) {
+    StopCheck stop(options.stopRequested);
     int exitCode = 0;
     const auto start = Clock::now();
     Report report = startReport("bench", options.frames);
@@ -1338,7 +1344,8 @@ int runSweep(const SweepBenchOptions& options) {
     const auto configs = buildSweep(options);
     std::printf("%zu configurations (one knob at a time around the default), %d frames each after a warm-up\n",
                 configs.size(), options.frames);
-    for (std::size_t i = 0; i < configs.size(); ++i) {
+    std::fflush(stdout);
+    for (std::size_t i = 0; i < configs.size() && !stop(); ++i) {
         const Config& c = configs[i];
         std::printf(
             "[%zu/%zu %5.0f s] %s%s%s: sparse %d, stride %d, K_cache %d, %s, %dx%d, sphere %zu tris, adaptive %s\n",
@@ -1358,11 +1365,12 @@ int runSweep(const SweepBenchOptions& options) {
         report.runs.push_back(std::move(r));
         if (c.isDefault) report.runs.push_back(bruteRow(world, c));
     }
-    if (options.temporal) {
+    if (options.temporal && !stop()) {
         std::printf("[temporal %5.0f s]\n", msSince(start) / 1000.0);
-        report.temporal = runTemporal(world, options);
+        report.temporal = runTemporal(world, options, stop);
     }
-    if (options.check) {
+    report.interrupted = stop();
+    if (options.check && !report.interrupted) { // the checks compare whole series: not those of a stopped run
         // More VALs must bring the light closer to the finest VAL map's: checked on the brute force, which has
         // no approximation besides the VAL map. LightSkin's own error against that map is reported only: its
         // sparse-point approximation (rel. MSE ~6e-4 against the same VALs, varying by ~+-6 % between VAL maps)
@@ -1382,9 +1390,12 @@ int runSweep(const SweepBenchOptions& options) {
     report.loadEnd = loadAverage();
     report.seconds = msSince(start) / 1000.0;
     writeOutputs(report, options.out);
-    if (!options.docs.empty()) regenerateDocs(report, options.docs);
-    std::printf("wrote %s/bench.{csv,json,md}%s%s in %.0f s\n", options.out.c_str(),
-                options.docs.empty() ? "" : " and ", options.docs.c_str(), report.seconds);
+    // The docs hold the reference run: a stopped run's rows do not replace it.
+    const bool updateDocs = !options.docs.empty() && !report.interrupted;
+    if (updateDocs) regenerateDocs(report, options.docs);
+    if (!options.docs.empty() && !updateDocs) log::warning(options.docs + " not updated: the run was interrupted");
+    std::printf("wrote %s/bench.{csv,json,md}%s%s in %.0f s\n", options.out.c_str(), updateDocs ? " and " : "",
+                updateDocs ? options.docs.c_str() : "", report.seconds);
     exitCode = 0;
     for (const auto& c : report.checks) {
         std::printf("%s %s: %s\n",
@@ -1394,6 +1405,7 @@ int runSweep(const SweepBenchOptions& options) {
                     c.name.c_str(), c.detail.c_str());
         if (!c.passed && c.required) exitCode = 3;
     }
+    if (report.interrupted) printInterrupted("bench");
     return exitCode;
 }
 

@@ -5,7 +5,8 @@
 //  * three techniques: LightSkin (GL and CPU), imperfect volumes and multi-scale PRT (each under a spelling
 //    of its method key that the benches write or may write) plus the brute force get one series each,
 //    each technique keeps one colour through the Pareto, scaling and flicker plots, the colours differ,
-//    every series' colour is found in the images and no label overlaps another.
+//    every series' colour is found in the images and no label overlaps another;
+//  * a stopped run: "status": "interrupted", read back, no plots.
 #include "ExpectError.h"
 #include "TestPaths.h"
 
@@ -225,6 +226,28 @@ TEST(BenchJson, ATableReportReadsBackFieldForField) {
     std::ofstream(dir / "broken.json") << j.dump();
     lightskin::test::expectError([&] { lightskin::bench::readReport((dir / "broken.json").string()); },
                                  {(dir / "broken.json").string(), std::nullopt, "gpu_ms"});
+}
+
+// A stopped run's JSON says "status": "interrupted" and reads back so; a whole run's says "complete", and a file
+// from before the key reads as complete. Its plots are not drawn (the run ends at once), stale ones removed.
+TEST(BenchJson, AnInterruptedRunIsMarkedAndReadsBack) {
+    const auto dir = scratchDir("bench_json_interrupted");
+    Report report;
+    report.bench = "bench-gather";
+    report.interrupted = true;
+    std::ofstream(dir / "bench-gather.png") << "an earlier run's plot";
+    lightskin::bench::writeJsonAndPlots(report, dir.string());
+    EXPECT_EQ(readJson(dir / "bench-gather.json").at("status"), "interrupted");
+    EXPECT_TRUE(lightskin::bench::readReport((dir / "bench-gather.json").string()).interrupted);
+    EXPECT_FALSE(std::filesystem::exists(dir / "bench-gather.png"));
+
+    report.interrupted = false;
+    lightskin::bench::writeJson(report, (dir / "complete.json").string());
+    nlohmann::json j = readJson(dir / "complete.json");
+    EXPECT_EQ(j.at("status"), "complete");
+    j.erase("status");
+    std::ofstream(dir / "older.json") << j.dump();
+    EXPECT_FALSE(lightskin::bench::readReport((dir / "older.json").string()).interrupted);
 }
 
 TEST(BenchPlots, ThreeTechniquesKeepOneColourEachAcrossPlotsAndReadCleanly) {

@@ -20,4 +20,7 @@ struct PlotOutcome {
 /// unwritable folder).
 PlotOutcome drawPlots(const std::string& jsonFile, const std::string& outDir, const std::string& prefix = "bench");
 
+/// Removes the files drawPlots writes into `outDir` (those of an earlier run), drawing nothing.
+void removePlots(const std::string& outDir, const std::string& prefix = "bench");
+
 } // namespace lightskin::bench

@@ -98,6 +98,9 @@ struct Report {
     int frames = 0;
     double seconds = 0.0;
     bool quick = false;
+    /// Stopped early (StopRequest.h): the rows are those measured before the stop. JSON "status": "interrupted"
+    /// (else "complete"); the Markdown says so in its title.
+    bool interrupted = false;
     std::vector<RunResult> runs;
     std::vector<TemporalResult> temporal;
     std::vector<CheckResult> checks;
@@ -120,8 +123,8 @@ Report readReport(const std::string& jsonFile);
 /// Writes bench.csv, bench.json and bench.md into `dir` (created if missing), then the plots from the
 /// JSON (drawPlots, BenchPlots.h: skipped with a warning naming the fix when python3-matplotlib is missing).
 void writeOutputs(const Report& report, const std::string& dir);
-/// Writes `dir`/<report.bench>.json (created if missing), then its plots (drawPlots, as writeOutputs):
-/// the output of the table benches.
+/// Writes `dir`/<report.bench>.json (created if missing), then its plots (drawPlots, as writeOutputs; not for an
+/// interrupted run, which should end at once: the log says how to draw them): the output of the table benches.
 void writeJsonAndPlots(const Report& report, const std::string& dir);
 /// The Markdown section (between the markers).
 std::string markdown(const Report& report);

@@ -1,6 +1,8 @@
 #pragma once
 // `lightskin bench-cpu` (apps/lightskin): see bench/src/CpuBench.cpp and docs/BENCHMARKS.md.
 
+#include <lightskin/bench/StopRequest.h>
+
 #include <string>
 #include <vector>
 
@@ -16,6 +18,8 @@ struct CpuBenchOptions {
     double peakGflops = 0.0;
     bool gl = true;
     std::string out; ///< folder for bench-cpu.json and its scaling plot ("" = print only)
+    /// Asked between measurements (Ctrl-C in the command): true = stop, output what was measured, marked interrupted.
+    StopRequested stopRequested;
 };
 
 /// The CPU backend (gi::CpuLightSkin) beside the GL path: stage times, interactions/s, share of the FMA peak;

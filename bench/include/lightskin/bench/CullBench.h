@@ -1,6 +1,8 @@
 #pragma once
 // `lightskin bench-cull` (apps/lightskin): see bench/src/CullBench.cpp and docs/BENCHMARKS.md.
 
+#include <lightskin/bench/StopRequest.h>
+
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -10,6 +12,8 @@ namespace lightskin::bench {
 struct CullBenchOptions {
     std::vector<std::uint32_t> counts;
     int repeat = 5;
+    /// Asked between measurements (Ctrl-C in the command): true = stop, output what was measured, marked interrupted.
+    StopRequested stopRequested;
 };
 
 /// The adaptive VAL cull: stable compaction against atomic append (upload stage times).

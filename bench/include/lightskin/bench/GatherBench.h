@@ -1,6 +1,8 @@
 #pragma once
 // `lightskin bench-gather` (apps/lightskin): see bench/src/GatherBench.cpp and docs/BENCHMARKS.md.
 
+#include <lightskin/bench/StopRequest.h>
+
 #include <string>
 #include <vector>
 
@@ -29,6 +31,8 @@ struct GatherBenchOptions {
     /// `--near-field`: guard G12 on (LightSkinSettings/BruteForceSettings::nearFieldArea, off by default):
     /// the cost of near-field VALs as areas, run against the default.
     bool nearField = false;
+    /// Asked between measurements (Ctrl-C in the command): true = stop, output what was measured, marked interrupted.
+    StopRequested stopRequested;
 };
 
 /// LightSkin stage times (GL timer queries) per setup, speed-up over the brute force and its error; prints them and,

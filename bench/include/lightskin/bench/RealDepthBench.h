@@ -1,6 +1,8 @@
 #pragma once
 // `lightskin bench-realdepth` (apps/lightskin): see bench/src/RealDepthBench.cpp and docs/BENCHMARKS.md.
 
+#include <lightskin/bench/StopRequest.h>
+
 #include <string>
 #include <vector>
 
@@ -21,6 +23,8 @@ struct RealDepthBenchOptions {
     int truthReceivers = 0;
     /// "u,v;u,v...": pixels added to those (16 x 32 cells per VAL, for single contact pixels).
     std::string truthPixels;
+    /// Asked between measurements (Ctrl-C in the command): true = stop, output what was measured, marked interrupted.
+    StopRequested stopRequested;
 };
 
 /// Speckle and flicker of the indirect light on real depth (bundled recordings), old vs robust light model.

@@ -1,6 +1,8 @@
 #pragma once
 // `lightskin bench-static` (apps/lightskin): see bench/src/StaticBench.cpp and docs/BENCHMARKS.md.
 
+#include <lightskin/bench/StopRequest.h>
+
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -18,6 +20,8 @@ struct StaticBenchOptions {
     std::string recording;
     std::string bunnyPath = "tests/data/stanford-bunny/bun_zipper_res4.ply";
     std::uint64_t seed = 1;
+    /// Asked between measurements (Ctrl-C in the command): true = stop, output what was measured, marked interrupted.
+    StopRequested stopRequested;
 };
 
 /// Adaptive mode on static content: reuse against full recomputation on still frames.

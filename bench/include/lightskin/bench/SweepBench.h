@@ -2,6 +2,7 @@
 // `lightskin bench` (apps/lightskin): see bench/src/SweepBench.cpp and docs/BENCHMARKS.md.
 
 #include <lightskin/bench/BenchReport.h>
+#include <lightskin/bench/StopRequest.h>
 
 #include <string>
 #include <vector>
@@ -55,6 +56,8 @@ struct SweepBenchOptions {
     std::string tableVals;   ///< overrides the table's VAL maps
     int tableSubset = 0;     ///< overrides the brute-force subset step
     int tableFrames = 1;
+    /// Asked between measurements (Ctrl-C in the command): true = stop, output what was measured, marked interrupted.
+    StopRequested stopRequested;
 };
 
 /// The speed/accuracy sweep (or --table1/--kinect, --from-json, --export-blender); writes bench.{csv,json,md} and the
