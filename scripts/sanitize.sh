@@ -8,7 +8,8 @@
 #                                                   threaded code (tests/capture: Recorder's writer thread, the
 #                                                   OpenNI2 and libfreenect sources; gi_ground_truth_test: the
 #                                                   Embree reference's worker threads; the CPU GI backend's
-#                                                   oneTBB loops) and runs them
+#                                                   oneTBB loops; tests/sanitizer's deliberate race, which
+#                                                   the suppressions must not hide) and runs them
 #
 # Both are Debug builds (-O0: every access instrumented, nothing inlined away) with line tables only (-g1):
 # reports keep function names and file:line, while full debug info would make these builds (the longest
@@ -16,8 +17,10 @@
 #
 # Every sanitizer finding fails its test (UBSan does not recover). LeakSanitizer suppressions for third-party
 # code are in cmake/sanitizers/lsan.supp, each with its reason; the tests sanitizer_leak_check* prove they hide
-# no leak of ours. The environment is set by CTest: run a single test binary of these builds through
-# `ctest --test-dir build-asan -R <name>` (or copy LSAN_OPTIONS from `ctest -R <name> -V`).
+# no leak of ours, and sanitizer_race_check that cmake/sanitizers/tsan.supp hides no race of ours. The environment
+# is set by CTest: run a single test binary of these builds through `ctest --test-dir build-asan -R <binary>`
+# (in the ASan build a test binary is one CTest test, named after it: tests/CMakeLists.txt), or copy
+# LSAN_OPTIONS from `ctest -R <name> -V`.
 # LIGHTSKIN_JOBS (default: nproc) sets the parallel compile and test jobs.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -52,10 +55,12 @@ else
   mapfile -t targets < <(grep -ho 'lightskin_add_test(capture_[a-z_]*' "$root/tests/capture/CMakeLists.txt" | sed 's/.*(//')
   # mr::Session's prefetch and GI-ahead workers: their sessions' tests only, not the whole suite.
   targets+=(gi_ground_truth_test gi_cpu_lightskin_gl_test gi_cpu_val_generator_gl_test mr_session_gl_test)
+  # The deliberate race that the suppressions must not hide (tests/sanitizer).
+  targets+=(sanitizer_race_check_program)
   cmake --build "$build" --parallel "$jobs" --target "${targets[@]}"
   suites="$(grep -ho '^TEST\(_F\|_P\)\?([A-Za-z0-9_]*' "$root"/tests/capture/*.cpp \
     "$root/tests/gi/reference/RayTracedGroundTruthTest.cpp" "$root/tests/gi/common/CpuValGeneratorGLTest.cpp" \
     | sed 's/.*(//' | sort -u | paste -sd'|')|CpuLightSkinGLTest|CpuLightSkinExtremeGLTest"
   ctest --test-dir "$build" --output-on-failure --no-tests=error --parallel "$jobs" --timeout 900 \
-    -R "(^|/)(($suites)\.|SessionGLTest\.(Prefetch|GiAhead))" "$@"
+    -R "(^|/)(($suites)\.|SessionGLTest\.(Prefetch|GiAhead))|^sanitizer_race_check" "$@"
 fi
