@@ -838,7 +838,8 @@ void CpuLightSkin::prepare(std::span<const MeshInstance> instances) {
         impl.convex.push_back(detail::convexForOcclusion(set));
         impl.sparse.push_back(std::move(set));
     }
-    LIGHTSKIN_ASSERT(impl.pointCount > 0, "lightskin::gi::CpuLightSkin::prepare(): no instances");
+    // No instance (no virtual content) is valid: the arrays below are empty, computeVpls() does nothing and
+    // shadeVpls() clears the target, until the next prepare().
     const std::size_t padded = padReceivers(impl.pointCount);
     impl.pointPosition.assign(impl.pointCount, glm::dvec3(0.0));
     impl.pointNormal.assign(impl.pointCount, glm::dvec3(0.0, 0.0, 1.0));
@@ -866,6 +867,10 @@ void CpuLightSkin::prepare(std::span<const MeshInstance> instances) {
     impl.meshSimilar.assign(instances.size(), 0);
     impl.vertexVplBuffer = gl::Buffer::create(GLsizeiptr(std::max<std::uint32_t>(impl.vertexCount, 1)) * 64, nullptr,
                                               GL_DYNAMIC_STORAGE_BIT);
+    if (impl.pointCount == 0) {
+        log::info("lightskin-cpu: prepared no instance: no virtual content, GI idle");
+        return;
+    }
     log::info("lightskin-cpu: prepared " + std::to_string(instances.size()) + " instance(s), " +
               std::to_string(impl.pointCount) + " sparse points, " + std::to_string(impl.vertexCount) + " vertices, " +
               impl.stats.simdTarget + ", " + std::to_string(impl.threadCount()) + " thread(s)");
@@ -882,6 +887,12 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
                              instances[i].mesh->vertexCount() == impl.sparse[i].vertexNeighbours.size(),
                          "lightskin::gi::CpuLightSkin::computeVpls(): instance mesh differs from prepare()");
     CpuLightSkinStats& stats = impl.stats;
+    if (impl.pointCount == 0) { // prepared without virtual content: nothing to light
+        const std::string simdTarget = stats.simdTarget;
+        stats = {};
+        stats.simdTarget = simdTarget;
+        return;
+    }
     impl.chooseChannels(instances);
     const glm::dvec3 eye(cameraPositionWorld);
 

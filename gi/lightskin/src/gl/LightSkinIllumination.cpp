@@ -398,11 +398,29 @@ struct LightSkinIllumination::Impl {
     void readInterleaved(std::span<const gl::Texture* const> textures, std::vector<glm::vec4>& out) const {
         const std::size_t stride = textures.size();
         out.assign(std::size_t(pointCount) * stride, glm::vec4(0.0f));
+        if (pointCount == 0) return; // nothing prepared: no textures
         std::vector<glm::vec4> all;
         for (std::size_t t = 0; t < stride; ++t) {
             readTexels(*textures[t], all);
             for (std::size_t i = 0; i < pointCount; ++i) out[i * stride + t] = all[i];
         }
+    }
+
+    /// What prepare() sizes for its meshes, released when it is given none.
+    void releasePreparedResources() {
+        pointPosition = {};
+        pointNormal = {};
+        for (gl::Texture& target : gatherTargets) target = {};
+        for (gl::Texture& target : vplTargets) target = {};
+        occlusionTarget = {};
+        gatherFramebuffer = {};
+        vplFramebuffer = {};
+        occlusionFramebuffer = {};
+        shadeFramebuffer = {};
+        vertexInputs = {};
+        vertexVpls = {};
+        scratchPositions = {};
+        scratchNormals = {};
     }
 
     void uploadPoints(std::span<const MeshInstance> instances) {
@@ -590,7 +608,12 @@ void LightSkinIllumination::prepare(std::span<const MeshInstance> instances) {
         impl.lastInstances.emplace_back();
         impl.sparse.push_back(std::move(set));
     }
-    LIGHTSKIN_ASSERT(impl.pointCount > 0, "lightskin::gi::LightSkinIllumination::prepare(): no instances");
+    if (impl.pointCount == 0) { // no virtual content: valid, GI idle until the next prepare()
+        impl.releasePreparedResources();
+        impl.gatheredCount = 0;
+        log::info("lightskin: prepared no instance: no virtual content, GI idle");
+        return;
+    }
 
     impl.textureWidth = std::min<int>(impl.settings.sparseTextureWidth, int(impl.pointCount));
     impl.textureHeight = int((impl.pointCount + std::uint32_t(impl.textureWidth) - 1) / std::uint32_t(impl.textureWidth));
@@ -648,6 +671,15 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     for (std::size_t m = 0; m < instances.size(); ++m)
         LIGHTSKIN_ASSERT(instances[m].mesh != nullptr && instances[m].mesh->vertexCount() == impl.sparse[m].vertexNeighbours.size(),
                          "lightskin::gi::LightSkinIllumination::render(): instance mesh differs from prepare()");
+
+    if (impl.sparse.empty()) { // prepared without virtual content: nothing to light
+        glClearTexImage(targetTexture, 0, GL_RGBA, GL_FLOAT, nullptr);
+        impl.stageTimes.clear();
+        impl.choice = {};
+        impl.choice.valsIn = lights.count;
+        impl.choice.reason = "no virtual content";
+        return;
+    }
 
     // "Model only what the scene requires".
     LightSkinChoice& choice = impl.choice;
