@@ -52,14 +52,18 @@ void addTime(std::vector<gl::StageTime>& times, std::size_t& used, const char* n
 /// The scene's /tracking object: the tag world (inline, or {"file": path}) plus tracker options
 /// taken out before the rest goes to TagWorld: "detector" (AprilTag detector settings, e.g.
 /// {"quadDecimate": 1} for the 15-40 px tags of a 320x240 image) and "useDepth" (boolean:
-/// depth-aided refinement).
-tracking::PoseTracker trackerFromScene(const render::Scene& scene) {
+/// depth-aided refinement). Every key is checked whatever the pose mode; a tag world file that does not
+/// exist is an error only when `tracked` (the pose comes from the tags): a run with other poses may use a
+/// scene whose tag world is written later (the main job's synth writes orbit.json's), and gets no tracker.
+std::optional<tracking::PoseTracker> trackerFromScene(const render::Scene& scene, bool tracked) {
     const std::string source = (scene.file.empty() ? std::string("scene") : scene.file.string());
     nlohmann::json tracking = nlohmann::json::parse(scene.trackingJson);
-    if (tracking.empty())
+    if (tracking.empty()) {
+        if (!tracked) return std::nullopt;
         throw Error(source, std::nullopt,
                     "/tracking: --pose tracking needs a \"tracking\" object in the scene (tag family, size, bundle); "
                     "without tags use --pose fixed (the world is the camera frame) or --pose ground-truth");
+    }
     tracking::TrackerSettings settings;
     if (tracking.contains("detector")) {
         settings.detector =
@@ -78,6 +82,7 @@ tracking::PoseTracker trackerFromScene(const render::Scene& scene) {
             throw Error(source, std::nullopt,
                         "/tracking/file: expected a path string, beside only detector and useDepth");
         const std::filesystem::path world = scene.file.parent_path() / tracking["file"].get<std::string>();
+        if (!std::filesystem::exists(world) && !tracked) return std::nullopt;
         if (!std::filesystem::is_regular_file(world)) // name the scene key, not only the missing file
             throw Error(source, std::nullopt, "/tracking/file: tag world '" + world.string() + "' does not exist");
         return tracking::PoseTracker::create(tracking::TagWorld::load(world), settings);
@@ -512,7 +517,9 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
     p->renderer_->setScene(scene, sparsePoints);
     s.preparedSparsePoints = sparsePoints ? scene.gi.sparsePoints : 0;
     s.compositor = render::Compositor::create(colour, scene.compositing);
-    if (options.poseMode == PoseMode::Tracking) s.tracker = trackerFromScene(scene);
+    // Built and checked under every pose mode (a bad /tracking is said up front); kept only when tracking.
+    s.tracker = trackerFromScene(scene, options.poseMode == PoseMode::Tracking);
+    if (options.poseMode != PoseMode::Tracking) s.tracker.reset();
 
     // VALs need depth and colour of one size, registered (the ValGenerator's contract).
     s.valsUsable = source.registration == DepthRegistration::RegisteredToColour &&

@@ -372,6 +372,30 @@ TEST_F(SessionGLTest, HostFramesGiveTheSameImageAsTheSource) {
 TEST_F(SessionGLTest, BadScenesAndTargetsAreErrors) {
     EXPECT_THROW(sourceSession({}, mr::SceneInput::fromJson("{\"version\": 1, \"objects\": 3}", ".")), Error);
     EXPECT_THROW(sourceSession({}, mr::SceneInput::fromFile("/nonexistent/scene.json")), Error);
+    // A bad /tracking is the scene's error under every pose mode, not only when tracking reads it; a tag world
+    // file that does not exist yet is an error only when the pose comes from the tags.
+    const auto errorOf = [](mr::PoseMode pose, const std::string& sceneJson) -> std::string {
+        mr::SessionOptions options;
+        options.pipeline.poseMode = pose;
+        try {
+            sourceSession(options, mr::SceneInput::fromJson(sceneJson, "."));
+        } catch (const Error& e) {
+            return e.what();
+        }
+        return "accepted";
+    };
+    const std::string missingWorld = R"({"version": 1, "tracking": {"file": "no-such-tag-world.json"}})";
+    const std::string badOption =
+        R"({"version": 1, "tracking": {"file": "no-such-tag-world.json", "useDepth": "yes"}})";
+    for (const mr::PoseMode pose : {mr::PoseMode::GroundTruth, mr::PoseMode::Fixed, mr::PoseMode::Tracking}) {
+        SCOPED_TRACE(mr::toString(pose));
+        EXPECT_NE(errorOf(pose, badOption).find("/tracking/useDepth"), std::string::npos);
+        const std::string missing = errorOf(pose, missingWorld);
+        if (pose == mr::PoseMode::Tracking)
+            EXPECT_NE(missing.find("/tracking/file"), std::string::npos) << missing;
+        else
+            EXPECT_EQ(missing, "accepted");
+    }
     auto session = sourceSession();
     ASSERT_TRUE(session->processNext());
     EXPECT_THROW(session->render({.texture = 987654}), Error);
