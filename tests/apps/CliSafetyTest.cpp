@@ -184,6 +184,14 @@ TEST(CliRules, OptionsThatWouldDoNothingAreRefused) {
         "record --source " + f.recording.string() + " --out " + out.string() + " --frames 1 --max-frames 2", f.scratch);
     EXPECT_EQ(record.exitCode, 64) << record.err;
     expectOneErrorLine(record, "--frames: is the deprecated spelling of --max-frames");
+    // A fakenect dump has its own format: the recording's storage options would do nothing there.
+    const CliRun fakenectJpeg =
+        runCli("record --to-fakenect --jpeg --source " + f.recording.string() + " --out " + out.string(), f.scratch);
+    EXPECT_EQ(fakenectJpeg.exitCode, 64) << fakenectJpeg.err;
+    EXPECT_NE(fakenectJpeg.err.find("excludes"), std::string::npos) << fakenectJpeg.err;
+    EXPECT_NE(fakenectJpeg.err.find("--jpeg"), std::string::npos) << fakenectJpeg.err;
+    EXPECT_NE(fakenectJpeg.err.find("--to-fakenect"), std::string::npos) << fakenectJpeg.err;
+    EXPECT_FALSE(fs::exists(out));
     // Only the input shows these: exit 1, before anything is written.
     const CliRun raw = runCli(f.replay(out, "--raw-depth"), f.scratch);
     EXPECT_EQ(raw.exitCode, 1) << raw.err;
