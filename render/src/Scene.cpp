@@ -1,5 +1,6 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/core/JsonError.h>
+#include <lightskin/core/JsonReader.h>
 #include <lightskin/render/Scene.h>
 
 #include <nlohmann/json.hpp>
@@ -8,7 +9,6 @@
 
 #include <cmath>
 #include <fstream>
-#include <initializer_list>
 #include <optional>
 #include <sstream>
 
@@ -18,99 +18,7 @@ namespace {
 
 using nlohmann::json;
 
-/// Walks the JSON with the current pointer so every error names its key.
-class Reader {
-public:
-    Reader(std::string source, std::filesystem::path baseFolder) : source_(std::move(source)), base_(std::move(baseFolder)) {}
-
-    [[noreturn]] void fail(const std::string& pointer, const std::string& expected, const json* got) const {
-        std::string cause = (pointer.empty() ? std::string("/") : pointer) + ": expected " + expected;
-        if (got != nullptr) {
-            std::string text = got->dump();
-            if (text.size() > 60) text = text.substr(0, 57) + "...";
-            cause += ", got " + text;
-        }
-        throw Error(source_, std::nullopt, cause);
-    }
-
-    void allowOnly(const json& object, const std::string& pointer, std::initializer_list<const char*> keys) const {
-        for (const auto& [key, value] : object.items()) {
-            bool known = false;
-            for (const char* allowed : keys) known = known || key == allowed;
-            if (!known) {
-                std::string list;
-                for (const char* allowed : keys) list += std::string(list.empty() ? "" : ", ") + allowed;
-                throw Error(source_, std::nullopt, pointer + "/" + key + ": unknown key; expected one of: " + list);
-            }
-        }
-    }
-
-    const json& object(const json& parent, const std::string& pointer) const {
-        if (!parent.is_object()) fail(pointer, "an object", &parent);
-        return parent;
-    }
-
-    float number(const json& value, const std::string& pointer, float min, float max, const char* what) const {
-        if (!value.is_number()) fail(pointer, std::string("a number ") + what, &value);
-        const double v = value.get<double>();
-        if (!std::isfinite(v) || v < double(min) || v > double(max)) fail(pointer, std::string("a number ") + what, &value);
-        return float(v);
-    }
-
-    int integer(const json& value, const std::string& pointer, int min, int max) const {
-        const std::string what = "an integer in [" + std::to_string(min) + ", " + std::to_string(max) + "]";
-        if (!value.is_number_integer()) fail(pointer, what, &value);
-        const auto v = value.get<std::int64_t>();
-        if (v < min || v > max) fail(pointer, what, &value);
-        return int(v);
-    }
-
-    bool boolean(const json& value, const std::string& pointer) const {
-        if (!value.is_boolean()) fail(pointer, "true or false", &value);
-        return value.get<bool>();
-    }
-
-    std::string string(const json& value, const std::string& pointer) const {
-        if (!value.is_string() || value.get<std::string>().empty()) fail(pointer, "a non-empty string", &value);
-        return value.get<std::string>();
-    }
-
-    glm::vec3 vec3(const json& value, const std::string& pointer, float min, float max, const char* what) const {
-        const std::string expected = std::string("an array of 3 numbers ") + what;
-        if (!value.is_array() || value.size() != 3) fail(pointer, expected, &value);
-        glm::vec3 v;
-        for (int i = 0; i < 3; ++i) {
-            const json& c = value[std::size_t(i)];
-            if (!c.is_number()) fail(pointer + "/" + std::to_string(i), std::string("a number ") + what, &c);
-            const double d = c.get<double>();
-            if (!std::isfinite(d) || d < double(min) || d > double(max))
-                fail(pointer + "/" + std::to_string(i), std::string("a number ") + what, &c);
-            v[i] = float(d);
-        }
-        return v;
-    }
-
-    /// An RGB colour: [r,g,b] or one number for grey.
-    glm::vec3 colour(const json& value, const std::string& pointer, float max, const char* what) const {
-        if (value.is_number()) return glm::vec3(number(value, pointer, 0.0f, max, what));
-        return vec3(value, pointer, 0.0f, max, what);
-    }
-
-    std::filesystem::path existingFile(const json& value, const std::string& pointer, const char* what) const {
-        const std::filesystem::path relative = string(value, pointer);
-        const std::filesystem::path path = (base_ / relative).lexically_normal();
-        std::error_code ec;
-        if (!std::filesystem::is_regular_file(path, ec))
-            throw Error(source_, std::nullopt, pointer + ": " + what + " '" + path.string() + "' does not exist");
-        return path;
-    }
-
-private:
-    std::string source_;
-    std::filesystem::path base_;
-};
-
-MaterialOverride readMaterial(const Reader& r, const json& value, const std::string& p) {
+MaterialOverride readMaterial(const JsonReader& r, const json& value, const std::string& p) {
     r.object(value, p);
     r.allowOnly(value, p, {"diffuseAlbedo", "specularAlbedo", "specularExponent", "diffuseTexture"});
     MaterialOverride m;
@@ -122,7 +30,7 @@ MaterialOverride readMaterial(const Reader& r, const json& value, const std::str
     return m;
 }
 
-glm::mat4 readTransform(const Reader& r, const json& value, const std::string& p) {
+glm::mat4 readTransform(const JsonReader& r, const json& value, const std::string& p) {
     r.object(value, p);
     r.allowOnly(value, p, {"translation", "rotationDegrees", "scale", "matrix"});
     if (value.contains("matrix")) {
@@ -145,7 +53,7 @@ glm::mat4 readTransform(const Reader& r, const json& value, const std::string& p
     return composeTransform(t, rot, s);
 }
 
-SceneObject readObject(const Reader& r, const json& value, const std::string& p, std::size_t index) {
+SceneObject readObject(const JsonReader& r, const json& value, const std::string& p, std::size_t index) {
     r.object(value, p);
     r.allowOnly(value, p, {"name", "mesh", "transform", "material"});
     SceneObject o;
@@ -157,7 +65,7 @@ SceneObject readObject(const Reader& r, const json& value, const std::string& p,
     return o;
 }
 
-SceneLight readLight(const Reader& r, const json& value, const std::string& p) {
+SceneLight readLight(const JsonReader& r, const json& value, const std::string& p) {
     r.object(value, p);
     r.allowOnly(
         value, p,
@@ -188,142 +96,6 @@ SceneLight readLight(const Reader& r, const json& value, const std::string& p) {
     return l;
 }
 
-// Ranges as gi::validate(ImperfectVolumesSettings) checks them, here with the key's JSON pointer.
-gi::ImperfectVolumesSettings readImperfectVolumes(const Reader& r, const json& value, const std::string& p) {
-    r.object(value, p);
-    r.allowOnly(value, p,
-                {"resolution", "pointsPerTriangle", "raysPerVoxel", "bounces", "ambientOcclusion", "aoRange", "margin",
-                 "origin", "size", "realAlbedo", "seed", "jitter", "temporalBlend"});
-    gi::ImperfectVolumesSettings v;
-    if (value.contains("resolution")) v.resolution = r.integer(value["resolution"], p + "/resolution", 1, 256);
-    if (value.contains("pointsPerTriangle"))
-        v.pointsPerTriangle = r.integer(value["pointsPerTriangle"], p + "/pointsPerTriangle", 0, 256);
-    if (value.contains("raysPerVoxel")) v.raysPerVoxel = r.integer(value["raysPerVoxel"], p + "/raysPerVoxel", 1, 4096);
-    if (value.contains("bounces")) v.bounces = r.integer(value["bounces"], p + "/bounces", 1, 4);
-    if (value.contains("ambientOcclusion"))
-        v.ambientOcclusion = r.boolean(value["ambientOcclusion"], p + "/ambientOcclusion");
-    if (value.contains("aoRange"))
-        v.aoRange = r.number(value["aoRange"], p + "/aoRange", 1e-4f, 1e3f, "in [1e-4, 1000] (metres)");
-    if (value.contains("margin"))
-        v.margin = r.number(value["margin"], p + "/margin", 0.0f, 1e3f, "in [0, 1000] (metres)");
-    // A fixed grid: both origin (minimum corner) and size (edge), instead of the auto-fit.
-    if (value.contains("origin") != value.contains("size"))
-        r.fail(p + (value.contains("origin") ? "/size" : "/origin"),
-               "both \"origin\" and \"size\" for a fixed grid (or neither: auto-fit)", nullptr);
-    if (value.contains("origin")) {
-        v.autoFit = false;
-        v.origin = r.vec3(value["origin"], p + "/origin", -1e4f, 1e4f, "(metres)");
-        v.size = r.number(value["size"], p + "/size", 1e-3f, 1e4f, "in [0.001, 10000] (metres)");
-    }
-    if (value.contains("realAlbedo"))
-        v.realAlbedo = r.number(value["realAlbedo"], p + "/realAlbedo", 0.0f, 1.0f, "in [0, 1]");
-    if (value.contains("jitter")) v.jitter = r.boolean(value["jitter"], p + "/jitter");
-    if (value.contains("temporalBlend"))
-        v.temporalBlend = r.number(value["temporalBlend"], p + "/temporalBlend", 0.0f, 0.95f, "in [0, 0.95]");
-    if (value.contains("seed")) v.seed = std::uint32_t(r.integer(value["seed"], p + "/seed", 0, 1 << 30));
-    return v;
-}
-
-// Ranges as gi::validate(MultiscalePrtSettings) checks them. The cache folder is resolved against the
-// scene's folder; by default "prt-cache" beside the scene (none for a scene parsed from text).
-gi::MultiscalePrtSettings readMultiscalePrt(const Reader& r, const json& value, const std::string& p,
-                                            const std::filesystem::path& baseFolder) {
-    r.object(value, p);
-    r.allowOnly(value, p,
-                {"entryPoints", "walksPerEntry", "maxBounces", "clusters", "basisVectors", "obscuranceDistance",
-                 "obscuranceRays", "minConnectionDistance", "seed", "cache", "cacheDir", "entryLightPoints",
-                 "entryLightFraction", "gatherPoints"});
-    gi::MultiscalePrtSettings v;
-    if (value.contains("entryPoints")) v.entryPoints = r.integer(value["entryPoints"], p + "/entryPoints", 1, 65536);
-    if (value.contains("walksPerEntry"))
-        v.walksPerEntry = r.integer(value["walksPerEntry"], p + "/walksPerEntry", 1, 65536);
-    if (value.contains("maxBounces")) v.maxBounces = r.integer(value["maxBounces"], p + "/maxBounces", 0, 64);
-    if (value.contains("clusters")) v.clusters = r.integer(value["clusters"], p + "/clusters", 1, 65536);
-    if (value.contains("basisVectors")) v.basisVectors = r.integer(value["basisVectors"], p + "/basisVectors", 0, 64);
-    if (value.contains("obscuranceDistance"))
-        v.obscuranceDistance =
-            r.number(value["obscuranceDistance"], p + "/obscuranceDistance", 0.0f, 1e3f, "in [0, 1000] (metres)");
-    if (value.contains("obscuranceRays"))
-        v.obscuranceRays = r.integer(value["obscuranceRays"], p + "/obscuranceRays", 1, 4096);
-    if (value.contains("minConnectionDistance"))
-        v.minConnectionDistance =
-            r.number(value["minConnectionDistance"], p + "/minConnectionDistance", 0.0f, 10.0f, "in [0, 10] (metres)");
-    if (value.contains("seed")) v.seed = std::uint32_t(r.integer(value["seed"], p + "/seed", 0, 1 << 30));
-    if (value.contains("entryLightPoints")) {
-        const json& points = value["entryLightPoints"];
-        if (!points.is_array()) r.fail(p + "/entryLightPoints", "an array of [x, y, z] positions (metres)", &points);
-        for (std::size_t i = 0; i < points.size(); ++i)
-            v.entryLightPoints.push_back(
-                r.vec3(points[i], p + "/entryLightPoints/" + std::to_string(i), -1e4f, 1e4f, "(metres)"));
-    }
-    if (value.contains("entryLightFraction"))
-        v.entryLightFraction = r.number(value["entryLightFraction"], p + "/entryLightFraction", 0.0f, 0.99f,
-                                        "in [0, 0.99] (1 would leave surfaces without entry points)");
-    if (value.contains("gatherPoints"))
-        v.directGatherPoints = r.integer(value["gatherPoints"], p + "/gatherPoints", 0, 1 << 24);
-    const bool cache = value.contains("cache") ? r.boolean(value["cache"], p + "/cache") : true;
-    if (value.contains("cacheDir") && !cache)
-        r.fail(p + "/cacheDir", "no cacheDir with \"cache\": false", &value["cacheDir"]);
-    if (cache && !baseFolder.empty()) {
-        const std::string folder =
-            value.contains("cacheDir") ? r.string(value["cacheDir"], p + "/cacheDir") : std::string("prt-cache");
-        if (folder.empty()) r.fail(p + "/cacheDir", "a folder path (relative to the scene file)", &value["cacheDir"]);
-        v.cacheDirectory = (baseFolder / folder).lexically_normal();
-    }
-    return v;
-}
-
-GiSettings readGi(const Reader& r, const json& value, const std::string& p, const std::filesystem::path& baseFolder) {
-    r.object(value, p);
-    r.allowOnly(value, p,
-                {"technique", "backend", "sparsePoints", "valStride", "kCache", "diffuse", "glossy", "occlusion",
-                 "virtualBounce", "rsmResolution", "budgetMs", "robustRealDepth", "imperfectVolumes", "multiscalePrt",
-                 "valTreeThreshold"});
-    GiSettings g;
-    if (value.contains("technique")) {
-        const std::optional<gi::Technique> technique = gi::parseTechnique(r.string(value["technique"], p + "/technique"));
-        if (!technique) r.fail(p + "/technique", gi::techniqueNames(true), &value["technique"]);
-        g.technique = *technique;
-    }
-    if (value.contains("backend")) {
-        const std::optional<gi::Backend> backend = gi::parseBackend(r.string(value["backend"], p + "/backend"));
-        if (!backend) r.fail(p + "/backend", gi::backendNames(true), &value["backend"]);
-        if (!gi::runsOn(g.technique, *backend))
-            r.fail(p + "/backend", "\"gl\" (the CPU backend exists for technique \"lightskin\" only)",
-                   &value["backend"]);
-        g.backend = *backend;
-    }
-    if (value.contains("sparsePoints")) g.sparsePoints = r.integer(value["sparsePoints"], p + "/sparsePoints", 16, 65536);
-    if (value.contains("valStride")) g.valStride = r.integer(value["valStride"], p + "/valStride", 1, 64);
-    if (value.contains("kCache")) {
-        g.kCache = r.integer(value["kCache"], p + "/kCache", 16, 4096);
-        if (g.kCache % 16 != 0) r.fail(p + "/kCache", "a multiple of 16 (uniform-buffer alignment) in [16, 4096]", &value["kCache"]);
-    }
-    if (value.contains("diffuse")) g.diffuse = r.boolean(value["diffuse"], p + "/diffuse");
-    if (value.contains("glossy")) g.glossy = r.boolean(value["glossy"], p + "/glossy");
-    if (value.contains("occlusion")) g.occlusion = r.boolean(value["occlusion"], p + "/occlusion");
-    if (value.contains("virtualBounce")) g.virtualBounce = r.boolean(value["virtualBounce"], p + "/virtualBounce");
-    if (value.contains("rsmResolution")) g.rsmResolution = r.integer(value["rsmResolution"], p + "/rsmResolution", 8, 256);
-    if (value.contains("budgetMs"))
-        g.budgetMs =
-            double(r.number(value["budgetMs"], p + "/budgetMs", 0.001f, 1.0e6f, "in [0.001, 1e6] (milliseconds)"));
-    if (value.contains("robustRealDepth")) g.robustRealDepth = r.boolean(value["robustRealDepth"], p + "/robustRealDepth");
-    if (value.contains("valTreeThreshold"))
-        g.valTreeThreshold = r.number(value["valTreeThreshold"], p + "/valTreeThreshold", 0.0f, 100.0f, "in [0, 100]");
-    if (value.contains("imperfectVolumes")) {
-        if (g.technique != gi::Technique::ImperfectVolumes)
-            r.fail(p + "/imperfectVolumes", "gi.technique \"imperfect-volumes\" (the key belongs to that technique)",
-                   nullptr);
-        g.imperfectVolumes = readImperfectVolumes(r, value["imperfectVolumes"], p + "/imperfectVolumes");
-    }
-    if (value.contains("multiscalePrt") && g.technique != gi::Technique::MultiscalePrt)
-        r.fail(p + "/multiscalePrt", "gi.technique \"multiscale-prt\" (the key belongs to that technique)", nullptr);
-    // Read also when absent: the default cache folder depends on the scene's folder.
-    g.multiscalePrt = readMultiscalePrt(r, value.contains("multiscalePrt") ? value["multiscalePrt"] : json::object(),
-                                        p + "/multiscalePrt", baseFolder);
-    return g;
-}
-
 } // namespace
 
 glm::mat4 composeTransform(const glm::vec3& translation, const glm::vec3& rotationDegrees, float scale) {
@@ -341,7 +113,7 @@ Scene parseScene(std::string_view text, const std::filesystem::path& baseFolder,
     } catch (const json::exception& error) { // parse_error, and out_of_range for a number that overflows
         throw Error(sourceName, std::nullopt, "not valid JSON: " + jsonErrorCause(error.what()));
     }
-    const Reader r(sourceName, baseFolder);
+    const JsonReader r(sourceName, baseFolder);
     r.object(root, "");
     r.allowOnly(root, "", {"version", "objects", "lights", "gi", "tracking", "exposureStops", "compositing", "description"});
     if (!root.contains("version") || !root["version"].is_number_integer() || root["version"].get<std::int64_t>() != 1)
@@ -360,7 +132,7 @@ Scene parseScene(std::string_view text, const std::filesystem::path& baseFolder,
         if (lights.size() > 4) r.fail("/lights", "at most 4 lights (shadow map budget)", nullptr);
         for (std::size_t i = 0; i < lights.size(); ++i) scene.lights.push_back(readLight(r, lights[i], "/lights/" + std::to_string(i)));
     }
-    scene.gi = readGi(r, root.contains("gi") ? root["gi"] : json::object(), "/gi", baseFolder);
+    scene.gi = gi::readGiSettings(r, root.contains("gi") ? root["gi"] : json::object(), "/gi");
     if (root.contains("tracking")) {
         r.object(root["tracking"], "/tracking");
         scene.trackingJson = root["tracking"].dump();

@@ -3,6 +3,7 @@
 // settings and the one factory. Names and backends: lightskin/gi/common/Technique.h. A technique lives
 // in its own folder (gi/<folder>/); adding one touches that folder, Technique.h and this registry.
 
+#include <lightskin/core/JsonReader.h>
 #include <lightskin/gi/bruteforce/BruteForceIllumination.h>
 #include <lightskin/gi/common/IndirectIllumination.h>
 #include <lightskin/gi/common/SparsePointSampler.h>
@@ -14,6 +15,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <string>
 #include <vector>
 
 namespace lightskin::gi {
@@ -82,6 +84,11 @@ struct TechniqueConfig {
     std::uint32_t volumeShadowCubes = 0;
     std::vector<PrtLight> prtLights;
 };
+
+/// The scene's "gi" object (`value` at JSON pointer `pointer`, usually "/gi"): the common keys here, each
+/// technique's own object by that technique's reader (volumes/ImperfectVolumesJson.h, prt/MultiscalePrtJson.h).
+/// Throws lightskin::Error naming the key.
+GiSettings readGiSettings(const JsonReader& reader, const nlohmann::json& value, const std::string& pointer);
 
 /// The typed settings the scene's "gi" object means (LightSkin's guards from robustRealDepth and the rest),
 /// with the pipeline's adaptive options.
