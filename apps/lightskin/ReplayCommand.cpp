@@ -15,6 +15,7 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
 #include <lightskin/eval/GoldenImage.h>
+#include <lightskin/gi/common/Technique.h>
 #include <lightskin/gl/Context.h>
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/mr/Session.h>
@@ -36,12 +37,21 @@
 #include <numbers>
 #include <set>
 #include <sstream>
+#include <string>
 #include <unistd.h>
 #include <utility>
+#include <vector>
 
 namespace lightskin::apps {
 
 namespace {
+
+/// The backends' spellings as the registry has them (gi/common/Technique.h), for --backend's check.
+std::vector<std::string> backendSpellings() {
+    std::vector<std::string> spellings;
+    for (const gi::Backend backend : gi::kBackends) spellings.emplace_back(gi::toString(backend));
+    return spellings;
+}
 
 struct CompareLabels {
     std::string left, right; ///< the halves' labels
@@ -624,7 +634,7 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
         ->add_option("--backend", args->backend,
                      "LightSkin's stages 0-4 on gl (default: the scene's gi.backend) or cpu (SIMD + threads; shading "
                      "stays on GL)")
-        ->check(oneOf({"gl", "cpu"}));
+        ->check(oneOf(backendSpellings()));
     command->add_flag("--sequential", args->sequential,
                       "Read, depth-filter and track frame n+1 after frame n on one thread (default: on a worker thread "
                       "while frame n renders; the images are the same)");

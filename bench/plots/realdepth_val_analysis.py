@@ -119,7 +119,7 @@ def decompose(args):
     vals = Vals(load_vals(args.stem + "_vals.csv"))
     longer = vals.extended(args.extend)
     try:
-        rows = [r for r in csv.DictReader(open(args.speckle_csv)) if r["technique"] == "bruteforce"]
+        rows = [r for r in csv.DictReader(open(args.speckle_csv)) if r["technique"] == "brute-force"]
     except (OSError, KeyError) as e:
         fail(args.speckle_csv, f"cannot read the speckle pixels ({e})")
     print(f"{int((vals.area > 0).sum())} VALs ({int((vals.area <= 0).sum())} culled); "

@@ -22,6 +22,7 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/eval/ColourSpace.h>
 #include <lightskin/eval/Speckle.h>
+#include <lightskin/gi/common/Technique.h>
 #include <lightskin/gi/reference/IrradianceSensitivity.h>
 #include <lightskin/gi/reference/RayTracedGroundTruth.h>
 #include <lightskin/gl/Context.h>
@@ -294,7 +295,8 @@ void dumpSpecklePixels(std::ofstream& csv, const RgbdFrame& frame, const mr::Fra
                 const double real = frame.depth.type() == CV_16UC1
                                         ? double(frame.depth.at<std::uint16_t>(v, u)) * frame.depthScaleMetres
                                         : double(frame.depth.at<float>(v, u));
-                csv << frame.index << ',' << u << ',' << v << ',' << (lightSkin ? "lightskin" : "bruteforce") << ','
+                const gi::Technique technique = lightSkin ? gi::Technique::LightSkin : gi::Technique::BruteForce;
+                csv << frame.index << ',' << u << ',' << v << ',' << gi::toString(technique) << ','
                     << (lightSkin ? yLs : yBf).at<float>(v, u) << ',' << (lightSkin ? mLs : mBf).at<float>(v, u) << ','
                     << (lightSkin ? yBf : yLs).at<float>(v, u) << ',' << n[0] << ',' << n[1] << ',' << n[2] << ','
                     << out.virtualDepthMetres.at<float>(v, u) << ',' << real << ','

@@ -47,7 +47,7 @@ class Decompose(unittest.TestCase):
             f.writelines(",".join(str(x) for x in r) + "\n" for r in rows)
         self.csv = os.path.join(self.dir.name, "speckle.csv")
         with open(self.csv, "w") as f:
-            f.write("frame,u,v,technique,Y,median5x5\n0,3,4,bruteforce,0,0\n0,3,4,lightskin,0,0\n")
+            f.write("frame,u,v,technique,Y,median5x5\n0,3,4,brute-force,0,0\n0,3,4,lightskin,0,0\n")
 
     def tearDown(self):
         self.dir.cleanup()
