@@ -672,7 +672,7 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
         LIGHTSKIN_ASSERT(instances[m].mesh != nullptr && instances[m].mesh->vertexCount() == impl.sparse[m].vertexNeighbours.size(),
                          "lightskin::gi::LightSkinIllumination::render(): instance mesh differs from prepare()");
 
-    if (impl.sparse.empty()) { // prepared without virtual content: nothing to light
+    if (impl.pointCount == 0) { // prepared without virtual content (prepare() returned early): nothing to light
         glClearTexImage(targetTexture, 0, GL_RGBA, GL_FLOAT, nullptr);
         impl.stageTimes.clear();
         impl.choice = {};
