@@ -5,7 +5,8 @@
 # report's steadyMsPerFrame, measured in the process), and the process's CPU time (user + system, every thread:
 # llvmpipe's, oneTBB's, the prefetch and GI-ahead workers') as (all frames - 1 frame) / (N - 1). Outputs: no video, no
 # comparison, one PNG (--write-frames 0): the pipeline, not the PNG encoder. Differential off (its Embree
-# gather dominates otherwise; docs/BENCHMARKS.md).
+# gather dominates otherwise; docs/BENCHMARKS.md) unless BENCH_DIFFERENTIAL=scene. Recording orbit-moving is
+# synth-orbit with orbit_moving.json (the cube animated): the cost of moving content beside orbit's.
 #
 #   scripts/bench_replay_fps.sh ROUNDS VARIANT=BINARY[:EXTRA_ARGS] ...
 #   e.g. scripts/bench_replay_fps.sh 3 before=../main/build/apps/lightskin:--sequential after=build/apps/lightskin
@@ -21,15 +22,16 @@ trap 'rm -rf "$work"' EXIT
 declare -A recs=(
   [oni]="$repo/tests/data/oni-kinect-v1/3dj_test.oni --scene $repo/recordings/scenes/oni_room.json --pose fixed"
   [orbit]="$repo/recordings/synth-orbit --scene $repo/recordings/scenes/orbit.json --pose tracking"
+  [orbit-moving]="$repo/recordings/synth-orbit --scene $repo/recordings/scenes/orbit_moving.json --pose tracking"
 )
-declare -A frames=([oni]=12 [orbit]=40)
+declare -A frames=([oni]=12 [orbit]=40 [orbit-moving]=40)
 # one timed run: prints "wall_seconds cpu_seconds steady_ms_per_frame"
 run() {
   local binary=$1 extra=$2 rec=$3 backend=$4 n=$5 out="$work/out"
   rm -rf "$out"
   # shellcheck disable=SC2086
   /usr/bin/time -f "%e %U %S" -o "$work/time" "$binary" -q replay ${recs[$rec]} --out "$out" --no-video --no-compare \
-    --write-frames 0 --differential off --backend "$backend" --max-frames "$n" $extra >/dev/null 2>&1
+    --write-frames 0 --differential "${BENCH_DIFFERENTIAL:-off}" --backend "$backend" --max-frames "$n" $extra >/dev/null 2>&1
   # binaries from before the key: -1 (the steady column then shows the N - 1 frames' difference instead)
   steady=$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1])).get("steadyMsPerFrame", -1))' "$out/report.json")
   awk -v steady="$steady" '{print $1, $2 + $3, steady}' "$work/time"

@@ -2,7 +2,8 @@
 # The README's main job: installs what is missing, builds the `lightskin` program only (the tests
 # are built by scripts/build_and_test.sh), and runs the whole design twice, writing to ${1:-out/}:
 #
-# 1. recordings/synth-orbit (40 synthetic frames with exact ground truth) with recordings/scenes/orbit.json:
+# 1. recordings/synth-orbit (40 synthetic frames with exact ground truth) with recordings/scenes/orbit_moving.json
+#    (orbit.json with the cube sliding and turning on the table):
 #    capture -> bilateral depth filter -> AprilTag tracking (the pose source; the scene's tag world
 #    and detector settings) -> VALs from depth -> LightSkin GI -> composite. Outputs in out/:
 #    frames/, compare/ (with GI | without GI), replay.mp4, report.md / report.json with the tracking
@@ -21,7 +22,7 @@ cmake --build "$build_dir" --parallel "$(nproc)" --target lightskin
 program="$build_dir/apps/lightskin"
 # --overwrite: a re-run replaces the previous run's outputs (the replay clears the folder first, so
 # the second replay's folder and doctor.png come after it).
-"$program" replay "$root/recordings/synth-orbit" --scene "$root/recordings/scenes/orbit.json" --pose tracking \
+"$program" replay "$root/recordings/synth-orbit" --scene "$root/recordings/scenes/orbit_moving.json" --pose tracking \
   --out "$out_dir" --overwrite
 "$program" replay "$root/tests/data/oni-kinect-v1/3dj_test.oni" --scene "$root/recordings/scenes/oni_room.json" \
   --pose fixed --out "$out_dir/oni-kinect-v1"

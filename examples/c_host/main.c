@@ -1,6 +1,6 @@
 /* A C host: creates its own headless OpenGL 4.5 context (EGL, surfaceless) and framebuffer, runs
  * a recording through lightskin's C ABI and lets it draw the lit virtual objects into that
- * framebuffer. Checks that the result is not trivial: the pixels that changed are exactly those
+ * framebuffer, sliding the first object 1 cm per frame (lsk_session_set_object_transform). Checks that the result is not trivial: the pixels that changed are exactly those
  * the virtual content covers (as the frame report counts them), the host's framebuffer binding
  * and viewport are as the host left them, and bad input is an error code with a message.
  *   c_host <recording folder> <scene file> [frames]                   prints "c_host ok" */
@@ -82,8 +82,16 @@ int main(int argc, char** argv) {
     unsigned char* pixels = malloc((size_t)camera.width * (size_t)camera.height * 4);
     if (pixels == NULL) return fail("out of memory");
 
+    /* The host moves the first object: it slides 1 cm per frame along the world's x axis. */
+    float start[16];
+    if (lsk_session_object_transform(session, 0, start) != LSK_OK) return fail("lsk_session_object_transform");
     int status = 0;
     for (int f = 0; f < frames && status == 0; ++f) {
+        float placement[16];
+        memcpy(placement, start, sizeof placement);
+        placement[12] += 0.01f * (float)f; /* column-major: the translation is elements 12..14 */
+        if (lsk_session_set_object_transform(session, 0, placement) != LSK_OK)
+            return fail("lsk_session_set_object_transform");
         const lsk_status next = lsk_session_process_next(session);
         if (next == LSK_END_OF_STREAM) break;
         if (next != LSK_OK) return fail("lsk_session_process_next");

@@ -1,6 +1,7 @@
 // A C++ host: owns a headless EGL pbuffer surface (640x240) with a depth buffer, draws its own
 // geometry, and lets lightskin add the lit virtual objects of a recording's frames, which the host
-// reads itself and submits from its own memory with its own pose.
+// reads itself and submits from its own memory with its own pose; it turns the first object a little
+// every frame (Session::setObjectTransform).
 //   left half:  the host's scene -- a far backdrop and a near panel over the left third of the
 //               view, drawn with the session's projection -- plus lightskin's virtual objects,
 //               depth-tested against the host's depth (the panel hides them, the backdrop does not);
@@ -13,6 +14,7 @@
 
 #include <epoxy/egl.h>
 #include <epoxy/gl.h>
+#include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -149,7 +151,13 @@ int run(int argc, char** argv) {
     lightskin::RgbdFrame frame;
     cv::Mat rgb;
     int failures = 0;
+    const glm::mat4 start = session->scene().objects.at(0).world_T_model;
     for (int f = 0; f < frames && source->next(frame); ++f) {
+        // The host moves the first object: it turns 5 degrees per frame about the world's z axis (up) in place.
+        const glm::mat4 turn = glm::rotate(glm::mat4(1.0f), glm::radians(5.0f * float(f)), glm::vec3(0, 0, 1));
+        glm::mat4 placement = turn * start;
+        placement[3] = start[3]; // about the object's own origin
+        session->setObjectTransform(0, placement);
         cv::cvtColor(frame.colour, rgb, cv::COLOR_BGR2RGB);
         mr::HostFrame submitted;
         submitted.rgb = rgb.data;

@@ -11,6 +11,7 @@
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/gl/Readback.h>
 #include <lightskin/mr/FramePipeline.h>
+#include <lightskin/mr/SceneContent.h>
 #include <lightskin/tracking/TagWorld.h>
 
 #include <epoxy/gl.h>
@@ -388,7 +389,7 @@ struct GiAhead {
 
     // The caller's side: what it did for the frame of PreparedFrame::sequence `sequence` under `generation`.
     enum class Stage { None, ValsReady, Launched, ValsFailed } stage = Stage::None;
-    std::uint64_t sequence = 0, generation = 0;
+    std::uint64_t sequence = 0, generation = 0, contentVersion = 0;
     GiJob next;                   // ValsReady: the job launch() hands over
     std::exception_ptr valsError; // ValsFailed: thrown by that frame's render()
     double valsMs = 0.0;          // that frame's VALs and their cull, on the caller's thread
@@ -439,7 +440,14 @@ struct GiAhead {
 } // namespace
 
 struct FramePipeline::State {
-    const render::Scene* scene = nullptr;
+    /// The virtual content as it is now: the scene file's, with the host's changes and, each frame, the
+    /// animations' placements and light values written into world_T_model and the lights.
+    render::Scene scene;
+    AnimationClock clock;
+    bool contentPending = false;      // the host changed a placement or light: applied at the next frame
+    double contentMs = -1.0;          // this frame's placing of moving content (FrameOutput "content"), -1: none
+    std::uint64_t contentVersion = 0; // +1 whenever a placement or the instance set changes: a GI ahead of
+                                      // an older version is not used
     capture::FrameSourceInfo source;
     std::unique_ptr<gi::IndirectIllumination> technique;
     std::optional<tracking::PoseTracker> tracker;
@@ -506,7 +514,7 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
     std::unique_ptr<FramePipeline> p(new FramePipeline());
     p->state_ = std::make_unique<State>();
     State& s = *p->state_;
-    s.scene = &scene;
+    s.scene = scene;
     s.source = source;
     p->options_ = options;
     p->gi_ = scene.gi;
@@ -549,12 +557,7 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
                   std::to_string(rsm.resolution) + "^2 per face, " + std::to_string(s.merger->capacity()) +
                   " VALs merged at most");
     }
-    if (scene.compositing.differential && s.valsUsable && !scene.objects.empty()) {
-        s.differential = gi::DifferentialIrradiance::create(p->renderer_->instances());
-        const std::vector<gi::VirtualLight> lights = virtualLightsFromScene(scene);
-        for (std::size_t i = 0; i < lights.size(); ++i)
-            s.differentialLights.push_back({lights[i], scene.lights[i].inRoom});
-    }
+    p->rebuildDifferential();
     p->setGiSettings(scene.gi);
     gl::DebugOutput::throwIfErrors("pipeline creation");
     return p;
@@ -575,7 +578,7 @@ void FramePipeline::createValGenerator(int stride) {
     gi::ValGeneratorSettings settings;
     settings.stride = stride;
     // The camera's exposure: a linear pixel value p is radiance p / 2^exposureStops.
-    settings.exposure = std::exp2(-s.scene->exposureStops);
+    settings.exposure = std::exp2(-s.scene.exposureStops);
     settings.skipUnchangedInput = options_.adaptive; // keeps the VAL generation for a paused recording
     s.vals = gi::ValGenerator::create(colour.width, colour.height, settings);
     s.valStride = stride;
@@ -591,7 +594,7 @@ void FramePipeline::setGiSettings(const render::GiSettings& settings) {
     // budget switches with hysteresis), not per frame.
     if (st.vals && settings.valStride != st.valStride) createValGenerator(settings.valStride);
     if (gi::needsSparsePoints(settings.technique) && settings.sparsePoints != st.preparedSparsePoints) {
-        render::Scene scene = *st.scene;
+        render::Scene scene = st.scene;
         scene.gi.sparsePoints = settings.sparsePoints;
         renderer_->setScene(scene, true);
         st.preparedSparsePoints = settings.sparsePoints;
@@ -605,13 +608,166 @@ void FramePipeline::setGiSettings(const render::GiSettings& settings) {
     gi::TechniqueConfig config = gi::configFor(settings, adaptive);
     // Imperfect volumes' mesh points carry the scene lights' direct light, shadowed by the renderer's own
     // shadow maps; multi-scale PRT takes them at its entry points (lights are static: set once per technique).
-    config.volumeLights = volumeLightsFromScene(*st.scene);
+    config.volumeLights = volumeLightsFromScene(st.scene);
     config.volumeShadowCubes = renderer_->shadowMapTexture();
-    config.prtLights = prtLightsFromScene(*st.scene);
+    config.prtLights = prtLightsFromScene(st.scene);
     st.technique = gi::createTechnique(config, sparsePointsOf(*renderer_));
     // A scene without virtual objects is valid (the real room alone): GI has nothing to light and stays
     // idle (runGi), so the technique is not prepared for nothing.
     if (!renderer_->instances().empty()) st.technique->prepare(renderer_->instances());
+}
+
+// ---- moving content ------------------------------------------------------------------------------
+
+void FramePipeline::rebuildDifferential() {
+    State& s = *state_;
+    s.differential.reset();
+    s.differentialLights.clear();
+    if (!(s.scene.compositing.differential && s.valsUsable && !renderer_->instances().empty())) return;
+    s.differential = gi::DifferentialIrradiance::create(renderer_->instances());
+    const std::vector<gi::VirtualLight> lights = virtualLightsFromScene(s.scene);
+    for (std::size_t i = 0; i < lights.size(); ++i) s.differentialLights.push_back({lights[i], s.scene.lights[i].inRoom});
+}
+
+namespace {
+bool animated(const render::Scene& scene) {
+    return std::any_of(scene.objects.begin(), scene.objects.end(), [](const auto& o) { return o.animation.has_value(); }) ||
+           std::any_of(scene.lights.begin(), scene.lights.end(), [](const auto& l) { return l.animation.has_value(); });
+}
+} // namespace
+
+void FramePipeline::applyContentAt(double timeSeconds) {
+    State& s = *state_;
+    s.contentMs = -1.0;
+    if (!s.contentPending && !animated(s.scene)) return;
+    const auto start = Clock::now();
+    s.contentPending = false;
+    s.giAhead.waitIdle(); // its job reads the renderer's instances, placed below
+    sampleAnimations(s.scene, timeSeconds);
+    bool moved = false;
+    for (std::size_t i = 0; i < s.scene.objects.size(); ++i)
+        moved = renderer_->setObjectPlacement(i, s.scene.objects[i].world_T_model) || moved;
+    const bool lightsChanged = renderer_->setLights(s.scene.lights);
+    if (moved) contentMoved();
+    if (lightsChanged) lightsMoved();
+    s.contentMs = msSince(start);
+}
+
+void FramePipeline::contentMoved() {
+    State& s = *state_;
+    ++s.contentVersion;
+    // The differential's occluders are placed in its Embree scene (a rebuild: docs/BENCHMARKS.md, moving content).
+    if (s.differential) s.differential = gi::DifferentialIrradiance::create(renderer_->instances());
+    if (s.technique->capabilities().placementInPrepare && !renderer_->instances().empty()) {
+        s.giAhead.drop();
+        s.technique->prepare(renderer_->instances());
+    }
+}
+
+void FramePipeline::lightsMoved() {
+    State& s = *state_;
+    ++s.contentVersion;
+    const std::vector<gi::VirtualLight> lights = virtualLightsFromScene(s.scene);
+    if (s.rsm) s.virtualLights = lights;
+    for (std::size_t i = 0; i < s.differentialLights.size(); ++i) s.differentialLights[i].light = lights[i];
+    if (s.technique->capabilities().sceneLightsAtCreation) setGiSettings(gi_); // created with the new lights
+}
+
+void FramePipeline::instancesChanged() {
+    State& s = *state_;
+    s.giAhead.drop(); // its job reads the old instances
+    ++s.contentVersion;
+    s.bruteForce.reset(); // prepared for the old instances
+    rebuildDifferential();
+    if (!renderer_->instances().empty()) s.technique->prepare(renderer_->instances());
+}
+
+const render::Scene& FramePipeline::scene() const noexcept { return state_->scene; }
+
+std::string FramePipeline::sourceName() const {
+    return state_->scene.file.empty() ? std::string("scene") : state_->scene.file.string();
+}
+
+void FramePipeline::checkObjectIndex(std::size_t object) const {
+    const std::size_t count = state_->scene.objects.size();
+    if (object >= count)
+        throw Error(sourceName(), std::nullopt,
+                    "object " + std::to_string(object) + ": no such object (the scene has " + std::to_string(count) + ")");
+}
+
+void FramePipeline::setObjectTransform(std::size_t object, const glm::mat4& world_T_model) {
+    checkObjectIndex(object);
+    checkPlacement(world_T_model, sourceName(), "object " + std::to_string(object));
+    render::SceneObject& o = state_->scene.objects[object];
+    o.animation.reset(); // the host drives it from now on
+    o.world_T_model = world_T_model;
+    state_->contentPending = true;
+}
+
+void FramePipeline::setObjectVisible(std::size_t object, bool visible) {
+    checkObjectIndex(object);
+    state_->giAhead.drop(); // its job reads the renderer's instances
+    state_->scene.objects[object].visible = visible;
+    if (renderer_->setObjectVisible(object, visible)) instancesChanged();
+}
+
+void FramePipeline::setObjectMaterial(std::size_t object, const render::MaterialOverride& material) {
+    checkObjectIndex(object);
+    checkMaterial(material, sourceName(), "object " + std::to_string(object));
+    render::MaterialOverride& m = state_->scene.objects[object].material;
+    m.diffuseAlbedo = material.diffuseAlbedo;
+    m.specularAlbedo = material.specularAlbedo;
+    m.specularExponent = material.specularExponent;
+    state_->giAhead.drop(); // its job reads the renderer's instances
+    renderer_->setObjectMaterial(object, m);
+    ++state_->contentVersion;
+    if (state_->differential) state_->differential = gi::DifferentialIrradiance::create(renderer_->instances()); // its emitters' albedo
+}
+
+void FramePipeline::setLight(std::size_t light, const glm::vec3& position, const glm::vec3& direction,
+                             const glm::vec3& power) {
+    State& s = *state_;
+    const std::string what = "light " + std::to_string(light);
+    if (light >= s.scene.lights.size())
+        throw Error(sourceName(), std::nullopt,
+                    what + ": no such light (the scene has " + std::to_string(s.scene.lights.size()) + ")");
+    render::SceneLight l = s.scene.lights[light];
+    l.position = position;
+    l.power = power;
+    if (l.type == render::LightType::Spot) l.direction = direction;
+    checkLightValues(l, sourceName(), what);
+    if (l.type == render::LightType::Spot) l.direction = glm::normalize(l.direction);
+    l.animation.reset(); // the host drives it from now on
+    s.scene.lights[light] = l;
+    s.contentPending = true;
+}
+
+std::size_t FramePipeline::addObject(render::SceneObject object) {
+    State& s = *state_;
+    const std::string what = "new object '" + object.name + "'";
+    if (object.name.empty()) throw Error(sourceName(), std::nullopt, "new object: a name is required");
+    if (object.animation && object.animation->keys.empty())
+        throw Error(sourceName(), std::nullopt, what + ": an animation needs at least one key");
+    checkPlacement(object.animation ? render::sampleTransform(*object.animation, 0.0) : object.world_T_model,
+                   sourceName(), what);
+    checkMaterial(object.material, sourceName(), what);
+    if (!std::filesystem::is_regular_file(object.mesh))
+        throw Error(object.mesh.string(), std::nullopt, what + ": the mesh file does not exist");
+    if (object.material.diffuseTexture && !std::filesystem::is_regular_file(*object.material.diffuseTexture))
+        throw Error(object.material.diffuseTexture->string(), std::nullopt, what + ": the texture file does not exist");
+    s.giAhead.drop(); // its job reads the renderer's instances
+    renderer_->addObject(object, object.mesh.string()); // throws before changing anything
+    s.scene.objects.push_back(std::move(object));
+    instancesChanged();
+    return s.scene.objects.size() - 1;
+}
+
+void FramePipeline::removeObject(std::size_t object) {
+    checkObjectIndex(object);
+    state_->giAhead.drop(); // its job reads the renderer's instances
+    renderer_->removeObject(object);
+    state_->scene.objects.erase(state_->scene.objects.begin() + std::ptrdiff_t(object));
+    instancesChanged();
 }
 
 void FramePipeline::applyDifferential(const RgbdFrame& frame, const cv::Mat& depthMetres, const Pose& world_T_camera,
@@ -623,7 +779,7 @@ void FramePipeline::applyDifferential(const RgbdFrame& frame, const cv::Mat& dep
         gi::downloadValsInto(depthVals, s.depthValsOnCpu);
     s.differential->compute(depthMetres, frame.colourIntrinsics, world_T_camera, s.depthValsOnCpu, s.differentialLights,
                             s.differentialImages);
-    render::applyDifferentialInto(frame.colour, s.differentialImages, s.scene->exposureStops, s.cameraWithDifferential);
+    render::applyDifferentialInto(frame.colour, s.differentialImages, s.scene.exposureStops, s.cameraWithDifferential);
     out.differentialReceivers = s.differentialImages.receiversGathered;
     out.differentialPixels = cv::countNonZero(s.differentialImages.affected);
 }
@@ -706,6 +862,7 @@ struct FramePipeline::FrameWork {
 
 void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared, FrameOutput& out, NextFrame* next) {
     FrameWork w(frame, prepared, out);
+    applyContentAt(state_->clock.timeOf(frame));
     beginFrame(w);
     if (!out.world_T_camera) {
         passThrough(w);
@@ -753,6 +910,7 @@ void FramePipeline::beginFrame(FrameWork& w) {
     out.tracking = w.prepared.tracking;
     out.world_T_camera = out.tracking.world_T_camera;
     addTime(out.cpuTimes, w.usedTimes, "pose", w.prepared.poseMs);
+    if (state_->contentMs >= 0.0) addTime(out.cpuTimes, w.usedTimes, "content", state_->contentMs);
 }
 
 // Lost: nothing virtual can be placed; the frame passes through unchanged.
@@ -810,7 +968,8 @@ void FramePipeline::makeVals(FrameWork& w) {
     GiAhead& ahead = s.giAhead;
     const bool aheadForThisFrame =
         (ahead.stage == GiAhead::Stage::Launched || ahead.stage == GiAhead::Stage::ValsFailed) &&
-        ahead.sequence == w.prepared.sequence && ahead.generation == s.generation;
+        ahead.sequence == w.prepared.sequence && ahead.generation == s.generation &&
+        ahead.contentVersion == s.contentVersion; // placed as this frame's content
     w.useAhead = aheadForThisFrame && haveDepth && w.valsOnCpu && s.vals && s.cpuVals[w.prepared.sequence % 2] &&
                  options_.overlay != Overlay::VertexVpls;
     if (!w.useAhead) ahead.waitIdle();
@@ -911,6 +1070,7 @@ void FramePipeline::makeNextFrameVals(FrameWork& w, NextFrame* next) {
     const auto valsStart = Clock::now();
     ahead.sequence = nextPrepared->sequence;
     ahead.generation = s.generation;
+    ahead.contentVersion = s.contentVersion;
     try {
         const gi::CpuValGenerator& generator =
             generateCpuVals(nextPrepared->sequence, *nextFrame, depth, pose, w.cpuTechnique->threads());
@@ -993,7 +1153,7 @@ void FramePipeline::composite(FrameWork& w) {
     w.compositeStart = Clock::now();
     w.realDepth = w.prepared.haveDepth ? w.prepared.depthMetres : cv::Mat();
     w.shade = render::ShadeOptions{.includeIndirect = w.runGi,
-                                   .exposureStops = s.scene->exposureStops,
+                                   .exposureStops = s.scene.exposureStops,
                                    .view = options_.view,
                                    .linearOutput = options_.linearComposite};
     r.shade(w.shade);
@@ -1026,7 +1186,7 @@ void FramePipeline::composite(FrameWork& w) {
     if ((options_.linearIndirect || options_.referenceIndirect) && w.runGi) {
         r.readIndirectInto(s.indirectTechnique);
         cv::cvtColor(s.indirectTechnique, out.linearIndirect, cv::COLOR_RGBA2BGR);
-        out.linearIndirect.convertTo(out.linearIndirect, -1, double(std::exp2(s.scene->exposureStops)));
+        out.linearIndirect.convertTo(out.linearIndirect, -1, double(std::exp2(s.scene.exposureStops)));
     }
 }
 
@@ -1052,7 +1212,7 @@ void FramePipeline::renderReferenceIndirect(FrameWork& w) {
     if (!w.runGi) return;
     renderBruteForce(w);
     cv::cvtColor(s.indirectReference, out.linearIndirectReference, cv::COLOR_RGBA2BGR);
-    out.linearIndirectReference.convertTo(out.linearIndirectReference, -1, double(std::exp2(s.scene->exposureStops)));
+    out.linearIndirectReference.convertTo(out.linearIndirectReference, -1, double(std::exp2(s.scene.exposureStops)));
 }
 
 // The brute force into the renderer's indirect target, read back into State::indirectReference.

@@ -75,18 +75,17 @@ std::unique_ptr<Session> Session::createWith(const SessionOptions& options, cons
     std::unique_ptr<Session> s(new Session());
     s->options_ = options;
     s->camera_ = info.colourIntrinsics;
-    s->scene_ = std::make_unique<render::Scene>(
-        input.json.empty() ? render::loadScene(input.file)
-                           : render::parseScene(input.json, input.baseFolder, "in-memory scene"));
+    render::Scene scene = input.json.empty() ? render::loadScene(input.file)
+                                             : render::parseScene(input.json, input.baseFolder, "in-memory scene");
     if (options.prtCacheDirectory)
-        s->scene_->gi.multiscalePrt.cacheDirectory = options.prtCacheDirectory->lexically_normal();
-    const double budgetMs = options.budgetMs > 0.0 ? options.budgetMs : s->scene_->gi.budgetMs;
-    if (budgetMs > 0.0 && s->scene_->gi.technique == gi::Technique::None) {
+        scene.gi.multiscalePrt.cacheDirectory = options.prtCacheDirectory->lexically_normal();
+    const double budgetMs = options.budgetMs > 0.0 ? options.budgetMs : scene.gi.budgetMs;
+    if (budgetMs > 0.0 && scene.gi.technique == gi::Technique::None) {
         log::warning("frame budget: the scene's technique is \"none\"; no budget applies");
     }
-    s->pipeline_ = FramePipeline::create(*s->scene_, info, options.pipeline);
+    s->pipeline_ = FramePipeline::create(scene, info, options.pipeline);
     s->applied_ = qualityOf(s->pipeline_->giSettings());
-    if (budgetMs > 0.0 && s->scene_->gi.technique != gi::Technique::None) {
+    if (budgetMs > 0.0 && scene.gi.technique != gi::Technique::None) {
         BudgetOptions budget = options.budget;
         budget.budgetMs = budgetMs;
         s->budget_.emplace(budget, sceneNeeds(s->pipeline_->renderer().instances()), s->applied_);
@@ -311,6 +310,19 @@ void Session::render(const RenderTarget& target) {
     glDrawArrays(GL_TRIANGLES, 0, 3);
     if (target.texture != 0) glNamedFramebufferTexture(g.textureTarget.id(), GL_COLOR_ATTACHMENT0, 0, 0);
 }
+
+void Session::setObjectTransform(std::size_t object, const glm::mat4& world_T_model) {
+    pipeline_->setObjectTransform(object, world_T_model);
+}
+void Session::setObjectVisible(std::size_t object, bool visible) { pipeline_->setObjectVisible(object, visible); }
+void Session::setObjectMaterial(std::size_t object, const render::MaterialOverride& material) {
+    pipeline_->setObjectMaterial(object, material);
+}
+void Session::setLight(std::size_t light, const glm::vec3& position, const glm::vec3& direction, const glm::vec3& power) {
+    pipeline_->setLight(light, position, direction, power);
+}
+std::size_t Session::addObject(render::SceneObject object) { return pipeline_->addObject(std::move(object)); }
+void Session::removeObject(std::size_t object) { pipeline_->removeObject(object); }
 
 void Session::setBudgetMs(double budgetMs) {
     pipeline_->setGiAhead(false); // see processNext()

@@ -31,7 +31,9 @@ struct Renderer::Object {
     TriangleMesh mesh;
     GpuMesh gpu;
     Material material;
+    Material ownMaterial; ///< the mesh file's (and the scene's texture), before the scene's or host's override
     glm::mat4 world_T_model{1.0f};
+    bool visible = true;
     glm::vec3 modelMin{0.0f}, modelMax{0.0f}; ///< the mesh's bounding box, model frame
     gl::Texture texture; ///< empty when the material has none
     std::optional<gi::SparsePointSet> sparse;
@@ -138,71 +140,166 @@ const gi::SparsePointSet* Renderer::sparsePoints(std::uint32_t meshId) const noe
     return &*objects_[meshId]->sparse;
 }
 
+namespace {
+
+void applyOverride(const MaterialOverride& o, Material& m) {
+    if (o.diffuseAlbedo) m.diffuseAlbedo = *o.diffuseAlbedo;
+    if (o.specularAlbedo) m.specularAlbedo = *o.specularAlbedo;
+    if (o.specularExponent) m.specularExponent = *o.specularExponent;
+}
+
+} // namespace
+
+std::vector<std::unique_ptr<Renderer::Object>> Renderer::loadParts(const SceneObject& so, const std::string& source,
+                                                                   const std::string& pointer) {
+    LoadedModel model;
+    try {
+        model = loadModel(so.mesh);
+    } catch (const Error& error) {
+        throw Error(source, std::nullopt, pointer + " ('" + so.name + "'): " + error.what());
+    }
+    if (const std::string warning = openBoundaryWarning(so.mesh.string(), model.report);
+        !warning.empty() && std::find(warnedOpen_.begin(), warnedOpen_.end(), so.mesh) == warnedOpen_.end()) {
+        log::warning(warning); // once per model file, however many objects use it
+        warnedOpen_.push_back(so.mesh);
+    }
+    double totalArea = 0.0;
+    for (const MeshPart& part : model.parts) totalArea += gi::surfaceArea(part.mesh);
+    std::vector<std::unique_ptr<Object>> parts;
+    for (std::size_t partIndex = 0; partIndex < model.parts.size(); ++partIndex) {
+        MeshPart& part = model.parts[partIndex];
+        auto object = std::make_unique<Object>();
+        if (sparsePointsPerObject_ > 0) {
+            gi::SparsePointSettings settings;
+            const double share = totalArea > 0.0 ? gi::surfaceArea(part.mesh) / totalArea : 1.0;
+            settings.pointCount = std::clamp(int(std::lround(share * double(sparsePointsPerObject_))), 16, 65536);
+            object->sparse = gi::prepareSparsePoints(part.mesh, settings,
+                                                     so.name + " part " + std::to_string(partIndex) + " (" + so.mesh.string() + ")");
+        }
+        object->ownMaterial = part.material;
+        if (so.material.diffuseTexture) object->ownMaterial.diffuseTexture = so.material.diffuseTexture->string();
+        object->material = object->ownMaterial;
+        applyOverride(so.material, object->material);
+        if (!object->material.diffuseTexture.empty()) {
+            if (part.mesh.texcoords.empty()) {
+                log::warning(so.mesh.string() + ": texture " + object->material.diffuseTexture + " ignored: no texture coordinates");
+                object->material.diffuseTexture.clear();
+            } else {
+                object->texture = loadTexture(object->material.diffuseTexture);
+            }
+        }
+        object->world_T_model = so.world_T_model;
+        object->visible = so.visible;
+        object->mesh = std::move(part.mesh);
+        if (!object->mesh.positions.empty()) {
+            object->modelMin = object->modelMax = object->mesh.positions.front();
+            for (const glm::vec3& position : object->mesh.positions) {
+                object->modelMin = glm::min(object->modelMin, position);
+                object->modelMax = glm::max(object->modelMax, position);
+            }
+        }
+        object->gpu = GpuMesh::create(object->mesh, so.mesh.string());
+        parts.push_back(std::move(object));
+    }
+    return parts;
+}
+
 void Renderer::setScene(const Scene& scene, bool prepareSparsePoints) {
     objects_.clear();
+    objectParts_.clear();
     instances_.clear();
+    warnedOpen_.clear();
+    sparsePointsPerObject_ = prepareSparsePoints ? scene.gi.sparsePoints : 0;
     const std::string sceneName = scene.file.empty() ? std::string("scene") : scene.file.string();
-    std::vector<std::filesystem::path> warnedOpen; // once per model file, however many objects use it
     for (std::size_t i = 0; i < scene.objects.size(); ++i) {
-        const SceneObject& so = scene.objects[i];
-        LoadedModel model;
-        try {
-            model = loadModel(so.mesh);
-        } catch (const Error& error) {
-            throw Error(sceneName, std::nullopt, "/objects/" + std::to_string(i) + "/mesh ('" + so.name + "'): " + error.what());
-        }
-        if (const std::string warning = openBoundaryWarning(so.mesh.string(), model.report);
-            !warning.empty() && std::find(warnedOpen.begin(), warnedOpen.end(), so.mesh) == warnedOpen.end()) {
-            log::warning(warning);
-            warnedOpen.push_back(so.mesh);
-        }
-        double totalArea = 0.0;
-        for (const MeshPart& part : model.parts) totalArea += gi::surfaceArea(part.mesh);
-        for (std::size_t partIndex = 0; partIndex < model.parts.size(); ++partIndex) {
-            MeshPart& part = model.parts[partIndex];
-            auto object = std::make_unique<Object>();
-            if (prepareSparsePoints) {
-                gi::SparsePointSettings settings;
-                const double share = totalArea > 0.0 ? gi::surfaceArea(part.mesh) / totalArea : 1.0;
-                settings.pointCount = std::clamp(int(std::lround(share * double(scene.gi.sparsePoints))), 16, 65536);
-                object->sparse = gi::prepareSparsePoints(part.mesh, settings,
-                                                         so.name + " part " + std::to_string(partIndex) + " (" + so.mesh.string() + ")");
-            }
-            object->material = part.material;
-            const MaterialOverride& o = so.material;
-            if (o.diffuseAlbedo) object->material.diffuseAlbedo = *o.diffuseAlbedo;
-            if (o.specularAlbedo) object->material.specularAlbedo = *o.specularAlbedo;
-            if (o.specularExponent) object->material.specularExponent = *o.specularExponent;
-            if (o.diffuseTexture) object->material.diffuseTexture = o.diffuseTexture->string();
-            if (!object->material.diffuseTexture.empty()) {
-                if (part.mesh.texcoords.empty()) {
-                    log::warning(so.mesh.string() + ": texture " + object->material.diffuseTexture + " ignored: no texture coordinates");
-                    object->material.diffuseTexture.clear();
-                } else {
-                    object->texture = loadTexture(object->material.diffuseTexture);
-                }
-            }
-            object->world_T_model = so.world_T_model;
-            object->mesh = std::move(part.mesh);
-            if (!object->mesh.positions.empty()) {
-                object->modelMin = object->modelMax = object->mesh.positions.front();
-                for (const glm::vec3& position : object->mesh.positions) {
-                    object->modelMin = glm::min(object->modelMin, position);
-                    object->modelMax = glm::max(object->modelMax, position);
-                }
-            }
-            object->gpu = GpuMesh::create(object->mesh, so.mesh.string());
-            objects_.push_back(std::move(object));
-        }
+        std::vector<std::unique_ptr<Object>> parts =
+            loadParts(scene.objects[i], sceneName, "/objects/" + std::to_string(i) + "/mesh");
+        objectParts_.emplace_back(objects_.size(), parts.size());
+        for (auto& part : parts) objects_.push_back(std::move(part));
     }
-    for (std::size_t i = 0; i < objects_.size(); ++i) {
-        const Object& o = *objects_[i];
-        instances_.push_back({std::uint32_t(i), &o.mesh, o.gpu.view(), o.world_T_model, o.material});
-    }
+    rebuildInstances();
+    if (scene.lights.size() > std::size_t(kMaxLights)) throw Error(sceneName, std::nullopt, "/lights: more than 4 lights");
     lights_ = scene.lights;
-    if (lights_.size() > std::size_t(kMaxLights)) throw Error(sceneName, std::nullopt, "/lights: more than 4 lights");
     renderShadowMaps();
     gl::DebugOutput::throwIfErrors("scene upload");
+}
+
+void Renderer::rebuildInstances() {
+    instances_.clear();
+    for (std::size_t i = 0; i < objects_.size(); ++i) {
+        const Object& o = *objects_[i];
+        if (o.visible) instances_.push_back({std::uint32_t(i), &o.mesh, o.gpu.view(), o.world_T_model, o.material});
+    }
+}
+
+bool Renderer::setObjectPlacement(std::size_t object, const glm::mat4& world_T_model) {
+    LIGHTSKIN_ASSERT(object < objectParts_.size(), "scene object index out of range");
+    const auto [first, count] = objectParts_[object];
+    if (count == 0 || objects_[first]->world_T_model == world_T_model) return false;
+    for (std::size_t i = first; i < first + count; ++i) objects_[i]->world_T_model = world_T_model;
+    for (gi::MeshInstance& instance : instances_)
+        if (instance.meshId >= first && instance.meshId < first + count) instance.world_T_model = world_T_model;
+    shadowsStale_ = true;
+    return true;
+}
+
+bool Renderer::setObjectVisible(std::size_t object, bool visible) {
+    LIGHTSKIN_ASSERT(object < objectParts_.size(), "scene object index out of range");
+    const auto [first, count] = objectParts_[object];
+    if (count == 0 || objects_[first]->visible == visible) return false;
+    for (std::size_t i = first; i < first + count; ++i) objects_[i]->visible = visible;
+    rebuildInstances();
+    shadowsStale_ = true;
+    return true;
+}
+
+void Renderer::setObjectMaterial(std::size_t object, const MaterialOverride& material) {
+    LIGHTSKIN_ASSERT(object < objectParts_.size(), "scene object index out of range");
+    const auto [first, count] = objectParts_[object];
+    for (std::size_t i = first; i < first + count; ++i) {
+        Object& o = *objects_[i];
+        const std::string texture = o.material.diffuseTexture; // kept: only the albedos and exponent change
+        o.material = o.ownMaterial;
+        applyOverride(material, o.material);
+        o.material.diffuseTexture = texture;
+    }
+    for (gi::MeshInstance& instance : instances_) instance.material = objects_[instance.meshId]->material;
+}
+
+bool Renderer::setLights(std::span<const SceneLight> lights) {
+    LIGHTSKIN_ASSERT(lights.size() == lights_.size(), "setLights() changes the scene's lights, not their count");
+    bool changed = false;
+    for (std::size_t i = 0; i < lights.size(); ++i) {
+        SceneLight& l = lights_[i];
+        changed = changed || l.position != lights[i].position || l.direction != lights[i].direction ||
+                  l.power != lights[i].power;
+        l.position = lights[i].position;
+        l.direction = lights[i].direction;
+        l.power = lights[i].power;
+    }
+    shadowsStale_ = shadowsStale_ || changed;
+    return changed;
+}
+
+void Renderer::addObject(const SceneObject& object, const std::string& source) {
+    std::vector<std::unique_ptr<Object>> parts = loadParts(object, source, "mesh");
+    objects_.reserve(objects_.size() + parts.size());
+    objectParts_.emplace_back(objects_.size(), parts.size());
+    for (auto& part : parts) objects_.push_back(std::move(part));
+    rebuildInstances();
+    shadowsStale_ = true;
+    gl::DebugOutput::throwIfErrors("object upload");
+}
+
+void Renderer::removeObject(std::size_t object) {
+    LIGHTSKIN_ASSERT(object < objectParts_.size(), "scene object index out of range");
+    const auto [first, count] = objectParts_[object];
+    objects_.erase(objects_.begin() + std::ptrdiff_t(first), objects_.begin() + std::ptrdiff_t(first + count));
+    objectParts_.erase(objectParts_.begin() + std::ptrdiff_t(object));
+    for (auto& [start, n] : objectParts_)
+        if (start > first) start -= count;
+    rebuildInstances();
+    shadowsStale_ = true;
 }
 
 std::size_t Renderer::triangleCount() const noexcept {
@@ -212,6 +309,7 @@ std::size_t Renderer::triangleCount() const noexcept {
 }
 
 void Renderer::renderShadowMaps() {
+    shadowsStale_ = false;
     const int s = options_.shadowMapSize;
     // Standard cube face orientations (GL spec table 8.19 sampling directions).
     const glm::vec3 targets[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
@@ -232,6 +330,7 @@ void Renderer::renderShadowMaps() {
             glClearNamedFramebufferfi(shadowFramebuffer_.id(), GL_DEPTH_STENCIL, 0, 1.0f, 0);
             setMat4(shadowProgram_, "clip_T_world", projection * glm::lookAt(position, position + targets[face], ups[face]));
             for (const auto& o : objects_) {
+                if (!o->visible) continue;
                 setMat4(shadowProgram_, "world_T_model", o->world_T_model);
                 o->gpu.draw();
             }
@@ -241,6 +340,7 @@ void Renderer::renderShadowMaps() {
 }
 
 void Renderer::renderGBuffer(const Pose& world_T_camera) {
+    if (shadowsStale_) renderShadowMaps(); // content moved: before the frame's timer (its own cost)
     timer_.beginFrame();
     timer_.begin("gbuffer");
     const glm::mat4 clip_T_world = clipFromWorldAt(world_T_camera);
@@ -272,6 +372,7 @@ void Renderer::renderGBuffer(const Pose& world_T_camera) {
     setMat4(gbufferProgram_, "clip_T_world", clip_T_world);
     const GLuint p = gbufferProgram_.id();
     for (const auto& o : objects_) {
+        if (!o->visible) continue;
         setMat4(gbufferProgram_, "world_T_model", o->world_T_model);
         gi::setFrontFaceFor(o->world_T_model); // gl_FrontFacing: the G-buffer's back-face flag
         const glm::mat3 normalMatrix = glm::inverseTranspose(glm::mat3(o->world_T_model));
@@ -298,7 +399,10 @@ glm::ivec4 Renderer::coveredWindowRect(const glm::mat4& clip_T_world) const {
     const glm::ivec4 all(0, 0, intrinsics_.width, intrinsics_.height);
     double lo[2] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
     double hi[2] = {-lo[0], -lo[1]};
+    bool any = false;
     for (const auto& o : objects_) {
+        if (!o->visible) continue;
+        any = true;
         const glm::mat4 clip_T_model = clip_T_world * o->world_T_model;
         for (int corner = 0; corner < 8; ++corner) {
             const glm::vec3 p((corner & 1) != 0 ? o->modelMax.x : o->modelMin.x,
@@ -315,7 +419,7 @@ glm::ivec4 Renderer::coveredWindowRect(const glm::mat4& clip_T_world) const {
             }
         }
     }
-    if (objects_.empty()) return glm::ivec4(0);
+    if (!any) return glm::ivec4(0);
     // The triangles lie in the boxes, so their pixels (centres inside a projected triangle) lie in the
     // projected corners' bounding rectangle; one pixel of margin covers float rounding of the projection.
     const auto clampTo = [](double v, int size) { return int(std::clamp(v, 0.0, double(size))); };

@@ -30,6 +30,29 @@ MaterialOverride readMaterial(const JsonReader& r, const json& value, const std:
     return m;
 }
 
+constexpr std::size_t kMaxAnimationKeys = 100000;
+
+const json& readKeyArray(const JsonReader& r, const json& animation, const std::string& p) {
+    if (!animation.contains("keys")) r.fail(p + "/keys", "an array of at least one key", nullptr);
+    const json& keys = animation["keys"];
+    if (!keys.is_array() || keys.empty() || keys.size() > kMaxAnimationKeys)
+        r.fail(p + "/keys", "an array of 1 to " + std::to_string(kMaxAnimationKeys) + " keys", &keys);
+    return keys;
+}
+
+/// A key's "t": seconds >= 0 after the previous key's (`previous` < 0 for the first key).
+double readKeyTime(const JsonReader& r, const json& key, const std::string& k, double previous) {
+    if (!key.contains("t")) r.fail(k + "/t", "the key's time in seconds from the first frame", nullptr);
+    const double t = r.number(key["t"], k + "/t", 0.0f, 1e7f, ">= 0 (seconds from the first frame)");
+    if (previous >= 0.0 && !(t > previous))
+        r.fail(k + "/t", "a time after the previous key's (" + std::to_string(previous) + " s): keys in increasing time", &key["t"]);
+    return t;
+}
+
+void checkLoop(const JsonReader& r, bool loop, std::size_t keyCount, const std::string& p) {
+    if (loop && keyCount < 2) r.fail(p + "/loop", "at least two keys to loop over", nullptr);
+}
+
 glm::mat4 readTransform(const JsonReader& r, const json& value, const std::string& p) {
     r.object(value, p);
     r.allowOnly(value, p, {"translation", "rotationDegrees", "scale", "matrix"});
@@ -53,15 +76,79 @@ glm::mat4 readTransform(const JsonReader& r, const json& value, const std::strin
     return composeTransform(t, rot, s);
 }
 
+/// The object's "animation": {"keys": [{"t", "translation", "rotationDegrees", "scale"}, ...], "loop"}.
+TransformAnimation readTransformAnimation(const JsonReader& r, const json& value, const std::string& p) {
+    if (!value.is_object())
+        r.fail(p, "an object {\"keys\": [{\"t\": seconds, \"translation\", \"rotationDegrees\", \"scale\"}, ...], "
+                  "\"loop\": bool} (glTF animations are not read yet)",
+               &value);
+    r.allowOnly(value, p, {"keys", "loop"});
+    TransformAnimation animation;
+    if (value.contains("loop")) animation.loop = r.boolean(value["loop"], p + "/loop");
+    const json& keys = readKeyArray(r, value, p);
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+        const std::string k = p + "/keys/" + std::to_string(i);
+        r.object(keys[i], k);
+        r.allowOnly(keys[i], k, {"t", "translation", "rotationDegrees", "scale"});
+        TransformKey key;
+        key.timeSeconds = readKeyTime(r, keys[i], k, i == 0 ? -1.0 : animation.keys.back().timeSeconds);
+        if (keys[i].contains("translation"))
+            key.translation = r.vec3(keys[i]["translation"], k + "/translation", -1e4f, 1e4f, "(metres)");
+        if (keys[i].contains("rotationDegrees"))
+            key.rotation = rotationFromEulerDegrees(
+                r.vec3(keys[i]["rotationDegrees"], k + "/rotationDegrees", -1e4f, 1e4f, "(degrees)"));
+        if (keys[i].contains("scale")) key.scale = r.number(keys[i]["scale"], k + "/scale", 1e-6f, 1e6f, "> 0 (uniform scale)");
+        animation.keys.push_back(key);
+    }
+    checkLoop(r, animation.loop, animation.keys.size(), p);
+    return animation;
+}
+
+/// A light's "animation": keys of position, direction (spot lights) and power; a key's missing values are the light's.
+LightAnimation readLightAnimation(const JsonReader& r, const json& value, const std::string& p, const SceneLight& light) {
+    r.object(value, p);
+    r.allowOnly(value, p, {"keys", "loop"});
+    LightAnimation animation;
+    if (value.contains("loop")) animation.loop = r.boolean(value["loop"], p + "/loop");
+    const json& keys = readKeyArray(r, value, p);
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+        const std::string k = p + "/keys/" + std::to_string(i);
+        r.object(keys[i], k);
+        r.allowOnly(keys[i], k, {"t", "position", "direction", "power"});
+        LightKey key{.timeSeconds = readKeyTime(r, keys[i], k, i == 0 ? -1.0 : animation.keys.back().timeSeconds),
+                     .position = light.position,
+                     .direction = light.direction,
+                     .power = light.power};
+        if (keys[i].contains("position")) key.position = r.vec3(keys[i]["position"], k + "/position", -1e4f, 1e4f, "(metres)");
+        if (keys[i].contains("power")) key.power = r.colour(keys[i]["power"], k + "/power", 1e6f, ">= 0 (watts)");
+        if (keys[i].contains("direction")) {
+            if (light.type != LightType::Spot) r.fail(k + "/direction", "no direction on a point light (only spot lights have one)", nullptr);
+            const glm::vec3 d = r.vec3(keys[i]["direction"], k + "/direction", -1e4f, 1e4f, "(direction)");
+            if (glm::length(d) < 1e-6f) r.fail(k + "/direction", "a non-zero direction", &keys[i]["direction"]);
+            key.direction = glm::normalize(d);
+        }
+        animation.keys.push_back(key);
+    }
+    checkLoop(r, animation.loop, animation.keys.size(), p);
+    return animation;
+}
+
 SceneObject readObject(const JsonReader& r, const json& value, const std::string& p, std::size_t index) {
     r.object(value, p);
-    r.allowOnly(value, p, {"name", "mesh", "transform", "material"});
+    r.allowOnly(value, p, {"name", "mesh", "transform", "material", "animation", "visible"});
     SceneObject o;
     o.name = value.contains("name") ? r.string(value["name"], p + "/name") : "object" + std::to_string(index);
     if (!value.contains("mesh")) r.fail(p + "/mesh", "a mesh file path (OBJ, PLY or glTF; relative to the scene file)", nullptr);
     o.mesh = r.existingFile(value["mesh"], p + "/mesh", "mesh file");
     if (value.contains("transform")) o.world_T_model = readTransform(r, value["transform"], p + "/transform");
     if (value.contains("material")) o.material = readMaterial(r, value["material"], p + "/material");
+    if (value.contains("animation")) {
+        if (value.contains("transform"))
+            r.fail(p + "/animation", "either \"transform\" or \"animation\" (whose keys place the object), not both", nullptr);
+        o.animation = readTransformAnimation(r, value["animation"], p + "/animation");
+        o.world_T_model = sampleTransform(*o.animation, 0.0);
+    }
+    if (value.contains("visible")) o.visible = r.boolean(value["visible"], p + "/visible");
     return o;
 }
 
@@ -69,7 +156,7 @@ SceneLight readLight(const JsonReader& r, const json& value, const std::string& 
     r.object(value, p);
     r.allowOnly(
         value, p,
-        {"type", "position", "direction", "power", "coneAngleDegrees", "coneFalloffDegrees", "shadows", "inRoom"});
+        {"type", "position", "direction", "power", "coneAngleDegrees", "coneFalloffDegrees", "shadows", "inRoom", "animation"});
     SceneLight l;
     const std::string type = value.contains("type") ? r.string(value["type"], p + "/type") : "";
     if (type == "point") l.type = LightType::Point;
@@ -93,6 +180,7 @@ SceneLight readLight(const JsonReader& r, const json& value, const std::string& 
     }
     if (value.contains("shadows")) l.castsShadows = r.boolean(value["shadows"], p + "/shadows");
     if (value.contains("inRoom")) l.inRoom = r.boolean(value["inRoom"], p + "/inRoom");
+    if (value.contains("animation")) l.animation = readLightAnimation(r, value["animation"], p + "/animation", l);
     return l;
 }
 

@@ -45,6 +45,11 @@ TEST(Scene, SampleScenesLoad) {
     EXPECT_EQ(*tabletop.objects[1].material.specularExponent, 40.0f);
     EXPECT_EQ(*tabletop.objects[1].material.specularAlbedo, glm::vec3(0.3f));
 
+    const Scene moving = loadScene(folder / "orbit_moving.json"); // the main job's
+    ASSERT_EQ(moving.objects.size(), 2u);
+    ASSERT_TRUE(moving.objects[1].animation.has_value());
+    EXPECT_EQ(moving.objects[1].animation->keys.size(), 3u);
+
     const Scene cube = loadScene(folder / "cube_no_gi.json");
     EXPECT_EQ(cube.gi.technique, lightskin::gi::Technique::None);
     EXPECT_EQ(cube.lights[0].type, LightType::Point);
@@ -255,4 +260,65 @@ TEST(Scene, ValTreeThresholdIsOffByDefault) {
 
 TEST(Scene, MissingFileIsAnError) {
     EXPECT_THROW(loadScene(lightskin::test::scratchDir("scene_missing") / "nope.json"), Error);
+}
+
+TEST(Scene, AnimationKeysAreReadInTheTransformsWordsAndPlaceTheObjectAtTheirStart) {
+    const Scene scene = parseScene(R"({"version": 1,
+        "objects": [{"mesh": "box_no_normals.obj", "visible": false, "animation": {"loop": true, "keys": [
+            {"t": 0.5, "translation": [1, 2, 3], "rotationDegrees": [0, 0, 90], "scale": 2},
+            {"t": 2.5, "translation": [3, 2, 1]}]}}],
+        "lights": [{"type": "spot", "position": [0, 0, 2], "direction": [0, 0, -1], "power": 40,
+                    "animation": {"keys": [{"t": 0, "power": 0}, {"t": 1, "position": [1, 0, 2], "direction": [1, 0, 0]}]}}]})",
+                                   meshDir(), "test.json");
+    const SceneObject& o = scene.objects.at(0);
+    ASSERT_TRUE(o.animation.has_value());
+    EXPECT_TRUE(o.animation->loop);
+    EXPECT_FALSE(o.visible);
+    ASSERT_EQ(o.animation->keys.size(), 2u);
+    EXPECT_EQ(o.animation->keys[1].timeSeconds, 2.5);
+    EXPECT_EQ(o.animation->keys[1].scale, 1.0f) << "a key's missing scale is 1";
+    // Before the first key: the first key's placement, also as the object's static placement.
+    const glm::mat4 first = composeTransform({1, 2, 3}, {0, 0, 90}, 2.0f);
+    for (int c = 0; c < 4; ++c)
+        for (int r = 0; r < 4; ++r) EXPECT_NEAR(o.world_T_model[c][r], first[c][r], 2e-6f);
+    const SceneLight& l = scene.lights.at(0);
+    ASSERT_TRUE(l.animation.has_value());
+    // A key's missing values are the light's own.
+    EXPECT_EQ(l.animation->keys[0].position, glm::vec3(0, 0, 2));
+    EXPECT_EQ(l.animation->keys[0].power, glm::vec3(0.0f));
+    EXPECT_EQ(l.animation->keys[1].power, glm::vec3(40.0f));
+    EXPECT_EQ(l.animation->keys[1].direction, glm::vec3(1, 0, 0));
+}
+
+TEST(Scene, AnimationErrorsNameTheKey) {
+    const std::string object = R"({"version": 1, "objects": [{"mesh": "box_no_normals.obj", )";
+    const std::string light = R"({"version": 1, "lights": [{"type": "point", "position": [0, 0, 1], )";
+    struct Case {
+        std::string text;
+        std::string expectedStart;
+    };
+    const Case cases[] = {
+        {object + R"("animation": {"keys": []}}]})", "/objects/0/animation/keys: expected an array of 1 to"},
+        {object + R"("animation": {"keys": [{"t": 1}, {"t": 1}]}}]})",
+         "/objects/0/animation/keys/1/t: expected a time after the previous key's"},
+        {object + R"("animation": {"keys": [{"t": -1}]}}]})", "/objects/0/animation/keys/0/t: expected a number >= 0"},
+        {object + R"("animation": {"keys": [{"translation": [0, 0, 0]}]}}]})", "/objects/0/animation/keys/0/t: expected"},
+        {object + R"("animation": {"keys": [{"t": 0, "scale": 0}]}}]})", "/objects/0/animation/keys/0/scale: expected"},
+        {object + R"("animation": {"keys": [{"t": 0, "position": [0, 0, 0]}]}}]})",
+         "/objects/0/animation/keys/0/position: unknown key"},
+        {object + R"("animation": {"keys": [{"t": 0}], "loop": true}}]})",
+         "/objects/0/animation/loop: expected at least two keys"},
+        {object + R"("transform": {"scale": 2}, "animation": {"keys": [{"t": 0}]}}]})",
+         "/objects/0/animation: expected either \"transform\" or \"animation\""},
+        {object + R"("animation": "gltf"}]})", "/objects/0/animation: expected an object"},
+        {object + R"("visible": "no"}]})", "/objects/0/visible: expected true or false"},
+        {light + R"("animation": {"keys": [{"t": 0, "direction": [1, 0, 0]}]}}]})",
+         "/lights/0/animation/keys/0/direction: expected no direction on a point light"},
+        {light + R"("animation": {"keys": [{"t": 0, "power": -1}]}}]})",
+         "/lights/0/animation/keys/0/power: expected a number >= 0"},
+    };
+    for (const Case& c : cases) {
+        const std::string cause = causeOf(c.text);
+        EXPECT_EQ(cause.rfind(c.expectedStart, 0), 0u) << "scene: " << c.text << "\ncause: " << cause;
+    }
 }

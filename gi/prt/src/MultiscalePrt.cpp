@@ -256,7 +256,13 @@ TechniqueCapabilities MultiscalePrt::capabilities() const noexcept {
                                                 {"lights", "gi prt lights"},
                                                 {"exit", "gi prt exit"},
                                                 {"shade", "gi prt shade"}};
-    return {.glossy = false, .occlusion = false, .sparsePoints = false, .vertexVpls = false, .cpuStages = kStages};
+    return {.glossy = false,
+            .occlusion = false,
+            .sparsePoints = false,
+            .vertexVpls = false,
+            .placementInPrepare = true, // the transfer between objects is precomputed for their placement
+            .sceneLightsAtCreation = true,
+            .cpuStages = kStages};
 }
 const PrtData& MultiscalePrt::data() const { return impl_->data; }
 bool MultiscalePrt::loadedFromCache() const { return impl_->fromCache; }

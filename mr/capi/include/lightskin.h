@@ -42,7 +42,7 @@ extern "C" {
 #endif
 
 #define LSK_VERSION_MAJOR 0
-#define LSK_VERSION_MINOR 2
+#define LSK_VERSION_MINOR 3
 #define LSK_VERSION_PATCH 0
 
 typedef enum lsk_status {
@@ -152,6 +152,16 @@ typedef struct lsk_render_target {
     double near_metres, far_metres; /* of that projection; defaults 0.05, 20 */
 } lsk_render_target;
 
+/* Since 0.3: a material change (lsk_session_set_object_material); unset values keep the mesh file's. */
+typedef struct lsk_material {
+    uint32_t struct_size;
+    int32_t set_diffuse;       /* 1 = diffuse_albedo applies */
+    float diffuse_albedo[3];   /* linear RGB in [0, 1] */
+    int32_t set_specular;      /* 1 = specular_albedo applies */
+    float specular_albedo[3];  /* linear RGB in [0, 1] */
+    float specular_exponent;   /* Phong exponent >= 1; 0 = the mesh file's */
+} lsk_material;
+
 typedef struct lsk_session lsk_session;
 
 /* "0.2.0"; compare with LSK_VERSION_* to detect a header/library mismatch. Never fails. */
@@ -164,6 +174,7 @@ LSK_API void lsk_scene_init(lsk_scene* scene);
 LSK_API void lsk_frame_init(lsk_frame* frame);
 LSK_API void lsk_frame_report_init(lsk_frame_report* report);
 LSK_API void lsk_render_target_init(lsk_render_target* target);
+LSK_API void lsk_material_init(lsk_material* material); /* since 0.3: nothing set */
 
 /* A session fed by the host (lsk_session_submit) for frames of `camera`. */
 LSK_API lsk_status lsk_session_create(const lsk_session_options* options, const lsk_scene* scene,
@@ -197,6 +208,37 @@ LSK_API lsk_status lsk_session_set_budget(lsk_session* session, double budget_ms
 /* Since 0.2: the technique (lsk_technique) and backend (lsk_backend) the last frame ran, or the scene's before
  * the first frame. Either pointer may be NULL. No GL. */
 LSK_API lsk_status lsk_session_technique(const lsk_session* session, int32_t* technique, int32_t* backend);
+
+/* Since 0.3, moving content (docs/PLUGIN.md, "Moving content"). Objects and lights are numbered 0..count-1
+ * in the scene's order; an added object comes last, removing one moves the later ones down by one. Each
+ * call checks its input (an unknown index, a non-finite, singular or sheared matrix, a negative power,
+ * a missing mesh file) and returns an error with lsk_last_error() naming the object or light and the
+ * cause, changing nothing. Transforms and lights take effect from the next frame; an object's transform
+ * or a light's values stop its scene animation (the host drives it from then on). Matrices are
+ * world_T_model, column-major, metres: a rotation times one uniform scale, plus a translation.
+ * Counts and names need no GL; visible, material, add and remove need the session's context current. */
+LSK_API lsk_status lsk_session_object_count(const lsk_session* session, uint32_t* count);
+/* The object's name; valid until the next add or remove. */
+LSK_API lsk_status lsk_session_object_name(const lsk_session* session, uint32_t index, const char** name);
+/* The object's world_T_model as the last frame placed it (after its animation), column-major. No GL. */
+LSK_API lsk_status lsk_session_object_transform(const lsk_session* session, uint32_t index, float out[16]);
+LSK_API lsk_status lsk_session_light_count(const lsk_session* session, uint32_t* count);
+LSK_API lsk_status lsk_session_set_object_transform(lsk_session* session, uint32_t index,
+                                                    const float world_T_model[16]);
+/* visible: 1 = drawn, lit and lighting; 0 = as if absent (kept loaded). The GI is prepared again. */
+LSK_API lsk_status lsk_session_set_object_visible(lsk_session* session, uint32_t index, int32_t visible);
+LSK_API lsk_status lsk_session_set_object_material(lsk_session* session, uint32_t index,
+                                                   const lsk_material* material);
+/* position: world metres; direction: spot lights only (normalised; ignored for point lights, may be NULL);
+ * power: watts, linear RGB, >= 0. */
+LSK_API lsk_status lsk_session_set_light(lsk_session* session, uint32_t index, const float position[3],
+                                         const float direction[3], const float power[3]);
+/* Loads a mesh file (OBJ, PLY, glTF; path absolute or relative to the working directory) as a new object
+ * named `name` (not NULL, not empty), placed by world_T_model (NULL = identity); its index into *index
+ * (may be NULL). The GI is prepared again for the new set of objects. */
+LSK_API lsk_status lsk_session_add_object(lsk_session* session, const char* mesh_path, const char* name,
+                                          const float world_T_model[16], uint32_t* index);
+LSK_API lsk_status lsk_session_remove_object(lsk_session* session, uint32_t index);
 
 #ifdef __cplusplus
 }

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cstring>
 #include <exception>
+#include <filesystem>
 #include <lightskin.h>
 #include <new>
 #include <string>
@@ -400,6 +401,123 @@ lsk_status lsk_session_technique(const lsk_session* session, int32_t* technique,
         const gi::Backend b = ran ? r.backend : s.pipeline().backend();
         if (technique != nullptr) *technique = techniqueOf(t);
         if (backend != nullptr) *backend = b == gi::Backend::Cpu ? LSK_BACKEND_CPU : LSK_BACKEND_GL;
+        return LSK_OK;
+    });
+}
+
+void lsk_material_init(lsk_material* material) {
+    if (material == nullptr) return;
+    *material = lsk_material{};
+    material->struct_size = sizeof(lsk_material);
+}
+
+lsk_status lsk_session_object_count(const lsk_session* session, uint32_t* count) {
+    constexpr const char* function = "lsk_session_object_count";
+    return guardedSession(function, session, [&](const mr::Session& s) -> lsk_status {
+        if (count == nullptr) return invalidArgument(function, "count is null");
+        *count = uint32_t(s.scene().objects.size());
+        return LSK_OK;
+    });
+}
+
+lsk_status lsk_session_object_name(const lsk_session* session, uint32_t index, const char** name) {
+    constexpr const char* function = "lsk_session_object_name";
+    return guardedSession(function, session, [&](const mr::Session& s) -> lsk_status {
+        if (name == nullptr) return invalidArgument(function, "name is null");
+        const auto& objects = s.scene().objects;
+        if (index >= objects.size())
+            return invalidArgument(function, "object " + std::to_string(index) + ": no such object (the scene has " +
+                                                 std::to_string(objects.size()) + ")");
+        *name = objects[index].name.c_str();
+        return LSK_OK;
+    });
+}
+
+lsk_status lsk_session_object_transform(const lsk_session* session, uint32_t index, float out[16]) {
+    constexpr const char* function = "lsk_session_object_transform";
+    return guardedSession(function, session, [&](const mr::Session& s) -> lsk_status {
+        if (out == nullptr) return invalidArgument(function, "out is null");
+        const auto& objects = s.scene().objects;
+        if (index >= objects.size())
+            return invalidArgument(function, "object " + std::to_string(index) + ": no such object (the scene has " +
+                                                 std::to_string(objects.size()) + ")");
+        std::memcpy(out, glm::value_ptr(objects[index].world_T_model), 16 * sizeof(float));
+        return LSK_OK;
+    });
+}
+
+lsk_status lsk_session_light_count(const lsk_session* session, uint32_t* count) {
+    constexpr const char* function = "lsk_session_light_count";
+    return guardedSession(function, session, [&](const mr::Session& s) -> lsk_status {
+        if (count == nullptr) return invalidArgument(function, "count is null");
+        *count = uint32_t(s.scene().lights.size());
+        return LSK_OK;
+    });
+}
+
+lsk_status lsk_session_set_object_transform(lsk_session* session, uint32_t index, const float world_T_model[16]) {
+    constexpr const char* function = "lsk_session_set_object_transform";
+    return guardedSession(function, session, [&](mr::Session& s) -> lsk_status {
+        if (world_T_model == nullptr) return invalidArgument(function, "world_T_model is null");
+        s.setObjectTransform(index, glm::make_mat4(world_T_model));
+        return LSK_OK;
+    });
+}
+
+lsk_status lsk_session_set_object_visible(lsk_session* session, uint32_t index, int32_t visible) {
+    constexpr const char* function = "lsk_session_set_object_visible";
+    return guardedSession(function, session, [&](mr::Session& s) -> lsk_status {
+        if (visible != 0 && visible != 1) return invalidArgument(function, "visible must be 0 or 1");
+        s.setObjectVisible(index, visible == 1);
+        return LSK_OK;
+    });
+}
+
+lsk_status lsk_session_set_object_material(lsk_session* session, uint32_t index, const lsk_material* material) {
+    constexpr const char* function = "lsk_session_set_object_material";
+    return guardedSession(function, session, [&](mr::Session& s) -> lsk_status {
+        lsk_material m{};
+        if (!readVersioned(material, m)) return invalidArgument(function, "material is null or struct_size not set");
+        lightskin::render::MaterialOverride o;
+        if (m.set_diffuse != 0) o.diffuseAlbedo = glm::make_vec3(m.diffuse_albedo);
+        if (m.set_specular != 0) o.specularAlbedo = glm::make_vec3(m.specular_albedo);
+        if (m.specular_exponent != 0.0f) o.specularExponent = m.specular_exponent;
+        s.setObjectMaterial(index, o);
+        return LSK_OK;
+    });
+}
+
+lsk_status lsk_session_set_light(lsk_session* session, uint32_t index, const float position[3],
+                                 const float direction[3], const float power[3]) {
+    constexpr const char* function = "lsk_session_set_light";
+    return guardedSession(function, session, [&](mr::Session& s) -> lsk_status {
+        if (position == nullptr || power == nullptr) return invalidArgument(function, "position and power must not be null");
+        const glm::vec3 d = direction != nullptr ? glm::make_vec3(direction) : glm::vec3(0.0f, 0.0f, -1.0f);
+        s.setLight(index, glm::make_vec3(position), d, glm::make_vec3(power));
+        return LSK_OK;
+    });
+}
+
+lsk_status lsk_session_add_object(lsk_session* session, const char* meshPath, const char* name,
+                                  const float world_T_model[16], uint32_t* index) {
+    constexpr const char* function = "lsk_session_add_object";
+    return guardedSession(function, session, [&](mr::Session& s) -> lsk_status {
+        if (meshPath == nullptr || *meshPath == '\0') return invalidArgument(function, "mesh_path is null or empty");
+        if (name == nullptr || *name == '\0') return invalidArgument(function, "name is null or empty");
+        lightskin::render::SceneObject object;
+        object.name = name;
+        object.mesh = std::filesystem::absolute(meshPath);
+        if (world_T_model != nullptr) object.world_T_model = glm::make_mat4(world_T_model);
+        const std::size_t added = s.addObject(std::move(object));
+        if (index != nullptr) *index = uint32_t(added);
+        return LSK_OK;
+    });
+}
+
+lsk_status lsk_session_remove_object(lsk_session* session, uint32_t index) {
+    constexpr const char* function = "lsk_session_remove_object";
+    return guardedSession(function, session, [&](mr::Session& s) -> lsk_status {
+        s.removeObject(index);
         return LSK_OK;
     });
 }

@@ -149,7 +149,9 @@ struct FrameOutput {
     double meanRelativeErrorVsBruteForce = -1.0; ///< error view only: mean |a-b| / mean |b| over covered pixels
     std::int64_t vplSegments = -1;               ///< vpl view only: vertex VPLs drawn (in front of the camera), else -1
     std::int64_t vplNonFinite = -1; ///< vpl view only: vertices (of all) whose l'''_d or L'''_d is not finite, else -1
-    std::vector<gl::StageTime> cpuTimes; ///< wall-clock per stage, ms (incl. waiting for the GPU)
+    /// Wall clock per stage, ms (incl. waiting for the GPU); "content" (frames whose content can move: animation
+    /// or a host change) is the placing of moving content before the frame (shadow maps re-render in "gbuffer+gi").
+    std::vector<gl::StageTime> cpuTimes;
     std::vector<gl::StageTime> gpuTimes; ///< GL timer queries, ms
     /// Wall clock of process(), its front (filter, pose) included; of render() alone when the front ran
     /// ahead on another thread (Session's prefetch), where it overlaps the previous frame.
@@ -188,7 +190,7 @@ public:
 
 class FramePipeline {
 public:
-    /// `scene` must outlive the pipeline. `source` gives intrinsics and registration.
+    /// Copies `scene` (its content then changes by animation and the calls below). `source` gives intrinsics and registration.
     /// Throws lightskin::Error on bad scene content (meshes, tracking config) or intrinsics.
     static std::unique_ptr<FramePipeline> create(const render::Scene& scene, const capture::FrameSourceInfo& source,
                                                  const PipelineOptions& options);
@@ -219,6 +221,30 @@ public:
     /// render(..., next) go away (Session does, before its prefetch).
     void finishGiAhead();
 
+    // Moving content (docs/PLUGIN.md, "Moving content"). Object and light indices are the scene's (objects
+    // added later come last; removing one moves the later ones down). Each call checks its input and throws
+    // lightskin::Error naming the scene, the object or light and the cause, changing nothing; the GL context
+    // must be current for the calls that change the set of drawn objects (visible, add, remove).
+
+    /// The virtual content as it is now: the scene with the host's changes and, after a frame, the placements
+    /// and light values its animations had at that frame's time.
+    const render::Scene& scene() const noexcept;
+    /// Places an object from the next frame on (world_T_model: rotation * uniform scale + translation, metres;
+    /// render::composeTransform). Stops its animation: the host drives it from now on.
+    void setObjectTransform(std::size_t object, const glm::mat4& world_T_model);
+    /// Hidden objects are not drawn, cast no shadow and take no part in GI. The techniques are prepared again
+    /// (a one-off cost, docs/BENCHMARKS.md).
+    void setObjectVisible(std::size_t object, bool visible);
+    /// Sets the albedos and exponent set in `material` (unset ones: the mesh file's); its texture is ignored.
+    void setObjectMaterial(std::size_t object, const render::MaterialOverride& material);
+    /// A light's position (world, metres), direction (spot lights; unit after normalising, ignored for point
+    /// lights) and power (watts, linear RGB, >= 0) from the next frame on. Stops its animation.
+    void setLight(std::size_t light, const glm::vec3& position, const glm::vec3& direction, const glm::vec3& power);
+    /// Loads `object` (mesh and texture paths absolute or relative to the working directory; name required)
+    /// and adds it as the last object; returns its index. The techniques are prepared again.
+    std::size_t addObject(render::SceneObject object);
+    void removeObject(std::size_t object);
+
     PipelineOptions& options() noexcept { return options_; }
     /// Rebuilds the GI technique with changed settings (live toggles of glossy/occlusion; the frame
     /// budget's choices). A changed valStride recreates the VAL generator; changed sparsePoints
@@ -241,6 +267,14 @@ public:
 private:
     FramePipeline() = default;
     void createValGenerator(int stride);
+    /// Moving content: the animations at this frame's time into the renderer, and what depends on placements.
+    void applyContentAt(double timeSeconds);
+    void contentMoved();
+    void lightsMoved();
+    void instancesChanged();
+    void rebuildDifferential();
+    void checkObjectIndex(std::size_t object) const;
+    std::string sourceName() const;
     /// The differential stage: receivers gathered from this frame's depth VALs, applied to the
     /// camera image (State::cameraWithDifferential), which the composites then use.
     void applyDifferential(const RgbdFrame& frame, const cv::Mat& depthMetres, const Pose& world_T_camera,

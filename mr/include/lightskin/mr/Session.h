@@ -160,7 +160,19 @@ public:
 
     FramePipeline& pipeline() noexcept { return *pipeline_; }
     const FramePipeline& pipeline() const noexcept { return *pipeline_; }
-    const render::Scene& scene() const noexcept { return *scene_; }
+    /// The virtual content as it is now (FramePipeline::scene()): object and light names, counts, placements.
+    const render::Scene& scene() const noexcept { return pipeline_->scene(); }
+
+    // Moving content (FramePipeline's calls; docs/PLUGIN.md, "Moving content"). Each checks its input and
+    // throws lightskin::Error naming the object or light and the cause, changing nothing. Placements and
+    // lights take effect from the next frame; visible, add and remove need the GL context current.
+    void setObjectTransform(std::size_t object, const glm::mat4& world_T_model);
+    void setObjectVisible(std::size_t object, bool visible);
+    void setObjectMaterial(std::size_t object, const render::MaterialOverride& material);
+    void setLight(std::size_t light, const glm::vec3& position, const glm::vec3& direction, const glm::vec3& power);
+    /// Returns the new object's index (the last).
+    std::size_t addObject(render::SceneObject object);
+    void removeObject(std::size_t object);
     /// Sets the frame budget (ms > 0; throws lightskin::Error otherwise), starting budget mode
     /// if the session had none (not with the technique "none"). Takes effect from the next frame.
     void setBudgetMs(double budgetMs);
@@ -176,7 +188,6 @@ private:
     static std::unique_ptr<Session> createWith(const SessionOptions& options, const SceneInput& scene,
                                                const capture::FrameSourceInfo& info);
     struct Gl;
-    std::unique_ptr<render::Scene> scene_;
     std::unique_ptr<capture::FrameSource> source_;
     std::unique_ptr<FramePipeline> pipeline_;
     std::unique_ptr<Gl> gl_;

@@ -32,6 +32,8 @@
 #include <opencv2/core/mat.hpp>
 
 #include <memory>
+#include <span>
+#include <string>
 #include <vector>
 
 namespace lightskin::render {
@@ -80,6 +82,26 @@ public:
     /// parts by surface area, at least 16 each) *before* upload, because that step may refine the
     /// mesh and the renderer must draw the refined mesh (vertexNeighbours index its vertices).
     void setScene(const Scene& scene, bool prepareSparsePoints = false);
+
+    // Moving content: changes to the prepared scene's objects (index = the scene's object index) and lights
+    // between frames. Each takes effect from the next renderGBuffer() (which renders the shadow maps again
+    // after any change to what casts or where the lights are). No allocation beyond add/remove.
+    /// Places every part of scene object `object`; false when the placement was already this one.
+    bool setObjectPlacement(std::size_t object, const glm::mat4& world_T_model);
+    /// Shows or hides scene object `object` (hidden: not drawn, casts no shadow, not in instances());
+    /// false when unchanged. Changes instances(): techniques must be prepared again.
+    bool setObjectVisible(std::size_t object, bool visible);
+    /// Applies `material`'s albedos and exponent over each part's own material (its texture is not read).
+    void setObjectMaterial(std::size_t object, const MaterialOverride& material);
+    /// The scene's lights with new position, direction, power (the count and types as setScene()'s);
+    /// false when nothing changed.
+    bool setLights(std::span<const SceneLight> lights);
+    /// Loads, prepares and uploads `object` as the last scene object (sparse points as setScene() did).
+    /// Throws lightskin::Error naming `source` and the mesh; on error nothing changed.
+    void addObject(const SceneObject& object, const std::string& source);
+    /// Removes scene object `object`; later objects move down by one.
+    void removeObject(std::size_t object);
+    std::size_t sceneObjectCount() const noexcept { return objectParts_.size(); }
     /// The prepared sparse points of instance `meshId`, or nullptr when they were not prepared.
     const gi::SparsePointSet* sparsePoints(std::uint32_t meshId) const noexcept;
     /// Objects as the GI techniques see them (valid until the next setScene()).
@@ -127,17 +149,26 @@ public:
 
 private:
     Renderer() = default;
+    struct Object;
     void renderShadowMaps();
+    /// The parts of one scene object, loaded and prepared (nothing of the renderer changes).
+    std::vector<std::unique_ptr<Object>> loadParts(const SceneObject& object, const std::string& source,
+                                                   const std::string& pointer);
+    void rebuildInstances();
     /// GL window rectangle (x, y from the bottom left, width, height) that holds every pixel the objects can
     /// cover under clip_T_world; the whole viewport when a bounding-box corner is not in front of the near plane.
     glm::ivec4 coveredWindowRect(const glm::mat4& clip_T_world) const;
     /// Reads an output of shade() (GL format/type) into `out` (top row first), only its shaded rectangle.
     void readShadedInto(const gl::Texture& texture, int cvType, unsigned format, unsigned type, cv::Mat& out) const;
 
-    struct Object;
     CameraIntrinsics intrinsics_;
     RendererOptions options_;
-    std::vector<std::unique_ptr<Object>> objects_;
+    std::vector<std::unique_ptr<Object>> objects_; ///< mesh parts, scene object by scene object
+    /// Per scene object: its first part in objects_ and the part count.
+    std::vector<std::pair<std::size_t, std::size_t>> objectParts_;
+    int sparsePointsPerObject_ = 0; ///< setScene()'s (0 = no sparse points)
+    bool shadowsStale_ = false;     ///< renderShadowMaps() before the next frame
+    std::vector<std::filesystem::path> warnedOpen_; ///< model files whose open boundary was reported
     std::vector<gi::MeshInstance> instances_;
     std::vector<SceneLight> lights_;
 

@@ -12,6 +12,7 @@
 // except inside "tracking", which is passed to the tracking module as it is.
 
 #include <lightskin/gi/Techniques.h>
+#include <lightskin/render/Animation.h>
 
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
@@ -34,8 +35,11 @@ struct MaterialOverride {
 struct SceneObject {
     std::string name;
     std::filesystem::path mesh;     ///< absolute after loading (relative in the file)
-    glm::mat4 world_T_model{1.0f};  ///< translation * rotation * uniform scale
+    glm::mat4 world_T_model{1.0f};  ///< translation * rotation * uniform scale (the first key's when animated)
     MaterialOverride material;      ///< applied to every part of the mesh
+    /// Keyframes: the placement follows them (render/Animation.h); unset = world_T_model at all times.
+    std::optional<TransformAnimation> animation;
+    bool visible = true; ///< drawn, lit and lighting; false = as if absent (kept loaded)
 };
 
 enum class LightType { Point, Spot };
@@ -53,6 +57,8 @@ struct SceneLight {
     /// virtual objects' shadow. false: a purely virtual light, whose (shadowed) light the
     /// differential adds to the real surfaces too.
     bool inRoom = true;
+    /// Keyframes of position, direction and power (render/Animation.h); unset = the values above at all times.
+    std::optional<LightAnimation> animation;
 };
 
 /// The scene's "gi" object: the technique registry's settings (lightskin/gi/Techniques.h).

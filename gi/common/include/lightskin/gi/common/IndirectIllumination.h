@@ -144,6 +144,12 @@ struct TechniqueCapabilities {
     bool occlusion = false;    ///< has an occlusion stage (the budget's "occlusion" knob)
     bool sparsePoints = false; ///< needs the renderer's sparse points of every mesh (the "sparse points" knob)
     bool vertexVpls = false;   ///< readVertexVpls() and vertexOffsets() (the per-vertex VPL debug view)
+    /// prepare() bakes the instances' world placement (a world-space precompute): after an instance moved,
+    /// render() needs prepare() again. false: render() takes any world_T_model (model-space preparation).
+    bool placementInPrepare = false;
+    /// Lights the objects with the scene lights given at creation (TechniqueConfig): after a light changed,
+    /// the technique must be created again.
+    bool sceneLightsAtCreation = false;
     /// The stages of lastStageTimes() that are CPU wall times, with their frame-report labels; every
     /// other stage is a GPU time. Empty: all are GPU times.
     std::span<const CpuStageLabel> cpuStages;

@@ -76,6 +76,12 @@ public:
 
     std::string_view name() const override { return "imperfect-volumes"; }
     Technique technique() const noexcept override { return Technique::ImperfectVolumes; }
+    /// Its mesh points carry the direct light of the scene lights it was created with.
+    TechniqueCapabilities capabilities() const noexcept override {
+        TechniqueCapabilities c;
+        c.sceneLightsAtCreation = true;
+        return c;
+    }
     /// voxelsDropped: lastDroppedVoxels(), both kinds.
     TechniqueFrameStatistics lastFrameStatistics() const override;
     /// Uploads each mesh's positions, normals and indices (model space) for the point sampling.

@@ -1,0 +1,314 @@
+// Moving content through mr::Session on the bundled synthetic recording (synth-orbit, ground-truth poses):
+// an object the host moves is rendered exactly as the scene placing it there; animation keys place objects and
+// set lights at the frame's time; hidden, removed and re-added objects leave no trace; bad input changes nothing;
+// the adaptive mode never reuses light computed before a move; the GI ahead never uses a stale placement.
+//
+// The scenes run LightSkin on the CPU backend: its VALs come in raster order and its gather does not depend on
+// the thread count, so two runs of one frame are bit-identical and images can be compared exactly.
+#include "GlTestEnvironment.h"
+#include "TestPaths.h"
+
+#include <lightskin/capture/FrameSource.h>
+#include <lightskin/core/Error.h>
+#include <lightskin/mr/Session.h>
+#include <lightskin/render/Scene.h>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+using namespace lightskin;
+
+namespace {
+
+std::filesystem::path recording() { return test::sourceDir() / "recordings" / "synth-orbit"; }
+std::filesystem::path sceneFolder() { return test::sourceDir() / "recordings" / "scenes"; }
+
+// The orbit scene's cube, as the file places it.
+constexpr const char* kCubeTransform =
+    R"("transform": {"translation": [2.38, 1.55, 0.81], "rotationDegrees": [0, 0, 30], "scale": 0.12})";
+
+/// The orbit scene (bunny, glossy cube, a 60 W light) with few sparse points, on the CPU backend, with
+/// `replace` applied to its text (each pair: text, replacement).
+mr::SceneInput orbitScene(std::initializer_list<std::pair<std::string, std::string>> replace = {},
+                          const std::string& backend = "cpu") {
+    std::string text = test::readText(sceneFolder() / "orbit.json");
+    const auto edit = [&](const std::string& from, const std::string& to) {
+        const auto at = text.find(from);
+        EXPECT_NE(at, std::string::npos) << from;
+        if (at != std::string::npos) text.replace(at, from.size(), to);
+    };
+    edit("\"sparsePoints\": 1024", "\"sparsePoints\": 256");
+    edit("\"technique\": \"lightskin\",", "\"technique\": \"lightskin\", \"backend\": \"" + backend + "\",");
+    for (const auto& [from, to] : replace) edit(from, to);
+    return mr::SceneInput::fromJson(text, sceneFolder());
+}
+
+/// Frame `index` of the recording as a host frame (its ground-truth pose), with a chosen timestamp.
+struct HostFrameData {
+    RgbdFrame frame;
+    cv::Mat rgb;
+    mr::HostFrame host;
+};
+HostFrameData hostFrame(int index, double timestampSeconds) {
+    auto source = capture::openFrameSource(recording(), {});
+    HostFrameData d;
+    for (int i = 0; i <= index; ++i) EXPECT_TRUE(source->next(d.frame));
+    cv::cvtColor(d.frame.colour, d.rgb, cv::COLOR_BGR2RGB);
+    d.host.rgb = d.rgb.data;
+    d.host.depth = d.frame.depth.ptr<std::uint16_t>();
+    d.host.depthScaleMetres = d.frame.depthScaleMetres;
+    d.host.intrinsics = d.frame.colourIntrinsics;
+    d.host.timestampSeconds = timestampSeconds;
+    d.host.world_T_camera = d.frame.groundTruth_world_T_camera;
+    return d;
+}
+
+std::unique_ptr<mr::Session> hostSession(const mr::SceneInput& scene, const RgbdFrame& frame,
+                                         const mr::SessionOptions& options = {}) {
+    return mr::Session::create(options, scene, frame.colourIntrinsics);
+}
+
+void expectSameImage(const mr::FrameOutput& a, const mr::FrameOutput& b, const std::string& what) {
+    ASSERT_EQ(a.withGi.size(), b.withGi.size()) << what;
+    EXPECT_EQ(cv::norm(a.withGi, b.withGi, cv::NORM_INF), 0.0) << what << ": not bit for bit";
+    EXPECT_EQ(a.coveredPixels, b.coveredPixels) << what;
+}
+
+/// Pixels whose colour differs by more than one code value: what a move must change.
+int changedPixels(const cv::Mat& a, const cv::Mat& b) {
+    cv::Mat difference, grey;
+    cv::absdiff(a, b, difference);
+    cv::cvtColor(difference, grey, cv::COLOR_BGR2GRAY);
+    return cv::countNonZero(grey > 1);
+}
+
+class MovingContentGLTest : public test::GlTest {};
+
+TEST_F(MovingContentGLTest, AnObjectTheHostMovesIsRenderedAsTheScenePlacingItThere) {
+    HostFrameData f = hostFrame(0, 0.0);
+    const glm::vec3 translation(2.20f, 1.75f, 0.81f), rotation(0.0f, 0.0f, 75.0f);
+    auto moved = hostSession(orbitScene(), f.frame);
+    moved->submit(f.host);
+    const cv::Mat before = moved->output().withGi.clone();
+    ASSERT_GT(moved->report().coveredPixels, 1000);
+    moved->setObjectTransform(1, render::composeTransform(translation, rotation, 0.12f));
+    moved->submit(f.host);
+
+    auto placed = hostSession(orbitScene({{kCubeTransform, R"("transform": {"translation": [2.20, 1.75, 0.81], )"
+                                                           R"("rotationDegrees": [0, 0, 75], "scale": 0.12})"}}),
+                              f.frame);
+    placed->submit(f.host);
+    expectSameImage(moved->output(), placed->output(), "moved by the host vs placed by the scene");
+    EXPECT_TRUE(placed->output().giActive);
+    // The move is visible: the cube left ~its area of pixels and covers new ones (the differential's shadow too).
+    EXPECT_GT(changedPixels(before, moved->output().withGi), 500);
+    EXPECT_EQ(moved->scene().objects[1].world_T_model, render::composeTransform(translation, rotation, 0.12f));
+}
+
+TEST_F(MovingContentGLTest, AnimationKeysPlaceObjectsAndSetLightsAtTheFramesTime) {
+    // The cube slides 0.4 m along -x and turns 90 degrees in 2 s; the light dims from 60 W to 20 W in 4 s.
+    auto session = hostSession(
+        orbitScene({{kCubeTransform,
+                     R"("animation": {"keys": [)"
+                     R"({"t": 0, "translation": [2.38, 1.55, 0.81], "rotationDegrees": [0, 0, 30], "scale": 0.12},)"
+                     R"({"t": 2, "translation": [1.98, 1.55, 0.81], "rotationDegrees": [0, 0, 120], "scale": 0.12}]})"},
+                    {R"("power": 60, "shadows": true})",
+                     R"("power": 60, "shadows": true, "animation": {"keys": [{"t": 0}, {"t": 4, "power": 20}]}})"}}),
+        hostFrame(0, 0.0).frame);
+    HostFrameData f = hostFrame(0, 100.0); // the animation's clock starts at the first frame's timestamp
+    session->submit(f.host);
+    const cv::Mat atStart = session->output().withGi.clone();
+    const auto placementAt = [](float x, float degrees) {
+        return render::composeTransform({x, 1.55f, 0.81f}, {0.0f, 0.0f, degrees}, 0.12f);
+    };
+    const auto expectPlacement = [&](const glm::mat4& expected, const char* when) {
+        const glm::mat4& m = session->scene().objects[1].world_T_model;
+        for (int c = 0; c < 4; ++c)
+            for (int r = 0; r < 4; ++r) EXPECT_NEAR(m[c][r], expected[c][r], 1e-5f) << when << ", element " << c << r;
+    };
+    expectPlacement(placementAt(2.38f, 30.0f), "t = 0");
+    EXPECT_EQ(session->scene().lights[0].power, glm::vec3(60.0f));
+
+    f.host.timestampSeconds = 101.0; // half way: 0.2 m and 45 degrees; the light at 50 W
+    session->submit(f.host);
+    expectPlacement(placementAt(2.18f, 75.0f), "t = 1 s");
+    EXPECT_NEAR(session->scene().lights[0].power.r, 50.0f, 1e-4f);
+    EXPECT_GT(changedPixels(atStart, session->output().withGi), 500) << "the frame at 1 s shows the motion";
+
+    f.host.timestampSeconds = 107.0; // past the last key: held (no loop)
+    session->submit(f.host);
+    expectPlacement(placementAt(1.98f, 120.0f), "t = 7 s");
+    EXPECT_NEAR(session->scene().lights[0].power.r, 20.0f, 1e-4f);
+
+    // The host takes over: its transform stops the animation.
+    session->setObjectTransform(1, placementAt(2.38f, 30.0f));
+    f.host.timestampSeconds = 108.0;
+    session->submit(f.host);
+    expectPlacement(placementAt(2.38f, 30.0f), "after the host's transform");
+    EXPECT_FALSE(session->scene().objects[1].animation.has_value());
+}
+
+TEST_F(MovingContentGLTest, BadInputIsAnErrorNamingTheObjectAndChangesNothing) {
+    HostFrameData f = hostFrame(0, 0.0);
+    auto session = hostSession(orbitScene(), f.frame);
+    session->submit(f.host);
+    const cv::Mat before = session->output().withGi.clone();
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    glm::mat4 sheared(1.0f);
+    sheared[1][0] = 0.3f;
+    glm::mat4 stretched = glm::mat4(1.0f);
+    stretched[2][2] = 2.0f;
+    glm::mat4 lastRow(1.0f);
+    lastRow[0][3] = 1.0f;
+    const auto expectError = [&](auto&& call, const std::string& names, const std::string& cause) {
+        try {
+            call();
+            ADD_FAILURE() << "no error; expected '" << cause << "'";
+        } catch (const Error& error) {
+            const std::string what = error.what();
+            EXPECT_NE(what.find(names), std::string::npos) << what;
+            EXPECT_NE(what.find(cause), std::string::npos) << what;
+        }
+    };
+    expectError([&] { session->setObjectTransform(2, glm::mat4(1.0f)); }, "object 2",
+                "no such object (the scene has 2)");
+    expectError([&] { session->setObjectTransform(0, glm::mat4(nan)); }, "object 0", "non-finite");
+    expectError(
+        [&] {
+            session->setObjectTransform(
+                0, glm::mat4(0.0f) + glm::mat4(glm::vec4(0), glm::vec4(0), glm::vec4(0), glm::vec4(0, 0, 0, 1)));
+        },
+        "object 0", "singular");
+    expectError([&] { session->setObjectTransform(1, sheared); }, "object 1", "no shear");
+    expectError([&] { session->setObjectTransform(1, stretched); }, "object 1", "no shear, no stretch");
+    expectError([&] { session->setObjectTransform(1, lastRow); }, "object 1", "last row");
+    expectError([&] { session->setObjectVisible(5, false); }, "object 5", "no such object");
+    render::MaterialOverride tooBright;
+    tooBright.diffuseAlbedo = glm::vec3(1.5f, 0.5f, 0.5f);
+    expectError([&] { session->setObjectMaterial(0, tooBright); }, "object 0", "diffuse albedo must be in [0, 1]");
+    expectError([&] { session->setLight(0, {2, 1.6f, 2.3f}, {0, 0, -1}, {-1, 60, 60}); }, "light 0", "power");
+    expectError([&] { session->setLight(0, {nan, 1.6f, 2.3f}, {0, 0, -1}, glm::vec3(60)); }, "light 0", "position");
+    expectError([&] { session->setLight(1, {2, 1.6f, 2.3f}, {0, 0, -1}, glm::vec3(60)); }, "light 1", "no such light");
+    render::SceneObject missing;
+    missing.name = "ghost";
+    missing.mesh = sceneFolder() / "meshes" / "no-such-mesh.obj";
+    expectError([&] { session->addObject(missing); }, "no-such-mesh.obj", "does not exist");
+    render::SceneObject broken = missing; // exists, but is no mesh
+    broken.mesh = sceneFolder() / "orbit.json";
+    expectError([&] { session->addObject(broken); }, "orbit.json", "ghost");
+    expectError([&] { session->removeObject(2); }, "object 2", "no such object");
+
+    ASSERT_EQ(session->scene().objects.size(), 2u);
+    session->submit(f.host);
+    EXPECT_EQ(cv::norm(session->output().withGi, before, cv::NORM_INF), 0.0) << "an error changed the content";
+}
+
+TEST_F(MovingContentGLTest, HiddenRemovedAndReAddedObjectsLeaveNoTrace) {
+    HostFrameData f = hostFrame(0, 0.0);
+    auto session = hostSession(orbitScene(), f.frame);
+    session->submit(f.host);
+    const mr::FrameOutput original = session->output();
+    const cv::Mat originalImage = original.withGi.clone();
+
+    // Hidden cube = a scene without the cube.
+    auto bunnyOnly = hostSession(orbitScene({{R"(    {
+      "name": "cube",)",
+                                              R"(    {"visible": false,
+      "name": "cube",)"}}),
+                                 f.frame);
+    session->setObjectVisible(1, false);
+    session->submit(f.host);
+    bunnyOnly->submit(f.host);
+    expectSameImage(session->output(), bunnyOnly->output(), "cube hidden by the host vs by the scene");
+    EXPECT_LT(session->report().coveredPixels, original.coveredPixels);
+
+    // Nothing visible: the camera image passes unchanged (no GI, no differential shadow left behind).
+    session->setObjectVisible(0, false);
+    session->submit(f.host);
+    EXPECT_EQ(session->report().coveredPixels, 0);
+    EXPECT_EQ(cv::norm(session->output().withGi, f.frame.colour, cv::NORM_INF), 0.0);
+
+    session->setObjectVisible(0, true);
+    session->setObjectVisible(1, true);
+    session->submit(f.host);
+    EXPECT_EQ(cv::norm(session->output().withGi, originalImage, cv::NORM_INF), 0.0) << "shown again";
+
+    // Removed and added again as it was: the original image.
+    const render::SceneObject cube = session->scene().objects[1];
+    session->removeObject(1);
+    ASSERT_EQ(session->scene().objects.size(), 1u);
+    session->submit(f.host);
+    expectSameImage(session->output(), bunnyOnly->output(), "cube removed vs hidden by the scene");
+    EXPECT_EQ(session->addObject(cube), 1u);
+    session->submit(f.host);
+    EXPECT_EQ(cv::norm(session->output().withGi, originalImage, cv::NORM_INF), 0.0) << "re-added";
+}
+
+TEST_F(MovingContentGLTest, MaterialAndLightChangesShowAndUndoExactly) {
+    HostFrameData f = hostFrame(0, 0.0);
+    auto session = hostSession(orbitScene(), f.frame);
+    session->submit(f.host);
+    const cv::Mat original = session->output().withGi.clone();
+    render::MaterialOverride red;
+    red.diffuseAlbedo = glm::vec3(0.8f, 0.1f, 0.1f);
+    session->setObjectMaterial(0, red);
+    session->submit(f.host);
+    EXPECT_GT(changedPixels(original, session->output().withGi), 300) << "the bunny turned red";
+    render::MaterialOverride asInScene;
+    asInScene.diffuseAlbedo = glm::vec3(0.7f, 0.68f, 0.64f);
+    session->setObjectMaterial(0, asInScene);
+    session->setLight(0, {2.0f, 1.6f, 1.2f}, {0, 0, -1}, glm::vec3(60.0f)); // lowered to just above the table
+    session->submit(f.host);
+    EXPECT_GT(changedPixels(original, session->output().withGi), 300) << "the light moved: direct light and shadows";
+    auto lowered =
+        hostSession(orbitScene({{R"("position": [2.0, 1.6, 2.3])", R"("position": [2.0, 1.6, 1.2])"}}), f.frame);
+    lowered->submit(f.host);
+    expectSameImage(session->output(), lowered->output(), "light moved by the host vs placed by the scene");
+    session->setLight(0, {2.0f, 1.6f, 2.3f}, {0, 0, -1}, glm::vec3(60.0f));
+    session->submit(f.host);
+    EXPECT_EQ(cv::norm(session->output().withGi, original, cv::NORM_INF), 0.0) << "back as in the scene";
+}
+
+// LightSkin's adaptive mode reuses the last light while nothing changed; a move must end the reuse at once.
+TEST_F(MovingContentGLTest, AdaptiveReuseEndsWhenAnObjectMoves) {
+    HostFrameData f = hostFrame(0, 0.0);
+    mr::SessionOptions options;
+    options.pipeline.adaptive = true;
+    auto session = hostSession(orbitScene({}, "gl"), f.frame, options);
+    session->submit(f.host);
+    session->submit(f.host);
+    ASSERT_EQ(session->output().giReused, 1) << "the same frame again: reused";
+    session->setObjectTransform(1, render::composeTransform({2.30f, 1.60f, 0.81f}, {0, 0, 30}, 0.12f));
+    session->submit(f.host);
+    EXPECT_EQ(session->output().giReused, 0) << "moved: computed";
+    session->submit(f.host);
+    EXPECT_EQ(session->output().giReused, 1) << "still again: reused";
+}
+
+// With the prefetch, the CPU backend computes frame n+1's GI during frame n; an animated object is placed for
+// frame n+1 only then, so that work must not be used: the images equal the sequential session's bit for bit.
+TEST_F(MovingContentGLTest, GiAheadNeverUsesAStalePlacement) {
+    const mr::SceneInput scene = orbitScene(
+        {{kCubeTransform,
+          R"("animation": {"loop": true, "keys": [)"
+          R"({"t": 0, "translation": [2.38, 1.55, 0.81], "rotationDegrees": [0, 0, 30], "scale": 0.12},)"
+          R"({"t": 0.2, "translation": [2.18, 1.65, 0.81], "rotationDegrees": [0, 0, 90], "scale": 0.12}]})"}});
+    mr::SessionOptions sequentialOptions, prefetchOptions;
+    prefetchOptions.prefetch = true;
+    auto sequential = mr::Session::create(sequentialOptions, scene, capture::openFrameSource(recording(), {}));
+    auto prefetching = mr::Session::create(prefetchOptions, scene, capture::openFrameSource(recording(), {}));
+    for (int frame = 0; frame < 5; ++frame) {
+        ASSERT_TRUE(sequential->processNext());
+        ASSERT_TRUE(prefetching->processNext());
+        expectSameImage(sequential->output(), prefetching->output(), "frame " + std::to_string(frame));
+        EXPECT_TRUE(prefetching->output().giActive);
+        EXPECT_FALSE(prefetching->output().giComputedAhead) << "frame " << frame << ": the cube moved since";
+    }
+}
+
+} // namespace
