@@ -1,8 +1,8 @@
 /* A C host: creates its own headless OpenGL 4.5 context (EGL, surfaceless) and framebuffer, runs
  * a recording through lightskin's C ABI and lets it draw the lit virtual objects into that
- * framebuffer, sliding the first object 1 cm per frame (lsk_session_set_object_transform). Checks that the result is not trivial: the pixels that changed are exactly those
- * the virtual content covers (as the frame report counts them), the host's framebuffer binding
- * and viewport are as the host left them, and bad input is an error code with a message.
+ * framebuffer, sliding the first object 1 cm per frame (lsk_session_set_object_transform). Checks that the result is
+ * not trivial: the pixels that changed are exactly those the virtual content covers (as the frame report counts them),
+ * the host's framebuffer binding and viewport are as the host left them, and bad input is an error code with a message.
  *   c_host <recording folder> <scene file> [frames]                   prints "c_host ok" */
 #include <epoxy/egl.h>
 #include <epoxy/gl.h>

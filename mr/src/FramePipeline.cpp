@@ -626,12 +626,14 @@ void FramePipeline::rebuildDifferential() {
     if (!(s.scene.compositing.differential && s.valsUsable && !renderer_->instances().empty())) return;
     s.differential = gi::DifferentialIrradiance::create(renderer_->instances());
     const std::vector<gi::VirtualLight> lights = virtualLightsFromScene(s.scene);
-    for (std::size_t i = 0; i < lights.size(); ++i) s.differentialLights.push_back({lights[i], s.scene.lights[i].inRoom});
+    for (std::size_t i = 0; i < lights.size(); ++i)
+        s.differentialLights.push_back({lights[i], s.scene.lights[i].inRoom});
 }
 
 namespace {
 bool animated(const render::Scene& scene) {
-    return std::any_of(scene.objects.begin(), scene.objects.end(), [](const auto& o) { return o.animation.has_value(); }) ||
+    return std::any_of(scene.objects.begin(), scene.objects.end(),
+                       [](const auto& o) { return o.animation.has_value(); }) ||
            std::any_of(scene.lights.begin(), scene.lights.end(), [](const auto& l) { return l.animation.has_value(); });
 }
 } // namespace
@@ -692,7 +694,8 @@ void FramePipeline::checkObjectIndex(std::size_t object) const {
     const std::size_t count = state_->scene.objects.size();
     if (object >= count)
         throw Error(sourceName(), std::nullopt,
-                    "object " + std::to_string(object) + ": no such object (the scene has " + std::to_string(count) + ")");
+                    "object " + std::to_string(object) + ": no such object (the scene has " + std::to_string(count) +
+                        ")");
 }
 
 void FramePipeline::setObjectTransform(std::size_t object, const glm::mat4& world_T_model) {
@@ -721,7 +724,8 @@ void FramePipeline::setObjectMaterial(std::size_t object, const render::Material
     state_->giAhead.drop(); // its job reads the renderer's instances
     renderer_->setObjectMaterial(object, m);
     ++state_->contentVersion;
-    if (state_->differential) state_->differential = gi::DifferentialIrradiance::create(renderer_->instances()); // its emitters' albedo
+    if (state_->differential)
+        state_->differential = gi::DifferentialIrradiance::create(renderer_->instances()); // its emitters' albedo
 }
 
 void FramePipeline::setLight(std::size_t light, const glm::vec3& position, const glm::vec3& direction,
@@ -755,7 +759,7 @@ std::size_t FramePipeline::addObject(render::SceneObject object) {
         throw Error(object.mesh.string(), std::nullopt, what + ": the mesh file does not exist");
     if (object.material.diffuseTexture && !std::filesystem::is_regular_file(*object.material.diffuseTexture))
         throw Error(object.material.diffuseTexture->string(), std::nullopt, what + ": the texture file does not exist");
-    s.giAhead.drop(); // its job reads the renderer's instances
+    s.giAhead.drop();                                   // its job reads the renderer's instances
     renderer_->addObject(object, object.mesh.string()); // throws before changing anything
     s.scene.objects.push_back(std::move(object));
     instancesChanged();

@@ -318,7 +318,8 @@ void Session::setObjectVisible(std::size_t object, bool visible) { pipeline_->se
 void Session::setObjectMaterial(std::size_t object, const render::MaterialOverride& material) {
     pipeline_->setObjectMaterial(object, material);
 }
-void Session::setLight(std::size_t light, const glm::vec3& position, const glm::vec3& direction, const glm::vec3& power) {
+void Session::setLight(std::size_t light, const glm::vec3& position, const glm::vec3& direction,
+                       const glm::vec3& power) {
     pipeline_->setLight(light, position, direction, power);
 }
 std::size_t Session::addObject(render::SceneObject object) { return pipeline_->addObject(std::move(object)); }

@@ -173,8 +173,8 @@ std::vector<std::unique_ptr<Renderer::Object>> Renderer::loadParts(const SceneOb
             gi::SparsePointSettings settings;
             const double share = totalArea > 0.0 ? gi::surfaceArea(part.mesh) / totalArea : 1.0;
             settings.pointCount = std::clamp(int(std::lround(share * double(sparsePointsPerObject_))), 16, 65536);
-            object->sparse = gi::prepareSparsePoints(part.mesh, settings,
-                                                     so.name + " part " + std::to_string(partIndex) + " (" + so.mesh.string() + ")");
+            object->sparse = gi::prepareSparsePoints(
+                part.mesh, settings, so.name + " part " + std::to_string(partIndex) + " (" + so.mesh.string() + ")");
         }
         object->ownMaterial = part.material;
         if (so.material.diffuseTexture) object->ownMaterial.diffuseTexture = so.material.diffuseTexture->string();
@@ -182,7 +182,8 @@ std::vector<std::unique_ptr<Renderer::Object>> Renderer::loadParts(const SceneOb
         applyOverride(so.material, object->material);
         if (!object->material.diffuseTexture.empty()) {
             if (part.mesh.texcoords.empty()) {
-                log::warning(so.mesh.string() + ": texture " + object->material.diffuseTexture + " ignored: no texture coordinates");
+                log::warning(so.mesh.string() + ": texture " + object->material.diffuseTexture +
+                             " ignored: no texture coordinates");
                 object->material.diffuseTexture.clear();
             } else {
                 object->texture = loadTexture(object->material.diffuseTexture);
@@ -218,7 +219,8 @@ void Renderer::setScene(const Scene& scene, bool prepareSparsePoints) {
         for (auto& part : parts) objects_.push_back(std::move(part));
     }
     rebuildInstances();
-    if (scene.lights.size() > std::size_t(kMaxLights)) throw Error(sceneName, std::nullopt, "/lights: more than 4 lights");
+    if (scene.lights.size() > std::size_t(kMaxLights))
+        throw Error(sceneName, std::nullopt, "/lights: more than 4 lights");
     lights_ = scene.lights;
     renderShadowMaps();
     gl::DebugOutput::throwIfErrors("scene upload");

@@ -45,7 +45,9 @@ double readKeyTime(const JsonReader& r, const json& key, const std::string& k, d
     if (!key.contains("t")) r.fail(k + "/t", "the key's time in seconds from the first frame", nullptr);
     const double t = r.number(key["t"], k + "/t", 0.0f, 1e7f, ">= 0 (seconds from the first frame)");
     if (previous >= 0.0 && !(t > previous))
-        r.fail(k + "/t", "a time after the previous key's (" + std::to_string(previous) + " s): keys in increasing time", &key["t"]);
+        r.fail(k + "/t",
+               "a time after the previous key's (" + std::to_string(previous) + " s): keys in increasing time",
+               &key["t"]);
     return t;
 }
 
@@ -79,8 +81,9 @@ glm::mat4 readTransform(const JsonReader& r, const json& value, const std::strin
 /// The object's "animation": {"keys": [{"t", "translation", "rotationDegrees", "scale"}, ...], "loop"}.
 TransformAnimation readTransformAnimation(const JsonReader& r, const json& value, const std::string& p) {
     if (!value.is_object())
-        r.fail(p, "an object {\"keys\": [{\"t\": seconds, \"translation\", \"rotationDegrees\", \"scale\"}, ...], "
-                  "\"loop\": bool} (glTF animations are not read yet)",
+        r.fail(p,
+               "an object {\"keys\": [{\"t\": seconds, \"translation\", \"rotationDegrees\", \"scale\"}, ...], "
+               "\"loop\": bool} (glTF animations are not read yet)",
                &value);
     r.allowOnly(value, p, {"keys", "loop"});
     TransformAnimation animation;
@@ -97,7 +100,8 @@ TransformAnimation readTransformAnimation(const JsonReader& r, const json& value
         if (keys[i].contains("rotationDegrees"))
             key.rotation = rotationFromEulerDegrees(
                 r.vec3(keys[i]["rotationDegrees"], k + "/rotationDegrees", -1e4f, 1e4f, "(degrees)"));
-        if (keys[i].contains("scale")) key.scale = r.number(keys[i]["scale"], k + "/scale", 1e-6f, 1e6f, "> 0 (uniform scale)");
+        if (keys[i].contains("scale"))
+            key.scale = r.number(keys[i]["scale"], k + "/scale", 1e-6f, 1e6f, "> 0 (uniform scale)");
         animation.keys.push_back(key);
     }
     checkLoop(r, animation.loop, animation.keys.size(), p);
@@ -105,7 +109,8 @@ TransformAnimation readTransformAnimation(const JsonReader& r, const json& value
 }
 
 /// A light's "animation": keys of position, direction (spot lights) and power; a key's missing values are the light's.
-LightAnimation readLightAnimation(const JsonReader& r, const json& value, const std::string& p, const SceneLight& light) {
+LightAnimation readLightAnimation(const JsonReader& r, const json& value, const std::string& p,
+                                  const SceneLight& light) {
     r.object(value, p);
     r.allowOnly(value, p, {"keys", "loop"});
     LightAnimation animation;
@@ -119,10 +124,12 @@ LightAnimation readLightAnimation(const JsonReader& r, const json& value, const 
                      .position = light.position,
                      .direction = light.direction,
                      .power = light.power};
-        if (keys[i].contains("position")) key.position = r.vec3(keys[i]["position"], k + "/position", -1e4f, 1e4f, "(metres)");
+        if (keys[i].contains("position"))
+            key.position = r.vec3(keys[i]["position"], k + "/position", -1e4f, 1e4f, "(metres)");
         if (keys[i].contains("power")) key.power = r.colour(keys[i]["power"], k + "/power", 1e6f, ">= 0 (watts)");
         if (keys[i].contains("direction")) {
-            if (light.type != LightType::Spot) r.fail(k + "/direction", "no direction on a point light (only spot lights have one)", nullptr);
+            if (light.type != LightType::Spot)
+                r.fail(k + "/direction", "no direction on a point light (only spot lights have one)", nullptr);
             const glm::vec3 d = r.vec3(keys[i]["direction"], k + "/direction", -1e4f, 1e4f, "(direction)");
             if (glm::length(d) < 1e-6f) r.fail(k + "/direction", "a non-zero direction", &keys[i]["direction"]);
             key.direction = glm::normalize(d);
@@ -144,7 +151,8 @@ SceneObject readObject(const JsonReader& r, const json& value, const std::string
     if (value.contains("material")) o.material = readMaterial(r, value["material"], p + "/material");
     if (value.contains("animation")) {
         if (value.contains("transform"))
-            r.fail(p + "/animation", "either \"transform\" or \"animation\" (whose keys place the object), not both", nullptr);
+            r.fail(p + "/animation", "either \"transform\" or \"animation\" (whose keys place the object), not both",
+                   nullptr);
         o.animation = readTransformAnimation(r, value["animation"], p + "/animation");
         o.world_T_model = sampleTransform(*o.animation, 0.0);
     }
@@ -154,9 +162,9 @@ SceneObject readObject(const JsonReader& r, const json& value, const std::string
 
 SceneLight readLight(const JsonReader& r, const json& value, const std::string& p) {
     r.object(value, p);
-    r.allowOnly(
-        value, p,
-        {"type", "position", "direction", "power", "coneAngleDegrees", "coneFalloffDegrees", "shadows", "inRoom", "animation"});
+    r.allowOnly(value, p,
+                {"type", "position", "direction", "power", "coneAngleDegrees", "coneFalloffDegrees", "shadows",
+                 "inRoom", "animation"});
     SceneLight l;
     const std::string type = value.contains("type") ? r.string(value["type"], p + "/type") : "";
     if (type == "point") l.type = LightType::Point;

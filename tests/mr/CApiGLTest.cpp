@@ -12,8 +12,8 @@
 
 #include <cstddef>
 #include <cstring>
-#include <limits>
 #include <lightskin.h>
+#include <limits>
 #include <string>
 #include <thread>
 #include <vector>
@@ -266,19 +266,23 @@ TEST_F(CApiGLTest, HostMovesAddsAndRemovesObjectsAndBadInputIsAnError) {
     float bad[16];
     std::memcpy(bad, matrix, sizeof bad);
     bad[5] = nan;
-    expectError(lsk_session_set_object_transform(session, 1, bad), LSK_ERROR_INPUT, "object 1: the transform has a non-finite");
+    expectError(lsk_session_set_object_transform(session, 1, bad), LSK_ERROR_INPUT,
+                "object 1: the transform has a non-finite");
     bad[5] = 0.0f; // a zero scale along y: singular
-    expectError(lsk_session_set_object_transform(session, 1, bad), LSK_ERROR_INPUT, "object 1: the transform is singular");
+    expectError(lsk_session_set_object_transform(session, 1, bad), LSK_ERROR_INPUT,
+                "object 1: the transform is singular");
     expectError(lsk_session_set_object_transform(session, 1, nullptr), LSK_ERROR_INVALID_ARGUMENT, "world_T_model");
     const float position[3] = {2.0f, 1.6f, 2.3f}, negative[3] = {-1.0f, 60.0f, 60.0f};
     expectError(lsk_session_set_light(session, 0, position, nullptr, negative), LSK_ERROR_INPUT, "light 0: the power");
-    expectError(lsk_session_set_light(session, 3, position, nullptr, negative), LSK_ERROR_INPUT, "light 3: no such light");
+    expectError(lsk_session_set_light(session, 3, position, nullptr, negative), LSK_ERROR_INPUT,
+                "light 3: no such light");
     expectError(lsk_session_set_object_visible(session, 0, 2), LSK_ERROR_INVALID_ARGUMENT, "visible");
     lsk_material unset{};
     expectError(lsk_session_set_object_material(session, 0, &unset), LSK_ERROR_INVALID_ARGUMENT, "struct_size");
     expectError(lsk_session_add_object(session, "/nonexistent/mesh.obj", "ghost", nullptr, nullptr), LSK_ERROR_INPUT,
                 "/nonexistent/mesh.obj");
-    expectError(lsk_session_add_object(session, scenePath.c_str(), "", nullptr, nullptr), LSK_ERROR_INVALID_ARGUMENT, "name");
+    expectError(lsk_session_add_object(session, scenePath.c_str(), "", nullptr, nullptr), LSK_ERROR_INVALID_ARGUMENT,
+                "name");
     expectError(lsk_session_remove_object(session, 2), LSK_ERROR_INPUT, "object 2");
     ASSERT_EQ(lsk_session_object_count(session, &objects), LSK_OK);
     EXPECT_EQ(objects, 2u);
@@ -303,7 +307,8 @@ TEST_F(CApiGLTest, HostMovesAddsAndRemovesObjectsAndBadInputIsAnError) {
     const std::string cube = (sourceDir() / "recordings/scenes/meshes/cube.obj").string();
     float placement[16] = {0.1f, 0, 0, 0, 0, 0.1f, 0, 0, 0, 0, 0.1f, 0, 1.8f, 1.7f, 0.80f, 1};
     uint32_t added = 0;
-    ASSERT_EQ(lsk_session_add_object(session, cube.c_str(), "second cube", placement, &added), LSK_OK) << lsk_last_error();
+    ASSERT_EQ(lsk_session_add_object(session, cube.c_str(), "second cube", placement, &added), LSK_OK)
+        << lsk_last_error();
     EXPECT_EQ(added, 2u);
     ASSERT_EQ(lsk_session_object_count(session, &objects), LSK_OK);
     EXPECT_EQ(objects, 3u);

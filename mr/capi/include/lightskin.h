@@ -155,11 +155,11 @@ typedef struct lsk_render_target {
 /* Since 0.3: a material change (lsk_session_set_object_material); unset values keep the mesh file's. */
 typedef struct lsk_material {
     uint32_t struct_size;
-    int32_t set_diffuse;       /* 1 = diffuse_albedo applies */
-    float diffuse_albedo[3];   /* linear RGB in [0, 1] */
-    int32_t set_specular;      /* 1 = specular_albedo applies */
-    float specular_albedo[3];  /* linear RGB in [0, 1] */
-    float specular_exponent;   /* Phong exponent >= 1; 0 = the mesh file's */
+    int32_t set_diffuse;      /* 1 = diffuse_albedo applies */
+    float diffuse_albedo[3];  /* linear RGB in [0, 1] */
+    int32_t set_specular;     /* 1 = specular_albedo applies */
+    float specular_albedo[3]; /* linear RGB in [0, 1] */
+    float specular_exponent;  /* Phong exponent >= 1; 0 = the mesh file's */
 } lsk_material;
 
 typedef struct lsk_session lsk_session;
@@ -227,8 +227,7 @@ LSK_API lsk_status lsk_session_set_object_transform(lsk_session* session, uint32
                                                     const float world_T_model[16]);
 /* visible: 1 = drawn, lit and lighting; 0 = as if absent (kept loaded). The GI is prepared again. */
 LSK_API lsk_status lsk_session_set_object_visible(lsk_session* session, uint32_t index, int32_t visible);
-LSK_API lsk_status lsk_session_set_object_material(lsk_session* session, uint32_t index,
-                                                   const lsk_material* material);
+LSK_API lsk_status lsk_session_set_object_material(lsk_session* session, uint32_t index, const lsk_material* material);
 /* position: world metres; direction: spot lights only (normalised; ignored for point lights, may be NULL);
  * power: watts, linear RGB, >= 0. */
 LSK_API lsk_status lsk_session_set_light(lsk_session* session, uint32_t index, const float position[3],

@@ -491,7 +491,8 @@ lsk_status lsk_session_set_light(lsk_session* session, uint32_t index, const flo
                                  const float direction[3], const float power[3]) {
     constexpr const char* function = "lsk_session_set_light";
     return guardedSession(function, session, [&](mr::Session& s) -> lsk_status {
-        if (position == nullptr || power == nullptr) return invalidArgument(function, "position and power must not be null");
+        if (position == nullptr || power == nullptr)
+            return invalidArgument(function, "position and power must not be null");
         const glm::vec3 d = direction != nullptr ? glm::make_vec3(direction) : glm::vec3(0.0f, 0.0f, -1.0f);
         s.setLight(index, glm::make_vec3(position), d, glm::make_vec3(power));
         return LSK_OK;

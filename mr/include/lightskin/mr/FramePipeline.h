@@ -190,8 +190,8 @@ public:
 
 class FramePipeline {
 public:
-    /// Copies `scene` (its content then changes by animation and the calls below). `source` gives intrinsics and registration.
-    /// Throws lightskin::Error on bad scene content (meshes, tracking config) or intrinsics.
+    /// Copies `scene` (its content then changes by animation and the calls below). `source` gives intrinsics and
+    /// registration. Throws lightskin::Error on bad scene content (meshes, tracking config) or intrinsics.
     static std::unique_ptr<FramePipeline> create(const render::Scene& scene, const capture::FrameSourceInfo& source,
                                                  const PipelineOptions& options);
     ~FramePipeline();

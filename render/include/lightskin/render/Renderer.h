@@ -166,8 +166,8 @@ private:
     std::vector<std::unique_ptr<Object>> objects_; ///< mesh parts, scene object by scene object
     /// Per scene object: its first part in objects_ and the part count.
     std::vector<std::pair<std::size_t, std::size_t>> objectParts_;
-    int sparsePointsPerObject_ = 0; ///< setScene()'s (0 = no sparse points)
-    bool shadowsStale_ = false;     ///< renderShadowMaps() before the next frame
+    int sparsePointsPerObject_ = 0;                 ///< setScene()'s (0 = no sparse points)
+    bool shadowsStale_ = false;                     ///< renderShadowMaps() before the next frame
     std::vector<std::filesystem::path> warnedOpen_; ///< model files whose open boundary was reported
     std::vector<gi::MeshInstance> instances_;
     std::vector<SceneLight> lights_;
