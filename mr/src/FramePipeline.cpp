@@ -658,8 +658,7 @@ void FramePipeline::applyContentAt(double timeSeconds) {
 void FramePipeline::contentMoved() {
     State& s = *state_;
     ++s.contentVersion;
-    // The differential's occluders are placed in its Embree scene (a rebuild: docs/BENCHMARKS.md, moving content).
-    if (s.differential) s.differential = gi::DifferentialIrradiance::create(renderer_->instances());
+    if (s.differential) s.differential->place(renderer_->instances()); // its occluders and emitters
     if (s.technique->capabilities().placementInPrepare && !renderer_->instances().empty()) {
         s.giAhead.drop();
         s.technique->prepare(renderer_->instances());
@@ -724,8 +723,7 @@ void FramePipeline::setObjectMaterial(std::size_t object, const render::Material
     state_->giAhead.drop(); // its job reads the renderer's instances
     renderer_->setObjectMaterial(object, m);
     ++state_->contentVersion;
-    if (state_->differential)
-        state_->differential = gi::DifferentialIrradiance::create(renderer_->instances()); // its emitters' albedo
+    if (state_->differential) state_->differential->place(renderer_->instances()); // its emitters' albedo
 }
 
 void FramePipeline::setLight(std::size_t light, const glm::vec3& position, const glm::vec3& direction,

@@ -88,6 +88,23 @@ TriangleRayScene TriangleRayScene::create(std::span<const RayMesh> meshes, const
     return out;
 }
 
+void TriangleRayScene::place(std::span<const RayMesh> meshes, const std::string& owner) {
+    LIGHTSKIN_ASSERT(impl_, "lightskin::gi::TriangleRayScene::place(): used before create()");
+    for (std::size_t id = 0; id < impl_->meshOfGeometry.size(); ++id) {
+        const RayMesh& m = meshes[impl_->meshOfGeometry[id]];
+        RTCGeometry geometry = rtcGetGeometry(impl_->scene, unsigned(id));
+        auto* vertices = static_cast<float*>(rtcGetGeometryBufferData(geometry, RTC_BUFFER_TYPE_VERTEX, 0));
+        for (std::size_t v = 0; v < m.mesh->vertexCount(); ++v) {
+            const glm::dvec3 p(m.world_T_model * glm::dvec4(glm::dvec3(m.mesh->positions[v]), 1.0));
+            for (int k = 0; k < 3; ++k) vertices[3 * v + std::size_t(k)] = float(p[k]);
+        }
+        rtcUpdateGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0);
+        rtcCommitGeometry(geometry);
+    }
+    rtcCommitScene(impl_->scene);
+    throwIfEmbreeError(impl_->device, owner, "rebuilding the scene");
+}
+
 bool TriangleRayScene::occluded(const glm::dvec3& origin, const glm::dvec3& direction, double tNear,
                                 double tFar) const {
     LIGHTSKIN_ASSERT(impl_, "lightskin::gi::TriangleRayScene::occluded(): used before create()");

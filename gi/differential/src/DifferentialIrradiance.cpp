@@ -20,6 +20,14 @@ namespace lightskin::gi {
 
 namespace {
 
+/// One emitter's place on its object: triangle and the square-root map's coordinates (su = sqrt(u), r).
+struct EmitterSite {
+    std::size_t instance = 0;
+    std::size_t triangle = 0;
+    double su = 0.0, r = 0.0;
+    double areaShare = 0.0; ///< of the object's surface area: 1 / emittersPerObject
+};
+
 struct BoundingSphere {
     glm::dvec3 centre{0.0};
     double radius = 0.0;
@@ -170,7 +178,14 @@ struct DifferentialIrradiance::Impl {
     DifferentialSettings settings;
     TriangleRayScene scene; ///< the virtual meshes, world frame
     std::vector<BoundingSphere> spheres;
-    // Emitters: geometry fixed at create(), flux per frame.
+    std::vector<const TriangleMesh*> meshes; ///< the instances' meshes, as create() got them
+    /// Emitter sites in model space, fixed at create(); place() makes them world emitters.
+    std::vector<EmitterSite> sites;
+    std::vector<double> objectArea;        ///< world surface area per instance (place())
+    std::vector<glm::dvec3> world;         ///< place()'s world vertices, instance after instance
+    std::vector<std::size_t> worldOffsets; ///< first vertex of each instance in `world`
+    std::vector<RayMesh> rayMeshes;        ///< place()'s placements for the ray scene
+    // Emitters: geometry set by place(), flux per frame.
     std::vector<glm::dvec3> emitterPosition, emitterNormal, emitterAlbedo;
     std::vector<double> emitterArea;
     std::vector<VirtualAreaLight> emitters;
@@ -231,36 +246,22 @@ DifferentialIrradiance DifferentialIrradiance::create(std::span<const MeshInstan
     out.impl_ = std::make_unique<Impl>();
     Impl& impl = *out.impl_;
     impl.settings = settings;
-    std::vector<RayMesh> rayMeshes;
-    const double regionFactor = std::sqrt(1.0 / double(settings.falloffFraction) - 1.0);
-    std::vector<glm::dvec3> world;
+    // Emitter sites: N stratified points along the area CDF of each object as placed now (first coordinate), the
+    // radical inverse across each triangle (second), uniform in the triangle by the square-root map. Moves keep
+    // area ratios (rigid motion and uniform scale), so the sites stay stratified wherever place() puts the object.
     std::vector<double> cumulative;
+    std::vector<glm::dvec3> world;
     for (std::size_t m = 0; m < instances.size(); ++m) {
         LIGHTSKIN_ASSERT(instances[m].mesh != nullptr,
                          "lightskin::gi::DifferentialIrradiance::create(): instance without a CPU mesh");
         const TriangleMesh& mesh = *instances[m].mesh;
         mesh.validate("differential: virtual object " + std::to_string(m));
+        impl.meshes.push_back(&mesh);
         if (mesh.triangleCount() == 0) continue;
         const glm::dmat4 world_T_model(instances[m].world_T_model);
         world.resize(mesh.vertexCount());
-        glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-        for (std::size_t v = 0; v < mesh.vertexCount(); ++v) {
+        for (std::size_t v = 0; v < mesh.vertexCount(); ++v)
             world[v] = glm::dvec3(world_T_model * glm::dvec4(toDouble(mesh.positions[v]), 1.0));
-            lo = glm::min(lo, world[v]);
-            hi = glm::max(hi, world[v]);
-        }
-        BoundingSphere sphere;
-        sphere.centre = 0.5 * (lo + hi);
-        for (const glm::dvec3& p : world) sphere.radius = std::max(sphere.radius, glm::length(p - sphere.centre));
-        sphere.radius *= 1.0 + 1e-6; // float vertices exactly on the sphere stay inside
-        sphere.regionRadius = sphere.radius * regionFactor;
-        impl.spheres.push_back(sphere);
-
-        rayMeshes.push_back({&mesh, world_T_model});
-
-        // Emitters: N stratified points along the area CDF (first coordinate), the radical
-        // inverse across each triangle (second), uniform in the triangle by the square-root map.
-        const std::size_t n = std::size_t(settings.emittersPerObject);
         cumulative.assign(mesh.triangleCount(), 0.0);
         double total = 0.0;
         for (std::size_t t = 0; t < mesh.triangleCount(); ++t) {
@@ -270,6 +271,7 @@ DifferentialIrradiance DifferentialIrradiance::create(std::span<const MeshInstan
             cumulative[t] = total;
         }
         if (!(total > 0.0)) continue;
+        const std::size_t n = std::size_t(settings.emittersPerObject);
         for (std::size_t e = 0; e < n; ++e) {
             const double target = (double(e) + 0.5) / double(n) * total;
             const std::size_t t =
@@ -277,27 +279,81 @@ DifferentialIrradiance DifferentialIrradiance::create(std::span<const MeshInstan
             const std::size_t tri = std::min(t, mesh.triangleCount() - 1);
             const double before = tri == 0 ? 0.0 : cumulative[tri - 1];
             const double area = cumulative[tri] - before;
-            const double s = area > 0.0 ? std::clamp((target - before) / area, 0.0, 1.0) : 0.5;
-            const double r = radicalInverse2(std::uint32_t(e));
-            const glm::dvec3 &a = world[mesh.indices[3 * tri]], &b = world[mesh.indices[3 * tri + 1]],
-                             &c = world[mesh.indices[3 * tri + 2]];
-            const double su = std::sqrt(s);
-            const glm::dvec3 p = a * (1.0 - su) + b * (su * (1.0 - r)) + c * (su * r);
-            const glm::dvec3 normal = glm::cross(b - a, c - a);
-            if (!(glm::length(normal) > 0.0)) continue;
-            impl.emitterPosition.push_back(p);
-            impl.emitterNormal.push_back(glm::normalize(normal)); // counter-clockwise front faces (TriangleMesh)
-            impl.emitterArea.push_back(total / double(n));
-            impl.emitterAlbedo.push_back(toDouble(instances[m].material.diffuseAlbedo));
+            const double u = area > 0.0 ? std::clamp((target - before) / area, 0.0, 1.0) : 0.5;
+            impl.sites.push_back({m, tri, std::sqrt(u), radicalInverse2(std::uint32_t(e)), 1.0 / double(n)});
         }
     }
+    std::vector<RayMesh> rayMeshes;
+    for (const MeshInstance& instance : instances)
+        rayMeshes.push_back({instance.mesh, glm::dmat4(instance.world_T_model)});
     impl.scene = TriangleRayScene::create(rayMeshes, "differential");
+    out.place(instances);
+    impl.noReceivers.resize(0);
+    return out;
+}
+
+void DifferentialIrradiance::place(std::span<const MeshInstance> instances) {
+    Impl& impl = *impl_;
+    LIGHTSKIN_ASSERT(instances.size() == impl.meshes.size(), "DifferentialIrradiance::place(): other instances");
+    const double regionFactor = std::sqrt(1.0 / double(impl.settings.falloffFraction) - 1.0);
+    impl.spheres.clear();
+    impl.objectArea.assign(instances.size(), 0.0);
+    impl.worldOffsets.assign(instances.size() + 1, 0);
+    std::size_t vertices = 0;
+    for (std::size_t m = 0; m < instances.size(); ++m) {
+        impl.worldOffsets[m] = vertices;
+        vertices += impl.meshes[m]->vertexCount();
+    }
+    impl.worldOffsets[instances.size()] = vertices;
+    impl.world.resize(vertices);
+    impl.rayMeshes.clear();
+    for (std::size_t m = 0; m < instances.size(); ++m) {
+        LIGHTSKIN_ASSERT(instances[m].mesh == impl.meshes[m], "DifferentialIrradiance::place(): other meshes");
+        const TriangleMesh& mesh = *impl.meshes[m];
+        const glm::dmat4 world_T_model(instances[m].world_T_model);
+        impl.rayMeshes.push_back({&mesh, world_T_model});
+        if (mesh.triangleCount() == 0) continue;
+        glm::dvec3* world = impl.world.data() + impl.worldOffsets[m];
+        glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+        for (std::size_t v = 0; v < mesh.vertexCount(); ++v) {
+            world[v] = glm::dvec3(world_T_model * glm::dvec4(toDouble(mesh.positions[v]), 1.0));
+            lo = glm::min(lo, world[v]);
+            hi = glm::max(hi, world[v]);
+        }
+        BoundingSphere sphere;
+        sphere.centre = 0.5 * (lo + hi);
+        for (std::size_t v = 0; v < mesh.vertexCount(); ++v)
+            sphere.radius = std::max(sphere.radius, glm::length(world[v] - sphere.centre));
+        sphere.radius *= 1.0 + 1e-6; // float vertices exactly on the sphere stay inside
+        sphere.regionRadius = sphere.radius * regionFactor;
+        impl.spheres.push_back(sphere);
+        for (std::size_t t = 0; t < mesh.triangleCount(); ++t) {
+            const glm::dvec3 &a = world[mesh.indices[3 * t]], &b = world[mesh.indices[3 * t + 1]],
+                             &c = world[mesh.indices[3 * t + 2]];
+            impl.objectArea[m] += 0.5 * glm::length(glm::cross(b - a, c - a));
+        }
+    }
+    impl.emitterPosition.clear();
+    impl.emitterNormal.clear();
+    impl.emitterArea.clear();
+    impl.emitterAlbedo.clear();
+    for (const EmitterSite& site : impl.sites) {
+        const TriangleMesh& mesh = *impl.meshes[site.instance];
+        const glm::dvec3* world = impl.world.data() + impl.worldOffsets[site.instance];
+        const glm::dvec3 &a = world[mesh.indices[3 * site.triangle]], &b = world[mesh.indices[3 * site.triangle + 1]],
+                         &c = world[mesh.indices[3 * site.triangle + 2]];
+        const glm::dvec3 normal = glm::cross(b - a, c - a);
+        if (!(glm::length(normal) > 0.0)) continue;
+        impl.emitterPosition.push_back(a * (1.0 - site.su) + b * (site.su * (1.0 - site.r)) + c * (site.su * site.r));
+        impl.emitterNormal.push_back(glm::normalize(normal)); // counter-clockwise front faces (TriangleMesh)
+        impl.emitterArea.push_back(impl.objectArea[site.instance] * site.areaShare);
+        impl.emitterAlbedo.push_back(toDouble(instances[site.instance].material.diffuseAlbedo));
+    }
+    impl.scene.place(impl.rayMeshes, "differential");
     const std::size_t emitterCount = impl.emitterPosition.size();
     impl.emitters.resize(emitterCount);
     const std::size_t emitterPadded = (emitterCount + cpu::kSumBlock - 1) / cpu::kSumBlock * cpu::kSumBlock;
     impl.emitterSimd.reserve(std::max<std::size_t>(emitterPadded, cpu::kSumBlock));
-    impl.noReceivers.resize(0);
-    return out;
 }
 
 namespace {

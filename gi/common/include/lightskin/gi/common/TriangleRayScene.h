@@ -42,6 +42,10 @@ public:
     static TriangleRayScene create(std::span<const RayMesh> meshes, const std::string& owner,
                                    BuildQuality quality = BuildQuality::Medium);
 
+    /// The meshes of create(), in its order, at new placements: their vertices are rewritten and the BVH is
+    /// built again on the same device and buffers. Throws like create().
+    void place(std::span<const RayMesh> meshes, const std::string& owner);
+
     TriangleRayScene();
     ~TriangleRayScene();
     TriangleRayScene(TriangleRayScene&&) noexcept;

@@ -75,10 +75,13 @@ public:
     DifferentialIrradiance& operator=(DifferentialIrradiance&&) noexcept;
 
     /// Builds the occluder scene (Embree) and the emitters from the placed virtual objects (their
-    /// CPU meshes, world_T_model and diffuse albedo; the GPU views are not used). The meshes need
-    /// not outlive the call. Throws lightskin::Error on bad settings, invalid meshes or Embree errors.
+    /// CPU meshes, world_T_model and diffuse albedo; the GPU views are not used). place() takes
+    /// the same mesh objects. Throws lightskin::Error on bad settings, invalid meshes or Embree errors.
     static DifferentialIrradiance create(std::span<const MeshInstance> instances,
                                          const DifferentialSettings& settings = {});
+    /// The same instances (meshes, in create()'s order) placed anew (world_T_model, diffuse albedo): occluders and
+    /// emitters follow them, the ray scene is rebuilt in place. The meshes must still be those create() read.
+    void place(std::span<const MeshInstance> instances);
 
     /// Per frame. `depthMetres`: CV_32FC1 camera z in metres registered to the colour camera
     /// (0, NaN, out of range = missing); `intrinsics` its pinhole (distortion ignored);
