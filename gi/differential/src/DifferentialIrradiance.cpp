@@ -55,6 +55,16 @@ double radicalInverse2(std::uint32_t bits) {
 
 glm::dvec3 toDouble(const glm::vec3& v) { return glm::dvec3(v); }
 
+/// A rotation (or mirroring) times one uniform scale, up to float rounding of a composed transform.
+bool keepsAreaRatios(const glm::dmat3& a) {
+    const double s = (glm::length(a[0]) + glm::length(a[1]) + glm::length(a[2])) / 3.0;
+    constexpr double kTolerance = 1e-4;
+    return s > 0.0 && std::abs(glm::length(a[0]) - s) <= kTolerance * s &&
+           std::abs(glm::length(a[1]) - s) <= kTolerance * s && std::abs(glm::length(a[2]) - s) <= kTolerance * s &&
+           std::abs(glm::dot(a[0], a[1])) <= kTolerance * s * s &&
+           std::abs(glm::dot(a[0], a[2])) <= kTolerance * s * s && std::abs(glm::dot(a[1], a[2])) <= kTolerance * s * s;
+}
+
 /// Direct irradiance I cone cos / d^2 of a light at (x, n), without visibility; 0 behind.
 glm::dvec3 lightIrradiance(const glm::dvec3& x, const glm::dvec3& n, const VirtualLight& light) {
     const glm::dvec3 offset = toDouble(light.position) - x;
@@ -246,9 +256,10 @@ DifferentialIrradiance DifferentialIrradiance::create(std::span<const MeshInstan
     out.impl_ = std::make_unique<Impl>();
     Impl& impl = *out.impl_;
     impl.settings = settings;
-    // Emitter sites: N stratified points along the area CDF of each object as placed now (first coordinate), the
-    // radical inverse across each triangle (second), uniform in the triangle by the square-root map. Moves keep
-    // area ratios (rigid motion and uniform scale), so the sites stay stratified wherever place() puts the object.
+    // Emitter sites: N stratified points along the area CDF of each object (first coordinate), the radical
+    // inverse across each triangle (second), uniform in the triangle by the square-root map. A rotation times a
+    // uniform scale keeps area ratios: then the CDF is taken in model space, so the sites are the same bits
+    // wherever the object is placed (created there or moved there by place()); otherwise as placed now.
     std::vector<double> cumulative;
     std::vector<glm::dvec3> world;
     for (std::size_t m = 0; m < instances.size(); ++m) {
@@ -259,9 +270,10 @@ DifferentialIrradiance DifferentialIrradiance::create(std::span<const MeshInstan
         impl.meshes.push_back(&mesh);
         if (mesh.triangleCount() == 0) continue;
         const glm::dmat4 world_T_model(instances[m].world_T_model);
+        const glm::dmat4 cdfFrame = keepsAreaRatios(glm::dmat3(world_T_model)) ? glm::dmat4(1.0) : world_T_model;
         world.resize(mesh.vertexCount());
         for (std::size_t v = 0; v < mesh.vertexCount(); ++v)
-            world[v] = glm::dvec3(world_T_model * glm::dvec4(toDouble(mesh.positions[v]), 1.0));
+            world[v] = glm::dvec3(cdfFrame * glm::dvec4(toDouble(mesh.positions[v]), 1.0));
         cumulative.assign(mesh.triangleCount(), 0.0);
         double total = 0.0;
         for (std::size_t t = 0; t < mesh.triangleCount(); ++t) {
