@@ -1,10 +1,12 @@
 // `lightskin doctor`: checks that this machine can run lightskin (headless OpenGL 4.5 core,
-// compute shaders, framebuffer readback) and writes a self-test image.
+// compute shaders, framebuffer readback), says which GI backend a scene's gi.backend "auto" gets on
+// this renderer and why, and writes a self-test image.
 #include "CliSupport.h"
 #include "Commands.h"
 #include "ImageOutput.h"
 
 #include <lightskin/core/Error.h>
+#include <lightskin/gi/common/Technique.h>
 #include <lightskin/gl/Context.h>
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/gl/SelfTest.h>
@@ -22,7 +24,8 @@ namespace lightskin::apps {
 
 namespace {
 void addDoctorCommand(CLI::App& app, int& exitCode) {
-    auto* command = app.add_subcommand("doctor", "Check headless OpenGL 4.5 and write a self-test image");
+    auto* command = app.add_subcommand(
+        "doctor", "Check headless OpenGL 4.5 and which GI backend gi.backend auto picks; write a self-test image");
     auto output = std::make_shared<std::string>();
     command->add_option("--out", *output, "Write the self-test triangle as a PNG to this path");
     command->callback([output, &exitCode] {
@@ -30,6 +33,12 @@ void addDoctorCommand(CLI::App& app, int& exitCode) {
         if (!output->empty()) checkImageOutput(*output, {}, "--out");
         auto context = gl::createHeadlessContext();
         std::printf("renderer: %s\n", context->describe().c_str());
+        // What the pipeline decides for LightSkin with the scene's default (FramePipeline::create, same rule).
+        const gi::BackendChoice choice = gi::chooseBackend(gi::Technique::LightSkin, gi::BackendSetting::Auto,
+                                                           std::nullopt, gi::classifyGlRenderer(context->renderer()));
+        std::printf("GI backend (gi.backend \"auto\", the default): %s; %s\n",
+                    std::string(gi::toString(choice.backend)).c_str(),
+                    std::string(gi::toString(choice.reason)).c_str());
 
         const cv::Mat image = gl::renderSelfTestTriangle(256, 256);
         std::vector<std::uint32_t> values(100000);

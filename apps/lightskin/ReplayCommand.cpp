@@ -46,10 +46,10 @@ namespace lightskin::apps {
 
 namespace {
 
-/// The backends' spellings as the registry has them (gi/common/Technique.h), for --backend's check.
+/// The backend settings' spellings as the registry has them (gi/common/Technique.h), for --backend's check.
 std::vector<std::string> backendSpellings() {
     std::vector<std::string> spellings;
-    for (const gi::Backend backend : gi::kBackends) spellings.emplace_back(gi::toString(backend));
+    for (const gi::BackendSetting setting : gi::kBackendSettings) spellings.emplace_back(gi::toString(setting));
     return spellings;
 }
 
@@ -84,7 +84,7 @@ struct ReplayArgs {
     float staticTolerance = 0.0f;
     double budgetMs = 0.0; ///< --budget-ms (0: the scene's gi.budgetMs, if any)
     std::string staticTest = "probes";
-    std::string backend; ///< overrides the scene's gi.backend when set
+    std::string backend; ///< overrides the scene's gi.backend when set (auto, gl, cpu)
     std::string differential = "scene";
     std::string cacheDir;                  ///< --cache-dir: overrides the scene's multi-scale PRT cache folder when set
     std::optional<std::int64_t> maxFrames; ///< --max-frames (>= 1); all frames when unset
@@ -327,6 +327,12 @@ int runReplay(const ReplayArgs& args) {
     if (args.staticTest != "probes" && args.staticTest != "bound")
         throw Error("--static-test", std::nullopt, "expected probes or bound, got '" + args.staticTest + "'");
     options.staticProbes = args.staticTest == "probes";
+    if (!args.backend.empty()) {
+        options.backend = gi::parseBackendSetting(args.backend);
+        if (!options.backend)
+            throw Error("--backend", std::nullopt,
+                        "expected " + gi::backendSettingNames(false) + ", got '" + args.backend + "'");
+    }
     mr::SessionOptions sessionOptions;
     sessionOptions.pipeline = options;
     sessionOptions.budgetMs = args.budgetMs;
@@ -341,19 +347,10 @@ int runReplay(const ReplayArgs& args) {
         throw Error("--cache-dir", std::nullopt,
                     "would do nothing: " + scenePath.string() + " has gi.technique \"" + sceneTechnique +
                         "\", which has no precompute to cache");
-    if (!args.backend.empty()) {
-        const std::optional<gi::Backend> backend = gi::parseBackend(args.backend);
-        if (!backend)
-            throw Error("--backend", std::nullopt,
-                        "expected " + gi::backendNames(false) + ", got '" + args.backend + "'");
-        if (!gi::runsOn(scene.gi.technique, *backend))
-            throw Error("--backend", std::nullopt,
-                        "the CPU backend exists for technique lightskin only (" + scenePath.string() +
-                            " has gi.technique \"" + sceneTechnique + "\")");
-        render::GiSettings settings = pipeline->giSettings();
-        settings.backend = *backend;
-        pipeline->setGiSettings(settings);
-    }
+    if (options.backend == gi::BackendSetting::Cpu && !gi::runsOn(scene.gi.technique, gi::Backend::Cpu))
+        throw Error("--backend", std::nullopt,
+                    "the CPU backend exists for technique lightskin only (" + scenePath.string() +
+                        " has gi.technique \"" + sceneTechnique + "\")");
     if (source->frameCount() == std::optional<std::int64_t>(0))
         throw Error(args.recording, std::nullopt, "the recording has no frames: nothing to replay");
     // --write-frames past the frames that will be read would silently write nothing.
@@ -389,13 +386,11 @@ int runReplay(const ReplayArgs& args) {
     summary.scene = scenePath.string();
     summary.renderer = rendererName;
     // A frame budget may start on another technique than the scene's.
-    const bool askedCpu = pipeline->giSettings().backend == gi::Backend::Cpu &&
-                          gi::runsOn(scene.gi.technique, gi::Backend::Cpu);
-    const bool asGiven = pipeline->technique() == scene.gi.technique &&
-                         (pipeline->backend() == gi::Backend::Cpu) == askedCpu;
-    const std::string asked = sceneTechnique + (askedCpu ? "-cpu" : "");
+    const bool asGiven = pipeline->technique() == scene.gi.technique;
     summary.technique =
-        pipeline->techniqueName() + (asGiven ? "" : " (scene asked for " + asked + ", not available)");
+        pipeline->techniqueName() + (asGiven ? "" : " (scene asked for " + sceneTechnique + ", not available)");
+    summary.giBackend = gi::toString(pipeline->backendChoice().backend);
+    summary.giBackendReason = gi::toString(pipeline->backendChoice().reason);
     summary.poseMode = mr::toString(poseMode);
     summary.prtPrepare = pipeline->prtPrepareStats();
     summary.command = commandLineText(); // the exact argv: running it again reproduces the run
@@ -632,8 +627,8 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
         ->check(finiteIn(0.0, 1e6));
     command
         ->add_option("--backend", args->backend,
-                     "LightSkin's stages 0-4 on gl (default: the scene's gi.backend) or cpu (SIMD + threads; shading "
-                     "stays on GL)")
+                     "LightSkin's stages 0-4 on gl or cpu (SIMD + threads; shading stays on GL), or auto: cpu on a "
+                     "software rasterizer (llvmpipe), else gl (default: the scene's gi.backend, whose default is auto)")
         ->check(oneOf(backendSpellings()));
     command->add_flag("--sequential", args->sequential,
                       "Read, depth-filter and track frame n+1 after frame n on one thread (default: on a worker thread "

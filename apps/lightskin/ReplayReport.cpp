@@ -110,6 +110,8 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
     root["scene"] = s.scene;
     root["renderer"] = s.renderer;
     root["technique"] = s.technique;
+    root["giBackend"] = s.giBackend;
+    root["giBackendReason"] = s.giBackendReason;
     root["poseMode"] = s.poseMode;
     if (!s.compareLeft.empty()) root["compareLabels"] = {s.compareLeft, s.compareRight};
     root["command"] = s.command;
@@ -224,6 +226,7 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
     md += "| command | `" + s.command + "` |\n";
     md += "| renderer | " + escapeCell(s.renderer) + " |\n";
     md += "| GI technique | " + s.technique + " |\n";
+    md += "| GI backend | " + s.giBackend + ": " + escapeCell(s.giBackendReason) + " |\n";
     md += "| GI active | " + giSummary + " |\n";
     md += "| pose | " + s.poseMode + " |\n";
     md += "| frames read | " + std::to_string(s.framesRead) +

@@ -56,6 +56,9 @@ struct ReportFrame {
 
 struct ReportSummary {
     std::string recording, scene, renderer, technique, poseMode, video, videoCodec, command;
+    /// The backend the technique ran on ("gl", "cpu") and why (gi::toString(gi::BackendReason)), as the
+    /// pipeline chose it when it was created.
+    std::string giBackend, giBackendReason;
     /// What the side-by-side images show, left and right (their labels), and the report's heading for
     /// them: "with GI" only when the left half is the composite with GI (--view final).
     std::string compareLeft, compareRight, compareTitle = "With GI / without GI (the paper's figure 4)";

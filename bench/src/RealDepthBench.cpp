@@ -511,6 +511,7 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
     po.compare = false;
     po.view = render::DebugView::IndirectOnly;
     po.referenceIndirect = true;
+    po.backend = gi::BackendSetting::Gl; // the rows are LightSkin on gl (their backend column), on any renderer
     auto pipeline = mr::FramePipeline::create(scene, source->info(), po);
 
     // Tracked points for flicker: every k-th vertex of both meshes (~1500 per mesh), world space.

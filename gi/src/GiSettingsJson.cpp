@@ -25,10 +25,10 @@ GiSettings readGiSettings(const JsonReader& r, const json& value, const std::str
         g.technique = *technique;
     }
     if (value.contains("backend")) {
-        const std::optional<Backend> backend = parseBackend(r.string(value["backend"], p + "/backend"));
-        if (!backend) r.fail(p + "/backend", backendNames(true), &value["backend"]);
-        if (!runsOn(g.technique, *backend))
-            r.fail(p + "/backend", "\"gl\" (the CPU backend exists for technique \"lightskin\" only)",
+        const std::optional<BackendSetting> backend = parseBackendSetting(r.string(value["backend"], p + "/backend"));
+        if (!backend) r.fail(p + "/backend", backendSettingNames(true), &value["backend"]);
+        if (*backend == BackendSetting::Cpu && !runsOn(g.technique, Backend::Cpu))
+            r.fail(p + "/backend", "\"auto\" or \"gl\" (the CPU backend exists for technique \"lightskin\" only)",
                    &value["backend"]);
         g.backend = *backend;
     }

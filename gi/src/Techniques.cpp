@@ -12,7 +12,7 @@ TechniqueConfig configFor(const GiSettings& settings, const AdaptiveOptions& ada
         log::warning("gi.diffuse = false is not supported by the techniques: the diffuse channel stays on");
     TechniqueConfig c;
     c.technique = settings.technique;
-    c.backend = settings.backend;
+    c.backend = settings.backend == BackendSetting::Cpu ? Backend::Cpu : Backend::Gl;
     const bool robust = settings.robustRealDepth;
     LightSkinSettings& s = c.lightSkin;
     s.kCache = settings.kCache;
@@ -27,7 +27,7 @@ TechniqueConfig configFor(const GiSettings& settings, const AdaptiveOptions& ada
     if (adaptive.on) {
         s.adaptive = true;
         // The CPU backend takes the channel choices only: it has no static-content reuse.
-        if (settings.backend == Backend::Gl) {
+        if (c.backend == Backend::Gl) {
             s.staticTolerance = adaptive.staticTolerance;
             s.staticChangeTest = adaptive.staticChangeTest;
         }

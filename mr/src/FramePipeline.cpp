@@ -484,6 +484,8 @@ struct FramePipeline::State {
     std::uint64_t preparedCount = 0; // prepare() calls: PreparedFrame::sequence
     std::uint64_t generation = 0;    // setGiSettings() calls: a GI ahead of older settings is not used
     GiAhead giAhead;
+    gi::GlRenderer glRenderer = gi::GlRenderer::Unknown; // the context's, for a backend "auto"
+    gi::BackendChoice backendChoice;
 };
 
 GiAhead::~GiAhead() {
@@ -558,7 +560,11 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
                   " VALs merged at most");
     }
     p->rebuildDifferential();
+    const auto* glRenderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+    s.glRenderer = gi::classifyGlRenderer(glRenderer != nullptr ? glRenderer : "");
     p->setGiSettings(scene.gi);
+    log::info("GI backend: " + std::string(gi::toString(s.backendChoice.backend)) + " (" +
+              std::string(gi::toString(s.backendChoice.reason)) + ")");
     gl::DebugOutput::throwIfErrors("pipeline creation");
     return p;
 }
@@ -600,12 +606,17 @@ void FramePipeline::setGiSettings(const render::GiSettings& settings) {
         st.preparedSparsePoints = settings.sparsePoints;
         st.bruteForce.reset(); // prepared for the old instances
     }
+    // gi_ keeps the setting ("auto" too): each call resolves it again, so a frame budget's brute force returns
+    // to the backend LightSkin had, and the choice keeps its reason.
+    st.backendChoice = gi::chooseBackend(settings.technique, settings.backend, options_.backend, st.glRenderer);
     gi_ = settings;
+    render::GiSettings resolved = settings;
+    resolved.backend = gi::settingOf(st.backendChoice.backend);
     const gi::AdaptiveOptions adaptive{.on = options_.adaptive,
                                        .staticTolerance = options_.staticTolerance,
                                        .staticChangeTest = options_.staticProbes ? gi::StaticChangeTest::Probes
                                                                                  : gi::StaticChangeTest::Bound};
-    gi::TechniqueConfig config = gi::configFor(settings, adaptive);
+    gi::TechniqueConfig config = gi::configFor(resolved, adaptive);
     // Imperfect volumes' mesh points carry the scene lights' direct light, shadowed by the renderer's own
     // shadow maps; multi-scale PRT takes them at its entry points (lights are static: set once per technique).
     config.volumeLights = volumeLightsFromScene(st.scene);
@@ -790,6 +801,7 @@ std::string FramePipeline::techniqueName() const { return std::string(state_->te
 
 gi::Technique FramePipeline::technique() const noexcept { return state_->technique->technique(); }
 gi::Backend FramePipeline::backend() const noexcept { return state_->technique->backend(); }
+const gi::BackendChoice& FramePipeline::backendChoice() const noexcept { return state_->backendChoice; }
 
 std::optional<gi::PrtPrepareStats> FramePipeline::prtPrepareStats() const {
     return gi::prtPrepareStatsOf(*state_->technique);

@@ -435,7 +435,7 @@ TEST(Cli, ValsViewComparisonSaysWhatItShows) {
     std::ofstream(scene) << R"({"version": 1,
       "objects": [{"mesh": "cube.obj", "transform": {"translation": [-0.05, 0, -0.3], "scale": 0.2}}],
       "lights": [{"type": "point", "position": [0.3, 0.2, 1.0], "power": 5}],
-      "gi": {"technique": "lightskin", "sparsePoints": 64, "valStride": 2}})";
+      "gi": {"technique": "lightskin", "backend": "gl", "sparsePoints": 64, "valStride": 2}})";
     const auto replay = [&](const std::string& view) {
         const fs::path out = f.scratch / ("out-" + view);
         const CliRun r = runCli("replay " + f.recording.string() + " --scene " + scene.string() + " --out " +
@@ -505,7 +505,7 @@ TEST(Cli, BadOptionValuesNameTheOptionAndWhatWasExpected) {
     };
     refused(f.replay(out, "--pose bogus"), 64, "--pose: expected one of: ground-truth, tracking, fixed; got 'bogus'");
     refused(f.replay(out, "--view bogus"), 64, "--view: expected one of: final, direct, indirect");
-    refused(f.replay(out, "--backend gpu"), 64, "--backend: expected one of: gl, cpu; got 'gpu'");
+    refused(f.replay(out, "--backend gpu"), 64, "--backend: expected one of: auto, gl, cpu; got 'gpu'");
     refused("live --headless --device " + f.recording.string() + " --scene " + f.scene.string() + " --pose x", 64,
             "--pose: expected one of: ground-truth, tracking, fixed; got 'x'");
     refused(f.replay(out, "--write-frames 5-2"), 64, "--write-frames: the range '5-2' runs backwards; write it as 2-5");

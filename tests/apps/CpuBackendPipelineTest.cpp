@@ -38,7 +38,7 @@ void PrintTo(const Recording& recording, std::ostream* out) { *out << recording.
 
 std::vector<cv::Mat> indirectFrames(const Recording& recording, gi::Backend backend, int frames) {
     render::Scene scene = render::loadScene(test::sourceDir() / "recordings" / "scenes" / recording.sceneFile);
-    scene.gi.backend = backend;
+    scene.gi.backend = gi::settingOf(backend);
     auto source = capture::openFrameSource((test::sourceDir() / recording.path).string(), {});
     mr::PipelineOptions options;
     options.poseMode = recording.pose;

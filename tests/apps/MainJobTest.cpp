@@ -43,7 +43,15 @@ TEST(MainJob, ReplayOfTheBundledRecordingWritesImagesVideoAndReport) {
     const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
     EXPECT_EQ(report["framesRead"], 2);
     EXPECT_EQ(report["framesInSource"], 40);
-    EXPECT_EQ(report["technique"], "lightskin");
+    // orbit.json has no gi.backend: "auto", the CPU backend on a software rasterizer (the test's own reading of
+    // Mesa's, CI's llvmpipe among them), GL on a GPU; the report says which and why.
+    const std::string renderer = report["renderer"];
+    bool software = false;
+    for (const char* mesaSoftware : {"llvmpipe", "softpipe", "Software Rasterizer"})
+        software = software || renderer.find(mesaSoftware) != std::string::npos;
+    EXPECT_EQ(report["technique"], software ? "lightskin-cpu" : "lightskin") << renderer;
+    EXPECT_EQ(report["giBackend"], software ? "cpu" : "gl") << renderer;
+    EXPECT_EQ(report["giBackendReason"].get<std::string>().rfind("auto: ", 0), 0u) << report["giBackendReason"];
     EXPECT_EQ(report["poseMode"], "ground-truth");
     EXPECT_GT(report["frames"][0]["vals"].get<int>(), 1000); // 320x240 depth, stride 4: up to 4800
     const cv::Mat compare = cv::imread((out / "compare" / "000001.png").string(), cv::IMREAD_COLOR);

@@ -193,7 +193,8 @@ TEST(ReplayCommand, BadSceneAndMissingMeshGiveClearErrorsAndFail) {
 // face tilted toward the wall beside it can receive their light: the cube is turned 45 degrees.
 TEST(ReplayCommand, LightSkinTechniqueAddsIndirectLightToTheComparison) {
     const fs::path scratch = test::scratchDir("replay_gi");
-    const auto [recording, out, r] = replayTestRecording(scratch, kGiScene, " --write-frames 0 --max-frames 2");
+    const auto [recording, out, r] =
+        replayTestRecording(scratch, kGiScene, " --write-frames 0 --max-frames 2 --backend gl");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
     EXPECT_EQ(report["framesRead"], 2);
@@ -218,6 +219,71 @@ TEST(ReplayCommand, LightSkinTechniqueAddsIndirectLightToTheComparison) {
 // light. sRGB-encoding the linear composite gives the 8-bit PNG within 1 code value (the 8-bit
 // compositor rounds the virtual colour before blending); the linear image is not merely the PNG
 // decoded (its virtual pixels lie between the 256 sRGB levels); no NaN/inf counted in the report.
+// gi.backend through the program: without the key (auto) LightSkin runs on the CPU on a software rasterizer
+// (this suite's llvmpipe) and on GL on a GPU, and report.json and report.md say which and why; the scene's "gl"
+// and --backend override auto; a bad value is refused naming the key.
+TEST(ReplayCommand, BackendAutoFollowsTheRendererAndTheReportSaysWhy) {
+    const fs::path scratch = test::scratchDir("replay_backend");
+    const std::string options = " --write-frames 0 --max-frames 2 --no-video --no-compare";
+    const auto [recording, out, r] = replayTestRecording(scratch, kGiScene, options);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
+    const std::string renderer = report["renderer"];
+    // The test's own reading of the renderers this suite runs on: Mesa's software rasterizers (CI: llvmpipe).
+    bool software = false;
+    for (const char* mesaSoftware : {"llvmpipe", "softpipe", "Software Rasterizer"})
+        software = software || renderer.find(mesaSoftware) != std::string::npos;
+    SCOPED_TRACE(renderer);
+    const std::string autoReason = software ? "auto: the GL renderer is a software rasterizer (llvmpipe, softpipe, "
+                                              "swrast), on which the CPU backend is faster"
+                                            : "auto: the GL renderer is a GPU";
+    EXPECT_EQ(report["giBackend"], software ? "cpu" : "gl");
+    EXPECT_EQ(report["giBackendReason"], autoReason);
+    EXPECT_EQ(report["technique"], software ? "lightskin-cpu" : "lightskin");
+    EXPECT_EQ(report["giActiveFrames"], 2); // the CPU backend lit the frames too
+    const std::string md = test::readText(out / "report.md");
+    EXPECT_NE(md.find(std::string("| GI backend | ") + (software ? "cpu" : "gl") + ": " + autoReason + " |"),
+              std::string::npos)
+        << md;
+
+    // The scene's "gl" is kept; --backend overrides the scene either way.
+    std::string onGl = kGiScene;
+    onGl.insert(onGl.find("\"technique\""), "\"backend\": \"gl\", ");
+    const struct {
+        std::string scene, arguments, backend, technique, reason;
+    } cases[] = {
+        {onGl, "", "gl", "lightskin", "the scene's gi.backend"},
+        {onGl, " --backend cpu", "cpu", "lightskin-cpu",
+         "the command line's --backend (the pipeline's backend override)"},
+        {kGiScene, " --backend gl", "gl", "lightskin",
+         "the command line's --backend (the pipeline's backend override)"},
+        {onGl, " --backend auto", software ? "cpu" : "gl", software ? "lightskin-cpu" : "lightskin", autoReason},
+    };
+    int n = 0;
+    for (const auto& c : cases) {
+        SCOPED_TRACE(c.scene + c.arguments);
+        const fs::path caseScratch = scratch / ("case" + std::to_string(n++));
+        fs::create_directories(caseScratch);
+        const auto [caseRecording, caseOut, caseRun] = replayTestRecording(caseScratch, c.scene, options + c.arguments);
+        ASSERT_EQ(caseRun.exitCode, 0) << caseRun.err;
+        const nlohmann::json caseReport = nlohmann::json::parse(test::readText(caseOut / "report.json"));
+        EXPECT_EQ(caseReport["giBackend"], c.backend);
+        EXPECT_EQ(caseReport["technique"], c.technique);
+        EXPECT_EQ(caseReport["giBackendReason"], c.reason);
+    }
+
+    // A value that is not a backend setting: refused before anything is written, naming the key.
+    std::string onGpu = kGiScene;
+    onGpu.insert(onGpu.find("\"technique\""), "\"backend\": \"gpu\", ");
+    const fs::path bad = scratch / "bad";
+    fs::create_directories(bad);
+    const auto [badRecording, badOut, badRun] = replayTestRecording(bad, onGpu, options);
+    EXPECT_NE(badRun.exitCode, 0) << badRun.err;
+    EXPECT_NE(badRun.err.find("/gi/backend: expected \"auto\", \"gl\" or \"cpu\", got \"gpu\""), std::string::npos)
+        << badRun.err;
+    EXPECT_FALSE(fs::exists(badOut));
+}
+
 TEST(ReplayCommand, LinearOutWritesFloatImagesMatchingThePngs) {
     ASSERT_TRUE(cv::haveImageWriter(".exr")) << "this test expects Debian's OpenCV with OpenEXR";
     const fs::path scratch = test::scratchDir("replay_linear");

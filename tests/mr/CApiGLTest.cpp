@@ -83,11 +83,16 @@ TEST_F(CApiGLTest, HostFrameRoundTripAndVersionedReport) {
     const std::string scenePath = (sourceDir() / "recordings/scenes/orbit.json").string();
     // The scene as JSON text, with the differential composite off: this test checks that only
     // covered pixels change (the differential also changes real pixels around the objects, by design).
+    // On the GL backend whatever the renderer (gi.backend "auto" would take the CPU on llvmpipe).
     std::string text = lightskin::test::readText(scenePath);
     const std::string key = "\"compositing\": {";
     const auto at = text.find(key);
     ASSERT_NE(at, std::string::npos) << scenePath;
     text.insert(at + key.size(), "\"differential\": false, ");
+    const std::string gi = "\"gi\": {";
+    const auto giAt = text.find(gi);
+    ASSERT_NE(giAt, std::string::npos) << scenePath;
+    text.insert(giAt + gi.size(), "\"backend\": \"gl\", ");
     const std::string base = (sourceDir() / "recordings/scenes").string();
     lsk_scene scene;
     lsk_scene_init(&scene);

@@ -25,12 +25,20 @@ namespace {
 
 std::filesystem::path recording() { return test::sourceDir() / "recordings" / "synth-orbit"; }
 
-/// The orbit scene (bunny + glossy cube) with fewer sparse points: the tests are about the session.
-mr::SceneInput orbitScene(int sparsePoints = 256) {
+/// The orbit scene (bunny + glossy cube) with fewer sparse points: the tests are about the session. On the GL
+/// backend unless `backend` says otherwise (gi.backend; nullptr = the scene's default, auto), so the GL state and
+/// image tests run the GL technique whatever renderer the machine has.
+mr::SceneInput orbitScene(int sparsePoints = 256, const char* backend = "gl") {
     std::string text = test::readText(test::sourceDir() / "recordings" / "scenes" / "orbit.json");
     const std::string key = "\"sparsePoints\": 1024";
     const auto at = text.find(key);
     if (at != std::string::npos) text.replace(at, key.size(), "\"sparsePoints\": " + std::to_string(sparsePoints));
+    if (backend != nullptr) {
+        const std::string technique = "\"technique\": \"lightskin\",";
+        const auto techniqueAt = text.find(technique);
+        EXPECT_NE(techniqueAt, std::string::npos);
+        text.insert(techniqueAt + technique.size(), std::string(" \"backend\": \"") + backend + "\",");
+    }
     return mr::SceneInput::fromJson(text, test::sourceDir() / "recordings" / "scenes");
 }
 
@@ -402,6 +410,54 @@ TEST_F(SessionGLTest, BadScenesAndTargetsAreErrors) {
     EXPECT_THROW(session->render({.framebuffer = 0, .nearMetres = 1.0, .farMetres = 0.5}), Error);
 }
 
+// ---- gi.backend "auto": chosen once, by the GL renderer ----
+
+TEST_F(SessionGLTest, BackendAutoIsTheCpuOnASoftwareRasterizerAndSaysWhy) {
+    const auto* name = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+    ASSERT_NE(name, nullptr);
+    const std::string renderer(name);
+    // The test's own reading of the renderers this suite runs on: Mesa's software rasterizers (CI: llvmpipe).
+    bool software = false;
+    for (const char* mesaSoftware : {"llvmpipe", "softpipe", "Software Rasterizer"})
+        software = software || renderer.find(mesaSoftware) != std::string::npos;
+    const gi::BackendChoice autoChoice =
+        software ? gi::BackendChoice{gi::Backend::Cpu, gi::BackendReason::SoftwareRasterizer}
+                 : gi::BackendChoice{gi::Backend::Gl, gi::BackendReason::Gpu};
+    SCOPED_TRACE(renderer);
+
+    auto session = sourceSession({}, orbitScene(256, nullptr)); // no gi.backend: the default
+    mr::FramePipeline& pipeline = session->pipeline();
+    EXPECT_EQ(pipeline.giSettings().backend, gi::BackendSetting::Auto); // kept as the scene gave it
+    EXPECT_EQ(pipeline.backendChoice(), autoChoice);
+    EXPECT_EQ(pipeline.backend(), autoChoice.backend); // the technique that runs
+    EXPECT_EQ(pipeline.techniqueName(), software ? "lightskin-cpu" : "lightskin");
+    ASSERT_TRUE(session->processNext());
+    EXPECT_EQ(session->report().backend, autoChoice.backend);
+    EXPECT_GT(session->report().valCount, 0u);
+
+    // A frame budget's brute force runs on gl, which the reason says; back on LightSkin, auto chooses again.
+    render::GiSettings gi = pipeline.giSettings();
+    gi.technique = gi::Technique::BruteForce;
+    pipeline.setGiSettings(gi);
+    EXPECT_EQ(pipeline.backendChoice(), (gi::BackendChoice{gi::Backend::Gl, gi::BackendReason::TechniqueRunsOnlyOnGl}));
+    EXPECT_EQ(pipeline.backend(), gi::Backend::Gl);
+    gi.technique = gi::Technique::LightSkin;
+    pipeline.setGiSettings(gi);
+    EXPECT_EQ(pipeline.backendChoice(), autoChoice);
+    EXPECT_EQ(pipeline.backend(), autoChoice.backend);
+
+    // The scene's backend and the override win over auto, each named as the reason.
+    EXPECT_EQ(sourceSession({}, orbitScene(256, "gl"))->pipeline().backendChoice(),
+              (gi::BackendChoice{gi::Backend::Gl, gi::BackendReason::SceneSetting}));
+    mr::SessionOptions overridden;
+    overridden.pipeline.backend = gi::BackendSetting::Gl;
+    auto onGl = sourceSession(overridden, orbitScene(256, "cpu"));
+    EXPECT_EQ(onGl->pipeline().backendChoice(), (gi::BackendChoice{gi::Backend::Gl, gi::BackendReason::CommandLine}));
+    EXPECT_EQ(onGl->pipeline().backend(), gi::Backend::Gl);
+    overridden.pipeline.backend = gi::BackendSetting::Auto;
+    EXPECT_EQ(sourceSession(overridden, orbitScene(256, "gl"))->pipeline().backendChoice(), autoChoice);
+}
+
 // ---- Frame budget on the steady recording, with an injected cost model ----
 
 /// The test's machine: per technique a cost per interaction (LightSkin 3x, brute force 0.4x the
@@ -479,11 +535,7 @@ TEST_F(SessionGLTest, FrameBudgetIsMetOnASteadyRecordingAfterWarmUp) {
 /// gather is independent of the thread count, so two runs of a frame are bit-identical (unlike the GL
 /// path, see expectSameUpToRunToRun) and the prefetching run can be held to the sequential one exactly.
 mr::SceneInput orbitSceneOnCpu() {
-    mr::SceneInput scene = orbitScene();
-    const std::string key = "\"technique\": \"lightskin\",";
-    const auto at = scene.json.find(key);
-    EXPECT_NE(at, std::string::npos);
-    scene.json.insert(at + key.size(), " \"backend\": \"cpu\",");
+    mr::SceneInput scene = orbitScene(256, "cpu");
     // The tracker resolves its tag world against the scene file's folder, which an in-memory scene has not.
     const std::string world = "../synth-orbit/synth/tag-world.json";
     const auto worldAt = scene.json.find(world);

@@ -82,11 +82,23 @@ TEST(Scene, TransformComposesTranslationRotationScale) {
     EXPECT_EQ(glm::vec3(q), glm::vec3(5, 6, 7)); // row-major in the file
 }
 
-TEST(Scene, GiBackendDefaultsToGlAndAcceptsCpu) {
-    EXPECT_EQ(parseScene(R"({"version": 1})", meshDir(), "t").gi.backend, lightskin::gi::Backend::Gl);
+TEST(Scene, GiBackendDefaultsToAutoAndAcceptsEachSetting) {
+    using lightskin::gi::BackendSetting;
+    EXPECT_EQ(parseScene(R"({"version": 1})", meshDir(), "t").gi.backend, BackendSetting::Auto);
+    EXPECT_EQ(parseScene(R"({"version": 1, "gi": {}})", meshDir(), "t").gi.backend, BackendSetting::Auto);
     const Scene cpu = parseScene(R"({"version": 1, "gi": {"backend": "cpu"}})", meshDir(), "t");
-    EXPECT_EQ(cpu.gi.backend, lightskin::gi::Backend::Cpu);
+    EXPECT_EQ(cpu.gi.backend, BackendSetting::Cpu);
     EXPECT_EQ(cpu.gi.technique, lightskin::gi::Technique::LightSkin);
+    EXPECT_EQ(parseScene(R"({"version": 1, "gi": {"backend": "gl"}})", meshDir(), "t").gi.backend, BackendSetting::Gl);
+    EXPECT_EQ(parseScene(R"({"version": 1, "gi": {"backend": "auto"}})", meshDir(), "t").gi.backend,
+              BackendSetting::Auto);
+    // A technique without a CPU backend takes "auto" (it resolves to gl) and "gl".
+    for (const char* backend : {"auto", "gl"})
+        EXPECT_EQ(parseScene(std::string(R"({"version": 1, "gi": {"technique": "brute-force", "backend": ")") +
+                                 backend + "\"}}",
+                             meshDir(), "t")
+                      .gi.backend,
+                  *lightskin::gi::parseBackendSetting(backend));
 }
 
 TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
@@ -115,9 +127,11 @@ TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
         {head + R"("gi": {"technique": "magic"}})",
          "/gi/technique: expected \"lightskin\", \"brute-force\", \"imperfect-volumes\", \"multiscale-prt\" or "
          "\"none\""},
-        {head + R"("gi": {"backend": "gpu"}})", "/gi/backend: expected \"gl\" or \"cpu\", got \"gpu\""},
+        {head + R"("gi": {"backend": "gpu"}})", "/gi/backend: expected \"auto\", \"gl\" or \"cpu\", got \"gpu\""},
+        {head + R"("gi": {"backend": "Auto"}})", "/gi/backend: expected \"auto\", \"gl\" or \"cpu\", got \"Auto\""},
+        {head + R"("gi": {"backend": 1}})", "/gi/backend: expected a non-empty string, got 1"},
         {head + R"("gi": {"technique": "brute-force", "backend": "cpu"}})",
-         "/gi/backend: expected \"gl\" (the CPU backend exists for technique \"lightskin\" only)"},
+         "/gi/backend: expected \"auto\" or \"gl\" (the CPU backend exists for technique \"lightskin\" only)"},
         {head + R"("gi": {"kCache": 0}})", "/gi/kCache: expected an integer in [16, 4096]"},
         {head + R"("gi": {"kCache": 100}})", "/gi/kCache: expected a multiple of 16"},
         {head + R"("exposureStops": "bright"})", "/exposureStops: expected a number"},

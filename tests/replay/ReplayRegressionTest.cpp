@@ -307,7 +307,10 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
                                (c.maxFrames >= 0 ? " --max-frames " + std::to_string(c.maxFrames) : "") +
                                // The goldens pin the virtual content's light; the differential's change of the real
                                // pixels around it is pinned by tests/apps/DifferentialPipelineTest.cpp and gi/lights.
-                               " --differential off";
+                               " --differential off" +
+                               // The goldens are the GL backend's on every renderer (gi.backend "auto" takes the CPU
+                               // on llvmpipe; apps_cpu_backend_test holds the CPU backend to the GL one).
+                               " --backend gl";
     // Three runs over the same frames: the final composite (with the without-GI comparison), the
     // indirect light alone, and the normals (for the virtual-content mask).
     for (const char* view : {"final", "indirect", "normals"}) {
@@ -324,8 +327,8 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
         writeSceneWithoutOcclusion(root / c.scene, scratch / "scene-without-occlusion.json");
         const std::string args = (root / c.recording).string() + " --scene " +
                                  (scratch / "scene-without-occlusion.json").string() + " --pose " + c.pose +
-                                 " --no-video --no-compare --differential off --view error --write-frames " +
-                                 std::to_string(c.indirectFrame) + " --max-frames " +
+                                 " --no-video --no-compare --differential off --backend gl --view error " +
+                                 "--write-frames " + std::to_string(c.indirectFrame) + " --max-frames " +
                                  std::to_string(c.indirectFrame + 1) + " --out " + (scratch / "error").string();
         ASSERT_EQ(runLightskin(args, scratch, "error"), 0) << "lightskin replay " << args << "\n"
                                                            << test::readText(scratch / "error.stderr.txt");
@@ -340,6 +343,7 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
     ASSERT_EQ(std::int64_t(report["frames"].size()), expectedRead);
     EXPECT_FALSE(report["interrupted"].get<bool>());
     EXPECT_EQ(report["technique"], "lightskin");
+    EXPECT_EQ(report["giBackend"], "gl");
     EXPECT_EQ(report["poseMode"], c.pose);
 
     // No NaN/inf anywhere in the report; poses and stage times present as numbers.
@@ -808,8 +812,11 @@ TEST(ReplayRealData, OniKinectV1HasValsAndVisibleGiOnEveryFrame) {
     ASSERT_EQ(report["frames"].size(), 12u);
     EXPECT_EQ(report["giActiveFrames"].get<int>(), 12);
     EXPECT_EQ(report["giInactiveFrames"].get<int>(), 0);
-    EXPECT_NE(test::readText(scratch / "final.stdout.txt").find("GI (lightskin) active in all 12 frames"),
+    // On the default backend, as the main job runs it (gi.backend "auto": the CPU on llvmpipe).
+    EXPECT_NE(test::readText(scratch / "final.stdout.txt")
+                  .find("GI (" + report["technique"].get<std::string>() + ") active in all 12 frames"),
               std::string::npos);
+    EXPECT_EQ(report["technique"].get<std::string>().rfind("lightskin", 0), 0u) << report["technique"];
     for (const auto& f : report["frames"]) {
         // VALs: stride 8 over 640x480 gives 80 x 60 = 4800 VAL cells; the registered depth covers
         // > 40% of the image (tests/capture OniSourceTest), so a frame should have ~1900 VALs; 960

@@ -62,7 +62,8 @@ typedef enum lsk_pose_mode {
 
 typedef enum lsk_tracking_state { LSK_TRACKING = 0, LSK_TRACKING_HELD = 1, LSK_TRACKING_LOST = 2 } lsk_tracking_state;
 /* The GI techniques (scene gi.technique: "lightskin", "brute-force", "imperfect-volumes", "multiscale-prt",
- * "none") and the backends they run on (gi.backend: "gl", "cpu"; only LightSkin runs on the CPU). Values are
+ * "none") and the backends they run on (gi.backend: "gl", "cpu", or "auto", the default: the CPU on a software
+ * rasterizer such as llvmpipe, else GL; only LightSkin runs on the CPU). Values are
  * never renumbered: new ones are appended. */
 typedef enum lsk_technique {
     LSK_TECHNIQUE_LIGHTSKIN = 0,

@@ -94,7 +94,7 @@ class EmptySceneGLTest : public test::GlTest, public ::testing::WithParamInterfa
 TEST_P(EmptySceneGLTest, PreparesNoInstanceRendersZeroAndThenLightsARealMesh) {
     gi::GiSettings settings;
     settings.technique = GetParam().technique;
-    settings.backend = GetParam().backend;
+    settings.backend = gi::settingOf(GetParam().backend);
     settings.sparsePoints = 64;
     // A 40 cm square 10 cm above the VALs, facing down at them; the camera looks up at it from below.
     const TriangleMesh mesh =

@@ -1,7 +1,7 @@
 // The technique registry's names (gi::toString, gi::parseTechnique) against themselves and against the lists
-// the reference docs give: docs/SCENE_FORMAT.md's gi.technique and gi.backend rows and docs/CLI.md's --backend
-// and --backends options. A technique or backend added to the registry but not to the docs (or the other way
-// round) fails here.
+// the reference docs give: docs/SCENE_FORMAT.md's gi.technique and gi.backend rows (gi.backend lists the settings:
+// auto and the backends) and docs/CLI.md's --backend and --backends options. A technique or backend added to the
+// registry but not to the docs (or the other way round) fails here.
 #include "TestPaths.h"
 
 #include <lightskin/gi/common/Technique.h>
@@ -26,6 +26,12 @@ std::set<std::string> registryTechniques() {
 std::set<std::string> registryBackends() {
     std::set<std::string> names;
     for (const gi::Backend b : gi::kBackends) names.insert(std::string(gi::toString(b)));
+    return names;
+}
+
+std::set<std::string> registryBackendSettings() {
+    std::set<std::string> names;
+    for (const gi::BackendSetting s : gi::kBackendSettings) names.insert(std::string(gi::toString(s)));
     return names;
 }
 
@@ -66,6 +72,14 @@ TEST(TechniqueNamesTest, EveryNameParsesBackToItsValue) {
     EXPECT_EQ(gi::techniqueNames(true),
               "\"lightskin\", \"brute-force\", \"imperfect-volumes\", \"multiscale-prt\" or \"none\"");
     EXPECT_EQ(gi::backendNames(false), "gl or cpu");
+    // The settings: auto and every backend by its own spelling.
+    for (const gi::BackendSetting b : gi::kBackendSettings) EXPECT_EQ(gi::parseBackendSetting(gi::toString(b)), b);
+    for (const gi::Backend b : gi::kBackends)
+        EXPECT_EQ(gi::toString(gi::settingOf(b)), gi::toString(b)) << gi::toString(b);
+    EXPECT_EQ(registryBackendSettings().size(), gi::kBackendSettings.size());
+    for (const char* other : {"Auto", "AUTO", "GL", "default", ""})
+        EXPECT_FALSE(gi::parseBackendSetting(other)) << other;
+    EXPECT_EQ(gi::backendSettingNames(true), "\"auto\", \"gl\" or \"cpu\"");
 }
 
 TEST(TechniqueNamesTest, OnlyLightSkinRunsOnTheCpu) {
@@ -79,7 +93,7 @@ TEST(TechniqueNamesTest, SceneFormatListsTheRegistry) {
     EXPECT_EQ(quotedValuesOfSecondColumn(lineStartingWith("docs/SCENE_FORMAT.md", "| `technique` |")),
               registryTechniques());
     EXPECT_EQ(quotedValuesOfSecondColumn(lineStartingWith("docs/SCENE_FORMAT.md", "| `backend` |")),
-              registryBackends());
+              registryBackendSettings());
 }
 
 TEST(TechniqueNamesTest, CliListsTheBackends) {
@@ -89,9 +103,9 @@ TEST(TechniqueNamesTest, CliListsTheBackends) {
     std::string expected;
     for (const gi::Backend b : gi::kBackends) expected += (expected.empty() ? "" : ",") + std::string(gi::toString(b));
     EXPECT_EQ(value, expected);
-    // "--backend TEXT ... on gl (default: ...) or cpu": every backend named as a word.
+    // "--backend TEXT ... on gl or cpu ..., or auto ...": every backend setting named as a word.
     const std::string replay = lineStartingWith("docs/CLI.md", "  --backend TEXT");
-    for (const gi::Backend b : gi::kBackends)
+    for (const gi::BackendSetting b : gi::kBackendSettings)
         EXPECT_TRUE(std::regex_search(replay, std::regex("\\b" + std::string(gi::toString(b)) + "\\b")))
             << gi::toString(b) << " missing from: " << replay;
 }

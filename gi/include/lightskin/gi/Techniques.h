@@ -23,8 +23,10 @@ namespace lightskin::gi {
 /// The scene file's "gi" object (docs/SCENE_FORMAT.md), as render::loadScene reads it.
 struct GiSettings {
     Technique technique = Technique::LightSkin;
-    /// Where the technique's per-frame stages run (runsOn(technique, backend) holds).
-    Backend backend = Backend::Gl;
+    /// Where the technique's per-frame stages run: gl, cpu (runsOn(technique, Backend::Cpu) holds) or auto, which
+    /// a pipeline resolves by its GL renderer (chooseBackend: the CPU backend on a software rasterizer); the
+    /// pipeline keeps the setting as given and reports what it chose (mr::FramePipeline::backendChoice).
+    BackendSetting backend = BackendSetting::Auto;
     int sparsePoints = 4096; ///< sparse scene points per mesh (paper: 4k or 16k), LightSkin
     int valStride = 4;       ///< one VAL per valStride x valStride depth pixels
     int kCache = 128;        ///< the paper's K_cache (VALs per cache block), LightSkin and the brute force
@@ -91,7 +93,8 @@ struct TechniqueConfig {
 GiSettings readGiSettings(const JsonReader& reader, const nlohmann::json& value, const std::string& pointer);
 
 /// The typed settings the scene's "gi" object means (LightSkin's guards from robustRealDepth and the rest),
-/// with the pipeline's adaptive options.
+/// with the pipeline's adaptive options. A backend still "auto" is gl here: only a pipeline, which knows its GL
+/// renderer, resolves auto (chooseBackend).
 TechniqueConfig configFor(const GiSettings& settings, const AdaptiveOptions& adaptive = {});
 
 /// The one factory: a technique of config.technique, on config.backend where it runs on it (runsOn), else

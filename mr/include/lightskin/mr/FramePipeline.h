@@ -12,6 +12,7 @@
 #include <lightskin/gi/common/CpuValGenerator.h>
 #include <lightskin/gi/common/IndirectIllumination.h>
 #include <lightskin/gi/common/ReflectiveShadowMap.h>
+#include <lightskin/gi/common/Technique.h>
 #include <lightskin/gi/prt/MultiscalePrt.h>
 #include <lightskin/gl/GpuTimer.h>
 #include <lightskin/render/Compositor.h>
@@ -89,6 +90,9 @@ struct PipelineOptions {
     /// G-buffer) and FrameOutput::coverage (`lightskin bench-realdepth`: speckle and flicker of
     /// both side by side). Costs a second GI pass and two float read-backs per frame.
     bool referenceIndirect = false;
+    /// The backend override (`lightskin replay --backend`, a host's choice): replaces the gi.backend of the scene
+    /// and of every setGiSettings() for the pipeline's life (gi::chooseBackend, reason CommandLine); unset = theirs.
+    std::optional<gi::BackendSetting> backend;
 };
 
 /// Why a frame had no GI (FrameOutput::giInactiveCause); stable strings for reports and tests.
@@ -255,6 +259,10 @@ public:
     std::string techniqueName() const;
     gi::Technique technique() const noexcept;
     gi::Backend backend() const noexcept;
+    /// The technique's backend and why, as the last setGiSettings() chose it from its settings' backend (which
+    /// giSettings() keep as given, "auto" too), the options' override and the GL renderer, classified once at
+    /// creation: "auto" is the CPU backend on a software rasterizer, else gl (gi::chooseBackend).
+    const gi::BackendChoice& backendChoice() const noexcept;
     /// Technique multiscale-prt: its last prepare() (precompute or cache load), else nullopt.
     std::optional<gi::PrtPrepareStats> prtPrepareStats() const;
     render::Renderer& renderer() noexcept { return *renderer_; }
