@@ -389,7 +389,7 @@ struct GiAhead {
 
     // The caller's side: what it did for the frame of PreparedFrame::sequence `sequence` under `generation`.
     enum class Stage { None, ValsReady, Launched, ValsFailed } stage = Stage::None;
-    std::uint64_t sequence = 0, generation = 0, contentVersion = 0;
+    std::uint64_t sequence = 0, generation = 0, instanceSetVersion = 0;
     GiJob next;                   // ValsReady: the job launch() hands over
     std::exception_ptr valsError; // ValsFailed: thrown by that frame's render()
     double valsMs = 0.0;          // that frame's VALs and their cull, on the caller's thread
@@ -446,8 +446,9 @@ struct FramePipeline::State {
     AnimationClock clock;
     bool contentPending = false;      // the host changed a placement or light: applied at the next frame
     double contentMs = -1.0;          // this frame's placing of moving content (FrameOutput "content"), -1: none
-    std::uint64_t contentVersion = 0; // +1 whenever a placement or the instance set changes: a GI ahead of
-                                      // an older version is not used
+    std::uint64_t instanceSetVersion = 0; // +1 when the instances or their materials change (not placements)
+    /// The GI ahead's instances: this frame's, placed where the animations put them at the next frame's time.
+    std::vector<gi::MeshInstance> aheadInstances;
     capture::FrameSourceInfo source;
     std::unique_ptr<gi::IndirectIllumination> technique;
     std::optional<tracking::PoseTracker> tracker;
@@ -666,9 +667,28 @@ void FramePipeline::applyContentAt(double timeSeconds) {
     s.contentMs = msSince(start);
 }
 
+namespace {
+bool samePlacements(std::span<const gi::MeshInstance> a, std::span<const gi::MeshInstance> b) {
+    return std::equal(a.begin(), a.end(), b.begin(), b.end(), [](const gi::MeshInstance& x, const gi::MeshInstance& y) {
+        return x.meshId == y.meshId && x.mesh == y.mesh && x.world_T_model == y.world_T_model;
+    });
+}
+} // namespace
+
+void FramePipeline::placeForNextFrame(const RgbdFrame& nextFrame) {
+    State& s = *state_;
+    const std::span<const gi::MeshInstance> now = renderer_->instances();
+    s.aheadInstances.assign(now.begin(), now.end()); // capacity kept: no allocation once grown
+    if (!animated(s.scene)) return;
+    const double t = s.clock.timeOf(nextFrame);
+    for (gi::MeshInstance& instance : s.aheadInstances) {
+        const render::SceneObject& object = s.scene.objects[renderer_->sceneObjectOf(instance.meshId)];
+        if (object.animation) instance.world_T_model = render::sampleTransform(*object.animation, t);
+    }
+}
+
 void FramePipeline::contentMoved() {
     State& s = *state_;
-    ++s.contentVersion;
     if (s.differential) s.differential->place(renderer_->instances()); // its occluders and emitters
     if (s.technique->capabilities().placementInPrepare && !renderer_->instances().empty()) {
         s.giAhead.drop();
@@ -678,7 +698,6 @@ void FramePipeline::contentMoved() {
 
 void FramePipeline::lightsMoved() {
     State& s = *state_;
-    ++s.contentVersion;
     const std::vector<gi::VirtualLight> lights = virtualLightsFromScene(s.scene);
     if (s.rsm) s.virtualLights = lights;
     for (std::size_t i = 0; i < s.differentialLights.size(); ++i) s.differentialLights[i].light = lights[i];
@@ -688,7 +707,7 @@ void FramePipeline::lightsMoved() {
 void FramePipeline::instancesChanged() {
     State& s = *state_;
     s.giAhead.drop(); // its job reads the old instances
-    ++s.contentVersion;
+    ++s.instanceSetVersion;
     s.bruteForce.reset(); // prepared for the old instances
     rebuildDifferential();
     if (!renderer_->instances().empty()) s.technique->prepare(renderer_->instances());
@@ -733,7 +752,7 @@ void FramePipeline::setObjectMaterial(std::size_t object, const render::Material
     m.specularExponent = material.specularExponent;
     state_->giAhead.drop(); // its job reads the renderer's instances
     renderer_->setObjectMaterial(object, m);
-    ++state_->contentVersion;
+    ++state_->instanceSetVersion;
     if (state_->differential) state_->differential->place(renderer_->instances()); // its emitters' albedo
 }
 
@@ -947,7 +966,8 @@ void FramePipeline::passThrough(FrameWork& w) {
 // The CPU VALs of the frame `sequence` (this frame's, or the next one's for the GI ahead) into its generator,
 // culled where the virtual content is (gi.robustRealDepth; the view's clip_T_world as renderGBuffer() sets it).
 gi::CpuValGenerator& FramePipeline::generateCpuVals(std::uint64_t sequence, const RgbdFrame& frame,
-                                                    const cv::Mat& depth, const Pose& pose, int threads) {
+                                                    const cv::Mat& depth, const Pose& pose,
+                                                    std::span<const gi::MeshInstance> instances, int threads) {
     State& s = *state_;
     render::Renderer& r = *renderer_;
     std::optional<gi::CpuValGenerator>& generator = s.cpuVals[sequence % 2];
@@ -959,7 +979,7 @@ gi::CpuValGenerator& FramePipeline::generateCpuVals(std::uint64_t sequence, cons
         generator->setSettings(settings);
     generator->generate(depth, 1.0, frame.colour, frame.colourIntrinsics, pose);
     if (gi_.robustRealDepth && s.occupancy)
-        s.occupancy->applyOnCpu(generator->mutableLastVals(), generator->lastPixelIndices(), r.instances(),
+        s.occupancy->applyOnCpu(generator->mutableLastVals(), generator->lastPixelIndices(), instances,
                                 r.clipFromWorldAt(pose), pose.inverse().matrixFloat());
     return *generator;
 }
@@ -983,7 +1003,7 @@ void FramePipeline::makeVals(FrameWork& w) {
     const bool aheadForThisFrame =
         (ahead.stage == GiAhead::Stage::Launched || ahead.stage == GiAhead::Stage::ValsFailed) &&
         ahead.sequence == w.prepared.sequence && ahead.generation == s.generation &&
-        ahead.contentVersion == s.contentVersion; // placed as this frame's content
+        ahead.instanceSetVersion == s.instanceSetVersion && samePlacements(s.aheadInstances, renderer_->instances());
     w.useAhead = aheadForThisFrame && haveDepth && w.valsOnCpu && s.vals && s.cpuVals[w.prepared.sequence % 2] &&
                  options_.overlay != Overlay::VertexVpls;
     if (!w.useAhead) ahead.waitIdle();
@@ -994,7 +1014,7 @@ void FramePipeline::makeVals(FrameWork& w) {
     if (haveDepth && w.valsOnCpu && s.vals) {
         w.frameVals = w.useAhead ? &*s.cpuVals[w.prepared.sequence % 2]
                                  : &generateCpuVals(w.prepared.sequence, w.frame, w.prepared.depthMetres,
-                                                    *w.world_T_camera, w.cpuTechnique->threads());
+                                                    *w.world_T_camera, r.instances(), w.cpuTechnique->threads());
         s.cpuValSet = w.frameVals->lastVals();
         w.valSet = gi::ValSetView{0, std::uint32_t(s.cpuValSet.size()), 0, 0, 0};
         w.out.valCount = w.valSet.count;
@@ -1084,14 +1104,15 @@ void FramePipeline::makeNextFrameVals(FrameWork& w, NextFrame* next) {
     const auto valsStart = Clock::now();
     ahead.sequence = nextPrepared->sequence;
     ahead.generation = s.generation;
-    ahead.contentVersion = s.contentVersion;
+    ahead.instanceSetVersion = s.instanceSetVersion;
+    placeForNextFrame(*nextFrame);
     try {
-        const gi::CpuValGenerator& generator =
-            generateCpuVals(nextPrepared->sequence, *nextFrame, depth, pose, w.cpuTechnique->threads());
+        const gi::CpuValGenerator& generator = generateCpuVals(nextPrepared->sequence, *nextFrame, depth, pose,
+                                                               s.aheadInstances, w.cpuTechnique->threads());
         GiJob& job = ahead.next;
         job.technique = w.cpuTechnique;
         job.vals = generator.lastVals();
-        job.instances = renderer_->instances();
+        job.instances = s.aheadInstances;
         job.cameraPositionWorld = glm::vec3(pose.translation()); // as renderGBuffer's view
         job.pixels = {};
         if (!job.vals.empty())

@@ -234,6 +234,12 @@ void Renderer::rebuildInstances() {
     }
 }
 
+std::size_t Renderer::sceneObjectOf(std::uint32_t meshId) const noexcept {
+    std::size_t object = 0;
+    while (object + 1 < objectParts_.size() && objectParts_[object + 1].first <= meshId) ++object;
+    return object;
+}
+
 bool Renderer::setObjectPlacement(std::size_t object, const glm::mat4& world_T_model) {
     LIGHTSKIN_ASSERT(object < objectParts_.size(), "scene object index out of range");
     const auto [first, count] = objectParts_[object];

@@ -278,6 +278,8 @@ private:
     /// Moving content: the animations at this frame's time into the renderer, and what depends on placements.
     void applyContentAt(double timeSeconds);
     void contentMoved();
+    /// The GI ahead's instances: this frame's, with the animated objects placed at `nextFrame`'s time.
+    void placeForNextFrame(const RgbdFrame& nextFrame);
     void lightsMoved();
     void instancesChanged();
     void rebuildDifferential();
@@ -294,7 +296,7 @@ private:
     void passThrough(FrameWork& w);
     void makeVals(FrameWork& w);
     gi::CpuValGenerator& generateCpuVals(std::uint64_t sequence, const RgbdFrame& frame, const cv::Mat& depth,
-                                         const Pose& pose, int threads);
+                                         const Pose& pose, std::span<const gi::MeshInstance> instances, int threads);
     void applyDifferentialStage(FrameWork& w);
     void addVirtualBounceVals(FrameWork& w);
     void explainGiActivity(FrameWork& w);

@@ -102,6 +102,8 @@ public:
     /// Removes scene object `object`; later objects move down by one.
     void removeObject(std::size_t object);
     std::size_t sceneObjectCount() const noexcept { return objectParts_.size(); }
+    /// The scene object whose part is instance `meshId`.
+    std::size_t sceneObjectOf(std::uint32_t meshId) const noexcept;
     /// The prepared sparse points of instance `meshId`, or nullptr when they were not prepared.
     const gi::SparsePointSet* sparsePoints(std::uint32_t meshId) const noexcept;
     /// Objects as the GI techniques see them (valid until the next setScene()).
