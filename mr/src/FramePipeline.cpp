@@ -656,7 +656,7 @@ void FramePipeline::applyContentAt(double timeSeconds) {
     if (!s.contentPending && !animated(s.scene)) return;
     const auto start = Clock::now();
     s.contentPending = false;
-    s.giAhead.waitIdle(); // its job reads the renderer's instances, placed below
+    // A GI ahead may run on: its job reads its own copy of the instances (aheadInstances), not the renderer's.
     sampleAnimations(s.scene, timeSeconds);
     bool moved = false;
     for (std::size_t i = 0; i < s.scene.objects.size(); ++i)
