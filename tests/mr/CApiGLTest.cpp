@@ -31,6 +31,21 @@ lsk_scene orbitScene(const std::string& path) {
 
 class CApiGLTest : public lightskin::test::GlTest {};
 
+/// A recording's frame as the host submits it, with its ground-truth pose; `rgb` keeps the pixels it points to.
+lsk_frame hostFrame(const lightskin::RgbdFrame& frame, const lsk_camera& camera, cv::Mat& rgb) {
+    cv::cvtColor(frame.colour, rgb, cv::COLOR_BGR2RGB);
+    lsk_frame f;
+    lsk_frame_init(&f);
+    f.rgb = rgb.data;
+    f.depth = frame.depth.ptr<std::uint16_t>();
+    f.depth_scale_metres = frame.depthScaleMetres;
+    f.camera = camera;
+    f.has_pose = 1;
+    const glm::dmat4 pose = frame.groundTruth_world_T_camera->matrix();
+    std::memcpy(f.world_T_camera, glm::value_ptr(pose), sizeof f.world_T_camera);
+    return f;
+}
+
 TEST_F(CApiGLTest, VersionMatchesTheHeader) {
     EXPECT_EQ(std::string(lsk_version()), std::to_string(LSK_VERSION_MAJOR) + "." + std::to_string(LSK_VERSION_MINOR) +
                                               "." + std::to_string(LSK_VERSION_PATCH));
@@ -103,17 +118,9 @@ TEST_F(CApiGLTest, HostFrameRoundTripAndVersionedReport) {
     ASSERT_NE(session, nullptr);
 
     cv::Mat rgb;
-    cv::cvtColor(frame.colour, rgb, cv::COLOR_BGR2RGB);
-    lsk_frame f;
-    lsk_frame_init(&f);
-    f.rgb = rgb.data;
-    f.depth = frame.depth.ptr<std::uint16_t>();
-    f.depth_scale_metres = frame.depthScaleMetres;
-    f.camera = camera;
+    lsk_frame f = hostFrame(frame, camera, rgb);
     f.timestamp_seconds = 3.25;
-    f.has_pose = 1;
     const glm::dmat4 pose = frame.groundTruth_world_T_camera->matrix();
-    std::memcpy(f.world_T_camera, glm::value_ptr(pose), sizeof f.world_T_camera);
     ASSERT_EQ(lsk_session_submit(session, &f), LSK_OK) << lsk_last_error();
 
     lsk_frame_report report;
@@ -182,7 +189,6 @@ TEST_F(CApiGLTest, ASceneWithoutObjectsShowsTheRoomAlone) {
     const lightskin::CameraIntrinsics& k = frame.colourIntrinsics;
     const lsk_camera camera{k.width, k.height, k.fx, k.fy, k.cx, k.cy};
     cv::Mat rgb;
-    cv::cvtColor(frame.colour, rgb, cv::COLOR_BGR2RGB);
     for (const std::string technique : {"lightskin", "brute-force", "imperfect-volumes", "multiscale-prt", "none"}) {
         for (const std::string objects : {"\"objects\": [], ", ""}) {
             SCOPED_TRACE(technique + (objects.empty() ? ", no objects key" : ", objects []"));
@@ -195,15 +201,7 @@ TEST_F(CApiGLTest, ASceneWithoutObjectsShowsTheRoomAlone) {
             scene.json = text.c_str();
             lsk_session* session = nullptr;
             ASSERT_EQ(lsk_session_create(nullptr, &scene, &camera, &session), LSK_OK) << lsk_last_error();
-            lsk_frame f;
-            lsk_frame_init(&f);
-            f.rgb = rgb.data;
-            f.depth = frame.depth.ptr<std::uint16_t>();
-            f.depth_scale_metres = frame.depthScaleMetres;
-            f.camera = camera;
-            f.has_pose = 1;
-            const glm::dmat4 pose = frame.groundTruth_world_T_camera->matrix();
-            std::memcpy(f.world_T_camera, glm::value_ptr(pose), sizeof f.world_T_camera);
+            const lsk_frame f = hostFrame(frame, camera, rgb);
             ASSERT_EQ(lsk_session_submit(session, &f), LSK_OK) << lsk_last_error();
             lsk_frame_report report;
             lsk_frame_report_init(&report);
@@ -233,16 +231,7 @@ TEST_F(CApiGLTest, HostMovesAddsAndRemovesObjectsAndBadInputIsAnError) {
     lsk_session* session = nullptr;
     ASSERT_EQ(lsk_session_create(nullptr, &scene, &camera, &session), LSK_OK) << lsk_last_error();
     cv::Mat rgb;
-    cv::cvtColor(frame.colour, rgb, cv::COLOR_BGR2RGB);
-    lsk_frame f;
-    lsk_frame_init(&f);
-    f.rgb = rgb.data;
-    f.depth = frame.depth.ptr<std::uint16_t>();
-    f.depth_scale_metres = frame.depthScaleMetres;
-    f.camera = camera;
-    f.has_pose = 1;
-    const glm::dmat4 pose = frame.groundTruth_world_T_camera->matrix();
-    std::memcpy(f.world_T_camera, glm::value_ptr(pose), sizeof f.world_T_camera);
+    const lsk_frame f = hostFrame(frame, camera, rgb);
     const auto composite = [&] {
         EXPECT_EQ(lsk_session_submit(session, &f), LSK_OK) << lsk_last_error();
         std::vector<std::uint8_t> image(std::size_t(k.width) * std::size_t(k.height) * 3);

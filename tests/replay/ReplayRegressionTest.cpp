@@ -249,22 +249,41 @@ constexpr double kMaxRelativeErrorVsBruteForce = 0.5;
 /// other objects only add pixels (one hiding the cube shows itself). Taken off: virtualMask()'s
 /// one-pixel erosion, at most the outline's length, <= pi x the image diameter (convex outline)
 /// <= pi sqrt(3) a sqrt(|f_x f_y|) / r_near pixels, r_near = |centre - camera| - a sqrt(3) / 2.
-/// Assumes what the scenes are made for: the cube in view and not hidden by real surfaces.
+/// Assumes what the scenes are made for: the cube in view and not hidden by real surfaces. An animated cube
+/// ("animation" keys instead of "transform") moves along the segments between its keys' translations: the
+/// distance to the camera is convex along each, so it is at most the largest key distance (for r_far) and at
+/// least the smallest point-to-segment distance (for r_near); its edge is the smallest key scale for the area
+/// and the largest for the outline.
 double cubePixelLowerBound(const nlohmann::json& scene, const nlohmann::json& world_T_camera,
                            const CameraIntrinsics& K) {
+    const auto vec3 = [](const nlohmann::json& v) {
+        return glm::dvec3(v[0].get<double>(), v[1].get<double>(), v[2].get<double>());
+    };
+    const glm::dvec3 camera = vec3(world_T_camera["translation"]);
     for (const auto& object : scene["objects"]) {
         if (object.value("name", std::string()) != "cube") continue;
-        const auto& transform = object["transform"];
-        const double a = transform["scale"].get<double>();
-        double r2 = 0.0;
-        for (std::size_t i = 0; i < 3; ++i) {
-            const double d = transform["translation"][i].get<double>() - world_T_camera["translation"][i].get<double>();
-            r2 += d * d;
+        std::vector<nlohmann::json> keys;
+        if (object.contains("animation"))
+            for (const auto& key : object["animation"]["keys"]) keys.push_back(key);
+        else
+            keys.push_back(object["transform"]);
+        double aMin = 1e30, aMax = 0.0, rFar = 0.0, rNear = 1e30;
+        for (std::size_t k = 0; k < keys.size(); ++k) {
+            const double a = keys[k]["scale"].get<double>();
+            aMin = std::min(aMin, a);
+            aMax = std::max(aMax, a);
+            const glm::dvec3 p = vec3(keys[k]["translation"]);
+            rFar = std::max(rFar, glm::length(p - camera));
+            const glm::dvec3 q = k + 1 < keys.size() ? vec3(keys[k + 1]["translation"]) : p;
+            const double along = glm::dot(q - p, q - p) > 0.0
+                                     ? std::clamp(glm::dot(camera - p, q - p) / glm::dot(q - p, q - p), 0.0, 1.0)
+                                     : 0.0;
+            rNear = std::min(rNear, glm::length(p + along * (q - p) - camera));
         }
-        const double halfDiagonal = a * std::sqrt(3.0) / 2.0, r = std::sqrt(r2);
         const double f2 = std::abs(K.fx * K.fy);
-        const double area = f2 * a * a / ((r + halfDiagonal) * (r + halfDiagonal));
-        const double outline = 3.14159265358979323846 * std::sqrt(3.0) * a * std::sqrt(f2) / (r - halfDiagonal);
+        const double far = rFar + aMax * std::sqrt(3.0) / 2.0, near = rNear - aMax * std::sqrt(3.0) / 2.0;
+        const double area = f2 * aMin * aMin / (far * far);
+        const double outline = 3.14159265358979323846 * std::sqrt(3.0) * aMax * std::sqrt(f2) / near;
         return area - outline;
     }
     ADD_FAILURE() << "the scene has no object named cube";
@@ -543,6 +562,20 @@ std::vector<ReplayCase> cases() {
          .composite = kComposite,
          .indirect = kIndirect,
          .roi = cv::Rect{100, 94, 164, 72}});
+    // The main job's scene: the cube slides and turns by keyframes (orbit_moving.json); frame 10 (t = 1/3 s) has
+    // it half way between its first two keys, 15 cm from where it starts and turned 46 degrees.
+    add({.name = "synth_orbit_moving",
+         .recording = "recordings/synth-orbit",
+         .scene = "recordings/scenes/orbit_moving.json",
+         .pose = "ground-truth",
+         .maxFrames = 11,
+         .goldenFrames = {10},
+         .indirectFrame = 10,
+         .recordedFrames = orbitFrames,
+         .truth = Truth::RecordingIndex,
+         .composite = kComposite,
+         .indirect = kIndirect,
+         .roi = cv::Rect{96, 99, 144, 56}});
     add({.name = "synth_pan",
          .recording = "recordings/synth-pan",
          .scene = "recordings/scenes/pan.json",
