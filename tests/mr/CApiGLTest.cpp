@@ -120,7 +120,6 @@ TEST_F(CApiGLTest, HostFrameRoundTripAndVersionedReport) {
     cv::Mat rgb;
     lsk_frame f = hostFrame(frame, camera, rgb);
     f.timestamp_seconds = 3.25;
-    const glm::dmat4 pose = frame.groundTruth_world_T_camera->matrix();
     ASSERT_EQ(lsk_session_submit(session, &f), LSK_OK) << lsk_last_error();
 
     lsk_frame_report report;
