@@ -53,8 +53,10 @@ else
   # CpuLightSkinSetupGLTest: its double references take minutes at -O0 under TSan and add no thread count
   # the thread-count test does not run, and its GL-path comparisons exercise only Mesa's threads.
   mapfile -t targets < <(grep -ho 'lightskin_add_test(capture_[a-z_]*' "$root/tests/capture/CMakeLists.txt" | sed 's/.*(//')
-  # mr::Session's prefetch and GI-ahead workers: their sessions' tests only, not the whole suite.
-  targets+=(gi_ground_truth_test gi_cpu_lightskin_gl_test gi_cpu_val_generator_gl_test mr_session_gl_test)
+  # mr::Session's prefetch and GI-ahead workers: their sessions' tests only, not the whole suite (with moving
+  # content too: the GI ahead places animated objects on the caller's thread while the worker computes).
+  targets+=(gi_ground_truth_test gi_cpu_lightskin_gl_test gi_cpu_val_generator_gl_test mr_session_gl_test
+            mr_moving_content_gl_test)
   # The deliberate race that the suppressions must not hide (tests/sanitizer).
   targets+=(sanitizer_race_check_program)
   cmake --build "$build" --parallel "$jobs" --target "${targets[@]}"
@@ -62,5 +64,5 @@ else
     "$root/tests/gi/reference/RayTracedGroundTruthTest.cpp" "$root/tests/gi/common/CpuValGeneratorGLTest.cpp" \
     | sed 's/.*(//' | sort -u | paste -sd'|')|CpuLightSkinGLTest|CpuLightSkinExtremeGLTest"
   ctest --test-dir "$build" --output-on-failure --no-tests=error --parallel "$jobs" --timeout 900 \
-    -R "(^|/)(($suites)\.|SessionGLTest\.(Prefetch|GiAhead))|^sanitizer_race_check" "$@"
+    -R "(^|/)(($suites)\.|(SessionGLTest|MovingContentGLTest)\.(Prefetch|GiAhead))|^sanitizer_race_check" "$@"
 fi
