@@ -75,8 +75,8 @@ public:
     Renderer& operator=(const Renderer&) = delete;
 
     /// Loads the scene's meshes (throws lightskin::Error naming the scene file, object and mesh),
-    /// uploads them, applies material overrides and renders the shadow maps (lights and objects are
-    /// static in the world frame, so shadow maps do not change per frame).
+    /// uploads them, applies material overrides and renders the shadow maps (again only after something moved:
+    /// the calls below).
     /// With `prepareSparsePoints` (the LightSkin technique needs them), each mesh part gets its
     /// sparse points (gi::prepareSparsePoints, scene.gi.sparsePoints per object, split over its
     /// parts by surface area, at least 16 each) *before* upload, because that step may refine the
@@ -106,7 +106,8 @@ public:
     std::size_t sceneObjectOf(std::uint32_t meshId) const noexcept;
     /// The prepared sparse points of instance `meshId`, or nullptr when they were not prepared.
     const gi::SparsePointSet* sparsePoints(std::uint32_t meshId) const noexcept;
-    /// Objects as the GI techniques see them (valid until the next setScene()).
+    /// The visible objects as the GI techniques see them (valid until the next setScene(), setObjectVisible(),
+    /// addObject() or removeObject()).
     std::span<const gi::MeshInstance> instances() const noexcept { return instances_; }
 
     /// Per frame: fills the G-buffer for the camera at `world_T_camera`.
