@@ -448,7 +448,9 @@ struct FramePipeline::State {
     double contentMs = -1.0;          // this frame's placing of moving content (FrameOutput "content"), -1: none
     std::uint64_t instanceSetVersion = 0; // +1 when the instances or their materials change (not placements)
     /// The GI ahead's instances: this frame's, placed where the animations put them at the next frame's time.
-    std::vector<gi::MeshInstance> aheadInstances;
+    /// Two, by PreparedFrame::sequence % 2, as cpuVals: frame n's may still be read by the worker while frame n
+    /// places frame n+1's.
+    std::array<std::vector<gi::MeshInstance>, 2> aheadInstances;
     capture::FrameSourceInfo source;
     std::unique_ptr<gi::IndirectIllumination> technique;
     std::optional<tracking::PoseTracker> tracker;
@@ -675,16 +677,18 @@ bool samePlacements(std::span<const gi::MeshInstance> a, std::span<const gi::Mes
 }
 } // namespace
 
-void FramePipeline::placeForNextFrame(const RgbdFrame& nextFrame) {
+std::span<const gi::MeshInstance> FramePipeline::placeForNextFrame(const RgbdFrame& nextFrame, std::uint64_t sequence) {
     State& s = *state_;
     const std::span<const gi::MeshInstance> now = renderer_->instances();
-    s.aheadInstances.assign(now.begin(), now.end()); // capacity kept: no allocation once grown
-    if (!animated(s.scene)) return;
+    std::vector<gi::MeshInstance>& placed = s.aheadInstances[sequence % 2];
+    placed.assign(now.begin(), now.end()); // capacity kept: no allocation once grown
+    if (!animated(s.scene)) return placed;
     const double t = s.clock.timeOf(nextFrame);
-    for (gi::MeshInstance& instance : s.aheadInstances) {
+    for (gi::MeshInstance& instance : placed) {
         const render::SceneObject& object = s.scene.objects[renderer_->sceneObjectOf(instance.meshId)];
         if (object.animation) instance.world_T_model = render::sampleTransform(*object.animation, t);
     }
+    return placed;
 }
 
 void FramePipeline::contentMoved() {
@@ -1003,7 +1007,8 @@ void FramePipeline::makeVals(FrameWork& w) {
     const bool aheadForThisFrame =
         (ahead.stage == GiAhead::Stage::Launched || ahead.stage == GiAhead::Stage::ValsFailed) &&
         ahead.sequence == w.prepared.sequence && ahead.generation == s.generation &&
-        ahead.instanceSetVersion == s.instanceSetVersion && samePlacements(s.aheadInstances, renderer_->instances());
+        ahead.instanceSetVersion == s.instanceSetVersion &&
+        samePlacements(s.aheadInstances[w.prepared.sequence % 2], renderer_->instances());
     w.useAhead = aheadForThisFrame && haveDepth && w.valsOnCpu && s.vals && s.cpuVals[w.prepared.sequence % 2] &&
                  options_.overlay != Overlay::VertexVpls;
     if (!w.useAhead) ahead.waitIdle();
@@ -1105,14 +1110,14 @@ void FramePipeline::makeNextFrameVals(FrameWork& w, NextFrame* next) {
     ahead.sequence = nextPrepared->sequence;
     ahead.generation = s.generation;
     ahead.instanceSetVersion = s.instanceSetVersion;
-    placeForNextFrame(*nextFrame);
+    const std::span<const gi::MeshInstance> instances = placeForNextFrame(*nextFrame, nextPrepared->sequence);
     try {
-        const gi::CpuValGenerator& generator = generateCpuVals(nextPrepared->sequence, *nextFrame, depth, pose,
-                                                               s.aheadInstances, w.cpuTechnique->threads());
+        const gi::CpuValGenerator& generator =
+            generateCpuVals(nextPrepared->sequence, *nextFrame, depth, pose, instances, w.cpuTechnique->threads());
         GiJob& job = ahead.next;
         job.technique = w.cpuTechnique;
         job.vals = generator.lastVals();
-        job.instances = s.aheadInstances;
+        job.instances = instances;
         job.cameraPositionWorld = glm::vec3(pose.translation()); // as renderGBuffer's view
         job.pixels = {};
         if (!job.vals.empty())

@@ -278,8 +278,9 @@ private:
     /// Moving content: the animations at this frame's time into the renderer, and what depends on placements.
     void applyContentAt(double timeSeconds);
     void contentMoved();
-    /// The GI ahead's instances: this frame's, with the animated objects placed at `nextFrame`'s time.
-    void placeForNextFrame(const RgbdFrame& nextFrame);
+    /// The GI ahead's instances for the frame `sequence`: this frame's, with the animated objects placed at
+    /// `nextFrame`'s time (in State::aheadInstances[sequence % 2]).
+    std::span<const gi::MeshInstance> placeForNextFrame(const RgbdFrame& nextFrame, std::uint64_t sequence);
     void lightsMoved();
     void instancesChanged();
     void rebuildDifferential();
