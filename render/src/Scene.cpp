@@ -188,7 +188,13 @@ SceneLight readLight(const JsonReader& r, const json& value, const std::string& 
     }
     if (value.contains("shadows")) l.castsShadows = r.boolean(value["shadows"], p + "/shadows");
     if (value.contains("inRoom")) l.inRoom = r.boolean(value["inRoom"], p + "/inRoom");
-    if (value.contains("animation")) l.animation = readLightAnimation(r, value["animation"], p + "/animation", l);
+    if (value.contains("animation")) {
+        l.animation = readLightAnimation(r, value["animation"], p + "/animation", l);
+        const LightKey start = sampleLight(*l.animation, 0.0); // as an animated object starts at its first key
+        l.position = start.position;
+        l.direction = start.direction;
+        l.power = start.power;
+    }
     return l;
 }
 

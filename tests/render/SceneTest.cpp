@@ -302,6 +302,7 @@ TEST(Scene, AnimationKeysAreReadInTheTransformsWordsAndPlaceTheObjectAtTheirStar
     EXPECT_EQ(l.animation->keys[0].power, glm::vec3(0.0f));
     EXPECT_EQ(l.animation->keys[1].power, glm::vec3(40.0f));
     EXPECT_EQ(l.animation->keys[1].direction, glm::vec3(1, 0, 0));
+    EXPECT_EQ(l.power, glm::vec3(0.0f)) << "an animated light starts at its first key";
 }
 
 TEST(Scene, AnimationErrorsNameTheKey) {

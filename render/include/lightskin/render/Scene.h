@@ -57,7 +57,8 @@ struct SceneLight {
     /// virtual objects' shadow. false: a purely virtual light, whose (shadowed) light the
     /// differential adds to the real surfaces too.
     bool inRoom = true;
-    /// Keyframes of position, direction and power (render/Animation.h); unset = the values above at all times.
+    /// Keyframes of position, direction and power (render/Animation.h; the values above are then the first
+    /// key's); unset = the values above at all times.
     std::optional<LightAnimation> animation;
 };
 
