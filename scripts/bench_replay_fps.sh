@@ -25,7 +25,8 @@ declare -A recs=(
   [orbit-moving]="$repo/recordings/synth-orbit --scene $repo/recordings/scenes/orbit_moving.json --pose tracking"
 )
 declare -A frames=([oni]=12 [orbit]=40 [orbit-moving]=40)
-# one timed run: prints "wall_seconds cpu_seconds steady_ms_per_frame"
+# one timed run: prints "wall_seconds cpu_seconds steady_ms_per_frame differential_ms" (the stage's mean wall ms over
+# the frames after the first, -1 when it did not run)
 run() {
   local binary=$1 extra=$2 rec=$3 backend=$4 n=$5 out="$work/out"
   rm -rf "$out"
@@ -33,8 +34,12 @@ run() {
   /usr/bin/time -f "%e %U %S" -o "$work/time" "$binary" -q replay ${recs[$rec]} --out "$out" --no-video --no-compare \
     --write-frames 0 --differential "${BENCH_DIFFERENTIAL:-off}" --backend "$backend" --max-frames "$n" $extra >/dev/null 2>&1
   # binaries from before the key: -1 (the steady column then shows the N - 1 frames' difference instead)
-  steady=$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1])).get("steadyMsPerFrame", -1))' "$out/report.json")
-  awk -v steady="$steady" '{print $1, $2 + $3, steady}' "$work/time"
+  read -r steady differential < <(python3 -c '
+import json, sys
+report = json.load(open(sys.argv[1]))
+stage = [f["cpuMs"]["differential"] for f in report["frames"][1:] if "differential" in f.get("cpuMs", {})]
+print(report.get("steadyMsPerFrame", -1), sum(stage) / len(stage) if stage else -1)' "$out/report.json")
+  awk -v steady="$steady" -v differential="$differential" '{print $1, $2 + $3, steady, differential}' "$work/time"
 }
 for ((r = 0; r < rounds; ++r)); do
   for rec in ${BENCH_RECORDINGS:-oni orbit}; do
@@ -46,26 +51,29 @@ for ((r = 0; r < rounds; ++r)); do
         extra=""
         [[ $spec == *:* ]] && extra=${spec#*:}
         n=${frames[$rec]}
-        read -r wallN cpuN steady < <(run "$binary" "$extra" "$rec" "$backend" "$n")
-        read -r wall1 cpu1 _ < <(run "$binary" "$extra" "$rec" "$backend" 1)
+        read -r wallN cpuN steady differential < <(run "$binary" "$extra" "$rec" "$backend" "$n")
+        read -r wall1 cpu1 _ _ < <(run "$binary" "$extra" "$rec" "$backend" 1)
         awk -v id="$name $rec $backend" -v n="$n" -v steady="$steady" -v wN="$wallN" -v w1="$wall1" -v cN="$cpuN" \
-          -v c1="$cpu1" 'BEGIN { d = (wN - w1) * 1000 / (n - 1); print id, (steady > 0 ? steady : d), (cN - c1) * 1000 / (n - 1), d }' \
+          -v c1="$cpu1" -v differential="$differential" \
+          'BEGIN { d = (wN - w1) * 1000 / (n - 1); print id, (steady > 0 ? steady : d), (cN - c1) * 1000 / (n - 1), d, differential }' \
           >>"$work/samples"
       done
     done
   done
 done
-echo "variant recording backend steady_wall_ms_per_frame fps cpu_ms_per_frame fps_bound_2_cores min_steady_wall_ms difference_wall_ms (medians of $rounds, min; load $(cut -d' ' -f1-3 /proc/loadavg))"
+echo "variant recording backend steady_wall_ms_per_frame fps cpu_ms_per_frame fps_bound_2_cores min_steady_wall_ms difference_wall_ms differential_stage_ms (medians of $rounds, min; load $(cut -d' ' -f1-3 /proc/loadavg))"
 python3 - "$work/samples" <<'EOF'
 import statistics, sys
 rows = {}
 for line in open(sys.argv[1]):
-    name, rec, backend, wall, cpu, difference = line.split()
-    rows.setdefault((name, rec, backend), []).append((float(wall), float(cpu), float(difference)))
+    name, rec, backend, wall, cpu, difference, differential = line.split()
+    rows.setdefault((name, rec, backend), []).append((float(wall), float(cpu), float(difference), float(differential)))
 for (name, rec, backend), samples in rows.items():
     wall = statistics.median(s[0] for s in samples)
     cpu = statistics.median(s[1] for s in samples)
     fastest = min(s[0] for s in samples)
     difference = statistics.median(s[2] for s in samples)
-    print(f"{name} {rec} {backend} {wall:.1f} {1000 / wall:.1f} {cpu:.1f} {2000 / cpu:.1f} {fastest:.1f} {difference:.1f}")
+    differential = statistics.median(s[3] for s in samples)
+    print(f"{name} {rec} {backend} {wall:.1f} {1000 / wall:.1f} {cpu:.1f} {2000 / cpu:.1f} {fastest:.1f} {difference:.1f}"
+          f" {differential:.1f}")
 EOF

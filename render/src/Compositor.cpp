@@ -105,6 +105,33 @@ float srgbEncode(float linear) noexcept {
 float srgbDecode(float encoded) noexcept {
     return encoded <= 0.04045f ? encoded / 12.92f : std::pow((encoded + 0.055f) / 1.055f, 2.4f);
 }
+
+/// round(255 srgbEncode(linear)) for linear in [0, 1] without a pow per value: the code is the number of
+/// rounding boundaries (the linear values of codes k + 0.5, in double) at or below it, searched from a
+/// 4096-bin start (one bin spans under one code, so the search takes at most two steps).
+class SrgbEncoder8 {
+public:
+    SrgbEncoder8() {
+        for (std::size_t k = 0; k < boundary_.size(); ++k) {
+            const double e = (double(k) + 0.5) / 255.0;
+            boundary_[k] = float(e <= 0.04045 ? e / 12.92 : std::pow((e + 0.055) / 1.055, 2.4));
+        }
+        for (std::size_t b = 0; b < start_.size(); ++b) {
+            const float x = float(b) / float(start_.size());
+            start_[b] = std::uint8_t(std::upper_bound(boundary_.begin(), boundary_.end(), x) - boundary_.begin());
+        }
+    }
+    std::uint8_t operator()(float linear) const noexcept {
+        const float x = std::clamp(linear, 0.0f, 1.0f);
+        std::size_t code = start_[std::min(std::size_t(x * float(start_.size())), start_.size() - 1)];
+        while (code < boundary_.size() && x >= boundary_[code]) ++code;
+        return std::uint8_t(code);
+    }
+
+private:
+    std::array<float, 255> boundary_{};
+    std::array<std::uint8_t, 4096> start_{};
+};
 } // namespace
 
 void Compositor::compositeLinearInto(const cv::Mat& camera, const cv::Mat& virtualLinear, const cv::Mat& virtualRgba,
@@ -218,25 +245,29 @@ void applyDifferentialInto(const cv::Mat& camera, const gi::DifferentialImages& 
         for (std::size_t i = 0; i < table.size(); ++i) table[i] = srgbDecode(float(i) / 255.0f);
         return table;
     }();
+    static const SrgbEncoder8 encode;
     const float gain = std::exp2(exposureStops), pi = 3.14159265358979f;
-    camera.copyTo(out);
-    for (int v = 0; v < camera.rows; ++v) {
-        const auto* affected = d.affected.ptr<std::uint8_t>(v);
-        const auto* delta = d.deltaIrradiance.ptr<cv::Vec3f>(v);
-        const auto* without = d.irradianceWithout.ptr<cv::Vec3f>(v);
-        auto* dst = out.ptr<cv::Vec3b>(v);
-        for (int u = 0; u < camera.cols; ++u) {
-            if (affected[u] == 0) continue;
-            for (int c = 0; c < 3; ++c) {
-                const float dE = delta[u][c], eWithout = without[u][c];
-                if (dE == 0.0f || !(eWithout > 0.0f) || !std::isfinite(dE) || !std::isfinite(eWithout)) continue;
-                const float p = decoded[dst[u][c]];
-                const float albedo = std::clamp(pi * (p / gain) / eWithout, 0.0f, 1.0f);
-                const float result = std::clamp(p + gain * albedo / pi * dE, 0.0f, 1.0f);
-                dst[u][c] = cv::saturate_cast<std::uint8_t>(srgbEncode(result) * 255.0f);
+    out.create(camera.size(), camera.type());
+    cv::parallel_for_(cv::Range(0, camera.rows), [&](const cv::Range& rows) {
+        for (int v = rows.start; v < rows.end; ++v) {
+            const auto* affected = d.affected.ptr<std::uint8_t>(v);
+            const auto* delta = d.deltaIrradiance.ptr<cv::Vec3f>(v);
+            const auto* without = d.irradianceWithout.ptr<cv::Vec3f>(v);
+            const auto* src = camera.ptr<cv::Vec3b>(v);
+            auto* dst = out.ptr<cv::Vec3b>(v);
+            std::copy(src, src + camera.cols, dst);
+            for (int u = 0; u < camera.cols; ++u) {
+                if (affected[u] == 0) continue;
+                for (int c = 0; c < 3; ++c) {
+                    const float dE = delta[u][c], eWithout = without[u][c];
+                    if (dE == 0.0f || !(eWithout > 0.0f) || !std::isfinite(dE) || !std::isfinite(eWithout)) continue;
+                    const float p = decoded[dst[u][c]];
+                    const float albedo = std::clamp(pi * (p / gain) / eWithout, 0.0f, 1.0f);
+                    dst[u][c] = encode(p + gain * albedo / pi * dE);
+                }
             }
         }
-    }
+    });
 }
 
 void sideBySideInto(const cv::Mat& left, const std::string& leftCaption, const cv::Mat& right, const std::string& rightCaption,

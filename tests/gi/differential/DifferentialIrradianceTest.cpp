@@ -96,6 +96,7 @@ TEST(DifferentialIrradianceTest, IndirectContactShadowOfACubeMatchesTheRayTraced
     const Box box{{-0.1, -0.1, 0.0}, {0.1, 0.1, 0.2}};
     gi::DifferentialSettings settings;
     settings.emittersPerObject = 0; // the blocked light alone (the bounce is tested below)
+    settings.receiverStride = 4;
     gi::DifferentialIrradiance differential = gi::DifferentialIrradiance::create(std::span(&instance, 1), settings);
     const std::vector<gi::VirtualAreaLight> vals = wallVals();
     gi::DifferentialImages images;
@@ -194,21 +195,49 @@ TEST(DifferentialIrradianceTest, DirectShadowOfAnInRoomPointLightIsTheClosedForm
     gi::DifferentialImages images;
     differential.compute(floorDepth(), camera(), world_T_camera(), {}, std::span(&light, 1), images);
     ASSERT_TRUE(finiteImage(images.deltaIrradiance));
-    int shadowed = 0, lit = 0;
+    int shadowed = 0, lit = 0, interpolated = 0;
     for (const gi::DifferentialReceiver& r : differential.receivers()) {
         if (!r.inRegion) continue;
         const glm::dvec3 l = glm::dvec3(light.light.position) - r.position;
         const double e = double(light.light.intensity.x) * l.z / std::pow(glm::dot(l, l), 1.5); // I cos / d^2
-        EXPECT_NEAR(r.irradianceWithout.y, e, 1e-5 * e);
+        // An interpolated receiver has E_without from its cell's corners: bilinear over at most 9.6 cm, within
+        // 2.1 % of I cos / d^2 (the pixels' bound below); the lights' part of dE is exact at every receiver.
+        EXPECT_NEAR(r.irradianceWithout.y, e, (r.gathered ? 1e-5 : 0.03) * e);
+        interpolated += r.gathered ? 0 : 1;
         // Receivers whose ray grazes the box within 1 mm are ambiguous in float: skipped.
         const bool in = segmentHitsBox(r.position, glm::dvec3(light.light.position), box, -1e-3);
         const bool near = segmentHitsBox(r.position, glm::dvec3(light.light.position), box, 1e-3);
         if (in != near) continue;
         EXPECT_NEAR(r.deltaIrradiance.y, in ? -e : 0.0, 1e-5 * e) << r.position.x << ", " << r.position.y;
+        if (in) {
+            EXPECT_TRUE(r.gathered) << "a direct shadow is never interpolated";
+        }
         (in ? shadowed : lit)++;
     }
     EXPECT_GT(shadowed, 20);
     EXPECT_GT(lit, 100);
+    EXPECT_GT(interpolated, 50) << "the lit floor beyond the cube's near zone (0.6 m) is interpolated";
+
+    // Pixels test their own shadow, so the edge is as sharp as the pixels: dE = -e at every affected pixel whose
+    // own segment to the light crosses the box, 0 elsewhere. The light's e there is interpolated over at most
+    // an adaptive cell, 4 receivers of 2 px (9.6 cm); e = I z_l / d^3 with d >= 0.9 m bends by at most
+    // ~15 e / d^2, so bilinear interpolation misses at most (9.6 cm)^2 / 8 x 15 / 0.81 m^2 = 2.1 % of e:
+    // tolerance 3 %.
+    const CameraIntrinsics k = camera();
+    int shadowedPixels = 0, litPixels = 0;
+    for (int v = 0; v < k.height; ++v)
+        for (int u = 0; u < k.width; ++u) {
+            if (images.affected.at<std::uint8_t>(v, u) == 0) continue;
+            const glm::dvec3 p = world_T_camera().transformPoint(k.backProject(u, v, kHeight));
+            const glm::dvec3 l = glm::dvec3(light.light.position) - p;
+            const double e = double(light.light.intensity.x) * l.z / std::pow(glm::dot(l, l), 1.5);
+            const bool in = segmentHitsBox(p, glm::dvec3(light.light.position), box, -1e-3);
+            if (in != segmentHitsBox(p, glm::dvec3(light.light.position), box, 1e-3)) continue;
+            ASSERT_NEAR(images.deltaIrradiance.at<cv::Vec3f>(v, u)[1], in ? -e : 0.0, 0.03 * e) << u << ", " << v;
+            (in ? shadowedPixels : litPixels)++;
+        }
+    EXPECT_GT(shadowedPixels, 100);
+    EXPECT_GT(litPixels, 1000);
 }
 
 TEST(DifferentialIrradianceTest, ARedPanelTintsTheWhiteFloorWithItsAlbedoAndTheQuadratureMagnitude) {
@@ -272,19 +301,42 @@ TEST(DifferentialIrradianceTest, ReceiversBeyondTheRegionStayExactlyUnchanged) {
     const gi::MeshInstance instance = placed(cubeMesh, {0.0f, 0.0f, 0.1f});
     gi::DifferentialSettings settings;
     settings.falloffFraction = 0.2f; // R = r sqrt(1/0.2 - 1) = 2 r = 0.35 m
+    settings.receiverStride = 4;
     gi::DifferentialIrradiance differential = gi::DifferentialIrradiance::create(std::span(&instance, 1), settings);
     gi::DifferentialImages images;
     differential.compute(floorDepth(), camera(), world_T_camera(), wallVals(), {}, images);
     const double region = 2.0 * 0.1 * std::sqrt(3.0);
-    int outside = 0, inside = 0;
-    for (const gi::DifferentialReceiver& r : differential.receivers()) {
-        if (!r.valid) continue; // the image border: the normal window does not fit
-        const double distance = glm::length(r.position - glm::dvec3(0, 0, 0.1));
-        EXPECT_EQ(r.inRegion, distance <= region * (1.0 + 1e-6)) << distance;
-        r.inRegion ? ++inside : ++outside;
-    }
+    // Receivers the cube hides from the camera, with all their neighbours, leave the region too: no pixel of
+    // the real floor that the camera shows reads them. Hidden: the sight line crosses the box (slab test;
+    // within 1 mm of its faces ambiguous in float, skipped).
+    const Box box{{-0.1, -0.1, 0.0}, {0.1, 0.1, 0.2}};
+    const glm::dvec3 eye = world_T_camera().translation();
+    const std::span<const gi::DifferentialReceiver> receivers = differential.receivers();
+    const int width = differential.gridWidth(), height = differential.gridHeight();
+    const auto hiddenWithNeighbours = [&](int i, int j, double margin) {
+        for (int dj = -1; dj <= 1; ++dj)
+            for (int di = -1; di <= 1; ++di) {
+                if (i + di < 0 || j + dj < 0 || i + di >= width || j + dj >= height) continue;
+                const gi::DifferentialReceiver& n = receivers[std::size_t((j + dj) * width + i + di)];
+                if (!segmentHitsBox(n.position, eye, box, margin)) return false;
+            }
+        return true;
+    };
+    int outside = 0, inside = 0, dropped = 0;
+    for (int j = 0; j < height; ++j)
+        for (int i = 0; i < width; ++i) {
+            const gi::DifferentialReceiver& r = receivers[std::size_t(j * width + i)];
+            if (!r.valid) continue; // the image border: the normal window does not fit
+            const bool surely = hiddenWithNeighbours(i, j, -1e-3), maybe = hiddenWithNeighbours(i, j, 1e-3);
+            if (surely != maybe) continue;
+            const double distance = glm::length(r.position - glm::dvec3(0, 0, 0.1));
+            EXPECT_EQ(r.inRegion, distance <= region * (1.0 + 1e-6) && !surely) << distance;
+            r.inRegion ? ++inside : ++outside;
+            dropped += surely ? 1 : 0;
+        }
     EXPECT_GT(inside, 10);
     EXPECT_GT(outside, 100);
+    EXPECT_GE(dropped, 4) << "the floor under the cube (its 17 px side holds 4 x 4 receivers, 4 px apart)";
     // Pixels: affected only where a receiver of the region is among the 2x2 around them.
     const CameraIntrinsics k = camera();
     for (int v = 0; v < k.height; ++v)
@@ -328,7 +380,8 @@ std::vector<gi::VirtualAreaLight> roomVals() {
 // The clusters that spare the per-pair tests are exact: dE of the indirect shadow (no emitters, no
 // lights) equals the sum over every VAL pair of the blocked light, with blocking decided by a
 // separately written slab test against the two boxes (not Embree, not the bounding spheres), and
-// E_without equals the unoccluded double-precision sum of eq. 3/4 over all VALs.
+// E_without equals the unoccluded double-precision sum of eq. 3/4 over all VALs. Every receiver is
+// gathered and every VAL is its own shadow disc: the exact computation the approximations start from.
 TEST(DifferentialIrradianceTest, ClusteredShadowPairsAreExactlyThePairsTheObjectsBlock) {
     const TriangleMesh big = cube(0.1f), small = cube(0.05f);
     const std::array<gi::MeshInstance, 2> instances{placed(big, {0.0f, 0.0f, 0.1f}),
@@ -336,6 +389,8 @@ TEST(DifferentialIrradianceTest, ClusteredShadowPairsAreExactlyThePairsTheObject
     const std::array<Box, 2> boxes{Box{{-0.1, -0.1, 0.0}, {0.1, 0.1, 0.2}}, Box{{0.3, -0.25, 0.0}, {0.4, -0.15, 0.1}}};
     gi::DifferentialSettings settings;
     settings.emittersPerObject = 0;
+    settings.refineCell = 1;
+    settings.shadowCluster = 1;
     gi::DifferentialIrradiance differential = gi::DifferentialIrradiance::create(instances, settings);
     const std::vector<gi::VirtualAreaLight> vals = roomVals();
     gi::DifferentialImages images;
@@ -431,13 +486,76 @@ TEST(DifferentialIrradianceTest, ResultsDoNotDependOnTheThreadCount) {
     EXPECT_GT(nonzero, 1000) << "the comparison must cover real shadows and bounce";
 }
 
+// Adaptive cells against gathering every receiver (refineCell 1, which the tests above check against
+// independent truths): two small cubes in the walled room, their shadows and bounce, seen at twice the
+// resolution of the tests above. An interpolated receiver's dE / E_without is a convex combination of its
+// cell's corners' (the ratio of two sums with the same positive weights), which are exact and spread by at
+// most the tolerance; outside the near zones nothing peaks inside a cell, so the true ratio lies within
+// the corners' range up to the curvature of a smooth falloff: the error stays below the tolerance. (The
+// scene lights' part of dE is computed at every receiver: DirectShadowOfAnInRoomPointLightIsTheClosedForm.)
+TEST(DifferentialIrradianceTest, AdaptiveCellsStayWithinTheirToleranceOfGatheringEveryReceiver) {
+    const TriangleMesh a = cube(0.05f), b = cube(0.04f);
+    const std::array<gi::MeshInstance, 2> instances{placed(a, {-0.3f, 0.2f, 0.05f}),
+                                                    placed(b, {0.4f, -0.25f, 0.04f}, glm::vec3(0.8f, 0.2f, 0.1f))};
+    CameraIntrinsics k = camera();
+    k.width *= 2;
+    k.height *= 2;
+    k.fx = k.fy = 2.0 * k.fx;
+    k.cx = 2.0 * k.cx + 0.5;
+    k.cy = 2.0 * k.cy + 0.5;
+    const cv::Mat depth(k.height, k.width, CV_32FC1, cv::Scalar(kHeight));
+    const std::vector<gi::VirtualAreaLight> vals = roomVals();
+    gi::DifferentialSettings every, adaptive;
+    every.refineCell = every.shadowCluster = adaptive.shadowCluster = 1;
+    ASSERT_EQ(adaptive.refineCell, 4) << "the default is what this test measures";
+    std::array<gi::DifferentialImages, 2> images;
+    std::array<std::vector<gi::DifferentialReceiver>, 2> receivers;
+    for (std::size_t run = 0; run < 2; ++run) {
+        gi::DifferentialIrradiance differential =
+            gi::DifferentialIrradiance::create(instances, run == 0 ? every : adaptive);
+        differential.compute(depth, k, world_T_camera(), vals, {}, images[run]);
+        receivers[run].assign(differential.receivers().begin(), differential.receivers().end());
+    }
+    ASSERT_EQ(receivers[0].size(), receivers[1].size());
+    const double tolerance = double(adaptive.refineTolerance);
+    int interpolated = 0, varying = 0;
+    double worst = 0.0;
+    for (std::size_t i = 0; i < receivers[0].size(); ++i) {
+        const gi::DifferentialReceiver &exact = receivers[0][i], &r = receivers[1][i];
+        ASSERT_EQ(exact.inRegion, r.inRegion) << i;
+        if (!r.inRegion) continue;
+        ASSERT_TRUE(exact.gathered);
+        if (r.gathered) {
+            ASSERT_EQ(r.deltaIrradiance, exact.deltaIrradiance) << "a gathered receiver is the same computation";
+            continue;
+        }
+        ++interpolated;
+        for (int c = 0; c < 3; ++c) {
+            const double q = exact.deltaIrradiance[c] / exact.irradianceWithout[c];
+            worst = std::max(worst, std::abs(r.deltaIrradiance[c] / r.irradianceWithout[c] - q));
+            varying += std::abs(q) > tolerance ? 1 : 0;
+        }
+    }
+    EXPECT_LE(worst, tolerance);
+    EXPECT_GT(interpolated, int(receivers[0].size() / 4)) << "most of the floor is far from both cubes";
+    EXPECT_GT(varying, 30) << "the interpolated receivers must include some the cubes visibly change";
+    EXPECT_LT(images[1].receiversGathered, images[0].receiversGathered / 2);
+    EXPECT_EQ(images[0].receiversInRegion, images[1].receiversInRegion);
+}
+
 TEST(DifferentialIrradianceTest, RejectsBadSettings) {
     gi::DifferentialSettings settings;
     settings.falloffFraction = 1.0f;
     EXPECT_THROW(gi::validate(settings), Error);
     settings = {};
-    settings.receiverStride = 0;
+    settings.receiverStride = -1;
     EXPECT_THROW(gi::DifferentialIrradiance::create({}, settings), Error);
+    settings = {};
+    settings.refineCell = 0;
+    EXPECT_THROW(gi::validate(settings), Error);
+    settings = {};
+    settings.refineTolerance = 0.0f;
+    EXPECT_THROW(gi::validate(settings), Error);
 }
 
 // A moved object: place() gives what create() at the new placement gives (shadow, bounce and emitter albedo), bit
