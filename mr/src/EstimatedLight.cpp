@@ -15,7 +15,9 @@ const char* toString(EstimatedLightUse use) noexcept {
     case EstimatedLightUse::Dominant:
         return "dominant";
     case EstimatedLightUse::FreeLight:
-        return "free light";
+        return "free-light";
+    case EstimatedLightUse::Rejected:
+        return "rejected";
     }
     return "?";
 }
@@ -53,6 +55,14 @@ EstimatedDirectLight estimatedDirectLight(const roomlight::LightEstimate& estima
         out.use = EstimatedLightUse::None;
         return out;
     }
+    // Band 0 of the irradiance SH is sqrt(4 pi) x its mean over all normals.
+    const glm::dvec3 meanIrradiance = estimate.sh[0] / std::sqrt(4.0 * std::numbers::pi);
+    constexpr double kMaxLightToMean = 4.0 * 1.05;
+    for (int c = 0; c < 3; ++c)
+        if (!(meanIrradiance[c] >= 0.0 && irradiance[c] <= kMaxLightToMean * meanIrradiance[c])) {
+            out.use = EstimatedLightUse::Rejected;
+            return out;
+        }
     direction = glm::normalize(direction);
     const double far = settings.distantLightMetres;
     double distance = far;

@@ -34,6 +34,8 @@ roomlight::LightEstimate estimateWith(DominantSource source) {
     e.dominant.directionWorld = glm::normalize(glm::dvec3(0.3, -0.4, 0.8));
     e.dominant.colour = {1.2, 1.0, 0.8};
     e.dominant.intensity = 0.9;
+    // A consistent SH: the light's own band 0 (E0 / 4 on average over normals, times sqrt(4 pi)) plus an ambient.
+    e.sh[0] = (e.dominant.colour * e.dominant.intensity / 4.0 + glm::dvec3(0.3)) * std::sqrt(4.0 * kPi);
     return e;
 }
 
@@ -94,7 +96,7 @@ TEST(EstimatedLight, AVisibleEmitterIsNotDrawnTwice) {
     expectNear(glm::dvec3(alone.positionWorld), kReference, kFloat);
 
     // With a free light beside it (out of view: no VAL carries it), the free light is drawn instead.
-    e.localLightIrradiance = {0.3, 0.2, 0.1};
+    e.localLightIrradiance = {0.3, 0.2, 0.1}; // within 4 x the mean irradiance of estimateWith's SH
     e.localLightDirectionWorld = glm::normalize(glm::dvec3(-1.0, 0.0, 1.0));
     e.localLightPositionWorld = kReference + 1.5 * e.localLightDirectionWorld;
     const mr::EstimatedDirectLight free = mr::estimatedDirectLight(e, {}, 0.0f);
@@ -112,4 +114,20 @@ TEST(EstimatedLight, NoDominantLightOrABrokenOneDrawsNothing) {
     const mr::EstimatedDirectLight light = mr::estimatedDirectLight(nan, {}, 0.0f);
     EXPECT_EQ(light.use, mr::EstimatedLightUse::None);
     EXPECT_EQ(light.power, glm::vec3(0.0f));
+}
+
+// A fit that broke (a negative mean irradiance, or a light brighter than all the light there is) draws nothing.
+TEST(EstimatedLight, AnUnphysicalEstimateIsRejected) {
+    roomlight::LightEstimate e = estimateWith(DominantSource::LocalLight);
+    EXPECT_EQ(mr::estimatedDirectLight(e, {}, 0.0f).use, mr::EstimatedLightUse::Dominant);
+    roomlight::LightEstimate negative = e;
+    negative.sh[0].z = -0.01;
+    EXPECT_EQ(mr::estimatedDirectLight(negative, {}, 0.0f).use, mr::EstimatedLightUse::Rejected);
+    EXPECT_EQ(mr::estimatedDirectLight(negative, {}, 0.0f).power, glm::vec3(0.0f));
+    // E0 exactly 4 x the mean (a single light, no ambient) is physical; 10 % more is not.
+    roomlight::LightEstimate alone = e;
+    alone.sh[0] = alone.dominant.colour * alone.dominant.intensity / 4.0 * std::sqrt(4.0 * kPi);
+    EXPECT_EQ(mr::estimatedDirectLight(alone, {}, 0.0f).use, mr::EstimatedLightUse::Dominant);
+    alone.dominant.intensity *= 1.1;
+    EXPECT_EQ(mr::estimatedDirectLight(alone, {}, 0.0f).use, mr::EstimatedLightUse::Rejected);
 }

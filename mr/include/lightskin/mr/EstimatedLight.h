@@ -33,6 +33,10 @@ enum class EstimatedLightUse : std::uint8_t {
     None,      ///< no dominant light, or an emitter without a free light: power 0 (nothing drawn)
     Dominant,  ///< the dominant light (free light or SH linear band)
     FreeLight, ///< the dominant light is an emitter (its VALs carry it): the fit's free light instead
+    /// The estimate is not physical, so nothing is drawn: a channel's mean irradiance (SH band 0) below 0, or the
+    /// light's E0 above 4.2 times it (a light's irradiance max(0, n.l) E0 averages E0 / 4 over all normals, and the
+    /// SH holds the light plus a non-negative rest: E0 <= 4 x the mean, 5 % slack for the filter and rounding).
+    Rejected,
 };
 const char* toString(EstimatedLightUse use) noexcept;
 
@@ -46,7 +50,8 @@ struct EstimatedDirectLight {
 
 /// The direct light for `estimate` (its referencePointWorld is where the irradiance E0 holds). A light with a
 /// position farther than settings.distantLightMetres, or without one (distant), is placed that far along its
-/// direction with the power that keeps E0 at the reference point. Never NaN.
+/// direction with the power that keeps E0 at the reference point. Never NaN; power 0 unless use is Dominant or
+/// FreeLight.
 EstimatedDirectLight estimatedDirectLight(const roomlight::LightEstimate& estimate,
                                           const render::EstimatedLightSettings& settings, float exposureStops) noexcept;
 
