@@ -455,6 +455,10 @@ int runReplay(const ReplayArgs& args) {
             rf.volumeVoxelsDropped = output.volumeVoxelsDropped;
             rf.linearNanPixels = output.linearNanPixels;
             rf.linearInfPixels = output.linearInfPixels;
+            rf.lightEstimate = output.lightEstimate;
+            rf.roomLightFitted = output.roomLightFitted;
+            rf.estimatedLight = output.estimatedLight;
+            rf.roomLightCpuMs = output.roomLightCpuMs;
             if (havePresent) {
                 char truthName[32];
                 std::snprintf(truthName, sizeof truthName, "%06lld.png", static_cast<long long>(frame.index));

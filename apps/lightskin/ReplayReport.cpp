@@ -39,6 +39,43 @@ void writeFile(const std::filesystem::path& path, const std::string& text) {
 
 } // namespace
 
+nlohmann::json lightEstimateJson(const roomlight::LightEstimate& estimate, bool fitted,
+                                 const mr::EstimatedDirectLight& direct, double cpuMs) {
+    const auto vec = [](const auto& v) { return nlohmann::json::array({double(v.x), double(v.y), double(v.z)}); };
+    nlohmann::json sh = nlohmann::json::array();
+    for (const glm::dvec3& k : estimate.sh) sh.push_back(vec(k));
+    const roomlight::DominantLight& d = estimate.dominant;
+    nlohmann::json emitters = nlohmann::json::array();
+    for (int i = 0; i < estimate.emitterCount; ++i) {
+        const roomlight::AreaEmitter& e = estimate.emitters[std::size_t(i)];
+        emitters.push_back({{"positionWorld", vec(e.positionWorld)},
+                            {"normalWorld", vec(e.normalWorld)},
+                            {"areaSquareMetres", e.areaSquareMetres},
+                            {"radiance", vec(e.radiance)}});
+    }
+    return {{"sh", sh},
+            {"dominant",
+             {{"directionWorld", vec(d.directionWorld)},
+              {"positionWorld", d.positionWorld ? vec(*d.positionWorld) : nlohmann::json(nullptr)},
+              {"colour", vec(d.colour)},
+              {"intensity", d.intensity},
+              {"source", roomlight::toString(d.source)}}},
+            {"emitters", emitters},
+            {"residual", estimate.residual},
+            {"state", roomlight::toString(estimate.state)},
+            {"problem", roomlight::toString(estimate.problem)},
+            {"referencePointWorld", vec(estimate.referencePointWorld)},
+            {"exposureGain", vec(estimate.exposureGain)},
+            {"samplesFitted", estimate.samplesFitted},
+            {"fittedThisFrame", fitted},
+            {"cpuMs", cpuMs},
+            {"direct",
+             {{"use", mr::toString(direct.use)},
+              {"positionWorld", vec(direct.positionWorld)},
+              {"powerWatts", vec(direct.power)},
+              {"distanceMetres", direct.distanceMetres}}}};
+}
+
 void writeReplayReport(const std::filesystem::path& folder, const ReportSummary& s,
                        const std::vector<ReportFrame>& frames) {
     // Stage names in first-seen order, and their means.
@@ -192,6 +229,9 @@ void writeReplayReport(const std::filesystem::path& folder, const ReportSummary&
         if (f.volumeVoxelsDropped >= 0) j["volumeVoxelsDropped"] = f.volumeVoxelsDropped;
         if (!f.giSettings.empty()) j["giSettings"] = f.giSettings;
         if (f.predictedMs >= 0.0) j["budgetPredictedMs"] = f.predictedMs;
+        if (f.lightEstimate)
+            j["lightEstimate"] =
+                lightEstimateJson(*f.lightEstimate, f.roomLightFitted, f.estimatedLight, f.roomLightCpuMs);
         for (const auto& st : f.cpuTimes) j["cpuMs"][st.name] = st.milliseconds;
         for (const auto& st : f.gpuTimes) {
             const bool seen = j.contains("gpuMs") && j["gpuMs"].contains(st.name);

@@ -4,6 +4,8 @@
 
 #include <lightskin/mr/FramePipeline.h>
 
+#include <nlohmann/json_fwd.hpp>
+
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -52,7 +54,19 @@ struct ReportFrame {
     std::string compareImage;  ///< side-by-side PNG, or empty
     std::string giSettings;    ///< --budget-ms: the settings the frame budget chose (mr::describe), else empty
     double predictedMs = -1.0; ///< --budget-ms: the budget's prediction for the frame, else < 0
+    /// A scene light of type estimated: the room's light (mr::FrameOutput::lightEstimate), whether this frame
+    /// fitted it, what became the direct light and the estimate's thread CPU time (ms); unset otherwise.
+    std::optional<roomlight::LightEstimate> lightEstimate;
+    bool roomLightFitted = false;
+    mr::EstimatedDirectLight estimatedLight;
+    double roomLightCpuMs = -1.0;
 };
+
+/// report.json's "lightEstimate" of one frame (docs/ROOMLIGHT.md, "In the pipeline"): the estimate in the camera's
+/// units and the world frame ("sh", "dominant", "residual", "state", "problem", ...) and the light drawn from it
+/// ("direct", in the renderer's watts).
+nlohmann::json lightEstimateJson(const roomlight::LightEstimate& estimate, bool fitted,
+                                 const mr::EstimatedDirectLight& direct, double cpuMs);
 
 struct ReportSummary {
     std::string recording, scene, renderer, technique, poseMode, video, videoCodec, command;

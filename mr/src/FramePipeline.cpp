@@ -12,6 +12,7 @@
 #include <lightskin/gl/Readback.h>
 #include <lightskin/mr/FramePipeline.h>
 #include <lightskin/mr/SceneContent.h>
+#include <lightskin/roomlight/RoomLightEstimator.h>
 #include <lightskin/tracking/TagWorld.h>
 
 #include <epoxy/gl.h>
@@ -28,10 +29,13 @@
 #include <condition_variable>
 #include <exception>
 #include <filesystem>
+#include <limits>
 #include <mutex>
 #include <numbers>
+#include <optional>
 #include <span>
 #include <thread>
+#include <time.h>
 
 namespace lightskin::mr {
 
@@ -41,6 +45,12 @@ using Clock = std::chrono::steady_clock;
 
 double msSince(Clock::time_point start) {
     return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+double threadCpuMs() {
+    timespec now{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &now);
+    return double(now.tv_sec) * 1e3 + double(now.tv_nsec) * 1e-6;
 }
 
 void addTime(std::vector<gl::StageTime>& times, std::size_t& used, const char* name, double ms) {
@@ -149,7 +159,8 @@ std::vector<gi::PrtLight> prtLightsFromScene(const render::Scene& scene) {
     for (const render::SceneLight& light : scene.lights) {
         gi::PrtLight l;
         l.position = light.position;
-        l.power = light.power;
+        // The estimated light moves every frame; a technique created with the lights is not rebuilt for it.
+        l.power = light.type == render::LightType::Estimated ? glm::vec3(0.0f) : light.power;
         l.direction = light.direction;
         if (light.type == render::LightType::Spot) {
             l.cosInner = std::cos(glm::radians(light.coneAngleDegrees));
@@ -160,18 +171,22 @@ std::vector<gi::PrtLight> prtLightsFromScene(const render::Scene& scene) {
     return out;
 }
 
+namespace {
+gi::VirtualLight virtualLightOf(const render::SceneLight& l) {
+    gi::VirtualLight v;
+    v.type = l.type == render::LightType::Spot ? gi::VirtualLight::Type::Spot : gi::VirtualLight::Type::Point;
+    v.position = l.position;
+    v.direction = l.direction;
+    v.spotHalfAngle = std::min(1.5f, glm::radians(l.coneAngleDegrees + 0.5f * l.coneFalloffDegrees));
+    v.intensity = l.power / float(4.0 * std::numbers::pi);
+    return v;
+}
+} // namespace
+
 std::vector<gi::VirtualLight> virtualLightsFromScene(const render::Scene& scene) {
     std::vector<gi::VirtualLight> lights;
     lights.reserve(scene.lights.size());
-    for (const render::SceneLight& l : scene.lights) {
-        gi::VirtualLight v;
-        v.type = l.type == render::LightType::Spot ? gi::VirtualLight::Type::Spot : gi::VirtualLight::Type::Point;
-        v.position = l.position;
-        v.direction = l.direction;
-        v.spotHalfAngle = std::min(1.5f, glm::radians(l.coneAngleDegrees + 0.5f * l.coneFalloffDegrees));
-        v.intensity = l.power / float(4.0 * std::numbers::pi);
-        lights.push_back(v);
-    }
+    for (const render::SceneLight& l : scene.lights) lights.push_back(virtualLightOf(l));
     return lights;
 }
 
@@ -183,7 +198,9 @@ std::vector<gi::VolumeLight> volumeLightsFromScene(const render::Scene& scene) {
         gi::VolumeLight v;
         v.position = l.position;
         v.direction = l.direction;
-        v.intensity = l.power / float(4.0 * std::numbers::pi);
+        // The estimated light moves every frame; a technique created with the lights is not rebuilt for it.
+        v.intensity =
+            l.type == render::LightType::Estimated ? glm::vec3(0.0f) : l.power / float(4.0 * std::numbers::pi);
         if (l.type == render::LightType::Spot) {
             v.cosInner = std::cos(glm::radians(l.coneAngleDegrees));
             v.cosOuter =
@@ -487,6 +504,18 @@ struct FramePipeline::State {
     std::uint64_t preparedCount = 0; // prepare() calls: PreparedFrame::sequence
     std::uint64_t generation = 0;    // setGiSettings() calls: a GI ahead of older settings is not used
     GiAhead giAhead;
+    // A scene light of type estimated (at most one): the room's light, fitted every fitInterval-th frame that has
+    // a pose, depth and virtual objects.
+    std::optional<std::size_t> estimatedLight; // its index in scene.lights
+    std::optional<roomlight::RoomLightEstimator> roomLight;
+    std::uint64_t roomLightFrames = 0;
+    /// Model-space bounding boxes (min, max) of the instances' meshes, for the estimate's reference point; cleared
+    /// when the instances change.
+    struct ModelBox {
+        const TriangleMesh* mesh = nullptr;
+        glm::vec3 lo{0.0f}, hi{0.0f};
+    };
+    std::vector<ModelBox> modelBoxes;
     gi::GlRenderer glRenderer = gi::GlRenderer::Unknown; // the context's, for a backend "auto"
     gi::BackendChoice backendChoice;
 };
@@ -562,6 +591,18 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
                   std::to_string(rsm.resolution) + "^2 per face, " + std::to_string(s.merger->capacity()) +
                   " VALs merged at most");
     }
+    for (std::size_t i = 0; i < scene.lights.size(); ++i) {
+        const render::SceneLight& light = scene.lights[i];
+        if (light.type != render::LightType::Estimated) continue;
+        roomlight::RoomLightOptions o;
+        o.stride = light.estimation.stride;
+        o.timeConstantSeconds = light.estimation.timeConstantSeconds;
+        o.referenceAlbedo = light.estimation.referenceAlbedo;
+        s.estimatedLight = i;
+        s.roomLight.emplace(o);
+        if (!s.valsUsable)
+            log::warning(source.uri + ": the estimated light needs depth registered to colour; it stays dark");
+    }
     p->rebuildDifferential();
     const auto* glRenderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
     s.glRenderer = gi::classifyGlRenderer(glRenderer != nullptr ? glRenderer : "");
@@ -606,6 +647,7 @@ void FramePipeline::setGiSettings(const render::GiSettings& settings) {
         render::Scene scene = st.scene;
         scene.gi.sparsePoints = settings.sparsePoints;
         renderer_->setScene(scene, true);
+        st.modelBoxes.clear(); // the meshes were loaded again
         st.preparedSparsePoints = settings.sparsePoints;
         st.bruteForce.reset(); // prepared for the old instances
     }
@@ -710,6 +752,7 @@ void FramePipeline::lightsMoved() {
 
 void FramePipeline::instancesChanged() {
     State& s = *state_;
+    s.modelBoxes.clear();
     s.giAhead.drop(); // its job reads the old instances
     ++s.instanceSetVersion;
     s.bruteForce.reset(); // prepared for the old instances
@@ -768,6 +811,9 @@ void FramePipeline::setLight(std::size_t light, const glm::vec3& position, const
         throw Error(sourceName(), std::nullopt,
                     what + ": no such light (the scene has " + std::to_string(s.scene.lights.size()) + ")");
     render::SceneLight l = s.scene.lights[light];
+    if (l.type == render::LightType::Estimated)
+        throw Error(sourceName(), std::nullopt,
+                    what + ": the light of type estimated follows the room's light every frame; it cannot be set");
     l.position = position;
     l.power = power;
     if (l.type == render::LightType::Spot) l.direction = direction;
@@ -906,6 +952,7 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
         return;
     }
     w.world_T_camera = &*out.world_T_camera;
+    estimateRoomLight(w);
     makeVals(w);
     applyDifferentialStage(w);
     addVirtualBounceVals(w);
@@ -940,6 +987,10 @@ void FramePipeline::beginFrame(FrameWork& w) {
     out.linearNanPixels = 0;
     out.linearInfPixels = 0;
     out.coveredPixels = 0;
+    out.lightEstimate.reset();
+    out.roomLightFitted = false;
+    out.estimatedLight = {};
+    out.roomLightCpuMs = -1.0;
     if (!out.linearIndirect.empty()) out.linearIndirect.setTo(cv::Scalar::all(0)); // keeps the buffer, no stale light
     if (!out.linearIndirectReference.empty()) out.linearIndirectReference.setTo(cv::Scalar::all(0));
     if (!out.coverage.empty()) out.coverage.setTo(cv::Scalar::all(0));
@@ -1038,6 +1089,63 @@ void FramePipeline::makeVals(FrameWork& w) {
     }
     // With the GI ahead: the time the VALs took then (this thread's wait for the GI goes to "gbuffer+gi").
     addTime(w.out.cpuTimes, w.usedTimes, "vals", w.useAhead ? ahead.valsMs : msSince(t));
+}
+
+namespace {
+/// Centre of the world-space bounding box of the instances (each mesh's model box, placed), metres.
+template <class Boxes>
+std::optional<glm::dvec3> instancesCentre(std::span<const gi::MeshInstance> instances, Boxes& boxes) {
+    glm::vec3 lo(std::numeric_limits<float>::infinity()), hi(-std::numeric_limits<float>::infinity());
+    for (const gi::MeshInstance& instance : instances) {
+        if (instance.mesh == nullptr || instance.mesh->positions.empty()) continue;
+        auto box = std::find_if(boxes.begin(), boxes.end(), [&](const auto& b) { return b.mesh == instance.mesh; });
+        if (box == boxes.end()) { // once per mesh (grows only when the instances change)
+            boxes.push_back({instance.mesh, instance.mesh->positions[0], instance.mesh->positions[0]});
+            box = boxes.end() - 1;
+            for (const glm::vec3& p : instance.mesh->positions) {
+                box->lo = glm::min(box->lo, p);
+                box->hi = glm::max(box->hi, p);
+            }
+        }
+        for (int corner = 0; corner < 8; ++corner) {
+            const glm::vec3 p((corner & 1) != 0 ? box->hi.x : box->lo.x, (corner & 2) != 0 ? box->hi.y : box->lo.y,
+                              (corner & 4) != 0 ? box->hi.z : box->lo.z);
+            const glm::vec3 world(instance.world_T_model * glm::vec4(p, 1.0f));
+            lo = glm::min(lo, world);
+            hi = glm::max(hi, world);
+        }
+    }
+    if (!(lo.x <= hi.x)) return std::nullopt;
+    return glm::dvec3(0.5f * (lo + hi));
+}
+} // namespace
+
+// The room's light (a scene light of type estimated): fitted every fitInterval-th frame on the registered depth and
+// colour at the objects' centre, then the estimated light's position and power (EstimatedLight.h) into the scene,
+// the renderer (shadow maps follow in renderGBuffer), the RSM and the differential's lights.
+void FramePipeline::estimateRoomLight(FrameWork& w) {
+    State& s = *state_;
+    FrameOutput& out = w.out;
+    if (!s.roomLight || !w.prepared.haveDepth) return;
+    const std::optional<glm::dvec3> centre = instancesCentre(renderer_->instances(), s.modelBoxes);
+    if (!centre) return; // nothing to light
+    const auto t = Clock::now();
+    const double cpuStart = threadCpuMs();
+    render::SceneLight& light = s.scene.lights[*s.estimatedLight];
+    out.roomLightFitted = s.roomLightFrames++ % std::uint64_t(light.estimation.fitInterval) == 0;
+    if (out.roomLightFitted) s.roomLight->estimate(w.frame, *w.world_T_camera, centre);
+    out.lightEstimate = s.roomLight->last();
+    out.estimatedLight = estimatedDirectLight(*out.lightEstimate, light.estimation, s.scene.exposureStops);
+    light.position = out.estimatedLight.positionWorld;
+    light.power = out.estimatedLight.power;
+    if (renderer_->setLights(s.scene.lights)) {
+        // Not lightsMoved(): the techniques created with the scene's lights leave the estimated light out.
+        const gi::VirtualLight v = virtualLightOf(light);
+        if (s.rsm) s.virtualLights[*s.estimatedLight] = v;
+        if (*s.estimatedLight < s.differentialLights.size()) s.differentialLights[*s.estimatedLight].light = v;
+    }
+    out.roomLightCpuMs = threadCpuMs() - cpuStart;
+    addTime(out.cpuTimes, w.usedTimes, "roomlight", msSince(t));
 }
 
 // Differential rendering: the camera image with the virtual objects' shadows and bounce.

@@ -160,8 +160,37 @@ SceneObject readObject(const JsonReader& r, const json& value, const std::string
     return o;
 }
 
+/// {"type": "estimated", "shadows", "stride", "fitInterval", "timeConstantSeconds", "referenceAlbedo",
+/// "distantLightMetres"}: the room's
+/// own light, whose position and power the pipeline sets every frame (no power or position in the file).
+SceneLight readEstimatedLight(const JsonReader& r, const json& value, const std::string& p) {
+    r.allowOnly(
+        value, p,
+        {"type", "shadows", "stride", "fitInterval", "timeConstantSeconds", "referenceAlbedo", "distantLightMetres"});
+    SceneLight l;
+    l.type = LightType::Estimated;
+    l.power = glm::vec3(0.0f); // dark until the first estimate
+    l.inRoom = true;           // a real room light: its light is in the camera image already
+    EstimatedLightSettings& e = l.estimation;
+    if (value.contains("shadows")) l.castsShadows = r.boolean(value["shadows"], p + "/shadows");
+    if (value.contains("stride")) e.stride = r.integer(value["stride"], p + "/stride", 1, 64);
+    if (value.contains("fitInterval")) e.fitInterval = r.integer(value["fitInterval"], p + "/fitInterval", 1, 300);
+    if (value.contains("timeConstantSeconds"))
+        e.timeConstantSeconds = r.number(value["timeConstantSeconds"], p + "/timeConstantSeconds", 0.0f, 3600.0f,
+                                         "in [0, 3600] (seconds; 0 = no temporal filter)");
+    if (value.contains("referenceAlbedo"))
+        e.referenceAlbedo =
+            r.number(value["referenceAlbedo"], p + "/referenceAlbedo", 0.01f, 1.0f, "in [0.01, 1] (an albedo)");
+    if (value.contains("distantLightMetres"))
+        e.distantLightMetres =
+            r.number(value["distantLightMetres"], p + "/distantLightMetres", 0.5f, 15.0f, "in [0.5, 15] (metres)");
+    return l;
+}
+
 SceneLight readLight(const JsonReader& r, const json& value, const std::string& p) {
     r.object(value, p);
+    if (value.contains("type") && value["type"].is_string() && value["type"].get<std::string>() == "estimated")
+        return readEstimatedLight(r, value, p);
     r.allowOnly(value, p,
                 {"type", "position", "direction", "power", "coneAngleDegrees", "coneFalloffDegrees", "shadows",
                  "inRoom", "animation"});
@@ -169,7 +198,8 @@ SceneLight readLight(const JsonReader& r, const json& value, const std::string& 
     const std::string type = value.contains("type") ? r.string(value["type"], p + "/type") : "";
     if (type == "point") l.type = LightType::Point;
     else if (type == "spot") l.type = LightType::Spot;
-    else r.fail(p + "/type", "\"point\" or \"spot\"", value.contains("type") ? &value["type"] : nullptr);
+    else
+        r.fail(p + "/type", "\"point\", \"spot\" or \"estimated\"", value.contains("type") ? &value["type"] : nullptr);
     if (!value.contains("position")) r.fail(p + "/position", "[x, y, z] in metres (world frame)", nullptr);
     l.position = r.vec3(value["position"], p + "/position", -1e4f, 1e4f, "(metres)");
     if (value.contains("power")) l.power = r.colour(value["power"], p + "/power", 1e6f, ">= 0 (watts)");
@@ -232,7 +262,19 @@ Scene parseScene(std::string_view text, const std::filesystem::path& baseFolder,
         const json& lights = root["lights"];
         if (!lights.is_array()) r.fail("/lights", "an array of lights", &lights);
         if (lights.size() > 4) r.fail("/lights", "at most 4 lights (shadow map budget)", nullptr);
-        for (std::size_t i = 0; i < lights.size(); ++i) scene.lights.push_back(readLight(r, lights[i], "/lights/" + std::to_string(i)));
+        std::optional<std::size_t> estimated;
+        for (std::size_t i = 0; i < lights.size(); ++i) {
+            const std::string p = "/lights/" + std::to_string(i);
+            scene.lights.push_back(readLight(r, lights[i], p));
+            if (scene.lights.back().type != LightType::Estimated) continue;
+            // One estimator gives one dominant light: a second entry would be the same light twice.
+            if (estimated)
+                r.fail(p + "/type",
+                       "at most one light of type \"estimated\" (lights/" + std::to_string(*estimated) +
+                           " is one already)",
+                       &lights[i]["type"]);
+            estimated = i;
+        }
     }
     scene.gi = gi::readGiSettings(r, root.contains("gi") ? root["gi"] : json::object(), "/gi");
     if (root.contains("tracking")) {

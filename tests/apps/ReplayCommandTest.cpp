@@ -560,3 +560,68 @@ TEST(ReplayCommand, ObjectsPresentTruthIsCloserWithTheDifferential) {
     }
     EXPECT_NE(test::readText(scratch / "out" / "report.md").find("| error vs objects really there"), std::string::npos);
 }
+
+// A scene light of type estimated: report.json has the room's light per frame, in the schema docs/ROOMLIGHT.md
+// gives, fitted every fitInterval-th frame, and the drawn light's power is the closed form of the estimate's E0
+// (a point light of power P at distance d gives P / (4 pi d^2) facing it; exposureStops 0).
+TEST(ReplayCommand, EstimatedLightReportsTheRoomsLightPerFrame) {
+    const fs::path scratch = test::scratchDir("replay_estimated_light");
+    // Stride 1: the 64 x 48 test recording gives ~2000 samples (200 needed); a fit on frames 0, 2, 4, ...
+    const std::string scene = R"({"version": 1,
+      "objects": [{"name": "cube", "mesh": "cube.obj", "transform": {"translation": [0, 0, 0.1], "scale": 0.2}}],
+      "lights": [{"type": "estimated", "stride": 1, "fitInterval": 2}],
+      "gi": {"technique": "none"}})";
+    // A grey wall (a colour gradient across it would not be shading the estimator can fit).
+    const fs::path recording = test::writeWallRecording(
+        scratch / "recording", [](int, int) { return cv::Vec3b(128, 128, 128); }, "replay test");
+    const fs::path out = scratch / "out";
+    const RunResult r =
+        runLightskin("replay " + recording.string() + " --scene " + writeScene(scratch, scene).string() + " --out " +
+                         out.string() + " --max-frames 4 --no-video --no-compare",
+                     scratch);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json report = nlohmann::json::parse(test::readText(out / "report.json"));
+    ASSERT_EQ(report["frames"].size(), 4u);
+    const auto isVec3 = [](const nlohmann::json& v) {
+        return v.is_array() && v.size() == 3 && v[0].is_number() && v[1].is_number() && v[2].is_number();
+    };
+    for (const auto& frame : report["frames"]) {
+        ASSERT_TRUE(frame.contains("lightEstimate")) << frame.dump();
+        const nlohmann::json& e = frame["lightEstimate"];
+        ASSERT_TRUE(e["sh"].is_array());
+        ASSERT_EQ(e["sh"].size(), 9u);
+        for (const auto& k : e["sh"]) EXPECT_TRUE(isVec3(k)) << k.dump();
+        // The band-0 coefficient is the mean irradiance times sqrt(4 pi) > 0: the wall is lit.
+        EXPECT_GT(e["sh"][0][1].get<double>(), 0.0);
+        const nlohmann::json& d = e["dominant"];
+        EXPECT_TRUE(isVec3(d["directionWorld"]));
+        EXPECT_TRUE(d["positionWorld"].is_null() || isVec3(d["positionWorld"])) << d.dump();
+        EXPECT_TRUE(isVec3(d["colour"]));
+        EXPECT_GE(d["intensity"].get<double>(), 0.0);
+        EXPECT_GE(e["residual"].get<double>(), 0.0);
+        EXPECT_EQ(e["state"], "fitted");
+        EXPECT_EQ(e["problem"], "none");
+        EXPECT_EQ(e["fittedThisFrame"].get<bool>(), frame["index"].get<int>() % 2 == 0) << frame["index"];
+        EXPECT_TRUE(frame["cpuMs"].contains("roomlight"));
+        const nlohmann::json& direct = e["direct"];
+        ASSERT_TRUE(isVec3(direct["positionWorld"]) && isVec3(direct["powerWatts"])) << direct.dump();
+        if (direct["use"] == "dominant") {
+            const double dx = direct["positionWorld"][0].get<double>() - e["referencePointWorld"][0].get<double>();
+            const double dy = direct["positionWorld"][1].get<double>() - e["referencePointWorld"][1].get<double>();
+            const double dz = direct["positionWorld"][2].get<double>() - e["referencePointWorld"][2].get<double>();
+            const double d2 = dx * dx + dy * dy + dz * dz;
+            for (std::size_t c = 0; c < 3; ++c) {
+                const double e0 = d["colour"][c].get<double>() * d["intensity"].get<double>();
+                // Float positions and powers: 1e-5 relative.
+                EXPECT_NEAR(direct["powerWatts"][c].get<double>() / (4.0 * 3.14159265358979 * d2), e0,
+                            1e-5 * e0 + 1e-9);
+            }
+        } else {
+            EXPECT_EQ(direct["powerWatts"][0].get<double>(), 0.0) << direct.dump();
+        }
+    }
+    // The reference point is the cube's centre (0, 0, 0.1).
+    const nlohmann::json& ref = report["frames"][0]["lightEstimate"]["referencePointWorld"];
+    EXPECT_NEAR(ref[2].get<double>(), 0.1, 1e-5);
+    EXPECT_GT(report["meanCpuMs"]["roomlight"].get<double>(), 0.0);
+}

@@ -120,7 +120,7 @@ TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
         {head + R"("objects": [{"mesh": "box_no_normals.obj", "material": {"diffuseAlbedo": [1, 2, 0]}}]})",
          "/objects/0/material/diffuseAlbedo/1: expected a number in [0, 1]"},
         {head + R"("lights": [{"type": "area", "position": [0, 0, 1]}]})",
-         "/lights/0/type: expected \"point\" or \"spot\""},
+         "/lights/0/type: expected \"point\", \"spot\" or \"estimated\""},
         {head + R"("lights": [{"type": "spot", "position": [0, 0, 1]}]})", "/lights/0/direction: expected a direction"},
         {head + R"("lights": [{"type": "point", "position": [0, 0]}]})",
          "/lights/0/position: expected an array of 3 numbers"},
@@ -336,5 +336,61 @@ TEST(Scene, AnimationErrorsNameTheKey) {
     for (const Case& c : cases) {
         const std::string cause = causeOf(c.text);
         EXPECT_EQ(cause.rfind(c.expectedStart, 0), 0u) << "scene: " << c.text << "\ncause: " << cause;
+    }
+}
+
+TEST(Scene, AnEstimatedLightIsReadWithItsSettings) {
+    const Scene defaults = parseScene(
+        R"({"version": 1, "lights": [{"type": "point", "position": [0, 0, 1]}, {"type": "estimated"}]})", ".", "t");
+    ASSERT_EQ(defaults.lights.size(), 2u);
+    const SceneLight& e = defaults.lights[1];
+    EXPECT_EQ(e.type, LightType::Estimated);
+    EXPECT_TRUE(e.inRoom);               // the room's own light: only the objects' shadows change the real surfaces
+    EXPECT_TRUE(e.castsShadows);         // as every light by default
+    EXPECT_EQ(e.power, glm::vec3(0.0f)); // dark until the first estimate
+    EXPECT_EQ(e.estimation.stride, 8);
+    EXPECT_EQ(e.estimation.fitInterval, 3);
+    EXPECT_DOUBLE_EQ(e.estimation.timeConstantSeconds, 0.25);
+    EXPECT_DOUBLE_EQ(e.estimation.referenceAlbedo, 0.5);
+    EXPECT_FLOAT_EQ(e.estimation.distantLightMetres, 5.0f);
+
+    const Scene set = parseScene(
+        R"({"version": 1, "lights": [{"type": "estimated", "shadows": false, "stride": 4, "fitInterval": 1,
+            "timeConstantSeconds": 0.5, "referenceAlbedo": 0.6, "distantLightMetres": 3}]})",
+        ".", "t");
+    const EstimatedLightSettings& s = set.lights[0].estimation;
+    EXPECT_FALSE(set.lights[0].castsShadows);
+    EXPECT_EQ(s.stride, 4);
+    EXPECT_EQ(s.fitInterval, 1);
+    EXPECT_DOUBLE_EQ(s.timeConstantSeconds, 0.5);
+    EXPECT_NEAR(s.referenceAlbedo, 0.6, 1e-7);
+    EXPECT_FLOAT_EQ(s.distantLightMetres, 3.0f);
+}
+
+TEST(Scene, EstimatedLightErrorsNameTheKey) {
+    const std::string head = R"({"version": 1, "lights": [)";
+    const std::pair<std::string, std::string> cases[] = {
+        {head + R"({"type": "estimated"}, {"type": "point", "position": [0, 0, 1]}, {"type": "estimated"}]})",
+         "/lights/2/type: expected at most one light of type \"estimated\" (lights/0 is one already)"},
+        // Position and power come from the estimate, inRoom is always true: such keys are typos or misunderstandings.
+        {head + R"({"type": "estimated", "power": 10}]})", "/lights/0/power: unknown key"},
+        {head + R"({"type": "estimated", "position": [0, 0, 1]}]})", "/lights/0/position: unknown key"},
+        {head + R"({"type": "estimated", "inRoom": false}]})", "/lights/0/inRoom: unknown key"},
+        {head + R"({"type": "estimated", "stride": 0}]})", "/lights/0/stride: expected an integer in [1, 64]"},
+        {head + R"({"type": "estimated", "stride": 2.5}]})", "/lights/0/stride: expected an integer in [1, 64]"},
+        {head + R"({"type": "estimated", "fitInterval": 0}]})",
+         "/lights/0/fitInterval: expected an integer in [1, 300]"},
+        {head + R"({"type": "estimated", "timeConstantSeconds": -1}]})",
+         "/lights/0/timeConstantSeconds: expected a number in [0, 3600]"},
+        {head + R"({"type": "estimated", "referenceAlbedo": 1.5}]})",
+         "/lights/0/referenceAlbedo: expected a number in [0.01, 1]"},
+        {head + R"({"type": "estimated", "distantLightMetres": 100}]})",
+         "/lights/0/distantLightMetres: expected a number in [0.5, 15]"},
+        {head + R"({"type": "estimated", "shadows": "yes"}]})", "/lights/0/shadows: expected true or false"},
+        {head + R"({"type": "Estimated"}]})", "/lights/0/type: expected \"point\", \"spot\" or \"estimated\""},
+    };
+    for (const auto& [text, expectedStart] : cases) {
+        const std::string cause = causeOf(text);
+        EXPECT_EQ(cause.rfind(expectedStart, 0), 0u) << "scene: " << text << "\ncause: " << cause;
     }
 }

@@ -1,6 +1,7 @@
 #pragma once
 // The per-frame pipeline shared by `lightskin replay` and `lightskin live`:
-//   depth (metres, filtered) -> pose (ground truth | AprilTag tracking | fixed) -> VALs from depth
+//   depth (metres, filtered) -> pose (ground truth | AprilTag tracking | fixed) -> [the room's light estimated
+//   (a scene light of type estimated: roomlight::RoomLightEstimator, EstimatedLight.h)] -> VALs from depth
 //   [+ VALs from reflective shadow maps of the virtual meshes per scene light (gi.virtualBounce),
 //   merged after the depth VALs] -> G-buffer -> GI technique (gi::IndirectIllumination) -> direct + indirect, tone
 //   mapped
@@ -15,9 +16,11 @@
 #include <lightskin/gi/common/Technique.h>
 #include <lightskin/gi/prt/MultiscalePrt.h>
 #include <lightskin/gl/GpuTimer.h>
+#include <lightskin/mr/EstimatedLight.h>
 #include <lightskin/render/Compositor.h>
 #include <lightskin/render/Renderer.h>
 #include <lightskin/render/Scene.h>
+#include <lightskin/roomlight/LightEstimate.h>
 #include <lightskin/tracking/PoseTracker.h>
 
 #include <memory>
@@ -169,6 +172,16 @@ struct FrameOutput {
     std::int64_t volumeVoxelsDropped = -1;
     std::int64_t differentialReceivers = -1; ///< differential ran: receivers gathered (in the affected region), else -1
     std::int64_t differentialPixels = -1;    ///< differential ran: camera pixels in the affected region, else -1
+    /// The scene has a light of type estimated and the frame a pose and registered depth: the room's light as
+    /// estimated up to this frame (fitted on this frame when roomLightFitted, else the last fit's), in the camera's
+    /// units and the world frame (roomlight/LightEstimate.h); else unset. Its reference point is the centre of the
+    /// visible objects' bounding boxes.
+    std::optional<roomlight::LightEstimate> lightEstimate;
+    bool roomLightFitted = false;
+    /// What of lightEstimate became the estimated light's direct light this frame (EstimatedLight.h).
+    EstimatedDirectLight estimatedLight;
+    /// Thread CPU time of this frame's estimate, ms (0 on frames between fits); -1 without lightEstimate.
+    double roomLightCpuMs = -1.0;
 };
 
 /// The CPU-only front of a frame (FramePipeline::prepare): the filtered depth and the pose. It uses no
@@ -242,7 +255,8 @@ public:
     /// Sets the albedos and exponent set in `material` (unset ones: the mesh file's); its texture is ignored.
     void setObjectMaterial(std::size_t object, const render::MaterialOverride& material);
     /// A light's position (world, metres), direction (spot lights; unit after normalising, ignored for point
-    /// lights) and power (watts, linear RGB, >= 0) from the next frame on. Stops its animation.
+    /// lights) and power (watts, linear RGB, >= 0) from the next frame on. Stops its animation. A light of type
+    /// estimated is set by the estimate every frame: an error.
     void setLight(std::size_t light, const glm::vec3& position, const glm::vec3& direction, const glm::vec3& power);
     /// Loads `object` (mesh and texture paths absolute or relative to the working directory; name required)
     /// and adds it as the last object; returns its index. The techniques are prepared again.
@@ -298,6 +312,7 @@ private:
     void makeVals(FrameWork& w);
     gi::CpuValGenerator& generateCpuVals(std::uint64_t sequence, const RgbdFrame& frame, const cv::Mat& depth,
                                          const Pose& pose, std::span<const gi::MeshInstance> instances, int threads);
+    void estimateRoomLight(FrameWork& w);
     void applyDifferentialStage(FrameWork& w);
     void addVirtualBounceVals(FrameWork& w);
     void explainGiActivity(FrameWork& w);

@@ -42,7 +42,29 @@ struct SceneObject {
     bool visible = true; ///< drawn, lit and lighting; false = as if absent (kept loaded)
 };
 
-enum class LightType { Point, Spot };
+/// Estimated: the real room's dominant light as the roomlight estimator finds it every frame (mr::FramePipeline
+/// sets its position and power per frame; a point light for the renderer and the GI techniques).
+enum class LightType { Point, Spot, Estimated };
+
+/// A light of type Estimated: how the room's light is estimated and turned into the virtual objects' direct light
+/// (docs/ROOMLIGHT.md, "In the pipeline"). Defaults are the measured trade-off of cost and lag.
+struct EstimatedLightSettings {
+    /// Every stride-th pixel in x and y is a sample (roomlight::RoomLightOptions::stride). Cost ~ 1 / stride^2.
+    int stride = 8;
+    /// One fit every fitInterval frames; between fits the last filtered estimate stays (the filter's time
+    /// constant is 0.25 s, so a fit per 100 ms at 30 Hz loses little). Cost per frame ~ 1 / fitInterval.
+    int fitInterval = 3;
+    /// Time constant of the estimate's temporal filter, seconds (roomlight::RoomLightOptions::timeConstantSeconds).
+    double timeConstantSeconds = 0.25;
+    /// Albedo the room's most common surface colour is taken to have (roomlight::RoomLightOptions::referenceAlbedo):
+    /// the one assumption that sets the estimate's absolute level (a brighter room than assumed looks lit more).
+    double referenceAlbedo = 0.5;
+    /// A distant dominant light (no position, or farther than this from the objects) is drawn as a point light
+    /// at this distance along its direction, its power scaled so its irradiance at the objects' centre is the
+    /// estimate's. Metres. Trade-off: nearer, the irradiance varies over an object of radius r by ~ +-2 r / d;
+    /// farther, the cube shadow map's texels (and its bias, 0.01 + 0.02 d m) grow with d.
+    float distantLightMetres = 5.0f;
+};
 
 struct SceneLight {
     LightType type = LightType::Point;
@@ -60,6 +82,8 @@ struct SceneLight {
     /// Keyframes of position, direction and power (render/Animation.h; the values above are then the first
     /// key's); unset = the values above at all times.
     std::optional<LightAnimation> animation;
+    /// type Estimated only: the estimator's settings (position and power above are then set every frame).
+    EstimatedLightSettings estimation;
 };
 
 /// The scene's "gi" object: the technique registry's settings (lightskin/gi/Techniques.h).
