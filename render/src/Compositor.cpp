@@ -261,9 +261,10 @@ void applyDifferentialInto(const cv::Mat& camera, const gi::DifferentialImages& 
                 for (int c = 0; c < 3; ++c) {
                     const float dE = delta[u][c], eWithout = without[u][c];
                     if (dE == 0.0f || !(eWithout > 0.0f) || !std::isfinite(dE) || !std::isfinite(eWithout)) continue;
+                    // rho / pi = min(p / (gain E_without), 1 / pi): p >= 0 and E_without > 0 here.
                     const float p = decoded[dst[u][c]];
-                    const float albedo = std::clamp(pi * (p / gain) / eWithout, 0.0f, 1.0f);
-                    dst[u][c] = encode(p + gain * albedo / pi * dE);
+                    const float albedoOverPi = std::min(p / (gain * eWithout), 1.0f / pi);
+                    dst[u][c] = encode(p + gain * albedoOverPi * dE);
                 }
             }
         }

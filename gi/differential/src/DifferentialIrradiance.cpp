@@ -226,7 +226,14 @@ struct DifferentialIrradiance::Impl {
     struct PixelNode {
         cv::Vec3f delta{0.0f, 0.0f, 0.0f}, without{0.0f, 0.0f, 0.0f};
         float depth = 0.0f;
+        bool negligible = false; ///< changes its pixels by under half an 8-bit step (negligibleAt())
     };
+    /// Whether receiver g cannot visibly change a pixel it is read by: its VALs' and emitters' part of
+    /// dE / E_without under 1/510 (the composite scales the pixel by 1 + dE / E_without, which moves its sRGB
+    /// code by at most 255 p encode'(p) / 510 <= 0.22 of a step at any brightness) and no light's segment
+    /// from it within a receiver diagonal of an object's sphere (so no pixel between it and its neighbours
+    /// on its surface is in an object's shadow).
+    bool negligibleAt(std::size_t g) const;
     std::vector<PixelNode> pixelNodes;
     /// Per receiver in the region: the scene lights' part of dE (exact at every receiver: the edges of the
     /// objects' shadows and of the cones are sharp) and the rest, the VALs' and emitters' part.
@@ -319,9 +326,12 @@ struct DifferentialIrradiance::Impl {
     /// Writes every pixel of `out`: dE and E_without bilinear over the surrounding receivers on its surface,
     /// the lights' part of dE from the pixel's own shadow tests.
     void interpolate(const cv::Mat& depth, DifferentialImages& out);
-    /// The lights' part of dE at pixel (u, v) of depth `depth` that reads `nodes` with `weights`.
-    cv::Vec3f lightsAtPixel(int u, int v, float depth, const std::array<std::ptrdiff_t, 4>& nodes,
-                            const std::array<float, 4>& weights, float weightSum, std::int64_t& rays) const;
+    /// The lights' part of dE at a pixel (its point in camera space) that reads `nodes` with (normalised)
+    /// `weights`.
+    cv::Vec3f lightsAtPixel(const glm::vec3& pixel, const std::array<std::ptrdiff_t, 4>& nodes,
+                            const std::array<float, 4>& weights, std::int64_t& rays) const;
+    /// Per pixel column and row: (u - cx) / fx and (v - cy) / fy, the camera ray at depth 1.
+    std::vector<float> pixelRayX, pixelRayY;
 };
 
 DifferentialIrradiance::DifferentialIrradiance() = default;
@@ -841,10 +851,17 @@ void DifferentialIrradiance::Impl::interpolate(const cv::Mat& depth, Differentia
     const auto bgr = [](const glm::dvec3& rgb) { return cv::Vec3f(float(rgb.z), float(rgb.y), float(rgb.x)); };
     for (std::size_t g = 0; g < receivers.size(); ++g) {
         const DifferentialReceiver& r = receivers[g];
-        pixelNodes[g] = r.inRegion ? PixelNode{bgr(indirectDelta[g]), bgr(r.irradianceWithout), r.depth} : PixelNode{};
+        pixelNodes[g] = r.inRegion
+                            ? PixelNode{bgr(indirectDelta[g]), bgr(r.irradianceWithout), r.depth, negligibleAt(g)}
+                            : PixelNode{};
         for (std::size_t l = 0; l < lightCount; ++l)
             pixelReach[g * lightCount + l] = r.inRegion ? bgr(lightReach[g * lightCount + l]) : cv::Vec3f();
     }
+    const CameraIntrinsics& k = *frame.intrinsics;
+    pixelRayX.resize(std::size_t(depth.cols));
+    pixelRayY.resize(std::size_t(depth.rows));
+    for (int u = 0; u < depth.cols; ++u) pixelRayX[std::size_t(u)] = float((double(u) - k.cx) / k.fx);
+    for (int v = 0; v < depth.rows; ++v) pixelRayY[std::size_t(v)] = float((double(v) - k.cy) / k.fy);
     const int s = receiverStride;
     const float relative = settings.maxDepthChange;
     std::atomic<std::int64_t> rays{0};
@@ -872,7 +889,8 @@ void DifferentialIrradiance::Impl::interpolate(const cv::Mat& depth, Differentia
                 std::fill(delta + uBegin, delta + uEnd, cv::Vec3f());
                 std::fill(without + uBegin, without + uEnd, cv::Vec3f());
                 std::fill(affected + uBegin, affected + uEnd, std::uint8_t(0));
-                if (nodes[0] < 0 && nodes[1] < 0 && nodes[2] < 0 && nodes[3] < 0) continue;
+                const auto skip = [this](std::ptrdiff_t g) { return g < 0 || pixelNodes[std::size_t(g)].negligible; };
+                if (skip(nodes[0]) && skip(nodes[1]) && skip(nodes[2]) && skip(nodes[3])) continue;
                 for (int u = uBegin; u < uEnd; ++u) {
                     const float zp = zRow[u];
                     if (!(zp > settings.minDepth && zp <= settings.maxDepth)) continue;
@@ -892,13 +910,17 @@ void DifferentialIrradiance::Impl::interpolate(const cv::Mat& depth, Differentia
                     }
                     if (!(weightSum > 0.0f)) continue;
                     cv::Vec3f d(0.0f, 0.0f, 0.0f), w(0.0f, 0.0f, 0.0f);
+                    for (float& weight : weights) weight /= weightSum;
                     for (std::size_t n = 0; n < 4; ++n) {
                         if (weights[n] == 0.0f) continue;
                         const PixelNode& r = pixelNodes[std::size_t(nodes[n])];
-                        d += weights[n] / weightSum * r.delta;
-                        w += weights[n] / weightSum * r.without;
+                        d += weights[n] * r.delta;
+                        w += weights[n] * r.without;
                     }
-                    d += lightsAtPixel(u, v, zp, nodes, weights, weightSum, localRays);
+                    if (!frame.lights.empty())
+                        d +=
+                            lightsAtPixel(glm::vec3(pixelRayX[std::size_t(u)] * zp, pixelRayY[std::size_t(v)] * zp, zp),
+                                          nodes, weights, localRays);
                     delta[u] = d;
                     without[u] = w;
                     affected[u] = 255;
@@ -910,21 +932,32 @@ void DifferentialIrradiance::Impl::interpolate(const cv::Mat& depth, Differentia
     out.shadowRays += rays.load();
 }
 
-cv::Vec3f DifferentialIrradiance::Impl::lightsAtPixel(int u, int v, float depth,
+bool DifferentialIrradiance::Impl::negligibleAt(std::size_t g) const {
+    const DifferentialReceiver& r = receivers[g];
+    constexpr double kHalfStep = 1.0 / 510.0;
+    for (int c = 0; c < 3; ++c)
+        if (!(std::abs(indirectDelta[g][c]) <= kHalfStep * r.irradianceWithout[c])) return false;
+    const double diagonal = std::sqrt(2.0) * double(receiverStride) * double(r.depth) / frame.intrinsics->fx;
+    for (const DifferentialLightSource& source : frame.lights)
+        for (const BoundingSphere& sphere : spheres) {
+            const double reach = sphere.radius + diagonal;
+            if (segmentDistance2(r.position, toDouble(source.light.position), sphere.centre) <= reach * reach)
+                return false;
+        }
+    return true;
+}
+
+cv::Vec3f DifferentialIrradiance::Impl::lightsAtPixel(const glm::vec3& pixel,
                                                       const std::array<std::ptrdiff_t, 4>& nodes,
-                                                      const std::array<float, 4>& weights, float weightSum,
-                                                      std::int64_t& rays) const {
+                                                      const std::array<float, 4>& weights, std::int64_t& rays) const {
     // The lights' part of dE at the pixel's own point: each light's reach interpolated like dE (smooth but
     // for real shadows), its shadow by the objects tested here, so that shadow edges are as sharp as pixels.
     const std::size_t lightCount = frame.lights.size();
-    const CameraIntrinsics& k = *frame.intrinsics;
-    const glm::vec3 pixel(float((double(u) - k.cx) / k.fx) * depth, float((double(v) - k.cy) / k.fy) * depth, depth);
     cv::Vec3f d(0.0f, 0.0f, 0.0f);
     for (std::size_t l = 0; l < lightCount; ++l) {
         cv::Vec3f reach(0.0f, 0.0f, 0.0f);
         for (std::size_t n = 0; n < 4; ++n)
-            if (weights[n] != 0.0f)
-                reach += weights[n] / weightSum * pixelReach[std::size_t(nodes[n]) * lightCount + l];
+            if (weights[n] != 0.0f) reach += weights[n] * pixelReach[std::size_t(nodes[n]) * lightCount + l];
         if (reach == cv::Vec3f(0.0f, 0.0f, 0.0f)) continue;
         // The segment to the light passes no (widened) sphere: no object shadows the pixel, no ray needed.
         const glm::vec3 toLight = lightsInCamera[l] - pixel;

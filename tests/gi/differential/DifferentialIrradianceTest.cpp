@@ -538,6 +538,30 @@ TEST(DifferentialIrradianceTest, AdaptiveCellsStayWithinTheirToleranceOfGatherin
     }
     EXPECT_LE(worst, tolerance);
     EXPECT_GT(interpolated, int(receivers[0].size() / 4)) << "most of the floor is far from both cubes";
+
+    // A pixel is left as the camera saw it only if every receiver it reads has |dE| <= E_without / 510 (no light
+    // here: dE is the VALs' and emitters' part); the composite then moves its code by at most 0.22 of a step.
+    const int s = 4, width = k.width / s, height = k.height / s; // 320 px / 80 receivers
+    int skipped = 0;
+    for (int v = 0; v < k.height; ++v)
+        for (int u = 0; u < k.width; ++u) {
+            if (images[1].affected.at<std::uint8_t>(v, u) != 0) continue;
+            const int i0 = int(std::floor(double(u - s / 2) / s)), j0 = int(std::floor(double(v - s / 2) / s));
+            bool read = false;
+            for (int j = j0; j <= j0 + 1; ++j)
+                for (int i = i0; i <= i0 + 1; ++i) {
+                    if (i < 0 || j < 0 || i >= width || j >= height) continue;
+                    const gi::DifferentialReceiver& r = receivers[1][std::size_t(j * width + i)];
+                    const bool weighted = std::abs(u - (i * s + s / 2)) < s && std::abs(v - (j * s + s / 2)) < s;
+                    if (!r.inRegion || !weighted) continue;
+                    read = true;
+                    for (int c = 0; c < 3; ++c)
+                        ASSERT_LE(std::abs(r.deltaIrradiance[c]), r.irradianceWithout[c] / 510.0) << u << ", " << v;
+                }
+            skipped += read ? 1 : 0;
+        }
+    EXPECT_GT(skipped, 100) << "the floor far from the cubes, where they change nothing visible";
+    EXPECT_GT(cv::countNonZero(images[1].affected), k.width * k.height / 10);
     EXPECT_GT(varying, 30) << "the interpolated receivers must include some the cubes visibly change";
     EXPECT_LT(images[1].receiversGathered, images[0].receiversGathered / 2);
     EXPECT_EQ(images[0].receiversInRegion, images[1].receiversInRegion);
