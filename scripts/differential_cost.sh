@@ -8,8 +8,9 @@
 # Needs perf (Debian: linux-perf) and python3. Parts (symbols): embree (libembree3, TriangleRayScene: the
 # shadow rays), simd (the SIMD gather kernel GatherGroup; gatherDiscs in older binaries), receivers
 # (computeReceiver / placeReceiver / gatherReceiver and the file's helpers they call: geometry, region,
-# pair tests, the lights), really
-# (reallyOccluded: the depth-frame shadow test), interpolate, other (the rest of DifferentialIrradiance).
+# pair tests, the lights, the adaptive cells), really (reallyOccluded: the depth-frame shadow test), pixels
+# (the interpolation and each pixel's light shadow), composite (applyDifferentialInto), other (the rest of
+# DifferentialIrradiance).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 binary="${1:?usage: $0 LIGHTSKIN_BINARY orbit|oni [FRAMES] [OUT_DIR]}"
@@ -32,7 +33,7 @@ perf report -i "$out/perf.data" --no-children --sort dso,symbol -F overhead,samp
 python3 - "$out/symbols.txt" "$frames" "$frequency" "$dataset" "$binary" << 'PY'
 import sys
 path, frames, frequency, dataset, binary = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4], sys.argv[5]
-parts = {"embree": 0, "simd": 0, "receivers": 0, "really": 0, "interpolate": 0, "other": 0}
+parts = {"embree": 0, "simd": 0, "receivers": 0, "really": 0, "pixels": 0, "composite": 0, "other": 0}
 total = 0
 for line in open(path):
     fields = line.split()
@@ -46,11 +47,14 @@ for line in open(path):
         parts["simd"] += samples
     elif "reallyOccluded" in line:
         parts["really"] += samples
-    elif "Differential" in line and "interpolate" in line:
-        parts["interpolate"] += samples
+    elif "Differential" in line and ("interpolate" in line or "lightsAtPixel" in line):
+        parts["pixels"] += samples
+    elif "applyDifferentialInto" in line:
+        parts["composite"] += samples
     elif any(name in line for name in ("computeReceiver", "placeReceiver", "gatherReceiver", "testBlock",
                                        "discWeight", "discNearSphere", "segmentDistance2", "segmentNearSphere",
-                                       "lightIrradiance", "sortVals", "spreadBits10", "validDisc")):
+                                       "lightIrradiance", "sortVals", "spreadBits10", "validDisc", "lightReceiver",
+                                       "interpolable", "fillCells", "negligibleAt", "dropHiddenReceivers")):
         parts["receivers"] += samples
     elif "Differential" in line:
         parts["other"] += samples
