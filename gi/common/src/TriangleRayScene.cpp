@@ -53,7 +53,10 @@ TriangleRayScene TriangleRayScene::create(std::span<const RayMesh> meshes, const
     TriangleRayScene out;
     out.impl_ = std::make_unique<Impl>();
     Impl& impl = *out.impl_;
-    impl.device = rtcNewDevice("threads=1");
+    // No thread count: Embree 3 with TBB turns one into a process-wide tbb::global_control(max_allowed_parallelism,
+    // N) for as long as the device lives (RenderKit/embree#507), which made every TBB-based parallel loop of the
+    // process (OpenCV's parallel_for, the CPU backend's arenas) run on one thread while a ray scene existed.
+    impl.device = rtcNewDevice(nullptr);
     if (!impl.device) throw Error("embree", std::nullopt, owner + ": rtcNewDevice failed");
     impl.scene = rtcNewScene(impl.device);
     rtcSetSceneFlags(impl.scene, RTC_SCENE_FLAG_ROBUST);
