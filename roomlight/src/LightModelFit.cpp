@@ -36,6 +36,29 @@ std::array<glm::dvec3, 2> tangentsOf(const glm::dvec3& direction) noexcept {
     return {first, glm::cross(direction, first)};
 }
 
+// The ambient's mean radiance (band 0) may not be negative in any channel: a negative ambient is no light, and when
+// the samples' normals barely vary (one wall) the free light's shading is nearly the constant band 0 itself, so the
+// unconstrained pair cancels (a light of E0 500 against an ambient of -370 on the 64 x 48 test wall). A channel
+// whose band 0 comes out negative is refitted with it held at 0 (the active-set step of non-negative least squares
+// for the one constraint that is violated).
+bool holdAmbientMeanNonNegative(const NormalMatrix& normalMatrix, const RightHandSide& rhs, int bandZero,
+                                RightHandSide& solution) {
+    if ((solution.row(bandZero).array() >= 0.0).all()) return true;
+    NormalMatrix held = normalMatrix;
+    held.row(bandZero).setZero();
+    held.col(bandZero).setZero();
+    held(bandZero, bandZero) = 1.0;
+    RightHandSide heldRhs = rhs;
+    heldRhs.row(bandZero).setZero();
+    Eigen::LDLT<NormalMatrix> solver(held);
+    if (solver.info() != Eigen::Success) return false;
+    const RightHandSide heldSolution = solver.solve(heldRhs);
+    if (!heldSolution.allFinite()) return false;
+    for (int channel = 0; channel < 3; ++channel)
+        if (solution(bandZero, channel) < 0.0) solution.col(channel) = heldSolution.col(channel);
+    return true;
+}
+
 } // namespace
 
 void LightModelFit::designRow(std::size_t i, const FreeLight& light, double* row) const noexcept {
@@ -262,12 +285,13 @@ bool LightModelFit::solveLinear(const FreeLight& light, std::array<glm::dvec3, k
     for (int attempt = 0; attempt <= firstSh; ++attempt) {
         Eigen::LDLT<NormalMatrix> solver(normalMatrix);
         if (solver.info() != Eigen::Success) return false;
-        const RightHandSide solution = solver.solve(rhs);
+        RightHandSide solution = solver.solve(rhs);
         if (!solution.allFinite()) return false;
         int negative = -1;
         for (int c = 0; c < firstSh && negative < 0; ++c)
             if (solution.row(c).sum() < 0.0) negative = c;
         if (negative < 0) {
+            if (!holdAmbientMeanNonNegative(normalMatrix, rhs, firstSh, solution)) return false;
             for (int c = 0; c < columns; ++c) {
                 beta[static_cast<std::size_t>(c)] = {solution(c, 0), solution(c, 1), solution(c, 2)};
                 if (c < firstSh) beta[static_cast<std::size_t>(c)] = glm::max(beta[static_cast<std::size_t>(c)], 0.0);

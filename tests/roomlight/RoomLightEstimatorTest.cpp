@@ -23,9 +23,13 @@
 #include <lightskin/roomlight/RoomLightEstimator.h>
 
 #include <glm/geometric.hpp>
+#include <glm/gtc/quaternion.hpp>
 #include <gtest/gtest.h>
+#include <opencv2/core.hpp>
 
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 
 namespace lightskin::roomlight {
 namespace {
@@ -347,6 +351,80 @@ TEST(RoomLightEstimator, PredictsTheIrradianceOfRealSurfaces) {
         const double truth = mean(room.irradiance(position, normal, 1));
         EXPECT_NEAR(mean(predictIrradiance(estimate, position, normal)), truth, kMaxIntensityRelativeError * truth);
     }
+}
+
+// The 64 x 48 wall of tests/support/WallRecording.h with its colour gradient (B = 3u, G = 4v, R = 120): a wall at
+// 1.5 m, a box face at 0.8 m in the left third, both facing the camera, the camera 1 m in front of the world origin.
+// Every sample has (nearly) one of two normals, and the colour changes across each surface, so the per-segment
+// albedos and the light are not determined by shading: whatever the fit returns must still be a physical light.
+RgbdFrame gradientWall() {
+    RgbdFrame frame;
+    frame.colourIntrinsics = frame.depthIntrinsics = {64, 48, 60.0, 60.0, 31.5, 23.5, {}};
+    frame.depthScaleMetres = 0.001;
+    frame.depth = cv::Mat(48, 64, CV_16UC1, cv::Scalar(1500));
+    frame.depth.colRange(0, 64 / 3).setTo(800);
+    frame.colour.create(48, 64, CV_8UC3);
+    for (int v = 0; v < 48; ++v)
+        for (int u = 0; u < 64; ++u)
+            frame.colour.at<cv::Vec3b>(v, u) = cv::Vec3b(std::uint8_t(u * 3), std::uint8_t(v * 4), 120);
+    return frame;
+}
+
+/// A fit the data cannot determine may fall back, but never be unphysical: the mean irradiance (SH band 0) is
+/// non-negative per channel, every light is non-negative, and the dominant E0 is at most 4.2 times the mean
+/// irradiance per channel: a light E0 max(0, n.l) averages E0 / 4 over all normals and the rest of the SH is a
+/// non-negative ambient, so E0 <= 4 x the mean (5 % slack for the filter and rounding; mr::EstimatedLight rejects
+/// the same). A fit that is rejected says why and keeps the last estimate (here the neutral ambient).
+TEST(RoomLightEstimator, AnUndeterminedFitIsNeverUnphysical) {
+    RoomLightOptions options;
+    options.stride = 1; // as the replay test's scene: ~2000 samples
+    RoomLightEstimator estimator(options);
+    const Pose world_T_camera(glm::angleAxis(kPi, glm::dvec3(1, 0, 0)), {0.0, 0.0, 1.0});
+    for (int frameIndex = 0; frameIndex < 3; ++frameIndex) {
+        RgbdFrame frame = gradientWall();
+        frame.index = frameIndex;
+        frame.colourTimestampSeconds = frame.depthTimestampSeconds = frameIndex / 30.0;
+        const LightEstimate& estimate = estimator.estimate(frame, world_T_camera, glm::dvec3(0.0, 0.0, 0.1));
+        const glm::dvec3 meanIrradiance = estimate.sh[0] * shBasis({0.0, 0.0, 1.0})[0];
+        std::printf("frame %d: state %s, problem %s, mean irradiance (%.3g, %.3g, %.3g), E0 %.3g (%s), residual %.3f\n",
+                    frameIndex, toString(estimate.state), toString(estimate.problem), meanIrradiance.x,
+                    meanIrradiance.y, meanIrradiance.z, estimate.dominant.intensity, toString(estimate.dominant.source),
+                    estimate.residual);
+        for (int c = 0; c < 3; ++c) {
+            EXPECT_GE(meanIrradiance[c], 0.0) << "channel " << c;
+            EXPECT_GE(estimate.localLightIrradiance[c], 0.0) << "channel " << c;
+            EXPECT_LE(estimate.dominant.intensity * estimate.dominant.colour[c], 4.2 * meanIrradiance[c] + 1e-12)
+                << "channel " << c;
+            for (int e = 0; e < estimate.emitterCount; ++e)
+                EXPECT_GE(estimate.emitters[static_cast<std::size_t>(e)].radiance[c], 0.0);
+        }
+        EXPECT_GE(estimate.dominant.intensity, 0.0);
+        if (estimate.state != EstimateState::Fitted) {
+            EXPECT_TRUE(estimate.problem == FrameProblem::PoorFit || estimate.problem == FrameProblem::FitFailed)
+                << toString(estimate.problem);
+        }
+    }
+}
+
+/// A fit whose residual is above maxResidual is not used: the last estimate is kept, reported as PoorFit. The
+/// point-light room's fit has a residual of a few % (2 % pixel noise, the sphere's shadow rejected), so a bound of
+/// 1e-4 rejects it and the default (0.75) does not.
+TEST(RoomLightEstimator, APoorFitKeepsTheLastEstimate) {
+    const SyntheticRoom room = pointLightRoom();
+    const CameraShot shot = baseShot();
+    const RgbdFrame frame = test::render(room, shot, test::testIntrinsics());
+    RoomLightOptions strict = testOptions();
+    strict.maxResidual = 1e-4;
+    RoomLightEstimator rejecting(strict);
+    const LightEstimate& rejected = rejecting.estimate(frame, shot.world_T_camera, kReference);
+    EXPECT_EQ(rejected.state, EstimateState::NeutralAmbient);
+    EXPECT_EQ(rejected.problem, FrameProblem::PoorFit);
+    EXPECT_EQ(rejected.dominant.source, DominantSource::None);
+
+    RoomLightEstimator estimator(testOptions());
+    const LightEstimate good = estimator.estimate(frame, shot.world_T_camera, kReference);
+    ASSERT_EQ(good.state, EstimateState::Fitted);
+    EXPECT_LT(good.residual, testOptions().maxResidual);
 }
 
 } // namespace
