@@ -386,18 +386,18 @@ void LightModelFit::selectSamples(int segments) {
     for (std::size_t j = 0; j < fitIndex_.size(); j += every) searchIndex_.push_back(fitIndex_[j]);
 }
 
-// Model selection: each light (the free light, then each emitter) stays only if it explains a good part of what
-// the rest of the model leaves: an ambient sky would otherwise lend the free light a spurious share, and a clipped
-// white surface that is no lamp would become an emitter whose near field predicts halos nobody sees.
+// Model selection: each light (the free light, then each emitter) stays only if it explains at least
+// minExplainedFraction of what the rest of the model leaves (RoomLightOptions has why that fraction): a clipped white
+// surface that is no lamp would otherwise become an emitter whose near field predicts halos nobody sees.
 bool LightModelFit::selectLights(const FreeLight& light, std::array<glm::dvec3, kMaxColumns>& beta) {
-    constexpr double kMinExplainedFraction = 0.5;
+    const double minExplainedFraction = options_->minExplainedFraction;
     std::array<glm::dvec3, kMaxColumns> without{};
     for (std::size_t c = 0; c < static_cast<std::size_t>(1 + emitterCount_); ++c) {
         const double withAll = residual(light, beta);
         lightEnabled_[c] = false;
         if (!solveLinear(light, without)) return false;
         const double withoutLight = residual(light, without);
-        if (withAll * withAll < (1.0 - kMinExplainedFraction) * withoutLight * withoutLight) {
+        if (withAll * withAll < (1.0 - minExplainedFraction) * withoutLight * withoutLight) {
             lightEnabled_[c] = true;
             continue;
         }
