@@ -73,17 +73,6 @@ struct RoomLightOptions {
     /// Tikhonov weight on the ambient SH bands 1 and 2 relative to the data (keeps a box room's few normals
     /// from trading the free light against the ambient).
     double ambientRidge = 0.05;
-    /// Model selection: the free light and each emitter stay in the model only if they reduce the squared residual
-    /// that the rest of the model leaves by at least this fraction. On a real room that residual is mostly texture
-    /// within the chromaticity segments (the albedo model's limit: relative residuals of 0.3-0.45 with every light),
-    /// which no light explains, so the fraction a real light can reach is bounded by its share of the shading
-    /// variation against the texture, not by 1: the window-side light of the bundled Kinect v1 room takes 21 % (the
-    /// hold-out error drops from 0.467 to 0.407 with it), the lights of the other bundled recordings 18-60 %, the
-    /// synthetic rooms' lights 96-99.9 %. A light that is not there (a clipped surface taken for a lamp, a light
-    /// fitted to texture) took at most 6 % on all of them. 0.1 sits between, a factor ~2 from each side; at 0.5 the
-    /// real rooms' lights were dropped and their light went into the SH's linear band, where the albedo model's
-    /// floor-versus-ceiling contrast turned it upside down (docs/ROOMLIGHT.md, "The .oni room").
-    double minExplainedFraction = 0.1;
     /// A light whose E0 is below this fraction of the mean ambient irradiance is not a dominant light.
     double minDominantRatio = 0.1;
 };
