@@ -27,6 +27,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -368,6 +369,69 @@ RgbdFrame gradientWall() {
         for (int u = 0; u < 64; ++u)
             frame.colour.at<cv::Vec3b>(v, u) = cv::Vec3b(std::uint8_t(u * 3), std::uint8_t(v * 4), 120);
     return frame;
+}
+
+/// Multiplies the linear radiance of every 16 x 16-pixel cell by a factor drawn uniformly from [0.5, 1.5], the same for
+/// the three channels: a texture of the albedos (print, wood grain) that keeps each surface's chromaticity, so the
+/// albedo model's segments stay the same and their albedo is right on average, but varies by 29 % (RMS) within them.
+void applyCellTexture(RgbdFrame& frame) {
+    constexpr int kCell = 16;
+    std::uint32_t state = 12345u; // a fixed linear congruential sequence: the same texture on every run
+    const auto uniform = [&state] {
+        state = state * 1664525u + 1013904223u;
+        return static_cast<double>(state >> 8) / static_cast<double>(1u << 24);
+    };
+    const auto decode = [](double code) {
+        const double e = code / 255.0;
+        return e <= 0.04045 ? e / 12.92 : std::pow((e + 0.055) / 1.055, 2.4);
+    };
+    const auto encode = [](double linear) {
+        const double e = linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1.0 / 2.4) - 0.055;
+        return static_cast<std::uint8_t>(std::clamp(std::lround(255.0 * e), 0L, 255L));
+    };
+    for (int cv = 0; cv < frame.colour.rows; cv += kCell) {
+        for (int cu = 0; cu < frame.colour.cols; cu += kCell) {
+            const double factor = 0.5 + uniform();
+            for (int v = cv; v < std::min(cv + kCell, frame.colour.rows); ++v) {
+                for (int u = cu; u < std::min(cu + kCell, frame.colour.cols); ++u) {
+                    cv::Vec3b& bgr = frame.colour.at<cv::Vec3b>(v, u);
+                    for (int c = 0; c < 3; ++c) {
+                        if (bgr[c] >= 250) continue; // a clipped channel stays clipped
+                        bgr[c] = encode(std::min(decode(bgr[c]) * factor, 0.95));
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The out-of-view point light on a room whose surfaces carry a strong texture (applyCellTexture). The texture is
+/// most of what the fit cannot explain, so the light cannot explain most of the residual the rest of the model leaves
+/// (the former rule, "half of it", dropped the light and the SH took its light); but it predicts the shading of image
+/// blocks it was not fitted to, so the cross-validated selection keeps it.
+/// Direction bound: the texture is a 29 % (RMS) error per 16-pixel cell, ~1200 cells in view, independent, against
+/// ~30 parameters: ~0.29 / sqrt(1200 / 30) ~ 4.6 % on each coefficient, so the direction of the light's gradient
+/// over the view is known to ~2.6 degrees (1 sigma); 3 sigma: 8 degrees. E0 is not bounded here: the texture biases
+/// it upward (docs/ROOMLIGHT.md, "Not done").
+TEST(RoomLightEstimator, ALightOnATexturedRoomIsKept) {
+    SyntheticRoom room = baseRoom();
+    room.pointLights.push_back({{2.8, 0.5, 2.6}, {2.0, 2.0, 2.0}});
+    const CameraShot shot = baseShot();
+    RgbdFrame frame = test::render(room, shot, test::testIntrinsics());
+    applyCellTexture(frame);
+    RoomLightEstimator estimator(testOptions());
+    const LightEstimate& estimate = estimator.estimate(frame, shot.world_T_camera, kReference);
+    const test::PointLight& light = room.pointLights.front();
+    const glm::dvec3 toLight = light.position - kReference;
+    const double trueE0 = mean(light.intensity) / glm::dot(toLight, toLight);
+    const double directionError = angleDegrees(estimate.dominant.directionWorld, toLight);
+    std::printf("textured: %s, direction error %.2f deg, E0 %.4f (true %.4f), residual %.3f\n",
+                toString(estimate.dominant.source), directionError, estimate.dominant.intensity, trueE0,
+                estimate.residual);
+    ASSERT_EQ(estimate.state, EstimateState::Fitted);
+    EXPECT_EQ(estimate.dominant.source, DominantSource::LocalLight);
+    constexpr double kMaxTexturedDirectionErrorDegrees = 8.0;
+    EXPECT_LE(directionError, kMaxTexturedDirectionErrorDegrees);
 }
 
 /// A fit the data cannot determine may fall back, but never be unphysical: the mean irradiance (SH band 0) is
