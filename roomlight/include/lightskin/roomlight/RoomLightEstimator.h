@@ -20,7 +20,9 @@
 //   - R_k: a distant ambient radiance in SH (interreflections, sky, lights the model has no term for).
 // Fitted by iteratively reweighted least squares (Tukey's biweight on the relative residual, which drops
 // shadows, speculars and depth errors), alternating with the per-segment albedos; the free light's (d, u)
-// by a pattern search of the fit residual (variable projection), warm-started from the last frame.
+// by a pattern search of the fit residual (variable projection), warm-started from the last frame. The free
+// light and each emitter stay only if they predict held-out image blocks better (two-fold cross-validation).
+// Lights and the ambient's mean (band 0) are held non-negative per channel.
 // Shadows between real surfaces are not modelled (the robust weights remove them).
 //
 // Threading: one estimator per stream, used from one thread. No allocation per frame after the first
