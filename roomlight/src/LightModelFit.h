@@ -67,6 +67,11 @@ private:
     std::array<glm::dvec3, kMaxSegments> albedo_{};
     std::vector<std::size_t> fitIndex_;    ///< samples with a segment
     std::vector<std::size_t> searchIndex_; ///< a subset of fitIndex_ for the free light's search
+    std::array<std::vector<std::size_t>, 2> foldIndex_; ///< selectLights: the two halves of fitIndex_ by image block
+    std::vector<int> sampleBlock_;                      ///< selectLights: image block per sample (indexed like samples)
+    std::vector<double> blockErrorWith_, blockErrorWithout_; ///< selectLights: held-out squared error per block
+    /// Below this many samples in a fold the cross-validation is not trusted: the light is dropped.
+    static constexpr int kMinFoldSamples = 100;
     std::vector<double> weight_;           ///< robust weight per sample (indexed like samples)
     std::vector<double> scratch_;
     static constexpr std::size_t kFixedColumns = kMaxEmitters + kShCount;

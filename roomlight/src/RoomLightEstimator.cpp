@@ -6,6 +6,7 @@
 #include <lightskin/roomlight/RoomLightEstimator.h>
 
 #include <glm/geometric.hpp>
+#include <glm/vector_relational.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -37,6 +38,8 @@ const char* toString(FrameProblem problem) noexcept {
         return "mostly-clipped";
     case FrameProblem::FitFailed:
         return "fit-failed";
+    case FrameProblem::PoorFit:
+        return "poor-fit";
     }
     return "?";
 }
@@ -181,6 +184,18 @@ void chooseDominant(LightEstimate& estimate, double minDominantRatio) {
         return;
     }
     estimate.dominant = DominantLight{};
+}
+
+/// The fit's own estimate is physical: no channel of the mean irradiance (SH band 0), the free light or an emitter is
+/// negative. The fit holds each of them non-negative, so this guards the assembly, not the data.
+bool isPhysical(const LightEstimate& estimate) {
+    bool physical = glm::all(glm::greaterThanEqual(estimate.sh[0], glm::dvec3(0.0))) &&
+                    glm::all(glm::greaterThanEqual(estimate.ambientSh[0], glm::dvec3(0.0))) &&
+                    glm::all(glm::greaterThanEqual(estimate.localLightIrradiance, glm::dvec3(0.0)));
+    for (int e = 0; e < estimate.emitterCount; ++e)
+        physical = physical && glm::all(glm::greaterThanEqual(estimate.emitters[static_cast<std::size_t>(e)].radiance,
+                                                              glm::dvec3(0.0)));
+    return physical;
 }
 
 bool allFinite(const LightEstimate& estimate) {
@@ -364,10 +379,18 @@ const LightEstimate& RoomLightEstimator::estimate(const RgbdFrame& frame, const 
     }
     LightEstimate raw;
     m.buildRaw(raw, reference, emitterCount, emitters);
+    if (!(raw.residual <= m.options.maxResidual)) {
+        m.keepLast(FrameProblem::PoorFit);
+        return m.current;
+    }
     const double time = frame.colourTimestampSeconds;
     double elapsed = time - m.lastFitTime;
     if (!std::isfinite(elapsed) || elapsed <= 0.0 || elapsed > 1.0) elapsed = m.options.nominalFrameSeconds;
     assembleSh(raw); // the unfiltered sh: filterInto measures the camera's gain on it
+    if (!isPhysical(raw)) {
+        m.keepLast(FrameProblem::PoorFit);
+        return m.current;
+    }
     if (m.hasFit) {
         m.filterInto(raw, elapsed);
         assembleSh(raw);

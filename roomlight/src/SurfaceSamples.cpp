@@ -61,6 +61,7 @@ void extractSurfaceSamples(const RgbdFrame& frame, const Pose& world_T_camera, c
     out.clear();
     if (!frame.hasDepth() || !frame.hasColour()) return;
     const CameraIntrinsics& k = frame.colourIntrinsics;
+    out.imageWidth = k.width;
     const int stride = options.stride, radius = options.normalRadius;
     out.reserve(static_cast<std::size_t>((k.width / stride + 1) * (k.height / stride + 1)));
     const DepthView depth{frame.depth, frame.depthScaleMetres, options.minDepthMetres, options.maxDepthMetres};

@@ -20,7 +20,8 @@ struct SurfaceSamples {
     std::vector<std::uint8_t> clipped;         ///< 1 when a channel is at or above RoomLightOptions::clippedCode
     std::vector<double> footprintSquareMetres; ///< surface area the sample stands for (stride^2 pixels)
     std::vector<int> segment;                  ///< chromaticity segment (segmentSamples), -1 = not used for the fit
-    std::vector<int> pixelIndex;               ///< v * width + u of the sample's pixel
+    std::vector<int> pixelIndex;               ///< v * imageWidth + u of the sample's pixel
+    int imageWidth = 0;                        ///< pixels
 
     std::size_t size() const noexcept { return positionWorld.size(); }
     void clear() noexcept;

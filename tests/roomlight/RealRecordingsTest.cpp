@@ -58,6 +58,27 @@ TEST(RoomLightRealData, KinectV1Oni) {
     expectEstimateBeatsAmbient("oni-kinect-v1", test::dataPath("oni-kinect-v1/3dj_test.oni"));
 }
 
+// The Kinect v1 room's light at the bunny of recordings/scenes/oni_room_estimated.json (the reference point is the
+// centre of its objects' boxes, 21 cm above the floor it stands on), camera frame (y down). The room is lit by the
+// window (centre-right of the image, clipped curtains, ~1 m above the floor) and by lamps above the floor; every one
+// of them is above a point 21 cm over the floor, so the dominant light must come from the upper half: direction
+// y < 0. The camera is pitched up by ~11 degrees (the floor's normal in this frame), well inside the window's ~40
+// degrees of elevation seen from the bunny. (The ceiling is brighter than the floor and shares a chromaticity
+// segment with it; read as shading, that contrast is a light from below.)
+TEST(RoomLightRealData, KinectV1OniLightIsNotFromBelowTheFloor) {
+    auto source = capture::openFrameSource(test::dataPath("oni-kinect-v1/3dj_test.oni").string());
+    RgbdFrame frame;
+    ASSERT_TRUE(source->next(frame));
+    RoomLightEstimator estimator({});
+    const LightEstimate& estimate = estimator.estimate(frame, Pose(), glm::dvec3(-0.097, 0.586, 2.213));
+    const glm::dvec3& d = estimate.dominant.directionWorld;
+    std::printf("oni at the bunny: dominant %s (%.3f, %.3f, %.3f) E0 %.3f\n", toString(estimate.dominant.source), d.x,
+                d.y, d.z, estimate.dominant.intensity);
+    ASSERT_EQ(estimate.state, EstimateState::Fitted);
+    ASSERT_NE(estimate.dominant.source, DominantSource::None);
+    EXPECT_LT(d.y, 0.0);
+}
+
 // The Kinect v1 recording (12 frames) frame after frame through one estimator (the temporal path, real auto-exposure):
 // every estimate finite, fitted or kept (never back to the neutral ambient after a fit), its reference-point irradiance
 // never negative on average over the sphere.

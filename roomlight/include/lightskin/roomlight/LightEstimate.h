@@ -30,6 +30,9 @@ enum class FrameProblem : std::uint8_t {
     Dark,          ///< the median valid pixel is below Options::darkLevel (lens covered, lights off)
     MostlyClipped, ///< more than Options::maxClippedFraction of the valid pixels are clipped
     FitFailed,     ///< the robust fit was singular or not finite (kept out of the estimate)
+    /// The fit converged but is not to be trusted: its residual is above Options::maxResidual, or the estimate is
+    /// not physical (a negative mean irradiance in a channel, a negative light)
+    PoorFit,
 };
 const char* toString(FrameProblem problem) noexcept;
 

@@ -20,7 +20,9 @@
 //   - R_k: a distant ambient radiance in SH (interreflections, sky, lights the model has no term for).
 // Fitted by iteratively reweighted least squares (Tukey's biweight on the relative residual, which drops
 // shadows, speculars and depth errors), alternating with the per-segment albedos; the free light's (d, u)
-// by a pattern search of the fit residual (variable projection), warm-started from the last frame.
+// by a pattern search of the fit residual (variable projection), warm-started from the last frame. The free
+// light and each emitter stay only if they predict held-out image blocks better (two-fold cross-validation).
+// Lights and the ambient's mean (band 0) are held non-negative per channel.
 // Shadows between real surfaces are not modelled (the robust weights remove them).
 //
 // Threading: one estimator per stream, used from one thread. No allocation per frame after the first
@@ -62,6 +64,11 @@ struct RoomLightOptions {
     int minSamples = 200;
     double darkLevel = 0.01; ///< linear pixel value (0..1) of the median valid sample
     double maxClippedFraction = 0.6;
+    /// A fit whose robust relative residual (LightEstimate::residual) is above this is not used (PoorFit). Predicting
+    /// black gives 1; the model holds a constant shading per segment, whose residual is CV / sqrt(1 + CV^2) for
+    /// pixel values with a coefficient of variation CV within the segment, 0.71 at CV = 1 (values scattered as
+    /// widely as their mean: no shading left to fit). A fit above 0.75 explains less than that constant could.
+    double maxResidual = 0.75;
     /// Uniform irradiance before the first usable frame, camera units (a grey card of albedo referenceAlbedo
     /// would show referenceAlbedo / pi * neutralIrradiance: 0.18 with the defaults).
     double neutralIrradiance = 0.18 * kPi / 0.5;
