@@ -53,10 +53,11 @@ TriangleRayScene TriangleRayScene::create(std::span<const RayMesh> meshes, const
     TriangleRayScene out;
     out.impl_ = std::make_unique<Impl>();
     Impl& impl = *out.impl_;
-    // No thread count: Embree 3 with TBB turns one into a process-wide tbb::global_control(max_allowed_parallelism,
-    // N) for as long as the device lives (RenderKit/embree#507), which made every TBB-based parallel loop of the
-    // process (OpenCV's parallel_for, the CPU backend's arenas) run on one thread while a ray scene existed.
-    impl.device = rtcNewDevice(nullptr);
+    // Embree 3 with TBB turns this thread count into a process-wide tbb::global_control(max_allowed_parallelism,
+    // 1) while the device lives (RenderKit/embree#507): every TBB loop of the process (OpenCV's parallel_for, the
+    // CPU backend) then runs on one thread. Without it the replays are 25-30 % faster (docs/BENCHMARKS.md), but
+    // the TSan stage then sees Embree's and OpenCV's TBB hand-overs, which it cannot follow, as races.
+    impl.device = rtcNewDevice("threads=1");
     if (!impl.device) throw Error("embree", std::nullopt, owner + ": rtcNewDevice failed");
     impl.scene = rtcNewScene(impl.device);
     rtcSetSceneFlags(impl.scene, RTC_SCENE_FLAG_ROBUST);

@@ -2,13 +2,11 @@
 // closed forms: a unit right triangle in the plane z = 1, moved by world_T_model, hit by rays whose
 // parameter, barycentrics and triangle are known exactly; meshes without triangles are skipped without
 // shifting the mesh indices of the others; segment tests stop at tFar; segmentOccluded cuts epsilon metres
-// off both ends; a scene leaves the rest of the process's TBB parallelism alone.
+// off both ends.
 #include <lightskin/gi/common/TriangleRayScene.h>
 
 #include <glm/ext/matrix_transform.hpp>
 #include <gtest/gtest.h>
-#include <tbb/global_control.h>
-#include <tbb/info.h>
 
 #include <limits>
 #include <vector>
@@ -93,13 +91,3 @@ TEST(TriangleRayScene, SegmentOcclusionIgnoresTheEndSurfacesWithinEpsilonMetres)
     EXPECT_FALSE(scene.segmentOccluded({0.5, 0.5, 0.9995}, {0.5, 0.5, 1.0005}, 1e-3));
 }
 
-// Embree 3 with TBB turns a device's thread count into a process-wide tbb::global_control: with one, every
-// TBB-based parallel loop (OpenCV's parallel_for, the CPU backend) ran on one thread while a scene lived.
-TEST(TriangleRayScene, LeavesTheProcesssTbbParallelismAlone) {
-    const std::size_t before = tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
-    const TriangleMesh square = unitSquare();
-    const std::vector<RayMesh> meshes{{&square, glm::dmat4(1.0)}};
-    const TriangleRayScene scene = TriangleRayScene::create(meshes, "test");
-    EXPECT_EQ(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism), before);
-    EXPECT_GE(before, std::size_t(tbb::info::default_concurrency()));
-}
