@@ -41,6 +41,25 @@ void setRay(RTCRay& ray, const glm::dvec3& origin, const glm::dvec3& direction, 
     ray.time = 0.0f;
 }
 
+// Embree 3 with TBB turns a thread count into a process-wide tbb::global_control(max_allowed_parallelism, n)
+// while the device lives (RenderKit/embree#507): "threads=1" would run every TBB loop of the process (OpenCV's
+// parallel_for, the CPU backend) on one thread, making the replays 25-30 % slower. So Embree shares TBB's
+// threads, except under ThreadSanitizer: Debian's libtbb is not instrumented, TSan cannot follow the hand-overs
+// of Embree's parallel BVH build and of OpenCV's loops and reports them as races, so that build keeps those
+// libraries' work on one thread.
+#if defined(__SANITIZE_THREAD__)
+#define LIGHTSKIN_UNDER_THREAD_SANITIZER
+#elif defined(__has_feature)
+#if __has_feature(thread_sanitizer)
+#define LIGHTSKIN_UNDER_THREAD_SANITIZER
+#endif
+#endif
+#ifdef LIGHTSKIN_UNDER_THREAD_SANITIZER
+constexpr const char* kEmbreeDeviceConfig = "threads=1";
+#else
+constexpr const char* kEmbreeDeviceConfig = nullptr;
+#endif
+
 } // namespace
 
 TriangleRayScene::TriangleRayScene() = default;
@@ -53,11 +72,7 @@ TriangleRayScene TriangleRayScene::create(std::span<const RayMesh> meshes, const
     TriangleRayScene out;
     out.impl_ = std::make_unique<Impl>();
     Impl& impl = *out.impl_;
-    // Embree 3 with TBB turns this thread count into a process-wide tbb::global_control(max_allowed_parallelism,
-    // 1) while the device lives (RenderKit/embree#507): every TBB loop of the process (OpenCV's parallel_for, the
-    // CPU backend) then runs on one thread. Without it the replays are 25-30 % faster (docs/BENCHMARKS.md), but
-    // the TSan stage then sees Embree's and OpenCV's TBB hand-overs, which it cannot follow, as races.
-    impl.device = rtcNewDevice("threads=1");
+    impl.device = rtcNewDevice(kEmbreeDeviceConfig);
     if (!impl.device) throw Error("embree", std::nullopt, owner + ": rtcNewDevice failed");
     impl.scene = rtcNewScene(impl.device);
     rtcSetSceneFlags(impl.scene, RTC_SCENE_FLAG_ROBUST);
