@@ -1,3 +1,5 @@
+#include "BackgroundTask.h"
+
 #include <lightskin/capture/DepthFilter.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
@@ -36,6 +38,7 @@
 #include <span>
 #include <thread>
 #include <time.h>
+#include <utility>
 
 namespace lightskin::mr {
 
@@ -518,7 +521,32 @@ struct FramePipeline::State {
     std::vector<ModelBox> modelBoxes;
     gi::GlRenderer glRenderer = gi::GlRenderer::Unknown; // the context's, for a backend "auto"
     gi::BackendChoice backendChoice;
+
+    /// The frame computeDifferential() reads; set before it runs, untouched by either thread until it ends.
+    struct DifferentialInput {
+        const cv::Mat* depthMetres = nullptr;
+        const CameraIntrinsics* intrinsics = nullptr;
+        const Pose* world_T_camera = nullptr;
+        const cv::Mat* colour = nullptr;
+    } differentialInput;
+    double differentialMs = 0.0; // the last computeDifferential()'s wall time
+    /// Differential rendering from differentialInput and depthValsOnCpu into differentialImages and
+    /// cameraWithDifferential. Touches no GL and nothing else of the frame: it may run beside the GI.
+    void computeDifferential();
+    /// setDifferentialAlongside(true): the thread computeDifferential() runs on beside the frame's GL work.
+    /// Last, so that it ends before the state its runs read.
+    std::optional<BackgroundTask> differentialTask;
+    bool differentialLaunched = false; // this frame's run is on differentialTask, not yet collected
 };
+
+void FramePipeline::State::computeDifferential() {
+    const auto t = Clock::now();
+    const DifferentialInput& in = differentialInput;
+    differential->compute(*in.depthMetres, *in.intrinsics, *in.world_T_camera, depthValsOnCpu, differentialLights,
+                          differentialImages);
+    render::applyDifferentialInto(*in.colour, differentialImages, scene.exposureStops, cameraWithDifferential);
+    differentialMs = msSince(t);
+}
 
 GiAhead::~GiAhead() {
     if (!worker.joinable()) return;
@@ -542,6 +570,14 @@ void FramePipeline::setGiAhead(bool on) {
 }
 
 void FramePipeline::finishGiAhead() { state_->giAhead.drop(); }
+
+void FramePipeline::setDifferentialAlongside(bool on) {
+    State& s = *state_;
+    if (!on)
+        s.differentialTask.reset(); // between frames: no run pending
+    else if (!s.differentialTask)
+        s.differentialTask.emplace([&s] { s.computeDifferential(); });
+}
 
 std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene, const capture::FrameSourceInfo& source,
                                                      const PipelineOptions& options) {
@@ -852,20 +888,6 @@ void FramePipeline::removeObject(std::size_t object) {
     instancesChanged();
 }
 
-void FramePipeline::applyDifferential(const RgbdFrame& frame, const cv::Mat& depthMetres, const Pose& world_T_camera,
-                                      const gi::ValSetView& depthVals, FrameOutput& out) {
-    State& s = *state_;
-    if (depthVals.buffer == 0 && depthVals.count > 0) // generated on the CPU (no allocation once grown)
-        s.depthValsOnCpu.assign(s.cpuValSet.begin(), s.cpuValSet.end());
-    else
-        gi::downloadValsInto(depthVals, s.depthValsOnCpu);
-    s.differential->compute(depthMetres, frame.colourIntrinsics, world_T_camera, s.depthValsOnCpu, s.differentialLights,
-                            s.differentialImages);
-    render::applyDifferentialInto(frame.colour, s.differentialImages, s.scene.exposureStops, s.cameraWithDifferential);
-    out.differentialReceivers = s.differentialImages.receiversGathered;
-    out.differentialPixels = cv::countNonZero(s.differentialImages.affected);
-}
-
 std::string FramePipeline::techniqueName() const { return std::string(state_->technique->name()); }
 
 gi::Technique FramePipeline::technique() const noexcept { return state_->technique->technique(); }
@@ -939,11 +961,19 @@ struct FramePipeline::FrameWork {
     // GI and composite
     bool rsmTimed = false, stageTimesTaken = false;
     const cv::Mat* camera = nullptr; // the camera image the composites use (with the differential, if any)
+    double differentialHandOverMs = 0.0; // the depth VALs to the CPU for the differential
     cv::Mat realDepth;
     render::ShadeOptions shade;
 };
 
 void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared, FrameOutput& out, NextFrame* next) {
+    // A stage that throws while the differential runs beside it must not leave that run reading the frame.
+    struct CollectDifferential {
+        State& s;
+        ~CollectDifferential() {
+            if (std::exchange(s.differentialLaunched, false)) s.differentialTask->waitQuietly();
+        }
+    } collect{*state_};
     FrameWork w(frame, prepared, out);
     applyContentAt(state_->clock.timeOf(frame));
     beginFrame(w);
@@ -954,11 +984,12 @@ void FramePipeline::render(const RgbdFrame& frame, const PreparedFrame& prepared
     w.world_T_camera = &*out.world_T_camera;
     estimateRoomLight(w);
     makeVals(w);
-    applyDifferentialStage(w);
+    startDifferential(w);
     addVirtualBounceVals(w);
     explainGiActivity(w);
     makeNextFrameVals(w, next);
     renderGi(w);
+    finishDifferential(w);
     composite(w);
     renderReferenceIndirect(w);
     drawOverlays(w);
@@ -1148,16 +1179,41 @@ void FramePipeline::estimateRoomLight(FrameWork& w) {
     addTime(out.cpuTimes, w.usedTimes, "roomlight", msSince(t));
 }
 
-// Differential rendering: the camera image with the virtual objects' shadows and bounce.
-void FramePipeline::applyDifferentialStage(FrameWork& w) {
+// Differential rendering: the camera image with the virtual objects' shadows and bounce. The depth VALs come to
+// the CPU here (a read-back needs the GL context); the rest runs beside the GI with setDifferentialAlongside.
+void FramePipeline::startDifferential(FrameWork& w) {
+    State& s = *state_;
     w.out.differentialReceivers = -1;
     w.out.differentialPixels = -1;
     w.camera = &w.frame.colour;
     if (!w.runDifferential) return;
     const auto t = Clock::now();
-    applyDifferential(w.frame, w.prepared.depthMetres, *w.world_T_camera, w.valSet, w.out);
-    w.camera = &state_->cameraWithDifferential;
-    addTime(w.out.cpuTimes, w.usedTimes, "differential", msSince(t));
+    if (w.valSet.buffer == 0 && w.valSet.count > 0) // generated on the CPU (no allocation once grown)
+        s.depthValsOnCpu.assign(s.cpuValSet.begin(), s.cpuValSet.end());
+    else
+        gi::downloadValsInto(w.valSet, s.depthValsOnCpu);
+    s.differentialInput = {&w.prepared.depthMetres, &w.frame.colourIntrinsics, w.world_T_camera, &w.frame.colour};
+    w.camera = &s.cameraWithDifferential;
+    w.differentialHandOverMs = msSince(t);
+    if (s.differentialTask) {
+        s.differentialTask->launch();
+        s.differentialLaunched = true;
+    } else
+        s.computeDifferential();
+}
+
+// The differential's images for the composites: its run collected (the wait is the stage "differential wait").
+void FramePipeline::finishDifferential(FrameWork& w) {
+    State& s = *state_;
+    if (!w.runDifferential) return;
+    if (std::exchange(s.differentialLaunched, false)) {
+        const auto t = Clock::now();
+        s.differentialTask->wait();
+        addTime(w.out.cpuTimes, w.usedTimes, "differential wait", msSince(t));
+    }
+    addTime(w.out.cpuTimes, w.usedTimes, "differential", w.differentialHandOverMs + s.differentialMs);
+    w.out.differentialReceivers = s.differentialImages.receiversGathered;
+    w.out.differentialPixels = cv::countNonZero(s.differentialImages.affected);
 }
 
 // VALs from the virtual lights (one bounce between virtual objects), after the depth VALs.

@@ -144,6 +144,7 @@ bool Session::processNext() {
             // The next frame's GI while this one reads back and composites (not under a budget, whose
             // cost model times the GI stage of each frame).
             pipeline_->setGiAhead(!budget_.has_value());
+            pipeline_->setDifferentialAlongside(!budget_.has_value());
         }
         const FramePrefetcher::Slot* slot = prefetch_->next();
         if (slot == nullptr) return false;
@@ -327,6 +328,7 @@ void Session::removeObject(std::size_t object) { pipeline_->removeObject(object)
 
 void Session::setBudgetMs(double budgetMs) {
     pipeline_->setGiAhead(false); // see processNext()
+    pipeline_->setDifferentialAlongside(false);
     if (budget_) {
         budget_->setBudgetMs(budgetMs);
         return;

@@ -572,9 +572,14 @@ TEST_F(SessionGLTest, PrefetchGivesTheSequentialImagesBitForBit) {
         ASSERT_EQ(a.withGi.size(), b.withGi.size());
         EXPECT_EQ(cv::norm(a.withGi, b.withGi, cv::NORM_INF), 0.0) << "frame " << f << ": not bit for bit";
         EXPECT_EQ(cv::norm(a.linearWithGi, b.linearWithGi, cv::NORM_INF), 0.0) << "frame " << f;
-        // Not a test of two empty images: GI lit the objects, and they cover part of the frame.
+        // Not a test of two empty images: GI lit the objects, and they cover part of the frame; the differential,
+        // which the prefetching session runs beside the GI, changed real pixels.
         EXPECT_TRUE(b.giActive) << "frame " << f;
         EXPECT_GT(b.coveredPixels, 100) << "frame " << f;
+        EXPECT_EQ(a.differentialPixels, b.differentialPixels) << "frame " << f;
+        if (b.world_T_camera) {
+            EXPECT_GT(b.differentialPixels, 100) << "frame " << f;
+        }
     }
     EXPECT_GE(tracked, kFrames - 1) << "the tags are seen in the recording's first frames";
 }
@@ -632,6 +637,8 @@ void expectSameFrame(const mr::FrameOutput& a, const mr::FrameOutput& b, int f) 
     EXPECT_TRUE(b.giActive) << "frame " << f;
     EXPECT_GT(b.coveredPixels, 100) << "frame " << f;
     EXPECT_GT(b.valCount, 100u) << "frame " << f;
+    EXPECT_EQ(a.differentialPixels, b.differentialPixels) << "frame " << f;
+    EXPECT_GT(b.differentialPixels, 100) << "frame " << f << ": the differential ran";
 }
 
 // The prefetching session computes each frame's GI during the frame before (giComputedAhead), and its images

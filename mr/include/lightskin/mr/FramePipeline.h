@@ -237,6 +237,11 @@ public:
     /// Waits for a GI ahead that is running and drops its result. Call before the frames handed to
     /// render(..., next) go away (Session does, before its prefetch).
     void finishGiAhead();
+    /// Differential rendering (the scene's compositing.differential) on a thread of its own, beside the
+    /// frame's G-buffer, GI and shading, collected before the composite; off: on the caller's thread, before the
+    /// GI. The images are the same either way. Session turns it on with the GI ahead (not under a frame budget,
+    /// whose cost model times the stages one after another). Between frames only.
+    void setDifferentialAlongside(bool on);
 
     // Moving content (docs/PLUGIN.md, "Moving content"). Object and light indices are the scene's (objects
     // added later come last; removing one moves the later ones down). Each call checks its input and throws
@@ -300,10 +305,6 @@ private:
     void rebuildDifferential();
     void checkObjectIndex(std::size_t object) const;
     std::string sourceName() const;
-    /// The differential stage: receivers gathered from this frame's depth VALs, applied to the
-    /// camera image (State::cameraWithDifferential), which the composites then use.
-    void applyDifferential(const RgbdFrame& frame, const cv::Mat& depthMetres, const Pose& world_T_camera,
-                           const gi::ValSetView& depthVals, FrameOutput& out);
     // The stages of render(), in order (docs/ARCHITECTURE.md: capture -> filter -> pose -> VALs -> GI ->
     // composite; filter and pose ran in prepare()). FrameWork carries one frame's state between them.
     struct FrameWork;
@@ -313,7 +314,8 @@ private:
     gi::CpuValGenerator& generateCpuVals(std::uint64_t sequence, const RgbdFrame& frame, const cv::Mat& depth,
                                          const Pose& pose, std::span<const gi::MeshInstance> instances, int threads);
     void estimateRoomLight(FrameWork& w);
-    void applyDifferentialStage(FrameWork& w);
+    void startDifferential(FrameWork& w);
+    void finishDifferential(FrameWork& w);
     void addVirtualBounceVals(FrameWork& w);
     void explainGiActivity(FrameWork& w);
     void makeNextFrameVals(FrameWork& w, NextFrame* next);
