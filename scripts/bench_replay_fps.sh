@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Frames per second and CPU ms per frame of whole replays: the .oni (640x480, fixed pose) and
-# synth-orbit (320x240, AprilTag tracking), GL and CPU backends, side by side in one run, alternated per round.
+# Frames per second and CPU ms per frame of the main job's whole replays: the .oni (640x480, fixed pose, the room's
+# estimated light) and synth-orbit (320x240, AprilTag tracking), GL and CPU backends, side by side in one run,
+# alternated per round.
 # Per frame without the setup: wall clock from the end of the first frame to the end of the last (the replay
 # report's steadyMsPerFrame, measured in the process), and the process's CPU time (user + system, every thread:
 # llvmpipe's, oneTBB's, the prefetch and GI-ahead workers') as (all frames - 1 frame) / (N - 1). Outputs: no video, no
@@ -21,7 +22,7 @@ repo=$(cd "$(dirname "$0")/.." && pwd)
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 declare -A recs=(
-  [oni]="$repo/tests/data/oni-kinect-v1/3dj_test.oni --scene $repo/recordings/scenes/oni_room.json --pose fixed"
+  [oni]="$repo/tests/data/oni-kinect-v1/3dj_test.oni --scene $repo/recordings/scenes/oni_room_estimated.json --pose fixed"
   [orbit]="$repo/recordings/synth-orbit --scene $repo/recordings/scenes/orbit.json --pose tracking"
   [orbit-moving]="$repo/recordings/synth-orbit --scene $repo/recordings/scenes/orbit_moving.json --pose tracking"
 )
