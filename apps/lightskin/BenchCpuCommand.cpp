@@ -24,6 +24,7 @@ void addBenchCpuCommand(CLI::App& app, int& exitCode) {
     auto maps = std::make_shared<std::string>("160x120");
     auto threads = std::make_shared<std::string>("1,2");
     auto targets = std::make_shared<std::string>("");
+    auto trees = std::make_shared<std::string>("0");
     command->add_option("--width", options->outputWidth, "Output width (pixels)")->check(CLI::Range(16, 8192));
     command->add_option("--height", options->outputHeight, "Output height (pixels)")->check(CLI::Range(16, 8192));
     command->add_option("--sparse", *sparse, "Comma-separated sparse point counts (total of both meshes)")
@@ -35,6 +36,11 @@ void addBenchCpuCommand(CLI::App& app, int& exitCode) {
     command->add_option("--threads", *threads, "Comma-separated CPU thread counts")->check(integerList(1, 1024));
     command->add_option("--simd", *targets,
                         "Comma-separated SIMD targets to compare (e.g. AVX3,AVX2,SSE4; default: the dispatched one)");
+    command
+        ->add_option("--tree", *trees,
+                     "Comma-separated LightSkinSettings::valTreeThreshold values of the CPU rows (0 = flat gather, "
+                     "first if given: the cut's error is against it)")
+        ->check(numberList(0.0, 100.0));
     command->add_option("--repeat", options->repeat, "Timed frames per configuration (the minimum is reported)")
         ->check(CLI::Range(1, 1000));
     command
@@ -51,6 +57,7 @@ void addBenchCpuCommand(CLI::App& app, int& exitCode) {
         options->valMaps = bench::splitList<std::string>(*maps, [](const std::string& s) { return s; });
         options->threads = bench::splitList<int>(*threads, [](const std::string& s) { return std::stoi(s); });
         options->targets = bench::splitList<std::string>(*targets, [](const std::string& s) { return s; });
+        options->treeThresholds = bench::splitList<float>(*trees, [](const std::string& s) { return std::stof(s); });
         const StopSignals stopSignals; // Ctrl-C and SIGTERM: finish the measurement, output what was measured
         options->stopRequested = [] { return StopSignals::requested(); };
         bench::runCpuBench(*options);

@@ -142,7 +142,7 @@ void runCpuBench(const CpuBenchOptions& options) {
                 meshes[0].vertexCount(), meshes[1].vertexCount());
     gl::Texture target = gl::Texture::create2D(GL_RGBA32F, options.outputWidth, options.outputHeight);
     const std::size_t pixels = std::size_t(options.outputWidth) * std::size_t(options.outputHeight);
-    std::vector<glm::vec4> glImage(pixels), cpuImage(pixels);
+    std::vector<glm::vec4> glImage(pixels), cpuImage(pixels), flatImage;
     std::vector<std::string> targets = options.targets;
     if (targets.empty()) targets.push_back("");
 
@@ -153,6 +153,13 @@ void runCpuBench(const CpuBenchOptions& options) {
         const gl::Buffer valBuffer =
             gl::Buffer::create(GLsizeiptr(vals.size() * sizeof(gi::VirtualAreaLight)), vals.data(), 0);
         const gi::ValSetView valSet{valBuffer.id(), std::uint32_t(vals.size())};
+        // the VAL map's pixel keys (row-major, as ValGenerator's): the gather with a cut builds its quadtree
+        std::vector<std::uint32_t> keys(vals.size());
+        for (std::size_t i = 0; i < keys.size(); ++i) keys[i] = std::uint32_t(i);
+        const gl::Buffer keyBuffer =
+            gl::Buffer::create(GLsizeiptr(keys.size() * sizeof(std::uint32_t)), keys.data(), 0);
+        const gi::ValSetView keyedSet{valBuffer.id(), std::uint32_t(vals.size()), 0,
+                                      keyBuffer.id(), std::uint32_t(vals.size()), std::uint32_t(mapWidth)};
         for (int sparse : options.sparse) {
             if (stop()) break;
             const auto sparseSphere = std::size_t(sparse) * 2 / 3;
@@ -171,6 +178,7 @@ void runCpuBench(const CpuBenchOptions& options) {
                   SetupSpec{"+occlusion", true, true, 91.0, 74.0}}) {
                 if (stop()) break;
                 std::printf("  %s\n", setup.name);
+                flatImage.clear(); // the cut's error is against this setup's flat gather only
                 const int channels = setup.occlusion ? 3 : setup.glossy ? 2 : 1;
                 gi::LightSkinSettings settings;
                 settings.glossy = setup.glossy;
@@ -192,88 +200,108 @@ void runCpuBench(const CpuBenchOptions& options) {
                 for (const std::string& simd : targets) {
                     if (stop()) break;
                     gi::setCpuSimdTarget(simd);
-                    for (int threads : options.threads) {
-                        if (stop()) break;
-                        gi::CpuLightSkinSettings cpuSettings;
-                        cpuSettings.lightSkin = settings;
-                        cpuSettings.threads = threads;
-                        // the FMA peak per CPU-second now, at this instruction set: the yardstick of
-                        // the rates below under the same load (other jobs share the cores)
-                        const double peakNow = gi::cpuFmaPeakGflops(100.0);
-                        auto cpu = gi::CpuLightSkin::create(cpuSettings, provider);
-                        cpu->prepare(instances);
-                        const Timing t =
-                            timeFrames(*cpu, valSet, instances, gbuffer.view(), view, target.id(), options.repeat);
-                        const std::string label = "CPU " + gi::cpuSimdTarget() + " " + std::to_string(threads) + " thr";
-                        printTiming(label.c_str(), t);
-                        report.runs.push_back(timedRow(t, gi::Backend::Cpu,
-                                                       std::string(setup.name) + ", " + std::to_string(threads) +
-                                                           " threads, " + gi::cpuSimdTarget(),
-                                                       vals.size(), sparse, channels, options.outputWidth,
-                                                       options.outputHeight));
-                        const gi::CpuLightSkinStats& stats = cpu->lastStats();
-                        // rates per CPU-second (robust to other processes' load) and by wall clock
-                        const double interactions = double(stats.points) * double(stats.vals);
-                        // the gather region's CPU time less its occlusion part, each the least over the
-                        // frames (the occlusion part is timed by a steady clock: CpuLightSkinStats)
-                        std::vector<double> regionCpu(t.gatherCpu.size());
-                        for (std::size_t f = 0; f < regionCpu.size(); ++f)
-                            regionCpu[f] = t.gatherCpu[f] + t.occlusionCpu[f];
-                        const double gatherCpu = minimum(regionCpu) - minimum(t.occlusionCpu);
-                        const double perCpuSecond = interactions / (gatherCpu * 1e-3);
-                        const double perSecond = interactions / (minimum(t.stages.at("gather")) * 1e-3);
-                        const double corePeak = peakNow;
-                        std::printf("      gather %.3g interactions per CPU-s (%.1f GFLOP per CPU-s", perCpuSecond,
-                                    perCpuSecond * setup.gatherFlops * 1e-9);
-                        if (corePeak > 0.0)
-                            std::printf(", %.1f %% of the in-run FMA peak %.0f GFLOP per CPU-s",
-                                        100.0 * perCpuSecond * setup.gatherFlops * 1e-9 / corePeak, corePeak);
-                        std::printf("), %.3g per wall-s (%.1f GFLOP/s", perSecond,
-                                    perSecond * setup.gatherFlops * 1e-9);
-                        if (options.peakGflops > 0.0)
-                            std::printf(", %.1f %% of the %.0f peak",
-                                        100.0 * perSecond * setup.gatherFlops * 1e-9 / options.peakGflops,
-                                        options.peakGflops);
-                        // interactions above count every VAL x point pair, also those of the skipped blocks
-                        std::printf("); %.1f %% of its (16 VALs, point) pairs in blocks skipped as hidden (exact)\n",
-                                    100.0 * stats.gatherBlocksSkipped);
-                        if (setup.occlusion) {
-                            const double pairs = double(stats.points) * double(stats.points);
-                            const double occCpu = pairs / (minimum(t.occlusionCpu) * 1e-3);
-                            std::printf("      occlusion %.3g interactions per CPU-s (%.1f GFLOP per CPU-s", occCpu,
-                                        occCpu * setup.occlusionFlops * 1e-9);
+                    for (int threads : options.threads)
+                        for (const float tree : options.treeThresholds) {
+                            if (stop()) break;
+                            gi::CpuLightSkinSettings cpuSettings;
+                            cpuSettings.lightSkin = settings;
+                            cpuSettings.lightSkin.valTreeThreshold = tree;
+                            cpuSettings.threads = threads;
+                            // the FMA peak per CPU-second now, at this instruction set: the yardstick of
+                            // the rates below under the same load (other jobs share the cores)
+                            const double peakNow = gi::cpuFmaPeakGflops(100.0);
+                            auto cpu = gi::CpuLightSkin::create(cpuSettings, provider);
+                            cpu->prepare(instances);
+                            const Timing t = timeFrames(*cpu, tree > 0.0f ? keyedSet : valSet, instances,
+                                                        gbuffer.view(), view, target.id(), options.repeat);
+                            const std::string treeLabel = tree > 0.0f ? " tree " + std::to_string(tree) : "";
+                            const std::string label =
+                                "CPU " + gi::cpuSimdTarget() + " " + std::to_string(threads) + " thr" + treeLabel;
+                            printTiming(label.c_str(), t);
+                            report.runs.push_back(timedRow(t, gi::Backend::Cpu,
+                                                           std::string(setup.name) + ", " + std::to_string(threads) +
+                                                               " threads, " + gi::cpuSimdTarget() + treeLabel,
+                                                           vals.size(), sparse, channels, options.outputWidth,
+                                                           options.outputHeight));
+                            const gi::CpuLightSkinStats& stats = cpu->lastStats();
+                            // rates per CPU-second (robust to other processes' load) and by wall clock
+                            const double interactions = double(stats.points) * double(stats.vals);
+                            // the gather region's CPU time less its occlusion part, each the least over the
+                            // frames (the occlusion part is timed by a steady clock: CpuLightSkinStats)
+                            std::vector<double> regionCpu(t.gatherCpu.size());
+                            for (std::size_t f = 0; f < regionCpu.size(); ++f)
+                                regionCpu[f] = t.gatherCpu[f] + t.occlusionCpu[f];
+                            const double gatherCpu = minimum(regionCpu) - minimum(t.occlusionCpu);
+                            const double perCpuSecond = interactions / (gatherCpu * 1e-3);
+                            const double perSecond = interactions / (minimum(t.stages.at("gather")) * 1e-3);
+                            const double corePeak = peakNow;
+                            std::printf("      gather %.3g interactions per CPU-s (%.1f GFLOP per CPU-s", perCpuSecond,
+                                        perCpuSecond * setup.gatherFlops * 1e-9);
                             if (corePeak > 0.0)
-                                std::printf(", %.1f %% of the in-run peak",
-                                            100.0 * occCpu * setup.occlusionFlops * 1e-9 / corePeak);
-                            std::printf(")\n");
-                        }
-                        const double gi = minimum(t.stages.at("upload")) + minimum(t.stages.at("gather")) +
-                                          minimum(t.stages.at("normalisation")) + minimum(t.stages.at("occlusion")) +
-                                          minimum(t.stages.at("interpolation"));
-                        // critical path: serial CPU time + the busiest thread's of each parallel region
-                        // (thread CPU clocks): the wall time on idle cores, whatever else runs now
-                        std::printf("      GI stages 0-4: %.2f ms wall (sum of stage minima), %.2f ms CPU; CPU / "
-                                    "threads: %.2f ms; critical path (wall on idle cores): %.2f ms\n",
-                                    gi, minimum(t.stagesCpu), minimum(t.stagesCpu) / double(threads),
-                                    minimum(t.criticalCpu));
-                        if (options.gl) {
+                                std::printf(", %.1f %% of the in-run FMA peak %.0f GFLOP per CPU-s",
+                                            100.0 * perCpuSecond * setup.gatherFlops * 1e-9 / corePeak, corePeak);
+                            std::printf("), %.3g per wall-s (%.1f GFLOP/s", perSecond,
+                                        perSecond * setup.gatherFlops * 1e-9);
+                            if (options.peakGflops > 0.0)
+                                std::printf(", %.1f %% of the %.0f peak",
+                                            100.0 * perSecond * setup.gatherFlops * 1e-9 / options.peakGflops,
+                                            options.peakGflops);
+                            // interactions above count every VAL x point pair, also those of the skipped blocks
+                            std::printf(
+                                "); %.1f %% of its (16 VALs, point) pairs in blocks skipped as hidden (exact)\n",
+                                100.0 * stats.gatherBlocksSkipped);
+                            if (setup.occlusion) {
+                                const double pairs = double(stats.points) * double(stats.points);
+                                const double occCpu = pairs / (minimum(t.occlusionCpu) * 1e-3);
+                                std::printf("      occlusion %.3g interactions per CPU-s (%.1f GFLOP per CPU-s", occCpu,
+                                            occCpu * setup.occlusionFlops * 1e-9);
+                                if (corePeak > 0.0)
+                                    std::printf(", %.1f %% of the in-run peak",
+                                                100.0 * occCpu * setup.occlusionFlops * 1e-9 / corePeak);
+                                std::printf(")\n");
+                            }
+                            const double gi = minimum(t.stages.at("upload")) + minimum(t.stages.at("gather")) +
+                                              minimum(t.stages.at("normalisation")) +
+                                              minimum(t.stages.at("occlusion")) + minimum(t.stages.at("interpolation"));
+                            // critical path: serial CPU time + the busiest thread's of each parallel region
+                            // (thread CPU clocks): the wall time on idle cores, whatever else runs now
+                            std::printf("      GI stages 0-4: %.2f ms wall (sum of stage minima), %.2f ms CPU; CPU / "
+                                        "threads: %.2f ms; critical path (wall on idle cores): %.2f ms\n",
+                                        gi, minimum(t.stagesCpu), minimum(t.stagesCpu) / double(threads),
+                                        minimum(t.criticalCpu));
                             readImage(target.id(), cpuImage);
-                            double sumAbs = 0.0, sumGl = 0.0, worst = 0.0, largest = 0.0;
-                            for (const glm::vec4& p : glImage)
-                                largest = std::max({largest, double(p.x), double(p.y), double(p.z)});
-                            for (std::size_t i = 0; i < pixels; ++i)
-                                for (int c = 0; c < 3; ++c) {
-                                    const double d = std::abs(double(cpuImage[i][c]) - double(glImage[i][c]));
-                                    sumAbs += d;
-                                    sumGl += double(glImage[i][c]);
-                                    worst = std::max(worst, d / std::max(double(glImage[i][c]), 1e-2 * largest));
-                                }
-                            std::printf("      image vs GL: mean abs %.2e of the mean, worst %.2e relative (floor 1e-2 "
-                                        "of max)\n",
-                                        sumGl > 0.0 ? sumAbs / sumGl : 0.0, worst);
+                            if (tree <= 0.0f)
+                                flatImage = cpuImage;
+                            else if (flatImage.size() == cpuImage.size()) {
+                                double squaredError = 0.0, squaredFlat = 0.0;
+                                for (std::size_t i = 0; i < pixels; ++i)
+                                    for (int c = 0; c < 3; ++c) {
+                                        const double d = double(cpuImage[i][c]) - double(flatImage[i][c]);
+                                        squaredError += d * d;
+                                        squaredFlat += double(flatImage[i][c]) * double(flatImage[i][c]);
+                                    }
+                                std::printf("      cut %.3g lights per point; relMSE vs the flat gather's image %.3e\n",
+                                            stats.valTreeCutPerPoint,
+                                            squaredFlat > 0.0 ? squaredError / squaredFlat : 0.0);
+                            }
+                            if (options.gl) {
+                                double sumAbs = 0.0, sumGl = 0.0, worst = 0.0, largest = 0.0;
+                                for (const glm::vec4& p : glImage)
+                                    largest = std::max({largest, double(p.x), double(p.y), double(p.z)});
+                                for (std::size_t i = 0; i < pixels; ++i)
+                                    for (int c = 0; c < 3; ++c) {
+                                        const double d = std::abs(double(cpuImage[i][c]) - double(glImage[i][c]));
+                                        sumAbs += d;
+                                        sumGl += double(glImage[i][c]);
+                                        worst = std::max(worst, d / std::max(double(glImage[i][c]), 1e-2 * largest));
+                                    }
+                                std::printf(
+                                    "      image vs GL: mean abs %.2e of the mean, worst %.2e relative (floor 1e-2 "
+                                    "of max)\n",
+                                    sumGl > 0.0 ? sumAbs / sumGl : 0.0, worst);
+                            }
+                            std::fflush(stdout);
                         }
-                        std::fflush(stdout);
-                    }
                 }
                 gi::setCpuSimdTarget("");
             }

@@ -14,6 +14,9 @@ struct CpuBenchOptions {
     std::vector<std::string> valMaps{"160x120"};
     std::vector<int> threads{1, 2};
     std::vector<std::string> targets; ///< SIMD targets to compare ("" = the dispatched one only)
+    /// LightSkinSettings::valTreeThreshold values of the CPU rows (0 = the flat gather); rows with a cut also
+    /// print their relative squared error against the flat gather's image of the same setup (0 must come first).
+    std::vector<float> treeThresholds{0.0f};
     int repeat = 5;
     double peakGflops = 0.0;
     bool gl = true;
