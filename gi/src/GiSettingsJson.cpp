@@ -51,8 +51,15 @@ GiSettings readGiSettings(const JsonReader& r, const json& value, const std::str
             double(r.number(value["budgetMs"], p + "/budgetMs", 0.001f, 1.0e6f, "in [0.001, 1e6] (milliseconds)"));
     if (value.contains("robustRealDepth"))
         g.robustRealDepth = r.boolean(value["robustRealDepth"], p + "/robustRealDepth");
-    if (value.contains("valTreeThreshold"))
-        g.valTreeThreshold = r.number(value["valTreeThreshold"], p + "/valTreeThreshold", 0.0f, 100.0f, "in [0, 100]");
+    if (value.contains("valTreeThreshold")) {
+        const json& tree = value["valTreeThreshold"];
+        if (tree.is_string() && tree.get<std::string>() == "auto")
+            g.valTreeThreshold.reset();
+        else if (tree.is_number())
+            g.valTreeThreshold = r.number(tree, p + "/valTreeThreshold", 0.0f, 100.0f, "in [0, 100] or \"auto\"");
+        else
+            r.fail(p + "/valTreeThreshold", "a number in [0, 100] or \"auto\"", &tree);
+    }
     if (value.contains("imperfectVolumes")) {
         if (g.technique != Technique::ImperfectVolumes)
             r.fail(p + "/imperfectVolumes", "gi.technique \"imperfect-volumes\" (the key belongs to that technique)",

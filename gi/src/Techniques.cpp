@@ -20,7 +20,12 @@ TechniqueConfig configFor(const GiSettings& settings, const AdaptiveOptions& ada
     s.occlusion = settings.occlusion;
     s.vertexDistanceFloor = robust;
     s.extendedVplHorizon = robust;
-    s.valTreeThreshold = settings.valTreeThreshold;
+    if (settings.valTreeThreshold) {
+        s.valTreeThreshold = *settings.valTreeThreshold;
+    } else if (c.backend == Backend::Gl) {
+        s.valTreeThreshold = kAutoValTreeThreshold;
+        s.valTreeMinVals = kGlValTreeMinVals;
+    }
     s.vertexIrradianceCap = robust && settings.robustIrradianceCap;
     s.buriedSparsePoints = robust && settings.robustBuriedSparsePoints;
     s.nearFieldArea = robust && settings.robustNearField;

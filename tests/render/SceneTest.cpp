@@ -139,7 +139,10 @@ TEST(Scene, ErrorsNameTheKeyAndWhatWasExpected) {
         {head + R"("lights": [{"type": "point", "position": [0, 0, 1], "inRoom": 1}]})",
          "/lights/0/inRoom: expected true or false"},
         {head + R"("gi": {"robustRealDepth": 1}})", "/gi/robustRealDepth: expected true or false"},
-        {head + R"("gi": {"valTreeThreshold": -0.1}})", "/gi/valTreeThreshold: expected a number in [0, 100]"},
+        {head + R"("gi": {"valTreeThreshold": -0.1}})",
+         "/gi/valTreeThreshold: expected a number in [0, 100] or \"auto\""},
+        {head + R"("gi": {"valTreeThreshold": "fast"}})",
+         "/gi/valTreeThreshold: expected a number in [0, 100] or \"auto\""},
         {R"({"objects": []})", "/version: expected 1"},
         {R"([1, 2])", "/: expected an object"},
         {R"({"version": 1, )", "not valid JSON"},
@@ -266,10 +269,14 @@ TEST(Scene, RobustRealDepthIsTheDefaultAndCanBeTurnedOff) {
     EXPECT_FALSE(parseScene(R"({"version": 1, "gi": {"robustRealDepth": false}})", meshDir(), "t").gi.robustRealDepth);
 }
 
-TEST(Scene, ValTreeThresholdIsOffByDefault) {
-    EXPECT_EQ(parseScene(R"({"version": 1})", meshDir(), "t").gi.valTreeThreshold, 0.0f);
-    EXPECT_EQ(parseScene(R"({"version": 1, "gi": {"valTreeThreshold": 0.05}})", meshDir(), "t").gi.valTreeThreshold,
-              0.05f);
+TEST(Scene, ValTreeThresholdIsAutoByDefault) {
+    const auto tree = [](const std::string& gi) {
+        return parseScene(R"({"version": 1)" + gi + "}", meshDir(), "t").gi.valTreeThreshold;
+    };
+    EXPECT_EQ(tree(""), std::nullopt);
+    EXPECT_EQ(tree(R"(, "gi": {"valTreeThreshold": "auto"})"), std::nullopt);
+    EXPECT_EQ(tree(R"(, "gi": {"valTreeThreshold": 0.05})"), 0.05f);
+    EXPECT_EQ(tree(R"(, "gi": {"valTreeThreshold": 0})"), 0.0f) << "0: the flat gather, not auto";
 }
 
 TEST(Scene, MissingFileIsAnError) {

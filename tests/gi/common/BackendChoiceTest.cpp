@@ -1,6 +1,7 @@
 // gi.backend "auto": the classification of GL_RENDERER strings as the drivers print them, and the choice of
 // backend with its reason for every technique, setting and override (gi::classifyGlRenderer,
 // gi::chooseBackend). The renderer strings are the drivers' own (Mesa 22-24, NVIDIA, VMware, Windows).
+#include <lightskin/gi/Techniques.h>
 #include <lightskin/gi/common/Technique.h>
 
 #include <gtest/gtest.h>
@@ -116,4 +117,27 @@ TEST(BackendChoiceTest, EveryReasonHasItsOwnSentence) {
     EXPECT_EQ(sentences.size(), std::size(reasons));
     EXPECT_NE(std::string(gi::toString(BackendReason::SoftwareRasterizer)).find("software rasterizer"),
               std::string::npos);
+}
+
+// gi.valTreeThreshold "auto" (the default): the cut where it was measured to pay, on the backend the pipeline
+// resolved; an explicit value is taken as it is on both backends, in every frame.
+TEST(BackendChoiceTest, ValTreeAutoCutsOnGlFromTheCrossoverAndNeverOnTheCpu) {
+    gi::GiSettings settings;
+    ASSERT_FALSE(settings.valTreeThreshold.has_value()) << "auto is the default";
+    settings.backend = BackendSetting::Gl;
+    const gi::LightSkinSettings gl = gi::configFor(settings).lightSkin;
+    EXPECT_EQ(gl.valTreeThreshold, gi::kAutoValTreeThreshold);
+    EXPECT_EQ(gl.valTreeMinVals, gi::kGlValTreeMinVals);
+    settings.backend = BackendSetting::Cpu;
+    const gi::LightSkinSettings cpu = gi::configFor(settings).lightSkin;
+    EXPECT_EQ(cpu.valTreeThreshold, 0.0f) << "the CPU backend's cut never paid: the flat gather";
+    for (const BackendSetting backend : {BackendSetting::Gl, BackendSetting::Cpu}) {
+        settings.backend = backend;
+        settings.valTreeThreshold = 0.2f;
+        const gi::LightSkinSettings chosen = gi::configFor(settings).lightSkin;
+        EXPECT_EQ(chosen.valTreeThreshold, 0.2f);
+        EXPECT_EQ(chosen.valTreeMinVals, 0u) << "an explicit threshold cuts in every frame";
+        settings.valTreeThreshold = 0.0f;
+        EXPECT_EQ(gi::configFor(settings).lightSkin.valTreeThreshold, 0.0f);
+    }
 }

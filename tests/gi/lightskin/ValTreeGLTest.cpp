@@ -61,9 +61,10 @@ struct RoomScene : GpuRig {
     std::vector<std::uint32_t> keys;
     gl::Buffer keyBuffer;
     // quadtree: the set carries its pixel keys, so the GL path builds the image quadtree instead of the BVH
-    GatherRun run(float threshold, int steps, bool quadtree = false) {
+    GatherRun run(float threshold, int steps, bool quadtree = false, std::uint32_t minVals = 0) {
         gi::LightSkinSettings s;
         s.valTreeThreshold = threshold;
+        s.valTreeMinVals = minVals;
         s.valTreeStepsPerDispatch = steps;
         auto technique = this->technique(s);
         const gi::ViewParameters v = view();
@@ -222,6 +223,29 @@ std::vector<glm::vec4> cpuBackendTakesTheReferenceCut(bool quadtree) {
                 << "point " << i;
         }
     return sums[0];
+}
+
+// valTreeMinVals (gi.valTreeThreshold "auto" on GL): a frame with fewer VALs gathers flat, one with that many cuts.
+TEST_F(ValTreeGLTest, MinValsGathersFlatBelowItAndCutsFromIt) {
+    RoomScene scene;
+    const auto count = std::uint32_t(scene.vals.size());
+    const GatherRun flat = scene.run(0.0f, 64, true);
+    const GatherRun tree = scene.run(0.05f, 64, true);
+    const GatherRun below = scene.run(0.05f, 64, true, count + 1);
+    const GatherRun from = scene.run(0.05f, 64, true, count);
+    ASSERT_EQ(tree.choice.valTreeNodes, 2 * count - 1) << "the cut ran";
+    EXPECT_EQ(below.choice.valTreeNodes, 0u) << "fewer VALs than the minimum: no tree";
+    EXPECT_EQ(from.choice.valTreeNodes, tree.choice.valTreeNodes);
+    ASSERT_EQ(below.sums.size(), flat.sums.size());
+    ASSERT_EQ(from.sums.size(), tree.sums.size());
+    std::size_t differFromFlat = 0;
+    for (std::size_t i = 0; i < flat.sums.size(); ++i) {
+        EXPECT_EQ(below.sums[i], flat.sums[i]) << "sum " << i;
+        EXPECT_EQ(from.sums[i], tree.sums[i]) << "sum " << i;
+        differFromFlat += tree.sums[i] != flat.sums[i] ? 1u : 0u;
+    }
+    EXPECT_GT(differFromFlat, flat.sums.size() / 2)
+        << "the cut's sums are not the flat gather's: the two are told apart";
 }
 
 TEST_F(ValTreeGLTest, CpuBackendTakesTheReferenceCut) {

@@ -45,8 +45,9 @@ struct GiSettings {
     /// plain model, for measurement (`lightskin bench-realdepth`).
     bool robustRealDepth = true;
     /// LightSkin's gather with a cut through the VAL tree (LightSkinSettings::valTreeThreshold, both
-    /// backends): 0 = the flat gather over every VAL (the default).
-    float valTreeThreshold = 0.0f;
+    /// backends): 0 = the flat gather over every VAL. Empty ("auto", the default): where the cut is measured to
+    /// pay, see configFor.
+    std::optional<float> valTreeThreshold;
     /// Not a scene key: with robustRealDepth, false drops only the vertex irradiance cap (guard G10), for
     /// measurement (`lightskin bench-realdepth --models robust-nocap`).
     bool robustIrradianceCap = true;
@@ -94,7 +95,12 @@ GiSettings readGiSettings(const JsonReader& reader, const nlohmann::json& value,
 
 /// The typed settings the scene's "gi" object means (LightSkin's guards from robustRealDepth and the rest),
 /// with the pipeline's adaptive options. A backend still "auto" is gl here: only a pipeline, which knows its GL
-/// renderer, resolves auto (chooseBackend).
+/// renderer, resolves auto (chooseBackend). An automatic valTreeThreshold cuts at kAutoValTreeThreshold on gl in
+/// frames of at least kGlValTreeMinVals VALs (measured crossover on llvmpipe: the flat gather is cheaper below) and
+/// never on the CPU backend, whose scalar walk of the cut was slower than its SIMD flat gather up to 217k VALs
+/// (docs/BENCHMARKS.md "VAL tree: where it pays").
+inline constexpr float kAutoValTreeThreshold = 0.05f;
+inline constexpr std::uint32_t kGlValTreeMinVals = 10000;
 TechniqueConfig configFor(const GiSettings& settings, const AdaptiveOptions& adaptive = {});
 
 /// The one factory: a technique of config.technique, on config.backend where it runs on it (runsOn), else

@@ -901,7 +901,8 @@ void CpuLightSkin::computeVpls(std::span<const VirtualAreaLight> lights, std::sp
     impl.pointTermsReady = false;
     impl.occlusionSkipped = 0;
     auto start = Clock::now();
-    const double treeThreshold = double(impl.settings.lightSkin.valTreeThreshold);
+    const LightSkinSettings& lightSkin = impl.settings.lightSkin;
+    const double treeThreshold = lights.size() >= lightSkin.valTreeMinVals ? double(lightSkin.valTreeThreshold) : 0.0;
     impl.buildValArrays(lights, instances, eye, treeThreshold <= 0.0);
     stats.uploadMs = impl.readbackMs + millisecondsSince(start);
     impl.readbackMs = 0.0;
@@ -976,8 +977,8 @@ void CpuLightSkin::render(const ValSetView& lights, std::span<const MeshInstance
                                 impl.staging.data());
     // pixel keys only matter to the gather with a cut (the quadtree); else they are not read back
     CpuValPixelKeys pixels;
-    if (impl.settings.lightSkin.valTreeThreshold > 0.0f && lights.keys != 0 && lights.keyWidth > 0 &&
-        lights.count > 0) {
+    if (impl.settings.lightSkin.valTreeThreshold > 0.0f && lights.count >= impl.settings.lightSkin.valTreeMinVals &&
+        lights.keys != 0 && lights.keyWidth > 0 && lights.count > 0) {
         impl.stagingKeys.resize(lights.count);
         glGetNamedBufferSubData(lights.keys, 0, GLsizeiptr(lights.count) * 4, impl.stagingKeys.data());
         pixels = {impl.stagingKeys, lights.keyWidth, lights.keyCount / lights.keyWidth};

@@ -818,7 +818,7 @@ void LightSkinIllumination::render(const ValSetView& lights, std::span<const Mes
     choice.valTreeNodes = 0;
     choice.valTreeCutPerPoint = choice.valTreeVisitedPerPoint = choice.valTreeBuildMs = 0.0f;
     choice.valTreeQuadtree = false;
-    if (count > 0 && s.valTreeThreshold > 0.0f) {
+    if (count > 0 && s.valTreeThreshold > 0.0f && count >= s.valTreeMinVals) {
         std::array<std::uint32_t, kGatherTargets> targets{};
         for (int i = 0; i < kGatherTargets; ++i) targets[std::size_t(i)] = impl.gatherTargets[std::size_t(i)].id();
         // VALs keyed by image pixels (ValGenerator): the image's quadtree over the whole set, whose keys

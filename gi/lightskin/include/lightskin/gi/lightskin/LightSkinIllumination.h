@@ -66,6 +66,9 @@ struct LightSkinSettings {
     /// gather over every VAL (exact; the default). Larger: fewer lights per point, larger error
     /// (docs/BENCHMARKS.md "VAL tree"). Replaces computeGather's and the fragment passes' gather when > 0.
     float valTreeThreshold = 0.0f;
+    /// The cut only in frames with at least this many VALs; with fewer the flat gather (exact) runs, being the
+    /// cheaper there (gi::configFor's automatic choice; docs/BENCHMARKS.md "VAL tree: where it pays"). 0: always.
+    std::uint32_t valTreeMinVals = 0;
     /// Tree gather: walk iterations per thread and dispatch (llvmpipe ends loops after ~65k); [64, 32768].
     int valTreeStepsPerDispatch = 16384;
     /// VAL capacity reserved in prepare(); grows (once, logged) if a frame brings more.
