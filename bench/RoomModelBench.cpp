@@ -133,10 +133,16 @@ int main(int argc, char** argv) try {
         const double cpuStart = processCpuMs();
         memory.update(depths[i], k, result);
         (lost ? trackCpuMs : fuseCpuMs).values.push_back(processCpuMs() - cpuStart);
-        const roommodel::RoomMemoryTiming& t = memory.lastTiming();
+        const roommodel::RoomMemoryStats& t = memory.lastStats();
         if (t.fuseMs >= 0.0) fuseMs.values.push_back(t.fuseMs);
         if (t.trackMs >= 0.0) trackMs.values.push_back(t.trackMs);
         if (t.renderMs >= 0.0) renderMs.values.push_back(t.renderMs);
+        if (lost)
+            std::printf("  frame %zu %s constraint ratio %.5f error %.4f m %.2f deg\n", i,
+                        tracking::toString(result.state), t.constraintRatio,
+                        result.world_T_camera ? Pose::translationDistance(*result.world_T_camera, truth) : -1.0,
+                        result.world_T_camera ? glm::degrees(Pose::rotationAngleBetween(*result.world_T_camera, truth))
+                                              : -1.0);
         if (lost && result.state == tracking::TrackingState::DepthTracked) {
             ++depthTracked;
             metres.values.push_back(Pose::translationDistance(*result.world_T_camera, truth));

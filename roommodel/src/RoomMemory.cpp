@@ -7,8 +7,8 @@
 
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <optional>
+#include <vector>
 
 namespace lightskin::roommodel {
 
@@ -37,6 +37,45 @@ Pose fractionOf(const Pose& offset, double s) {
     return Pose(rotation, offset.translation() * s);
 }
 
+/// RoomMemoryStats::constraintRatio of the view: depth (CV_32FC1) and normals (CV_32FC3), camera frame.
+double constraintRatioOf(const cv::Mat& depth, const cv::Mat& normals, const CameraIntrinsics& k) {
+    // Every second pixel both ways: a quarter of the work, the same spread of points and normals.
+    constexpr int kStep = 2;
+    cv::Vec3d centre(0.0, 0.0, 0.0);
+    int count = 0;
+    const auto pointAt = [&](int u, int v) {
+        const double z = depth.at<float>(v, u);
+        return cv::Vec3d((u - k.cx) / k.fx * z, (v - k.cy) / k.fy * z, z);
+    };
+    for (int v = 0; v < depth.rows; v += kStep)
+        for (int u = 0; u < depth.cols; u += kStep)
+            if (depth.at<float>(v, u) > 0.0f) {
+                centre += pointAt(u, v);
+                ++count;
+            }
+    if (count < 6) return 0.0;
+    centre /= double(count);
+    double meanDistance = 0.0;
+    for (int v = 0; v < depth.rows; v += kStep)
+        for (int u = 0; u < depth.cols; u += kStep)
+            if (depth.at<float>(v, u) > 0.0f) meanDistance += cv::norm(pointAt(u, v) - centre);
+    meanDistance /= double(count);
+    cv::Matx66d normal = cv::Matx66d::zeros();
+    for (int v = 0; v < depth.rows; v += kStep)
+        for (int u = 0; u < depth.cols; u += kStep) {
+            if (depth.at<float>(v, u) <= 0.0f) continue;
+            const cv::Vec3d n(normals.at<cv::Vec3f>(v, u));
+            const cv::Vec3d p = (pointAt(u, v) - centre) / meanDistance;
+            const cv::Vec3d r = p.cross(n);
+            const cv::Vec<double, 6> row(r[0], r[1], r[2], n[0], n[1], n[2]);
+            normal += row * row.t();
+        }
+    cv::Mat eigenvalues;
+    cv::eigen(cv::Mat(normal), eigenvalues); // descending
+    const double largest = eigenvalues.at<double>(0), smallest = eigenvalues.at<double>(5);
+    return largest > 0.0 ? smallest / largest : 0.0;
+}
+
 /// Depth holds no negative values: every non-zero pixel is a valid one.
 double validFraction(const cv::Mat& depth) { return double(cv::countNonZero(depth)) / double(depth.total()); }
 
@@ -50,7 +89,7 @@ struct RoomMemory::Impl {
     cv::Ptr<cv::rgbd::ICPOdometry> odometry;
     CameraIntrinsics odometryIntrinsics; // the camera matrix odometry was made for
     // Scratch, sized on the first frame.
-    cv::Mat subsampled, modelDepth, rt, initialRt;
+    cv::Mat subsampled, modelDepth, modelNormals, rt, initialRt;
     cv::Mat processed; // the frame's depth at the processing size (may share `subsampled` or the input)
     CameraIntrinsics processedIntrinsics;
     cv::Mat trackingScratch, tracked; // the same at the tracking size
@@ -61,9 +100,10 @@ struct RoomMemory::Impl {
     bool sinceTagsFromDepth = false;  // the pose has come from depth (or was held by us) since the last tag pose
     int depthRun = 0;                 // DepthTracked frames in a row
     bool expired = false;             // depth tracking ran maxFrames: Lost until the tags return
+    bool failed = false;              // ICP failed since the last tag frame: no more until the tags return
     Pose blendOffset;                 // D = tag^-1 * depth at the return to the tags
     int blendLeft = 0;                // frames of the blend still to go
-    RoomMemoryTiming timing;
+    RoomMemoryStats stats;
 
     void prepareDepth(const cv::Mat& depthMetres, const CameraIntrinsics& intrinsics);
     std::optional<Pose> trackFrom(const Pose& world_T_previous);
@@ -116,8 +156,10 @@ std::optional<Pose> RoomMemory::Impl::trackFrom(const Pose& world_T_previous) {
         odometryIntrinsics = k;
     }
     const auto renderStart = Clock::now();
-    model.renderDepthInto(world_T_previous, k, modelDepth);
-    timing.renderMs = msSince(renderStart);
+    model.renderDepthInto(world_T_previous, k, modelDepth, &modelNormals);
+    stats.renderMs = msSince(renderStart);
+    stats.constraintRatio = constraintRatioOf(modelDepth, modelNormals, k);
+    if (stats.constraintRatio < d.minConstraintRatio) return std::nullopt;
     if (validFraction(tracked) < d.minValidFraction || validFraction(modelDepth) < d.minValidFraction)
         return std::nullopt;
     // Constant velocity: this frame is predicted to have moved from the previous one as the previous one did from
@@ -140,20 +182,21 @@ std::optional<Pose> RoomMemory::Impl::trackFrom(const Pose& world_T_previous) {
 void RoomMemory::Impl::onTagFrame(tracking::TrackingResult& result) {
     const Pose tag = *result.world_T_camera;
     const DepthTrackingSettings& d = settings.depthTracking;
-    if (sinceTagsFromDepth && lastOutput && d.enabled) {
+    if (sinceTagsFromDepth && !failed && lastOutput && d.enabled) {
         const auto t = Clock::now();
         if (const std::optional<Pose> depth = trackFrom(*lastOutput)) {
             blendOffset = tag.inverse() * *depth;
             blendLeft = d.blendFrames;
         }
-        timing.trackMs = msSince(t);
+        stats.trackMs = msSince(t);
     }
     sinceTagsFromDepth = false;
     depthRun = 0;
     expired = false;
+    failed = false;
     const auto t = Clock::now();
     model.integrate(processed, processedIntrinsics, tag); // the tag pose, never the blended one
-    timing.fuseMs = msSince(t);
+    stats.fuseMs = msSince(t);
     if (blendLeft > 0) {
         // s = 1 on the first tag frame (the output is that frame's depth pose), 1/blendFrames on the last.
         const double s = double(blendLeft) / double(d.blendFrames);
@@ -175,15 +218,22 @@ void RoomMemory::Impl::onNoTagFrame(tracking::TrackingResult& result) {
         return;
     }
     if (!d.enabled || model.integratedFrames() == 0 || !lastOutput) return;
-    const auto t = Clock::now();
-    const std::optional<Pose> depth = trackFrom(*lastOutput);
-    timing.trackMs = msSince(t);
-    if (depth) {
-        result.state = tracking::TrackingState::DepthTracked;
-        result.world_T_camera = *depth;
-        ++depthRun;
-        sinceTagsFromDepth = true;
-    } else if (sinceTagsFromDepth && result.state == tracking::TrackingState::Held) {
+    // After a failure the last pose is stale (the camera moved on): ICP from it can settle in a wrong minimum
+    // within the correction gate (24 degrees off on synth-pan), so the pose waits for the tags.
+    if (!failed) {
+        const auto t = Clock::now();
+        const std::optional<Pose> depth = trackFrom(*lastOutput);
+        stats.trackMs = msSince(t);
+        failed = !depth;
+        if (depth) {
+            result.state = tracking::TrackingState::DepthTracked;
+            result.world_T_camera = *depth;
+            ++depthRun;
+            sinceTagsFromDepth = true;
+            return;
+        }
+    }
+    if (sinceTagsFromDepth && result.state == tracking::TrackingState::Held) {
         // Held means the last pose repeated: ours, not the tag tracker's older one.
         result.world_T_camera = *lastOutput;
     }
@@ -206,6 +256,8 @@ void validate(const RoomMemorySettings& settings, const std::string& sourceName,
         fail("depthTracking/maxCorrectionDegrees", "expected a number in (0, 180]");
     if (!(d.minValidFraction >= 0.0 && d.minValidFraction <= 1.0))
         fail("depthTracking/minValidFraction", "expected a number in [0, 1]");
+    if (!(d.minConstraintRatio >= 0.0 && d.minConstraintRatio <= 1.0))
+        fail("depthTracking/minConstraintRatio", "expected a number in [0, 1]");
 }
 
 RoomMemory RoomMemory::create(const RoomMemorySettings& settings) {
@@ -224,7 +276,7 @@ RoomMemory::~RoomMemory() = default;
 void RoomMemory::update(const cv::Mat& depthMetres, const CameraIntrinsics& intrinsics,
                         tracking::TrackingResult& result) {
     Impl& m = *impl_;
-    m.timing = {};
+    m.stats = {};
     if (depthMetres.empty()) return;
     LIGHTSKIN_ASSERT(depthMetres.type() == CV_32FC1 && depthMetres.cols == intrinsics.width &&
                          depthMetres.rows == intrinsics.height,
@@ -250,11 +302,12 @@ void RoomMemory::reset() {
     m.sinceTagsFromDepth = false;
     m.depthRun = 0;
     m.expired = false;
+    m.failed = false;
     m.blendLeft = 0;
 }
 
 const RoomModel& RoomMemory::model() const noexcept { return impl_->model; }
 const RoomMemorySettings& RoomMemory::settings() const noexcept { return impl_->settings; }
-const RoomMemoryTiming& RoomMemory::lastTiming() const noexcept { return impl_->timing; }
+const RoomMemoryStats& RoomMemory::lastStats() const noexcept { return impl_->stats; }
 
 } // namespace lightskin::roommodel

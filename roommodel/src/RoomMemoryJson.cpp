@@ -83,9 +83,11 @@ RoomMemorySettings roomMemorySettingsFromJson(const std::string& jsonObjectText,
                                                  {"trackingWidth", integer(d.trackingWidth, fail)},
                                                  {"maxCorrectionMetres", number(d.maxCorrectionMetres, fail)},
                                                  {"maxCorrectionDegrees", number(d.maxCorrectionDegrees, fail)},
-                                                 {"minValidFraction", number(d.minValidFraction, fail)}};
+                                                 {"minValidFraction", number(d.minValidFraction, fail)},
+                                                 {"minConstraintRatio", number(d.minConstraintRatio, fail)}};
     const std::map<std::string, Reader> root{
         {"bounds", [&](const std::string& key, const Json& v) { readObject(v, bounds, key + "/", fail); }},
+        {"up", point(m.up, fail)},
         {"voxelSizeMetres", number(m.voxelSizeMetres, fail)},
         {"truncationMetres", number(m.truncationMetres, fail)},
         {"maxWeight", integer(m.maxWeight, fail)},

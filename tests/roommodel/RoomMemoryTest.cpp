@@ -129,6 +129,29 @@ TEST(RoomMemory, DepthTrackingEndsAfterMaxFrames) {
     for (int i = 13; i < 16; ++i) EXPECT_EQ(frames[std::size_t(i)].state, TrackingState::Lost) << i;
 }
 
+TEST(RoomMemory, RefusesAViewOfAFlatWallAndWaitsForTheTags) {
+    // Facing the west wall from 0.8 m (the view spans +-0.48 m by +-0.37 m of it, nothing else): sliding along
+    // the wall and turning about its normal leave the depth unchanged, so ICP cannot fix them. The constraint
+    // ratio of three free motions is ~0 whatever the noise; the gate is 0.04.
+    const SyntheticRoom room;
+    auto memory = RoomMemory::create(roomSettings(room));
+    const CameraIntrinsics k = syntheticRoomIntrinsics();
+    const Pose wall = lookAt({0.8, 1.75, 1.3}, {0.0, 1.75, 1.29});
+    TrackingResult tagged = tagResult(TrackingState::Tracking, wall);
+    memory.update(renderRoomDepth(room, k, wall), k, tagged);
+    const Pose moved = wall * Pose(glm::dquat(1.0, 0.0, 0.0, 0.0), glm::dvec3(0.01, 0.0, 0.0));
+    TrackingResult held = tagResult(TrackingState::Held, wall);
+    memory.update(renderRoomDepth(room, k, moved), k, held);
+    EXPECT_EQ(held.state, TrackingState::Held);
+    EXPECT_LT(memory.lastStats().constraintRatio, 0.04);
+    EXPECT_GE(memory.lastStats().constraintRatio, 0.0);
+    // The next frame without tags does not try again from the stale pose.
+    held = tagResult(TrackingState::Held, wall);
+    memory.update(renderRoomDepth(room, k, moved), k, held);
+    EXPECT_EQ(held.state, TrackingState::Held);
+    EXPECT_EQ(memory.lastStats().trackMs, -1.0);
+}
+
 TEST(RoomMemory, BadSettingsNameTheirKey) {
     RoomMemorySettings s;
     s.depthTracking.blendFrames = 0;

@@ -3,6 +3,7 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/roommodel/RoomModel.h>
 
+#include <glm/gtc/quaternion.hpp>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -71,6 +72,32 @@ TEST(RoomModel, FusedRoomRendersItsTrueDepthFromANewViewpoint) {
     // interpolation between ray steps (exact on a plane). Near edges and corners the field is not linear over a
     // voxel: there the error is up to about half a voxel (10 mm). Bounds: median 1 mm (2 quanta), 95 % within
     // half a voxel.
+    EXPECT_GT(c.coverage, 0.9);
+    EXPECT_LT(c.percentile(0.5), 0.001);
+    EXPECT_LT(c.percentile(0.95), 0.5 * model.settings().voxelSizeMetres);
+}
+
+TEST(RoomModel, WorldsWithAnotherUpAxis) {
+    // The same room and views in a world whose up is -y (ICL-NUIM's convention): world' = W world, W a quarter
+    // turn about x (z -> -y, y -> z). The depth images do not change, so the bounds of the first test hold.
+    const SyntheticRoom room;
+    const Pose w(glm::angleAxis(glm::radians(90.0), glm::dvec3(1.0, 0.0, 0.0)), glm::dvec3(0.0));
+    RoomModelSettings s;
+    s.up = glm::dvec3(0.0, -1.0, 0.0);
+    s.boundsMin = glm::dvec3(room.roomMin.x, -room.roomMax.z, room.roomMin.y) - 0.1;
+    s.boundsMax = glm::dvec3(room.roomMax.x, -room.roomMin.z, room.roomMax.y) + 0.1;
+    auto model = RoomModel::create(s);
+    const CameraIntrinsics k = syntheticRoomIntrinsics();
+    const glm::dvec3 target(2.0, 1.75, 0.6);
+    for (const glm::dvec3 position :
+         {glm::dvec3(0.6, 0.5, 1.6), glm::dvec3(2.0, 0.3, 1.7), glm::dvec3(3.4, 0.5, 1.6)}) {
+        const Pose pose = lookAt(position, target);
+        ASSERT_TRUE(model.integrate(renderRoomDepth(room, k, pose), k, w * pose));
+    }
+    const Pose novel = lookAt({1.3, 0.4, 1.65}, target);
+    cv::Mat rendered;
+    model.renderDepthInto(w * novel, k, rendered);
+    DepthComparison c = compare(rendered, renderRoomDepth(room, k, novel));
     EXPECT_GT(c.coverage, 0.9);
     EXPECT_LT(c.percentile(0.5), 0.001);
     EXPECT_LT(c.percentile(0.95), 0.5 * model.settings().voxelSizeMetres);
@@ -147,6 +174,9 @@ TEST(RoomModel, BadSettingsNameTheirKey) {
     s = {};
     s.boundsMax.x = s.boundsMin.x;
     EXPECT_EQ(causeOf(s).rfind("/roomModel/bounds: ", 0), 0u) << causeOf(s);
+    s = {};
+    s.up = glm::dvec3(0.0, 0.6, 0.8); // a unit vector, but not a world axis
+    EXPECT_EQ(causeOf(s).rfind("/roomModel/up: ", 0), 0u) << causeOf(s);
     s = {};
     // 4 x 4 x 3 m at 2 cm: 200 x 200 x 150 voxels x 2 bytes = 12 MB.
     s.memoryBudgetMB = 11.0;

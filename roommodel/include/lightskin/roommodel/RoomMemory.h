@@ -39,6 +39,10 @@ struct DepthTrackingSettings {
     int trackingWidth = 160;
     /// Fraction of the tracking image that must have depth, in the frame and in the model's view, for ICP.
     double minValidFraction = 0.15;
+    /// Views whose RoomMemoryStats::constraintRatio is below this are not depth-tracked: ICP would slide. 0.04:
+    /// on synth-orbit's room the ratio falls from 0.1 to 0.044 (pose 1.7 cm off) and 0.034 (7.5 cm off) as
+    /// the view leaves the fused part of the room (docs/BENCHMARKS.md "Room memory").
+    double minConstraintRatio = 0.04;
 };
 
 struct RoomMemorySettings {
@@ -56,10 +60,15 @@ void validate(const RoomMemorySettings& settings, const std::string& sourceName,
 RoomMemorySettings roomMemorySettingsFromJson(const std::string& jsonObjectText, const std::string& sourceName,
                                               const std::string& pointer);
 
-struct RoomMemoryTiming {
+struct RoomMemoryStats {
     double fuseMs = -1.0;   ///< integration of this frame; -1 when not integrated
     double trackMs = -1.0;  ///< depth tracking (subsampling, model render, ICP); -1 when not run
     double renderMs = -1.0; ///< of which the model's render
+    /// How well the model's view fixes all six motions: smallest / largest eigenvalue of ICP's point-to-plane
+    /// normal matrix (points centred and scaled to unit mean distance: Gelfand et al., "Geometrically stable
+    /// sampling for the ICP algorithm", 3DIM 2003). Near 0: some motion is free (a flat wall alone lets the
+    /// camera slide along it). -1 when not computed.
+    double constraintRatio = -1.0;
 };
 
 class RoomMemory {
@@ -73,14 +82,16 @@ public:
 
     /// One frame: `depthMetres` (CV_32FC1, registered to `intrinsics`' image) and the tag tracker's result,
     /// which this completes: Tracking frames are fused (their pose may be blended, see above); Held and Lost
-    /// frames become DepthTracked with a depth pose when ICP succeeds. Empty depth: the result is left alone.
+    /// frames become DepthTracked with a depth pose when ICP succeeds (after a failure, not before the next tag
+    /// frame: the held pose is stale).
+    /// Empty depth: the result is left alone.
     void update(const cv::Mat& depthMetres, const CameraIntrinsics& intrinsics, tracking::TrackingResult& result);
     /// Forgets the model and the pose history.
     void reset();
 
     const RoomModel& model() const noexcept;
     const RoomMemorySettings& settings() const noexcept;
-    const RoomMemoryTiming& lastTiming() const noexcept;
+    const RoomMemoryStats& lastStats() const noexcept;
 
 private:
     struct Impl;

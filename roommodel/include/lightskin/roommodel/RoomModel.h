@@ -34,6 +34,9 @@ struct RoomModelSettings {
     /// The box of the world the model covers, world coordinates, metres. Surfaces outside are not remembered.
     glm::dvec3 boundsMin{0.0};
     glm::dvec3 boundsMax{4.0, 4.0, 3.0};
+    /// The world's up, a signed world axis ([0, 0, 1] for a z-up world, [0, -1, 0] for ICL-NUIM's). Cameras
+    /// looking up (optical axis with a positive component along it) are not fused (integrate()).
+    glm::dvec3 up{0.0, 0.0, 1.0};
     /// Edge of a voxel, metres. Smaller = finer surfaces, cubically more memory and integration time.
     double voxelSizeMetres = 0.02;
     /// Distances beyond this from a surface are truncated, metres. At least 2 voxels (the field must be
@@ -65,12 +68,14 @@ public:
     ~RoomModel();
 
     /// Fuses one depth image (CV_32FC1 metres, intrinsics of its size) seen from world_T_camera. Returns false,
-    /// and fuses nothing, for a camera looking up (its optical axis has a positive world z): OpenCV 4.6's
+    /// and fuses nothing, for a camera looking up (along RoomModelSettings::up): OpenCV 4.6's
     /// integration misplaces those (RoomModel.cpp says how); a room is seen from above often enough.
     bool integrate(const cv::Mat& depthMetres, const CameraIntrinsics& intrinsics, const Pose& world_T_camera);
     /// Renders the model's surfaces as depth (CV_32FC1 metres along z, 0 where no surface is hit) seen from
     /// world_T_camera with `intrinsics` (their width and height give the image size). Reuses `depthMetres`.
-    void renderDepthInto(const Pose& world_T_camera, const CameraIntrinsics& intrinsics, cv::Mat& depthMetres) const;
+    /// With `normalsCamera`: also the surfaces' unit normals there, camera frame, CV_32FC3 (zero where no surface).
+    void renderDepthInto(const Pose& world_T_camera, const CameraIntrinsics& intrinsics, cv::Mat& depthMetres,
+                         cv::Mat* normalsCamera = nullptr) const;
     /// Forgets every surface (keeps the memory).
     void reset();
 
