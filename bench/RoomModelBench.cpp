@@ -2,7 +2,8 @@
 // A separate program, never a test; the numbers go to docs/BENCHMARKS.md "Room memory" with this command:
 //   build/bench/lightskin_bench_roommodel [recording=recordings/synth-orbit] [scene=recordings/scenes/orbit.json]
 //                                         [lostFrom=10] [lostTo=30] [voxelSizeMetres]
-// The settings are the scene's "roomModel" block (scene "-": defaults, bounds 3 m around the camera path); a
+// The settings are the scene's "roomModel" block (scene "-": defaults, bounds 3 m around the camera path, up the
+// world axis nearest the cameras' image-up); a
 // voxel size given overrides the block's (and its truncation, kept at 3 voxels).
 // Frames outside [lostFrom, lostTo) play tag-tracked frames (their ground-truth pose, fused); frames inside play
 // frames whose tags are lost (Held), which the room memory tracks by ICP against the model. Printed: the fusion
@@ -54,6 +55,13 @@ void boundsAround(const std::vector<RgbdFrame>& frames, double margin, roommodel
     }
     s.boundsMin = lo - margin;
     s.boundsMax = hi + margin;
+    // Up: the world axis closest to the cameras' mean image-up (-y), signed.
+    glm::dvec3 up(0.0);
+    for (const RgbdFrame& f : frames) up -= f.groundTruth_world_T_camera->transformDirection({0.0, 1.0, 0.0});
+    const glm::dvec3 a = glm::abs(up);
+    const int axis = a.x > a.y && a.x > a.z ? 0 : a.y > a.z ? 1 : 2;
+    s.up = glm::dvec3(0.0);
+    s.up[axis] = up[axis] > 0.0 ? 1.0 : -1.0;
 }
 
 std::string roomModelBlock(const std::string& scenePath) {
@@ -112,8 +120,9 @@ int main(int argc, char** argv) try {
     const double voxel = settings.model.voxelSizeMetres;
     auto memory = roommodel::RoomMemory::create(settings);
     const glm::ivec3 r = memory.model().resolution();
-    std::printf("%s: %zu frames %dx%d, lost %d-%d, voxel %.3f m, %dx%dx%d voxels = %.1f MB\n", path.c_str(),
-                frames.size(), frames[0].depth.cols, frames[0].depth.rows, lostFrom, lostTo - 1, voxel, r.x, r.y, r.z,
+    std::printf("%s: %zu frames %dx%d, lost %d-%d, voxel %.3f m, up [%g %g %g], %dx%dx%d voxels = %.1f MB\n",
+                path.c_str(), frames.size(), frames[0].depth.cols, frames[0].depth.rows, lostFrom, lostTo - 1, voxel,
+                settings.model.up.x, settings.model.up.y, settings.model.up.z, r.x, r.y, r.z,
                 double(memory.model().voxelBytes()) * 1e-6);
 
     Stats fuseMs, trackMs, renderMs, fuseCpuMs, trackCpuMs, metres, degrees, odoMetres, odoDegrees;
