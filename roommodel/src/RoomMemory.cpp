@@ -70,9 +70,9 @@ double constraintRatioOf(const cv::Mat& depth, const cv::Mat& normals, const Cam
             const cv::Vec<double, 6> row(r[0], r[1], r[2], n[0], n[1], n[2]);
             normal += row * row.t();
         }
-    cv::Mat eigenvalues;
-    cv::eigen(cv::Mat(normal), eigenvalues); // descending
-    const double largest = eigenvalues.at<double>(0), smallest = eigenvalues.at<double>(5);
+    cv::Vec<double, 6> eigenvalues; // descending; fixed-size: no allocation per frame
+    cv::eigen(normal, eigenvalues);
+    const double largest = eigenvalues[0], smallest = eigenvalues[5];
     return largest > 0.0 ? smallest / largest : 0.0;
 }
 
