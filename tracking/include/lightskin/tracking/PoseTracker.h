@@ -6,9 +6,8 @@
 // pose repeated, not extrapolated, for at most TrackerSettings::maxHeldFrames frames); Lost (no pose, empty
 // world_T_camera: rendering must not place virtual content with it); DepthTracked (never set by the PoseTracker:
 // the room memory, roommodel/RoomMemory.h, tracked a Held or Lost frame by ICP of its depth against the room
-// model). A pose flip is never silent: it is rejected
-// (Held) or flagged (`poseJumped`, `ambiguous`). When each state is entered and how flips are resolved:
-// docs/ARCHITECTURE.md, "Tracking states and pose flips".
+// model). A pose flip is never silent: it is rejected (Held) or flagged (`poseJumped`, `ambiguous`). When each
+// state is entered and how flips are resolved: docs/ARCHITECTURE.md, "Tracking states and pose flips".
 
 #include <lightskin/core/CameraIntrinsics.h>
 #include <lightskin/core/RgbdFrame.h>
