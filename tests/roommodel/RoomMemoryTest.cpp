@@ -26,8 +26,11 @@ Pose orbitPose(int i) {
     return lookAt(centre + glm::dvec3(1.6 * std::cos(angle), 1.6 * std::sin(angle), 1.5), {2.0, 2.0, 0.8});
 }
 
+/// 2 cm voxels, 6 cm truncation: the bounds below are derived for these.
 RoomMemorySettings roomSettings(const SyntheticRoom& room) {
     RoomMemorySettings s;
+    s.model.voxelSizeMetres = 0.02;
+    s.model.truncationMetres = 0.06;
     s.model.boundsMin = room.roomMin - 0.1;
     s.model.boundsMax = room.roomMax + 0.1;
     return s;
@@ -70,7 +73,7 @@ TEST(RoomMemory, TracksFramesWithoutTagsWithinTheNoiseBound) {
     // Kinect v1 noise: sigma_z = 0.0012 + 0.0019 (z - 0.4)^2 = 3.8 to 10 mm over this view's 1.6-2.6 m. Per frame,
     // ICP against the model (not the previous frame: no accumulation through the model) is off by about the
     // model's surface error: the fused noise sigma_z / sqrt(10 frames) = 3 mm plus the 8-bit distance quantum
-    // 0.9 mm (0.12 m / 127), at 160x120. ICP from frame to frame chains these, so the error grows at most
+    // 0.5 mm (0.06 m / 127), at 160x120. ICP from frame to frame chains these, so the error grows at most
     // linearly: 4 mm per frame over synth-orbit's longest tag gap (3 frames, here 6 for margin) gives 24 mm and
     // the tag-pose goal of 0.03 m. Rotation: 4 mm over the ~1 m lever of the view is 0.23 degree per frame;
     // linear over 6 frames 1.4, the goal of 1 degree taken (the ICP averages thousands of points).

@@ -19,8 +19,11 @@ using test::renderRoomDepth;
 using test::SyntheticRoom;
 using test::syntheticRoomIntrinsics;
 
+/// 2 cm voxels, 6 cm truncation: the bounds below are derived for these.
 RoomModelSettings roomSettings(const SyntheticRoom& room) {
     RoomModelSettings s;
+    s.voxelSizeMetres = 0.02;
+    s.truncationMetres = 0.06;
     // A margin of one truncation distance: the walls' far side must be inside the box to be a zero crossing.
     s.boundsMin = room.roomMin - 0.1;
     s.boundsMax = room.roomMax + 0.1;
@@ -82,7 +85,7 @@ TEST(RoomModel, WorldsWithAnotherUpAxis) {
     // turn about x (z -> -y, y -> z). The depth images do not change, so the bounds of the first test hold.
     const SyntheticRoom room;
     const Pose w(glm::angleAxis(glm::radians(90.0), glm::dvec3(1.0, 0.0, 0.0)), glm::dvec3(0.0));
-    RoomModelSettings s;
+    RoomModelSettings s = roomSettings(room);
     s.up = glm::dvec3(0.0, -1.0, 0.0);
     s.boundsMin = glm::dvec3(room.roomMin.x, -room.roomMax.z, room.roomMin.y) - 0.1;
     s.boundsMax = glm::dvec3(room.roomMax.x, -room.roomMin.z, room.roomMax.y) + 0.1;
@@ -179,6 +182,8 @@ TEST(RoomModel, BadSettingsNameTheirKey) {
     EXPECT_EQ(causeOf(s).rfind("/roomModel/up: ", 0), 0u) << causeOf(s);
     s = {};
     // 4 x 4 x 3 m at 2 cm: 200 x 200 x 150 voxels x 2 bytes = 12 MB.
+    s.voxelSizeMetres = 0.02;
+    s.truncationMetres = 0.06;
     s.memoryBudgetMB = 11.0;
     EXPECT_EQ(causeOf(s).rfind("/roomModel/memoryBudgetMB: the box needs 200x200x150 voxels = 12 MB", 0), 0u)
         << causeOf(s);

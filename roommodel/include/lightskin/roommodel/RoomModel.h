@@ -37,12 +37,14 @@ struct RoomModelSettings {
     /// The world's up, a signed world axis ([0, 0, 1] for a z-up world, [0, -1, 0] for ICL-NUIM's). Cameras
     /// looking up (optical axis with a positive component along it) are not fused (integrate()).
     glm::dvec3 up{0.0, 0.0, 1.0};
-    /// Edge of a voxel, metres. Smaller = finer surfaces, cubically more memory and integration time.
-    double voxelSizeMetres = 0.02;
+    /// Edge of a voxel, metres. Smaller = finer surfaces, cubically more memory and integration time: the whole
+    /// grid is swept per fused frame. 4 cm: a 4.6 x 4.1 x 3.2 m room fuses in 4.7 ms of CPU per frame, at 2 cm
+    /// in 32 ms, with the same depth-tracking error (1.6 mm; docs/ROOMMODEL.md).
+    double voxelSizeMetres = 0.04;
     /// Distances beyond this from a surface are truncated, metres. At least 2 voxels (the field must be
-    /// sampled on both sides of a surface) and a few depth-noise sigmas (0.06 m: 3 voxels, 6 sigma at 3 m for
-    /// the Kinect v1 axial noise, docs in /FACTS: 0.0012 + 0.0019 (z - 0.4)^2 = 0.014 m at 3 m).
-    double truncationMetres = 0.06;
+    /// sampled on both sides of a surface) and a few depth-noise sigmas (0.12 m: 3 voxels, 8 sigma at 3 m for
+    /// the Kinect v1 axial noise, FACTS.md: 0.0012 + 0.0019 (z - 0.4)^2 = 0.014 m at 3 m).
+    double truncationMetres = 0.12;
     /// Observations a voxel averages at most (1..255: the weight is 8-bit). Lower = faster forgetting of
     /// surfaces that changed, more noise.
     int maxWeight = 64;
