@@ -3,7 +3,7 @@
 find_package(PkgConfig REQUIRED)
 find_package(Threads REQUIRED)
 
-find_package(OpenCV 4.5 REQUIRED COMPONENTS core imgproc imgcodecs calib3d videoio quality)
+find_package(OpenCV 4.5 REQUIRED COMPONENTS core imgproc imgcodecs calib3d videoio quality rgbd)
 find_package(PNG REQUIRED) # the recorder's PNG encoder (capture/src/PngEncoder.h)
 find_package(glm REQUIRED)
 find_package(spdlog REQUIRED)

@@ -15,6 +15,7 @@
 #include <lightskin/mr/FramePipeline.h>
 #include <lightskin/mr/SceneContent.h>
 #include <lightskin/roomlight/RoomLightEstimator.h>
+#include <lightskin/roommodel/RoomMemory.h>
 #include <lightskin/tracking/TagWorld.h>
 
 #include <epoxy/gl.h>
@@ -61,6 +62,26 @@ void addTime(std::vector<gl::StageTime>& times, std::size_t& used, const char* n
     times[used].name = name;
     times[used].milliseconds = ms;
     ++used;
+}
+
+/// The scene's /roomModel object, checked whatever the pose mode (a bad one is said up front); a room memory only
+/// where it can work: with tag tracking (it fuses tag-tracked frames) and depth registered to colour.
+std::optional<roommodel::RoomMemory> roomMemoryFromScene(const render::Scene& scene, PoseMode poseMode,
+                                                         bool registeredDepth, const std::string& sourceUri) {
+    if (scene.roomModelJson.empty()) return std::nullopt;
+    const std::string source = (scene.file.empty() ? std::string("scene") : scene.file.string());
+    const roommodel::RoomMemorySettings settings =
+        roommodel::roomMemorySettingsFromJson(scene.roomModelJson, source, "/roomModel");
+    if (poseMode != PoseMode::Tracking) return std::nullopt;
+    if (!registeredDepth) {
+        log::warning(sourceUri + ": depth is not registered to colour; no room memory (/roomModel)");
+        return std::nullopt;
+    }
+    roommodel::RoomMemory memory = roommodel::RoomMemory::create(settings);
+    const glm::ivec3 r = memory.model().resolution();
+    log::info("room memory: " + std::to_string(r.x) + "x" + std::to_string(r.y) + "x" + std::to_string(r.z) +
+              " voxels, " + std::to_string(memory.model().voxelBytes() / 1000000) + " MB");
+    return memory;
 }
 
 /// The scene's /tracking object: the tag world (inline, or {"file": path}) plus tracker options
@@ -474,6 +495,7 @@ struct FramePipeline::State {
     capture::FrameSourceInfo source;
     std::unique_ptr<gi::IndirectIllumination> technique;
     std::optional<tracking::PoseTracker> tracker;
+    std::optional<roommodel::RoomMemory> roomMemory; // the scene's roomModel, with tracking and registered depth
     std::optional<gi::ValGenerator> vals;
     // The CPU backend's VALs, generated on the CPU (no GL pass, no read-back); created on first use.
     // Two, by PreparedFrame::sequence % 2: the GI ahead makes frame n+1's while frame n's are in use.
@@ -602,6 +624,7 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
     // VALs need depth and colour of one size, registered (the ValGenerator's contract).
     s.valsUsable = source.registration == DepthRegistration::RegisteredToColour &&
                    source.depthIntrinsics.width == colour.width && source.depthIntrinsics.height == colour.height;
+    s.roomMemory = roomMemoryFromScene(scene, options.poseMode, s.valsUsable, source.uri);
     if (s.valsUsable) {
         p->createValGenerator(scene.gi.valStride);
         s.occupancy = gi::ValOccupancyCull::create(colour.width, colour.height);
@@ -913,6 +936,7 @@ void FramePipeline::prepare(const RgbdFrame& frame, PreparedFrame& prepared) {
                          frame.depth.rows == frame.colour.rows;
     if (prepared.haveDepth) s.depthFilter.filterInto(frame.depth, frame.depthScaleMetres, prepared.depthMetres);
     prepared.filterMs = msSince(t);
+    prepared.roomMemoryMs = -1.0;
 
     t = Clock::now();
     switch (options_.poseMode) {
@@ -930,6 +954,11 @@ void FramePipeline::prepare(const RgbdFrame& frame, PreparedFrame& prepared) {
         break;
     }
     prepared.poseMs = msSince(t);
+    if (s.roomMemory && prepared.haveDepth) { // fuses tag-tracked frames, tracks the others by depth
+        t = Clock::now();
+        s.roomMemory->update(prepared.depthMetres, frame.colourIntrinsics, prepared.tracking);
+        prepared.roomMemoryMs = msSince(t);
+    }
     prepared.sequence = ++s.preparedCount;
 }
 
@@ -1029,6 +1058,7 @@ void FramePipeline::beginFrame(FrameWork& w) {
     out.tracking = w.prepared.tracking;
     out.world_T_camera = out.tracking.world_T_camera;
     addTime(out.cpuTimes, w.usedTimes, "pose", w.prepared.poseMs);
+    if (w.prepared.roomMemoryMs >= 0.0) addTime(out.cpuTimes, w.usedTimes, "room memory", w.prepared.roomMemoryMs);
     if (state_->contentMs >= 0.0) addTime(out.cpuTimes, w.usedTimes, "content", state_->contentMs);
 }
 

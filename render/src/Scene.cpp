@@ -247,7 +247,9 @@ Scene parseScene(std::string_view text, const std::filesystem::path& baseFolder,
     }
     const JsonReader r(sourceName, baseFolder);
     r.object(root, "");
-    r.allowOnly(root, "", {"version", "objects", "lights", "gi", "tracking", "exposureStops", "compositing", "description"});
+    r.allowOnly(
+        root, "",
+        {"version", "objects", "lights", "gi", "tracking", "roomModel", "exposureStops", "compositing", "description"});
     if (!root.contains("version") || !root["version"].is_number_integer() || root["version"].get<std::int64_t>() != 1)
         r.fail("/version", "1 (the scene format version this build reads)", root.contains("version") ? &root["version"] : nullptr);
 
@@ -280,6 +282,10 @@ Scene parseScene(std::string_view text, const std::filesystem::path& baseFolder,
     if (root.contains("tracking")) {
         r.object(root["tracking"], "/tracking");
         scene.trackingJson = root["tracking"].dump();
+    }
+    if (root.contains("roomModel")) {
+        r.object(root["roomModel"], "/roomModel");
+        scene.roomModelJson = root["roomModel"].dump();
     }
     if (root.contains("exposureStops")) scene.exposureStops = r.number(root["exposureStops"], "/exposureStops", -20.0f, 20.0f, "in [-20, 20] (stops)");
     if (root.contains("compositing")) {

@@ -403,6 +403,11 @@ TEST_F(SessionGLTest, BadScenesAndTargetsAreErrors) {
             EXPECT_NE(missing.find("/tracking/file"), std::string::npos) << missing;
         else
             EXPECT_EQ(missing, "accepted");
+        // The same for /roomModel: checked whatever the pose mode, though only tracking uses it (with tracking,
+        // this scene's missing /tracking is said first).
+        const std::string badRoom = errorOf(pose, R"({"version": 1, "roomModel": {"voxelSizeMetres": 0}})");
+        const char* expectedKey = pose == mr::PoseMode::Tracking ? "/tracking" : "/roomModel/voxelSizeMetres";
+        EXPECT_NE(badRoom.find(expectedKey), std::string::npos) << badRoom;
     }
     auto session = sourceSession();
     ASSERT_TRUE(session->processNext());

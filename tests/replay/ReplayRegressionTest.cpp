@@ -781,19 +781,29 @@ bool expectWithinBudget(const TrackedFrame& f, std::size_t i) {
 // tests/tracking/SynthReplayTest.cpp): a frame tracks exactly when a board tag is decoded.
 // Measured: board decoded in 34 frames; tracked 0.23-1.31 degrees (the larger ones the One-Euro
 // filter's lag in the first frames), up to 0.066 m (frame 25, mostly along the view); frames 14,
-// 16-18, 22 and 24 held. Before (native-size detection, every frame accepted): up to 0.66 m /
-// 11 degrees at frame 22.
+// 16-18, 22 and 24 without tags. Before (native-size detection, every frame accepted): up to 0.66 m /
+// 11 degrees at frame 22. orbit.json's roomModel tracks the frames without tags by depth against the room
+// model (roommodel/): each is depth-tracked, or held where ICP is refused, and a depth-tracked frame meets the
+// tracked frames' budget. Measured: 14, 16-18 and 22 depth-tracked (0.018-0.028 m, 0.76-0.86 deg; held they
+// were 0.12-0.38 m, 4-12.7 deg), 24 held.
 TEST(ReplayTracking, SynthOrbitTrackedPoseFollowsGroundTruth) {
     const auto expected = expectedStates(decodedFrames("recordings/synth-orbit", "recordings/scenes/orbit.json", 10));
     const auto frames = replayTracked("recordings/synth-orbit", "recordings/scenes/orbit.json", 40, "synth_orbit");
     ASSERT_EQ(frames.size(), 40u);
     ASSERT_EQ(expected.size(), 40u);
     std::vector<std::size_t> overRotationBudget;
+    int depthTracked = 0;
     for (std::size_t i = 0; i < frames.size(); ++i) {
-        EXPECT_EQ(frames[i].state, expected[i]) << "frame " << i;
-        if (frames[i].state == "tracking" && !expectWithinBudget(frames[i], i)) overRotationBudget.push_back(i);
+        const bool byDepth = expected[i] == "held" && frames[i].state == "depth-tracked";
+        depthTracked += byDepth ? 1 : 0;
+        if (!byDepth) {
+            EXPECT_EQ(frames[i].state, expected[i]) << "frame " << i;
+        }
+        if ((frames[i].state == "tracking" || byDepth) && !expectWithinBudget(frames[i], i))
+            overRotationBudget.push_back(i);
     }
     EXPECT_EQ(overRotationBudget, std::vector<std::size_t>{}) << "tracked frames beyond 2.25 degrees";
+    EXPECT_GT(depthTracked, 0) << "orbit.json's roomModel must track some frames without tags";
     EXPECT_GT(std::count(expected.begin(), expected.end(), "tracking"), 0) << "the recording must exercise tracking";
 }
 

@@ -18,6 +18,8 @@ const char* toString(TrackingState state) noexcept {
         return "held";
     case TrackingState::Lost:
         return "lost";
+    case TrackingState::DepthTracked:
+        return "depth-tracked";
     }
     return "?";
 }

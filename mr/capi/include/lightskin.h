@@ -60,7 +60,13 @@ typedef enum lsk_pose_mode {
     LSK_POSE_FIXED = 2     /* the camera at the world origin */
 } lsk_pose_mode;
 
-typedef enum lsk_tracking_state { LSK_TRACKING = 0, LSK_TRACKING_HELD = 1, LSK_TRACKING_LOST = 2 } lsk_tracking_state;
+/* LSK_TRACKING_DEPTH: the tags failed and the pose came from depth against the scene's "roomModel". */
+typedef enum lsk_tracking_state {
+    LSK_TRACKING = 0,
+    LSK_TRACKING_HELD = 1,
+    LSK_TRACKING_LOST = 2,
+    LSK_TRACKING_DEPTH = 3
+} lsk_tracking_state;
 /* The GI techniques (scene gi.technique: "lightskin", "brute-force", "imperfect-volumes", "multiscale-prt",
  * "none") and the backends they run on (gi.backend: "gl", "cpu", or "auto", the default: the CPU on a software
  * rasterizer such as llvmpipe, else GL; only LightSkin runs on the CPU). Values are

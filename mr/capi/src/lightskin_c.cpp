@@ -279,6 +279,11 @@ lsk_status lsk_session_report(const lsk_session* session, lsk_frame_report* repo
         lsk_frame_report_init(&full);
         full.frame_index = r.frameIndex;
         full.timestamp_seconds = r.timestampSeconds;
+        // lsk_tracking_state mirrors tracking::TrackingState value for value.
+        static_assert(int(lightskin::tracking::TrackingState::Tracking) == LSK_TRACKING &&
+                      int(lightskin::tracking::TrackingState::Held) == LSK_TRACKING_HELD &&
+                      int(lightskin::tracking::TrackingState::Lost) == LSK_TRACKING_LOST &&
+                      int(lightskin::tracking::TrackingState::DepthTracked) == LSK_TRACKING_DEPTH);
         full.tracking_state = int32_t(r.trackingState);
         full.has_pose = r.world_T_camera ? 1 : 0;
         if (r.world_T_camera) {

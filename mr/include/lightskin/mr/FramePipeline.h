@@ -192,6 +192,8 @@ struct PreparedFrame {
     bool haveDepth = false; ///< the frame has depth registered to colour, of the colour image's size
     tracking::TrackingResult tracking;   ///< the pose of the colour camera (PoseMode), world_T_camera empty = lost
     double filterMs = 0.0, poseMs = 0.0; ///< wall clock of the two stages (FrameOutput::cpuTimes)
+    /// Wall clock of the room memory (fusion or depth tracking; not in poseMs); -1 without one (scene roomModel).
+    double roomMemoryMs = -1.0;
     /// Set by prepare(), one more per call: names this frame to render()'s GI ahead.
     std::uint64_t sequence = 0;
 };

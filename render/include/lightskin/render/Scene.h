@@ -109,6 +109,8 @@ struct Scene {
     float exposureStops = 0.0f;
     /// The "tracking" object as JSON text ("{}" when absent), handed to the tracking module.
     std::string trackingJson = "{}";
+    /// The "roomModel" object as JSON text (empty when absent: no room memory), handed to the roommodel module.
+    std::string roomModelJson;
 };
 
 /// Reads and validates a scene file. Mesh paths are resolved against the file's folder and must exist.

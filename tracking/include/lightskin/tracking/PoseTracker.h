@@ -4,9 +4,10 @@
 // TagWorld; metres).
 // States: Tracking (this frame's tags gave an accepted, filtered pose); Held (no acceptable measurement: the last
 // pose repeated, not extrapolated, for at most TrackerSettings::maxHeldFrames frames); Lost (no pose, empty
-// world_T_camera: rendering must not place virtual content with it). A pose flip is never silent: it is rejected
-// (Held) or flagged (`poseJumped`, `ambiguous`). When each state is entered and how flips are resolved:
-// docs/ARCHITECTURE.md, "Tracking states and pose flips".
+// world_T_camera: rendering must not place virtual content with it); DepthTracked (never set by the PoseTracker:
+// the room memory, roommodel/RoomMemory.h, tracked a Held or Lost frame by ICP of its depth against the room
+// model). A pose flip is never silent: it is rejected (Held) or flagged (`poseJumped`, `ambiguous`). When each
+// state is entered and how flips are resolved: docs/ARCHITECTURE.md, "Tracking states and pose flips".
 
 #include <lightskin/core/CameraIntrinsics.h>
 #include <lightskin/core/RgbdFrame.h>
@@ -22,7 +23,7 @@
 
 namespace lightskin::tracking {
 
-enum class TrackingState : std::uint8_t { Tracking, Held, Lost };
+enum class TrackingState : std::uint8_t { Tracking, Held, Lost, DepthTracked };
 const char* toString(TrackingState state) noexcept;
 
 enum class Undistortion : std::uint8_t {
