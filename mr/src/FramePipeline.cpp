@@ -689,7 +689,7 @@ void FramePipeline::rebuildDifferential() {
 namespace {
 bool animated(const render::Scene& scene) {
     return std::any_of(scene.objects.begin(), scene.objects.end(),
-                       [](const auto& o) { return o.animation.has_value(); }) ||
+                       [](const auto& o) { return render::isAnimated(o); }) ||
            std::any_of(scene.lights.begin(), scene.lights.end(), [](const auto& l) { return l.animation.has_value(); });
 }
 } // namespace
@@ -728,7 +728,7 @@ std::span<const gi::MeshInstance> FramePipeline::placeForNextFrame(const RgbdFra
     const double t = s.clock.timeOf(nextFrame);
     for (gi::MeshInstance& instance : placed) {
         const render::SceneObject& object = s.scene.objects[renderer_->sceneObjectOf(instance.meshId)];
-        if (object.animation) instance.world_T_model = render::sampleTransform(*object.animation, t);
+        if (render::isAnimated(object)) instance.world_T_model = render::placementAt(object, t);
     }
     return placed;
 }
@@ -779,6 +779,7 @@ void FramePipeline::setObjectTransform(std::size_t object, const glm::mat4& worl
     checkPlacement(world_T_model, sourceName(), "object " + std::to_string(object));
     render::SceneObject& o = state_->scene.objects[object];
     o.animation.reset(); // the host drives it from now on
+    o.gltfAnimation.reset();
     o.world_T_model = world_T_model;
     state_->contentPending = true;
 }
@@ -830,8 +831,7 @@ std::size_t FramePipeline::addObject(render::SceneObject object) {
     if (object.name.empty()) throw Error(sourceName(), std::nullopt, "new object: a name is required");
     if (object.animation && object.animation->keys.empty())
         throw Error(sourceName(), std::nullopt, what + ": an animation needs at least one key");
-    checkPlacement(object.animation ? render::sampleTransform(*object.animation, 0.0) : object.world_T_model,
-                   sourceName(), what);
+    checkPlacement(render::placementAt(object, 0.0), sourceName(), what);
     checkMaterial(object.material, sourceName(), what);
     if (!std::filesystem::is_regular_file(object.mesh))
         throw Error(object.mesh.string(), std::nullopt, what + ": the mesh file does not exist");

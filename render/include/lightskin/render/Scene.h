@@ -13,6 +13,7 @@
 
 #include <lightskin/gi/Techniques.h>
 #include <lightskin/render/Animation.h>
+#include <lightskin/render/GltfAnimation.h>
 
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
@@ -39,8 +40,16 @@ struct SceneObject {
     MaterialOverride material;      ///< applied to every part of the mesh
     /// Keyframes: the placement follows them (render/Animation.h); unset = world_T_model at all times.
     std::optional<TransformAnimation> animation;
+    /// `"animation": "gltf"`: the mesh file's clip inside the object's `transform` (render/GltfAnimation.h);
+    /// unset = none. At most one of `animation` and `gltfAnimation` is set.
+    std::optional<GltfObjectAnimation> gltfAnimation;
     bool visible = true; ///< drawn, lit and lighting; false = as if absent (kept loaded)
 };
+
+/// True when the object's placement follows an animation (scene keys or a glTF clip).
+bool isAnimated(const SceneObject& object);
+/// The object's world_T_model at `timeSeconds` (seconds from the first frame): its animation's, or world_T_model.
+glm::mat4 placementAt(const SceneObject& object, double timeSeconds);
 
 /// Estimated: the real room's dominant light as the roomlight estimator finds it every frame (mr::FramePipeline
 /// sets its position and power per frame; a point light for the renderer and the GI techniques).
