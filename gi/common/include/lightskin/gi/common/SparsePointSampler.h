@@ -19,6 +19,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <span>
 
 namespace lightskin::gi {
 
@@ -57,6 +58,14 @@ int refineMeshToEdgeLength(TriangleMesh& mesh, double maxEdge, std::size_t maxTr
 /// Throws lightskin::Error (naming `meshName`) for an invalid mesh or one without surface area.
 SparsePointSet sampleSparsePoints(const TriangleMesh& mesh, const SparsePointSettings& settings,
                                   const std::string& meshName = "mesh");
+
+/// Deformation: each point's position and normal from its anchor on `mesh` (a deformed copy of the sampled mesh:
+/// same indices, vertices moved, model space), as sampleSparsePoints placed it on the rest mesh: the barycentric
+/// mix of the corners and of their normals (renormalised; the face normal where they cancel). Occluder radii and
+/// vertex neighbours are kept: they hold while the deformation keeps distances on the surface (a skinned bend
+/// stretches them by its strain; see docs/PLUGIN.md "Moving content"). No allocation.
+/// `anchors` and `points` have the same size; every anchor's triangle must exist in `mesh`.
+void followSurfaceInto(const TriangleMesh& mesh, std::span<const SurfaceAnchor> anchors, std::span<SparsePoint> points);
 
 /// Load-time entry point: refines `mesh` in place when settings.refine and it is coarser than the
 /// spacing (logs what it did, or a warning when the cap stops it), then samples. The renderer must
