@@ -316,4 +316,45 @@ TEST_F(MovingContentGLTest, GiAheadPlacesAnimatedObjectsForTheNextFrame) {
     }
 }
 
+TEST_F(MovingContentGLTest, AGltfClipPlacesItsObjectAtTheFramesTime) {
+    // The cube's place taken by swinging_box.gltf playing its clip "Swing" (its closed form:
+    // tests/render/GltfAnimationTest.cpp) inside a transform that stands the file's y-up on the table.
+    const std::string mesh = test::dataPath("meshes/swinging_box.gltf").string();
+    const std::string transform =
+        R"("transform": {"translation": [1.98, 1.6, 0.70], "rotationDegrees": [90, 0, 0], "scale": 0.3})";
+    auto animated =
+        hostSession(orbitScene({{R"("meshes/cube.obj")", "\"" + mesh + "\""},
+                                {kCubeTransform, R"("animation": {"source": "gltf", "clip": "Swing"}, )" + transform}}),
+                    hostFrame(0, 0.0).frame);
+    HostFrameData f = hostFrame(0, 50.0);
+    animated->submit(f.host);
+    const cv::Mat atStart = animated->output().withGi.clone();
+    const glm::mat4 start = animated->scene().objects[1].world_T_model;
+    f.host.timestampSeconds = 50.5; // clip time 0.5 s: lifted 0.5 and turned 22.5 degrees (file units)
+    animated->submit(f.host);
+    const glm::mat4 placed = animated->scene().objects[1].world_T_model;
+    EXPECT_EQ(placed, render::placementAt(animated->scene().objects[1], 0.5)) << "the frame's clip time";
+    EXPECT_NE(placed, start);
+    EXPECT_GT(changedPixels(atStart, animated->output().withGi), 50) << "the frame at 0.5 s shows the motion";
+
+    // The same placement given as a fixed matrix renders the same image, bit for bit.
+    std::string matrix;
+    for (int row = 0; row < 4; ++row)
+        for (int col = 0; col < 4; ++col) {
+            char number[32];
+            std::snprintf(number, sizeof number, "%.9g", double(placed[col][row]));
+            matrix += (matrix.empty() ? "" : ", ") + std::string(number);
+        }
+    auto fixed = hostSession(orbitScene({{R"("meshes/cube.obj")", "\"" + mesh + "\""},
+                                         {kCubeTransform, R"("transform": {"matrix": [)" + matrix + "]}"}}),
+                             f.frame);
+    fixed->submit(f.host);
+    EXPECT_EQ(fixed->scene().objects[1].world_T_model, placed);
+    expectSameImage(animated->output(), fixed->output(), "clip at 0.5 s vs its placement as a matrix");
+    const std::int64_t covered = animated->output().coveredPixels;
+    fixed->setObjectVisible(1, false);
+    fixed->submit(f.host);
+    EXPECT_LT(fixed->output().coveredPixels, covered) << "the box is in view at 0.5 s";
+}
+
 } // namespace
