@@ -11,6 +11,8 @@ bending_cylinder.gltf: a capped cylinder, radius 0.2 m, y from 0 to 2 m, skinned
   Skinned position at time t: (1 - w) p + w (J + Rz(90 t deg) (p - J)), J = [0, 1, 0].
 
 swinging_box_nan_key.gltf: swinging_box.gltf with a NaN in the second translation key of "Swing" (an error case).
+swinging_box_stretched_base.gltf: swinging_box.gltf with "Base" scaled [1, 2, 1] (an error case: a stretched
+  parent turns the clip's rotation into a shear).
 All are the project's own (CC0). Run: python3 scripts/make_gltf_samples.py (rewrites the files).
 """
 import base64
@@ -79,7 +81,7 @@ def box(w, half):
     return positions, normals, indices
 
 
-def swinging_box(nan_key=False):
+def swinging_box(nan_key=False, base_scale=None):
     w = Writer()
     positions, normals, indices = box(w, 0.05)
     pos = w.floats(positions, "VEC3", minmax=True, target=34962)
@@ -94,7 +96,8 @@ def swinging_box(nan_key=False):
     lift_p = w.floats([[0, 0.5, 0], [0, 0.5, 1]], "VEC3")
     return w.gltf({
         "scene": 0, "scenes": [{"nodes": [0]}],
-        "nodes": [{"name": "Base", "translation": [1, 0, 0], "children": [1]},
+        "nodes": [dict({"name": "Base", "translation": [1, 0, 0], "children": [1]},
+                       **({"scale": base_scale} if base_scale else {})),
                   {"name": "Arm", "translation": [0, 0.5, 0], "children": [2]},
                   {"name": "Tip", "translation": [0.2, 0, 0], "mesh": 0}],
         "meshes": [{"name": "box", "primitives": [{"attributes": {"POSITION": pos, "NORMAL": nor}, "indices": idx}]}],
@@ -165,6 +168,7 @@ def bending_cylinder():
 
 if __name__ == "__main__":
     for name, doc in (("swinging_box.gltf", swinging_box()), ("swinging_box_nan_key.gltf", swinging_box(nan_key=True)),
+                      ("swinging_box_stretched_base.gltf", swinging_box(base_scale=[1, 2, 1])),
                       ("bending_cylinder.gltf", bending_cylinder())):
         with open(os.path.join(OUT, name), "w") as f:
             json.dump(doc, f, indent=1)

@@ -221,6 +221,32 @@ void collectMeshNodes(const aiNode* node, std::vector<const aiNode*>& out) {
     for (unsigned i = 0; i < node->mNumChildren; ++i) collectMeshNodes(node->mChildren[i], out);
 }
 
+/// Rotation x one uniform scale (no shear, no stretch), to float rounding of composed rotations (1e-4 relative).
+bool rotationTimesUniformScale(const glm::mat4& m) {
+    const glm::vec3 x(m[0]), y(m[1]), z(m[2]);
+    const float s = (glm::length(x) + glm::length(y) + glm::length(z)) / 3.0f;
+    constexpr float kTolerance = 1e-4f;
+    return s > 0.0f && std::abs(glm::length(x) - s) <= kTolerance * s &&
+           std::abs(glm::length(y) - s) <= kTolerance * s && std::abs(glm::length(z) - s) <= kTolerance * s &&
+           std::abs(glm::dot(x, y)) <= kTolerance * s * s && std::abs(glm::dot(x, z)) <= kTolerance * s * s &&
+           std::abs(glm::dot(y, z)) <= kTolerance * s * s;
+}
+
+/// The motion file_T_mesh(t) file_T_mesh(rest)^-1 is P N(t) N(rest)^-1 P^-1, P the nodes above the lowest animated
+/// one: a rotation x uniform scale only when P is one too (a stretched P turns the clip's rotation into a shear).
+void checkAncestorsAreRigid(const NodeClip& clip, const std::string& source) {
+    const auto& nodes = clip.tree.nodes;
+    const auto lowest =
+        std::find_if(nodes.rbegin(), nodes.rend(), [](const auto& n) { return n.animation.has_value(); });
+    if (lowest == nodes.rend()) return;
+    for (auto above = std::next(lowest); above != nodes.rend(); ++above)
+        if (!rotationTimesUniformScale(above->parent_T_node))
+            throw Error(source, std::nullopt,
+                        "node '" + above->name + "' above the animated node '" + lowest->name +
+                            "' has a shear or a non-uniform scale: the clip's motion would not be a rotation x one "
+                            "uniform scale");
+}
+
 } // namespace
 
 RigidClip loadRigidClip(const std::filesystem::path& file, const ClipChoice& choice) {
@@ -252,6 +278,7 @@ RigidClip loadRigidClip(const std::filesystem::path& file, const ClipChoice& cho
         throw Error(source, std::nullopt,
                     "clip " + std::to_string(index) + " '" + rigid.clip.name + "' animates node '" + unused.front() +
                         "', which is not above every mesh of the file (meshes moving apart are not played)");
+    checkAncestorsAreRigid(rigid.clip, source);
     glm::mat4 file_T_mesh(1.0f);
     for (const AnimatedNodeTree::Node& node : rigid.clip.tree.nodes) file_T_mesh = file_T_mesh * node.parent_T_node;
     rigid.rest_T_file = glm::inverse(file_T_mesh);

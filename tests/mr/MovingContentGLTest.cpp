@@ -1,7 +1,8 @@
 // Moving content through mr::Session on the bundled synthetic recording (synth-orbit, ground-truth poses):
 // an object the host moves is rendered exactly as the scene placing it there; animation keys place objects and
 // set lights at the frame's time; hidden, removed and re-added objects leave no trace; bad input changes nothing;
-// the adaptive mode never reuses light computed before a move; the GI ahead places animated objects for its frame.
+// the adaptive mode never reuses light computed before a move; the GI ahead places animated objects for its frame;
+// a glTF clip places its object at the frame's time, as the same placement given as a matrix does.
 //
 // The scenes run LightSkin on the CPU backend: its VALs come in raster order and its gather does not depend on
 // the thread count, so two runs of one frame are bit-identical and images can be compared exactly.

@@ -144,6 +144,9 @@ TEST(GltfAnimation, BadInputsNameTheKeyAndTheFile) {
     expectCause(R"({"mesh": "swinging_box_nan_key.gltf", "animation": "gltf"})",
                 {"/objects/0/animation:", "swinging_box_nan_key.gltf", "clip 0 'Swing', channel 0 (node 'Arm')",
                  "position key 1", "non-finite translation"});
+    expectCause(
+        R"({"mesh": "swinging_box_stretched_base.gltf", "animation": "gltf"})",
+        {"/objects/0/animation:", "node 'Base' above the animated node 'Arm' has a shear or a non-uniform scale"});
     expectCause(R"({"mesh": "bending_cylinder.gltf", "animation": "gltf"})",
                 {"/objects/0/animation:", "is skinned (2 bones)"});
     expectCause(R"({"mesh": "swinging_box.gltf", "animation": "glTF"})", {"/objects/0/animation:", "\"gltf\""});
