@@ -258,7 +258,7 @@ RigidClip loadRigidClip(const std::filesystem::path& file, const ClipChoice& cho
             throw Error(source, std::nullopt,
                         "mesh " + std::to_string(m) + " '" + scene.mMeshes[m]->mName.C_Str() + "' is skinned (" +
                             std::to_string(scene.mMeshes[m]->mNumBones) +
-                            " bones): deforming meshes are not played in a scene (render/Skinning.h deforms them)");
+                            " bones): its clip deforms it (loadSkinnedClip), it is no rigid motion");
     std::vector<const aiNode*> meshNodes;
     collectMeshNodes(scene.mRootNode, meshNodes);
     if (meshNodes.empty()) throw Error(source, std::nullopt, "no node carries a mesh");

@@ -2,10 +2,10 @@
 #include <lightskin/core/JsonError.h>
 #include <lightskin/core/JsonReader.h>
 #include <lightskin/render/Scene.h>
-
-#include <nlohmann/json.hpp>
+#include <lightskin/render/Skinning.h>
 
 #include <glm/gtc/matrix_transform.hpp>
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <fstream>
@@ -81,9 +81,8 @@ glm::mat4 readTransform(const JsonReader& r, const json& value, const std::strin
 bool isGltfAnimation(const json& value) { return value == "gltf" || (value.is_object() && value.contains("source")); }
 
 /// The object's "animation": "gltf" or {"source": "gltf", "clip": name or index, "loop": bool}: a clip of the
-/// mesh file, inside the object's placement.
-GltfObjectAnimation readGltfAnimation(const JsonReader& r, const json& value, const std::string& p,
-                                      const SceneObject& object) {
+/// mesh file, inside the object's placement; rigid (node) motion, or the deformation of a skinned mesh.
+void readGltfAnimation(const JsonReader& r, const json& value, const std::string& p, SceneObject& object) {
     GltfObjectAnimation animation;
     animation.world_T_file = object.world_T_model;
     ClipChoice choice;
@@ -103,11 +102,17 @@ GltfObjectAnimation readGltfAnimation(const JsonReader& r, const json& value, co
         }
     }
     try {
+        if (hasSkin(object.mesh)) {
+            checkSkinnedClip(object.mesh, choice);
+            object.skinAnimation = GltfSkinAnimation{.clip = choice, .loop = animation.loop};
+            return;
+        }
         animation.rigid = loadRigidClip(object.mesh, choice);
     } catch (const Error& error) {
         r.fail(p, "an animation the mesh file can play (" + error.source() + ": " + error.cause() + ")", &value);
     }
-    return animation;
+    object.gltfAnimation = std::move(animation);
+    object.world_T_model = sampleGltfAnimation(*object.gltfAnimation, 0.0);
 }
 
 /// The object's "animation": {"keys": [{"t", "translation", "rotationDegrees", "scale"}, ...], "loop"}.
@@ -182,8 +187,7 @@ SceneObject readObject(const JsonReader& r, const json& value, const std::string
     if (value.contains("transform")) o.world_T_model = readTransform(r, value["transform"], p + "/transform");
     if (value.contains("material")) o.material = readMaterial(r, value["material"], p + "/material");
     if (value.contains("animation") && isGltfAnimation(value["animation"])) {
-        o.gltfAnimation = readGltfAnimation(r, value["animation"], p + "/animation", o);
-        o.world_T_model = sampleGltfAnimation(*o.gltfAnimation, 0.0);
+        readGltfAnimation(r, value["animation"], p + "/animation", o);
     } else if (value.contains("animation")) {
         if (value.contains("transform"))
             r.fail(p + "/animation", "either \"transform\" or \"animation\" (whose keys place the object), not both",
@@ -265,7 +269,7 @@ SceneLight readLight(const JsonReader& r, const json& value, const std::string& 
 
 } // namespace
 
-bool isAnimated(const SceneObject& object) { return object.animation || object.gltfAnimation; }
+bool isAnimated(const SceneObject& object) { return object.animation || object.gltfAnimation || object.skinAnimation; }
 
 glm::mat4 placementAt(const SceneObject& object, double timeSeconds) {
     if (object.animation) return sampleTransform(*object.animation, timeSeconds);

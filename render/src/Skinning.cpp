@@ -1,9 +1,11 @@
 #include "AssimpAnimation.h"
+#include "MeshFileChecks.h"
 
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
 #include <lightskin/render/Skinning.h>
 
+#include <assimp/postprocess.h>
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
 
@@ -110,6 +112,22 @@ std::map<PositionKey, SkinWeights> weightsByPosition(const aiScene& scene, const
 }
 
 } // namespace
+
+bool hasSkin(const std::filesystem::path& file) {
+    Assimp::Importer importer;
+    checkBeforeImport(file, importer);
+    const aiScene* scene = importer.ReadFile(file.string(), aiProcess_ValidateDataStructure);
+    if (scene == nullptr)
+        throw Error(file.string(), std::nullopt,
+                    std::string("cannot read the file's meshes (assimp: ") + importer.GetErrorString() + ")");
+    return std::any_of(scene->mMeshes, scene->mMeshes + scene->mNumMeshes,
+                       [](const aiMesh* m) { return m->HasBones(); });
+}
+
+void checkSkinnedClip(const std::filesystem::path& file, const ClipChoice& choice) {
+    Assimp::Importer importer;
+    (void)detail::chooseClip(detail::importForAnimation(file, importer), choice, file);
+}
 
 SkinnedClip loadSkinnedClip(const std::filesystem::path& file, const ClipChoice& choice, const LoadedModel& model) {
     Assimp::Importer importer;

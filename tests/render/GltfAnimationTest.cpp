@@ -147,7 +147,19 @@ TEST(GltfAnimation, BadInputsNameTheKeyAndTheFile) {
     expectCause(
         R"({"mesh": "swinging_box_stretched_base.gltf", "animation": "gltf"})",
         {"/objects/0/animation:", "node 'Base' above the animated node 'Arm' has a shear or a non-uniform scale"});
-    expectCause(R"({"mesh": "bending_cylinder.gltf", "animation": "gltf"})",
-                {"/objects/0/animation:", "is skinned (2 bones)"});
+    expectCause(R"({"mesh": "bending_cylinder.gltf", "animation": {"source": "gltf", "clip": "Wave"}})",
+                {"/objects/0/animation:", "bending_cylinder.gltf", "no clip named 'Wave'", "0 'Bend'"});
     expectCause(R"({"mesh": "swinging_box.gltf", "animation": "glTF"})", {"/objects/0/animation:", "\"gltf\""});
+}
+
+TEST(GltfAnimation, ASkinnedFileDeformsInsideItsTransform) {
+    const Scene scene = parseScene(R"({"version": 1, "objects": [{"mesh": "bending_cylinder.gltf", "animation":
+             {"source": "gltf", "clip": "Bend", "loop": true}, "transform": {"translation": [1, 2, 3]}}]})",
+                                   meshDir(), "test.json");
+    const SceneObject& o = scene.objects.at(0);
+    ASSERT_TRUE(o.skinAnimation.has_value());
+    EXPECT_TRUE(o.skinAnimation->loop);
+    EXPECT_FALSE(o.gltfAnimation.has_value()) << "the clip moves bones, not the object";
+    EXPECT_TRUE(isAnimated(o));
+    EXPECT_EQ(placementAt(o, 0.7), composeTransform({1, 2, 3}, {}, 1.0f)) << "the transform places it at all times";
 }

@@ -64,6 +64,12 @@ struct SkinnedClip {
 /// no node, a vertex has no weight, or a vertex of `model` matches no skinned vertex.
 SkinnedClip loadSkinnedClip(const std::filesystem::path& file, const ClipChoice& choice, const LoadedModel& model);
 
+/// True when a mesh of `file` has bones. Throws lightskin::Error naming the file when it cannot be read.
+bool hasSkin(const std::filesystem::path& file);
+
+/// Throws lightskin::Error naming the file when it has no animation or the chosen clip is unknown.
+void checkSkinnedClip(const std::filesystem::path& file, const ClipChoice& choice);
+
 /// Per-frame working memory, sized by the first call (no allocation afterwards).
 struct SkinningScratch {
     std::vector<glm::mat4> pose;        ///< file_T_node
