@@ -282,7 +282,7 @@ bool Renderer::hasDeformingObjects() const noexcept {
 bool Renderer::deformAt(double timeSeconds) {
     bool deformed = false;
     for (const std::unique_ptr<Object>& object : objects_) {
-        if (!object->skin) continue;
+        if (!object->skin || !object->visible) continue; // a hidden object deforms when it shows again
         Object::Skin& skin = *object->skin;
         boneMatricesInto(*skin.clip, clipTime(skin.clip->clip, skin.loop, timeSeconds), skin.scratch);
         skinPartInto(skin.clip->parts[skin.part], skin.scratch, skin.rest, object->mesh);
