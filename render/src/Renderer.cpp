@@ -286,8 +286,10 @@ bool Renderer::deformAt(double timeSeconds) {
         Object::Skin& skin = *object->skin;
         boneMatricesInto(*skin.clip, clipTime(skin.clip->clip, skin.loop, timeSeconds), skin.scratch);
         skinPartInto(skin.clip->parts[skin.part], skin.scratch, skin.rest, object->mesh);
-        if (object->sparse && !object->sparse->anchors.empty())
+        if (object->sparse && !object->sparse->anchors.empty()) {
             gi::followSurfaceInto(object->mesh, object->sparse->anchors, object->sparse->points);
+            gi::refitOccluderRadiiInto(object->mesh, object->sparse->vertexNeighbours, object->sparse->points);
+        }
         object->modelMin = object->modelMax = object->mesh.positions.front();
         for (const glm::vec3& position : object->mesh.positions) {
             object->modelMin = glm::min(object->modelMin, position);

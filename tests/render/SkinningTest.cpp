@@ -192,3 +192,32 @@ TEST(Skinning, BadSkinsAreNamed) {
         EXPECT_NE(error.cause().find("no clip named 'Wave'"), std::string::npos) << error.cause();
     }
 }
+
+TEST(Skinning, RefittedOccluderRadiiReachTheVerticesOfTheBentSurface) {
+    Cylinder c;
+    const TriangleMesh& rest = c.model.parts[0].mesh;
+    gi::SparsePointSettings settings;
+    settings.pointCount = 64; // fewer points than vertices: every point owns vertices
+    settings.refine = false;
+    const gi::SparsePointSet set = gi::sampleSparsePoints(rest, settings, "cylinder");
+    std::vector<gi::SparsePoint> points = set.points;
+    const auto worstReach = [&](const TriangleMesh& mesh) { // owner distance / radius, largest over the vertices
+        double worst = 0.0;
+        for (std::size_t v = 0; v < mesh.vertexCount(); ++v) {
+            const gi::SparsePoint& owner = points[set.vertexNeighbours[v][0]];
+            worst =
+                std::max(worst, double(glm::length(mesh.positions[v] - owner.position)) / double(owner.occluderRadius));
+        }
+        return worst;
+    };
+    // At rest the refit gives the sampler's radii back (its own float distances: 1e-6 relative).
+    gi::refitOccluderRadiiInto(rest, set.vertexNeighbours, points);
+    for (std::size_t i = 0; i < points.size(); ++i)
+        EXPECT_NEAR(points[i].occluderRadius, set.points[i].occluderRadius, 1e-6f * set.points[i].occluderRadius) << i;
+
+    const TriangleMesh& bent = c.at(1.0);
+    gi::followSurfaceInto(bent, set.anchors, points);
+    EXPECT_GT(worstReach(bent), 1.05) << "the bend stretches the surface: kept radii stop short of some vertices";
+    gi::refitOccluderRadiiInto(bent, set.vertexNeighbours, points);
+    EXPECT_LE(worstReach(bent), 1.0 + 1e-6) << "refitted: every disc reaches the vertices it owns";
+}

@@ -293,6 +293,17 @@ void followSurfaceInto(const TriangleMesh& mesh, std::span<const SurfaceAnchor> 
     }
 }
 
+void refitOccluderRadiiInto(const TriangleMesh& mesh,
+                            std::span<const std::array<std::uint32_t, kVertexNeighbours>> vertexNeighbours,
+                            std::span<SparsePoint> points) {
+    LIGHTSKIN_ASSERT(vertexNeighbours.size() == mesh.vertexCount(), "one neighbour list per vertex");
+    for (const auto& neighbours : vertexNeighbours) points[neighbours[0]].occluderRadius = 0.0f; // owners only
+    for (std::size_t v = 0; v < mesh.vertexCount(); ++v) {
+        SparsePoint& owner = points[vertexNeighbours[v][0]];
+        owner.occluderRadius = std::max(owner.occluderRadius, glm::length(mesh.positions[v] - owner.position));
+    }
+}
+
 SparsePointSet prepareSparsePoints(TriangleMesh& mesh, const SparsePointSettings& settings, const std::string& meshName) {
     validate(settings);
     mesh.validate(meshName);

@@ -98,8 +98,8 @@ public:
     bool setLights(std::span<const SceneLight> lights);
     /// Deforms the visible skinned objects (SceneObject::skinAnimation) to their clip at `timeSeconds` (seconds from
     /// the first frame): linear blend skinning of each part's rest mesh into the mesh instances() point to, their
-    /// sparse points carried along (gi::followSurfaceInto; radii and neighbours kept), their bounding boxes and GPU
-    /// vertices updated (no allocation). Returns false when no visible object is skinned. The techniques' prepared
+    /// sparse points carried along (gi::followSurfaceInto; radii refitted, neighbours kept), their bounding boxes and
+    /// GPU vertices updated (no allocation). Returns false when no visible object is skinned. The techniques' prepared
     /// copies do not follow by themselves: the caller prepares them again (mr::FramePipeline does).
     bool deformAt(double timeSeconds);
     /// True when a visible scene object deforms (deformAt has work).

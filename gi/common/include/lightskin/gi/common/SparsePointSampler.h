@@ -61,11 +61,20 @@ SparsePointSet sampleSparsePoints(const TriangleMesh& mesh, const SparsePointSet
 
 /// Deformation: each point's position and normal from its anchor on `mesh` (a deformed copy of the sampled mesh:
 /// same indices, vertices moved, model space), as sampleSparsePoints placed it on the rest mesh: the barycentric
-/// mix of the corners and of their normals (renormalised; the face normal where they cancel). Occluder radii and
-/// vertex neighbours are kept: they hold while the deformation keeps distances on the surface (a skinned bend
-/// stretches them by its strain; see docs/PLUGIN.md "Moving content"). No allocation.
+/// mix of the corners and of their normals (renormalised; the face normal where they cancel). Radii and vertex
+/// neighbours are left alone (refitOccluderRadiiInto). No allocation.
 /// `anchors` and `points` have the same size; every anchor's triangle must exist in `mesh`.
 void followSurfaceInto(const TriangleMesh& mesh, std::span<const SurfaceAnchor> anchors, std::span<SparsePoint> points);
+
+/// Deformation, after followSurfaceInto: each point's occluder radius is again the distance to the farthest vertex
+/// it owns (the vertices whose first neighbour it is), as sampleSparsePoints set it, so the discs still reach a
+/// stretched surface (a 90 degree bend of the sample cylinder stretches it 1.8x: docs/PLUGIN.md "Moving content").
+/// Points that own no vertex keep their radius. The neighbours are kept: a deformation changes the nearest point of
+/// a few vertices (3 % at that bend), whose interpolation then reads a point one place further. O(vertices), no
+/// allocation. `vertexNeighbours` has one entry per vertex of `mesh`, indexing `points`.
+void refitOccluderRadiiInto(const TriangleMesh& mesh,
+                            std::span<const std::array<std::uint32_t, kVertexNeighbours>> vertexNeighbours,
+                            std::span<SparsePoint> points);
 
 /// Load-time entry point: refines `mesh` in place when settings.refine and it is coarser than the
 /// spacing (logs what it did, or a warning when the cap stops it), then samples. The renderer must
