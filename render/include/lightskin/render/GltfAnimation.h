@@ -70,8 +70,9 @@ struct ClipChoice {
 
 /// Reads the chosen clip for rigid playback. Throws lightskin::Error naming the file (and the clip, node, channel
 /// and key) when: the file cannot be read, has no animation, the clip is unknown, a key is non-finite, negative
-/// in time or out of order, a scale key is not uniform (placements are rotation x uniform scale), or an animated
-/// node is not above every mesh (per-mesh motion is not played). Skinned files: loadSkinnedClip (Skinning.h).
+/// in time or out of order, a scale key is not uniform (placements are rotation x uniform scale), a node above the
+/// animated ones is sheared or stretched (the motion would shear), an animated node is not above every mesh
+/// (per-mesh motion is not played), or a mesh is skinned (its clip deforms it: loadSkinnedClip, Skinning.h).
 RigidClip loadRigidClip(const std::filesystem::path& file, const ClipChoice& choice);
 
 /// The scene's `"animation": "gltf"` on an object: world_T_model(t) = world_T_file * model_T_model(clip time),
