@@ -1,10 +1,13 @@
-// Fuzz target: mesh files through render::loadModel (our checks and repairs over assimp). The
+// Fuzz target: mesh files through render::loadModel (our checks and repairs over assimp), then, for a file it
+// reads, through the readers of its animation and skin (render::loadRigidClip, render::loadSkinnedClip). The
 // first input byte picks what the rest becomes (modulo 6): an .obj, a .ply, a .gltf, a .glb, the
 // .mtl of a fixed OBJ that uses it, or the .bin buffer of a fixed glTF triangle.
 #include "FuzzSupport.h"
 
 #include <lightskin/core/Error.h>
+#include <lightskin/render/GltfAnimation.h>
 #include <lightskin/render/MeshLoader.h>
+#include <lightskin/render/Skinning.h>
 
 #include <array>
 
@@ -52,8 +55,18 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         break;
     }
     if (data[0] % 6 < 4) lightskin::fuzz::writeFile(model, rest, restSize);
+    lightskin::render::LoadedModel loaded;
     try {
-        (void)lightskin::render::loadModel(model);
+        loaded = lightskin::render::loadModel(model);
+    } catch (const lightskin::Error&) {
+        return 0;
+    }
+    try {
+        (void)lightskin::render::loadRigidClip(model, {});
+    } catch (const lightskin::Error&) {
+    }
+    try {
+        (void)lightskin::render::loadSkinnedClip(model, {}, loaded);
     } catch (const lightskin::Error&) {
     }
     return 0;

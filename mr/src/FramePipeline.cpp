@@ -726,6 +726,7 @@ void FramePipeline::setGiSettings(const render::GiSettings& settings) {
     config.volumeLights = volumeLightsFromScene(st.scene);
     config.volumeShadowCubes = renderer_->shadowMapTexture();
     config.prtLights = prtLightsFromScene(st.scene);
+    refuseDeformationFor(settings.technique);
     st.technique = gi::createTechnique(config, sparsePointsOf(*renderer_));
     // A scene without virtual objects is valid (the real room alone): GI has nothing to light and stays
     // idle (runGi), so the technique is not prepared for nothing.
@@ -748,7 +749,7 @@ void FramePipeline::rebuildDifferential() {
 namespace {
 bool animated(const render::Scene& scene) {
     return std::any_of(scene.objects.begin(), scene.objects.end(),
-                       [](const auto& o) { return o.animation.has_value(); }) ||
+                       [](const auto& o) { return render::isAnimated(o); }) ||
            std::any_of(scene.lights.begin(), scene.lights.end(), [](const auto& l) { return l.animation.has_value(); });
 }
 } // namespace
@@ -764,8 +765,12 @@ void FramePipeline::applyContentAt(double timeSeconds) {
     bool moved = false;
     for (std::size_t i = 0; i < s.scene.objects.size(); ++i)
         moved = renderer_->setObjectPlacement(i, s.scene.objects[i].world_T_model) || moved;
+    // The GI ahead's job reads the meshes in place: it must end before their vertices change.
+    const bool deforming = renderer_->hasDeformingObjects();
+    if (deforming) s.giAhead.drop();
+    const bool deformed = deforming && renderer_->deformAt(timeSeconds);
     const bool lightsChanged = renderer_->setLights(s.scene.lights);
-    if (moved) contentMoved();
+    if (moved || deformed) contentMoved(deformed);
     if (lightsChanged) lightsMoved();
     s.contentMs = msSince(start);
 }
@@ -787,18 +792,36 @@ std::span<const gi::MeshInstance> FramePipeline::placeForNextFrame(const RgbdFra
     const double t = s.clock.timeOf(nextFrame);
     for (gi::MeshInstance& instance : placed) {
         const render::SceneObject& object = s.scene.objects[renderer_->sceneObjectOf(instance.meshId)];
-        if (object.animation) instance.world_T_model = render::sampleTransform(*object.animation, t);
+        if (render::isAnimated(object)) instance.world_T_model = render::placementAt(object, t);
     }
     return placed;
 }
 
-void FramePipeline::contentMoved() {
+void FramePipeline::contentMoved(bool deformed) {
     State& s = *state_;
-    if (s.differential) s.differential->place(renderer_->instances()); // its occluders and emitters
-    if (s.technique->capabilities().placementInPrepare && !renderer_->instances().empty()) {
+    if (s.differential) s.differential->place(renderer_->instances()); // its occluders (the vertices) and emitters
+    if (deformed) {
+        s.modelBoxes.clear(); // the deformed meshes' boxes
+        s.bruteForce.reset(); // the budget's brute force: prepared for the old vertices
+    }
+    // Every technique but multi-scale PRT (refused: refuseDeformationFor) prepares model-space copies of the
+    // meshes and sparse points: after a deformation, prepared again from the deformed ones.
+    if ((deformed || s.technique->capabilities().placementInPrepare) && !renderer_->instances().empty()) {
         s.giAhead.drop();
         s.technique->prepare(renderer_->instances());
     }
+}
+
+void FramePipeline::refuseDeformationFor(gi::Technique technique) const {
+    if (technique != gi::Technique::MultiscalePrt) return;
+    const auto& objects = state_->scene.objects;
+    for (std::size_t i = 0; i < objects.size(); ++i)
+        if (objects[i].skinAnimation)
+            throw Error(sourceName(), std::nullopt,
+                        "/objects/" + std::to_string(i) + " ('" + objects[i].name +
+                            "'): a skinned mesh deforms, and multi-scale PRT precomputes its transfer for fixed "
+                            "geometry: it cannot follow the deformation (use lightskin, brute-force or "
+                            "imperfect-volumes)");
 }
 
 void FramePipeline::lightsMoved() {
@@ -838,6 +861,7 @@ void FramePipeline::setObjectTransform(std::size_t object, const glm::mat4& worl
     checkPlacement(world_T_model, sourceName(), "object " + std::to_string(object));
     render::SceneObject& o = state_->scene.objects[object];
     o.animation.reset(); // the host drives it from now on
+    o.gltfAnimation.reset();
     o.world_T_model = world_T_model;
     state_->contentPending = true;
 }
@@ -889,13 +913,15 @@ std::size_t FramePipeline::addObject(render::SceneObject object) {
     if (object.name.empty()) throw Error(sourceName(), std::nullopt, "new object: a name is required");
     if (object.animation && object.animation->keys.empty())
         throw Error(sourceName(), std::nullopt, what + ": an animation needs at least one key");
-    checkPlacement(object.animation ? render::sampleTransform(*object.animation, 0.0) : object.world_T_model,
-                   sourceName(), what);
+    checkPlacement(render::placementAt(object, 0.0), sourceName(), what);
     checkMaterial(object.material, sourceName(), what);
     if (!std::filesystem::is_regular_file(object.mesh))
         throw Error(object.mesh.string(), std::nullopt, what + ": the mesh file does not exist");
     if (object.material.diffuseTexture && !std::filesystem::is_regular_file(*object.material.diffuseTexture))
         throw Error(object.material.diffuseTexture->string(), std::nullopt, what + ": the texture file does not exist");
+    if (object.skinAnimation && s.technique->technique() == gi::Technique::MultiscalePrt)
+        throw Error(sourceName(), std::nullopt,
+                    what + ": a skinned mesh deforms, and multi-scale PRT cannot follow the deformation");
     s.giAhead.drop();                                   // its job reads the renderer's instances
     renderer_->addObject(object, object.mesh.string()); // throws before changing anything
     s.scene.objects.push_back(std::move(object));
@@ -1291,8 +1317,10 @@ void FramePipeline::explainGiActivity(FrameWork& w) {
 void FramePipeline::makeNextFrameVals(FrameWork& w, NextFrame* next) {
     State& s = *state_;
     GiAhead& ahead = s.giAhead;
+    // Deforming objects: the next frame deforms the meshes the job would read (applyContentAt drops it first), so
+    // their GI runs in the frame.
     if (!(ahead.on && next != nullptr && w.runGi && w.cpuTechnique && w.valsOnCpu && s.vals &&
-          options_.overlay != Overlay::VertexVpls))
+          options_.overlay != Overlay::VertexVpls && !renderer_->hasDeformingObjects()))
         return;
     const RgbdFrame* nextFrame = nullptr;
     const PreparedFrame* nextPrepared = nullptr;

@@ -73,7 +73,7 @@ double AnimationClock::timeOf(const RgbdFrame& frame) {
 
 void sampleAnimations(render::Scene& scene, double timeSeconds) {
     for (render::SceneObject& object : scene.objects)
-        if (object.animation) object.world_T_model = render::sampleTransform(*object.animation, timeSeconds);
+        if (render::isAnimated(object)) object.world_T_model = render::placementAt(object, timeSeconds);
     for (render::SceneLight& light : scene.lights) {
         if (!light.animation) continue;
         const render::LightKey key = render::sampleLight(*light.animation, timeSeconds);

@@ -54,17 +54,24 @@ glm::quat rotationFromEulerDegrees(const glm::vec3& rotationDegrees) {
            glm::angleAxis(glm::radians(rotationDegrees.x), glm::vec3(1, 0, 0));
 }
 
-glm::mat4 sampleTransform(const TransformAnimation& animation, double timeSeconds) {
+TransformKey sampleTransformKey(const TransformAnimation& animation, double timeSeconds) {
     const KeySpan span = keySpanAt(animation.keys, animation.loop, timeSeconds);
     const TransformKey& a = animation.keys[span.first];
     const TransformKey& b = animation.keys[span.second];
     const float w = span.weight;
-    const glm::vec3 translation = glm::mix(a.translation, b.translation, w);
+    TransformKey out;
+    out.timeSeconds = timeSeconds;
+    out.translation = glm::mix(a.translation, b.translation, w);
     // glm::slerp takes the shorter arc (it flips b when the dot product is negative).
-    const glm::quat rotation = glm::normalize(glm::slerp(a.rotation, b.rotation, w));
-    const float scale = a.scale + (b.scale - a.scale) * w;
-    return glm::translate(glm::mat4(1.0f), translation) * glm::mat4_cast(rotation) *
-           glm::scale(glm::mat4(1.0f), glm::vec3(scale));
+    out.rotation = glm::normalize(glm::slerp(a.rotation, b.rotation, w));
+    out.scale = a.scale + (b.scale - a.scale) * w;
+    return out;
+}
+
+glm::mat4 sampleTransform(const TransformAnimation& animation, double timeSeconds) {
+    const TransformKey key = sampleTransformKey(animation, timeSeconds);
+    return glm::translate(glm::mat4(1.0f), key.translation) * glm::mat4_cast(key.rotation) *
+           glm::scale(glm::mat4(1.0f), glm::vec3(key.scale));
 }
 
 LightKey sampleLight(const LightAnimation& animation, double timeSeconds) {

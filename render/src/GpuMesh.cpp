@@ -1,13 +1,22 @@
+#include <lightskin/core/Error.h>
 #include <lightskin/render/GpuMesh.h>
 
 namespace lightskin::render {
 
-GpuMesh GpuMesh::create(const TriangleMesh& mesh, const std::string& sourceName) {
+namespace {
+template <class T>
+GLsizeiptr bytes(const std::vector<T>& v) {
+    return GLsizeiptr(v.size() * sizeof(T));
+}
+} // namespace
+
+GpuMesh GpuMesh::create(const TriangleMesh& mesh, const std::string& sourceName, bool deformable) {
     mesh.validate(sourceName);
     GpuMesh out;
-    const auto bytes = [](const auto& v) { return GLsizeiptr(v.size() * sizeof(v[0])); };
-    out.positions_ = gl::Buffer::create(bytes(mesh.positions), mesh.positions.data(), 0);
-    out.normals_ = gl::Buffer::create(bytes(mesh.normals), mesh.normals.data(), 0);
+    const GLbitfield vertexFlags = deformable ? GL_DYNAMIC_STORAGE_BIT : 0;
+    out.positions_ = gl::Buffer::create(bytes(mesh.positions), mesh.positions.data(), vertexFlags);
+    out.normals_ = gl::Buffer::create(bytes(mesh.normals), mesh.normals.data(), vertexFlags);
+    out.deformable_ = deformable;
     if (!mesh.texcoords.empty()) out.texcoords_ = gl::Buffer::create(bytes(mesh.texcoords), mesh.texcoords.data(), 0);
     out.indices_ = gl::Buffer::create(bytes(mesh.indices), mesh.indices.data(), 0);
     out.vertexArray_ = gl::VertexArray::create();
@@ -33,6 +42,13 @@ GpuMesh GpuMesh::create(const TriangleMesh& mesh, const std::string& sourceName)
     out.indexCount_ = std::uint32_t(mesh.indices.size());
     out.vertexCount_ = std::uint32_t(mesh.positions.size());
     return out;
+}
+
+void GpuMesh::updateVertices(const TriangleMesh& mesh) {
+    LIGHTSKIN_ASSERT(deformable_ && mesh.positions.size() == vertexCount_ && mesh.normals.size() == vertexCount_,
+                     "a deformable mesh with the vertex count it was created with");
+    glNamedBufferSubData(positions_.id(), 0, bytes(mesh.positions), mesh.positions.data());
+    glNamedBufferSubData(normals_.id(), 0, bytes(mesh.normals), mesh.normals.data());
 }
 
 void GpuMesh::draw() const {

@@ -1,3 +1,5 @@
+#include "MeshFileChecks.h"
+
 #include <lightskin/core/Error.h>
 #include <lightskin/core/JsonError.h>
 #include <lightskin/core/Log.h>
@@ -676,14 +678,11 @@ bool unshareVertices(aiMesh& mesh) {
 
 } // namespace
 
-LoadedModel loadModel(const std::filesystem::path& path) {
+void checkBeforeImport(const std::filesystem::path& path, const Assimp::Importer& importer) {
     routeAssimpLogOnce();
     const std::string source = path.string();
     std::error_code ec;
     if (!std::filesystem::is_regular_file(path, ec)) throw Error(source, std::nullopt, "mesh file does not exist");
-
-    Assimp::Importer importer;
-    importer.SetPropertyFloat(AI_CONFIG_PP_GSN_MAX_SMOOTHING_ANGLE, kCreaseAngleDegrees);
     if (!importer.IsExtensionSupported(path.extension().string()))
         throw Error(source, std::nullopt,
                     "unsupported mesh format '" + path.extension().string() + "' (use OBJ, PLY or glTF 2.0)");
@@ -699,6 +698,13 @@ LoadedModel loadModel(const std::filesystem::path& path) {
         throw Error(source, std::nullopt,
                     "not a readable " + path.extension().string() + " mesh (assimp's " + path.extension().string() +
                         " reader does not recognise the content)");
+}
+
+LoadedModel loadModel(const std::filesystem::path& path) {
+    const std::string source = path.string();
+    Assimp::Importer importer;
+    importer.SetPropertyFloat(AI_CONFIG_PP_GSN_MAX_SMOOTHING_ANGLE, kCreaseAngleDegrees);
+    checkBeforeImport(path, importer);
     // Debian's assimp 5.2.5 PLY importer flags triangle meshes as TRIANGLE|POLYGON; with that,
     // SortByPType crashes (SIGBUS) and Triangulate hits an ai_assert that aborts (no handler can
     // be installed). So: no SortByPType (points and lines are skipped below), and Triangulate

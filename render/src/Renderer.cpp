@@ -11,6 +11,7 @@
 #include <lightskin/render/CameraProjection.h>
 #include <lightskin/render/MeshLoader.h>
 #include <lightskin/render/Renderer.h>
+#include <lightskin/render/Skinning.h>
 
 #include <glm/common.hpp>
 #include <glm/gtc/matrix_inverse.hpp>
@@ -37,6 +38,16 @@ struct Renderer::Object {
     glm::vec3 modelMin{0.0f}, modelMax{0.0f}; ///< the mesh's bounding box, model frame
     gl::Texture texture; ///< empty when the material has none
     std::optional<gi::SparsePointSet> sparse;
+    /// A skinned part: its clip (shared by the object's parts), its part index there, its rest pose, and the
+    /// skinning's working memory (sized on the first frame).
+    struct Skin {
+        std::shared_ptr<const SkinnedClip> clip;
+        std::size_t part = 0;
+        bool loop = false;
+        TriangleMesh rest;
+        SkinningScratch scratch;
+    };
+    std::optional<Skin> skin;
 };
 
 namespace {
@@ -163,6 +174,14 @@ std::vector<std::unique_ptr<Renderer::Object>> Renderer::loadParts(const SceneOb
         log::warning(warning); // once per model file, however many objects use it
         warnedOpen_.push_back(so.mesh);
     }
+    std::shared_ptr<const SkinnedClip> skin;
+    if (so.skinAnimation) {
+        try {
+            skin = std::make_shared<const SkinnedClip>(loadSkinnedClip(so.mesh, so.skinAnimation->clip, model));
+        } catch (const Error& error) {
+            throw Error(source, std::nullopt, pointer + " ('" + so.name + "'): " + error.what());
+        }
+    }
     double totalArea = 0.0;
     for (const MeshPart& part : model.parts) totalArea += gi::surfaceArea(part.mesh);
     std::vector<std::unique_ptr<Object>> parts;
@@ -173,6 +192,8 @@ std::vector<std::unique_ptr<Renderer::Object>> Renderer::loadParts(const SceneOb
             gi::SparsePointSettings settings;
             const double share = totalArea > 0.0 ? gi::surfaceArea(part.mesh) / totalArea : 1.0;
             settings.pointCount = std::clamp(int(std::lround(share * double(sparsePointsPerObject_))), 16, 65536);
+            // A refined mesh's new vertices would need weights of their own: a skinned part keeps its vertices.
+            settings.refine = skin == nullptr;
             object->sparse = gi::prepareSparsePoints(
                 part.mesh, settings, so.name + " part " + std::to_string(partIndex) + " (" + so.mesh.string() + ")");
         }
@@ -199,7 +220,10 @@ std::vector<std::unique_ptr<Renderer::Object>> Renderer::loadParts(const SceneOb
                 object->modelMax = glm::max(object->modelMax, position);
             }
         }
-        object->gpu = GpuMesh::create(object->mesh, so.mesh.string());
+        if (skin)
+            object->skin = Object::Skin{
+                .clip = skin, .part = partIndex, .loop = so.skinAnimation->loop, .rest = object->mesh, .scratch = {}};
+        object->gpu = GpuMesh::create(object->mesh, so.mesh.string(), skin != nullptr);
         parts.push_back(std::move(object));
     }
     return parts;
@@ -249,6 +273,33 @@ bool Renderer::setObjectPlacement(std::size_t object, const glm::mat4& world_T_m
         if (instance.meshId >= first && instance.meshId < first + count) instance.world_T_model = world_T_model;
     shadowsStale_ = true;
     return true;
+}
+
+bool Renderer::hasDeformingObjects() const noexcept {
+    return std::any_of(objects_.begin(), objects_.end(), [](const auto& o) { return o->skin && o->visible; });
+}
+
+bool Renderer::deformAt(double timeSeconds) {
+    bool deformed = false;
+    for (const std::unique_ptr<Object>& object : objects_) {
+        if (!object->skin || !object->visible) continue; // a hidden object deforms when it shows again
+        Object::Skin& skin = *object->skin;
+        boneMatricesInto(*skin.clip, clipTime(skin.clip->clip, skin.loop, timeSeconds), skin.scratch);
+        skinPartInto(skin.clip->parts[skin.part], skin.scratch, skin.rest, object->mesh);
+        if (object->sparse && !object->sparse->anchors.empty()) {
+            gi::followSurfaceInto(object->mesh, object->sparse->anchors, object->sparse->points);
+            gi::refitOccluderRadiiInto(object->mesh, object->sparse->vertexNeighbours, object->sparse->points);
+        }
+        object->modelMin = object->modelMax = object->mesh.positions.front();
+        for (const glm::vec3& position : object->mesh.positions) {
+            object->modelMin = glm::min(object->modelMin, position);
+            object->modelMax = glm::max(object->modelMax, position);
+        }
+        object->gpu.updateVertices(object->mesh);
+        deformed = true;
+    }
+    shadowsStale_ = shadowsStale_ || deformed;
+    return deformed;
 }
 
 bool Renderer::setObjectVisible(std::size_t object, bool visible) {

@@ -2,10 +2,10 @@
 #include <lightskin/core/JsonError.h>
 #include <lightskin/core/JsonReader.h>
 #include <lightskin/render/Scene.h>
-
-#include <nlohmann/json.hpp>
+#include <lightskin/render/Skinning.h>
 
 #include <glm/gtc/matrix_transform.hpp>
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <fstream>
@@ -78,12 +78,49 @@ glm::mat4 readTransform(const JsonReader& r, const json& value, const std::strin
     return composeTransform(t, rot, s);
 }
 
+bool isGltfAnimation(const json& value) { return value == "gltf" || (value.is_object() && value.contains("source")); }
+
+/// The object's "animation": "gltf" or {"source": "gltf", "clip": name or index, "loop": bool}: a clip of the
+/// mesh file, inside the object's placement; rigid (node) motion, or the deformation of a skinned mesh.
+void readGltfAnimation(const JsonReader& r, const json& value, const std::string& p, SceneObject& object) {
+    GltfObjectAnimation animation;
+    animation.world_T_file = object.world_T_model;
+    ClipChoice choice;
+    if (value.is_object()) {
+        r.allowOnly(value, p, {"source", "clip", "loop"});
+        if (value["source"] != "gltf")
+            r.fail(p + "/source", "\"gltf\" (the mesh file's own animation)", &value["source"]);
+        if (value.contains("loop")) animation.loop = r.boolean(value["loop"], p + "/loop");
+        if (value.contains("clip")) {
+            const json& clip = value["clip"];
+            if (clip.is_string())
+                choice.clip = clip.get<std::string>();
+            else if (clip.is_number_unsigned())
+                choice.clip = clip.get<std::size_t>();
+            else
+                r.fail(p + "/clip", "a clip's name or its index (integer >= 0) in the mesh file", &clip);
+        }
+    }
+    try {
+        if (hasSkin(object.mesh)) {
+            checkSkinnedClip(object.mesh, choice);
+            object.skinAnimation = GltfSkinAnimation{.clip = choice, .loop = animation.loop};
+            return;
+        }
+        animation.rigid = loadRigidClip(object.mesh, choice);
+    } catch (const Error& error) {
+        r.fail(p, "an animation the mesh file can play (" + error.source() + ": " + error.cause() + ")", &value);
+    }
+    object.gltfAnimation = std::move(animation);
+    object.world_T_model = sampleGltfAnimation(*object.gltfAnimation, 0.0);
+}
+
 /// The object's "animation": {"keys": [{"t", "translation", "rotationDegrees", "scale"}, ...], "loop"}.
 TransformAnimation readTransformAnimation(const JsonReader& r, const json& value, const std::string& p) {
     if (!value.is_object())
         r.fail(p,
                "an object {\"keys\": [{\"t\": seconds, \"translation\", \"rotationDegrees\", \"scale\"}, ...], "
-               "\"loop\": bool} (glTF animations are not read yet)",
+               "\"loop\": bool}, or \"gltf\" (the mesh file's animation)",
                &value);
     r.allowOnly(value, p, {"keys", "loop"});
     TransformAnimation animation;
@@ -149,7 +186,9 @@ SceneObject readObject(const JsonReader& r, const json& value, const std::string
     o.mesh = r.existingFile(value["mesh"], p + "/mesh", "mesh file");
     if (value.contains("transform")) o.world_T_model = readTransform(r, value["transform"], p + "/transform");
     if (value.contains("material")) o.material = readMaterial(r, value["material"], p + "/material");
-    if (value.contains("animation")) {
+    if (value.contains("animation") && isGltfAnimation(value["animation"])) {
+        readGltfAnimation(r, value["animation"], p + "/animation", o);
+    } else if (value.contains("animation")) {
         if (value.contains("transform"))
             r.fail(p + "/animation", "either \"transform\" or \"animation\" (whose keys place the object), not both",
                    nullptr);
@@ -229,6 +268,14 @@ SceneLight readLight(const JsonReader& r, const json& value, const std::string& 
 }
 
 } // namespace
+
+bool isAnimated(const SceneObject& object) { return object.animation || object.gltfAnimation || object.skinAnimation; }
+
+glm::mat4 placementAt(const SceneObject& object, double timeSeconds) {
+    if (object.animation) return sampleTransform(*object.animation, timeSeconds);
+    if (object.gltfAnimation) return sampleGltfAnimation(*object.gltfAnimation, timeSeconds);
+    return object.world_T_model;
+}
 
 glm::mat4 composeTransform(const glm::vec3& translation, const glm::vec3& rotationDegrees, float scale) {
     glm::mat4 m = glm::translate(glm::mat4(1.0f), translation);

@@ -2,6 +2,8 @@
 // give passes (rotations, uniform scales, mirrorings, float rounding of composed rotations); shear, stretch,
 // singular, projective and non-finite matrices do not, and the error names the object and the cause. The
 // animation clock starts at the first frame and falls back to frame indices without timestamps.
+#include "TestPaths.h"
+
 #include <lightskin/core/Error.h>
 #include <lightskin/mr/SceneContent.h>
 
@@ -86,4 +88,18 @@ TEST(SceneContent, TheAnimationClockStartsAtTheFirstFrame) {
     EXPECT_EQ(untimed.timeOf(frame), 0.0);
     frame.index = 22;
     EXPECT_DOUBLE_EQ(untimed.timeOf(frame), 0.5);
+}
+
+TEST(SceneContent, GltfClipsPlaceObjectsWhereTheirClipSaysAndPassThePlacementCheck) {
+    // swinging_box.gltf's clip "Swing" turns and lifts the box (tests/render/GltfAnimationTest.cpp has its closed
+    // form); every pose along it, inside a rotated and scaled object transform, is a placement a host could give.
+    render::Scene scene = render::parseScene(
+        R"({"version": 1, "objects": [{"mesh": "swinging_box.gltf", "animation": {"source": "gltf", "loop": true},
+             "transform": {"rotationDegrees": [10, 20, 30], "scale": 0.3}}]})",
+        test::dataPath("meshes"), "scene.json");
+    for (double t = 0.0; t < 4.5; t += 0.1) {
+        mr::sampleAnimations(scene, t);
+        EXPECT_EQ(scene.objects[0].world_T_model, render::placementAt(scene.objects[0], t));
+        mr::checkPlacement(scene.objects[0].world_T_model, "scene.json", "object 0");
+    }
 }

@@ -333,7 +333,7 @@ TEST(Scene, AnimationErrorsNameTheKey) {
          "/objects/0/animation/loop: expected at least two keys"},
         {object + R"("transform": {"scale": 2}, "animation": {"keys": [{"t": 0}]}}]})",
          "/objects/0/animation: expected either \"transform\" or \"animation\""},
-        {object + R"("animation": "gltf"}]})", "/objects/0/animation: expected an object"},
+        {object + R"("animation": "gltf"}]})", "/objects/0/animation: expected an animation the mesh file can play"},
         {object + R"("visible": "no"}]})", "/objects/0/visible: expected true or false"},
         {light + R"("animation": {"keys": [{"t": 0, "direction": [1, 0, 0]}]}}]})",
          "/lights/0/animation/keys/0/direction: expected no direction on a point light"},

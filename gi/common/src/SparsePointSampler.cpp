@@ -40,6 +40,7 @@ pcl::PointXYZ toPcl(const glm::dvec3& p) { return {float(p.x), float(p.y), float
 struct Candidate {
     glm::dvec3 position;
     glm::dvec3 normal;
+    SurfaceAnchor anchor;
 };
 
 // Area-uniform random points on the surface with interpolated vertex normals.
@@ -63,6 +64,7 @@ std::vector<Candidate> sampleCandidates(const TriangleMesh& mesh, std::size_t co
                        wc * glm::dvec3(mesh.normals[mesh.indices[3 * t + 2]]);
         if (!(glm::length(n) > 1e-12)) n = glm::cross(b - a, c - a); // opposing vertex normals: face normal
         candidate.normal = glm::normalize(n);
+        candidate.anchor = {std::uint32_t(t), float(wb), float(wc)};
     }
     return out;
 }
@@ -233,11 +235,13 @@ SparsePointSet sampleSparsePoints(const TriangleMesh& mesh, const SparsePointSet
 
     SparsePointSet set;
     set.points.resize(n);
+    set.anchors.resize(n);
     pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
     cloud->resize(n);
     for (std::size_t i = 0; i < n; ++i) {
         set.points[i].position = glm::vec3(candidates[chosen[i]].position);
         set.points[i].normal = glm::vec3(candidates[chosen[i]].normal);
+        set.anchors[i] = candidates[chosen[i]].anchor;
         (*cloud)[i] = toPcl(candidates[chosen[i]].position);
     }
     pcl::KdTreeFLANN<pcl::PointXYZ> tree;
@@ -270,6 +274,34 @@ SparsePointSet sampleSparsePoints(const TriangleMesh& mesh, const SparsePointSet
     for (std::size_t i = 0; i < n; ++i) set.points[i].occluderRadius = radius[i];
     set.tessellationRatio = float(longestEdge(mesh) / std::sqrt(area / double(n)));
     return set;
+}
+
+void followSurfaceInto(const TriangleMesh& mesh, std::span<const SurfaceAnchor> anchors,
+                       std::span<SparsePoint> points) {
+    LIGHTSKIN_ASSERT(anchors.size() == points.size(), "one anchor per point");
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        const SurfaceAnchor& anchor = anchors[i];
+        LIGHTSKIN_ASSERT(anchor.triangle < mesh.triangleCount(), "an anchor's triangle is not in the mesh");
+        const std::uint32_t* corner = &mesh.indices[3 * std::size_t(anchor.triangle)];
+        const float wa = 1.0f - anchor.u - anchor.v;
+        const glm::vec3 &a = mesh.positions[corner[0]], &b = mesh.positions[corner[1]], &c = mesh.positions[corner[2]];
+        points[i].position = wa * a + anchor.u * b + anchor.v * c;
+        glm::vec3 n =
+            wa * mesh.normals[corner[0]] + anchor.u * mesh.normals[corner[1]] + anchor.v * mesh.normals[corner[2]];
+        if (!(glm::length(n) > 1e-12f)) n = glm::cross(b - a, c - a);
+        points[i].normal = glm::normalize(n);
+    }
+}
+
+void refitOccluderRadiiInto(const TriangleMesh& mesh,
+                            std::span<const std::array<std::uint32_t, kVertexNeighbours>> vertexNeighbours,
+                            std::span<SparsePoint> points) {
+    LIGHTSKIN_ASSERT(vertexNeighbours.size() == mesh.vertexCount(), "one neighbour list per vertex");
+    for (const auto& neighbours : vertexNeighbours) points[neighbours[0]].occluderRadius = 0.0f; // owners only
+    for (std::size_t v = 0; v < mesh.vertexCount(); ++v) {
+        SparsePoint& owner = points[vertexNeighbours[v][0]];
+        owner.occluderRadius = std::max(owner.occluderRadius, glm::length(mesh.positions[v] - owner.position));
+    }
 }
 
 SparsePointSet prepareSparsePoints(TriangleMesh& mesh, const SparsePointSettings& settings, const std::string& meshName) {

@@ -91,6 +91,29 @@ TEST(SparsePointSamplerTest, SpherePointsAreOnTheSurfaceWithOutwardNormals) {
     for (int count : octant) EXPECT_NEAR(count, 64, 12);
 }
 
+TEST(SparsePointSamplerTest, AnchoredPointsFollowAMovedSurface) {
+    // Anchors are barycentric: any affine map of the vertices maps each point the same way. A uniform scale by 2
+    // plus a shift (not a rigid move: the points must come from the moved vertices, not a stored transform) puts
+    // every point at 2 p + t; the normals (vertex normals left as they are) stay the sampled ones.
+    const TriangleMesh sphere = uvSphere(0.5f, 24, 48);
+    SparsePointSettings settings;
+    settings.pointCount = 128;
+    settings.refine = false;
+    const gi::SparsePointSet set = gi::sampleSparsePoints(sphere, settings);
+    ASSERT_EQ(set.anchors.size(), set.points.size());
+    TriangleMesh moved = sphere;
+    const glm::vec3 shift(0.3f, -1.0f, 2.0f);
+    for (glm::vec3& p : moved.positions) p = 2.0f * p + shift;
+    std::vector<gi::SparsePoint> points = set.points;
+    gi::followSurfaceInto(moved, set.anchors, points);
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        // Float: coordinates < 2.5 m after the map, a few roundings each: < 2e-6 m.
+        EXPECT_LE(glm::length(points[i].position - (2.0f * set.points[i].position + shift)), 2e-6f) << i;
+        EXPECT_LE(glm::length(points[i].normal - set.points[i].normal), 1e-5f) << i;
+        EXPECT_EQ(points[i].occluderRadius, set.points[i].occluderRadius) << "kept";
+    }
+}
+
 TEST(SparsePointSamplerTest, VertexNeighboursAreTheEightNearestPoints) {
     const TriangleMesh sphere = uvSphere(0.5f, 24, 48);
     SparsePointSettings settings;

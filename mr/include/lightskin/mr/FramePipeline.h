@@ -298,7 +298,10 @@ private:
     void createValGenerator(int stride);
     /// Moving content: the animations at this frame's time into the renderer, and what depends on placements.
     void applyContentAt(double timeSeconds);
-    void contentMoved();
+    /// `deformed`: a skinned object's vertices changed too (the techniques' model-space copies are stale).
+    void contentMoved(bool deformed);
+    /// Throws lightskin::Error naming the object when `technique` cannot follow a deforming object of the scene.
+    void refuseDeformationFor(gi::Technique technique) const;
     /// The GI ahead's instances for the frame `sequence`: this frame's, with the animated objects placed at
     /// `nextFrame`'s time (in State::aheadInstances[sequence % 2]).
     std::span<const gi::MeshInstance> placeForNextFrame(const RgbdFrame& nextFrame, std::uint64_t sequence);

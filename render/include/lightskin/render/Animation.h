@@ -45,6 +45,8 @@ struct LightAnimation {
 
 /// The placement at `timeSeconds` (see the header comment). `animation.keys` must not be empty.
 glm::mat4 sampleTransform(const TransformAnimation& animation, double timeSeconds);
+/// The same as its parts: the interpolated translation, rotation and scale (timeSeconds = the argument).
+TransformKey sampleTransformKey(const TransformAnimation& animation, double timeSeconds);
 /// The light's position, direction and power at `timeSeconds`. `animation.keys` must not be empty.
 LightKey sampleLight(const LightAnimation& animation, double timeSeconds);
 

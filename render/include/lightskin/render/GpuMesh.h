@@ -12,8 +12,12 @@ namespace lightskin::render {
 class GpuMesh {
 public:
     GpuMesh() = default;
-    /// Uploads `mesh` (validated first: throws lightskin::Error naming `sourceName`).
-    static GpuMesh create(const TriangleMesh& mesh, const std::string& sourceName);
+    /// Uploads `mesh` (validated first: throws lightskin::Error naming `sourceName`). `deformable`: positions and
+    /// normals can be replaced later (updateVertices), for meshes that deform per frame.
+    static GpuMesh create(const TriangleMesh& mesh, const std::string& sourceName, bool deformable = false);
+    /// Replaces the positions and normals with `mesh`'s (same vertex count as at create(), which had
+    /// `deformable`): glNamedBufferSubData into the existing buffers, no allocation.
+    void updateVertices(const TriangleMesh& mesh);
 
     gi::GpuMeshView view() const noexcept { return {vertexArray_.id(), indexCount_, vertexCount_}; }
     void draw() const;
@@ -22,6 +26,7 @@ private:
     gl::Buffer positions_, normals_, texcoords_, indices_;
     gl::VertexArray vertexArray_;
     std::uint32_t indexCount_ = 0, vertexCount_ = 0;
+    bool deformable_ = false;
 };
 
 } // namespace lightskin::render

@@ -96,6 +96,15 @@ public:
     /// The scene's lights with new position, direction, power (the count and types as setScene()'s);
     /// false when nothing changed.
     bool setLights(std::span<const SceneLight> lights);
+    /// Deforms the visible skinned objects (SceneObject::skinAnimation) to their clip at `timeSeconds` (seconds from
+    /// the first frame): linear blend skinning of each part's rest mesh into the mesh instances() point to, their
+    /// sparse points carried along (gi::followSurfaceInto; radii refitted, neighbours kept), their bounding boxes and
+    /// GPU vertices updated (no allocation). Returns false when no visible object is skinned. The techniques' prepared
+    /// copies do not follow by themselves: the caller prepares them again (mr::FramePipeline does).
+    bool deformAt(double timeSeconds);
+    /// True when a visible scene object deforms (deformAt has work).
+    bool hasDeformingObjects() const noexcept;
+
     /// Loads, prepares and uploads `object` as the last scene object (sparse points as setScene() did).
     /// Throws lightskin::Error naming `source` and the mesh; on error nothing changed.
     void addObject(const SceneObject& object, const std::string& source);

@@ -13,6 +13,7 @@
 
 #include <lightskin/gi/Techniques.h>
 #include <lightskin/render/Animation.h>
+#include <lightskin/render/GltfAnimation.h>
 
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
@@ -32,6 +33,12 @@ struct MaterialOverride {
     std::optional<std::filesystem::path> diffuseTexture; ///< absolute after loading
 };
 
+/// Which clip of a skinned mesh file deforms it, and whether it loops (as GltfObjectAnimation's).
+struct GltfSkinAnimation {
+    ClipChoice clip;
+    bool loop = false;
+};
+
 struct SceneObject {
     std::string name;
     std::filesystem::path mesh;     ///< absolute after loading (relative in the file)
@@ -39,8 +46,20 @@ struct SceneObject {
     MaterialOverride material;      ///< applied to every part of the mesh
     /// Keyframes: the placement follows them (render/Animation.h); unset = world_T_model at all times.
     std::optional<TransformAnimation> animation;
+    /// `"animation": "gltf"`: the mesh file's clip inside the object's `transform` (render/GltfAnimation.h);
+    /// unset = none.
+    std::optional<GltfObjectAnimation> gltfAnimation;
+    /// `"animation": "gltf"` on a skinned mesh file: the clip deforms the mesh (render/Skinning.h) inside
+    /// world_T_model, which stays the object's `transform`; unset = none. Played by the renderer (Renderer::deformAt).
+    std::optional<GltfSkinAnimation> skinAnimation;
     bool visible = true; ///< drawn, lit and lighting; false = as if absent (kept loaded)
 };
+
+/// True when the object changes over time: its placement follows an animation (scene keys or a glTF clip) or a
+/// clip deforms its mesh.
+bool isAnimated(const SceneObject& object);
+/// The object's world_T_model at `timeSeconds` (seconds from the first frame): its animation's, or world_T_model.
+glm::mat4 placementAt(const SceneObject& object, double timeSeconds);
 
 /// Estimated: the real room's dominant light as the roomlight estimator finds it every frame (mr::FramePipeline
 /// sets its position and power per frame; a point light for the renderer and the GI techniques).

@@ -19,6 +19,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <span>
 
 namespace lightskin::gi {
 
@@ -57,6 +58,23 @@ int refineMeshToEdgeLength(TriangleMesh& mesh, double maxEdge, std::size_t maxTr
 /// Throws lightskin::Error (naming `meshName`) for an invalid mesh or one without surface area.
 SparsePointSet sampleSparsePoints(const TriangleMesh& mesh, const SparsePointSettings& settings,
                                   const std::string& meshName = "mesh");
+
+/// Deformation: each point's position and normal from its anchor on `mesh` (a deformed copy of the sampled mesh:
+/// same indices, vertices moved, model space), as sampleSparsePoints placed it on the rest mesh: the barycentric
+/// mix of the corners and of their normals (renormalised; the face normal where they cancel). Radii and vertex
+/// neighbours are left alone (refitOccluderRadiiInto). No allocation.
+/// `anchors` and `points` have the same size; every anchor's triangle must exist in `mesh`.
+void followSurfaceInto(const TriangleMesh& mesh, std::span<const SurfaceAnchor> anchors, std::span<SparsePoint> points);
+
+/// Deformation, after followSurfaceInto: each point's occluder radius is again the distance to the farthest vertex
+/// it owns (the vertices whose first neighbour it is), as sampleSparsePoints set it, so the discs still reach a
+/// stretched surface (a 90 degree bend of the sample cylinder stretches it 1.8x: docs/PLUGIN.md "Moving content").
+/// Points that own no vertex keep their radius. The neighbours are kept: a deformation changes the nearest point of
+/// a few vertices (3 % at that bend), whose interpolation then reads a point one place further. O(vertices), no
+/// allocation. `vertexNeighbours` has one entry per vertex of `mesh`, indexing `points`.
+void refitOccluderRadiiInto(const TriangleMesh& mesh,
+                            std::span<const std::array<std::uint32_t, kVertexNeighbours>> vertexNeighbours,
+                            std::span<SparsePoint> points);
 
 /// Load-time entry point: refines `mesh` in place when settings.refine and it is coarser than the
 /// spacing (logs what it did, or a warning when the cap stops it), then samples. The renderer must

@@ -19,11 +19,22 @@ struct SparsePoint {
 };
 static_assert(sizeof(SparsePoint) == 32, "SparsePoint must match the GLSL std430 layout");
 
+/// Where a sparse point lies on its mesh: a triangle (index into the mesh's triangles) and the barycentric weights
+/// of its second and third corners (the first's is 1 - u - v). The same triangle of a deformed copy of the mesh
+/// (same indices, moved vertices) carries the point along: followSurfaceInto (SparsePointSampler.h).
+struct SurfaceAnchor {
+    std::uint32_t triangle = 0;
+    float u = 0.0f, v = 0.0f;
+};
+
 /// Number of sparse neighbours each vertex interpolates from (the paper's eight).
 inline constexpr int kVertexNeighbours = 8;
 
 struct SparsePointSet {
     std::vector<SparsePoint> points;
+    /// Per point, in `points`' order: where it was sampled (sampleSparsePoints fills it; empty for sets built
+    /// otherwise, e.g. sparsePointsFromVertices).
+    std::vector<SurfaceAnchor> anchors;
     /// Per mesh vertex: indices into `points` of its kVertexNeighbours nearest sparse points,
     /// nearest first. When the set has fewer points than that, the list repeats the last valid
     /// index (interpolation weights treat repeats as the same point).
