@@ -316,6 +316,7 @@ protected:
                 if (file_) {
                     // End of file: an unpaired last frame cannot be delivered.
                     if (haveDepth_ || haveColour_) ++unpaired_;
+                    parkPlayer();
                     return false;
                 }
                 throw SourceStalled("openni2://" + info_.uri, next_,
@@ -346,6 +347,7 @@ protected:
         }
         if (colour_.isValid() == false) out.colour.release();
         stampFrame(out, next_++);
+        if (file_ && next_ >= *frameCount()) parkPlayer();
         return true;
     }
 
@@ -365,6 +367,14 @@ protected:
     std::int64_t deviceDropped() const noexcept override { return gaps_ + unpaired_; }
 
 private:
+    /// At the file's end: Debian's OniFile player thread reads on in a loop that returns at once at the end of a
+    /// file without repeat, a core busy until the source closes, while any stream is started. Stopped streams park
+    /// it (it then looks every 10 ms). seekTo() reopens the file.
+    void parkPlayer() {
+        for (openni::VideoStream* stream : {&depth_, &colour_})
+            if (stream->isValid()) stream->stop();
+    }
+
     void configureLive() {
         // Ask for VGA 30 fps depth in millimetres and RGB888 colour when the device offers them.
         const auto choose = [](openni::VideoStream& stream, openni::PixelFormat format) {

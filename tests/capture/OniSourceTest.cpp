@@ -15,6 +15,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
+#include <ctime>
 #include <fstream>
 #include <unistd.h>
 #include <vector>
@@ -95,6 +96,30 @@ TEST(OniSourceTest, DeliversEveryFrameInOrderThenEnds) {
     // How fast the player delivers (as fast as possible, the end detected without waiting a frame
     // period) is a benchmark, not a test: docs/BENCHMARKS.md "Capture: reading the .oni".
     EXPECT_FALSE(source->next(frame)) << "repeat is off";
+}
+
+double processCpuSeconds() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
+}
+
+// OpenNI2's player thread loops on its reads, which return at once at the end of a file without repeat: a
+// source that reached the end must not keep a core busy while the caller goes on (a host keeps its session).
+// Idle, the process uses ~0 CPU while this thread sleeps; spinning, one core's worth, >= half of the sleep even
+// when two other jobs share the 2 cores. The limit is a quarter of the sleep.
+TEST(OniSourceTest, PlayerThreadIdlesAfterTheLastFrame) {
+    auto source = capture::openFrameSource(oniPath(), unregistered());
+    RgbdFrame frame;
+    int frames = 0;
+    while (source->next(frame)) ++frames;
+    ASSERT_EQ(frames, 12);
+    constexpr double kSleepSeconds = 0.4;
+    const double cpuStart = processCpuSeconds();
+    usleep(useconds_t(kSleepSeconds * 1e6));
+    const double cpu = processCpuSeconds() - cpuStart;
+    EXPECT_LT(cpu, 0.25 * kSleepSeconds) << "the process used " << cpu << " s of CPU while this thread slept";
+    EXPECT_FALSE(source->next(frame)) << "still at the end";
 }
 
 TEST(OniSourceTest, MirroredFileIsFlippedBackAndSeekWorks) {
