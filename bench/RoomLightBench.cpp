@@ -6,6 +6,7 @@
 // global search) and the warm frames (the next frames: the search warm-started from the last light), each the
 // median of `repeats` runs of estimate() alone (the frame is decoded once); then the hold-out comparison.
 #include <lightskin/capture/FrameSource.h>
+#include <lightskin/core/CpuTime.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/roomlight/HoldOutEvaluation.h>
 #include <lightskin/roomlight/RoomLightEstimator.h>
@@ -26,13 +27,6 @@ double medianOf(std::vector<double>& values) {
     return values[values.size() / 2];
 }
 
-// CPU time of this thread: the machine is shared, and wall time would count the other processes' turns.
-double threadMilliseconds() {
-    timespec now{};
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &now);
-    return static_cast<double>(now.tv_sec) * 1e3 + static_cast<double>(now.tv_nsec) * 1e-6;
-}
-
 void benchRecording(const std::string& path, int repeats, const roomlight::RoomLightOptions& options) {
     auto source = capture::openFrameSource(path);
     RgbdFrame frame;
@@ -41,13 +35,13 @@ void benchRecording(const std::string& path, int repeats, const roomlight::RoomL
     for (int run = 0; run < repeats; ++run) {
         roomlight::RoomLightEstimator estimator(options);
         frame.colourTimestampSeconds = 0.0;
-        double start = threadMilliseconds();
+        double start = threadCpuMs();
         estimator.estimate(frame, Pose());
-        cold.push_back(threadMilliseconds() - start);
+        cold.push_back(threadCpuMs() - start);
         frame.colourTimestampSeconds = 1.0 / 30.0;
-        start = threadMilliseconds();
+        start = threadCpuMs();
         const roomlight::LightEstimate& estimate = estimator.estimate(frame, Pose());
-        warm.push_back(threadMilliseconds() - start);
+        warm.push_back(threadCpuMs() - start);
         if (estimate.state != roomlight::EstimateState::Fitted)
             std::printf("  (frame not fitted: %s)\n", roomlight::toString(estimate.problem));
     }

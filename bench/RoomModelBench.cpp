@@ -12,6 +12,7 @@
 // (cv::rgbd::ICPOdometry, the same depth, chained from the last tag-tracked frame).
 #include <lightskin/capture/DepthFilter.h>
 #include <lightskin/capture/FrameSource.h>
+#include <lightskin/core/CpuTime.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/roommodel/RoomMemory.h>
 
@@ -74,12 +75,6 @@ std::string roomModelBlock(const std::string& scenePath) {
 
 // CPU time of every thread of the process (OpenCV's loops run on its worker threads): on a shared machine the
 // wall time counts the other processes' turns, this does not.
-double processCpuMs() {
-    timespec now{};
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &now);
-    return double(now.tv_sec) * 1e3 + double(now.tv_nsec) * 1e-6;
-}
-
 Pose poseFromCv(const cv::Mat& rt) {
     glm::dmat4 m(1.0);
     for (int row = 0; row < 4; ++row)

@@ -9,6 +9,7 @@
 // Then what keeping the occluder radii and neighbours costs in validity at the clip's end (90 degrees): the largest
 // ratio of a vertex's distance to its owner point over that point's radius (> 1: the disc no longer reaches it),
 // and the share of vertices whose nearest point is no longer their first neighbour.
+#include <lightskin/core/CpuTime.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/gi/common/SparsePointSampler.h>
 #include <lightskin/render/MeshLoader.h>
@@ -31,13 +32,6 @@ using namespace lightskin;
 double medianOf(std::vector<double>& values) {
     std::sort(values.begin(), values.end());
     return values[values.size() / 2];
-}
-
-// CPU time of this thread: the machine is shared, and wall time would count the other processes' turns.
-double threadMilliseconds() {
-    timespec now{};
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &now);
-    return static_cast<double>(now.tv_sec) * 1e3 + static_cast<double>(now.tv_nsec) * 1e-6;
 }
 
 /// The sample's weights by height, for a refined copy (its new vertices are not in the file).
@@ -99,14 +93,14 @@ void benchSize(const render::LoadedModel& model, const render::SkinnedClip& skin
     std::vector<double> skinMs, pointMs, radiusMs;
     for (int frame = 0; frame < repeats; ++frame) {
         const double t = double(frame % 30) / 30.0;
-        const double start = threadMilliseconds();
+        const double start = threadCpuMs();
         render::boneMatricesInto(skin, t, scratch);
         render::skinPartInto(weights, scratch, rest, deformed);
-        const double skinned = threadMilliseconds();
+        const double skinned = threadCpuMs();
         gi::followSurfaceInto(deformed, set.anchors, points);
-        const double followed = threadMilliseconds();
+        const double followed = threadCpuMs();
         gi::refitOccluderRadiiInto(deformed, set.vertexNeighbours, points);
-        radiusMs.push_back(threadMilliseconds() - followed);
+        radiusMs.push_back(threadCpuMs() - followed);
         pointMs.push_back(followed - skinned);
         skinMs.push_back(skinned - start);
     }

@@ -15,11 +15,12 @@
 #include <lightskin/bench/BenchScene.h>
 #include <lightskin/bench/CpuBench.h>
 #include <lightskin/bench/StopRequest.h>
+#include <lightskin/core/CpuTime.h>
 #include <lightskin/core/Error.h>
-#include <lightskin/gi/lightskin/CpuLightSkin.h>
-#include <lightskin/gi/lightskin/LightSkinIllumination.h>
 #include <lightskin/gi/common/SimpleGBuffer.h>
 #include <lightskin/gi/common/VertexSparsePoints.h>
+#include <lightskin/gi/lightskin/CpuLightSkin.h>
+#include <lightskin/gi/lightskin/LightSkinIllumination.h>
 #include <lightskin/gl/Context.h>
 #include <lightskin/gl/DebugOutput.h>
 
@@ -45,12 +46,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 double minimum(const std::vector<double>& v) { return v.empty() ? 0.0 : *std::min_element(v.begin(), v.end()); }
-
-double processCpuMs() {
-    timespec t{};
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-    return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
-}
 
 /// Stage times (minimum over frames), wall and process CPU time of render() + glFinish (minimum).
 struct Timing {

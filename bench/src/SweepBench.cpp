@@ -10,6 +10,7 @@
 #include <lightskin/bench/BenchReport.h>
 #include <lightskin/bench/BenchScene.h>
 #include <lightskin/bench/SweepBench.h>
+#include <lightskin/core/CpuTime.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
 #include <lightskin/gi/Techniques.h>
@@ -70,12 +71,6 @@ double msSince(Clock::time_point start) {
 
 /// CPU time of the whole process in ms (all threads: llvmpipe's rasteriser threads are ours). On a
 /// machine shared with other jobs, CPU time is what a frame costs; wall time includes waiting.
-double processCpuMs() {
-    timespec t{};
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-    return 1e3 * double(t.tv_sec) + 1e-6 * double(t.tv_nsec);
-}
-
 int parseInt(const std::string& s, const char* option) {
     try {
         std::size_t used = 0;

@@ -1,6 +1,7 @@
 #include "BackgroundTask.h"
 
 #include <lightskin/capture/DepthFilter.h>
+#include <lightskin/core/CpuTime.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
 #include <lightskin/eval/ColourSpace.h>
@@ -49,12 +50,6 @@ using Clock = std::chrono::steady_clock;
 
 double msSince(Clock::time_point start) {
     return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
-
-double threadCpuMs() {
-    timespec now{};
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &now);
-    return double(now.tv_sec) * 1e3 + double(now.tv_nsec) * 1e-6;
 }
 
 void addTime(std::vector<gl::StageTime>& times, std::size_t& used, const char* name, double ms) {

@@ -8,6 +8,7 @@
 #include "common/src/TsanParallelRegion.h"
 #include "lightskin/src/LightSkinMath.h"
 
+#include <lightskin/core/CpuTime.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/core/Log.h>
 #include <lightskin/core/SimdTarget.h>
@@ -39,18 +40,6 @@ using Clock = std::chrono::steady_clock;
 
 double millisecondsSince(Clock::time_point start) {
     return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
-
-double processCpuMs() {
-    timespec t{};
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-    return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
-}
-
-double threadCpuMs() {
-    timespec t{};
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-    return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
 }
 
 /// Per parallel region, the CPU time of each arena slot's tasks (slot = oneTBB's thread index in the
