@@ -39,11 +39,6 @@ void BackgroundTask::waitQuietly() noexcept {
     error_ = nullptr;
 }
 
-bool BackgroundTask::pending() const {
-    const std::lock_guard lock(mutex_);
-    return pending_;
-}
-
 void BackgroundTask::run() {
     std::unique_lock lock(mutex_);
     for (;;) {

@@ -26,13 +26,12 @@ public:
     void wait();
     /// wait() that drops the run's exception: for unwinding after an error of the caller's own.
     void waitQuietly() noexcept;
-    bool pending() const;
 
 private:
     void run();
 
     std::function<void()> body_;
-    mutable std::mutex mutex_;
+    std::mutex mutex_;
     std::condition_variable changed_;
     bool stop_ = false, started_ = false, pending_ = false; // under mutex_
     std::exception_ptr error_;                             // under mutex_
