@@ -20,6 +20,7 @@
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/mr/Session.h>
 #include <lightskin/render/Scene.h>
+#include <lightskin/roommodel/RoomModelFile.h>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -87,6 +88,7 @@ struct ReplayArgs {
     std::string backend; ///< overrides the scene's gi.backend when set (auto, gl, cpu)
     std::string differential = "scene";
     std::string cacheDir;                  ///< --cache-dir: overrides the scene's multi-scale PRT cache folder when set
+    std::string roomModel, saveRoomModel;  ///< --room-model (load at the start), --save-room-model (at the end)
     std::optional<std::int64_t> maxFrames; ///< --max-frames (>= 1); all frames when unset
 };
 
@@ -269,7 +271,8 @@ int runReplay(const ReplayArgs& args) {
     const auto start = std::chrono::steady_clock::now();
     const std::filesystem::path out(args.out);
     // Writes nothing; the folder is made once all inputs are checked (then against the scene's files too).
-    checkOutputFolder(out, args.overwrite, "--out", {args.recording, args.scene, args.cacheDir});
+    checkOutputFolder(out, args.overwrite, "--out", {args.recording, args.scene, args.cacheDir, args.roomModel});
+    if (!args.saveRoomModel.empty()) roommodel::checkRoomModelDestination(args.saveRoomModel);
     // Scene: --scene, else <recording>/scene.json.
     std::filesystem::path scenePath = args.scene;
     if (scenePath.empty()) {
@@ -333,6 +336,7 @@ int runReplay(const ReplayArgs& args) {
             throw Error("--backend", std::nullopt,
                         "expected " + gi::backendSettingNames(false) + ", got '" + args.backend + "'");
     }
+    options.roomModelFile = args.roomModel;
     mr::SessionOptions sessionOptions;
     sessionOptions.pipeline = options;
     sessionOptions.budgetMs = args.budgetMs;
@@ -351,6 +355,10 @@ int runReplay(const ReplayArgs& args) {
         throw Error("--backend", std::nullopt,
                     "the CPU backend exists for technique lightskin only (" + scenePath.string() +
                         " has gi.technique \"" + sceneTechnique + "\")");
+    if (!args.saveRoomModel.empty() && !pipeline->hasRoomMemory())
+        throw Error("--save-room-model", std::nullopt,
+                    "no room memory runs: " + scenePath.string() +
+                        " needs a roomModel block, and the poses must come from tag tracking (--pose tracking)");
     if (source->frameCount() == std::optional<std::int64_t>(0))
         throw Error(args.recording, std::nullopt, "the recording has no frames: nothing to replay");
     // --write-frames past the frames that will be read would silently write nothing.
@@ -367,7 +375,7 @@ int runReplay(const ReplayArgs& args) {
                                        std::to_string(*available - 1) + ")"));
     }
     InputPaths inputs = sceneInputs(scene);
-    inputs.insert(inputs.end(), {args.recording, args.cacheDir});
+    inputs.insert(inputs.end(), {args.recording, args.cacheDir, args.roomModel});
     prepareOutputFolder(out, args.overwrite, "--out", inputs); // every input is valid: from here on, outputs
     std::filesystem::create_directories(out / "frames");
     // Without a GI technique both halves of the comparison would be the same image.
@@ -549,6 +557,10 @@ int runReplay(const ReplayArgs& args) {
     summary.videoCodec = videoCodec;
     summary.wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     writeReplayReport(out, summary, frames);
+    if (!args.saveRoomModel.empty()) {
+        session->saveRoomModel(args.saveRoomModel);
+        std::printf("replay: room model saved to %s\n", args.saveRoomModel.c_str());
+    }
     {
         std::int64_t active = 0;
         for (const ReportFrame& f : frames) active += f.giActive ? 1 : 0;
@@ -634,6 +646,12 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
                      "LightSkin's stages 0-4 on gl or cpu (SIMD + threads; shading stays on GL), or auto: cpu on a "
                      "software rasterizer (llvmpipe), else gl (default: the scene's gi.backend, whose default is auto)")
         ->check(oneOf(backendSpellings()));
+    command->add_option("--room-model", args->roomModel,
+                        "Start the room memory from this saved room model (made by --save-room-model for the same "
+                        "roomModel grid)");
+    command->add_option("--save-room-model", args->saveRoomModel,
+                        "At the end, save the room memory's model to this file (new, or one lightskin saved; "
+                        "replaced only when complete)");
     command->add_flag("--sequential", args->sequential,
                       "Read, depth-filter and track frame n+1 after frame n on one thread (default: on a worker thread "
                       "while frame n renders; the images are the same)");

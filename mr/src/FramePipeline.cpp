@@ -17,6 +17,7 @@
 #include <lightskin/mr/SceneContent.h>
 #include <lightskin/roomlight/RoomLightEstimator.h>
 #include <lightskin/roommodel/RoomMemory.h>
+#include <lightskin/roommodel/RoomModelFile.h>
 #include <lightskin/tracking/TagWorld.h>
 
 #include <epoxy/gl.h>
@@ -588,6 +589,15 @@ void FramePipeline::setGiAhead(bool on) {
 
 void FramePipeline::finishGiAhead() { state_->giAhead.drop(); }
 
+bool FramePipeline::hasRoomMemory() const noexcept { return state_->roomMemory.has_value(); }
+
+void FramePipeline::saveRoomModel(const std::filesystem::path& file) const {
+    if (!state_->roomMemory)
+        throw Error(file.string(), std::nullopt,
+                    "no room model to save: the scene has no roomModel block, or poses do not come from tag tracking");
+    roommodel::saveRoomModel(state_->roomMemory->model(), file);
+}
+
 void FramePipeline::setDifferentialAlongside(bool on) {
     State& s = *state_;
     if (!on)
@@ -620,6 +630,15 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
     s.valsUsable = source.registration == DepthRegistration::RegisteredToColour &&
                    source.depthIntrinsics.width == colour.width && source.depthIntrinsics.height == colour.height;
     s.roomMemory = roomMemoryFromScene(scene, options.poseMode, s.valsUsable, source.uri);
+    if (!options.roomModelFile.empty()) {
+        if (!s.roomMemory)
+            throw Error(options.roomModelFile.string(), std::nullopt,
+                        "a saved room model needs a scene with a roomModel block, poses from tag tracking (pose mode "
+                        "tracking) and depth registered to colour");
+        s.roomMemory->loadModel(options.roomModelFile);
+        log::info(options.roomModelFile.string() + ": room model loaded (" +
+                  std::to_string(s.roomMemory->model().views().size()) + " views)");
+    }
     if (s.valsUsable) {
         p->createValGenerator(scene.gi.valStride);
         s.occupancy = gi::ValOccupancyCull::create(colour.width, colour.height);

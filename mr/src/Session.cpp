@@ -349,4 +349,10 @@ glm::mat4 Session::viewMatrix() const {
     return glm::mat4(report_.world_T_camera->inverse().matrix());
 }
 
+void Session::saveRoomModel(const std::filesystem::path& file) {
+    pipeline_->finishGiAhead(); // it reads a frame of the prefetch
+    prefetch_.reset();          // its worker updates the room memory
+    pipeline_->saveRoomModel(file);
+}
+
 } // namespace lightskin::mr

@@ -1,5 +1,6 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/roommodel/RoomMemory.h>
+#include <lightskin/roommodel/RoomModelFile.h>
 
 #include <glm/gtc/quaternion.hpp>
 #include <opencv2/imgproc.hpp>
@@ -109,6 +110,7 @@ struct RoomMemory::Impl {
     std::optional<Pose> trackFrom(const Pose& world_T_previous);
     void onTagFrame(tracking::TrackingResult& result);
     void onNoTagFrame(tracking::TrackingResult& result);
+    void forgetPoses();
 };
 
 /// `depth` subsampled by an integer factor to at most `width` pixels wide, into `out` (or shared when it fits).
@@ -295,15 +297,23 @@ void RoomMemory::update(const cv::Mat& depthMetres, const CameraIntrinsics& intr
 }
 
 void RoomMemory::reset() {
-    Impl& m = *impl_;
-    m.model.reset();
-    m.lastOutput.reset();
-    m.outputBefore.reset();
-    m.sinceTagsFromDepth = false;
-    m.depthRun = 0;
-    m.expired = false;
-    m.failed = false;
-    m.blendLeft = 0;
+    impl_->model.reset();
+    impl_->forgetPoses();
+}
+
+void RoomMemory::Impl::forgetPoses() {
+    lastOutput.reset();
+    outputBefore.reset();
+    sinceTagsFromDepth = false;
+    depthRun = 0;
+    expired = false;
+    failed = false;
+    blendLeft = 0;
+}
+
+void RoomMemory::loadModel(const std::filesystem::path& file) {
+    loadRoomModelInto(impl_->model, file); // throws before changing anything
+    impl_->forgetPoses();
 }
 
 const RoomModel& RoomMemory::model() const noexcept { return impl_->model; }

@@ -1,7 +1,9 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/roommodel/RoomModel.h>
 
+#include <glm/geometric.hpp>
 #include <glm/mat3x3.hpp>
+#include <glm/trigonometric.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/rgbd/volume.hpp>
 
@@ -101,13 +103,30 @@ struct RoomModel::Impl {
     cv::Ptr<cv::kinfu::Volume> volume;
     cv::Mat points, normals; // raycast scratch, sized on first use
     int integratedFrames = 0;
+    std::vector<FusedView> views; // reserved to kMaxViews: no allocation per frame
+
+    void rememberView(const Pose& world_T_camera, const CameraIntrinsics& intrinsics);
 };
+
+void RoomModel::Impl::rememberView(const Pose& world_T_camera, const CameraIntrinsics& intrinsics) {
+    if (views.size() >= kMaxViews) return;
+    const glm::dvec3 position = world_T_camera.translation();
+    const glm::dvec3 forward = world_T_camera.transformDirection({0.0, 0.0, 1.0});
+    const double minCos = std::cos(glm::radians(kViewSpacingDegrees));
+    for (const FusedView& view : views) {
+        const bool near = glm::length(view.world_T_camera.translation() - position) < kViewSpacingMetres;
+        const bool sameWay = glm::dot(view.world_T_camera.transformDirection({0.0, 0.0, 1.0}), forward) > minCos;
+        if (near && sameWay) return;
+    }
+    views.push_back({world_T_camera, intrinsics});
+}
 
 RoomModel RoomModel::create(const RoomModelSettings& settings) {
     validate(settings, "room model", "");
     auto impl = std::make_unique<Impl>();
     impl->settings = settings;
     impl->resolution = resolutionOf(settings);
+    impl->views.reserve(kMaxViews);
     const Pose world_T_volume = worldFromVolume(settings);
     // Ray steps of 0.75 voxel, OpenCV's default. Longer steps would halve the render time, but OpenCV 4.6's
     // raycast then misses or misplaces surfaces (1.5 voxels: 0.4 m errors in tests/roommodel).
@@ -140,6 +159,7 @@ bool RoomModel::integrate(const cv::Mat& depthMetres, const CameraIntrinsics& in
     // depthFactor 1: the depth is already in metres.
     impl_->volume->integrate(depthMetres, 1.0f, toMatx(shifted), toIntr(intrinsics));
     ++impl_->integratedFrames;
+    impl_->rememberView(world_T_camera, intrinsics);
     return true;
 }
 
@@ -168,6 +188,7 @@ void RoomModel::renderDepthInto(const Pose& world_T_camera, const CameraIntrinsi
 void RoomModel::reset() {
     impl_->volume->reset();
     impl_->integratedFrames = 0;
+    impl_->views.clear();
 }
 
 int RoomModel::integratedFrames() const noexcept { return impl_->integratedFrames; }
@@ -177,5 +198,6 @@ std::size_t RoomModel::voxelBytes() const noexcept {
     return std::size_t(r.x) * std::size_t(r.y) * std::size_t(r.z) * kBytesPerVoxel;
 }
 const RoomModelSettings& RoomModel::settings() const noexcept { return impl_->settings; }
+const std::vector<FusedView>& RoomModel::views() const noexcept { return impl_->views; }
 
 } // namespace lightskin::roommodel

@@ -23,6 +23,7 @@
 #include <lightskin/roomlight/LightEstimate.h>
 #include <lightskin/tracking/PoseTracker.h>
 
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -96,6 +97,10 @@ struct PipelineOptions {
     /// The backend override (`lightskin replay --backend`, a host's choice): replaces the gi.backend of the scene
     /// and of every setGiSettings() for the pipeline's life (gi::chooseBackend, reason CommandLine); unset = theirs.
     std::optional<gi::BackendSetting> backend;
+    /// A saved room model to start from (roommodel/RoomModelFile.h; `--room-model`): loaded at create(), which throws
+    /// lightskin::Error naming the file when it cannot be used (no roomModel in the scene, poses not from tracking,
+    /// unregistered depth, a corrupt file or another grid). Empty: the room memory starts empty.
+    std::filesystem::path roomModelFile;
 };
 
 /// Why a frame had no GI (FrameOutput::giInactiveCause); stable strings for reports and tests.
@@ -239,6 +244,12 @@ public:
     /// Waits for a GI ahead that is running and drops its result. Call before the frames handed to
     /// render(..., next) go away (Session does, before its prefetch).
     void finishGiAhead();
+    /// Whether the scene's room memory runs (a roomModel block, poses from tracking, registered depth).
+    bool hasRoomMemory() const noexcept;
+    /// Saves the room memory's model (roommodel::saveRoomModel: replaced atomically, never over another kind of file).
+    /// Throws lightskin::Error naming the file when there is no room memory or it cannot be written. Not while
+    /// prepare() runs on another thread (Session::saveRoomModel stops its prefetch first).
+    void saveRoomModel(const std::filesystem::path& file) const;
     /// Differential rendering (the scene's compositing.differential) on a thread of its own, beside the
     /// frame's G-buffer, GI and shading, collected before the composite; off: on the caller's thread, before the
     /// GI. The images are the same either way. Session turns it on with the GI ahead (not under a frame budget,

@@ -159,6 +159,10 @@ public:
     glm::mat4 viewMatrix() const;
 
     FramePipeline& pipeline() noexcept { return *pipeline_; }
+    /// Saves the room memory's model (FramePipeline::saveRoomModel) once the source's prefetch has stopped: call it
+    /// when done with the source, since frames the prefetch read ahead are dropped (a later processNext() goes on
+    /// after them). Throws lightskin::Error naming the file.
+    void saveRoomModel(const std::filesystem::path& file);
     const FramePipeline& pipeline() const noexcept { return *pipeline_; }
     /// The virtual content as it is now (FramePipeline::scene()): object and light names, counts, placements.
     const render::Scene& scene() const noexcept { return pipeline_->scene(); }

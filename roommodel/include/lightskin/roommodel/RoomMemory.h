@@ -18,6 +18,7 @@
 
 #include <opencv2/core/mat.hpp>
 
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -88,6 +89,9 @@ public:
     void update(const cv::Mat& depthMetres, const CameraIntrinsics& intrinsics, tracking::TrackingResult& result);
     /// Forgets the model and the pose history.
     void reset();
+    /// Replaces the model by a saved one (RoomModelFile.h: the same grid, else lightskin::Error naming the file,
+    /// and nothing changes) and forgets the pose history. Save with saveRoomModel(model(), file).
+    void loadModel(const std::filesystem::path& file);
 
     const RoomModel& model() const noexcept;
     const RoomMemorySettings& settings() const noexcept;

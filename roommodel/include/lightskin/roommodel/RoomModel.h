@@ -27,6 +27,7 @@
 #include <cstddef>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace lightskin::roommodel {
 
@@ -57,8 +58,19 @@ struct RoomModelSettings {
 /// Throws lightskin::Error (source `sourceName`, cause "<pointer>/<key>: ...") for settings out of range.
 void validate(const RoomModelSettings& settings, const std::string& sourceName, const std::string& pointer);
 
+/// A camera the model was fused from (its pose and the intrinsics of the depth it fused).
+struct FusedView {
+    Pose world_T_camera;
+    CameraIntrinsics intrinsics;
+};
+
 class RoomModel {
 public:
+    /// views() keeps a fused frame whose camera is at least this far from every kept view (position, metres,
+    /// or viewing direction, degrees), up to kMaxViews: views that together saw what the fused frames saw.
+    static constexpr double kViewSpacingMetres = 0.25, kViewSpacingDegrees = 15.0;
+    static constexpr std::size_t kMaxViews = 128;
+
     /// Bytes of one voxel of cv::kinfu's TSDF volume (int8 distance + uint8 weight).
     static constexpr std::size_t kBytesPerVoxel = 2;
 
@@ -78,8 +90,11 @@ public:
     /// With `normalsCamera`: also the surfaces' unit normals there, camera frame, CV_32FC3 (zero where no surface).
     void renderDepthInto(const Pose& world_T_camera, const CameraIntrinsics& intrinsics, cv::Mat& depthMetres,
                          cv::Mat* normalsCamera = nullptr) const;
-    /// Forgets every surface (keeps the memory).
+    /// Forgets every surface and view (keeps the memory).
     void reset();
+    /// Cameras of the fused frames, spaced as kViewSpacingMetres / kViewSpacingDegrees say, in fusion order: the
+    /// surfaces seen from them are what a saved model holds (RoomModelFile.h).
+    const std::vector<FusedView>& views() const noexcept;
 
     /// Frames integrated since creation or reset().
     int integratedFrames() const noexcept;
