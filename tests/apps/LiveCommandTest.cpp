@@ -76,3 +76,20 @@ TEST(LiveCommand, RealWindowUnderXvfbShowsWhatHeadlessRenders) {
     // Same pipeline, same frame: identical above the status line (its frame rate differs).
     EXPECT_EQ(cv::norm(a(cv::Rect(0, 0, 640, 440)), b(cv::Rect(0, 0, 640, 440)), cv::NORM_INF), 0.0);
 }
+
+// A live session saves its room memory and the next one starts from it (the format's own tests:
+// tests/roommodel/RoomModelFileTest.cpp; replay's: ReplayCommand.SavedRoomModelStartsTheNextReplayWithTheRoomKnown).
+TEST(LiveCommand, SavesTheRoomModelAndTheNextSessionStartsWithIt) {
+    const fs::path scratch = test::scratchDir("live_room_model");
+    const fs::path model = scratch / "room.lsroom";
+    const std::string arguments = "live --device " + (test::sourceDir() / "recordings" / "synth-orbit").string() +
+                                  " --scene " + (test::sourceDir() / "recordings" / "scenes" / "orbit.json").string() +
+                                  " --pose tracking --headless --fast --max-frames 6";
+    ASSERT_EQ(run("", arguments + " --save-room-model " + model.string(), scratch), 0) << stderrOf(scratch);
+    std::ifstream file(model, std::ios::binary);
+    std::string magic(21, '\0');
+    file.read(magic.data(), std::streamsize(magic.size()));
+    EXPECT_EQ(magic, "lightskin-room-model\n");
+    ASSERT_EQ(run("", arguments + " --room-model " + model.string(), scratch), 0) << stderrOf(scratch);
+    EXPECT_NE(stderrOf(scratch).find("room model loaded"), std::string::npos) << stderrOf(scratch);
+}
