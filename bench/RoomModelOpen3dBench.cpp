@@ -12,22 +12,22 @@
 #include <lightskin/core/Error.h>
 #include <lightskin/roommodel/RoomMemory.h>
 
-#include <Eigen/Core>
 #include <glm/gtc/quaternion.hpp>
 #include <nlohmann/json.hpp>
-#include <open3d/camera/PinholeCameraIntrinsic.h>
-#include <open3d/geometry/Image.h>
-#include <open3d/geometry/RGBDImage.h>
-#include <open3d/pipelines/integration/ScalableTSDFVolume.h>
-#include <open3d/pipelines/odometry/Odometry.h>
 #include <opencv2/core.hpp>
 
+#include <Eigen/Core>
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <open3d/camera/PinholeCameraIntrinsic.h>
+#include <open3d/geometry/Image.h>
+#include <open3d/geometry/RGBDImage.h>
+#include <open3d/pipelines/integration/ScalableTSDFVolume.h>
+#include <open3d/pipelines/odometry/Odometry.h>
 #include <string>
 #include <vector>
 
@@ -76,7 +76,7 @@ Pose fromEigen(const Eigen::Matrix4d& m) {
 
 /// The frame as Open3D's RGBD image: colour (BGR in, RGB out) and depth (CV_32FC1 metres).
 std::shared_ptr<o3d::geometry::RGBDImage> toOpen3d(const cv::Mat& colourBgr, const cv::Mat& depthMetres,
-                                                  bool intensity) {
+                                                   bool intensity) {
     o3d::geometry::Image colour, depth;
     colour.Prepare(colourBgr.cols, colourBgr.rows, 3, 1);
     for (int y = 0; y < colourBgr.rows; ++y)
@@ -111,8 +111,7 @@ int main(int argc, char** argv) try {
         filter.filterInto(frame.depth, frame.depthScaleMetres, depths.back());
     }
     roommodel::RoomModelSettings model; // defaults (4 cm) unless the scene says
-    if (scene != "-")
-        model = roommodel::roomMemorySettingsFromJson(roomModelBlock(scene), scene, "/roomModel").model;
+    if (scene != "-") model = roommodel::roomMemorySettingsFromJson(roomModelBlock(scene), scene, "/roomModel").model;
     const CameraIntrinsics& k = frames[0].depthIntrinsics;
     const o3d::camera::PinholeCameraIntrinsic intrinsic(k.width, k.height, k.fx, k.fy, k.cx, k.cy);
     o3d::pipelines::integration::ScalableTSDFVolume volume(model.voxelSizeMetres, model.truncationMetres,
@@ -153,11 +152,12 @@ int main(int argc, char** argv) try {
         std::printf("  frame %zu error %.4f m %.2f deg\n", i, metres.values.back(), degrees.values.back());
     }
     std::printf("%s, lost %d-%d, voxel %.3f m\n", path.c_str(), lostFrom, lostTo - 1, model.voxelSizeMetres);
-    std::printf("| Open3D ScalableTSDFVolume fusion CPU ms median / max | RGB-D odometry CPU / wall ms median | tracked | "
-                "m mean / max | deg mean / max |\n");
-    std::printf("| %.2f / %.2f | %.2f / %.2f | %d of %d | %.4f / %.4f | %.2f / %.2f |\n", fuseCpuMs.median(), fuseCpuMs.max(),
-                odometryCpuMs.median(), odometryWallMs.median(), tracked, lostTo - lostFrom, metres.mean(), metres.max(), degrees.mean(),
-                degrees.max());
+    std::printf(
+        "| Open3D ScalableTSDFVolume fusion CPU ms median / max | RGB-D odometry CPU / wall ms median | tracked | "
+        "m mean / max | deg mean / max |\n");
+    std::printf("| %.2f / %.2f | %.2f / %.2f | %d of %d | %.4f / %.4f | %.2f / %.2f |\n", fuseCpuMs.median(),
+                fuseCpuMs.max(), odometryCpuMs.median(), odometryWallMs.median(), tracked, lostTo - lostFrom,
+                metres.mean(), metres.max(), degrees.mean(), degrees.max());
     return 0;
 } catch (const std::exception& error) {
     std::fprintf(stderr, "lightskin_bench_roommodel_open3d: %s\n", error.what());

@@ -16,6 +16,7 @@
 // --out). tests/apps/RealDepthDataGLTest.cpp asserts the targets on every recording (exceptions named there).
 
 #include <lightskin/bench/BenchReport.h>
+#include <lightskin/bench/Flicker.h>
 #include <lightskin/bench/RealDepthBench.h>
 #include <lightskin/bench/StopRequest.h>
 #include <lightskin/capture/FrameSource.h>
@@ -241,28 +242,6 @@ void writeIndirectPng(const std::filesystem::path& path, const cv::Mat& linearBg
     linearBgr.convertTo(scaled, CV_32FC3, meanLuminance > 0.0 ? 0.25 / meanLuminance : 1.0);
     eval::linearToSrgb8Into(scaled, srgb);
     cv::imwrite(path.string(), srgb);
-}
-
-/// Samples the indirect light at the tracked world points (NaN where hidden or off-screen).
-void sampleTracked(const std::vector<glm::dvec3>& points, const CameraIntrinsics& k, const Pose& world_T_camera,
-                   const cv::Mat& coverage, const cv::Mat& virtualDepth, const cv::Mat& image,
-                   std::vector<float>& out) {
-    const Pose camera_T_world = world_T_camera.inverse();
-    for (const glm::dvec3& p : points) {
-        float value = std::nanf("");
-        const glm::dvec3 c = camera_T_world.transformPoint(p);
-        if (c.z > 0.05) {
-            const glm::dvec2 px = k.project(c);
-            const int u = int(std::floor(px.x)), v = int(std::floor(px.y));
-            // visible: covered, and the virtual depth there within 1 cm (plus 1 %) of the point's
-            if (u >= 0 && v >= 0 && u < image.cols && v < image.rows && coverage.at<std::uint8_t>(v, u) &&
-                std::abs(double(virtualDepth.at<float>(v, u)) - c.z) < 0.01 + 0.01 * c.z) {
-                const cv::Vec3f x = image.at<cv::Vec3f>(v, u);
-                value = (x[0] + x[1] + x[2]) / 3.0f;
-            }
-        }
-        out.push_back(value);
-    }
 }
 
 /// --maps: the luminance of an indirect image as raw float32, rows top to bottom (for analysis scripts).
@@ -521,7 +500,7 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
         for (std::size_t i = 0; i < m.mesh->vertexCount(); i += step)
             points.emplace_back(m.world_T_model * glm::vec4(m.mesh->positions[i], 1.0f));
     }
-    std::vector<float> seriesLs, seriesBf;
+    FlickerSeries flicker(points.size());
 
     CaseResult r;
     r.recording = c.name;
@@ -609,45 +588,21 @@ CaseResult runCase(const RealCase& c, const LightModel& model, double sink, cons
                 cv::imwrite((imageFolder / (std::string(name) + "speckle_map.png")).string(), both);
             }
         }
-        if (c.flicker) {
-            sampleTracked(points, frame.colourIntrinsics, *out.world_T_camera, out.coverage, out.virtualDepthMetres,
-                          out.linearIndirect, seriesLs);
-            sampleTracked(points, frame.colourIntrinsics, *out.world_T_camera, out.coverage, out.virtualDepthMetres,
-                          out.linearIndirectReference, seriesBf);
-        }
+        if (c.flicker)
+            flicker.addFrame(points, frame.colourIntrinsics, *out.world_T_camera, out.coverage, out.virtualDepthMetres,
+                             out.linearIndirect, out.linearIndirectReference);
         ++r.frames;
     }
     if (c.flicker && r.frames >= 2) {
-        double level = 0.0;
-        std::size_t levelCount = 0;
-        for (float v : seriesBf)
-            if (!std::isnan(v)) {
-                level += double(v);
-                ++levelCount;
-            }
-        level = levelCount ? level / double(levelCount) : 1.0;
-        const auto flickerOf = [&](const std::vector<float>& a, const std::vector<float>* reference) {
-            double sum = 0.0;
-            std::size_t samples = 0;
-            for (int f = 1; f < r.frames; ++f)
-                for (std::size_t p = 0; p < points.size(); ++p) {
-                    const std::size_t i0 = std::size_t(f - 1) * points.size() + p, i1 = i0 + points.size();
-                    if (std::isnan(a[i0]) || std::isnan(a[i1]) || std::isnan(seriesBf[i0]) || std::isnan(seriesBf[i1]))
-                        continue;
-                    double d = double(a[i1]) - double(a[i0]);
-                    if (reference) d -= double((*reference)[i1]) - double((*reference)[i0]);
-                    sum += d * d;
-                    ++samples;
-                }
-            r.flickerSamples = samples;
-            return samples ? std::sqrt(sum / double(samples)) / level : 0.0;
-        };
         if (options.maps)
-            dumpWorstFlicker(imageFolder, c.name + "_" + model.name, sink, points, r.frames, seriesLs, seriesBf);
+            dumpWorstFlicker(imageFolder, c.name + "_" + model.name, sink, points, r.frames, flicker.lightSkinSeries(),
+                             flicker.bruteForceSeries());
+        const FlickerSeries::Result measured = flicker.measure();
         r.flickerMeasured = true;
-        r.flickerBrute = flickerOf(seriesBf, nullptr);
-        r.flickerLightSkin = flickerOf(seriesLs, nullptr);
-        r.excessFlicker = flickerOf(seriesLs, &seriesBf);
+        r.flickerSamples = measured.samples;
+        r.flickerBrute = measured.bruteForce;
+        r.flickerLightSkin = measured.lightSkin;
+        r.excessFlicker = measured.excess;
     }
     gl::DebugOutput::throwIfErrors("bench-realdepth");
     return r;

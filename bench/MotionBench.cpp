@@ -1,0 +1,142 @@
+// lightskin_bench_motion: temporal coherence of LightSkin under motion, the way the paper claims it ("animations
+// must not introduce undesirable flickering"). A separate program, never a test; the numbers go to
+// docs/BENCHMARKS.md "Flicker under motion" with this command:
+//   build/bench/lightskin_bench_motion [recording=recordings/synth-orbit] [scene ...]
+// default scenes: recordings/scenes/orbit_slide.json (the cube rests, slides and turns across the table, rests),
+// orbit_light_moving.json (a virtual light circles the objects; its bounce reaches them as RSM VALs) and
+// orbit_skinned.json (a skinned cylinder bends). Every frame runs through the production pipeline
+// (mr::FramePipeline, ground-truth poses, the default backend) with the brute force on the same VALs beside
+// LightSkin (PipelineOptions::referenceIndirect). Tracked points are every k-th vertex of every object (~1500 per
+// mesh) in object space: they move and deform with their object. Printed per scene: flicker of both techniques
+// and LightSkin's excess (bench/Flicker.h), over all frames and over the frame pairs where content starts or stops
+// moving (a pop would show there), and the largest excess of a single frame pair.
+#include <lightskin/bench/Flicker.h>
+#include <lightskin/capture/FrameSource.h>
+#include <lightskin/core/Error.h>
+#include <lightskin/gl/Context.h>
+#include <lightskin/mr/FramePipeline.h>
+#include <lightskin/render/Scene.h>
+
+#include <glm/geometric.hpp>
+#include <glm/mat4x4.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace {
+
+using namespace lightskin;
+
+/// Every k-th vertex of every object, world space, in a fixed order (k keeps ~1500 per mesh).
+void trackedPointsInto(std::span<const gi::MeshInstance> instances, std::vector<glm::dvec3>& points) {
+    points.clear();
+    for (const gi::MeshInstance& m : instances) {
+        const std::size_t step = std::max<std::size_t>(1, m.mesh->vertexCount() / 1500);
+        for (std::size_t i = 0; i < m.mesh->vertexCount(); i += step)
+            points.emplace_back(m.world_T_model * glm::vec4(m.mesh->positions[i], 1.0f));
+    }
+}
+
+/// Whether the objects' placement changed between the two frames' point sets (moved or deformed by > 0.1 mm).
+bool moved(const std::vector<glm::dvec3>& a, const std::vector<glm::dvec3>& b) {
+    if (a.size() != b.size()) return true;
+    for (std::size_t i = 0; i < a.size(); ++i)
+        if (glm::length(a[i] - b[i]) > 1e-4) return true;
+    return false;
+}
+
+struct SceneResult {
+    bench::FlickerSeries::Result all, transitions;
+    double worstPairExcess = 0.0, excessWithout5Percent = 0.0;
+    int worstPair = -1, frames = 0, transitionPairs = 0;
+    std::string backend;
+};
+
+SceneResult measure(const std::string& recording, const std::string& scenePath) {
+    const render::Scene scene = render::loadScene(scenePath);
+    auto source = capture::openFrameSource(recording);
+    mr::PipelineOptions options;
+    options.poseMode = mr::PoseMode::GroundTruth;
+    options.compare = false;
+    options.view = render::DebugView::IndirectOnly;
+    options.referenceIndirect = true;
+    auto pipeline = mr::FramePipeline::create(scene, source->info(), options);
+    SceneResult r;
+    r.backend = pipeline->techniqueName();
+    std::vector<glm::dvec3> points, previous;
+    std::vector<bool> moving; // per frame pair (f - 1, f): did content move between them
+    std::size_t pointCount = 0;
+    std::optional<bench::FlickerSeries> series;
+    RgbdFrame frame;
+    mr::FrameOutput out;
+    while (source->next(frame)) {
+        pipeline->process(frame, out);
+        if (!out.world_T_camera || out.linearIndirect.empty() || out.linearIndirectReference.empty())
+            throw Error(recording, frame.index, "no pose or no GI in this frame");
+        trackedPointsInto(pipeline->renderer().instances(), points);
+        if (!series) {
+            pointCount = points.size();
+            series.emplace(pointCount);
+        }
+        if (r.frames > 0) moving.push_back(moved(previous, points));
+        series->addFrame(points, frame.colourIntrinsics, *out.world_T_camera, out.coverage, out.virtualDepthMetres,
+                         out.linearIndirect, out.linearIndirectReference);
+        previous.swap(points);
+        ++r.frames;
+    }
+    r.all = series->measure();
+    r.excessWithout5Percent = series->excessWithoutWorst(0.05);
+    // Pops: the pairs where motion starts or stops (moving differs from the pair before).
+    double transitionSquares = 0.0;
+    std::size_t transitionSamples = 0;
+    for (int f = 1; f < r.frames; ++f) {
+        const bench::FlickerSeries::Result pair = series->measure(f, f + 1);
+        if (pair.samples > 0 && pair.excess > r.worstPairExcess) {
+            r.worstPairExcess = pair.excess;
+            r.worstPair = f;
+        }
+        const bool transition = f >= 2 && moving[std::size_t(f - 1)] != moving[std::size_t(f - 2)];
+        if (transition && pair.samples > 0) {
+            ++r.transitionPairs;
+            transitionSquares += pair.excess * pair.excess * double(pair.samples);
+            transitionSamples += pair.samples;
+        }
+    }
+    if (transitionSamples > 0) {
+        r.transitions.samples = transitionSamples;
+        r.transitions.excess = std::sqrt(transitionSquares / double(transitionSamples));
+    }
+    return r;
+}
+
+} // namespace
+
+int main(int argc, char** argv) try {
+    const std::string recording = argc > 1 ? argv[1] : "recordings/synth-orbit";
+    std::vector<std::string> scenes;
+    for (int i = 2; i < argc; ++i) scenes.emplace_back(argv[i]);
+    if (scenes.empty())
+        scenes = {"recordings/scenes/orbit_slide.json", "recordings/scenes/orbit_light_moving.json",
+                  "recordings/scenes/orbit_skinned.json"};
+    auto context = gl::createHeadlessContext();
+    std::printf("| scene | LightSkin backend | frames | samples | flicker brute force | flicker LightSkin | excess "
+                "LightSkin | without the 5 %% worst points | excess at motion start/stop (pairs) | worst pair's excess "
+                "(frame) |\n"
+                "|---|---|---|---|---|---|---|---|---|---|\n");
+    for (const std::string& scene : scenes) {
+        const SceneResult r = measure(recording, scene);
+        std::printf("| %s | %s | %d | %zu | %.4f | %.4f | %.4f | %.4f | %.4f (%d) | %.4f (%d) |\n", scene.c_str(),
+                    r.backend.c_str(), r.frames, r.all.samples, r.all.bruteForce, r.all.lightSkin, r.all.excess,
+                    r.excessWithout5Percent, r.transitions.excess, r.transitionPairs, r.worstPairExcess, r.worstPair);
+        std::fflush(stdout);
+    }
+    return 0;
+} catch (const std::exception& error) {
+    std::fprintf(stderr, "lightskin_bench_motion: %s\n", error.what());
+    return 1;
+}
