@@ -37,28 +37,56 @@
 //    plus the view direction); a cos^k lobe's relative second derivative in the angle is
 //    k^2 tan^2(gamma) - k / cos^2(gamma), so each light's glossy term may be off by
 //    (1/2) Delta_g^2 (k + k^2 tan^2 gamma) (capped at 1), on top of the diffuse terms.
-//  * occlusion: the quads-on-the-unit-circle model of S_o and the occluder discs (section 3.3)
-//    has no error bound that follows from the scene (an occluder's disc may cover a light the
-//    real occluder misses, and the reverse). What it must achieve is to be no worse than no
-//    occlusion, whose error is the light the occluders really block: + B, with B = 1 - (truth
-//    with visibility) / (truth without), computed by the truth itself. (The first version
-//    claimed 0.5 B; the tighter interpolation budget showed the convex scene at 1.0 B: LightSkin
-//    over-occludes there, 0.91 of the truth where the truth blocks 12 %.)
+//  * occlusion (section 3.3, eq. 14): each sparse point x_j multiplies its gathered light by
+//    (1 - o_j), o_j = the summed overlap of the other points' occluder discs with S_o, clamped to 1.
+//    What the model gets wrong, and what follows for o_j against the truth's blocked fraction b_j
+//    (b = 1 - visible / unoccluded, per receiver, from the truth):
+//     - the discs' area: radius = the farthest mesh vertex in the point's Voronoi region, so on a
+//       mesh coarser than the sparse spacing the discs stop short of the region's boundary and
+//       cover kappa = sum pi r_i^2 / area of the surface (kappa = 0.63-0.78 here: discCoverage(),
+//       computed from the sparse points, not from a run). A light the real surface hides is
+//       hidden by the discs with probability ~kappa.
+//     - the sum over occluders ("double occlusion"): a ray blocked by a closed object crosses two
+//       of its surfaces (front and back; both sets of discs face x and count), an open sheet one.
+//       So the summed o_j ~ m kappa b_j, m = the surfaces per blocked ray (TruthScene::
+//       occluderLayers: 2 for the spheres, 1 for the trough's open walls), clamped to 1. The
+//       closed sphere is why the convex and near-wall scenes over-occlude (2 kappa ~ 1.4-1.5 > 1)
+//       while the trough under-occludes (kappa ~ 0.65 < 1); the discs cannot tell a front from a
+//       back face, so no choice of radius is right for both.
+//     - the number of sparse points: o is computed at the sparse points and reaches a pixel
+//       through eq. 12-13 and the rasteriser, a convex combination of the o_j within the reach
+//       delta (above), so the pixel's o lies within [min, max] of the sparse points' o_j there.
+//    Hence per receiver, with [bLow, bHigh] the range of the truth's b over the receivers of the
+//    same mesh within delta and kappa over the scene's meshes, o lies in
+//    [min(1, m kappaMin bLow), min(1, m kappaMax bHigh)], and the allowed error of the pixel is the
+//    farthest end of that interval from its own b, times its unoccluded light (occlusionBudget()).
+//    Not modelled (no bound follows from the scene, left inside the margin between the interval's
+//    ends): the quad shapes (a square of the same area as a disc differs from it by 18 % of the
+//    area) and eq. 14's projected centres, and S_o standing for the real spread of the VALs. The
+//    budget is summed like the error; it is below the error of no occlusion (sum U b / sum V) on
+//    every scene (0.92, 0.59, 0.57 of it), and on top the test asserts that occlusion beats no
+//    occlusion. Injected errors (temporary edit of ls_occluderAmount, rebuild, run; reverted):
+//    occluder radius doubled: all three scenes fail (0.35 > 0.16, 0.47 > 0.26, 0.49 > 0.41);
+//    occlusion off (radius 0): the trough and near wall fail their budgets (0.43 > 0.26,
+//    0.58 > 0.41) and all three the occlusion-beats-none check; radius halved: the trough fails
+//    (0.36 > 0.26); the spheres pass, as halving the discs there offsets the double count (convex
+//    0.082, better than the real model's 0.123; near wall 0.367 < 0.41).
+//    (The budget before this was + B, "no worse than no occlusion".)
 //  The light weights use the point-disc form factor M_j A_j cos_e cos_i / (pi r^2), the glossy
 //  weights eq. 5. Each pixel's diffuse part (of the truth) is allowed min(1, parallax + horizon)
 //  of itself, its glossy part min(1, parallax + horizon + lobe); the image budget is their sum
-//  over the pixels divided by the truth's sum, plus B; asserted on the relative L1 error
+//  over the pixels divided by the truth's sum, plus the occlusion budget; asserted on the relative L1 error
 //  sum |LightSkin - truth| / sum truth over all covered pixels (which also bounds the bias). The
 //  model before (first version: (1/2) (1.5 h / l)^2 with l the distance to the nearest
 //  VAL or the curvature radius, the worst mesh for the whole image) sat 30-100x above the errors.
-#include "common/GatherTestScenes.h"
 #include "GlTestEnvironment.h"
+#include "common/GatherTestScenes.h"
 #include "common/GpuRig.h"
 
-#include <lightskin/gi/lightskin/LightSkinIllumination.h>
-#include <lightskin/gi/reference/RayTracedGroundTruth.h>
 #include <lightskin/gi/common/SimpleGBuffer.h>
 #include <lightskin/gi/common/SparsePointSampler.h>
+#include <lightskin/gi/lightskin/LightSkinIllumination.h>
+#include <lightskin/gi/reference/RayTracedGroundTruth.h>
 #include <lightskin/gl/Objects.h>
 
 #include <glm/ext/matrix_transform.hpp>
@@ -116,6 +144,9 @@ struct TruthScene : GpuRig {
     std::vector<gi::VirtualAreaLight> vals;
     /// per mesh: radius of curvature R of the budget (metres; infinity for planes)
     std::vector<double> curvatureRadius;
+    /// surfaces a ray the scene's occluders block crosses: 2 for a closed object, 1 for an open sheet (occlusion
+    /// budget at the top)
+    int occluderLayers = 1;
     void addMesh(TriangleMesh mesh, const glm::mat4& transform, std::size_t points, double radius) {
         add(std::move(mesh), transform, material(), points);
         curvatureRadius.push_back(radius);
@@ -134,6 +165,7 @@ TruthScene convexOverFloor() {
     s.vals.insert(s.vals.end(), ceiling.begin(), ceiling.end());
     s.eye = {1.6f, -1.8f, 1.5f};
     s.target = {0.0f, 0.0f, 0.3f};
+    s.occluderLayers = 2; // the sphere
     return s;
 }
 
@@ -165,6 +197,7 @@ TruthScene nearWall() {
     s.vals = squareEmitter({-0.4f, 0.0f, 0.75f}, {1.0f, 0.0f, 0.0f}, 1.2f, 30, {1.0f, 0.9f, 0.8f});
     s.eye = {1.5f, -1.2f, 1.2f};
     s.target = {0.0f, 0.0f, 0.35f};
+    s.occluderLayers = 2; // the sphere
     return s;
 }
 
@@ -300,6 +333,57 @@ std::size_t nearestMesh(const TruthScene& scene, const glm::dvec3& p) {
     return best;
 }
 
+/// Fraction of mesh m's surface its sparse points' occluder discs cover, sum pi r_i^2 / area (kappa in the
+/// occlusion budget at the top). Discs are sized by the farthest mesh vertex of their Voronoi region, so on a mesh
+/// coarser than the sparse spacing they stop short of the region's boundary and kappa < 1.
+double discCoverage(const TruthScene& scene, std::size_t m) {
+    double discs = 0.0;
+    for (const gi::SparsePoint& p : scene.sparsePoints(m).points)
+        discs += std::numbers::pi * double(p.occluderRadius) * double(p.occluderRadius);
+    return discs / gi::surfaceArea(scene.meshes[m]);
+}
+
+/// The occlusion model's allowed error per receiver, as a fraction of its unoccluded light (derivation at the
+/// top): with b the truth's blocked fraction at the receiver and [bLow, bHigh] its range over the receivers of
+/// the same mesh within `reach`, the model's occlusion lies in [kappaMin bLow, min(1, 2 kappaMax bHigh)]; the
+/// allowance is the farthest end of that interval from b.
+std::vector<double> occlusionBudget(const TruthScene& scene, const Truth& truth, const std::vector<std::size_t>& mesh,
+                                    const std::vector<double>& reach) {
+    double kappaMin = std::numeric_limits<double>::infinity(), kappaMax = 0.0;
+    for (std::size_t m = 0; m < scene.meshes.size(); ++m) {
+        const double kappa = discCoverage(scene, m);
+        kappaMin = std::min(kappaMin, kappa);
+        kappaMax = std::max(kappaMax, kappa);
+    }
+    const std::size_t n = truth.pixels.size();
+    std::vector<double> blocked(n, 0.0);
+    for (std::size_t k = 0; k < n; ++k) {
+        double u = 0.0, v = 0.0;
+        for (int c = 0; c < 3; ++c) {
+            u += truth.unoccluded[k].radiance[c];
+            v += truth.visible[k].radiance[c];
+        }
+        blocked[k] = u > 0.0 ? std::clamp(1.0 - v / u, 0.0, 1.0) : 0.0;
+    }
+    std::vector<double> allowed(n, 0.0);
+    for (std::size_t k = 0; k < n; ++k) {
+        double low = blocked[k], high = blocked[k];
+        const double reach2 = reach[mesh[k]] * reach[mesh[k]];
+        for (std::size_t j = 0; j < n; ++j) {
+            if (mesh[j] != mesh[k]) continue;
+            const glm::dvec3 d = truth.receivers[j].position - truth.receivers[k].position;
+            if (glm::dot(d, d) > reach2) continue;
+            low = std::min(low, blocked[j]);
+            high = std::max(high, blocked[j]);
+        }
+        const double layers = double(scene.occluderLayers);
+        const double modelLow = std::min(1.0, layers * kappaMin * low),
+                     modelHigh = std::min(1.0, layers * kappaMax * high);
+        allowed[k] = std::max(std::abs(modelLow - blocked[k]), std::abs(modelHigh - blocked[k]));
+    }
+    return allowed;
+}
+
 void checkScene(TruthScene scene, const char* name) {
     scene.productionSampler = true;
     scene.width = scene.height = 64;
@@ -325,10 +409,15 @@ void checkScene(TruthScene scene, const char* name) {
         double sumTruth = 0.0, sumTechnique = 0.0, sumError = 0.0, sumDiffuse = 0.0, sumGlossy = 0.0;
         double sumVisible = 0.0, sumUnoccluded = 0.0, sumErrorVsVisible = 0.0;
         double allowedDiffuse = 0.0, allowedGlossy = 0.0; // the interpolation budget, summed like the error
+        double allowedOcclusion = 0.0;                    // the occlusion budget, summed like the error
+        std::vector<std::size_t> mesh(truth.pixels.size());
+        for (std::size_t k = 0; k < truth.pixels.size(); ++k) mesh[k] = nearestMesh(scene, truth.receivers[k].position);
+        const std::vector<double> occlusionAllowed = setup.occlusion ? occlusionBudget(scene, truth, mesh, reach)
+                                                                     : std::vector<double>(truth.pixels.size(), 0.0);
         for (std::size_t k = 0; k < truth.pixels.size(); ++k) {
             const gi::GroundTruthResult& reference = setup.occlusion ? truth.visible[k] : truth.unoccluded[k];
             const gi::GroundTruthReceiver& receiver = truth.receivers[k];
-            const std::size_t m = nearestMesh(scene, receiver.position);
+            const std::size_t m = mesh[k];
             const PixelBudget allowed =
                 interpolationBudget(scene.vals, receiver, reach[m], normalTurn[m],
                                     reach[m] / glm::length(glm::dvec3(scene.eye) - receiver.position));
@@ -346,19 +435,21 @@ void checkScene(TruthScene scene, const char* name) {
                 allowedGlossy += (expected - diffusePart) * allowed.glossy;
                 sumVisible += truth.visible[k].radiance[c];
                 sumUnoccluded += truth.unoccluded[k].radiance[c];
+                allowedOcclusion += truth.unoccluded[k].radiance[c] * occlusionAllowed[k];
                 sumErrorVsVisible += std::abs(actual - truth.visible[k].radiance[c]);
             }
         }
         ASSERT_GT(sumTruth, 0.0);
         const double blocked = 1.0 - sumVisible / sumUnoccluded;
-        const double budget = (allowedDiffuse + allowedGlossy) / sumTruth + (setup.occlusion ? blocked : 0.0);
+        const double occlusionBudgetShare = allowedOcclusion / sumTruth;
+        const double budget = (allowedDiffuse + allowedGlossy + allowedOcclusion) / sumTruth;
         const double diffuseBudget = allowedDiffuse / sumDiffuse,
                      glossyBudget = sumGlossy > 0.0 ? allowedGlossy / sumGlossy : 0.0;
         const double error = sumError / sumTruth;
-        std::printf("%s, %s: relative L1 %.4f (budget %.4f: diffuse %.4f, glossy %.4f, blocked %.4f), "
-                    "mean ratio %.4f, glossy share %.3f\n",
-                    name, setup.name, error, budget, diffuseBudget, glossyBudget, blocked, sumTechnique / sumTruth,
-                    sumGlossy / sumTruth);
+        std::printf("%s, %s: relative L1 %.4f (budget %.4f: diffuse %.4f, glossy %.4f, occlusion %.4f; "
+                    "blocked %.4f, no occlusion's error %.4f), mean ratio %.4f, glossy share %.3f\n",
+                    name, setup.name, error, budget, diffuseBudget, glossyBudget, occlusionBudgetShare, blocked,
+                    (sumUnoccluded - sumVisible) / sumVisible, sumTechnique / sumTruth, sumGlossy / sumTruth);
         EXPECT_LE(error, budget);
         EXPECT_GT(sumTechnique, 0.5 * sumTruth) << "LightSkin must deliver the light, not zeros";
         if (setup.glossy) {
@@ -369,6 +460,8 @@ void checkScene(TruthScene scene, const char* name) {
         if (setup.glossy && !setup.occlusion) previousOccludedError = sumErrorVsVisible / sumVisible;
         if (setup.occlusion) {
             EXPECT_GT(blocked, 0.02) << "the scene must shadow itself";
+            // the derived budget must be tighter than what no occlusion at all would score
+            EXPECT_LT(occlusionBudgetShare, (sumUnoccluded - sumVisible) / sumVisible);
             EXPECT_LT(error, previousOccludedError) << "occlusion on must beat occlusion off against visibility";
         }
     }
