@@ -9,10 +9,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include <fstream>
-
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <string>
 
 namespace lightskin::test {
@@ -215,7 +214,8 @@ TEST(GoldenImageTest, RegionMetricCatchesLocalLossesOnTheReplayGoldens) {
             EXPECT_GT(e.maxRegionRelativeMeanAbsoluteError, kReplayLimit)
                 << "x " << change.factor << " over " << change.share << " of the content";
         }
-        const eval::ImageError zero = eval::compareImages(cv::Mat::zeros(golden.size(), golden.type()), golden, options);
+        const eval::ImageError zero =
+            eval::compareImages(cv::Mat::zeros(golden.size(), golden.type()), golden, options);
         EXPECT_GT(zero.relativeMeanAbsoluteError, kReplayLimit);
         EXPECT_GT(zero.maxRegionRelativeMeanAbsoluteError, kReplayLimit);
     }

@@ -480,9 +480,9 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
                     scaleIndirectOn(actual, withoutGi, leftShareOf(covered, local.share), local.factor);
                 const eval::GoldenResult changed = eval::compareWithGolden(
                     scaled, goldens, name, c.composite, scratch / "indirect_local", {renderer, covered, withoutGi});
-                EXPECT_FALSE(changed.passed) << "thresholds too loose to see the indirect light scaled by "
-                                             << local.factor << " over " << local.share
-                                             << " of the content: " << changed.describe();
+                EXPECT_FALSE(changed.passed)
+                    << "thresholds too loose to see the indirect light scaled by " << local.factor << " over "
+                    << local.share << " of the content: " << changed.describe();
                 std::printf("%s, indirect x %.1f over %.2f of the content: %s\n", name.c_str(), local.factor,
                             local.share, changed.error.describe().c_str());
             }
@@ -555,9 +555,9 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
                 const cv::Mat scaled = scaleIndirectOn(actual, none, leftShareOf(covered, local.share), local.factor);
                 const eval::GoldenResult changed = eval::compareWithGolden(
                     scaled, goldens, name, c.indirect, scratch / "indirect_local", {renderer, covered, {}});
-                EXPECT_FALSE(changed.passed) << "thresholds too loose to see the indirect light scaled by "
-                                             << local.factor << " over " << local.share
-                                             << " of the content: " << changed.describe();
+                EXPECT_FALSE(changed.passed)
+                    << "thresholds too loose to see the indirect light scaled by " << local.factor << " over "
+                    << local.share << " of the content: " << changed.describe();
                 std::printf("%s x %.1f over %.2f of the content: %s\n", name.c_str(), local.factor, local.share,
                             changed.error.describe().c_str());
             }
