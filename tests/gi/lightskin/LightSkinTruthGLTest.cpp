@@ -92,7 +92,6 @@
 //    0.58 > 0.41) and all three the occlusion-beats-none check; radius halved: the trough fails
 //    (0.36 > 0.26); the spheres pass, as halving the discs there offsets the double count (convex
 //    0.082, better than the real model's 0.123; near wall 0.367 < 0.41).
-//    (The budget before this was + B, "no worse than no occlusion".)
 //  The light weights use the point-disc form factor M_j A_j cos_e cos_i / (pi r^2), the glossy
 //  weights eq. 5. Each pixel's diffuse part (of the truth) is allowed min(1, parallax + horizon)
 //  of itself, its glossy part min(1, parallax + horizon + lobe); the image budget is their sum
