@@ -588,8 +588,8 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
 //   4-5 of the 9 count on these silhouettes; a cell's signal is floored at 0.1 of the image's mean). The
 //   whole-image metric dilutes a local change by its share: 20 % of the indirect light lost over a quarter of the
 //   content reads 0.033-0.068 there and passes its limit on four of the seven goldens. A change by a factor k over
-//   a whole cell reads |k - 1| there, so 0.05 is again half of a 10 % change; a band holding a quarter of the content reaches
-//   over most of the left cells, so 20 % lost there reads 0.07-0.20 (printed), and 10 % over half of the
+//   a whole cell reads |k - 1| there, so 0.05 is again half of a 10 % change; a band holding a quarter of the
+//   content reaches over most of the left cells, so 20 % lost there reads 0.07-0.20 (printed), and 10 % over half of the
 //   content covers the left cells whole (0.07-0.10). Each run checks both (kLocalChangesThatMustFail; the same on
 //   the goldens alone: eval_test GoldenImageTest.RegionMetricCatchesLocalLossesOnTheReplayGoldens). Room for
 //   what may legitimately differ: the unchanged runs read <= 0.0053 per region (synth_pan; the others <= 0.0024),
