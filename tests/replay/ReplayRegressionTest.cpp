@@ -585,17 +585,17 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
 // - Another renderer than the golden's sidecar names fails (promote after review, docs/TESTING.md).
 // - maxRegionRelativeMeanAbsoluteError 0.05, the same metric per region (3 x 3 cells of the covered pixels'
 //   bounding box, eval::kGoldenRegionGrid; cells with fewer than half their share of the pixels are skipped, so
-//   4-5 of the 9 count on these silhouettes; a cell's signal is floored at 0.1 of the image's mean). The
-//   whole-image metric dilutes a local change by its share: 20 % of the indirect light lost over a quarter of the
+//   4-5 of the 9 count on these silhouettes; a cell's signal is floored at 0.1 of the image's mean). The whole-
+//   image metric dilutes a local change by its share: 20 % of the indirect light lost over a quarter of the
 //   content reads 0.033-0.068 there and passes its limit on four of the seven goldens. A change by a factor k over
 //   a whole cell reads |k - 1| there, so 0.05 is again half of a 10 % change; a band holding a quarter of the
-//   content reaches over most of the left cells, so 20 % lost there reads 0.07-0.20 (printed), and 10 % over half of the
-//   content covers the left cells whole (0.07-0.10). Each run checks both (kLocalChangesThatMustFail; the same on
-//   the goldens alone: eval_test GoldenImageTest.RegionMetricCatchesLocalLossesOnTheReplayGoldens). Room for
-//   what may legitimately differ: the unchanged runs read <= 0.0053 per region (synth_pan; the others <= 0.0024),
-//   10x below the limit; a cell holds >= 1/18 of the content (>= 50 px on the smallest cubes, ~1000 px), so a
-//   single silhouette pixel off by the largest difference seen (0.17 linear, about the mean indirect light per
-//   pixel) reads <= 1/50 = 0.02 there.
+//   content reaches over most of the left cells, so 20 % lost there reads 0.07-0.20 (printed), and 10 % over half
+//   of the content covers the left cells whole (0.07-0.10). Each run checks both (kLocalChangesThatMustFail; the
+//   same on the goldens alone: eval_test GoldenImageTest.RegionMetricCatchesLocalLossesOnTheReplayGoldens). Room
+//   for what may legitimately differ: the unchanged runs read <= 0.0053 per region (synth_pan; the others <=
+//   0.0024), 10x below the limit; a cell holds >= 1/18 of the content (>= 50 px on the smallest cubes, ~1000 px),
+//   so a single silhouette pixel off by the largest difference seen (0.17 linear, about the mean indirect light
+//   per pixel) reads <= 1/50 = 0.02 there.
 eval::GoldenThresholds relativeMaeAtMost(double limit) {
     eval::GoldenThresholds t;
     t.maxRelativeMeanAbsoluteError = limit;
