@@ -102,6 +102,7 @@ GoldenCandidate readGoldenCandidate(const std::filesystem::path& actualPng) {
 
 ImageError compareCandidate(const GoldenCandidate& candidate, const cv::Mat& golden) {
     ImageErrorOptions options{candidate.linearPeak, candidate.coverage, {}};
+    options.regionGrid = kGoldenRegionGrid;
     if (!candidate.baseline.empty()) options.signal = golden - candidate.baseline;
     return compareImages(candidate.image, golden, options);
 }
@@ -146,7 +147,9 @@ GoldenResult compareWithGolden(const cv::Mat& linearImage, const std::filesystem
                     (!thresholds.maxRelativeMse || e.relativeMse <= *thresholds.maxRelativeMse) &&
                     (!thresholds.maxMeanAbsoluteError || e.meanAbsoluteError <= *thresholds.maxMeanAbsoluteError) &&
                     (!thresholds.maxAbsoluteError || e.maxAbsoluteError <= *thresholds.maxAbsoluteError) &&
-                    (!thresholds.minSsim || e.ssim >= *thresholds.minSsim);
+                    (!thresholds.minSsim || e.ssim >= *thresholds.minSsim) &&
+                    (!thresholds.maxRegionRelativeMeanAbsoluteError ||
+                     e.maxRegionRelativeMeanAbsoluteError <= *thresholds.maxRegionRelativeMeanAbsoluteError);
     if (!result.passed) {
         result.diffPath = outputFolder / (name + ".diff.png");
         writeDiffImage(candidate.image, golden, inputs.linearPeak, result.diffPath);

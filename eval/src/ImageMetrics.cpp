@@ -4,17 +4,23 @@
 #include <opencv2/core.hpp>
 #include <opencv2/quality/qualityssim.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <limits>
+#include <vector>
 
 namespace lightskin::eval {
 
 std::string ImageError::describe() const {
     char text[256];
     std::snprintf(
-        text, sizeof text, "relMAE %.4f, relMSE %.3g, MAE %.3g, max %.3g, SSIM %.4f, PSNR %.2f dB over %zu px",
-        relativeMeanAbsoluteError, relativeMse, meanAbsoluteError, maxAbsoluteError, ssim, psnr, pixelsCompared);
+        text, sizeof text,
+        "relMAE %.4f, region relMAE %.4f (%zu regions), relMSE %.3g, MAE %.3g, max %.3g, SSIM %.4f, PSNR %.2f dB over "
+        "%zu px",
+        relativeMeanAbsoluteError, maxRegionRelativeMeanAbsoluteError, regionsCompared, relativeMse, meanAbsoluteError,
+        maxAbsoluteError, ssim, psnr, pixelsCompared);
     return text;
 }
 
@@ -27,6 +33,65 @@ std::size_t countNonFinite(const cv::Mat& image) {
     }
     return count;
 }
+
+namespace {
+
+/// A region's signal is floored at this share of what its pixels would hold at the image's mean signal.
+constexpr double kRegionSignalFloor = 0.1;
+
+/// The region metric of ImageError (maxRegionRelativeMeanAbsoluteError, regionsCompared); `sumSignal` is the whole
+/// image's sum |s| over the compared pixels, error.pixelsCompared their number. Inputs validated by the caller.
+void regionErrorInto(const cv::Mat& image, const cv::Mat& reference, const ImageErrorOptions& options, double sumSignal,
+                     ImageError& error) {
+    const bool masked = !options.mask.empty(), hasSignal = !options.signal.empty();
+    const int channels = image.channels();
+    int left = image.cols, top = image.rows, right = -1, bottom = -1; // bounding box of the compared pixels
+    for (int row = 0; row < image.rows; ++row) {
+        const std::uint8_t* m = masked ? options.mask.ptr<std::uint8_t>(row) : nullptr;
+        for (int col = 0; col < image.cols; ++col) {
+            if (m && m[col] == 0) continue;
+            left = std::min(left, col);
+            right = std::max(right, col);
+            top = std::min(top, row);
+            bottom = std::max(bottom, row);
+        }
+    }
+    const int grid = options.regionGrid;
+    const auto cellOf = [grid](int v, int low, int high) {
+        return std::min(grid - 1, int(std::int64_t(v - low) * grid / std::int64_t(high - low + 1)));
+    };
+    std::vector<double> absolute(std::size_t(grid * grid), 0.0), signal(absolute.size(), 0.0);
+    std::vector<std::size_t> pixels(absolute.size(), 0);
+    for (int row = top; row <= bottom; ++row) {
+        const float* x = image.ptr<float>(row);
+        const float* r = reference.ptr<float>(row);
+        const float* s = hasSignal ? options.signal.ptr<float>(row) : r;
+        const std::uint8_t* m = masked ? options.mask.ptr<std::uint8_t>(row) : nullptr;
+        for (int col = left; col <= right; ++col) {
+            if (m && m[col] == 0) continue;
+            const std::size_t cell = std::size_t(cellOf(row, top, bottom) * grid + cellOf(col, left, right));
+            ++pixels[cell];
+            for (int c = 0; c < channels; ++c) {
+                absolute[cell] += std::abs(double(x[col * channels + c]) - double(r[col * channels + c]));
+                signal[cell] += std::abs(double(s[col * channels + c]));
+            }
+        }
+    }
+    const double meanSignal = sumSignal / double(error.pixelsCompared); // per pixel, all channels
+    const double share = double(error.pixelsCompared) / double(grid * grid);
+    for (std::size_t cell = 0; cell < absolute.size(); ++cell) {
+        if (pixels[cell] < options.minRegionPixels || double(pixels[cell]) < 0.5 * share) continue;
+        ++error.regionsCompared;
+        const double floor = kRegionSignalFloor * double(pixels[cell]) * meanSignal;
+        const double denominator = std::max(signal[cell], floor);
+        const double relative = denominator > 0.0      ? absolute[cell] / denominator
+                                : absolute[cell] > 0.0 ? std::numeric_limits<double>::infinity()
+                                                       : 0.0;
+        error.maxRegionRelativeMeanAbsoluteError = std::max(error.maxRegionRelativeMeanAbsoluteError, relative);
+    }
+}
+
+} // namespace
 
 ImageError compareImages(const cv::Mat& image, const cv::Mat& reference, const ImageErrorOptions& options) {
     if (image.size() != reference.size() || image.type() != reference.type())
@@ -80,6 +145,8 @@ ImageError compareImages(const cv::Mat& image, const cv::Mat& reference, const I
         error.psnr = mse > 0 ? 10.0 * std::log10(options.ssimPeak * options.ssimPeak / mse)
                              : std::numeric_limits<double>::infinity();
     }
+    if (options.regionGrid > 0 && error.pixelsCompared > 0)
+        regionErrorInto(image, reference, options, sumSignal, error);
     cv::Mat scaledImage, scaledReference, qualityMap;
     image.convertTo(scaledImage, CV_32F, 255.0 / options.ssimPeak);
     reference.convertTo(scaledReference, CV_32F, 255.0 / options.ssimPeak);

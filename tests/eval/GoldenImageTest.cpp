@@ -7,10 +7,12 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
-
-#include <fstream>
+#include <opencv2/imgproc.hpp>
 
 #include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
 
 namespace lightskin::test {
 namespace {
@@ -163,6 +165,61 @@ TEST(GoldenImageTest, MalformedSidecarOrPngIsAnErrorNamingTheFile) {
     cv::imwrite(png.string() + ".bmp", cv::Mat(3, 4, CV_16UC1, cv::Scalar(7)));
     std::filesystem::rename(png.string() + ".bmp", png);
     expectError(read, {"g.png", std::nullopt, "not a PNG, TIFF or JPEG file"});
+}
+
+// The region metric on the replay suite's own goldens (the indirect views: the signal is the golden itself): the
+// golden against itself passes; the indirect light lost by 20 % over a quarter of the covered pixels (a band from
+// the left holding a quarter of them), or changed by 10 % over half, fails the replay suite's region limit while the
+// whole-image relative MAE, which the loss dilutes by its share, may not; an all-zero image fails both.
+TEST(GoldenImageTest, RegionMetricCatchesLocalLossesOnTheReplayGoldens) {
+    constexpr double kReplayLimit = 0.05; // ReplayRegressionTest.cpp: relativeMaeAtMost(0.05), both metrics
+    const auto leftShare = [](const cv::Mat& covered, double share) {
+        const double total = double(cv::countNonZero(covered));
+        cv::Mat part = cv::Mat::zeros(covered.size(), CV_8UC1);
+        double counted = 0.0;
+        for (int col = 0; col < covered.cols && counted < share * total; ++col) {
+            covered.col(col).copyTo(part.col(col));
+            counted += cv::countNonZero(covered.col(col));
+        }
+        return part;
+    };
+    int goldens = 0;
+    for (const auto& entry : std::filesystem::directory_iterator(sourceDir() / "tests" / "replay" / "goldens")) {
+        const std::string file = entry.path().filename().string();
+        if (entry.path().extension() != ".png" || file.find("_indirect_") == std::string::npos) continue;
+        SCOPED_TRACE(file);
+        ++goldens;
+        std::string renderer;
+        double peak = 1.0;
+        const cv::Mat golden = eval::readLinearPng16(entry.path(), renderer, peak);
+        cv::Mat grey, covered;
+        cv::cvtColor(golden, grey, cv::COLOR_BGR2GRAY);
+        covered = grey > 0.0f;
+        ASSERT_GT(cv::countNonZero(covered), 100) << "the golden must hold content";
+        eval::ImageErrorOptions options{peak, covered, {}};
+        options.regionGrid = eval::kGoldenRegionGrid;
+        const eval::ImageError same = eval::compareImages(golden, golden, options);
+        EXPECT_EQ(same.maxRegionRelativeMeanAbsoluteError, 0.0);
+        EXPECT_GE(same.regionsCompared, 3u) << "the grid must cut the content into regions";
+        struct Change {
+            double share, factor;
+        };
+        for (const Change change : {Change{0.25, 0.8}, Change{0.5, 0.9}, Change{0.5, 1.1}}) {
+            cv::Mat changed = golden.clone();
+            cv::Mat scaled = golden * change.factor;
+            scaled.copyTo(changed, leftShare(covered, change.share));
+            const eval::ImageError e = eval::compareImages(changed, golden, options);
+            std::printf("%s x %.1f over %.2f: relMAE %.4f, region relMAE %.4f\n", file.c_str(), change.factor,
+                        change.share, e.relativeMeanAbsoluteError, e.maxRegionRelativeMeanAbsoluteError);
+            EXPECT_GT(e.maxRegionRelativeMeanAbsoluteError, kReplayLimit)
+                << "x " << change.factor << " over " << change.share << " of the content";
+        }
+        const eval::ImageError zero =
+            eval::compareImages(cv::Mat::zeros(golden.size(), golden.type()), golden, options);
+        EXPECT_GT(zero.relativeMeanAbsoluteError, kReplayLimit);
+        EXPECT_GT(zero.maxRegionRelativeMeanAbsoluteError, kReplayLimit);
+    }
+    EXPECT_GE(goldens, 5) << "the replay goldens must be found";
 }
 
 } // namespace

@@ -109,5 +109,39 @@ TEST(ImageMetricsTest, RelativeMaeReadsAUniformChangeOfTheSignalExactly) {
     EXPECT_THROW(eval::compareImages(zeros, zeros, {1.0, {}, cv::Mat::zeros(3, 4, CV_32FC3)}), Error);
 }
 
+// The region metric: a change over one cell of the grid reads |k - 1| there however small the cell's share of the
+// image (where the whole-image metric reads the share times that), cells holding less than half their share are
+// skipped, and a cell far darker than the image's mean is judged against 0.1 of the mean (its noise cannot blow up).
+TEST(ImageMetricsTest, RegionMetricReadsALocalChangeUndiluted) {
+    cv::Mat reference(30, 30, CV_32FC3, cv::Scalar::all(0.2));
+    eval::ImageErrorOptions options;
+    options.regionGrid = 3; // 10 x 10 px cells
+    options.minRegionPixels = 32;
+    cv::Mat changed = reference.clone();
+    changed(cv::Rect(0, 0, 10, 10)) *= 0.8; // one cell of nine
+    eval::ImageError e = eval::compareImages(changed, reference, options);
+    EXPECT_EQ(e.regionsCompared, 9u);
+    EXPECT_NEAR(e.maxRegionRelativeMeanAbsoluteError, 0.2, 1e-6);
+    EXPECT_NEAR(e.relativeMeanAbsoluteError, 0.2 / 9.0, 1e-6);
+    // Off unless asked for.
+    EXPECT_EQ(eval::compareImages(changed, reference).maxRegionRelativeMeanAbsoluteError, 0.0);
+    // A mask leaving 20 px of the top-left cell (< half its share of 500 / 9): skipped.
+    cv::Mat mask(30, 30, CV_8UC1, cv::Scalar(255));
+    mask(cv::Rect(0, 0, 10, 10)).setTo(0);
+    mask(cv::Rect(0, 0, 10, 2)).setTo(255);
+    options.mask = mask;
+    e = eval::compareImages(changed, reference, options);
+    EXPECT_EQ(e.regionsCompared, 8u);
+    EXPECT_LT(e.maxRegionRelativeMeanAbsoluteError, 1e-6);
+    // A cell at 1 % of the mean signal: its change of 1e-3 is judged against 0.1 of the mean, not its own light.
+    options.mask = cv::Mat();
+    reference(cv::Rect(20, 20, 10, 10)).setTo(cv::Scalar::all(0.002));
+    changed = reference.clone();
+    changed(cv::Rect(20, 20, 10, 10)).setTo(cv::Scalar::all(0.003));
+    e = eval::compareImages(changed, reference, options);
+    const double mean = (8.0 * 0.2 + 0.002) / 9.0;
+    EXPECT_NEAR(e.maxRegionRelativeMeanAbsoluteError, 0.001 / (0.1 * mean), 1e-4);
+}
+
 } // namespace
 } // namespace lightskin::test

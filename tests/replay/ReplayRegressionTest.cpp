@@ -7,7 +7,8 @@
 //     holds (eval::compareWithGolden; on failure actual/golden/diff paths are printed); each golden
 //     records the renderer from report.json, and another renderer fails the comparison;
 //   - the thresholds catch a uniform 10 % change of the indirect light in every case (the indirect
-//     scaled by 0.9 and 1.1, and switched off, must fail them), checked in every run;
+//     scaled by 0.9 and 1.1, and switched off, must fail them), and local ones (20 % lost over a
+//     quarter of the content, 10 % over half: a per-region metric), checked in every run;
 //   - the pose against ground truth where known; no NaN/inf in the report or in the linear images
 //     (replay counts them per frame in the float composite, before the 8-bit clamp);
 //   - the indirect light is neither black nor saturated on the virtual content;
@@ -207,6 +208,35 @@ cv::Mat coverage(const cv::Mat& mask, const cv::Rect& roi, const fs::path& golde
 cv::Mat scaleIndirect(const cv::Mat& withGi, const cv::Mat& withoutGi, double factor) {
     return withoutGi + factor * (withGi - withoutGi);
 }
+
+/// The columns from the covered pixels' left edge up to the one where `share` of the covered pixels (counted) lie
+/// to the left: a band of the content holding that share of it.
+cv::Mat leftShareOf(const cv::Mat& covered, double share) {
+    const double total = double(cv::countNonZero(covered));
+    cv::Mat part = cv::Mat::zeros(covered.size(), CV_8UC1);
+    double counted = 0.0;
+    for (int col = 0; col < covered.cols && counted < share * total; ++col) {
+        const int inColumn = cv::countNonZero(covered.col(col));
+        if (inColumn == 0) continue;
+        covered.col(col).copyTo(part.col(col));
+        counted += inColumn;
+    }
+    return part;
+}
+
+/// scaleIndirect() on the pixels of `part` only; the rest unchanged.
+cv::Mat scaleIndirectOn(const cv::Mat& withGi, const cv::Mat& withoutGi, const cv::Mat& part, double factor) {
+    cv::Mat changed = withGi.clone();
+    scaleIndirect(withGi, withoutGi, factor).copyTo(changed, part);
+    return changed;
+}
+
+/// Local changes every golden comparison must reject (thresholds and why: above cases()): the indirect light
+/// 20 % lost over a quarter of the covered pixels, and 10 % lost or added over half of them.
+struct LocalChange {
+    double share, factor;
+};
+constexpr LocalChange kLocalChangesThatMustFail[] = {{0.25, 0.8}, {0.5, 0.9}, {0.5, 1.1}};
 
 /// Factors applied to this run's indirect light that every golden comparison must reject: a
 /// uniform 10 % change either way, and GI switched off (thresholds and why: above cases()).
@@ -445,6 +475,17 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
                                              << ": " << changed.describe();
                 std::printf("%s, indirect x %.1f: %s\n", name.c_str(), factor, changed.error.describe().c_str());
             }
+            for (const LocalChange& local : kLocalChangesThatMustFail) {
+                const cv::Mat scaled =
+                    scaleIndirectOn(actual, withoutGi, leftShareOf(covered, local.share), local.factor);
+                const eval::GoldenResult changed = eval::compareWithGolden(
+                    scaled, goldens, name, c.composite, scratch / "indirect_local", {renderer, covered, withoutGi});
+                EXPECT_FALSE(changed.passed)
+                    << "thresholds too loose to see the indirect light scaled by " << local.factor << " over "
+                    << local.share << " of the content: " << changed.describe();
+                std::printf("%s, indirect x %.1f over %.2f of the content: %s\n", name.c_str(), local.factor,
+                            local.share, changed.error.describe().c_str());
+            }
         }
     }
 
@@ -509,6 +550,17 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
                                              << ": " << changed.describe();
                 std::printf("%s x %.1f: %s\n", name.c_str(), factor, changed.error.describe().c_str());
             }
+            const cv::Mat none = cv::Mat::zeros(actual.size(), actual.type());
+            for (const LocalChange& local : kLocalChangesThatMustFail) {
+                const cv::Mat scaled = scaleIndirectOn(actual, none, leftShareOf(covered, local.share), local.factor);
+                const eval::GoldenResult changed = eval::compareWithGolden(
+                    scaled, goldens, name, c.indirect, scratch / "indirect_local", {renderer, covered, {}});
+                EXPECT_FALSE(changed.passed)
+                    << "thresholds too loose to see the indirect light scaled by " << local.factor << " over "
+                    << local.share << " of the content: " << changed.describe();
+                std::printf("%s x %.1f over %.2f of the content: %s\n", name.c_str(), local.factor, local.share,
+                            changed.error.describe().c_str());
+            }
         }
     }
 }
@@ -531,9 +583,23 @@ TEST_P(ReplayRegression, MatchesGoldensAndGroundTruth) {
 //   caught, and a uniform 10 % change moves SSIM by < 0.001 (its luminance term for y = 0.9x is
 //   2 * 0.9 / 1.81 = 0.9994). Single-pixel NaN/inf are counted by replay and asserted to be 0.
 // - Another renderer than the golden's sidecar names fails (promote after review, docs/TESTING.md).
+// - maxRegionRelativeMeanAbsoluteError 0.05, the same metric per region (3 x 3 cells of the covered pixels'
+//   bounding box, eval::kGoldenRegionGrid; cells with fewer than half their share of the pixels are skipped, so
+//   4-5 of the 9 count on these silhouettes; a cell's signal is floored at 0.1 of the image's mean). The whole-
+//   image metric dilutes a local change by its share: 20 % of the indirect light lost over a quarter of the
+//   content reads 0.033-0.068 there and passes its limit on four of the seven goldens. A change by a factor k over
+//   a whole cell reads |k - 1| there, so 0.05 is again half of a 10 % change; a band holding a quarter of the
+//   content reaches over most of the left cells, so 20 % lost there reads 0.07-0.20 (printed), and 10 % over half
+//   of the content covers the left cells whole (0.07-0.10). Each run checks both (kLocalChangesThatMustFail; the
+//   same on the goldens alone: eval_test GoldenImageTest.RegionMetricCatchesLocalLossesOnTheReplayGoldens). Room
+//   for what may legitimately differ: the unchanged runs read <= 0.0053 per region (synth_pan; the others <=
+//   0.0024), 10x below the limit; a cell holds >= 1/18 of the content (>= 50 px on the smallest cubes, ~1000 px),
+//   so a single silhouette pixel off by the largest difference seen (0.17 linear, about the mean indirect light
+//   per pixel) reads <= 1/50 = 0.02 there.
 eval::GoldenThresholds relativeMaeAtMost(double limit) {
     eval::GoldenThresholds t;
     t.maxRelativeMeanAbsoluteError = limit;
+    t.maxRegionRelativeMeanAbsoluteError = limit;
     return t;
 }
 const eval::GoldenThresholds kComposite = relativeMaeAtMost(0.05);

@@ -37,28 +37,76 @@
 //    plus the view direction); a cos^k lobe's relative second derivative in the angle is
 //    k^2 tan^2(gamma) - k / cos^2(gamma), so each light's glossy term may be off by
 //    (1/2) Delta_g^2 (k + k^2 tan^2 gamma) (capped at 1), on top of the diffuse terms.
-//  * occlusion: the quads-on-the-unit-circle model of S_o and the occluder discs (section 3.3)
-//    has no error bound that follows from the scene (an occluder's disc may cover a light the
-//    real occluder misses, and the reverse). What it must achieve is to be no worse than no
-//    occlusion, whose error is the light the occluders really block: + B, with B = 1 - (truth
-//    with visibility) / (truth without), computed by the truth itself. (The first version
-//    claimed 0.5 B; the tighter interpolation budget showed the convex scene at 1.0 B: LightSkin
-//    over-occludes there, 0.91 of the truth where the truth blocks 12 %.)
+//  * narrow lobes (NarrowGlossyLobes, k = 16 and 64 besides the scenes' k = 2): the glossy setup
+//    against the same truth and budget; the lobe term above grows as k + k^2 tan^2 gamma, so a
+//    narrow lobe gets a wider budget where the mirror direction turns between sparse points (the
+//    averaged glossy VPL cannot follow a lobe narrower than the light's spread: that is the method,
+//    and the budget says how much). Injected: cos^k with k capped at 8 in ls_cosPow fails every
+//    scene at k = 16 and 64 (0.27-2.6 > 0.014-0.18; k = 2 cannot see it); k / 2 in the pixel's
+//    eq. 10 lobe (ls_applyGlossy) fails the convex scene at k = 2 and 16 and the trough at 16
+//    (at 64 it stays inside the wider budget).
+//  * the VALs as samples of the lobe (checkLobeSampling, every glossy setup): LightSkin and the
+//    truth above both evaluate each VAL's lobe at its centre, so what that costs against the VALs'
+//    discs integrated (the truth's 8 x 16 quadrature per disc) is bounded separately: a disc of
+//    angular radius alpha = r / d, midpoint-evaluated, is off by (alpha^2 / 8) |lap f / f| of its
+//    lobe f = cos^k gamma (the mean of a function over a disc, second order; the first cancels),
+//    |lap f / f| <= k^2 tan^2 gamma + k / cos^2 gamma + k, capped by the lobe's range over the disc
+//    [cos^k(gamma + alpha), cos^k(gamma - alpha)]; plus 2 alpha^2 of it for eq. 3's point-disc weight
+//    against the integrated one; a VAL within alpha of the horizon by its whole lobe maximum. With
+//    these VAL spacings (0.04-0.13 m at 0.1-1.5 m, alpha <= ~0.2) the lobe at k = 64 (width
+//    1 / sqrt(k) = 0.125 rad) still spans several VALs, so the discrete sum stays close to the
+//    integral (Poisson summation: a Gaussian sampled at spacing s has relative error
+//    ~ 2 exp(-2 pi^2 sigma^2 / s^2)); the budget says where it would not. Together with the
+//    comparison above this bounds LightSkin against the discs' integral by the sum of both budgets.
+//  * occlusion (section 3.3, eq. 14): each sparse point x_j multiplies its gathered light by
+//    (1 - o_j), o_j = the summed overlap of the other points' occluder discs with S_o, clamped to 1.
+//    What the model gets wrong, and what follows for o_j against the truth's blocked fraction b_j
+//    (b = 1 - visible / unoccluded, per receiver, from the truth):
+//     - the discs' area: radius = the farthest mesh vertex in the point's Voronoi region, so on a
+//       mesh coarser than the sparse spacing the discs stop short of the region's boundary and
+//       cover kappa = sum pi r_i^2 / area of the surface (kappa = 0.63-0.78 here: discCoverage(),
+//       computed from the sparse points, not from a run). A light the real surface hides is
+//       hidden by the discs with probability ~kappa.
+//     - the sum over occluders ("double occlusion"): a ray blocked by a closed object crosses two
+//       of its surfaces (front and back; both sets of discs face x and count), an open sheet one.
+//       So the summed o_j ~ m kappa b_j, m = the surfaces per blocked ray (TruthScene::
+//       occluderLayers: 2 for the spheres, 1 for the trough's open walls), clamped to 1. The
+//       closed sphere is why the convex and near-wall scenes over-occlude (2 kappa ~ 1.4-1.5 > 1)
+//       while the trough under-occludes (kappa ~ 0.65 < 1); the discs cannot tell a front from a
+//       back face, so no choice of radius is right for both.
+//     - the number of sparse points: o is computed at the sparse points and reaches a pixel
+//       through eq. 12-13 and the rasteriser, a convex combination of the o_j within the reach
+//       delta (above), so the pixel's o lies within [min, max] of the sparse points' o_j there.
+//    Hence per receiver, with [bLow, bHigh] the range of the truth's b over the receivers of the
+//    same mesh within delta and kappa over the scene's meshes, o lies in
+//    [min(1, m kappaMin bLow), min(1, m kappaMax bHigh)], and the allowed error of the pixel is the
+//    farthest end of that interval from its own b, times its unoccluded light (occlusionBudget()).
+//    Not modelled (no bound follows from the scene, left inside the margin between the interval's
+//    ends): the quad shapes (a square of the same area as a disc differs from it by 18 % of the
+//    area) and eq. 14's projected centres, and S_o standing for the real spread of the VALs. The
+//    budget is summed like the error; it is below the error of no occlusion (sum U b / sum V) on
+//    every scene (0.92, 0.59, 0.57 of it), and on top the test asserts that occlusion beats no
+//    occlusion. Injected errors (temporary edit of ls_occluderAmount, rebuild, run; reverted):
+//    occluder radius doubled: all three scenes fail (0.35 > 0.16, 0.47 > 0.26, 0.49 > 0.41);
+//    occlusion off (radius 0): the trough and near wall fail their budgets (0.43 > 0.26,
+//    0.58 > 0.41) and all three the occlusion-beats-none check; radius halved: the trough fails
+//    (0.36 > 0.26); the spheres pass, as halving the discs there offsets the double count (convex
+//    0.082, better than the real model's 0.123; near wall 0.367 < 0.41).
 //  The light weights use the point-disc form factor M_j A_j cos_e cos_i / (pi r^2), the glossy
 //  weights eq. 5. Each pixel's diffuse part (of the truth) is allowed min(1, parallax + horizon)
 //  of itself, its glossy part min(1, parallax + horizon + lobe); the image budget is their sum
-//  over the pixels divided by the truth's sum, plus B; asserted on the relative L1 error
+//  over the pixels divided by the truth's sum, plus the occlusion budget; asserted on the relative L1 error
 //  sum |LightSkin - truth| / sum truth over all covered pixels (which also bounds the bias). The
 //  model before (first version: (1/2) (1.5 h / l)^2 with l the distance to the nearest
 //  VAL or the curvature radius, the worst mesh for the whole image) sat 30-100x above the errors.
-#include "common/GatherTestScenes.h"
 #include "GlTestEnvironment.h"
+#include "common/GatherTestScenes.h"
 #include "common/GpuRig.h"
 
-#include <lightskin/gi/lightskin/LightSkinIllumination.h>
-#include <lightskin/gi/reference/RayTracedGroundTruth.h>
 #include <lightskin/gi/common/SimpleGBuffer.h>
 #include <lightskin/gi/common/SparsePointSampler.h>
+#include <lightskin/gi/lightskin/LightSkinIllumination.h>
+#include <lightskin/gi/reference/RayTracedGroundTruth.h>
 #include <lightskin/gl/Objects.h>
 
 #include <glm/ext/matrix_transform.hpp>
@@ -102,13 +150,13 @@ void append(TriangleMesh& a, const TriangleMesh& b) {
     for (std::uint32_t i : b.indices) a.indices.push_back(i + offset);
 }
 
-constexpr float kExponent = 2.0f; // Phong k of every material (glossy budget: l / (2 sqrt(k)))
+constexpr float kExponent = 2.0f; // Phong k of every material unless a test sets another
 
-Material material() {
+Material material(float exponent = kExponent) {
     Material m;
     m.diffuseAlbedo = glm::vec3(0.7f);
     m.specularAlbedo = glm::vec3(0.3f);
-    m.specularExponent = kExponent;
+    m.specularExponent = exponent;
     return m;
 }
 
@@ -116,6 +164,10 @@ struct TruthScene : GpuRig {
     std::vector<gi::VirtualAreaLight> vals;
     /// per mesh: radius of curvature R of the budget (metres; infinity for planes)
     std::vector<double> curvatureRadius;
+    float exponent = kExponent; ///< Phong k of every mesh's material (eq. 5)
+    /// surfaces a ray the scene's occluders block crosses: 2 for a closed object, 1 for an open sheet (occlusion
+    /// budget at the top)
+    int occluderLayers = 1;
     void addMesh(TriangleMesh mesh, const glm::mat4& transform, std::size_t points, double radius) {
         add(std::move(mesh), transform, material(), points);
         curvatureRadius.push_back(radius);
@@ -134,6 +186,7 @@ TruthScene convexOverFloor() {
     s.vals.insert(s.vals.end(), ceiling.begin(), ceiling.end());
     s.eye = {1.6f, -1.8f, 1.5f};
     s.target = {0.0f, 0.0f, 0.3f};
+    s.occluderLayers = 2; // the sphere
     return s;
 }
 
@@ -165,6 +218,7 @@ TruthScene nearWall() {
     s.vals = squareEmitter({-0.4f, 0.0f, 0.75f}, {1.0f, 0.0f, 0.0f}, 1.2f, 30, {1.0f, 0.9f, 0.8f});
     s.eye = {1.5f, -1.2f, 1.2f};
     s.target = {0.0f, 0.0f, 0.35f};
+    s.occluderLayers = 2; // the sphere
     return s;
 }
 
@@ -232,7 +286,7 @@ Truth groundTruth(const TruthScene& scene, const Image& image) {
         r.position = glm::dvec3(image.position[i]);
         r.normal = glm::normalize(glm::dvec3(image.normal[i]));
         r.toViewer = glm::normalize(glm::dvec3(scene.eye) - r.position);
-        r.material = material();
+        r.material = material(scene.exponent);
         receivers.push_back(r);
         t.pixels.push_back(i);
     }
@@ -284,6 +338,77 @@ PixelBudget interpolationBudget(const std::vector<gi::VirtualAreaLight>& vals, c
     return {diffuse, glossy > 0.0 ? std::min(1.0, diffuse + glossyOff / glossy) : diffuse};
 }
 
+/// How well the discrete VALs sample the glossy lobe at one receiver (derivation at the top): the allowed difference
+/// between the centre-mode glossy term (each VAL's lobe at its centre, what LightSkin and the truth above use) and
+/// the lobe integrated over each VAL's disc, as a fraction of the centre-mode glossy term.
+double lobeSamplingBudget(const std::vector<gi::VirtualAreaLight>& vals, const gi::GroundTruthReceiver& r) {
+    const double k = double(r.material.specularExponent), halfPi = 0.5 * std::numbers::pi;
+    const auto lobeAt = [k](double gamma) {
+        return gamma >= 0.5 * std::numbers::pi ? 0.0 : std::pow(std::cos(gamma), k);
+    };
+    double glossy = 0.0, allowed = 0.0;
+    for (const gi::VirtualAreaLight& v : vals) {
+        const glm::dvec3 d = glm::dvec3(v.position) - r.position;
+        const double r2 = glm::dot(d, d), dist = std::sqrt(r2);
+        const glm::dvec3 toLight = d / dist;
+        const double cosE = std::max(0.0, -glm::dot(glm::dvec3(v.normal), toLight));
+        const double mw = double(v.flux.x + v.flux.y + v.flux.z) * cosE / (std::numbers::pi * r2);
+        const double alpha2 = double(v.area) / std::numbers::pi / r2, alpha = std::sqrt(alpha2); // disc's angle
+        const double cosI = glm::dot(r.normal, toLight);
+        const glm::dvec3 mirror = 2.0 * cosI * r.normal - toLight;
+        const double gamma = std::acos(std::clamp(glm::dot(mirror, r.toViewer), -1.0, 1.0));
+        const double high = lobeAt(std::max(0.0, gamma - alpha)), low = lobeAt(std::min(halfPi, gamma + alpha));
+        if (std::abs(cosI) < std::sin(std::min(alpha, halfPi))) { // straddles the horizon: any part of its light
+            allowed += mw * high;
+            if (cosI > 0.0) glossy += mw * lobeAt(gamma);
+            continue;
+        }
+        if (cosI <= 0.0) continue;
+        const double lobe = lobeAt(gamma);
+        glossy += mw * lobe;
+        const double cosG = std::cos(std::min(gamma, halfPi)),
+                     tan2 = cosG > 0.0 ? (1.0 - cosG * cosG) / (cosG * cosG) : 0.0;
+        const double secondOrder =
+            cosG > 0.0 ? lobe * alpha2 / 8.0 * (k * k * tan2 + k / (cosG * cosG) + k) : high; // (alpha^2/8) |lap f / f|
+        allowed += mw * (std::min(secondOrder, std::max(high - lobe, lobe - low)) + 2.0 * alpha2 * lobe);
+    }
+    return glossy > 0.0 ? allowed / glossy : 0.0;
+}
+
+/// The discrete VALs against their discs integrated (the truth's 8 x 16 quadrature per disc, no occluders) for the
+/// glossy term on every 8th receiver: the difference must stay within lobeSamplingBudget(), summed like it.
+void checkLobeSampling(const TruthScene& scene, const Truth& truth) {
+    std::vector<gi::GroundTruthReceiver> receivers;
+    std::vector<gi::GroundTruthResult> centre;
+    for (std::size_t k = 0; k < truth.receivers.size(); k += 8) {
+        receivers.push_back(truth.receivers[k]);
+        centre.push_back(truth.unoccluded[k]);
+    }
+    const gi::RayTracedGroundTruth noOccluders = gi::RayTracedGroundTruth::create({});
+    gi::GroundTruthSettings settings; // default: 8 rings x 16 sectors per disc
+    settings.visibility = false;
+    settings.threads = 2;
+    std::vector<gi::GroundTruthResult> integrated(receivers.size());
+    noOccluders.compute(scene.vals, receivers, integrated, settings);
+    const double rho = double(material(scene.exponent).diffuseAlbedo.x) / std::numbers::pi;
+    double sumGlossy = 0.0, sumError = 0.0, allowed = 0.0;
+    for (std::size_t i = 0; i < receivers.size(); ++i) {
+        const double fraction = lobeSamplingBudget(scene.vals, receivers[i]);
+        for (int c = 0; c < 3; ++c) {
+            const double atCentres = centre[i].radiance[c] - rho * centre[i].irradiance[c];
+            const double overDiscs = integrated[i].radiance[c] - rho * integrated[i].irradiance[c];
+            sumGlossy += atCentres;
+            sumError += std::abs(atCentres - overDiscs);
+            allowed += fraction * atCentres;
+        }
+    }
+    ASSERT_GT(sumGlossy, 0.0);
+    std::printf("  lobe sampling, k = %g: discrete VALs vs discs integrated, relative L1 %.4f of the glossy term "
+                "(budget %.4f), %zu receivers\n",
+                double(scene.exponent), sumError / sumGlossy, allowed / sumGlossy, receivers.size());
+    EXPECT_LE(sumError, allowed) << "the discrete VALs must sample the lobe within the derived budget";
+}
+
 /// Index of the mesh whose (world) vertex is nearest to `p`: which surface a G-buffer pixel shows.
 std::size_t nearestMesh(const TruthScene& scene, const glm::dvec3& p) {
     std::size_t best = 0;
@@ -300,7 +425,68 @@ std::size_t nearestMesh(const TruthScene& scene, const glm::dvec3& p) {
     return best;
 }
 
-void checkScene(TruthScene scene, const char* name) {
+/// Fraction of mesh m's surface its sparse points' occluder discs cover, sum pi r_i^2 / area (kappa in the
+/// occlusion budget at the top). Discs are sized by the farthest mesh vertex of their Voronoi region, so on a mesh
+/// coarser than the sparse spacing they stop short of the region's boundary and kappa < 1.
+double discCoverage(const TruthScene& scene, std::size_t m) {
+    double discs = 0.0;
+    for (const gi::SparsePoint& p : scene.sparsePoints(m).points)
+        discs += std::numbers::pi * double(p.occluderRadius) * double(p.occluderRadius);
+    return discs / gi::surfaceArea(scene.meshes[m]);
+}
+
+/// The occlusion model's allowed error per receiver, as a fraction of its unoccluded light (derivation at the
+/// top): with b the truth's blocked fraction at the receiver and [bLow, bHigh] its range over the receivers of
+/// the same mesh within `reach`, the model's occlusion lies in [kappaMin bLow, min(1, 2 kappaMax bHigh)]; the
+/// allowance is the farthest end of that interval from b.
+std::vector<double> occlusionBudget(const TruthScene& scene, const Truth& truth, const std::vector<std::size_t>& mesh,
+                                    const std::vector<double>& reach) {
+    double kappaMin = std::numeric_limits<double>::infinity(), kappaMax = 0.0;
+    for (std::size_t m = 0; m < scene.meshes.size(); ++m) {
+        const double kappa = discCoverage(scene, m);
+        kappaMin = std::min(kappaMin, kappa);
+        kappaMax = std::max(kappaMax, kappa);
+    }
+    const std::size_t n = truth.pixels.size();
+    std::vector<double> blocked(n, 0.0);
+    for (std::size_t k = 0; k < n; ++k) {
+        double u = 0.0, v = 0.0;
+        for (int c = 0; c < 3; ++c) {
+            u += truth.unoccluded[k].radiance[c];
+            v += truth.visible[k].radiance[c];
+        }
+        blocked[k] = u > 0.0 ? std::clamp(1.0 - v / u, 0.0, 1.0) : 0.0;
+    }
+    std::vector<double> allowed(n, 0.0);
+    for (std::size_t k = 0; k < n; ++k) {
+        double low = blocked[k], high = blocked[k];
+        const double reach2 = reach[mesh[k]] * reach[mesh[k]];
+        for (std::size_t j = 0; j < n; ++j) {
+            if (mesh[j] != mesh[k]) continue;
+            const glm::dvec3 d = truth.receivers[j].position - truth.receivers[k].position;
+            if (glm::dot(d, d) > reach2) continue;
+            low = std::min(low, blocked[j]);
+            high = std::max(high, blocked[j]);
+        }
+        const double layers = double(scene.occluderLayers);
+        const double modelLow = std::min(1.0, layers * kappaMin * low),
+                     modelHigh = std::min(1.0, layers * kappaMax * high);
+        allowed[k] = std::max(std::abs(modelLow - blocked[k]), std::abs(modelHigh - blocked[k]));
+    }
+    return allowed;
+}
+
+/// `scene` with Phong exponent k on every mesh (LightSkin's instances and the truth's receivers).
+TruthScene withExponent(TruthScene scene, float k) {
+    scene.exponent = k;
+    for (gi::MeshInstance& instance : scene.instances) instance.material = material(k);
+    return scene;
+}
+
+constexpr Setup kDiffuse{"diffuse", false, false}, kGlossy{"glossy", true, false}, kOcclusion{"occlusion", true, true};
+
+void checkScene(TruthScene scene, const char* name,
+                std::initializer_list<Setup> setups = {kDiffuse, kGlossy, kOcclusion}) {
     scene.productionSampler = true;
     scene.width = scene.height = 64;
     // per mesh: the rms reach delta = sqrt(0.3 (1.6 h)^2 + e^2 / 3) and the normal turn Delta = delta / R
@@ -311,11 +497,10 @@ void checkScene(TruthScene scene, const char* name) {
         reach.push_back(std::sqrt(0.3 * d8 * d8 + e * e / 3.0));
         normalTurn.push_back(reach.back() / scene.curvatureRadius[m]);
     }
-    const double rho = double(material().diffuseAlbedo.x) / std::numbers::pi;
+    const double rho = double(material(scene.exponent).diffuseAlbedo.x) / std::numbers::pi;
     double previousOccludedError = -1.0;
-    for (const Setup& setup :
-         {Setup{"diffuse", false, false}, Setup{"glossy", true, false}, Setup{"occlusion", true, true}}) {
-        SCOPED_TRACE(std::string(name) + ", " + setup.name);
+    for (const Setup& setup : setups) {
+        SCOPED_TRACE(std::string(name) + ", " + setup.name + ", k = " + std::to_string(scene.exponent));
         const Image image = renderLightSkin(scene, setup);
         const Truth truth = groundTruth(scene, image);
         ASSERT_GT(truth.pixels.size(), image.position.size() / 8) << "the scene must fill the image";
@@ -325,10 +510,15 @@ void checkScene(TruthScene scene, const char* name) {
         double sumTruth = 0.0, sumTechnique = 0.0, sumError = 0.0, sumDiffuse = 0.0, sumGlossy = 0.0;
         double sumVisible = 0.0, sumUnoccluded = 0.0, sumErrorVsVisible = 0.0;
         double allowedDiffuse = 0.0, allowedGlossy = 0.0; // the interpolation budget, summed like the error
+        double allowedOcclusion = 0.0;                    // the occlusion budget, summed like the error
+        std::vector<std::size_t> mesh(truth.pixels.size());
+        for (std::size_t k = 0; k < truth.pixels.size(); ++k) mesh[k] = nearestMesh(scene, truth.receivers[k].position);
+        const std::vector<double> occlusionAllowed = setup.occlusion ? occlusionBudget(scene, truth, mesh, reach)
+                                                                     : std::vector<double>(truth.pixels.size(), 0.0);
         for (std::size_t k = 0; k < truth.pixels.size(); ++k) {
             const gi::GroundTruthResult& reference = setup.occlusion ? truth.visible[k] : truth.unoccluded[k];
             const gi::GroundTruthReceiver& receiver = truth.receivers[k];
-            const std::size_t m = nearestMesh(scene, receiver.position);
+            const std::size_t m = mesh[k];
             const PixelBudget allowed =
                 interpolationBudget(scene.vals, receiver, reach[m], normalTurn[m],
                                     reach[m] / glm::length(glm::dvec3(scene.eye) - receiver.position));
@@ -346,29 +536,35 @@ void checkScene(TruthScene scene, const char* name) {
                 allowedGlossy += (expected - diffusePart) * allowed.glossy;
                 sumVisible += truth.visible[k].radiance[c];
                 sumUnoccluded += truth.unoccluded[k].radiance[c];
+                allowedOcclusion += truth.unoccluded[k].radiance[c] * occlusionAllowed[k];
                 sumErrorVsVisible += std::abs(actual - truth.visible[k].radiance[c]);
             }
         }
         ASSERT_GT(sumTruth, 0.0);
         const double blocked = 1.0 - sumVisible / sumUnoccluded;
-        const double budget = (allowedDiffuse + allowedGlossy) / sumTruth + (setup.occlusion ? blocked : 0.0);
+        const double occlusionBudgetShare = allowedOcclusion / sumTruth;
+        const double budget = (allowedDiffuse + allowedGlossy + allowedOcclusion) / sumTruth;
         const double diffuseBudget = allowedDiffuse / sumDiffuse,
                      glossyBudget = sumGlossy > 0.0 ? allowedGlossy / sumGlossy : 0.0;
         const double error = sumError / sumTruth;
-        std::printf("%s, %s: relative L1 %.4f (budget %.4f: diffuse %.4f, glossy %.4f, blocked %.4f), "
-                    "mean ratio %.4f, glossy share %.3f\n",
-                    name, setup.name, error, budget, diffuseBudget, glossyBudget, blocked, sumTechnique / sumTruth,
+        std::printf("%s, %s, k = %g: relative L1 %.4f (budget %.4f: diffuse %.4f, glossy %.4f, occlusion %.4f; "
+                    "blocked %.4f, no occlusion's error %.4f), mean ratio %.4f, glossy share %.3f\n",
+                    name, setup.name, double(scene.exponent), error, budget, diffuseBudget, glossyBudget,
+                    occlusionBudgetShare, blocked, (sumUnoccluded - sumVisible) / sumVisible, sumTechnique / sumTruth,
                     sumGlossy / sumTruth);
         EXPECT_LE(error, budget);
         EXPECT_GT(sumTechnique, 0.5 * sumTruth) << "LightSkin must deliver the light, not zeros";
         if (setup.glossy) {
             EXPECT_GT(sumGlossy, 0.05 * sumTruth) << "the glossy channel must matter";
         }
+        if (setup.glossy && !setup.occlusion) checkLobeSampling(scene, truth);
         // occlusion must bring the image closer to the truth with visibility than no occlusion
         // (the technique's claim, section 3.3): compare with the glossy setup's error
         if (setup.glossy && !setup.occlusion) previousOccludedError = sumErrorVsVisible / sumVisible;
         if (setup.occlusion) {
             EXPECT_GT(blocked, 0.02) << "the scene must shadow itself";
+            // the derived budget must be tighter than what no occlusion at all would score
+            EXPECT_LT(occlusionBudgetShare, (sumUnoccluded - sumVisible) / sumVisible);
             EXPECT_LT(error, previousOccludedError) << "occlusion on must beat occlusion off against visibility";
         }
     }
@@ -379,6 +575,14 @@ using LightSkinTruthGLTest = GlTest;
 TEST_F(LightSkinTruthGLTest, ConvexObjectOverAFloor) { checkScene(convexOverFloor(), "convex over floor"); }
 TEST_F(LightSkinTruthGLTest, ConcaveObject) { checkScene(concaveTrough(), "concave trough"); }
 TEST_F(LightSkinTruthGLTest, ObjectCloseToAWall) { checkScene(nearWall(), "near wall"); }
+
+TEST_F(LightSkinTruthGLTest, NarrowGlossyLobes) {
+    for (const float k : {16.0f, 64.0f}) {
+        checkScene(withExponent(convexOverFloor(), k), "convex over floor", {kGlossy});
+        checkScene(withExponent(concaveTrough(), k), "concave trough", {kGlossy});
+        checkScene(withExponent(nearWall(), k), "near wall", {kGlossy});
+    }
+}
 
 } // namespace
 } // namespace lightskin::test

@@ -27,7 +27,18 @@ struct GoldenThresholds {
     std::optional<double> maxMeanAbsoluteError; ///< fail above, linear units
     std::optional<double> maxAbsoluteError;     ///< fail above, linear units
     std::optional<double> minSsim;              ///< fail below
+    /// Fail above: ImageError::maxRegionRelativeMeanAbsoluteError (the worst of kGoldenRegionGrid^2 regions of
+    /// the covered pixels): catches a change confined to part of the content, which the whole-image relative MAE
+    /// dilutes by the part's share.
+    std::optional<double> maxRegionRelativeMeanAbsoluteError;
 };
+
+/// Regions per side of a golden comparison's region metric: 3 x 3 cells of the covered pixels' bounding box. A
+/// change over a quarter of the content (a band from one side holding a quarter of the pixels) covers most of the
+/// cells on that side, so a loss of 20 % there reads 0.07-0.20 on the replay goldens where the whole-image metric
+/// reads 0.03-0.07; coarser grids dilute it like the whole image, finer ones leave small content (the synthetic
+/// cubes cover ~1000 px) with cells of a few dozen pixels, where one silhouette pixel weighs more.
+inline constexpr int kGoldenRegionGrid = 3;
 
 /// What the comparison needs besides the image. Images are linear float like the image.
 struct GoldenInputs {

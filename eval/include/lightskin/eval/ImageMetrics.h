@@ -28,6 +28,15 @@ struct ImageError {
     /// 10 log10(peak^2 / MSE) with peak = ssimPeak; +inf when identical.
     double psnr = 0.0;
     std::size_t pixelsCompared = 0;
+    /// Largest relativeMeanAbsoluteError of one region (ImageErrorOptions::regionGrid): the compared pixels'
+    /// bounding box cut into regionGrid x regionGrid cells, each cell's sum |x - r| over its sum |s|, the latter
+    /// floored at 0.1 of what the cell's pixels would hold at the image's mean |s| (so that a dark cell's noise
+    /// cannot blow the ratio up). Cells with fewer than ImageErrorOptions::minRegionPixels compared pixels, or
+    /// fewer than half their share (pixelsCompared / regionGrid^2), are skipped. A change of the signal by a
+    /// factor k over a whole cell reads |k - 1| there (or less in a cell below 0.1 of the mean signal), whatever the
+    /// rest of the image does. 0 when no cell qualifies or regionGrid is 0.
+    double maxRegionRelativeMeanAbsoluteError = 0.0;
+    std::size_t regionsCompared = 0; ///< cells that qualified
 
     std::string describe() const;
 };
@@ -40,6 +49,10 @@ struct ImageErrorOptions {
     /// Optional image of the reference's size and type: the signal relativeMeanAbsoluteError is
     /// relative to (empty: the reference). May have any sign (e.g. a difference of two images).
     cv::Mat signal;
+    /// Cells per side of the region metric (maxRegionRelativeMeanAbsoluteError); 0 = not computed.
+    int regionGrid = 0;
+    /// Fewest compared pixels a cell needs to count.
+    std::size_t minRegionPixels = 32;
 };
 
 /// Throws lightskin::Error when sizes or types differ, or when either image has NaN/inf.
