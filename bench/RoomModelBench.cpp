@@ -10,6 +10,8 @@
 // and the depth-tracking wall time per frame (ms, median and max: OpenCV's loops run on every core), the error of
 // the depth-tracked poses against the ground truth, and beside it OpenCV's own frame-to-frame ICP odometry
 // (cv::rgbd::ICPOdometry, the same depth, chained from the last tag-tracked frame).
+#include "RoomModelBenchSupport.h"
+
 #include <lightskin/capture/DepthFilter.h>
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/CpuTime.h>
@@ -32,21 +34,6 @@ namespace {
 
 using namespace lightskin;
 
-struct Stats {
-    std::vector<double> values;
-    double median() {
-        if (values.empty()) return -1.0;
-        std::sort(values.begin(), values.end());
-        return values[values.size() / 2];
-    }
-    double max() const { return values.empty() ? -1.0 : *std::max_element(values.begin(), values.end()); }
-    double mean() const {
-        double sum = 0.0;
-        for (double v : values) sum += v;
-        return values.empty() ? -1.0 : sum / double(values.size());
-    }
-};
-
 /// The box of the world around the ground-truth camera positions, +- `margin` metres.
 void boundsAround(const std::vector<RgbdFrame>& frames, double margin, roommodel::RoomModelSettings& s) {
     glm::dvec3 lo(1e9), hi(-1e9);
@@ -63,14 +50,6 @@ void boundsAround(const std::vector<RgbdFrame>& frames, double margin, roommodel
     const int axis = a.x > a.y && a.x > a.z ? 0 : a.y > a.z ? 1 : 2;
     s.up = glm::dvec3(0.0);
     s.up[axis] = up[axis] > 0.0 ? 1.0 : -1.0;
-}
-
-std::string roomModelBlock(const std::string& scenePath) {
-    std::ifstream file(scenePath);
-    if (!file) throw Error(scenePath, std::nullopt, "cannot open the scene file");
-    const nlohmann::json scene = nlohmann::json::parse(file);
-    if (!scene.contains("roomModel")) throw Error(scenePath, std::nullopt, "/roomModel: the scene has none");
-    return scene["roomModel"].dump();
 }
 
 // CPU time of every thread of the process (OpenCV's loops run on its worker threads): on a shared machine the
@@ -104,7 +83,7 @@ int main(int argc, char** argv) try {
         settings.model.memoryBudgetMB = 1024.0;
         boundsAround(frames, 3.0, settings.model);
     } else {
-        settings = roommodel::roomMemorySettingsFromJson(roomModelBlock(scene), scene, "/roomModel");
+        settings = roommodel::roomMemorySettingsFromJson(bench::roomModelBlock(scene), scene, "/roomModel");
     }
     if (argc > 5) {
         settings.model.voxelSizeMetres = std::atof(argv[5]);
@@ -120,7 +99,7 @@ int main(int argc, char** argv) try {
                 settings.model.up.x, settings.model.up.y, settings.model.up.z, r.x, r.y, r.z,
                 double(memory.model().voxelBytes()) * 1e-6);
 
-    Stats fuseMs, trackMs, renderMs, fuseCpuMs, trackCpuMs, metres, degrees, odoMetres, odoDegrees;
+    bench::FrameStats fuseMs, trackMs, renderMs, fuseCpuMs, trackCpuMs, metres, degrees, odoMetres, odoDegrees;
     const CameraIntrinsics& k = frames[0].depthIntrinsics;
     const cv::Mat cameraMatrix =
         (cv::Mat_<float>(3, 3) << float(k.fx), 0.f, float(k.cx), 0.f, float(k.fy), float(k.cy), 0.f, 0.f, 1.f);

@@ -6,6 +6,8 @@
 // outside [lostFrom, lostTo) at their ground-truth poses, CPU ms per frame; and its RGB-D odometry (hybrid
 // photometric and geometric term, Steinbruecker et al. 2011 / Park et al. 2017) frame to frame through the gap,
 // chained from the last frame before it, against the ground truth.
+#include "RoomModelBenchSupport.h"
+
 #include <lightskin/capture/DepthFilter.h>
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/CpuTime.h>
@@ -35,29 +37,6 @@ namespace {
 
 using namespace lightskin;
 namespace o3d = open3d;
-
-struct Stats {
-    std::vector<double> values;
-    double median() {
-        if (values.empty()) return -1.0;
-        std::sort(values.begin(), values.end());
-        return values[values.size() / 2];
-    }
-    double max() const { return values.empty() ? -1.0 : *std::max_element(values.begin(), values.end()); }
-    double mean() const {
-        double sum = 0.0;
-        for (double v : values) sum += v;
-        return values.empty() ? -1.0 : sum / double(values.size());
-    }
-};
-
-std::string roomModelBlock(const std::string& scenePath) {
-    std::ifstream in(scenePath);
-    if (!in) throw Error(scenePath, std::nullopt, "cannot be read");
-    const nlohmann::json scene = nlohmann::json::parse(in);
-    if (!scene.contains("roomModel")) throw Error(scenePath, std::nullopt, "has no roomModel block");
-    return scene["roomModel"].dump();
-}
 
 Eigen::Matrix4d toEigen(const Pose& pose) {
     const glm::dmat4 m = pose.matrix();
@@ -111,12 +90,13 @@ int main(int argc, char** argv) try {
         filter.filterInto(frame.depth, frame.depthScaleMetres, depths.back());
     }
     roommodel::RoomModelSettings model; // defaults (4 cm) unless the scene says
-    if (scene != "-") model = roommodel::roomMemorySettingsFromJson(roomModelBlock(scene), scene, "/roomModel").model;
+    if (scene != "-")
+        model = roommodel::roomMemorySettingsFromJson(bench::roomModelBlock(scene), scene, "/roomModel").model;
     const CameraIntrinsics& k = frames[0].depthIntrinsics;
     const o3d::camera::PinholeCameraIntrinsic intrinsic(k.width, k.height, k.fx, k.fy, k.cx, k.cy);
     o3d::pipelines::integration::ScalableTSDFVolume volume(model.voxelSizeMetres, model.truncationMetres,
                                                            o3d::pipelines::integration::TSDFVolumeColorType::RGB8);
-    Stats fuseCpuMs, odometryCpuMs, odometryWallMs, metres, degrees;
+    bench::FrameStats fuseCpuMs, odometryCpuMs, odometryWallMs, metres, degrees;
     Pose odometryPose;
     const o3d::pipelines::odometry::OdometryOption option({20, 10, 5}, 0.07, 0.0, model.maxDepthMetres);
     int tracked = 0;

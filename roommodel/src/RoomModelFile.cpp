@@ -88,9 +88,17 @@ void appendDepth(std::string& out, const cv::Mat& depthMetres) {
     }
 }
 
-std::string readAll(const fs::path& file) {
+/// The file's bytes, once it is known to be a room model file of a plausible size (a file of any other kind is
+/// never read whole).
+std::string readRoomModelFile(const fs::path& file) {
     std::error_code error;
     if (!fs::is_regular_file(file, error)) throw Error(file.string(), std::nullopt, "no such room model file");
+    if (!isRoomModelFile(file)) throw Error(file.string(), std::nullopt, "not a lightskin room model file");
+    // The largest a valid file can be: kMaxViews views of kMaxViewSide^2 pixels, and a generous header.
+    constexpr std::uintmax_t kMaxBytes =
+        std::uintmax_t(RoomModel::kMaxViews) * kMaxViewSide * kMaxViewSide * 2 + (1u << 26);
+    if (fs::file_size(file, error) > kMaxBytes || error)
+        throw Error(file.string(), std::nullopt, "too large for a room model file");
     std::ifstream in(file, std::ios::binary);
     std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     if (in.bad()) throw Error(file.string(), std::nullopt, "cannot be read");
@@ -246,10 +254,9 @@ void saveRoomModel(const RoomModel& model, const fs::path& file) {
 }
 
 void loadRoomModelInto(RoomModel& model, const fs::path& file) {
-    const std::string bytes = readAll(file);
+    const std::string bytes = readRoomModelFile(file);
     const std::size_t minimum = kMagic.size() + 8 + 8;
-    if (bytes.size() < minimum || std::string_view(bytes).substr(0, kMagic.size()) != kMagic)
-        throw Error(file.string(), std::nullopt, "not a lightskin room model file");
+    if (bytes.size() < minimum) throw Error(file.string(), std::nullopt, "corrupt: cut short");
     if (fnv1a(bytes.data(), bytes.size() - 8) != readUint64(bytes, bytes.size() - 8))
         throw Error(file.string(), std::nullopt, "corrupt: its checksum does not match (changed or cut short)");
     const std::uint64_t headerBytes = readUint64(bytes, kMagic.size());
