@@ -73,6 +73,7 @@ CompareLabels compareLabels(const std::string& view, const std::string& techniqu
                              : view == "error"        ? "error against brute force"
                              : view == "vpl"          ? "per-vertex VPLs"
                              : view == "differential" ? "differential shading"
+                             : view == "light"        ? "the room's estimated light"
                                                       : view;
     return {what + " over the composite", "composite without GI",
             "The " + what + " drawn over the composite / the composite without GI", folder};
@@ -614,9 +615,10 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
         ->add_option("--view", args->view,
                      "Debug view: final | direct | indirect | normals | albedo | vals (VALs by flux) | sparse "
                      "(sparse points) | error (vs brute force) | vpl (interpolated vertex VPLs) | differential "
-                     "(change of the real light by the virtual objects)")
-        ->check(oneOf(
-            {"final", "direct", "indirect", "normals", "albedo", "vals", "sparse", "error", "vpl", "differential"}));
+                     "(change of the real light by the virtual objects) | light (the estimated room light: a probe "
+                     "ball, the dominant light; needs a light of type estimated)")
+        ->check(oneOf({"final", "direct", "indirect", "normals", "albedo", "vals", "sparse", "error", "vpl",
+                       "differential", "light"}));
     auto* noVideo = command->add_flag("--no-video", args->noVideo, "Do not write a video");
     command->add_option("--video-format", args->videoFormat, "auto (MP4, falling back to MJPG AVI) | mp4 | avi")
         ->check(CLI::IsMember({"auto", "mp4", "avi"}))

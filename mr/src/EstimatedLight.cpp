@@ -1,8 +1,12 @@
 #include <lightskin/mr/EstimatedLight.h>
+#include <lightskin/roomlight/SphericalHarmonics.h>
 
 #include <glm/geometric.hpp>
+#include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <optional>
 
@@ -78,6 +82,62 @@ EstimatedDirectLight estimatedDirectLight(const roomlight::LightEstimate& estima
     out.power = glm::vec3(4.0 * std::numbers::pi * intensity);
     out.distanceMetres = float(distance);
     return out;
+}
+
+namespace {
+
+std::uint8_t srgbByte(double linear) {
+    const double c = std::clamp(linear, 0.0, 1.0);
+    const double encoded = c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055;
+    return std::uint8_t(std::lround(255.0 * encoded));
+}
+
+/// The probe ball: centre and radius in pixels, camera-facing hemisphere, world normals.
+void drawProbe(cv::Mat& bgr, const roomlight::ShRgb& sh, const Pose& world_T_camera, cv::Point centre, int radius) {
+    for (int dy = -radius; dy <= radius; ++dy)
+        for (int dx = -radius; dx <= radius; ++dx) {
+            const double x = double(dx) / radius, y = double(dy) / radius, r2 = x * x + y * y;
+            const int u = centre.x + dx, v = centre.y + dy;
+            if (r2 > 1.0 || u < 0 || v < 0 || u >= bgr.cols || v >= bgr.rows) continue;
+            // Camera frame: x right, y down, z forward; the visible side of the ball faces -z.
+            const glm::dvec3 normal = world_T_camera.transformDirection({x, y, -std::sqrt(1.0 - r2)});
+            const glm::dvec3 value = kProbeAlbedo / std::numbers::pi * roomlight::evaluateSh(sh, normal);
+            bgr.at<cv::Vec3b>(v, u) = cv::Vec3b(srgbByte(value.b), srgbByte(value.g), srgbByte(value.r));
+        }
+}
+
+} // namespace
+
+void drawLightEstimateInto(cv::Mat& bgr, const roomlight::LightEstimate& estimate, const CameraIntrinsics& k,
+                           const Pose& world_T_camera) {
+    const int radius = std::max(8, std::min(bgr.cols, bgr.rows) / 8);
+    const cv::Point centre(radius + 4, bgr.rows - radius - 4);
+    drawProbe(bgr, estimate.sh, world_T_camera, centre, radius);
+    const Pose camera_T_world = world_T_camera.inverse();
+    const cv::Scalar yellow(0, 255, 255), orange(0, 140, 255);
+    const auto ringAt = [&](const glm::dvec3& world, const cv::Scalar& colour) {
+        const glm::dvec3 c = camera_T_world.transformPoint(world);
+        if (c.z <= 0.0) return false;
+        const glm::dvec2 p = k.project(c);
+        if (p.x < 0.0 || p.y < 0.0 || p.x >= bgr.cols || p.y >= bgr.rows) return false;
+        cv::circle(bgr, cv::Point(int(p.x), int(p.y)), std::max(4, radius / 3), colour, 2, cv::LINE_AA);
+        return true;
+    };
+    const roomlight::DominantLight& d = estimate.dominant;
+    if (d.source != roomlight::DominantSource::None && !(d.positionWorld && ringAt(*d.positionWorld, yellow))) {
+        const glm::dvec3 dc = camera_T_world.transformDirection(d.directionWorld);
+        const double length = std::hypot(dc.x, dc.y);
+        if (length > 1e-6) {
+            const cv::Point tip(centre.x + int(std::lround(1.8 * radius * dc.x / length)),
+                                centre.y + int(std::lround(1.8 * radius * dc.y / length)));
+            cv::arrowedLine(bgr, centre, tip, yellow, 2, cv::LINE_AA, 0, 0.25);
+        }
+    }
+    for (int e = 0; e < estimate.emitterCount; ++e) ringAt(estimate.emitters[std::size_t(e)].positionWorld, orange);
+    char text[96];
+    std::snprintf(text, sizeof text, "%s E0 %.3g res %.2f", roomlight::toString(estimate.state), d.intensity,
+                  estimate.residual);
+    cv::putText(bgr, text, cv::Point(4, 14), cv::FONT_HERSHEY_SIMPLEX, 0.4, yellow, 1, cv::LINE_AA);
 }
 
 } // namespace lightskin::mr

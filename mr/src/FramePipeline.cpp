@@ -246,6 +246,8 @@ void parseView(const std::string& text, render::DebugView& view, Overlay& overla
         overlay = Overlay::VertexVpls;
     else if (text == "differential")
         overlay = Overlay::Differential;
+    else if (text == "light")
+        overlay = Overlay::LightEstimate;
     else {
         for (auto v : {render::DebugView::Final, render::DebugView::DirectOnly, render::DebugView::IndirectOnly,
                        render::DebugView::Normals, render::DebugView::Albedo})
@@ -253,10 +255,10 @@ void parseView(const std::string& text, render::DebugView& view, Overlay& overla
                 view = v;
                 return;
             }
-        throw Error(
-            "--view", std::nullopt,
-            "expected final, direct, indirect, normals, albedo, vals, sparse, error, vpl or differential, got '" +
-                text + "'");
+        throw Error("--view", std::nullopt,
+                    "expected final, direct, indirect, normals, albedo, vals, sparse, error, vpl, differential or "
+                    "light, got '" +
+                        text + "'");
     }
 }
 
@@ -676,6 +678,10 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
         if (!s.valsUsable)
             log::warning(source.uri + ": the estimated light needs depth registered to colour; it stays dark");
     }
+    if (options.overlay == Overlay::LightEstimate && !s.roomLight)
+        throw Error(
+            "--view", std::nullopt,
+            "light: the scene has no light of type \"estimated\" (docs/SCENE_FORMAT.md), so no estimate to show");
     p->rebuildDifferential();
     const auto* glRenderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
     s.glRenderer = gi::classifyGlRenderer(glRenderer != nullptr ? glRenderer : "");
@@ -1519,6 +1525,8 @@ void FramePipeline::drawOverlays(FrameWork& w) {
         out.vplNonFinite = vpl.nonFinite;
     }
     if (options_.overlay == Overlay::ErrorVsBruteForce && w.runGi) drawErrorVsBruteForce(w);
+    if (options_.overlay == Overlay::LightEstimate && out.lightEstimate)
+        drawLightEstimateInto(out.withGi, *out.lightEstimate, k, *w.world_T_camera);
 }
 
 // Luminance of |technique - brute force| mapped to a colour ramp over covered pixels; the mean relative

@@ -689,3 +689,12 @@ TEST(ReplayCommand, RoomModelFilesAreCheckedBeforeAnythingIsWritten) {
     EXPECT_EQ(test::readText(notes), "the user's notes\n");
     EXPECT_FALSE(fs::exists(scratch / "r.lsroom"));
 }
+
+TEST(ReplayCommand, LightViewNeedsAnEstimatedLight) {
+    const fs::path scratch = test::scratchDir("replay_light_view");
+    const ReplayRun run = replayTestRecording(scratch, kScene, " --view light --no-video");
+    EXPECT_EQ(run.result.exitCode, 1) << run.result.err;
+    EXPECT_NE(run.result.err.find("--view"), std::string::npos) << run.result.err;
+    EXPECT_NE(run.result.err.find("estimated"), std::string::npos) << run.result.err;
+    EXPECT_FALSE(fs::exists(run.out)) << "an output folder was made before the inputs were checked";
+}

@@ -4,9 +4,11 @@
 // renderer's radiance is displayed times 2^exposureStops, so a virtual surface matches a real one of the same
 // albedo when the renderer's irradiance at the reference point is E0 / 2^exposureStops.
 #include <lightskin/mr/EstimatedLight.h>
+#include <lightskin/roomlight/SphericalHarmonics.h>
 
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
+#include <opencv2/core.hpp>
 
 #include <cmath>
 #include <limits>
@@ -130,4 +132,98 @@ TEST(EstimatedLight, AnUnphysicalEstimateIsRejected) {
     EXPECT_EQ(mr::estimatedDirectLight(alone, {}, 0.0f).use, mr::EstimatedLightUse::Dominant);
     alone.dominant.intensity *= 1.1;
     EXPECT_EQ(mr::estimatedDirectLight(alone, {}, 0.0f).use, mr::EstimatedLightUse::Rejected);
+}
+
+// The `light` view (drawLightEstimateInto). A 320x240 image: the probe ball's radius is 240 / 8 = 30 px and its
+// centre (34, 206).
+namespace {
+
+constexpr int kProbeU = 34, kProbeV = 206, kProbeRadius = 30;
+
+CameraIntrinsics viewCamera() {
+    CameraIntrinsics k;
+    k.width = 320;
+    k.height = 240;
+    k.fx = k.fy = 262.5;
+    k.cx = 159.5;
+    k.cy = 119.5;
+    return k;
+}
+
+/// A camera at the origin looking along world +x, image down = world -z (world z up).
+Pose horizontalCamera() {
+    glm::dmat4 m(1.0);
+    m[0] = glm::dvec4(0.0, -1.0, 0.0, 0.0); // camera x (right) = world -y
+    m[1] = glm::dvec4(0.0, 0.0, -1.0, 0.0); // camera y (down) = world -z
+    m[2] = glm::dvec4(1.0, 0.0, 0.0, 0.0);  // camera z (forward) = world +x
+    return Pose::fromMatrix(m);
+}
+
+/// Drawn in yellow (anti-aliased lines blend at their edges; the background in these tests is black).
+bool isYellow(const cv::Vec3b& c) { return c[0] < 80 && c[1] > 150 && c[2] > 150; }
+
+} // namespace
+
+TEST(LightEstimateView, AUniformEnvironmentShowsTheBallAtRhoOverPiTimesE) {
+    // E(n) = pi everywhere: sh[0] = E / Y_00 = pi * 2 sqrt(pi). The ball shows rho / pi * E = 0.8 linear, which
+    // sRGB encodes as 1.055 * 0.8^(1/2.4) - 0.055 = 0.9063 -> 231 of 255.
+    roomlight::LightEstimate e;
+    e.sh[0] = glm::dvec3(kPi * 2.0 * std::sqrt(kPi));
+    cv::Mat image(240, 320, CV_8UC3, cv::Scalar(10, 20, 30));
+    mr::drawLightEstimateInto(image, e, viewCamera(), horizontalCamera());
+    for (const cv::Point p : {cv::Point(kProbeU, kProbeV), cv::Point(kProbeU + 20, kProbeV - 10)})
+        EXPECT_EQ(image.at<cv::Vec3b>(p), cv::Vec3b(231, 231, 231)) << p;
+    EXPECT_EQ(image.at<cv::Vec3b>(kProbeV, kProbeU + kProbeRadius + 2), cv::Vec3b(10, 20, 30)); // outside the ball
+}
+
+TEST(LightEstimateView, TheBallIsLitFromTheWorldDirectionOfTheLight) {
+    // Order-2 SH of a directional light (Ramamoorthi & Hanrahan): E(theta) = E0 (1/4 + 1/2 cos + 5/16 P2(cos)),
+    // P2 = (3 cos^2 - 1) / 2. With E0 = 2 and rho / pi = 0.8 / pi, sRGB-encoded: 3 px inside the ball's rim at its
+    // top the normal is 0.9 toward the light above (E = 0.92 E0: 182), at its bottom 0.9 away (0.023 E0: 28); its
+    // centre facing a light behind the camera 1.0625 E0 (194), a light behind the ball 0.0625 E0 (50).
+    roomlight::LightEstimate e;
+    roomlight::addDirectionalLight(e.sh, {0.0, 0.0, 1.0}, glm::dvec3(2.0));
+    cv::Mat image(240, 320, CV_8UC3, cv::Scalar(0, 0, 0));
+    mr::drawLightEstimateInto(image, e, viewCamera(), horizontalCamera());
+    const int top = image.at<cv::Vec3b>(kProbeV - kProbeRadius + 3, kProbeU)[1];
+    const int bottom = image.at<cv::Vec3b>(kProbeV + kProbeRadius - 3, kProbeU)[1];
+    EXPECT_GT(top, 150);
+    EXPECT_LT(bottom, 40);
+    // The ball faces the camera: a light behind the camera (world -x) lights its centre, one behind the ball does not.
+    for (const double towardX : {-1.0, 1.0}) {
+        roomlight::LightEstimate behind;
+        roomlight::addDirectionalLight(behind.sh, {towardX, 0.0, 0.0}, glm::dvec3(2.0));
+        image.setTo(cv::Scalar(0, 0, 0));
+        mr::drawLightEstimateInto(image, behind, viewCamera(), horizontalCamera());
+        const int centre = image.at<cv::Vec3b>(kProbeV, kProbeU)[1];
+        if (towardX < 0.0)
+            EXPECT_GT(centre, 150);
+        else
+            EXPECT_LT(centre, 60);
+    }
+}
+
+TEST(LightEstimateView, TheDominantLightIsARingWhereItIsSeenElseAnArrowFromTheBall) {
+    roomlight::LightEstimate e;
+    e.sh[0] = glm::dvec3(1.0);
+    e.dominant.source = DominantSource::LocalLight;
+    e.dominant.intensity = 1.0;
+    // In view: 2 m ahead (world +x), 0.5 m left (world +y) and 0.3 m up: pixel (159.5 + 262.5 * -0.5 / 2,
+    // 119.5 + 262.5 * -0.3 / 2) = (93.9, 80.1); the ring's radius is max(4, 30 / 3) = 10 px.
+    e.dominant.positionWorld = glm::dvec3(2.0, 0.5, 0.3);
+    e.dominant.directionWorld = glm::normalize(*e.dominant.positionWorld);
+    cv::Mat image(240, 320, CV_8UC3, cv::Scalar(0, 0, 0));
+    mr::drawLightEstimateInto(image, e, viewCamera(), horizontalCamera());
+    bool ring = false;
+    for (int du = 8; du <= 12; ++du) ring = ring || isYellow(image.at<cv::Vec3b>(80, 94 + du));
+    EXPECT_TRUE(ring);
+    EXPECT_EQ(image.at<cv::Vec3b>(80, 94), cv::Vec3b(0, 0, 0)); // a ring, not a disc
+
+    // Behind the camera and above: an arrow from the ball's centre pointing up in the image.
+    e.dominant.positionWorld = glm::dvec3(-2.0, 0.0, 2.0);
+    e.dominant.directionWorld = glm::normalize(*e.dominant.positionWorld);
+    image.setTo(cv::Scalar(0, 0, 0));
+    mr::drawLightEstimateInto(image, e, viewCamera(), horizontalCamera());
+    EXPECT_TRUE(isYellow(image.at<cv::Vec3b>(kProbeV - kProbeRadius - 10, kProbeU)));
+    EXPECT_FALSE(isYellow(image.at<cv::Vec3b>(kProbeV + kProbeRadius + 3, kProbeU)));
 }

@@ -18,10 +18,13 @@
 //   Kinect's 57 x 43 degrees, ~6 % of the sphere), so most of that directional light comes from outside the view;
 // - the ambient SH is not drawn: it is the room's interreflections, which the VALs carry.
 
+#include <lightskin/core/CameraIntrinsics.h>
+#include <lightskin/core/Pose.h>
 #include <lightskin/render/Scene.h>
 #include <lightskin/roomlight/LightEstimate.h>
 
 #include <glm/vec3.hpp>
+#include <opencv2/core/mat.hpp>
 
 #include <cstdint>
 #include <optional>
@@ -54,5 +57,16 @@ struct EstimatedDirectLight {
 /// FreeLight.
 EstimatedDirectLight estimatedDirectLight(const roomlight::LightEstimate& estimate,
                                           const render::EstimatedLightSettings& settings, float exposureStops) noexcept;
+
+/// The `light` debug view (`--view light`) over a BGR 8-bit image of the camera `k` at world_T_camera:
+/// - a light probe in the lower left corner: a grey Lambertian ball (albedo kProbeAlbedo) facing the camera, each
+///   pixel rho / pi * E(n) of the estimate's SH at the ball's world normal n, sRGB-encoded as the camera's pixels
+///   are (the same units: a real ball of that albedo at the reference point would look so);
+/// - the dominant light: a yellow ring at its position when it projects into the image, else a yellow line from the
+///   probe's centre along its direction as the camera sees it; each emitter: an orange ring;
+/// - the state, E0 and residual as text.
+inline constexpr double kProbeAlbedo = 0.8;
+void drawLightEstimateInto(cv::Mat& bgr, const roomlight::LightEstimate& estimate, const CameraIntrinsics& k,
+                           const Pose& world_T_camera);
 
 } // namespace lightskin::mr

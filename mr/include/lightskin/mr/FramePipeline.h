@@ -57,12 +57,12 @@ std::vector<gi::VirtualLight> virtualLightsFromScene(const render::Scene& scene)
 /// (luminance), over the camera image at 35 %: blue where the virtual objects darken the real surface (full blue = -100
 /// %), red where they brighten it (full red = +50 %); real pixels outside the affected region stay dimmed grey (the
 /// view draws only when the differential runs).
-enum class Overlay { None, Vals, SparsePoints, ErrorVsBruteForce, VertexVpls, Differential };
-inline constexpr int kOverlayCount = 6;
+enum class Overlay { None, Vals, SparsePoints, ErrorVsBruteForce, VertexVpls, Differential, LightEstimate };
+inline constexpr int kOverlayCount = 7;
 inline constexpr std::uint32_t kMaxVplSegments = 2000;
 
 /// Parses a view name: final, direct, indirect, normals, albedo (render::DebugView) or vals,
-/// sparse, error, vpl, differential (overlays over the final image). Throws lightskin::Error otherwise.
+/// sparse, error, vpl, differential, light (overlays over the final image). Throws lightskin::Error otherwise.
 void parseView(const std::string& text, render::DebugView& view, Overlay& overlay);
 
 struct PipelineOptions {
