@@ -593,11 +593,19 @@ void FramePipeline::finishGiAhead() { state_->giAhead.drop(); }
 
 bool FramePipeline::hasRoomMemory() const noexcept { return state_->roomMemory.has_value(); }
 
+namespace {
+constexpr const char* kNoRoomMemory =
+    "the session has no room memory: the scene has no roomModel block, or poses do not come from tag tracking";
+}
+
 void FramePipeline::saveRoomModel(const std::filesystem::path& file) const {
-    if (!state_->roomMemory)
-        throw Error(file.string(), std::nullopt,
-                    "no room model to save: the scene has no roomModel block, or poses do not come from tag tracking");
+    if (!state_->roomMemory) throw Error(file.string(), std::nullopt, kNoRoomMemory);
     roommodel::saveRoomModel(state_->roomMemory->model(), file);
+}
+
+void FramePipeline::loadRoomModel(const std::filesystem::path& file) {
+    if (!state_->roomMemory) throw Error(file.string(), std::nullopt, kNoRoomMemory);
+    state_->roomMemory->loadModel(file);
 }
 
 void FramePipeline::setDifferentialAlongside(bool on) {

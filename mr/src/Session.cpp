@@ -355,4 +355,10 @@ void Session::saveRoomModel(const std::filesystem::path& file) {
     pipeline_->saveRoomModel(file);
 }
 
+void Session::loadRoomModel(const std::filesystem::path& file) {
+    pipeline_->finishGiAhead();
+    prefetch_.reset();
+    pipeline_->loadRoomModel(file);
+}
+
 } // namespace lightskin::mr

@@ -12,6 +12,7 @@
 
 #include <cstddef>
 #include <cstring>
+#include <fstream>
 #include <lightskin.h>
 #include <limits>
 #include <string>
@@ -313,3 +314,43 @@ TEST_F(CApiGLTest, HostMovesAddsAndRemovesObjectsAndBadInputIsAnError) {
 }
 
 } // namespace
+
+// The room memory through the C ABI: a source-fed session with tag tracking saves its model, a second one loads it;
+// bad paths and a session without room memory are errors with messages (the format itself:
+// tests/roommodel/RoomModelFileTest.cpp).
+TEST_F(CApiGLTest, RoomModelIsSavedAndLoadedAndBadInputIsAnError) {
+    const std::filesystem::path scratch = lightskin::test::scratchDir("capi_room_model");
+    const std::string scenePath = (sourceDir() / "recordings/scenes/orbit.json").string();
+    const std::string recording = (sourceDir() / "recordings/synth-orbit").string();
+    const std::string file = (scratch / "room.lsroom").string();
+    lsk_session_options options;
+    lsk_session_options_init(&options);
+    options.pose_mode = LSK_POSE_TRACKING;
+    const lsk_scene scene = orbitScene(scenePath);
+    lsk_session* first = nullptr;
+    ASSERT_EQ(lsk_session_create_from_source(&options, &scene, recording.c_str(), &first), LSK_OK) << lsk_last_error();
+    for (int i = 0; i < 4; ++i) ASSERT_EQ(lsk_session_process_next(first), LSK_OK) << lsk_last_error();
+    EXPECT_EQ(lsk_session_save_room_model(first, nullptr), LSK_ERROR_INVALID_ARGUMENT);
+    ASSERT_EQ(lsk_session_save_room_model(first, file.c_str()), LSK_OK) << lsk_last_error();
+    lsk_session_destroy(first);
+    EXPECT_TRUE(std::filesystem::file_size(file) > 0);
+
+    lsk_session* second = nullptr;
+    ASSERT_EQ(lsk_session_create_from_source(&options, &scene, recording.c_str(), &second), LSK_OK);
+    EXPECT_EQ(lsk_session_load_room_model(second, file.c_str()), LSK_OK) << lsk_last_error();
+    const std::string notes = (scratch / "notes.txt").string();
+    std::ofstream(notes) << "not a room model\n";
+    EXPECT_NE(lsk_session_load_room_model(second, notes.c_str()), LSK_OK);
+    EXPECT_NE(std::string(lsk_last_error()).find(notes), std::string::npos) << lsk_last_error();
+    EXPECT_EQ(lsk_session_process_next(second), LSK_OK) << lsk_last_error(); // the session goes on
+    lsk_session_destroy(second);
+
+    lsk_session_options host;
+    lsk_session_options_init(&host); // LSK_POSE_HOST: no room memory
+    lsk_session* withoutMemory = nullptr;
+    ASSERT_EQ(lsk_session_create_from_source(&host, &scene, recording.c_str(), &withoutMemory), LSK_OK);
+    EXPECT_NE(lsk_session_save_room_model(withoutMemory, (scratch / "none.lsroom").c_str()), LSK_OK);
+    EXPECT_NE(std::string(lsk_last_error()).find("room memory"), std::string::npos) << lsk_last_error();
+    EXPECT_FALSE(std::filesystem::exists(scratch / "none.lsroom"));
+    lsk_session_destroy(withoutMemory);
+}

@@ -246,6 +246,14 @@ LSK_API lsk_status lsk_session_add_object(lsk_session* session, const char* mesh
                                           const float world_T_model[16], uint32_t* index);
 LSK_API lsk_status lsk_session_remove_object(lsk_session* session, uint32_t index);
 
+/* Since 0.3: the room memory's model (a scene with a roomModel block, LSK_POSE_TRACKING, depth registered to colour;
+ * docs/ROOMMODEL.md "Saving and loading"). save: writes it to `path` (not NULL), never over a file lightskin did not
+ * write, replaced only when complete. load: replaces the model by a saved one of the same grid (a corrupt file or
+ * another grid is an error naming the file, and the model stays as it was). Both stop a source-fed session's
+ * read-ahead first: call them between frames; frames read ahead are dropped. No GL. */
+LSK_API lsk_status lsk_session_save_room_model(lsk_session* session, const char* path);
+LSK_API lsk_status lsk_session_load_room_model(lsk_session* session, const char* path);
+
 #ifdef __cplusplus
 }
 #endif

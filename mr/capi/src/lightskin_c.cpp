@@ -529,3 +529,21 @@ lsk_status lsk_session_remove_object(lsk_session* session, uint32_t index) {
 }
 
 } // extern "C"
+
+lsk_status lsk_session_save_room_model(lsk_session* session, const char* path) {
+    constexpr const char* function = "lsk_session_save_room_model";
+    return guardedSession(function, session, [&](mr::Session& s) -> lsk_status {
+        if (path == nullptr || *path == '\0') return invalidArgument(function, "path is null or empty");
+        s.saveRoomModel(path);
+        return LSK_OK;
+    });
+}
+
+lsk_status lsk_session_load_room_model(lsk_session* session, const char* path) {
+    constexpr const char* function = "lsk_session_load_room_model";
+    return guardedSession(function, session, [&](mr::Session& s) -> lsk_status {
+        if (path == nullptr || *path == '\0') return invalidArgument(function, "path is null or empty");
+        s.loadRoomModel(path);
+        return LSK_OK;
+    });
+}

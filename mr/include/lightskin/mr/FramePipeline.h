@@ -250,6 +250,9 @@ public:
     /// Throws lightskin::Error naming the file when there is no room memory or it cannot be written. Not while
     /// prepare() runs on another thread (Session::saveRoomModel stops its prefetch first).
     void saveRoomModel(const std::filesystem::path& file) const;
+    /// Replaces the room memory's model by a saved one (roommodel::RoomMemory::loadModel). Throws lightskin::Error
+    /// naming the file when there is no room memory or the file cannot be used (nothing changes then).
+    void loadRoomModel(const std::filesystem::path& file);
     /// Differential rendering (the scene's compositing.differential) on a thread of its own, beside the
     /// frame's G-buffer, GI and shading, collected before the composite; off: on the caller's thread, before the
     /// GI. The images are the same either way. Session turns it on with the GI ahead (not under a frame budget,

@@ -163,6 +163,9 @@ public:
     /// when done with the source, since frames the prefetch read ahead are dropped (a later processNext() goes on
     /// after them). Throws lightskin::Error naming the file.
     void saveRoomModel(const std::filesystem::path& file);
+    /// Replaces the room memory's model by a saved one (FramePipeline::loadRoomModel), after stopping the prefetch as
+    /// saveRoomModel() does. Throws lightskin::Error naming the file; the model then stays as it was.
+    void loadRoomModel(const std::filesystem::path& file);
     const FramePipeline& pipeline() const noexcept { return *pipeline_; }
     /// The virtual content as it is now (FramePipeline::scene()): object and light names, counts, placements.
     const render::Scene& scene() const noexcept { return pipeline_->scene(); }
