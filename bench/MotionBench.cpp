@@ -13,16 +13,20 @@
 #include <lightskin/bench/Flicker.h>
 #include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/Error.h>
+#include <lightskin/gi/reference/RayTracedGroundTruth.h>
 #include <lightskin/gl/Context.h>
+#include <lightskin/gl/Readback.h>
 #include <lightskin/mr/FramePipeline.h>
 #include <lightskin/render/Scene.h>
 
 #include <glm/geometric.hpp>
 #include <glm/mat4x4.hpp>
+#include <glm/vector_relational.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <optional>
 #include <span>
 #include <string>
@@ -50,9 +54,88 @@ bool moved(const std::vector<glm::dvec3>& a, const std::vector<glm::dvec3>& b) {
     return false;
 }
 
+/// LightSkin's and the brute force's indirect light against the Embree truth (with visibility between the objects,
+/// the same depth VALs) at up to kTruthPixels covered pixels of one frame: relative RMS errors, sqrt(sum (x - t)^2 /
+/// sum t^2) over the pixels and channels.
+struct TruthError {
+    double lightSkin = 0.0, bruteForce = 0.0;
+    std::size_t pixels = 0;
+};
+constexpr std::size_t kTruthPixels = 256;
+
+/// The instance whose world bounding box (+1 mm) holds `p` (the first), or nullptr.
+const gi::MeshInstance* instanceAt(std::span<const gi::MeshInstance> instances, const glm::vec3& p) {
+    for (const gi::MeshInstance& m : instances) {
+        glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+        for (const glm::vec3& v : m.mesh->positions) {
+            const glm::vec3 w(m.world_T_model * glm::vec4(v, 1.0f));
+            lo = glm::min(lo, w);
+            hi = glm::max(hi, w);
+        }
+        if (glm::all(glm::greaterThanEqual(p, lo - 1e-3f)) && glm::all(glm::lessThanEqual(p, hi + 1e-3f))) return &m;
+    }
+    return nullptr;
+}
+
+TruthError truthError(mr::FramePipeline& pipeline, const mr::FrameOutput& out, double exposureScale) {
+    std::vector<gi::VirtualAreaLight> vals;
+    std::vector<std::uint32_t> valPixels;
+    pipeline.downloadDepthValsInto(vals, valPixels);
+    const gi::GBufferView& g = pipeline.renderer().gbuffer();
+    cv::Mat positions;
+    gl::readTextureRgba32fInto(g.worldPosition, g.width, g.height, positions);
+    const auto instances = pipeline.renderer().instances();
+    std::vector<cv::Point> covered;
+    for (int v = 0; v < positions.rows; ++v)
+        for (int u = 0; u < positions.cols; ++u)
+            if (out.visibleCoverage.at<std::uint8_t>(v, u) && positions.at<cv::Vec4f>(v, u)[3] > 0.0f)
+                covered.emplace_back(u, v);
+    std::vector<cv::Point> chosen;
+    std::vector<gi::GroundTruthReceiver> receivers;
+    const glm::dvec3 eye = out.world_T_camera->translation();
+    for (std::size_t i = 0; i < std::min(kTruthPixels, covered.size()); ++i) {
+        const cv::Point px = covered[i * covered.size() / std::min(kTruthPixels, covered.size())];
+        const cv::Vec4f p = positions.at<cv::Vec4f>(px.y, px.x);
+        const gi::MeshInstance* owner = instanceAt(instances, {p[0], p[1], p[2]});
+        if (owner == nullptr) continue;
+        const cv::Vec3f n = out.virtualNormals.at<cv::Vec3f>(px.y, px.x);
+        gi::GroundTruthReceiver r;
+        r.position = glm::dvec3(p[0], p[1], p[2]);
+        r.normal = glm::normalize(glm::dvec3(n[0], n[1], n[2]));
+        r.toViewer = glm::normalize(eye - r.position);
+        r.material = owner->material;
+        receivers.push_back(r);
+        chosen.push_back(px);
+    }
+    std::vector<gi::GroundTruthMesh> meshes;
+    for (const gi::MeshInstance& m : instances) meshes.push_back({m.mesh, glm::dmat4(m.world_T_model)});
+    std::vector<gi::GroundTruthResult> results(receivers.size());
+    gi::RayTracedGroundTruth::create(meshes).compute(vals, receivers, results, gi::GroundTruthSettings{});
+    double ls = 0.0, bf = 0.0, signal = 0.0;
+    for (std::size_t i = 0; i < chosen.size(); ++i) {
+        const cv::Vec3f a = out.linearIndirect.at<cv::Vec3f>(chosen[i]);
+        const cv::Vec3f b = out.linearIndirectReference.at<cv::Vec3f>(chosen[i]);
+        const glm::dvec3 t = exposureScale * results[i].radiance;
+        for (int c = 0; c < 3; ++c) { // BGR images, RGB truth
+            const double truth = t[2 - c];
+            ls += (double(a[c]) - truth) * (double(a[c]) - truth);
+            bf += (double(b[c]) - truth) * (double(b[c]) - truth);
+            signal += truth * truth;
+        }
+    }
+    TruthError e;
+    e.pixels = chosen.size();
+    if (signal > 0.0) {
+        e.lightSkin = std::sqrt(ls / signal);
+        e.bruteForce = std::sqrt(bf / signal);
+    }
+    return e;
+}
+
 struct SceneResult {
     bench::FlickerSeries::Result all, transitions;
     double worstPairExcess = 0.0, excessWithout5Percent = 0.0;
+    std::vector<TruthError> truth; // at the first, middle and last frame; none with RSM VALs (not in the truth)
     int worstPair = -1, frames = 0, transitionPairs = 0;
     std::string backend;
 };
@@ -87,6 +170,9 @@ SceneResult measure(const std::string& recording, const std::string& scenePath) 
         series->addFrame(points, frame.colourIntrinsics, *out.world_T_camera, out.coverage, out.virtualDepthMetres,
                          out.linearIndirect, out.linearIndirectReference);
         previous.swap(points);
+        const int frames = source->frameCount() ? int(*source->frameCount()) : 0;
+        if (!scene.gi.virtualBounce && (r.frames == 0 || r.frames == frames / 2 || r.frames == frames - 1))
+            r.truth.push_back(truthError(*pipeline, out, std::exp2(double(scene.exposureStops))));
         ++r.frames;
     }
     r.all = series->measure();
@@ -130,9 +216,18 @@ int main(int argc, char** argv) try {
                 "|---|---|---|---|---|---|---|---|---|---|\n");
     for (const std::string& scene : scenes) {
         const SceneResult r = measure(recording, scene);
-        std::printf("| %s | %s | %d | %zu | %.4f | %.4f | %.4f | %.4f | %.4f (%d) | %.4f (%d) |\n", scene.c_str(),
+        std::string truth, truthBf;
+        for (const TruthError& t : r.truth) {
+            char text[64];
+            std::snprintf(text, sizeof text, "%s%.3f", truth.empty() ? "" : " / ", t.lightSkin);
+            truth += text;
+            std::snprintf(text, sizeof text, "%s%.3f", truthBf.empty() ? "" : " / ", t.bruteForce);
+            truthBf += text;
+        }
+        std::printf("| %s | %s | %d | %zu | %.4f | %.4f | %.4f | %.4f | %.4f (%d) | %.4f (%d) | %s |\n", scene.c_str(),
                     r.backend.c_str(), r.frames, r.all.samples, r.all.bruteForce, r.all.lightSkin, r.all.excess,
-                    r.excessWithout5Percent, r.transitions.excess, r.transitionPairs, r.worstPairExcess, r.worstPair);
+                    r.excessWithout5Percent, r.transitions.excess, r.transitionPairs, r.worstPairExcess, r.worstPair,
+                    r.truth.empty() ? "n/a (RSM VALs)" : (truth + "; " + truthBf).c_str());
         std::fflush(stdout);
     }
     return 0;
