@@ -20,7 +20,8 @@ regex) that must occur exactly once inside that body. Outcomes:
   INVALID    an anchor did not match exactly once, the build failed, a shader failed to compile or
              link at run time, or (shared mutants) an implementation no longer agrees with the others
   equivalent listed as such with the reason, and it survived (run to confirm; skipped with --quick)
-Prints a Markdown table (also written to build-mutate/mutate_gi.md); exits 1 if a mutant that is not
+Each test binary's output is kept in build-mutate/logs/<mutant id>.<binary>.log (agree tests:
+<id>.agree.<binary>.log). Prints a Markdown table (also written to build-mutate/mutate_gi.md); exits 1 if a mutant that is not
 equivalent survived or is invalid, if an equivalent one was caught, or if the unmutated tests fail.
 """
 import argparse
@@ -148,14 +149,18 @@ def build(targets):
     return p.returncode == 0, (p.stdout + p.stderr)[-3000:]
 
 
-def run_test(spec, timeout):
-    """'pass', 'broken' (a shader did not compile) or the failure as 'binary (n failed)'/'(timeout)'."""
+def run_test(spec, timeout, log_name):
+    """'pass', 'broken' (a shader did not compile) or the failure as 'binary (n failed)'/'(timeout)'.
+    The output goes to build-mutate/logs/<log_name>.<binary>.log."""
     target, gtest_filter = split_spec(spec)
     args = [binary_of(target)] + ([f'--gtest_filter={gtest_filter}'] if gtest_filter else [])
     try:
         p = subprocess.run(args, cwd=BUILD, capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
         return f'{spec} (timeout)'
+    os.makedirs(os.path.join(SCRATCH, 'logs'), exist_ok=True)
+    with open(os.path.join(SCRATCH, 'logs', f'{log_name}.{target}.log'), 'w') as f:
+        f.write(p.stdout + p.stderr)
     if re.search(r'Running 0 tests', p.stdout):
         return f'{spec} (selects no test)'
     if p.returncode == 0:
@@ -166,9 +171,9 @@ def run_test(spec, timeout):
     return f'{spec} ({failed} failed)'
 
 
-def run_tests(specs, timeout):
+def run_tests(specs, timeout, log_name):
     """(failures, broken) over the test specs."""
-    results = [run_test(s, timeout) for s in specs]
+    results = [run_test(s, timeout, log_name) for s in specs]
     return [r for r in results if r not in ('pass', 'broken')], 'broken' in results
 
 
@@ -181,12 +186,12 @@ def judge(mutant, timeout):
     ok, log = build(targets_of(mutant))
     if not ok:
         return 'INVALID', 'build failed: ' + ' '.join(l for l in log.splitlines() if 'error:' in l)[:300]
-    disagree, broken = run_tests(mutant.get('agree', []), timeout)
-    if broken or disagree:
-        return 'INVALID', 'shader does not compile' if broken else 'implementations disagree: ' + ', '.join(disagree)
-    failures, broken = run_tests(mutant['tests'], timeout)
-    if broken:
+    disagree, broken = run_tests(mutant.get('agree', []), timeout, mutant['id'] + '.agree')
+    failures, broken_too = run_tests(mutant['tests'], timeout, mutant['id'])
+    if broken or broken_too:
         return 'INVALID', 'shader does not compile'
+    if disagree:  # what the listed tests said is kept for the record
+        return 'INVALID', f"implementations disagree: {', '.join(disagree)}; listed tests: {', '.join(failures) or 'pass'}"
     if 'equivalent' in mutant:
         return ('caught', 'LISTED EQUIVALENT BUT CAUGHT: ' + ', '.join(failures)) if failures else \
             ('equivalent', mutant['equivalent'])
@@ -216,7 +221,7 @@ def baseline(mutants, timeout):
     ok, log = build([split_spec(s)[0] for s in specs])
     if not ok:
         sys.exit('mutate_gi.py: the unmutated build fails:\n' + log)
-    failures, broken = run_tests(specs, timeout)
+    failures, broken = run_tests(specs, timeout, 'unmutated')
     if failures or broken:
         sys.exit('mutate_gi.py: the unmutated tests fail: ' + ', '.join(failures))
 
@@ -224,7 +229,8 @@ def baseline(mutants, timeout):
 def table_row(m, outcome, detail, seconds):
     kind = 'shared' if len({e['file'] for e in m['edits']}) > 1 else ''
     files = ', '.join(sorted({'`' + os.path.basename(e['file']) + '`' for e in m['edits']}))
-    return f"| {m['id']} | {m['area']} | {m['what']} | {files} {kind} | {outcome} | {detail} | {seconds:.0f} |"
+    cells = [m['id'], m['area'], m['what'], f'{files} {kind}', outcome, detail, f'{seconds:.0f}']
+    return '| ' + ' | '.join(c.replace('|', r'\|') for c in cells) + ' |'
 
 
 def choose(mutants, args):

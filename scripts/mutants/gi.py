@@ -18,9 +18,12 @@ TRUTH_GL = 'gi/reference/src/RayTracedGroundTruth.cpp'
 INDEPENDENT = ['gi_paper_reference_test', 'gi_gather_gl_test']
 # LightSkin against the Embree ray tracer (gi::RayTracedGroundTruth), budgets derived from the scene
 EMBREE = ['gi_truth_gl_test', 'gi_near_contact_gl_test']
-# the implementations' comparisons with each other: a shared mutant must leave them passing
-AGREE = ['gi_paper_reference_test:PaperReference.SharedMathReferenceMatchesTheIndependentOneAtEveryStage',
-         'gi_gather_gl_test:*LightSkinSetupGLTest.EveryStageMatchesBothDoubleReferences*',
+# the implementations' comparisons with each other: a shared mutant must leave them passing. The GPU is
+# compared stage by stage with gi::reference and PaperReference, the CPU backend with gi::reference.
+# Not PaperReference.SharedMathReferenceMatchesTheIndependentOneAtEveryStage: its eq. 10 stage holds the
+# two doubles to 1e-8, but PaperReference's horizon factor (G9) is a quadrature accurate to 1e-6 by
+# design, which shows wherever a mutant moves a VPL into the horizon band (shared-irr-cos, shared-wd-cos).
+AGREE = ['gi_gather_gl_test:*LightSkinSetupGLTest.EveryStageMatchesBothDoubleReferences*',
          'gi_cpu_lightskin_gl_test:*CpuLightSkinSetupGLTest.EveryStageMatchesTheDoubleReference*']
 
 
@@ -73,7 +76,7 @@ LIGHTSKIN_MATH = [
                  'max(max(variance.x, variance.y), variance.z)')], INDEPENDENT),
     mutant('math-g9-sign', 'lightskin math', 'G9: horizon factor with the sign of x cos(theta) flipped',
            [edit(MATH, r'real ls_horizonCos\(', 'clamp(-x * cosT', 'clamp(x * cosT')], INDEPENDENT),
-    mutant('math-g8-floor', 'lightskin math', 'G8: distance floor without the VPL offset (D >= Dmin + |o|^2)',
+    mutant('math-g8-floor', 'lightskin math', 'G8: floor subtracts the VPL distance, not its square',
            [edit(MATH, r'real ls_vertexR2Floor\(', 'max(r2, minD - dot(o, o))', 'max(r2, minD - sqrt(dot(o, o)))')],
            INDEPENDENT + ['gi_gather_reference_test']),
     mutant('math-eq12-scale', 'lightskin math', 'eq. 12: distance term times 2',
@@ -121,15 +124,13 @@ CPU_KERNELS = [
 # Applied alike to the shader math (GPU and gi::reference), the CPU backend's kernels and PaperReference:
 # every comparison between implementations passes, only the Embree truth can object.
 SHARED = [
-    mutant('shared-irr-cos', 'shared (truth)', 'eq. 4: irradiance without cos(theta_i), everywhere',
-           [edit(MATH, GATHER_SAMPLE, 's.irradiance = valid ? mw * t.cosI', 's.irradiance = valid ? mw'),
-            edit(KERNELS, CPU_GATHER, 'eR = hn::MulAdd(hn::Set(d, vals.fr[j]), gCos, eR);',
-                 'eR = hn::MulAdd(hn::Set(d, vals.fr[j]), g, eR);'),
-            edit(KERNELS, CPU_GATHER, 'eG = hn::MulAdd(hn::Set(d, vals.fg[j]), gCos, eG);',
-                 'eG = hn::MulAdd(hn::Set(d, vals.fg[j]), g, eG);'),
-            edit(KERNELS, CPU_GATHER, 'eB = hn::MulAdd(hn::Set(d, vals.fb[j]), gCos, eB);',
-                 'eB = hn::MulAdd(hn::Set(d, vals.fb[j]), g, eB);'),
-            edit(PAPER, PAPER_GATHER, 'irradiance += exitance * w * cosI;', 'irradiance += exitance * w;')],
+    mutant('shared-irr-cos', 'shared (truth)', 'eq. 4: irradiance without cos(theta_i) (horizon kept)',
+           [edit(MATH, GATHER_SAMPLE, 's.irradiance = valid ? mw * t.cosI', 's.irradiance = valid ? mw * (t.cosI > 0.0 ? 1.0 : 0.0)'),
+            edit(KERNELS, CPU_GATHER, 'const V gCos = hn::Mul(g, cosI);',
+                 'const V gCos = hn::IfThenElseZero(hn::Gt(cosI, zero), g);'),
+            edit(KERNELS, CPU_GATHER, 'const V wD = hn::Mul(r2, gCos);', 'const V wD = hn::Mul(r2, hn::Mul(g, cosI));'),
+            edit(PAPER, PAPER_GATHER, 'irradiance += exitance * w * cosI;',
+                 'irradiance += exitance * w * (cosI > 0.0 ? 1.0 : 0.0);')],
            EMBREE, agree=AGREE),
     mutant('shared-disc-r2', 'shared (truth)', 'eq. 3: point light 1/d^2 instead of the disc 1/(r^2 + d^2)',
            [edit(MATH, DISC_TERMS, 'cosJ / max(t.r2 + d2, kTinyLength2)', 'cosJ / max(d2, kTinyLength2)'),
@@ -153,9 +154,13 @@ SHARED = [
            [edit(MATH, WEIGHTS, '? distanceTerm * clamp(cosN[j], 0.0, 1.0) :', '? distanceTerm :'),
             edit(PAPER, PAPER_WEIGHTS, ': 1.0) * cosine[j];', ': 1.0);')],
            EMBREE, agree=AGREE, quick=True),
+    # (d / d_max)^2, not d^2 / d_max^2: the farthest neighbour's weight stays exactly 0 in float as in double
+    # (d^2 / d_max^2 can round to a tiny positive weight on the GPU alone, which changes the set of
+    # contributing neighbours that G8 and G10 take their minimum and maximum over)
     mutant('shared-eq12-squared', 'shared (truth)', 'eq. 12: distance term squared',
-           [edit(MATH, WEIGHTS, 'max(1.0 - dist[j] / dMax, 0.0)', 'max(1.0 - dist[j] * dist[j] / (dMax * dMax), 0.0)'),
-            edit(PAPER, PAPER_WEIGHTS, '1.0 - distance[j] / dMax', '1.0 - distance[j] * distance[j] / (dMax * dMax)')],
+           [edit(MATH, WEIGHTS, 'max(1.0 - dist[j] / dMax, 0.0)',
+                 'max(1.0 - (dist[j] / dMax) * (dist[j] / dMax), 0.0)'),
+            edit(PAPER, PAPER_WEIGHTS, '1.0 - distance[j] / dMax', '1.0 - (distance[j] / dMax) * (distance[j] / dMax)')],
            EMBREE, agree=AGREE),
     mutant('shared-occ-tb', 'shared (truth)', 'eq. 14: occluder centre t/b swapped',
            [edit(MATH, OCCLUDER, 'rvec2(dot(u, t), dot(u, b))', 'rvec2(dot(u, b), dot(u, t))'),
@@ -211,7 +216,7 @@ SPARSE_POINTS = [
            [edit(SAMPLER, r'SparsePointSet sampleSparsePoints\(',
                  'radius[neighbours[0]] = std::max(radius[neighbours[0]], std::sqrt(distances2[0]));',
                  'radius[neighbours[0]] = std::max(radius[neighbours[0]], distances2[0]);')],
-           ['gi_sparse_points_test']),
+           ['gi_sparse_points_test', 'gi_truth_gl_test']),
 ]
 
 BRUTE = 'gi/bruteforce/shaders/bruteforce_gather.frag'
@@ -306,7 +311,7 @@ PRT = [
     mutant('prt-cosine-dir', 'multi-scale PRT', 'cosine sampling with r = u1 instead of sqrt(u1)',
            [edit(PRT_PRE, r'glm::vec3 cosineDirection\(', 'float(std::sqrt(u1))', 'float(u1)')],
            ['gi_prt_precompute_test', 'gi_prt_truth_test']),
-    mutant('prt-runtime-cosp', 'multi-scale PRT', 'entry irradiance from behind the entry (|cos_p|, no clamp)',
+    mutant('prt-runtime-cosp', 'multi-scale PRT', 'entry irradiance from behind the entry (abs(cos_p), not max(cos_p, 0))',
            [edit('gi/prt/src/PrtRuntime.cpp', r'glm::vec3 valIrradiance\(', 'std::max(0.0f, n.x * dx + n.y * dy + n.z * dz)',
                  'std::abs(n.x * dx + n.y * dy + n.z * dz)')],
            ['gi_prt_gl_test', 'gi_prt_gather_test', 'gi_prt_truth_test']),
