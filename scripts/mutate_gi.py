@@ -21,8 +21,9 @@ regex) that must occur exactly once inside that body. Outcomes:
              link at run time, or (shared mutants) an implementation no longer agrees with the others
   equivalent listed as such with the reason, and it survived (run to confirm; skipped with --quick)
 Each test binary's output is kept in build-mutate/logs/<mutant id>.<binary>.log (agree tests:
-<id>.agree.<binary>.log). Prints a Markdown table (also written to build-mutate/mutate_gi.md); exits 1 if a mutant that is not
-equivalent survived or is invalid, if an equivalent one was caught, or if the unmutated tests fail.
+<id>.agree.<binary>.log). Prints a Markdown table (also written to build-mutate/mutate_gi.md); exits 1
+if a mutant that is not equivalent survived or is invalid, if an equivalent one was caught, or if the
+unmutated tests fail.
 """
 import argparse
 import os
@@ -191,7 +192,8 @@ def judge(mutant, timeout):
     if broken or broken_too:
         return 'INVALID', 'shader does not compile'
     if disagree:  # what the listed tests said is kept for the record
-        return 'INVALID', f"implementations disagree: {', '.join(disagree)}; listed tests: {', '.join(failures) or 'pass'}"
+        listed = ', '.join(failures) or 'pass'
+        return 'INVALID', f"implementations disagree: {', '.join(disagree)}; listed tests: {listed}"
     if 'equivalent' in mutant:
         return ('caught', 'LISTED EQUIVALENT BUT CAUGHT: ' + ', '.join(failures)) if failures else \
             ('equivalent', mutant['equivalent'])
@@ -209,10 +211,9 @@ def run_mutant(mutant, timeout):
         restore(originals)
 
 
-def failed(mutant, outcome, detail):
-    if 'LISTED EQUIVALENT' in detail:
-        return True
-    return outcome in ('SURVIVED', 'INVALID')
+def failed(mutant, outcome):
+    """Whether the outcome fails the run: a survivor, an invalid mutant, or an 'equivalent' one caught."""
+    return outcome in ('SURVIVED', 'INVALID') or (outcome == 'caught' and 'equivalent' in mutant)
 
 
 def baseline(mutants, timeout):
@@ -269,7 +270,7 @@ def main():
         outcome, detail = run_mutant(m, args.timeout)
         seconds = time.time() - began
         counts[outcome] = counts.get(outcome, 0) + 1
-        bad += failed(m, outcome, detail)
+        bad += failed(m, outcome)
         print(f"[{i}/{len(mutants)}] {m['id']}: {outcome} {detail} ({seconds:.0f} s)", flush=True)
         rows.append(table_row(m, outcome, detail, seconds))
     head = ['| id | area | mutation | file(s) | outcome | failing tests (or reason) | s |',
