@@ -199,6 +199,31 @@ TEST(Compositor, DifferentialScalesTheCameraLightByEWithOverEWithout) {
     EXPECT_GT(checked, 4000);
 }
 
+// A pixel brighter than its modelled light allows (rho = pi p / (gain E_without) > 1) keeps albedo 1:
+// rho / pi = 1 / pi exactly, not the pixel's ratio. Here p = decode(100) = 0.127, E_without = 0.1, gain 1:
+// the ratio would give rho = 3.99, so clamped (0.159) and unclamped (0.254) results differ by 0.095 in
+// linear light, ~25 code values there; the tolerance is half a code value as above.
+TEST(Compositor, DifferentialClampsTheAlbedoOfPixelsBrighterThanTheirModelledLight) {
+    const cv::Mat camera(4, 4, CV_8UC3, cv::Scalar::all(100));
+    gi::DifferentialImages d = differentialImages(4, 4);
+    d.affected.setTo(255);
+    d.irradianceWithout.setTo(cv::Scalar::all(0.1));
+    d.deltaIrradiance.setTo(cv::Scalar::all(0.1));
+    cv::Mat out;
+    render::applyDifferentialInto(camera, d, 0.0f, out);
+    const float p = decode(100);
+    ASSERT_GT(3.14159265f * p / 0.1f, 1.0f) << "the case must need the clamp";
+    const float expected = p + 0.1f / 3.14159265f;
+    for (int v = 0; v < 4; ++v)
+        for (int u = 0; u < 4; ++u)
+            for (int c = 0; c < 3; ++c) {
+                const std::uint8_t result = out.at<cv::Vec3b>(v, u)[c];
+                const float step =
+                    decode(std::uint8_t(std::min(255, result + 1))) - decode(std::uint8_t(std::max(0, result - 1)));
+                ASSERT_NEAR(decode(result), expected, 0.5f * step + 1e-6f) << u << "," << v << "," << c;
+            }
+}
+
 TEST(Compositor, DifferentialLeavesPixelsWithoutModelledLightOrWithNonFiniteInput) {
     const cv::Mat camera = noiseImage(8, 4);
     gi::DifferentialImages d = differentialImages(8, 4);
