@@ -12,8 +12,6 @@
 // (cv::rgbd::ICPOdometry, the same depth, chained from the last tag-tracked frame).
 #include "RoomModelBenchSupport.h"
 
-#include <lightskin/capture/DepthFilter.h>
-#include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/CpuTime.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/roommodel/RoomMemory.h>
@@ -64,20 +62,12 @@ Pose poseFromCv(const cv::Mat& rt) {
 } // namespace
 
 int main(int argc, char** argv) try {
-    const std::string path = argc > 1 ? argv[1] : "recordings/synth-orbit";
-    const std::string scene = argc > 2 ? argv[2] : "recordings/scenes/orbit.json";
-    const int lostFrom = argc > 3 ? std::atoi(argv[3]) : 10;
-    const int lostTo = argc > 4 ? std::atoi(argv[4]) : 30;
-    auto source = capture::openFrameSource(path);
-    capture::BilateralDepthFilter filter; // the pipeline's (mr/FramePipeline.cpp)
+    const bench::RoomModelBenchArguments args = bench::roomModelBenchArguments(argc, argv);
+    const std::string &path = args.recording, &scene = args.scene;
+    const int lostFrom = args.lostFrom, lostTo = args.lostTo;
     std::vector<RgbdFrame> frames;
     std::vector<cv::Mat> depths;
-    for (RgbdFrame frame; source->next(frame);) {
-        if (!frame.groundTruth_world_T_camera) throw Error(path, frame.index, "no ground-truth pose");
-        frames.push_back(frame.clone());
-        depths.emplace_back();
-        filter.filterInto(frame.depth, frame.depthScaleMetres, depths.back());
-    }
+    bench::readFramesWithGroundTruth(path, frames, depths);
     roommodel::RoomMemorySettings settings;
     if (scene == "-") {
         settings.model.memoryBudgetMB = 1024.0;

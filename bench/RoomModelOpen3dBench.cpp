@@ -8,8 +8,6 @@
 // chained from the last frame before it, against the ground truth.
 #include "RoomModelBenchSupport.h"
 
-#include <lightskin/capture/DepthFilter.h>
-#include <lightskin/capture/FrameSource.h>
 #include <lightskin/core/CpuTime.h>
 #include <lightskin/core/Error.h>
 #include <lightskin/roommodel/RoomMemory.h>
@@ -75,20 +73,12 @@ std::shared_ptr<o3d::geometry::RGBDImage> toOpen3d(const cv::Mat& colourBgr, con
 } // namespace
 
 int main(int argc, char** argv) try {
-    const std::string path = argc > 1 ? argv[1] : "recordings/synth-orbit";
-    const std::string scene = argc > 2 ? argv[2] : "recordings/scenes/orbit.json";
-    const int lostFrom = argc > 3 ? std::atoi(argv[3]) : 10;
-    const int lostTo = argc > 4 ? std::atoi(argv[4]) : 30;
-    auto source = capture::openFrameSource(path);
-    capture::BilateralDepthFilter filter; // the pipeline's, as lightskin_bench_roommodel
+    const bench::RoomModelBenchArguments args = bench::roomModelBenchArguments(argc, argv);
+    const std::string &path = args.recording, &scene = args.scene;
+    const int lostFrom = args.lostFrom, lostTo = args.lostTo;
     std::vector<RgbdFrame> frames;
     std::vector<cv::Mat> depths;
-    for (RgbdFrame frame; source->next(frame);) {
-        if (!frame.groundTruth_world_T_camera) throw Error(path, frame.index, "no ground-truth pose");
-        frames.push_back(frame.clone());
-        depths.emplace_back();
-        filter.filterInto(frame.depth, frame.depthScaleMetres, depths.back());
-    }
+    bench::readFramesWithGroundTruth(path, frames, depths);
     roommodel::RoomModelSettings model; // defaults (4 cm) unless the scene says
     if (scene != "-")
         model = roommodel::roomMemorySettingsFromJson(bench::roomModelBlock(scene), scene, "/roomModel").model;

@@ -24,7 +24,7 @@ program="$build_dir/apps/lightskin"
 # --overwrite: a re-run replaces the previous run's outputs (the replay clears the folder first, so
 # the second replay's folder and doctor.png come after it).
 "$program" replay "$root/recordings/synth-orbit" --scene "$root/recordings/scenes/orbit_moving.json" --pose tracking \
-  --out "$out_dir" --overwrite
+  --out "$out_dir" --overwrite --save-room-model "$out_dir/room-model.lsroom"
 "$program" replay "$root/tests/data/oni-kinect-v1/3dj_test.oni" --scene "$root/recordings/scenes/oni_room_estimated.json" \
   --pose fixed --out "$out_dir/oni-kinect-v1"
 "$program" doctor --out "$out_dir/doctor.png"

@@ -37,15 +37,19 @@ void FlickerSeries::addFrame(const std::vector<glm::dvec3>& worldPoints, const C
     }
 }
 
-FlickerSeries::Result FlickerSeries::measure(int firstFrame, int endFrame) const {
-    double level = 0.0;
-    std::size_t levelCount = 0;
+double FlickerSeries::bruteForceLevel() const {
+    double sum = 0.0;
+    std::size_t count = 0;
     for (float v : bruteForce_)
         if (!std::isnan(v)) {
-            level += double(v);
-            ++levelCount;
+            sum += double(v);
+            ++count;
         }
-    level = levelCount ? level / double(levelCount) : 1.0;
+    return count ? sum / double(count) : 1.0;
+}
+
+FlickerSeries::Result FlickerSeries::measure(int firstFrame, int endFrame) const {
+    const double level = bruteForceLevel();
     double sumLs = 0.0, sumBf = 0.0, sumExcess = 0.0;
     Result r;
     for (int f = std::max(1, firstFrame); f < std::min(endFrame, frames()); ++f)
@@ -70,14 +74,7 @@ FlickerSeries::Result FlickerSeries::measure(int firstFrame, int endFrame) const
 }
 
 double FlickerSeries::excessWithoutWorst(double fraction) const {
-    double level = 0.0;
-    std::size_t levelCount = 0;
-    for (float v : bruteForce_)
-        if (!std::isnan(v)) {
-            level += double(v);
-            ++levelCount;
-        }
-    level = levelCount ? level / double(levelCount) : 1.0;
+    const double level = bruteForceLevel();
     struct PointSums {
         double squares = 0.0;
         std::size_t samples = 0;

@@ -123,9 +123,9 @@ glm::dvec3 readVec3(const Json& value, const std::string& what) {
 FusedView readView(const Json& v, const std::string& where) {
     const auto size = [&](const char* key) {
         const Json& value = v.at(key);
-        if (!value.is_number_integer() || value.get<int>() < 1 || value.get<int>() > kMaxViewSide)
+        if (!value.is_number_integer() || value.get<std::int64_t>() < 1 || value.get<std::int64_t>() > kMaxViewSide)
             throw std::runtime_error(where + "/" + key + ": expected an integer in [1, 4096]");
-        return value.get<int>();
+        return int(value.get<std::int64_t>());
     };
     FusedView view;
     CameraIntrinsics& k = view.intrinsics;

@@ -49,6 +49,8 @@ public:
     const std::vector<float>& bruteForceSeries() const noexcept { return bruteForce_; }
 
 private:
+    double bruteForceLevel() const; ///< mean of every brute-force sample (1 when there is none)
+
     std::size_t points_;
     std::vector<float> lightSkin_, bruteForce_; // frame-major: [frame * points + point]
 };
