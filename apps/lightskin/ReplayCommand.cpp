@@ -273,7 +273,12 @@ int runReplay(const ReplayArgs& args) {
     const std::filesystem::path out(args.out);
     // Writes nothing; the folder is made once all inputs are checked (then against the scene's files too).
     checkOutputFolder(out, args.overwrite, "--out", {args.recording, args.scene, args.cacheDir, args.roomModel});
-    if (!args.saveRoomModel.empty()) roommodel::checkRoomModelDestination(args.saveRoomModel);
+    // The room model may go into the output folder, which is made once every input is checked (saving checks again).
+    const bool roomModelInOut =
+        !args.saveRoomModel.empty() &&
+        std::filesystem::weakly_canonical(std::filesystem::path(args.saveRoomModel).parent_path()) ==
+            std::filesystem::weakly_canonical(out);
+    if (!args.saveRoomModel.empty() && !roomModelInOut) roommodel::checkRoomModelDestination(args.saveRoomModel);
     // Scene: --scene, else <recording>/scene.json.
     std::filesystem::path scenePath = args.scene;
     if (scenePath.empty()) {

@@ -634,7 +634,7 @@ TEST(ReplayCommand, SavedRoomModelStartsTheNextReplayWithTheRoomKnown) {
     const fs::path scratch = test::scratchDir("replay_room_model");
     const fs::path recording = test::sourceDir() / "recordings" / "synth-orbit";
     const std::string scene = (test::sourceDir() / "recordings" / "scenes" / "orbit.json").string();
-    const fs::path model = scratch / "room.lsroom";
+    const fs::path model = scratch / "first" / "room.lsroom"; // in the output folder, which the replay makes
     const std::string common =
         "replay " + recording.string() + " --scene " + scene + " --pose tracking --no-video --no-compare --write-frames 0";
     const RunResult saved = runLightskin(common + " --out " + (scratch / "first").string() + " --save-room-model " +
