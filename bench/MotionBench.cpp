@@ -63,17 +63,30 @@ struct TruthError {
 };
 constexpr std::size_t kTruthPixels = 256;
 
-/// The instance whose world bounding box (+1 mm) holds `p` (the first), or nullptr.
-const gi::MeshInstance* instanceAt(std::span<const gi::MeshInstance> instances, const glm::vec3& p) {
+/// An object's world bounding box, grown by 1 mm.
+struct ObjectBox {
+    const gi::MeshInstance* instance;
+    glm::vec3 lo{std::numeric_limits<float>::max()}, hi{-std::numeric_limits<float>::max()};
+};
+
+std::vector<ObjectBox> objectBoxes(std::span<const gi::MeshInstance> instances) {
+    std::vector<ObjectBox> boxes;
     for (const gi::MeshInstance& m : instances) {
-        glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+        ObjectBox box{&m};
         for (const glm::vec3& v : m.mesh->positions) {
             const glm::vec3 w(m.world_T_model * glm::vec4(v, 1.0f));
-            lo = glm::min(lo, w);
-            hi = glm::max(hi, w);
+            box.lo = glm::min(box.lo, w - 1e-3f);
+            box.hi = glm::max(box.hi, w + 1e-3f);
         }
-        if (glm::all(glm::greaterThanEqual(p, lo - 1e-3f)) && glm::all(glm::lessThanEqual(p, hi + 1e-3f))) return &m;
+        boxes.push_back(box);
     }
+    return boxes;
+}
+
+/// The object whose box holds `p` (the first), or nullptr.
+const gi::MeshInstance* objectAt(const std::vector<ObjectBox>& boxes, const glm::vec3& p) {
+    for (const ObjectBox& box : boxes)
+        if (glm::all(glm::greaterThanEqual(p, box.lo)) && glm::all(glm::lessThanEqual(p, box.hi))) return box.instance;
     return nullptr;
 }
 
@@ -85,6 +98,7 @@ TruthError truthError(mr::FramePipeline& pipeline, const mr::FrameOutput& out, d
     cv::Mat positions;
     gl::readTextureRgba32fInto(g.worldPosition, g.width, g.height, positions);
     const auto instances = pipeline.renderer().instances();
+    const std::vector<ObjectBox> boxes = objectBoxes(instances);
     std::vector<cv::Point> covered;
     for (int v = 0; v < positions.rows; ++v)
         for (int u = 0; u < positions.cols; ++u)
@@ -96,7 +110,7 @@ TruthError truthError(mr::FramePipeline& pipeline, const mr::FrameOutput& out, d
     for (std::size_t i = 0; i < std::min(kTruthPixels, covered.size()); ++i) {
         const cv::Point px = covered[i * covered.size() / std::min(kTruthPixels, covered.size())];
         const cv::Vec4f p = positions.at<cv::Vec4f>(px.y, px.x);
-        const gi::MeshInstance* owner = instanceAt(instances, {p[0], p[1], p[2]});
+        const gi::MeshInstance* owner = objectAt(boxes, {p[0], p[1], p[2]});
         if (owner == nullptr) continue;
         const cv::Vec3f n = out.virtualNormals.at<cv::Vec3f>(px.y, px.x);
         gi::GroundTruthReceiver r;
@@ -153,8 +167,8 @@ SceneResult measure(const std::string& recording, const std::string& scenePath) 
     r.backend = pipeline->techniqueName();
     std::vector<glm::dvec3> points, previous;
     std::vector<bool> moving; // per frame pair (f - 1, f): did content move between them
-    std::size_t pointCount = 0;
     std::optional<bench::FlickerSeries> series;
+    const int frames = int(source->frameCount().value_or(0));
     RgbdFrame frame;
     mr::FrameOutput out;
     while (source->next(frame)) {
@@ -162,15 +176,11 @@ SceneResult measure(const std::string& recording, const std::string& scenePath) 
         if (!out.world_T_camera || out.linearIndirect.empty() || out.linearIndirectReference.empty())
             throw Error(recording, frame.index, "no pose or no GI in this frame");
         trackedPointsInto(pipeline->renderer().instances(), points);
-        if (!series) {
-            pointCount = points.size();
-            series.emplace(pointCount);
-        }
+        if (!series) series.emplace(points.size());
         if (r.frames > 0) moving.push_back(moved(previous, points));
         series->addFrame(points, frame.colourIntrinsics, *out.world_T_camera, out.coverage, out.virtualDepthMetres,
                          out.linearIndirect, out.linearIndirectReference);
         previous.swap(points);
-        const int frames = source->frameCount() ? int(*source->frameCount()) : 0;
         if (!scene.gi.virtualBounce && (r.frames == 0 || r.frames == frames / 2 || r.frames == frames - 1))
             r.truth.push_back(truthError(*pipeline, out, std::exp2(double(scene.exposureStops))));
         ++r.frames;

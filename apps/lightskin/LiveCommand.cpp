@@ -11,6 +11,7 @@
 #include "ImageOutput.h"
 #include "LiveWindowDisplay.h"
 #include "PoseLabel.h"
+#include "RoomModelOptions.h"
 #include "SceneInputs.h"
 
 #include <lightskin/capture/FrameSource.h>
@@ -23,7 +24,6 @@
 #include <lightskin/mr/LiveFrameReader.h>
 #include <lightskin/mr/Session.h>
 #include <lightskin/render/Scene.h>
-#include <lightskin/roommodel/RoomModelFile.h>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -41,7 +41,7 @@ constexpr int kKeyEscape = 256;
 
 struct LiveArgs {
     std::string device = "freenect://0", scene, pose, snapshot, snapshotDir = ".", record;
-    std::string roomModel, saveRoomModel; ///< --room-model (load at the start), --save-room-model (at the end)
+    RoomModelOptions roomModel; ///< --room-model, --save-room-model
     bool headless = false, loop = false, fast = false, overwrite = false;
     std::optional<std::int64_t> maxFrames, snapshotAfter; ///< unset: all frames / no automatic snapshot
     double budgetMs = 0.0;                                ///< --budget-ms (0: the scene's gi.budgetMs, if any)
@@ -91,8 +91,8 @@ void writePng(const std::filesystem::path& path, const cv::Mat& image) {
 int runLive(const LiveArgs& args) {
     if (args.scene.empty()) throw Error("--scene", std::nullopt, "live needs a scene file (docs/SCENE_FORMAT.md)");
     if (!args.record.empty())
-        checkOutputFolder(args.record, args.overwrite, "--record", {args.device, args.scene, args.roomModel});
-    if (!args.saveRoomModel.empty()) roommodel::checkRoomModelDestination(args.saveRoomModel);
+        checkOutputFolder(args.record, args.overwrite, "--record", {args.device, args.scene, args.roomModel.load});
+    checkRoomModelSave(args.roomModel, args.record);
     // Where snapshots go is checked before the camera and GL start (a file there fails at once).
     const std::filesystem::path firstSnapshot = args.snapshot.empty()
                                                     ? std::filesystem::path(args.snapshotDir) / "snapshot-0.png"
@@ -131,17 +131,14 @@ int runLive(const LiveArgs& args) {
     options.poseMode = args.pose.empty() ? (info.hasGroundTruth ? mr::PoseMode::GroundTruth : mr::PoseMode::Tracking)
                                          : mr::parsePoseMode(args.pose);
     options.compare = false;
-    options.roomModelFile = args.roomModel;
+    options.roomModelFile = args.roomModel.load;
     mr::SessionOptions sessionOptions;
     sessionOptions.pipeline = options;
     sessionOptions.budgetMs = args.budgetMs;
     // The session runs the frames this command reads (it also records them).
     auto session = mr::Session::create(sessionOptions, mr::SceneInput::fromFile(args.scene), info);
     mr::FramePipeline* pipeline = &session->pipeline();
-    if (!args.saveRoomModel.empty() && !pipeline->hasRoomMemory())
-        throw Error("--save-room-model", std::nullopt,
-                    "no room memory runs: " + args.scene +
-                        " needs a roomModel block, and the poses must come from tag tracking (--pose tracking)");
+    requireRoomMemoryForSave(args.roomModel, pipeline->hasRoomMemory(), args.scene);
     std::printf("live: %s (%s), scene %s, pose %s, GI %s\n", info.uri.c_str(), info.kind.c_str(), args.scene.c_str(),
                 mr::toString(options.poseMode), pipeline->techniqueName().c_str());
     if (window)
@@ -158,7 +155,7 @@ int runLive(const LiveArgs& args) {
         recordingInfo.registration = info.registration;
         recordingInfo.colour_T_depth = info.colour_T_depth;
         InputPaths inputs = sceneInputs(session->scene());
-        inputs.insert(inputs.end(), {args.device, args.roomModel});
+        inputs.insert(inputs.end(), {args.device, args.roomModel.load});
         prepareOutputFolder(args.record, args.overwrite, "--record", inputs);
         recorder = capture::RecordingWriter::create(args.record, recordingInfo);
     }
@@ -290,9 +287,9 @@ int runLive(const LiveArgs& args) {
         throw;
     }
     if (recorder) recorder->finish();
-    if (!args.saveRoomModel.empty()) {
-        session->saveRoomModel(args.saveRoomModel);
-        std::printf("live: room model saved to %s\n", args.saveRoomModel.c_str());
+    if (!args.roomModel.save.empty()) {
+        session->saveRoomModel(args.roomModel.save);
+        std::printf("live: room model saved to %s\n", args.roomModel.save.c_str());
     }
     std::printf("live: %lld frames, %lld dropped by the source, %lld camera stalls survived\n",
                 static_cast<long long>(count), static_cast<long long>(source->framesDropped()),
@@ -324,12 +321,7 @@ void addLiveCommand(CLI::App& app, int& exitCode) {
     command->add_option("--snapshot", args->snapshot, "Path of that snapshot (default <snapshot-dir>/snapshot-0.png)")
         ->needs(after);
     command->add_option("--snapshot-dir", args->snapshotDir, "Folder for snapshots (key P)");
-    command->add_option("--room-model", args->roomModel,
-                        "Start the room memory from this saved room model (`replay --save-room-model`; the scene's "
-                        "roomModel grid)");
-    command->add_option("--save-room-model", args->saveRoomModel,
-                        "At the end, save the room memory's model to this file (new, or one lightskin saved; "
-                        "replaced only when complete)");
+    addRoomModelOptions(command, args->roomModel);
     command
         ->add_option("--budget-ms", args->budgetMs,
                      "Frame-time budget in ms: the session picks the GI settings per frame (docs/PLUGIN.md)")

@@ -9,6 +9,7 @@
 #include "LiveWindowDisplay.h"
 #include "PoseLabel.h"
 #include "ReplayReport.h"
+#include "RoomModelOptions.h"
 #include "SceneInputs.h"
 
 #include <lightskin/capture/FrameSource.h>
@@ -20,7 +21,6 @@
 #include <lightskin/gl/DebugOutput.h>
 #include <lightskin/mr/Session.h>
 #include <lightskin/render/Scene.h>
-#include <lightskin/roommodel/RoomModelFile.h>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -89,7 +89,7 @@ struct ReplayArgs {
     std::string backend; ///< overrides the scene's gi.backend when set (auto, gl, cpu)
     std::string differential = "scene";
     std::string cacheDir;                  ///< --cache-dir: overrides the scene's multi-scale PRT cache folder when set
-    std::string roomModel, saveRoomModel;  ///< --room-model (load at the start), --save-room-model (at the end)
+    RoomModelOptions roomModel;            ///< --room-model, --save-room-model
     std::optional<std::int64_t> maxFrames; ///< --max-frames (>= 1); all frames when unset
 };
 
@@ -272,13 +272,8 @@ int runReplay(const ReplayArgs& args) {
     const auto start = std::chrono::steady_clock::now();
     const std::filesystem::path out(args.out);
     // Writes nothing; the folder is made once all inputs are checked (then against the scene's files too).
-    checkOutputFolder(out, args.overwrite, "--out", {args.recording, args.scene, args.cacheDir, args.roomModel});
-    // The room model may go into the output folder, which is made once every input is checked (saving checks again).
-    const bool roomModelInOut =
-        !args.saveRoomModel.empty() &&
-        std::filesystem::weakly_canonical(std::filesystem::path(args.saveRoomModel).parent_path()) ==
-            std::filesystem::weakly_canonical(out);
-    if (!args.saveRoomModel.empty() && !roomModelInOut) roommodel::checkRoomModelDestination(args.saveRoomModel);
+    checkOutputFolder(out, args.overwrite, "--out", {args.recording, args.scene, args.cacheDir, args.roomModel.load});
+    checkRoomModelSave(args.roomModel, out);
     // Scene: --scene, else <recording>/scene.json.
     std::filesystem::path scenePath = args.scene;
     if (scenePath.empty()) {
@@ -342,7 +337,7 @@ int runReplay(const ReplayArgs& args) {
             throw Error("--backend", std::nullopt,
                         "expected " + gi::backendSettingNames(false) + ", got '" + args.backend + "'");
     }
-    options.roomModelFile = args.roomModel;
+    options.roomModelFile = args.roomModel.load;
     mr::SessionOptions sessionOptions;
     sessionOptions.pipeline = options;
     sessionOptions.budgetMs = args.budgetMs;
@@ -361,10 +356,7 @@ int runReplay(const ReplayArgs& args) {
         throw Error("--backend", std::nullopt,
                     "the CPU backend exists for technique lightskin only (" + scenePath.string() +
                         " has gi.technique \"" + sceneTechnique + "\")");
-    if (!args.saveRoomModel.empty() && !pipeline->hasRoomMemory())
-        throw Error("--save-room-model", std::nullopt,
-                    "no room memory runs: " + scenePath.string() +
-                        " needs a roomModel block, and the poses must come from tag tracking (--pose tracking)");
+    requireRoomMemoryForSave(args.roomModel, pipeline->hasRoomMemory(), scenePath.string());
     if (source->frameCount() == std::optional<std::int64_t>(0))
         throw Error(args.recording, std::nullopt, "the recording has no frames: nothing to replay");
     // --write-frames past the frames that will be read would silently write nothing.
@@ -381,7 +373,7 @@ int runReplay(const ReplayArgs& args) {
                                        std::to_string(*available - 1) + ")"));
     }
     InputPaths inputs = sceneInputs(scene);
-    inputs.insert(inputs.end(), {args.recording, args.cacheDir, args.roomModel});
+    inputs.insert(inputs.end(), {args.recording, args.cacheDir, args.roomModel.load});
     prepareOutputFolder(out, args.overwrite, "--out", inputs); // every input is valid: from here on, outputs
     std::filesystem::create_directories(out / "frames");
     // Without a GI technique both halves of the comparison would be the same image.
@@ -563,9 +555,9 @@ int runReplay(const ReplayArgs& args) {
     summary.videoCodec = videoCodec;
     summary.wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     writeReplayReport(out, summary, frames);
-    if (!args.saveRoomModel.empty()) {
-        session->saveRoomModel(args.saveRoomModel);
-        std::printf("replay: room model saved to %s\n", args.saveRoomModel.c_str());
+    if (!args.roomModel.save.empty()) {
+        session->saveRoomModel(args.roomModel.save);
+        std::printf("replay: room model saved to %s\n", args.roomModel.save.c_str());
     }
     {
         std::int64_t active = 0;
@@ -653,12 +645,7 @@ void addReplayCommand(CLI::App& app, int& exitCode) {
                      "LightSkin's stages 0-4 on gl or cpu (SIMD + threads; shading stays on GL), or auto: cpu on a "
                      "software rasterizer (llvmpipe), else gl (default: the scene's gi.backend, whose default is auto)")
         ->check(oneOf(backendSpellings()));
-    command->add_option("--room-model", args->roomModel,
-                        "Start the room memory from this saved room model (made by --save-room-model for the same "
-                        "roomModel grid)");
-    command->add_option("--save-room-model", args->saveRoomModel,
-                        "At the end, save the room memory's model to this file (new, or one lightskin saved; "
-                        "replaced only when complete)");
+    addRoomModelOptions(command, args->roomModel);
     command->add_flag("--sequential", args->sequential,
                       "Read, depth-filter and track frame n+1 after frame n on one thread (default: on a worker thread "
                       "while frame n renders; the images are the same)");

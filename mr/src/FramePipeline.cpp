@@ -483,8 +483,8 @@ struct FramePipeline::State {
     /// animations' placements and light values written into world_T_model and the lights.
     render::Scene scene;
     AnimationClock clock;
-    bool contentPending = false;      // the host changed a placement or light: applied at the next frame
-    double contentMs = -1.0;          // this frame's placing of moving content (FrameOutput "content"), -1: none
+    bool contentPending = false;          // the host changed a placement or light: applied at the next frame
+    double contentMs = -1.0;              // this frame's placing of moving content (FrameOutput "content"), -1: none
     std::uint64_t instanceSetVersion = 0; // +1 when the instances or their materials change (not placements)
     /// The GI ahead's instances: this frame's, placed where the animations put them at the next frame's time.
     /// Two, by PreparedFrame::sequence % 2, as cpuVals: frame n's may still be read by the worker while frame n
@@ -594,8 +594,8 @@ void FramePipeline::finishGiAhead() { state_->giAhead.drop(); }
 bool FramePipeline::hasRoomMemory() const noexcept { return state_->roomMemory.has_value(); }
 
 namespace {
-constexpr const char* kNoRoomMemory =
-    "the session has no room memory: the scene has no roomModel block, or poses do not come from tag tracking";
+constexpr const char* kNoRoomMemory = "the session has no room memory: it needs a scene with a roomModel block, poses "
+                                      "from tag tracking (pose mode tracking) and depth registered to colour";
 }
 
 void FramePipeline::saveRoomModel(const std::filesystem::path& file) const {
@@ -641,11 +641,7 @@ std::unique_ptr<FramePipeline> FramePipeline::create(const render::Scene& scene,
                    source.depthIntrinsics.width == colour.width && source.depthIntrinsics.height == colour.height;
     s.roomMemory = roomMemoryFromScene(scene, options.poseMode, s.valsUsable, source.uri);
     if (!options.roomModelFile.empty()) {
-        if (!s.roomMemory)
-            throw Error(options.roomModelFile.string(), std::nullopt,
-                        "a saved room model needs a scene with a roomModel block, poses from tag tracking (pose mode "
-                        "tracking) and depth registered to colour");
-        s.roomMemory->loadModel(options.roomModelFile);
+        p->loadRoomModel(options.roomModelFile);
         log::info(options.roomModelFile.string() + ": room model loaded (" +
                   std::to_string(s.roomMemory->model().views().size()) + " views)");
     }
@@ -1043,7 +1039,7 @@ struct FramePipeline::FrameWork {
     bool gbufferReady = false, depthOnGpu = false;
     // GI and composite
     bool rsmTimed = false, stageTimesTaken = false;
-    const cv::Mat* camera = nullptr; // the camera image the composites use (with the differential, if any)
+    const cv::Mat* camera = nullptr;     // the camera image the composites use (with the differential, if any)
     double differentialHandOverMs = 0.0; // the depth VALs to the CPU for the differential
     cv::Mat realDepth;
     render::ShadeOptions shade;

@@ -56,8 +56,7 @@ struct Session::Gl {
 };
 
 Session::~Session() {
-    if (pipeline_) pipeline_->finishGiAhead(); // it reads a frame of the prefetch
-    prefetch_.reset();                         // its worker uses the source and the pipeline
+    stopReadAhead();
     // The pipeline's and render()'s GL objects are deleted on the host's context: keep its bindings.
     const gl::StateGuard guard;
     gl_.reset();
@@ -349,15 +348,18 @@ glm::mat4 Session::viewMatrix() const {
     return glm::mat4(report_.world_T_camera->inverse().matrix());
 }
 
+void Session::stopReadAhead() {
+    if (pipeline_) pipeline_->finishGiAhead();
+    prefetch_.reset();
+}
+
 void Session::saveRoomModel(const std::filesystem::path& file) {
-    pipeline_->finishGiAhead(); // it reads a frame of the prefetch
-    prefetch_.reset();          // its worker updates the room memory
+    stopReadAhead();
     pipeline_->saveRoomModel(file);
 }
 
 void Session::loadRoomModel(const std::filesystem::path& file) {
-    pipeline_->finishGiAhead();
-    prefetch_.reset();
+    stopReadAhead();
     pipeline_->loadRoomModel(file);
 }
 

@@ -2,7 +2,6 @@
 #include "TestPaths.h"
 
 #include <gtest/gtest.h>
-
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
@@ -52,8 +51,11 @@ std::string stderrOf(const fs::path& scratch) {
 TEST(LiveCommand, HeadlessFromOniShowsTheCubeAndLeavesTheRestOfTheFrame) {
     const fs::path scratch = test::scratchDir("live_headless");
     const fs::path withCube = scratch / "cube.png", empty = scratch / "empty.png";
-    ASSERT_EQ(run("", liveArguments(writeScene(scratch, "cube.json", kCubeScene), withCube) + " --headless", scratch), 0) << stderrOf(scratch);
-    ASSERT_EQ(run("", liveArguments(writeScene(scratch, "empty.json", kEmptyScene), empty) + " --headless", scratch), 0) << stderrOf(scratch);
+    ASSERT_EQ(run("", liveArguments(writeScene(scratch, "cube.json", kCubeScene), withCube) + " --headless", scratch),
+              0)
+        << stderrOf(scratch);
+    ASSERT_EQ(run("", liveArguments(writeScene(scratch, "empty.json", kEmptyScene), empty) + " --headless", scratch), 0)
+        << stderrOf(scratch);
     const cv::Mat a = cv::imread(withCube.string(), cv::IMREAD_COLOR), b = cv::imread(empty.string(), cv::IMREAD_COLOR);
     ASSERT_EQ(a.size(), cv::Size(640, 480));
     ASSERT_EQ(b.size(), a.size());
@@ -68,9 +70,11 @@ TEST(LiveCommand, RealWindowUnderXvfbShowsWhatHeadlessRenders) {
     const fs::path scratch = test::scratchDir("live_window");
     const fs::path scene = writeScene(scratch, "cube.json", kCubeScene);
     const fs::path window = scratch / "window.png", headless = scratch / "headless.png";
-    ASSERT_EQ(run("xvfb-run -a -s '-screen 0 1024x768x24' ", liveArguments(scene, window), scratch), 0) << stderrOf(scratch);
+    ASSERT_EQ(run("xvfb-run -a -s '-screen 0 1024x768x24' ", liveArguments(scene, window), scratch), 0)
+        << stderrOf(scratch);
     ASSERT_EQ(run("", liveArguments(scene, headless) + " --headless", scratch), 0) << stderrOf(scratch);
-    const cv::Mat a = cv::imread(window.string(), cv::IMREAD_COLOR), b = cv::imread(headless.string(), cv::IMREAD_COLOR);
+    const cv::Mat a = cv::imread(window.string(), cv::IMREAD_COLOR),
+                  b = cv::imread(headless.string(), cv::IMREAD_COLOR);
     ASSERT_EQ(a.size(), cv::Size(640, 480)); // read back from the window's framebuffer
     ASSERT_EQ(b.size(), a.size());
     // Same pipeline, same frame: identical above the status line (its frame rate differs).
@@ -81,11 +85,15 @@ TEST(LiveCommand, RealWindowUnderXvfbShowsWhatHeadlessRenders) {
 // tests/roommodel/RoomModelFileTest.cpp; replay's: ReplayCommand.SavedRoomModelStartsTheNextReplayWithTheRoomKnown).
 TEST(LiveCommand, SavesTheRoomModelAndTheNextSessionStartsWithIt) {
     const fs::path scratch = test::scratchDir("live_room_model");
-    const fs::path model = scratch / "room.lsroom";
+    const fs::path model = scratch / "recorded" / "room.lsroom"; // in the --record folder, which live makes
     const std::string arguments = "live --device " + (test::sourceDir() / "recordings" / "synth-orbit").string() +
                                   " --scene " + (test::sourceDir() / "recordings" / "scenes" / "orbit.json").string() +
                                   " --pose tracking --headless --fast --max-frames 6";
-    ASSERT_EQ(run("", arguments + " --save-room-model " + model.string(), scratch), 0) << stderrOf(scratch);
+    ASSERT_EQ(run("",
+                  arguments + " --record " + (scratch / "recorded").string() + " --save-room-model " + model.string(),
+                  scratch),
+              0)
+        << stderrOf(scratch);
     std::ifstream file(model, std::ios::binary);
     std::string magic(21, '\0');
     file.read(magic.data(), std::streamsize(magic.size()));

@@ -528,8 +528,6 @@ lsk_status lsk_session_remove_object(lsk_session* session, uint32_t index) {
     });
 }
 
-} // extern "C"
-
 lsk_status lsk_session_save_room_model(lsk_session* session, const char* path) {
     constexpr const char* function = "lsk_session_save_room_model";
     return guardedSession(function, session, [&](mr::Session& s) -> lsk_status {
@@ -547,3 +545,5 @@ lsk_status lsk_session_load_room_model(lsk_session* session, const char* path) {
         return LSK_OK;
     });
 }
+
+} // extern "C"

@@ -189,6 +189,9 @@ public:
 
 private:
     Session() = default;
+    /// Waits for the GI ahead (it reads a frame of the prefetch) and stops the prefetch's worker (it uses the source
+    /// and updates the pipeline's room memory); frames it read ahead are dropped.
+    void stopReadAhead();
     /// process() on the pipeline's front result `prepared` (nullptr: the pipeline runs the front itself);
     /// `nextFrame`: the prefetch's next frame, for the pipeline's GI ahead (nullptr: none).
     void processWith(const RgbdFrame& frame, const PreparedFrame* prepared, NextFrame* nextFrame);
