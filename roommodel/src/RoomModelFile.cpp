@@ -92,7 +92,7 @@ void appendDepth(std::string& out, const cv::Mat& depthMetres) {
 /// never read whole).
 std::string readRoomModelFile(const fs::path& file) {
     std::error_code error;
-    if (!fs::is_regular_file(file, error)) throw Error(file.string(), std::nullopt, "no such room model file");
+    if (!fs::exists(file, error)) throw Error(file.string(), std::nullopt, "no such room model file");
     if (!isRoomModelFile(file)) throw Error(file.string(), std::nullopt, "not a lightskin room model file");
     // The largest a valid file can be: kMaxViews views of kMaxViewSide^2 pixels, and a generous header.
     constexpr std::uintmax_t kMaxBytes =
